@@ -1,0 +1,1 @@
+"""Motion-mode, placement and landmark classifiers: features, estimators, training and evaluation."""

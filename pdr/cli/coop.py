@@ -1,0 +1,141 @@
+"""``pdr eval coop``: the cooperative-localization simulations of seed 001 Sec. 5.1 and the fusion's cost."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+import numpy as np
+
+from pdr.errors import InputError
+from pdr.fusion.evaluation import (
+    cost_experiment,
+    influence_function,
+    kalman_config,
+    march_experiment,
+    static_experiment,
+)
+
+
+def _int_list(text: str) -> tuple[int, ...]:
+    try:
+        values = tuple(int(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise InputError(f"expected comma-separated integers, got '{text}'", field="--agents") from None
+    if not values or min(values) < 1:
+        raise InputError("group sizes must be positive integers", field="--agents")
+    return values
+
+
+def _at(distance: np.ndarray, values: np.ndarray, marks: list[float]) -> list[float]:
+    return [float(values[int(np.argmin(np.abs(distance - m)))]) for m in marks]
+
+
+def evaluate(args: argparse.Namespace) -> dict[str, Any]:
+    """All figures as a JSON-serialisable dict."""
+    counts = _int_list(args.agents)
+    if args.runs < 2 or args.duration <= 0 or args.static_duration <= 0:
+        raise InputError("needs --runs >= 2 and positive durations", field="--runs")
+    march = march_experiment(counts, args.duration, args.runs, args.seed)
+    kalman = march_experiment((2,), args.duration, args.runs, args.seed, fusion=kalman_config())
+    robust_rel = float(march.rel_rmse_m[list(march.agent_counts).index(2), -1]) if 2 in counts else None
+    marks = [d for d in (10.0, 50.0, 100.0, 200.0, 500.0) if d <= march.distance_m[-1]] + [float(march.distance_m[-1])]
+    static = static_experiment(args.static_duration, args.runs, args.seed)
+    third = static.t_s.size // 3
+    infl = influence_function(np.array([-5.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0, 5.0, 10.0, 50.0]))
+    out: dict[str, Any] = {
+        "march": {
+            "runs": march.runs, "distance_m": float(march.distance_m[-1]),
+            "exponent": march.exponent, "coefficient_m": march.coefficient_m,
+            "rmse_by_agents": {str(n): float(r) for n, r in zip(march.agent_counts, march.abs_rmse_m[:, -1],
+                                                                  strict=True)},
+            "relative_rmse_by_agents": {str(n): float(r) for n, r in zip(march.agent_counts, march.rel_rmse_m[:, -1],
+                                                                           strict=True)},
+            "max_relative_rmse_m": float(np.max(march.rel_rmse_m[march.agent_counts > 1])) if np.any(
+                march.agent_counts > 1) else None,
+            "correlation": {"distance_m": marks,
+                            **{f"{ax}_mc": _at(march.distance_m, march.correlation_mc[:, i], marks)
+                               for i, ax in enumerate("xyz")},
+                            **{f"{ax}_filter": _at(march.distance_m, march.correlation_filter[:, i], marks)
+                               for i, ax in enumerate("xyz")}},
+            "kalman_relative_rmse_2_agents_m": float(kalman.rel_rmse_m[0, -1]),
+            "robust_relative_rmse_2_agents_m": robust_rel,
+        },
+        "static": {
+            "runs": static.runs, "duration_s": float(static.t_s[-1]),
+            "max_rmse_m": float(np.max(static.rmse_m)),
+            "final_rmse_m": float(static.rmse_m[-1]),
+            "middle_third_mean_rmse_m": float(np.mean(static.rmse_m[third:2 * third])),
+            "last_third_mean_rmse_m": float(np.mean(static.rmse_m[2 * third:])),
+            "dead_reckoning_final_rmse_m": float(static.rmse_dead_reckoning_m[-1]),
+            "static_agents_rmse_m": static.static_rmse_m,
+        },
+        "influence": {
+            "residual_m": infl.residual_m.tolist(),
+            **{f"robust_p{v:g}": infl.robust_m[i].tolist() for i, v in enumerate(infl.prior_variance_m2)},
+            **{f"kalman_p{v:g}": infl.kalman_m[i].tolist() for i, v in enumerate(infl.prior_variance_m2)},
+        },
+    }
+    if not args.no_cost:
+        cost = cost_experiment(_int_list(args.cost_agents), args.cost_duration, args.seed)
+        out["cost"] = {str(n): {"uplink_values_per_s": float(cost.uplink_values_per_s[i]),
+                                "downlink_values_per_s": float(cost.downlink_values_per_s[i]),
+                                "step_update_ms": float(cost.step_update_ms[i]),
+                                "range_update_ms": float(cost.range_update_ms[i]),
+                                "realtime_factor": float(cost.realtime_factor[i])}
+                       for i, n in enumerate(cost.group_sizes)}
+    return out
+
+
+def _print(out: dict[str, Any]) -> None:
+    m = out["march"]
+    print(f"march ({m['runs']} runs, {m['distance_m']:.0f} m): final absolute RMSE by agents "
+          + ", ".join(f"N={n}: {r:.2f} m" for n, r in m["rmse_by_agents"].items()))
+    print(f"march: fitted RMSE = {m['coefficient_m']:.2f} m * N^-{m['exponent']:.2f} (seed: N^-0.5)")
+    print("march: final relative RMSE "
+          + ", ".join(f"N={n}: {r:.2f} m" for n, r in m["relative_rmse_by_agents"].items())
+          + (f"; max over distance {m['max_relative_rmse_m']:.2f} m" if m["max_relative_rmse_m"] is not None else ""))
+    c = m["correlation"]
+    print("march Fig. 12 correlation (2 agents) at " + ", ".join(f"{d:.0f}" for d in c["distance_m"]) + " m:")
+    for ax in "xyz":
+        print(f"  {ax}: Monte Carlo " + " ".join(f"{v:+.2f}" for v in c[f"{ax}_mc"])
+              + " | filter " + " ".join(f"{v:+.2f}" for v in c[f"{ax}_filter"]))
+    if m["robust_relative_rmse_2_agents_m"] is not None:
+        print(f"march, 2 agents, Cauchy ranges: final relative RMSE robust {m['robust_relative_rmse_2_agents_m']:.2f} m"
+              f" vs Kalman {m['kalman_relative_rmse_2_agents_m']:.2f} m")
+    s = out["static"]
+    print(f"static ({s['runs']} runs, {s['duration_s']:.0f} s): walker RMSE max {s['max_rmse_m']:.2f} m, "
+          f"final {s['final_rmse_m']:.2f} m (mean middle third {s['middle_third_mean_rmse_m']:.2f} m, last third "
+          f"{s['last_third_mean_rmse_m']:.2f} m); dead reckoning alone final {s['dead_reckoning_final_rmse_m']:.2f} m")
+    i = out["influence"]
+    print("influence (Fig. 8, ||z1|| = 10 m) residual m: " + " ".join(f"{r:+6.1f}" for r in i["residual_m"]))
+    for key in [k for k in i if k != "residual_m"]:
+        print(f"  {key:>12}: " + " ".join(f"{v:+6.2f}" for v in i[key]))
+    for n, row in out.get("cost", {}).items():
+        print(f"cost N={n}: per agent {row['uplink_values_per_s']:.1f} values/s up, "
+              f"{row['downlink_values_per_s']:.1f} down; centre {row['step_update_ms']:.2f} ms per step update, "
+              f"{row['range_update_ms']:.2f} ms per range; {row['realtime_factor'] * 100:.1f} % of real time")
+
+
+def run_eval(args: argparse.Namespace) -> int:
+    out = evaluate(args)
+    if args.json:
+        print(json.dumps(out, indent=2))
+    else:
+        _print(out)
+    return 0
+
+
+def register_eval(targets: argparse._SubParsersAction) -> None:
+    p = targets.add_parser("coop", help="cooperative localization: seed 001 simulations (march, static), cost")
+    p.add_argument("--json", action="store_true", help="print figures as JSON")
+    p.add_argument("--runs", type=int, default=30, help="Monte Carlo runs per scenario (default 30)")
+    p.add_argument("--agents", default="1,2,4,8", help="group sizes of the march (default 1,2,4,8)")
+    p.add_argument("--duration", type=float, default=200.0, help="march duration, s (1 m steps at 1 Hz)")
+    p.add_argument("--static-duration", type=float, default=300.0, help="static scenario duration, s")
+    p.add_argument("--seed", type=int, default=0, help="random seed")
+    p.add_argument("--cost-agents", default="2,8,32", help="group sizes timed for the cost figures")
+    p.add_argument("--cost-duration", type=float, default=30.0, help="simulated seconds timed per group size")
+    p.add_argument("--no-cost", action="store_true", help="skip the timing")
+    p.set_defaults(func=run_eval)

@@ -1,0 +1,369 @@
+"""``pdr foot LOG --out TRACK.csv`` (foot-mounted navigation) and ``pdr eval foot`` (the three foot datasets)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pdr.errors import InputError
+from pdr.foot.bc import BCTrack
+from pdr.foot.detectors import DETECTORS, DetectorConfig
+from pdr.foot.dual import DualFootConfig, DualFootTrack, navigate_feet
+from pdr.foot.filterbank import FilterBankTrack
+from pdr.foot.metrics import loop_closure_error, path_length, pyshoe_armse, stride_errors
+from pdr.foot.navigate import METHODS, FootImu, navigate
+from pdr.foot.zupt import ZuptTrack
+from pdr.frames import yaw_to_heading_deg
+from pdr.fusion.constraints import SeparationConfig
+from pdr.io.pyshoe import VICON_TO_RIGHT_HANDED
+
+#: PyShoe VICON trials that the source repository's ``training_data_tag`` marks 0 (non-bipedal / crawling;
+#: see ``pyshoe_vicon/SOURCE.md``), mapped to names through the upstream file order.
+PYSHOE_EXCLUDED: frozenset[str] = frozenset({
+    "2017-11-22-11-22-46", "2017-11-22-11-23-25", "2017-11-22-11-25-20", "2017-11-22-11-26-05",
+    "2017-11-22-11-26-46", "2017-11-22-11-27-30", "2017-11-22-11-28-03", "2017-11-22-11-28-39",
+    "2017-11-22-11-30-14", "2017-11-22-11-37-47", "2017-11-27-11-12-44", "2017-11-27-11-19-16",
+    "2017-11-27-11-22-22", "2017-11-27-11-23-18", "2018-02-09-11-18-04", "2018-02-09-11-19-39",
+    "2018-02-09-11-22-01", "2018-02-09-11-29-43", "2018-02-22-10-09-36", "2018-02-22-10-10-29",
+    "2018-02-22-10-10-56"})
+
+
+def _detector_config(args: argparse.Namespace) -> DetectorConfig:
+    kw: dict[str, Any] = {"method": args.detector, "adaptive": not args.fixed_threshold}
+    if args.threshold is not None:
+        kw["threshold"] = args.threshold
+    return DetectorConfig(**kw)
+
+
+def _add_options(p: argparse.ArgumentParser, evaluation: bool = False) -> None:
+    p.add_argument("--method", choices=METHODS + (("all",) if evaluation else ()),
+                   default="all" if evaluation else "zupt",
+                   help="zupt: ZUPT-aided INS; stepwise: with step segmentation and step-wise dead reckoning; "
+                        "filterbank, filterbank-height: jump Markov filter bank (seed 002 eqs. 12, 13); "
+                        "bc: belief condensation (seed 000)"
+                        + ("; all: every method of EVAL_METHODS (default)" if evaluation else ""))
+    p.add_argument("--detector", choices=DETECTORS, default="shoe", help="zero-velocity detector (default shoe)")
+    p.add_argument("--threshold", type=float, help="detector threshold gamma_z (default 3e4)")
+    p.add_argument("--fixed-threshold", action="store_true", help="disable the gait-adaptive threshold")
+
+
+def track_rows(imu: FootImu, track: ZuptTrack | FilterBankTrack | BCTrack) -> dict[str, np.ndarray]:
+    """Columns of the per-sample track CSV, time on the log's own clock."""
+    return {
+        "t_s": track.t_s + imu.clock_offset_s,
+        "east_m": track.pos_n[:, 0], "north_m": track.pos_n[:, 1], "up_m": track.pos_n[:, 2],
+        "heading_deg": yaw_to_heading_deg(track.yaw),
+        "zero_velocity": track.zero_velocity.astype(np.int64),
+        "pos_sd_m": np.sqrt(np.maximum(track.pos_var[:, 0] + track.pos_var[:, 1], 0.0)),
+    }
+
+
+def step_rows(imu: FootImu, track: ZuptTrack) -> dict[str, np.ndarray]:
+    """Columns of the per-step CSV (one row per reset of the step-wise navigation)."""
+    idx = np.array([s.index for s in track.steps], dtype=np.int64)
+    return {
+        "t_s": track.t_s[idx] + imu.clock_offset_s,
+        "east_m": track.pos_n[idx, 0], "north_m": track.pos_n[idx, 1], "up_m": track.pos_n[idx, 2],
+        "heading_deg": yaw_to_heading_deg(track.yaw[idx]),
+        "dp_x_m": np.array([s.dp[0] for s in track.steps]), "dp_y_m": np.array([s.dp[1] for s in track.steps]),
+        "dp_z_m": np.array([s.dp[2] for s in track.steps]),
+        "dpsi_deg": np.degrees([s.dpsi for s in track.steps]),
+    }
+
+
+def write_csv(path: str | Path, columns: dict[str, np.ndarray]) -> None:
+    """Write equal-length columns as CSV (integers as integers, floats with 9 significant digits)."""
+    names = list(columns)
+    arrays = [np.asarray(columns[n]) for n in names]
+    with open(path, "w", encoding="utf-8") as fh:
+        fh.write(",".join(names) + "\n")
+        for row in zip(*arrays, strict=True):
+            fh.write(",".join(str(int(v)) if isinstance(v, np.integer) else f"{float(v):.9g}" for v in row) + "\n")
+
+
+def _plot(path: str, track: ZuptTrack | FilterBankTrack | BCTrack) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(6, 6))
+    ax.plot(track.pos_n[:, 0], track.pos_n[:, 1], lw=0.8)
+    zv = track.zero_velocity
+    ax.plot(track.pos_n[zv, 0], track.pos_n[zv, 1], ".", ms=1, color="C3")
+    ax.set_xlabel("east (m)")
+    ax.set_ylabel("north (m)")
+    ax.set_aspect("equal")
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def dual_rows(left: FootImu, track: DualFootTrack) -> dict[str, np.ndarray]:
+    """Columns of the dual-foot CSV: on the left foot's samples, the midpoint of the two feet and each foot."""
+    lf, rf = track.left, track.right
+    right_pos = np.stack([np.interp(lf.t_s, rf.t_s, rf.pos_n[:, i]) for i in range(3)], axis=1)
+    right_yaw = np.interp(lf.t_s, rf.t_s, np.unwrap(rf.yaw))
+    mid = 0.5 * (lf.pos_n + right_pos)
+    yaw = np.arctan2(np.sin(lf.yaw) + np.sin(right_yaw), np.cos(lf.yaw) + np.cos(right_yaw))
+    return {
+        "t_s": lf.t_s, "east_m": mid[:, 0], "north_m": mid[:, 1], "up_m": mid[:, 2],
+        "heading_deg": yaw_to_heading_deg(yaw), "zero_velocity": lf.zero_velocity.astype(np.int64),
+        "left_east_m": lf.pos_n[:, 0], "left_north_m": lf.pos_n[:, 1], "left_up_m": lf.pos_n[:, 2],
+        "right_east_m": right_pos[:, 0], "right_north_m": right_pos[:, 1], "right_up_m": right_pos[:, 2],
+    }
+
+
+def dual_step_rows(track: DualFootTrack) -> dict[str, np.ndarray]:
+    """Columns of the per-step dual-foot CSV: one row per reset of either foot, in time order."""
+    t = np.concatenate([track.left.step_t_s, track.right.step_t_s])
+    pos = np.concatenate([track.left.step_pos_n, track.right.step_pos_n])
+    foot = np.concatenate([np.zeros(track.left.step_t_s.size, np.int64), np.ones(track.right.step_t_s.size,
+                                                                                 np.int64)])
+    order = np.argsort(t, kind="stable")
+    return {"t_s": t[order], "east_m": pos[order, 0], "north_m": pos[order, 1], "up_m": pos[order, 2],
+            "right_foot": foot[order]}
+
+
+def run_dual(args: argparse.Namespace) -> int:
+    from pdr.io import read_recording
+
+    if not (args.left and args.right):
+        raise InputError("dual-foot fusion needs both --left and --right logs", field="--right" if args.left
+                         else "--left")
+    if args.log:
+        raise InputError("give either one LOG or --left and --right, not both", field="log")
+    if args.method not in ("zupt", "stepwise"):
+        raise InputError(f"dual-foot fusion uses the step-wise navigation; --method {args.method} is not "
+                         "available with --left/--right", field="--method")
+    cfg = DualFootConfig(separation=SeparationConfig(gamma_xy=args.gamma_xy, gamma_z=args.gamma_z))
+    imu_l, imu_r, track = navigate_feet(read_recording(args.left), read_recording(args.right),
+                                        _detector_config(args), config=cfg)
+    for side, imu in (("left", imu_l), ("right", imu_r)):
+        for w in imu.warnings:
+            print(f"warning ({side}): {w}", file=sys.stderr)
+    write_csv(args.out, dual_step_rows(track) if args.per_step else dual_rows(imu_l, track))
+    print(f"{track.updates} steps fused, separation constraint active at {track.constraint_active}; right foot "
+          f"frame turned by {math.degrees(track.heading_offset_rad):.1f} deg", file=sys.stderr)
+    if args.plot:
+        _plot_dual(args.plot, track)
+    return 0
+
+
+def _plot_dual(path: str, track: DualFootTrack) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(6, 6))
+    for name, f in (("left", track.left), ("right", track.right)):
+        ax.plot(f.pos_n[:, 0], f.pos_n[:, 1], lw=0.8, label=name)
+    ax.set_xlabel("east (m)")
+    ax.set_ylabel("north (m)")
+    ax.set_aspect("equal")
+    ax.legend()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def run_foot(args: argparse.Namespace) -> int:
+    from pdr.io import read_recording
+
+    if args.left or args.right:
+        return run_dual(args)
+    if not args.log:
+        raise InputError("give a foot IMU LOG (or --left and --right for dual-foot fusion)", field="log")
+    rec = read_recording(args.log)
+    imu, track = navigate(rec, args.method, _detector_config(args))
+    for w in track.warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    if args.per_step:
+        if args.method != "stepwise":
+            raise InputError("--per-step needs --method stepwise", field="--per-step")
+        write_csv(args.out, step_rows(imu, track))
+    else:
+        write_csv(args.out, track_rows(imu, track))
+    if args.plot:
+        _plot(args.plot, track)
+    return 0
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser("foot", help="foot-mounted navigation (ZUPT-aided INS) of a foot IMU log")
+    p.add_argument("log", nargs="?", help="foot IMU log (any supported format)")
+    p.add_argument("--out", required=True, help="track CSV: t_s,east_m,north_m,up_m,heading_deg,zero_velocity")
+    p.add_argument("--per-step", action="store_true", help="one row per step (with --method stepwise or dual-foot)")
+    p.add_argument("--plot", help="PNG of the horizontal track")
+    p.add_argument("--left", help="left-foot log for dual-foot fusion (seed 001 Sec. 4.2), with --right")
+    p.add_argument("--right", help="right-foot log for dual-foot fusion, with --left")
+    p.add_argument("--gamma-xy", type=float, default=1.0, help="dual-foot: largest horizontal separation, m")
+    p.add_argument("--gamma-z", type=float, default=0.3, help="dual-foot: largest vertical separation, m")
+    _add_options(p)
+    p.set_defaults(func=run_foot)
+
+
+# ----------------------------------------------------------------------------------------------- evaluation
+
+def _dataset_dirs(root: Path) -> dict[str, Path]:
+    names = ("pyshoe_vicon", "xio_gait_loop", "foot_stride_gcp")
+    if root.name in names:
+        return {root.name: root}
+    found = {n: root / n for n in names if (root / n).is_dir()}
+    if not found:
+        raise InputError(f"none of {names} found", source=str(root))
+    return found
+
+
+def eval_pyshoe(d: Path, args: argparse.Namespace, tracks: Path | None, method: str) -> dict[str, Any]:
+    """PyShoe ARMSE per trial (crawling trials excluded), against the VICON truth.
+
+    Two figures per trial: ``armse_m`` against the recording's truth (the VICON positions in a right-handed
+    z-up frame, see :mod:`pdr.io.pyshoe`), and ``armse_stored_frame_m`` against the positions as stored in the
+    file, which is what ``tools/score_tracks.py pyshoe`` computes from the track CSVs: the stored frame is
+    left-handed, so a correct ENU track matches it only as a mirror image and that figure is large.
+    """
+    from pdr.io import read_recording
+
+    rows: list[dict[str, Any]] = []
+    files = sorted(d.glob("*.mat"))
+    if args.limit:
+        files = files[: args.limit]
+    for f in files:
+        if f.stem in PYSHOE_EXCLUDED:
+            continue
+        rec = read_recording(f)
+        t0 = time.perf_counter()
+        imu, track = navigate(rec, method, _detector_config(args))
+        cpu = time.perf_counter() - t0
+        truth = rec.truth.positions
+        if truth is None:
+            continue
+        est = np.stack([np.interp(truth.t_s, track.t_s, track.pos_n[:, i]) for i in range(2)], axis=1)
+        stored = truth.pos_m[:, :2] * VICON_TO_RIGHT_HANDED[:2]
+        row: dict[str, Any] = {"file": f.name, "armse_m": pyshoe_armse(est, truth.pos_m[:, :2]),
+               "armse_stored_frame_m": pyshoe_armse(est, stored),
+               "reference_best_m": float(rec.meta.get("best_error_m", math.nan)),
+               "reference_shoe_m": float(rec.meta.get("trial_error_m", {}).get("shoe", math.nan)),
+               "realtime_factor": float((track.t_s[-1] - track.t_s[0]) / cpu)}
+        rows.append(row)
+        if tracks is not None:
+            write_csv(tracks / f"{f.name}.csv", track_rows(imu, track))
+    med = {k: float(np.median([r[k] for r in rows])) if rows else math.nan
+           for k in ("armse_m", "armse_stored_frame_m", "reference_best_m", "reference_shoe_m", "realtime_factor")}
+    return {"trials": len(rows), "median": med, "per_trial": rows}
+
+
+def eval_xio(d: Path, args: argparse.Namespace, tracks: Path | None, method: str) -> dict[str, Any]:
+    """Loop-closure error of the closed walks (start = end)."""
+    from pdr.io import read_recording
+
+    rows: list[dict[str, Any]] = []
+    for f in sorted(d.glob("*.csv")):
+        rec = read_recording(f)
+        imu, track = navigate(rec, method, _detector_config(args))
+        err, pct = loop_closure_error(track.pos_n)
+        rows.append({"file": f.name, "loop_error_m": err, "loop_error_pct": pct,
+                     "distance_m": path_length(track.pos_n)})
+        if tracks is not None:
+            write_csv(tracks / f"{f.name}.csv", track_rows(imu, track))
+    return {"walks": len(rows), "per_walk": rows}
+
+
+def eval_gcp(d: Path, args: argparse.Namespace, tracks: Path | None, method: str) -> dict[str, Any]:
+    """Per-stride errors at the footprint ground-control points and the final error in % of distance."""
+    from pdr.io import read_recording
+
+    rows: list[dict[str, Any]] = []
+    files = sorted((d / "own").glob("*.csv")) if (d / "own").is_dir() else sorted(d.glob("*.csv"))
+    if args.limit:
+        files = files[: args.limit]
+    for f in files:
+        try:
+            rec = read_recording(f)
+        except InputError as exc:
+            rows.append({"file": f.name, "error": str(exc)})
+            continue
+        truth = rec.truth.positions
+        if truth is None or truth.kind != "stride" or len(truth) < 2:
+            continue
+        imu, track = navigate(rec, method, _detector_config(args))
+        est = np.stack([np.interp(truth.t_s, track.t_s, track.pos_n[:, i]) for i in range(2)], axis=1)
+        e = stride_errors(est, truth.pos_m[:, :2])
+        dist = path_length(truth.pos_m)
+        rows.append({"file": f.name, "strides": int(len(e)), "mean_stride_error_m": float(np.mean(e)),
+                     "final_error_m": float(e[-1]), "distance_m": dist,
+                     "final_error_pct": float(100.0 * e[-1] / dist) if dist > 0 else math.nan})
+        if tracks is not None:
+            write_csv(tracks / f"{f.name}.csv", track_rows(imu, track))
+    ok = [r for r in rows if "final_error_pct" in r]
+    return {"walks": len(ok), "median_final_error_pct": float(np.median([r["final_error_pct"] for r in ok]))
+            if ok else math.nan, "per_walk": rows}
+
+
+def _print_eval(out: dict[str, Any]) -> None:
+    for method in out["methods"]:
+        if "pyshoe_vicon" in out:
+            r = out["pyshoe_vicon"][method]
+            for row in r["per_trial"]:
+                print(f"[{method}] pyshoe {row['file']}: ARMSE {row['armse_m']:.3f} m (stored left-handed frame "
+                      f"{row['armse_stored_frame_m']:.3f} m), reference {row['reference_best_m']:.3f} m")
+            m = r["median"]
+            print(f"[{method}] pyshoe ALL ({r['trials']} trials, crawling excluded): median ARMSE "
+                  f"{m['armse_m']:.3f} m (stored left-handed frame, as score_tracks.py: "
+                  f"{m['armse_stored_frame_m']:.3f} m); reference oracle best {m['reference_best_m']:.3f} m, "
+                  f"SHOE {m['reference_shoe_m']:.3f} m; {m['realtime_factor']:.0f}x real time")
+        if "xio_gait_loop" in out:
+            for row in out["xio_gait_loop"][method]["per_walk"]:
+                print(f"[{method}] xio {row['file']}: loop-closure error {row['loop_error_m'] * 1000:.0f} mm "
+                      f"({row['loop_error_pct']:.2f} % of {row['distance_m']:.1f} m)")
+        if "foot_stride_gcp" in out:
+            r = out["foot_stride_gcp"][method]
+            for row in r["per_walk"]:
+                if "error" in row:
+                    print(f"[{method}] gcp {row['file']}: skipped ({row['error']})")
+                    continue
+                print(f"[{method}] gcp {row['file']}: {row['strides']} strides, mean error "
+                      f"{row['mean_stride_error_m']:.2f} m, final {row['final_error_m']:.2f} m = "
+                      f"{row['final_error_pct']:.2f} % of {row['distance_m']:.1f} m")
+            print(f"[{method}] gcp ALL ({r['walks']} walks): median final error {r['median_final_error_pct']:.2f} %")
+
+
+#: Methods that ``pdr eval foot --method all`` compares.
+EVAL_METHODS: tuple[str, ...] = ("zupt", "filterbank", "filterbank-height", "bc")
+
+
+def run_eval(args: argparse.Namespace) -> int:
+    root = Path(args.data or args.dir or ".")
+    if not root.exists():
+        raise InputError("no such folder", source=str(root))
+    tracks = Path(args.tracks) if args.tracks else None
+    methods = EVAL_METHODS if args.method == "all" else (args.method,)
+    out: dict[str, Any] = {"methods": list(methods), "detector": args.detector}
+    evaluators = {"pyshoe_vicon": eval_pyshoe, "xio_gait_loop": eval_xio, "foot_stride_gcp": eval_gcp}
+    for name, d in _dataset_dirs(root).items():
+        out[name] = {}
+        for method in methods:
+            sub = tracks / name / method if tracks is not None else None
+            if sub is not None:
+                sub.mkdir(parents=True, exist_ok=True)
+            out[name][method] = evaluators[name](d, args, sub, method)
+    if args.json:
+        print(json.dumps(out, indent=2))
+    else:
+        _print_eval(out)
+    return 0
+
+
+def register_eval(targets: argparse._SubParsersAction) -> None:
+    p = targets.add_parser("foot", help="foot navigation: PyShoe VICON ARMSE, x-io loop closure, stride GCPs")
+    p.add_argument("dir", nargs="?", help="shared data folder (or one of pyshoe_vicon, xio_gait_loop, "
+                                          "foot_stride_gcp)")
+    p.add_argument("--data", help="same as DIR")
+    p.add_argument("--json", action="store_true", help="print figures as JSON")
+    p.add_argument("--tracks", help="write each track CSV into this folder (for tools/score_tracks.py)")
+    p.add_argument("--limit", type=int, default=0, help="only the first N files per dataset (0: all)")
+    _add_options(p, evaluation=True)
+    p.set_defaults(func=run_eval)

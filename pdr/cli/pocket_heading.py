@@ -1,0 +1,155 @@
+"""Check the trouser-pocket walking direction of the phone pipeline (180-degree rule of :mod:`pdr.heading`).
+
+Simulated pocket walks (truth ``walking_heading_rad``): mean absolute heading error, share of steps more than
+90 degrees off, median step-to-step change, over seeds, both thighs and random mounts.
+
+Real pocket walks (no direction truth):
+- flips: consecutive steps (less than 2 s apart) whose headings differ by more than 120 degrees;
+- turn check (MobiFall, which has a gyroscope): in a turn at yaw rate ``Omega`` the mean horizontal specific
+  force over a stride is the centripetal acceleration ``V Omega (u x f)`` plus a slowly varying tilt error,
+  removed as the median over the straight strides within 6 s. The step's output heading agrees when
+  ``sign(Omega) (a x u) . f > 0``. Strides with ``|Omega| > 0.35 rad/s`` count.
+
+Usage: ``pdr eval pocket-heading [--sim-seeds N] [--data DIR] [--no-real] [--no-sim]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pdr import quaternion as quat
+from pdr.frames import heading_deg_to_yaw, wrap_angle
+from pdr.io.registry import read_recording
+from pdr.pipeline import PdrPipeline, PipelineConfig, track_rows
+from pdr.recording import Recording
+from pdr.sim import simulate
+
+FLIP_DEG = 120.0
+TURN_RATE = 0.35
+STRAIGHT_RATE = 0.1
+
+
+class _Probe(PdrPipeline):
+    """The pipeline, recording per step the stride's mean horizontal specific force and vertical rotation rate."""
+
+    def __init__(self, config: PipelineConfig) -> None:
+        super().__init__(config)
+        self.probe: dict[float, tuple[float, float, float]] = {}
+        self._probe_prev: int | None = None
+
+    def _step(self, s: int, e: int, peak: float) -> list[Any]:
+        h = self.history
+        ps = self._probe_prev
+        s0 = ps if ps is not None and 0 < s - ps <= 2 * (e - s) else s - (e - s)
+        self._probe_prev = s
+        q, f = h.q[h.sl(s0, e)], h.f_n[h.sl(s0, e)]
+        if q.shape[0] > 3 and np.all(np.isfinite(q)) and np.all(np.isfinite(f)):
+            om = quat.to_rotvec(quat.multiply(q[1:], quat.conjugate(q[:-1])))[:, 2] * self.config.rate_hz
+            self.probe[float(h.t[h.sl(s, e)][0])] = (float(f[:, 0].mean()), float(f[:, 1].mean()), float(om.mean()))
+        return super()._step(s, e, peak)
+
+
+def _flips(t: np.ndarray, yaw: np.ndarray) -> int:
+    near = np.diff(t) < 2.0
+    return int(np.sum(near & (np.degrees(np.abs(wrap_angle(np.diff(yaw)))) > FLIP_DEG)))
+
+
+def real_walk(rec: Recording) -> dict[str, float]:
+    """Flips and turn-check agreement of one real pocket walk."""
+    p = _Probe(PipelineConfig(placement="pocket"))
+    rows = track_rows(p.run(rec))
+    t = np.array([r["t_start_s"] for r in rows])
+    yaw = heading_deg_to_yaw(np.array([r["heading_deg"] for r in rows]))
+    out: dict[str, float] = {"steps": float(len(rows)), "flips": float(_flips(t, yaw))}
+    keep = [i for i, ti in enumerate(t) if float(ti) in p.probe]
+    if keep and not np.isnan(p.probe[float(t[keep[0]])][2]):
+        tk, yk = t[keep], yaw[keep]
+        a = np.array([p.probe[float(x)][:2] for x in tk])
+        om = np.array([p.probe[float(x)][2] for x in tk])
+        agree = []
+        for i in np.flatnonzero(np.abs(om) > TURN_RATE):
+            near = (np.abs(tk - tk[i]) < 6.0) & (np.abs(om) < STRAIGHT_RATE)
+            if near.sum() < 3:
+                continue
+            ac = a[i] - np.median(a[near], axis=0)
+            agree.append(math.copysign(1.0, om[i]) * (ac[1] * math.cos(yk[i]) - ac[0] * math.sin(yk[i])) > 0)
+        out["turn_strides"] = float(len(agree))
+        out["turn_agree"] = float(np.mean(agree)) if agree else math.nan
+    return out
+
+
+def sim_scenario(side: str) -> dict[str, Any]:
+    """A pocket walk with a left, a right and a U turn and three speeds, phone turned at random on the thigh."""
+    return {"name": f"pocket_{side}", "placement": "trouser_pocket", "side": side, "mount_rpy_deg": "random",
+            "start": {"position_m": [0, 0, 0], "heading_deg": 30, "floor": 0},
+            "segments": [{"type": "stand", "duration_s": 3}, {"type": "walk", "distance_m": 20, "speed_mps": 1.2},
+                         {"type": "turn", "angle_deg": 90, "duration_s": 2},
+                         {"type": "walk", "duration_s": 10, "speed_mps": 1.4},
+                         {"type": "turn", "angle_deg": -180, "duration_s": 3},
+                         {"type": "walk", "duration_s": 10, "speed_mps": 1.0}, {"type": "stand", "duration_s": 2}]}
+
+
+def sim_walk(side: str, seed: int) -> np.ndarray:
+    """Absolute heading errors (deg) of the steps of one simulated pocket walk (truth at mid-step)."""
+    rec = simulate(sim_scenario(side), seed)
+    rows = track_rows(PdrPipeline(PipelineConfig()).run(rec))
+    assert rec.truth is not None
+    tt, wh = rec.truth.extra["trajectory_t_s"], np.unwrap(rec.truth.extra["walking_heading_rad"])
+    t = np.array([0.5 * (r["t_start_s"] + r["t_s"]) for r in rows])
+    yaw = heading_deg_to_yaw(np.array([r["heading_deg"] for r in rows]))
+    return np.degrees(np.abs(wrap_angle(yaw - np.interp(t, tt, wh))))
+
+
+def register_eval(targets: argparse._SubParsersAction) -> None:
+    ap = targets.add_parser("pocket-heading", help="trouser-pocket walking direction: simulated error, real flips")
+    ap.add_argument("--sim-seeds", type=int, default=5, help="simulated walks per thigh (5)")
+    ap.add_argument("--data", default="../shared/data", help="folder of the shared datasets (../shared/data)")
+    ap.add_argument("--no-real", action="store_true", help="skip the MobiFall and Oxford walks")
+    ap.add_argument("--no-sim", action="store_true", help="skip the simulated walks")
+    ap.set_defaults(func=run)
+
+
+def run(a: argparse.Namespace) -> int:
+    """Print the figures; returns the exit code."""
+    if not a.no_sim:
+        errs = []
+        for side in ("left", "right"):
+            for seed in range(a.sim_seeds):
+                e = sim_walk(side, seed)
+                errs.append(e)
+                print(f"sim {side:5s} seed {seed}: {e.size} steps, mean |err| {e.mean():5.1f} deg, "
+                      f">90 deg {np.mean(e > 90):.2f}")
+        allerr = np.concatenate(errs)
+        print(f"SIM pocket ({len(errs)} walks, {allerr.size} steps): mean |err| {allerr.mean():.1f} deg, "
+              f"median {np.median(allerr):.1f}, share >90 deg {np.mean(allerr > 90):.3f}, "
+              f"walks with mean >90 deg {sum(float(e.mean()) > 90 for e in errs)}")
+    if a.no_real:
+        return 0
+    data = Path(a.data)
+    tot = {"steps": 0.0, "flips": 0.0, "turn_strides": 0.0, "turn_agreeing": 0.0}
+    for f in sorted(glob.glob(str(data / "mobifall_v2_pocket/sub*/ADL/WAL/WAL_acc_*.txt*"))):
+        r = real_walk(read_recording(f))
+        tot["steps"] += r["steps"]
+        tot["flips"] += r["flips"]
+        tot["turn_strides"] += r.get("turn_strides", 0.0)
+        tot["turn_agreeing"] += r.get("turn_agree", 0.0) * r.get("turn_strides", 0.0) if r.get("turn_strides") else 0
+        print(f"MobiFall {Path(f).name}: {r['steps']:.0f} steps, flips {r['flips']:.0f}, "
+              f"turn check {r.get('turn_agree', math.nan):.2f} of {r.get('turn_strides', 0):.0f} turning strides")
+    if tot["steps"]:
+        print(f"MOBIFALL: {tot['flips']:.0f} flips in {tot['steps']:.0f} steps; turn check agrees on "
+              f"{tot['turn_agreeing']:.0f}/{tot['turn_strides']:.0f} turning strides")
+    ox_steps = ox_flips = 0
+    for d in sorted(glob.glob(str(data / "oxford_step_counter/optimisation/data/*_*ocket_*"))):
+        r = real_walk(read_recording(d))
+        ox_steps += int(r["steps"])
+        ox_flips += int(r["flips"])
+        print(f"Oxford {Path(d).name}: {r['steps']:.0f} steps, flips {r['flips']:.0f}")
+    if ox_steps:
+        print(f"OXFORD pocket: {ox_flips} flips in {ox_steps} steps")
+    return 0

@@ -1,0 +1,367 @@
+"""``pdr track LOG`` (phone PDR track as CSV/GeoJSON/PNG) and ``pdr eval ipin|ms|steps DIR``."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pdr.errors import InputError
+from pdr.io import read_recording
+from pdr.landmarks import Site
+from pdr.pipeline import PdrPipeline, PipelineConfig, track_rows
+from pdr.recording import Recording
+from pdr.scoring import (
+    bounce_free_step_count,
+    distance_ratio,
+    landmark_errors,
+    step_count_error_pct,
+    waypoint_errors,
+)
+from pdr.step_length import StepLengthModel
+
+CSV_COLUMNS = ("t_s", "east_m", "north_m", "up_m", "floor", "heading_deg", "step_length_m", "mode")
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser("track", help="phone PDR: one row per step (position, floor, heading, length)")
+    p.add_argument("log", help="log file or folder (any supported format)")
+    _common_options(p)
+    p.add_argument("--out", required=True, help="track CSV (t_s,east_m,north_m,up_m,floor,heading_deg,"
+                                               "step_length_m,mode) on the log's clock")
+    p.add_argument("--geojson", help="also write the track as GeoJSON (local metres unless the log has an origin)")
+    p.add_argument("--plot", help="also write a PNG plot of the track")
+    p.set_defaults(func=run_track)
+
+
+def _common_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--placement", default="auto", choices=("auto", "pocket", "torso", "hand"),
+                   help="where the phone is carried (auto: from the log's metadata or a rule)")
+    p.add_argument("--site", help="site description JSON (landmarks that correct heading and position)")
+    p.add_argument("--calibration", help="step-length calibration JSON from `pdr calibrate`")
+    p.add_argument("--method", default="ukf", choices=("ukf", "ekf"), help="attitude filter")
+    p.add_argument("--floor-height", type=float, default=None, help="floor height in m (default 4)")
+
+
+def config_from_args(args: argparse.Namespace, initial_floor: float = 0.0) -> PipelineConfig:
+    cfg = PipelineConfig(placement=args.placement, attitude_method=args.method, initial_floor=initial_floor)
+    if getattr(args, "calibration", None):
+        cfg = PipelineConfig(**{**cfg.__dict__, "step_length": StepLengthModel.load(args.calibration)})
+    if getattr(args, "floor_height", None):
+        from dataclasses import replace
+        cfg = replace(cfg, floors=replace(cfg.floors, floor_height_m=float(args.floor_height)))
+    return cfg
+
+
+def run_pipeline(rec: Recording, cfg: PipelineConfig, site: Site | None = None) -> tuple[list[dict[str, Any]],
+                                                                                        list[str]]:
+    """Track rows and notices of a whole recording."""
+    events = PdrPipeline(cfg, site).run(rec)
+    notices = [str(e["message"]) for e in events if e.get("type") == "notice"]
+    return track_rows(events), notices
+
+
+def write_csv(rows: list[dict[str, Any]], path: str | Path) -> None:
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(CSV_COLUMNS)
+        for r in rows:
+            w.writerow([f"{r['t_s']:.3f}", f"{r['east_m']:.3f}", f"{r['north_m']:.3f}", f"{r['up_m']:.2f}",
+                        f"{r['floor']:g}", f"{r['heading_deg']:.1f}", f"{r['step_length_m']:.3f}", r["mode"]])
+
+
+def write_geojson(rows: list[dict[str, Any]], path: str | Path, origin: tuple[float, float] | None) -> None:
+    from pdr.frames import local_enu_to_geodetic
+    coords = []
+    for r in rows:
+        if origin is not None:
+            lat, lon = local_enu_to_geodetic(r["east_m"], r["north_m"], origin[0], origin[1])
+            coords.append([float(lon), float(lat)])
+        else:
+            coords.append([r["east_m"], r["north_m"]])
+    doc = {"type": "FeatureCollection", "features": [{
+        "type": "Feature", "geometry": {"type": "LineString", "coordinates": coords},
+        "properties": {"crs": "WGS84" if origin else "local ENU metres", "steps": len(rows)}}]}
+    Path(path).write_text(json.dumps(doc))
+
+
+def write_plot(rows: list[dict[str, Any]], path: str | Path, rec: Recording) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(6, 6))
+    if rows:
+        ax.plot([r["east_m"] for r in rows], [r["north_m"] for r in rows], "-", lw=1, label="PDR track")
+    pt = rec.truth.positions
+    if pt is not None:
+        ax.plot(pt.pos_m[:, 0], pt.pos_m[:, 1], "o--", ms=3, lw=0.8, label=f"truth ({pt.kind})")
+    ax.set_xlabel("east (m)")
+    ax.set_ylabel("north (m)")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.legend()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def run_track(args: argparse.Namespace) -> int:
+    rec = read_recording(args.log)
+    site = Site.load(args.site) if args.site else None
+    floor0 = 0.0
+    cfg = config_from_args(args, floor0)
+    rows, notices = run_pipeline(rec, cfg, site)
+    for n in notices:
+        print(f"note: {n}", file=sys.stderr)
+    write_csv(rows, args.out)
+    if args.geojson:
+        write_geojson(rows, args.geojson, None)
+    if args.plot:
+        write_plot(rows, args.plot, rec)
+    dist = sum(r["step_length_m"] for r in rows)
+    print(f"{len(rows)} steps, {dist:.1f} m walked -> {args.out}")
+    return 0
+
+
+# -- evaluation ------------------------------------------------------------------------------------
+def register_eval(targets: argparse._SubParsersAction) -> None:
+    for name, helptext, func in (
+            ("ipin", "IPIN logfiles: landmark error (absolute and first-segment aligned), distance ratio", eval_ipin),
+            ("ms", "MS indoor traces: waypoint error after start and rotation alignment", eval_ms),
+            ("steps", "step-count error per walk and placement (Oxford step counter)", eval_steps)):
+        p = targets.add_parser(name, help=helptext)
+        p.add_argument("dir", help="dataset folder")
+        p.add_argument("--json", action="store_true", help="print figures as JSON")
+        p.add_argument("--tracks", help="also write each track CSV into this folder (for tools/score_tracks.py)")
+        p.add_argument("--limit", type=int, default=0, help="only the first N files (0: all)")
+        if name != "steps":
+            _common_options(p)
+        p.set_defaults(func=func)
+
+
+def _files(d: str, patterns: tuple[str, ...]) -> list[Path]:
+    root = Path(d)
+    if not root.exists():
+        raise InputError("no such folder", source=d)
+    out: list[Path] = []
+    for pat in patterns:
+        out += sorted(root.rglob(pat))
+    return sorted(set(out))
+
+
+def _pct(a: np.ndarray, q: float) -> float:
+    return float(np.percentile(a, q)) if a.size else math.nan
+
+
+def _emit(summary: dict[str, Any], per_file: list[dict[str, Any]], as_json: bool, lines: Iterator[str]) -> None:
+    if as_json:
+        print(json.dumps({"overall": summary, "files": per_file}, indent=2))
+    else:
+        for line in lines:
+            print(line)
+
+
+def eval_ipin(args: argparse.Namespace) -> int:
+    files = _files(args.dir, ("*.txt", "*.txt.gz", "*.mat"))
+    if args.limit:
+        files = files[:args.limit]
+    per: list[dict[str, Any]] = []
+    abs_all: list[np.ndarray] = []
+    al_all: list[np.ndarray] = []
+    ratios: list[float] = []
+    site = Site.load(args.site) if args.site else None
+    for f in files:
+        rec = read_recording(f)
+        pt = rec.truth.positions
+        if pt is None or len(pt) < 2:
+            continue
+        t_truth = rec.origin_ns / 1e9 + pt.t_s
+        floor0 = float(pt.floor[0]) if pt.floor is not None and np.isfinite(pt.floor[0]) else 0.0
+        rows, notices = run_pipeline(rec, config_from_args(args, floor0), site)
+        name = f.name[:-4] if f.name.endswith(".txt") else f.name
+        if args.tracks:
+            Path(args.tracks).mkdir(parents=True, exist_ok=True)
+            write_csv(rows, Path(args.tracks) / (name.removesuffix(".txt") + ".csv"))
+        if len(rows) < 2:
+            per.append({"file": f.name, "steps": len(rows), "error": "empty track", "notices": notices})
+            continue
+        t = np.array([r["t_s"] for r in rows])
+        en = np.array([[r["east_m"], r["north_m"]] for r in rows])
+        e_abs = landmark_errors(t, en, t_truth, pt.pos_m, "none")
+        e_al = landmark_errors(t, en, t_truth, pt.pos_m, "first-segment")
+        ratio = distance_ratio(t, en, t_truth, pt.pos_m)
+        floors_ok = None
+        if pt.floor is not None and np.isfinite(pt.floor).all():
+            est_floor = np.array([r["floor"] for r in rows])
+            fl = est_floor[np.clip(np.searchsorted(t, t_truth), 0, len(rows) - 1)]
+            floors_ok = float(np.mean(fl == pt.floor))
+        abs_all.append(e_abs)
+        al_all.append(e_al)
+        ratios.append(ratio)
+        per.append({"file": f.name, "steps": len(rows), "landmarks": int(e_abs.size),
+                    "p75_abs_m": _pct(e_abs, 75), "median_abs_m": _pct(e_abs, 50), "p75_aligned_m": _pct(e_al, 75),
+                    "distance_ratio": ratio, "floor_correct": floors_ok})
+    a = np.concatenate(abs_all) if abs_all else np.zeros(0)
+    s = np.concatenate(al_all) if al_all else np.zeros(0)
+    r = np.array(ratios)
+    summary: dict[str, Any] = {"files": len(ratios), "median_abs_m": _pct(a, 50), "p75_abs_m": _pct(a, 75),
+               "median_aligned_m": _pct(s, 50), "p75_aligned_m": _pct(s, 75),
+               "distance_ratio_median": _pct(r, 50), "distance_ratio_iqr": [_pct(r, 25), _pct(r, 75)],
+               "abs_ratio_minus_1_median": _pct(np.abs(r - 1), 50), "abs_ratio_minus_1_max": _pct(np.abs(r - 1), 100)}
+
+    def lines() -> Iterator[str]:
+        for p in per:
+            if "error" in p:
+                yield f"{p['file']}: {p['error']}"
+            else:
+                yield (f"{p['file']}: p75 {p['p75_abs_m']:.2f} m absolute, {p['p75_aligned_m']:.2f} m aligned, "
+                       f"ratio {p['distance_ratio']:.3f}, {p['steps']} steps")
+        yield (f"ALL ({summary['files']} files): absolute median {summary['median_abs_m']:.2f} "
+               f"p75 {summary['p75_abs_m']:.2f} m; aligned median {summary['median_aligned_m']:.2f} "
+               f"p75 {summary['p75_aligned_m']:.2f} m; distance ratio median {summary['distance_ratio_median']:.3f} "
+               f"(IQR {summary['distance_ratio_iqr'][0]:.3f}-{summary['distance_ratio_iqr'][1]:.3f}), "
+               f"max |ratio-1| {summary['abs_ratio_minus_1_max']:.3f}")
+    _emit(summary, per, args.json, lines())
+    return 0
+
+
+def eval_ms(args: argparse.Namespace) -> int:
+    files = _files(args.dir, ("*.txt", "*.txt.gz"))
+    if args.limit:
+        files = files[:args.limit]
+    per: list[dict[str, Any]] = []
+    errs: list[np.ndarray] = []
+    for f in files:
+        try:
+            rec = read_recording(f)
+        except InputError as exc:
+            per.append({"file": f.name, "error": str(exc)})
+            continue
+        pt = rec.truth.positions
+        if pt is None or len(pt) < 3:
+            continue
+        rows, notices = run_pipeline(rec, config_from_args(args))
+        if args.tracks:
+            Path(args.tracks).mkdir(parents=True, exist_ok=True)
+            write_csv(rows, Path(args.tracks) / (f.name + ".csv"))
+        if len(rows) < 2:
+            per.append({"file": f.name, "steps": len(rows), "error": "empty track"})
+            continue
+        t = np.array([r["t_s"] for r in rows])
+        xy = np.array([[r["east_m"], r["north_m"]] for r in rows])
+        e = waypoint_errors(t, xy, rec.origin_ns / 1e9 + pt.t_s, pt.pos_m)
+        errs.append(e)
+        per.append({"file": f.name, "steps": len(rows), "waypoints": int(e.size), "median_m": _pct(e, 50),
+                    "p75_m": _pct(e, 75)})
+    a = np.concatenate(errs) if errs else np.zeros(0)
+    summary: dict[str, Any] = {"traces": len(errs), "median_m": _pct(a, 50), "p75_m": _pct(a, 75)}
+
+    def lines() -> Iterator[str]:
+        for p in per:
+            if "error" in p:
+                yield f"{p['file']}: {p['error']}"
+            else:
+                yield f"{p['file']}: median {p['median_m']:.2f} p75 {p['p75_m']:.2f} m, {p['steps']} steps"
+        yield f"ALL: median {summary['median_m']:.2f} p75 {summary['p75_m']:.2f} m over {summary['traces']} traces"
+    _emit(summary, per, args.json, lines())
+    return 0
+
+
+def eval_steps(args: argparse.Namespace) -> int:
+    dirs = sorted({p.parent for p in _files(args.dir, ("accelerometer.csv", "accelerometer.csv.gz"))})
+    if args.limit:
+        dirs = dirs[:args.limit]
+    per: list[dict[str, Any]] = []
+    by_place: dict[str, list[float]] = {}
+    by_place_bf: dict[str, list[float]] = {}
+    for d in dirs:
+        try:
+            rec = read_recording(d)
+        except InputError as exc:
+            per.append({"walk": d.name, "error": str(exc)})
+            continue
+        true = rec.truth.step_count
+        if true is None or true < 10:
+            per.append({"walk": d.name, "error": f"no usable step truth ({true} steps)"})
+            continue
+        events = PdrPipeline(PipelineConfig()).run(rec)
+        n = sum(1 for e in events if e.get("type") == "step")
+        err = step_count_error_pct(n, int(true))
+        place = rec.device.placement or "unknown"
+        by_place.setdefault(place, []).append(err)
+        row: dict[str, Any] = {"walk": d.name, "placement": place, "true": int(true), "detected": n, "error_pct": err}
+        feet = [rec.truth.extra.get(k) for k in ("step_times_chan1_s", "step_times_chan2_s")]
+        if all(f is not None for f in feet):
+            # Secondary figure: the same truth with contact-switch bounces removed (pdr.scoring).
+            row["true_bounce_free"] = bounce_free_step_count(feet)  # type: ignore[arg-type]
+            row["error_pct_bounce_free"] = step_count_error_pct(n, row["true_bounce_free"])
+            by_place_bf.setdefault(place, []).append(row["error_pct_bounce_free"])
+        per.append(row)
+    targets = ("trouser_pocket_front", "trouser_pocket_back", "trouser_pocket", "hand", "bag", "armband")
+    target = [e for p, v in by_place.items() if p in targets for e in v]
+    target_bf = [e for p, v in by_place_bf.items() if p in targets for e in v]
+    every = [e for v in by_place.values() for e in v]
+    summary: dict[str, Any] = {
+               "walks": len(every), "mean_abs_error_pct": float(np.mean(np.abs(every))) if every else math.nan,
+               "mean_abs_error_pct_pocket_hand_bag_armband": float(np.mean(np.abs(target))) if target else math.nan,
+               "mean_abs_error_pct_pocket_hand_bag_armband_bounce_free":
+                   float(np.mean(np.abs(target_bf))) if target_bf else math.nan,
+               "by_placement": {p: {"walks": len(v), "mean_abs_error_pct": float(np.mean(np.abs(v))),
+                                    "mean_error_pct": float(np.mean(v)),
+                                    "mean_abs_error_pct_bounce_free":
+                                        float(np.mean(np.abs(by_place_bf[p]))) if by_place_bf.get(p) else math.nan}
+                                for p, v in sorted(by_place.items())}}
+
+    def lines() -> Iterator[str]:
+        for p in per:
+            if "error" in p:
+                yield f"{p['walk']}: {p['error']}"
+            else:
+                bf = (f" (bounce-free truth {p['true_bounce_free']}: {p['error_pct_bounce_free']:+.1f} %)"
+                      if "true_bounce_free" in p else "")
+                yield (f"{p['walk']}: {p['placement']}, true {p['true']}, detected {p['detected']}, "
+                       f"{p['error_pct']:+.1f} %{bf}")
+        for pl, v in summary["by_placement"].items():
+            yield (f"{pl}: {v['walks']} walks, mean |error| {v['mean_abs_error_pct']:.2f} % "
+                   f"({v['mean_abs_error_pct_bounce_free']:.2f} % against bounce-free truth)")
+        yield (f"ALL: mean |error| {summary['mean_abs_error_pct']:.2f} % over {summary['walks']} walks; "
+               f"pocket/hand/bag/armband {summary['mean_abs_error_pct_pocket_hand_bag_armband']:.2f} % "
+               f"({summary['mean_abs_error_pct_pocket_hand_bag_armband_bounce_free']:.2f} % against the truth "
+               "without contact-switch bounces)")
+    _emit(summary, per, args.json, lines())
+    return 0
+
+
+# -- benchmark -------------------------------------------------------------------------------------
+def register_bench(targets: argparse._SubParsersAction) -> None:
+    p = targets.add_parser("phone", help="phone pipeline speed on a simulated recording; attitude UKF vs filterpy")
+    p.add_argument("--duration", type=float, default=3600.0, help="simulated recording length in s (default 1 h)")
+    p.add_argument("--rate", type=float, default=100.0, help="sensor rate in Hz (default 100)")
+    p.add_argument("--batch", type=float, default=0.0, help="feed batches of this many seconds (0: one batch)")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=run_bench)
+
+
+def run_bench(args: argparse.Namespace) -> int:
+    from pdr import bench
+    res = bench.run(args.duration, args.rate, args.batch)
+    if args.json:
+        print(json.dumps(res, indent=2))
+        return 0
+    pl, at = res["pipeline"], res["attitude"]
+    print(f"recording: {res['recording']['duration_s']:.0f} s at {args.rate:g} Hz "
+          f"(simulated in {res['recording']['simulate_s']:.1f} s)")
+    print(f"pipeline: {pl['samples']} time steps in {pl['wall_s']:.2f} s = {pl['samples_per_s']:.0f} steps/s "
+          f"({pl['times_real_time']:.0f}x real time), pipeline peak memory {pl['pipeline_peak_traced_mb']:.0f} MB "
+          f"(process peak RSS incl. the simulated input {pl['peak_rss_mb']:.0f} MB), "
+          f"{pl['steps']} steps; quarter/full wall {pl['linear_check']['quarter_s']:.2f}/"
+          f"{pl['linear_check']['full_s']:.2f} s")
+    fp = at.get("filterpy_samples_per_s")
+    print(f"attitude: UKF {at['ukf_samples_per_s']:.0f} samples/s, EKF {at['ekf_samples_per_s']:.0f} samples/s, "
+          f"filterpy UKF {'n/a (not installed)' if fp is None else f'{fp:.0f} samples/s'}")
+    return 0

@@ -1,0 +1,1 @@
+"""Generic recursive estimators (unscented transform and Kalman filter) used by the attitude and heading filters."""

@@ -1,0 +1,495 @@
+"""Context-aided inertial navigation by belief condensation (seed 000).
+
+State (Sec. II.A, 22 numbers): position ``p``, velocity ``v`` and acceleration ``a`` (m, m/s, m/s^2, ENU),
+attitude quaternion ``q`` (4), angular rate ``omega`` (rad/s) and the accelerometer and gyroscope biases
+``b = [b_f, b_omega]``. Its uncertainty is a Gaussian over the 21-dimensional error state (the quaternion's
+error is a 3-vector rotation, ``q_true = exp(dtheta) q``).
+
+* Dynamic model (eqs. 2-4): constant acceleration for ``(p, v, a)`` (eq. 2), attitude driven by the angular
+  rate held over the interval (eq. 3), constant angular rate and random-walk biases (eq. 4), with the process
+  noise of Table I.
+* Measurement model (eqs. 5-6): the accelerometer measures ``C(q)^T (a - g) + b_f`` and the gyroscope
+  ``omega + b_omega``; linearised (an EKF update), as the seed does for eq. 3 (Appendix B).
+* Context (eqs. 7-9, 16-17): the potential ``f(c | x) = sum_i alpha_i N(P x; mu_i, Sigma_i)`` over
+  ``P x = [v, a, omega]`` (9 numbers). The expert model (eq. 17, Sec. V.B) has two zero-mean components:
+  stance with standard deviations 0.05 m/s, 0.3 m/s^2, 0.2 rad/s and swing with 2.5 m/s, 7.5 m/s^2, 2 rad/s,
+  ``alpha = 0.5``. :func:`learn_context` fits an m-component model by EM to states of a conventional ZUPT run
+  (Sec. V.C), initialised from the expert model.
+* Belief condensation (Algorithm 2, eqs. 13-15): the posterior ``f(y|x) f(c|x) pi^+`` is replaced by the
+  Gaussian with its mean and covariance (KL projection, eq. 13). With a Gaussian ``pi^+`` (after the
+  linearised measurement update) and a potential that is a Gaussian mixture in a linear function of the
+  state, the integrals of eqs. 14-15 are exact and closed-form: the product is a mixture of Gaussians, each a
+  Kalman update of ``pi^+`` by the "measurement" ``P x = mu_i`` with noise ``Sigma_i``, weighted by
+  ``alpha_i N(mu_i; P mu, P Sigma P^T + Sigma_i)``; its moments are those of eqs. 14-15.
+
+Deviation from the text: the angular rate is kept in the body frame (the gyroscope's, so that eq. 6 holds as
+written); the context's Gaussian components are isotropic per quantity, so the frame does not change them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+from numpy.typing import ArrayLike, NDArray
+
+from pdr import quaternion as quat
+from pdr.errors import InputError
+from pdr.foot.zupt import _quat_exp, _quat_mul, _rotmat, check_imu, first_stationary_run
+from pdr.frames import GRAVITY_MPS2
+from pdr.strapdown import initial_attitude_from_gravity
+
+Array = NDArray[np.float64]
+
+# Error-state layout (21): dp, dv, da, dtheta, domega, db_f, db_omega.
+P_, V_, A_, TH, W_, BF, BW = 0, 3, 6, 9, 12, 15, 18
+N_ERR = 21
+#: Context variables P x = [v, a, omega] (9).
+N_CTX = 9
+
+
+@dataclass(frozen=True)
+class ContextModel:
+    """Gaussian-mixture context potential over ``[v, a, omega]`` (seed 000 eq. 9).
+
+    Attributes
+    ----------
+    weights
+        (m,) mixture weights ``alpha_i`` (sum 1).
+    means
+        (m, 9) component means ``mu_i`` (m/s, m/s^2, rad/s).
+    sds
+        (m, 9) component standard deviations (diagonal ``Sigma_i``).
+    """
+
+    weights: Array
+    means: Array
+    sds: Array
+
+    def __post_init__(self) -> None:
+        w = np.asarray(self.weights, dtype=np.float64).reshape(-1)
+        mu = np.asarray(self.means, dtype=np.float64)
+        sd = np.asarray(self.sds, dtype=np.float64)
+        m = w.size
+        if m < 1 or mu.shape != (m, N_CTX) or sd.shape != (m, N_CTX):
+            raise InputError(f"need m weights and (m, {N_CTX}) means and standard deviations", field="context")
+        if not (np.all(np.isfinite(w)) and np.all(w >= 0) and abs(w.sum() - 1.0) < 1e-6):
+            raise InputError("mixture weights must be non-negative and sum to 1", field="context.weights")
+        if not (np.all(np.isfinite(mu)) and np.all(np.isfinite(sd)) and np.all(sd > 0)):
+            raise InputError("means must be finite and standard deviations positive", field="context.sds")
+        for name, arr in (("weights", w), ("means", mu), ("sds", sd)):
+            arr = arr.copy()
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+
+    @classmethod
+    def expert(cls, alpha: float = 0.5) -> ContextModel:
+        """The two-component stance/swing model of Sec. V.B (eq. 17)."""
+        stance = np.repeat([0.05, 0.3, 0.2], 3)
+        swing = np.repeat([2.5, 7.5, 2.0], 3)
+        return cls(np.array([alpha, 1.0 - alpha]), np.zeros((2, N_CTX)), np.stack([stance, swing]))
+
+
+@dataclass(frozen=True)
+class BCConfig:
+    """Noise model of the belief-condensation filter (seed 000 Table I) and its context.
+
+    Attributes
+    ----------
+    jerk_psd
+        Scale of the constant-acceleration process noise ``Sigma^{d,1}`` (Table I: 275), (m/s^3)^2 s.
+    sigma_quat
+        Table I ``Sigma^{d,2} = 0.2 dt^2 / 2``: its scale 0.2 (1/s^2); the attitude error variance per step
+        is ``4 * 0.2 dt^2 / 2`` (rad^2, a quaternion error ``dtheta / 2``).
+    omega_psd
+        ``Sigma^{d,3} = 10 dt`` (rad/s^2)^2 s.
+    bias_psd
+        ``Sigma^{d,4} = 1e-5 dt`` for both biases.
+    var_acc
+        Accelerometer measurement variance ``Sigma^f`` (Table I: 8e-3), (m/s^2)^2.
+    var_gyro
+        Gyroscope measurement variance ``Sigma^omega`` (Table I: 6e-3), (rad/s)^2.
+    init_sigma_bias_acc, init_sigma_bias_gyro
+        Prior standard deviations of the biases, m/s^2 and rad/s.
+    init_sigma_tilt, init_sigma_yaw
+        Prior attitude standard deviations after the coarse alignment, rad.
+    context
+        Context potential; ``None`` for the expert model.
+    gravity
+        m/s^2.
+    init_window_s
+        Stationary period used for the coarse alignment, s.
+    divide_by_prior
+        Eq. 7: ``f(c | x) ~ f(Px | c) / f(Px)`` with ``f(Px)`` the broadest component (the swing) instead of
+        a constant. Applied at every sample, a constant ``f(Px)`` makes the swing component a zero-velocity
+        pull of 2.5 m/s at the IMU rate, which shortens every stride (measured: half the distance on a
+        noise-free simulated walk); dividing by it leaves the swing unconstrained.
+    """
+
+    jerk_psd: float = 275.0
+    sigma_quat: float = 0.2
+    omega_psd: float = 10.0
+    bias_psd: float = 1e-5
+    var_acc: float = 8e-3
+    var_gyro: float = 6e-3
+    init_sigma_bias_acc: float = 0.05
+    init_sigma_bias_gyro: float = 0.01
+    init_sigma_tilt: float = math.radians(1.0)
+    init_sigma_yaw: float = math.radians(0.1)
+    context: ContextModel | None = None
+    gravity: float = GRAVITY_MPS2
+    init_window_s: float = 0.5
+    divide_by_prior: bool = True
+
+    def __post_init__(self) -> None:
+        for name in ("jerk_psd", "sigma_quat", "omega_psd", "bias_psd", "var_acc", "var_gyro",
+                     "init_sigma_bias_acc", "init_sigma_bias_gyro", "init_sigma_tilt", "init_sigma_yaw",
+                     "gravity", "init_window_s"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise InputError(f"must be a positive number, got {v}", field=name)
+
+
+@dataclass(frozen=True)
+class BCTrack:
+    """Output of :func:`run_bc`, one row per IMU sample.
+
+    Attributes
+    ----------
+    t_s
+        (N,) s.
+    pos_n, vel_n, acc_n
+        (N, 3) position (m), velocity (m/s), acceleration (m/s^2), ENU.
+    q_nb
+        (N, 4) attitude.
+    omega_b
+        (N, 3) angular rate, rad/s, body frame.
+    bias
+        (N, 6) accelerometer (m/s^2) and gyroscope (rad/s) biases.
+    pos_var, vel_var, att_var
+        (N, 3) variances (m^2, m^2/s^2, rad^2).
+    stance_prob
+        (N,) posterior weight of the context component with the smallest velocity spread.
+    start_index
+        First navigated sample.
+    warnings
+        Problems found in the input.
+    """
+
+    t_s: Array
+    pos_n: Array
+    vel_n: Array
+    acc_n: Array
+    q_nb: Array
+    omega_b: Array
+    bias: Array
+    pos_var: Array
+    vel_var: Array
+    att_var: Array
+    stance_prob: Array
+    start_index: int
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def yaw(self) -> Array:
+        """(N,) yaw, rad, counter-clockwise from east."""
+        return quat.to_euler(self.q_nb)[2]
+
+    @property
+    def zero_velocity(self) -> NDArray[np.bool_]:
+        """(N,) True where the stance component dominates the condensed posterior."""
+        return np.asarray(self.stance_prob > 0.5)
+
+
+@njit(cache=True)
+def _skew(x: Array) -> Array:  # pragma: no cover - compiled
+    return np.array([[0.0, -x[2], x[1]], [x[2], 0.0, -x[0]], [-x[1], x[0], 0.0]])
+
+
+@njit(cache=True)
+def _bc_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Array, P0: Array,
+               jerk: float, squat: float, somega: float, sbias: float, r_f: float, r_w: float,
+               alpha: Array, mu: Array, var: Array, logc: Array, stance: int,
+               pos: Array, vel: Array, acc: Array, qs: Array, om: Array, bias: Array,
+               pvar: Array, vvar: Array, avar: Array, sprob: Array) -> None:  # pragma: no cover - compiled
+    n = t.size
+    m = alpha.size
+    p = np.zeros(3)
+    v = np.zeros(3)
+    a = np.zeros(3)
+    q = q0.copy()
+    w = w_b[start].copy()
+    bf = np.zeros(3)
+    bw = np.zeros(3)
+    P = P0.copy()
+    log2pi = math.log(2.0 * math.pi)
+    for k in range(start + 1, n):
+        dt = t[k] - t[k - 1]
+        # --- prediction pi^+ (eqs. 2-4) ---
+        for i in range(3):
+            p[i] += v[i] * dt + 0.5 * a[i] * dt * dt
+            v[i] += a[i] * dt
+        c_old = _rotmat(q)
+        q = _quat_mul(q, _quat_exp(w * dt))
+        q /= math.sqrt(q[0] ** 2 + q[1] ** 2 + q[2] ** 2 + q[3] ** 2)
+        F = np.eye(N_ERR)
+        for i in range(3):
+            F[P_ + i, V_ + i] = dt
+            F[P_ + i, A_ + i] = 0.5 * dt * dt
+            F[V_ + i, A_ + i] = dt
+            for j in range(3):
+                F[TH + i, W_ + j] = c_old[i, j] * dt        # body-rate error turns the attitude
+        P = F @ P @ F.T
+        for i in range(3):
+            P[P_ + i, P_ + i] += jerk * dt ** 3 / 6.0
+            P[V_ + i, V_ + i] += jerk * dt ** 2 / 2.0
+            P[A_ + i, A_ + i] += jerk * dt
+            P[TH + i, TH + i] += 4.0 * squat * dt * dt / 2.0
+            P[W_ + i, W_ + i] += somega * dt
+            P[BF + i, BF + i] += sbias * dt
+            P[BW + i, BW + i] += sbias * dt
+        # --- measurement update f(y_k | x_k), linearised (eqs. 5-6) ---
+        c = _rotmat(q)
+        s_n = a - g_n                                   # specific force in the navigation frame
+        e = np.zeros(6)
+        H = np.zeros((6, N_ERR))
+        ct = c.T
+        h_f = ct @ s_n + bf
+        for i in range(3):
+            e[i] = f_b[k, i] - h_f[i]
+            e[3 + i] = w_b[k, i] - (w[i] + bw[i])
+        sk = _skew(s_n)
+        cts = ct @ sk
+        for i in range(3):
+            for j in range(3):
+                H[i, A_ + j] = ct[i, j]
+                H[i, TH + j] = cts[i, j]
+            H[i, BF + i] = 1.0
+            H[3 + i, W_ + i] = 1.0
+            H[3 + i, BW + i] = 1.0
+        S = H @ P @ H.T
+        for i in range(3):
+            S[i, i] += r_f
+            S[3 + i, 3 + i] += r_w
+        K = P @ H.T @ np.linalg.inv(S)
+        dx = K @ e
+        ikh = np.eye(N_ERR) - K @ H
+        P = ikh @ P @ ikh.T
+        for i in range(3):
+            for j in range(N_ERR):
+                for jj in range(N_ERR):
+                    P[j, jj] += K[j, i] * r_f * K[jj, i] + K[j, 3 + i] * r_w * K[jj, 3 + i]
+        # --- belief condensation with the context potential (Algorithm 2, eqs. 13-15) ---
+        # Context variables of the state after the measurement update (error-state form: P x = ctx + Pd dx).
+        ctx = np.empty(N_CTX)
+        for i in range(3):
+            ctx[i] = v[i] + dx[V_ + i]
+            ctx[3 + i] = a[i] + dx[A_ + i]
+            ctx[6 + i] = w[i] + dx[W_ + i]
+        idx = np.array([V_, V_ + 1, V_ + 2, A_, A_ + 1, A_ + 2, W_, W_ + 1, W_ + 2])
+        Pc = np.empty((N_CTX, N_CTX))
+        PcX = np.empty((N_CTX, N_ERR))
+        for i in range(N_CTX):
+            for j in range(N_CTX):
+                Pc[i, j] = P[idx[i], idx[j]]
+            for j in range(N_ERR):
+                PcX[i, j] = P[idx[i], j]
+        logb = np.empty(m)
+        means = np.empty((m, N_ERR))
+        covs = np.empty((m, N_ERR, N_ERR))
+        for c_i in range(m):
+            if var[c_i, 0] == np.inf:                   # the background component: a constant factor
+                means[c_i] = dx
+                covs[c_i] = P
+                logb[c_i] = math.log(max(alpha[c_i], 1e-300)) + logc[c_i]
+                continue
+            Sc = Pc.copy()
+            for i in range(N_CTX):
+                Sc[i, i] += var[c_i, i]
+            Sc_inv = np.linalg.inv(Sc)
+            r = mu[c_i] - ctx
+            Kc = PcX.T @ Sc_inv
+            means[c_i] = dx + Kc @ r
+            covs[c_i] = P - Kc @ PcX
+            sign, logdet = np.linalg.slogdet(Sc)
+            logb[c_i] = (math.log(max(alpha[c_i], 1e-300)) + logc[c_i]
+                         - 0.5 * (N_CTX * log2pi + logdet + r @ Sc_inv @ r))
+        mx = logb.max()
+        beta = np.exp(logb - mx)
+        beta /= beta.sum()
+        dmean = np.zeros(N_ERR)
+        for c_i in range(m):
+            dmean += beta[c_i] * means[c_i]
+        Pn = np.zeros((N_ERR, N_ERR))
+        for c_i in range(m):
+            d = means[c_i] - dmean
+            Pn += beta[c_i] * (covs[c_i] + np.outer(d, d))
+        P = 0.5 * (Pn + Pn.T)
+        sprob[k] = beta[stance]
+        # Feedback of the condensed error mean into the nominal state.
+        for i in range(3):
+            p[i] += dmean[P_ + i]
+            v[i] += dmean[V_ + i]
+            a[i] += dmean[A_ + i]
+            w[i] += dmean[W_ + i]
+            bf[i] += dmean[BF + i]
+            bw[i] += dmean[BW + i]
+        q = _quat_mul(_quat_exp(dmean[TH:TH + 3]), q)
+        q /= math.sqrt(q[0] ** 2 + q[1] ** 2 + q[2] ** 2 + q[3] ** 2)
+        pos[k] = p
+        vel[k] = v
+        acc[k] = a
+        qs[k] = q
+        om[k] = w
+        bias[k, :3] = bf
+        bias[k, 3:] = bw
+        for i in range(3):
+            pvar[k, i] = P[P_ + i, P_ + i]
+            vvar[k, i] = P[V_ + i, V_ + i]
+            avar[k, i] = P[TH + i, TH + i]
+
+
+def run_bc(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity: ArrayLike,
+           config: BCConfig | None = None) -> BCTrack:
+    """Belief-condensation filter over a recording (seed 000 Algorithm 2).
+
+    Parameters
+    ----------
+    t_s
+        (N,) strictly increasing times, s.
+    acc_b, gyro_b
+        (N, 3) specific force (m/s^2) and angular rate (rad/s), sensor frame.
+    zero_velocity
+        (N,) detector flags, used only to find the first stationary period for the coarse alignment; the
+        context potential does the rest.
+    config
+        Noise model and context.
+    """
+    cfg = config or BCConfig()
+    t, f_b, w_b = check_imu(t_s, acc_b, gyro_b)
+    zv = np.asarray(zero_velocity, dtype=bool)
+    if zv.shape != t.shape:
+        raise InputError(f"expected shape {t.shape}, got {zv.shape}", field="zero_velocity")
+    n = t.size
+    rate = 1.0 / float(np.median(np.diff(t)))
+    min_len = max(3, int(round(0.1 * rate)))
+    a0, b0 = first_stationary_run(zv, min_len)
+    b0 = min(b0, a0 + max(min_len, int(round(cfg.init_window_s * rate))))
+    q0 = initial_attitude_from_gravity(np.mean(f_b[a0:b0], axis=0))
+    ctx = cfg.context or ContextModel.expert()
+    P0 = np.zeros((N_ERR, N_ERR))
+    for i in range(3):
+        P0[V_ + i, V_ + i] = 0.01**2
+        P0[A_ + i, A_ + i] = 0.1**2
+        P0[W_ + i, W_ + i] = 0.01**2
+        P0[BF + i, BF + i] = cfg.init_sigma_bias_acc**2
+        P0[BW + i, BW + i] = cfg.init_sigma_bias_gyro**2
+    P0[TH, TH] = P0[TH + 1, TH + 1] = cfg.init_sigma_tilt**2
+    P0[TH + 2, TH + 2] = cfg.init_sigma_yaw**2
+    stance = int(np.argmin(ctx.sds[:, 0] + 1e3 * (ctx.weights == 0)))
+    var, logc = potential_factors(ctx, cfg.divide_by_prior)
+    pos = np.zeros((n, 3))
+    vel = np.zeros((n, 3))
+    acc = np.zeros((n, 3))
+    qs = np.tile(q0, (n, 1))
+    om = np.zeros((n, 3))
+    bias = np.zeros((n, 6))
+    pvar = np.zeros((n, 3))
+    vvar = np.zeros((n, 3))
+    avar = np.zeros((n, 3))
+    sprob = np.zeros(n)
+    sprob[: a0 + 1] = 1.0
+    _bc_kernel(t, np.ascontiguousarray(f_b), np.ascontiguousarray(w_b), a0, q0, np.array([0.0, 0.0, -cfg.gravity]),
+               P0, cfg.jerk_psd, cfg.sigma_quat, cfg.omega_psd, cfg.bias_psd, cfg.var_acc, cfg.var_gyro,
+               np.ascontiguousarray(ctx.weights), np.ascontiguousarray(ctx.means),
+               var, logc, stance, pos, vel, acc, qs, om, bias, pvar, vvar, avar, sprob)
+    return BCTrack(t, pos, vel, acc, quat.normalize(qs), om, bias, pvar, vvar, avar, sprob, a0)
+
+
+def potential_factors(context: ContextModel, divide_by_prior: bool) -> tuple[Array, Array]:
+    """Per-component variances and log scale factors of the potential as the filter applies it (eq. 7).
+
+    Without the division: the components' own variances, factors 0. With it, each component ``i`` narrower
+    than the broadest one ``b`` becomes ``phi(x; 0, S_i) / phi(x; 0, S_b) = c_i N(x; 0, S_i')`` with
+    ``S_i' = (S_i^-1 - S_b^-1)^-1`` and ``log c_i = d/2 log 2 pi + (log|S_i'| - log|S_i| + log|S_b|) / 2``;
+    ``b`` itself becomes the constant 1 (variance ``inf``). Diagonal covariances only; zero means assumed for
+    the division (as in the expert and learned models).
+    """
+    var = np.asarray(context.sds, dtype=np.float64) ** 2
+    m = var.shape[0]
+    if not divide_by_prior or m == 1:
+        return np.ascontiguousarray(var), np.zeros(m)
+    b = int(np.argmax(np.sum(np.log(var), axis=1)))
+    out = np.empty_like(var)
+    logc = np.zeros(m)
+    for i in range(m):
+        if i == b:
+            out[i] = np.inf
+            continue
+        prec = 1.0 / var[i] - 1.0 / var[b]
+        if np.any(prec <= 0):
+            raise InputError("with divide_by_prior every component must be narrower than the broadest on every "
+                             "variable", field="context.sds")
+        out[i] = 1.0 / prec
+        logc[i] = 0.5 * (N_CTX * math.log(2 * math.pi) + np.sum(np.log(out[i])) - np.sum(np.log(var[i]))
+                         + np.sum(np.log(var[b])))
+    return np.ascontiguousarray(out), logc
+
+
+def context_samples(vel_n: ArrayLike, q_nb: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike,
+                    gravity: float = GRAVITY_MPS2) -> Array:
+    """(N, 9) ``[v, a, omega]`` of a navigation solution: ``a = C(q) f + g`` (m/s^2, ENU), ``omega`` = gyro."""
+    f = np.asarray(acc_b, dtype=np.float64)
+    a = quat.rotate(np.asarray(q_nb, dtype=np.float64), f) + np.array([0.0, 0.0, -gravity])
+    return np.concatenate([np.asarray(vel_n, dtype=np.float64), a, np.asarray(gyro_b, dtype=np.float64)], axis=1)
+
+
+def learn_context(samples: ArrayLike, m: int = 4, iterations: int = 50, seed: int = 0) -> ContextModel:
+    """Fit an m-component context potential by EM to ``[v, a, omega]`` samples (seed 000 Sec. V.C).
+
+    Components are zero-mean with diagonal covariances whose two horizontal velocity and acceleration axes
+    share one variance, so that the potential does not depend on the walking direction (a learned mean
+    velocity would pull every track towards the training walk's heading). EM starts from the expert model's
+    two components; further components start between them (geometric interpolation of the spreads).
+
+    Parameters
+    ----------
+    samples
+        (K, 9) context variables (e.g. :func:`context_samples` of a ZUPT-EKF run).
+    m
+        Number of components (>= 1).
+    iterations
+        EM iterations.
+    seed
+        Unused by the deterministic initialisation; kept for a stable signature.
+    """
+    x = np.asarray(samples, dtype=np.float64)
+    if x.ndim != 2 or x.shape[1] != N_CTX or x.shape[0] < 10 * max(1, m) or not np.all(np.isfinite(x)):
+        raise InputError(f"need at least {10 * max(1, m)} finite (., {N_CTX}) samples", field="samples")
+    if m < 1:
+        raise InputError("m must be at least 1", field="m")
+    expert = ContextModel.expert()
+    lo, hi = np.log(expert.sds[0]), np.log(expert.sds[1])
+    frac = np.linspace(0.0, 1.0, m) if m > 1 else np.array([0.5])
+    sd = np.exp(lo[None, :] + frac[:, None] * (hi - lo)[None, :])
+    var = sd**2
+    w = np.full(m, 1.0 / m)
+    groups = [[0, 1], [2], [3, 4], [5], [6], [7], [8]]             # tied horizontal axes of v and a
+    x2 = x**2
+    for _ in range(iterations):
+        # E step: responsibilities of zero-mean diagonal Gaussians.
+        logp = (np.log(w)[None, :] - 0.5 * np.sum(np.log(2 * np.pi * var), axis=1)[None, :]
+                - 0.5 * x2 @ (1.0 / var).T)
+        logp -= logp.max(axis=1, keepdims=True)
+        r = np.exp(logp)
+        r /= r.sum(axis=1, keepdims=True)
+        nk = r.sum(axis=0) + 1e-12
+        w = nk / nk.sum()
+        s2 = (r.T @ x2) / nk[:, None]
+        for g in groups:
+            s2[:, g] = s2[:, g].mean(axis=1, keepdims=True)
+        var = np.maximum(s2, 1e-8)
+    order = np.argsort(var[:, 0])
+    return ContextModel(w[order] / w.sum(), np.zeros((m, N_CTX)), np.sqrt(var[order]))

@@ -1,0 +1,584 @@
+"""Tightly integrated motion-mode classification and navigation: a bank of error-state Kalman filters (seed 002).
+
+Jump Markov model (eq. 3): the navigation state ``x_k = (r, v, q, xi)`` follows the strapdown mechanization
+(eq. 12a, :func:`pdr.foot.zupt.zupt_predict`'s discretisation) whatever the motion mode ``delta_k``; the mode
+decides which stochastic constraint the pseudo-observation ``y_k = 0`` imposes (eq. 3b) and how hard
+(``R(delta_k)``, eq. 3d); modes follow a Markov chain with the column-stochastic transition matrix
+``Pi[j, i] = p(delta_{k+1} = j | delta_k = i)`` (eq. 3e).
+
+Two model variants of Sec. V:
+
+* ``speed`` (eq. 12, gait-speed adaptive ZUPT): 1 unconstrained, 2 almost stationary, 3 stationary. Modes 2
+  and 3 observe ``h_0 = [v, omega, C(q) s + g]`` (eq. 12c) with mode-dependent ``R_0`` (eq. 12e); mode 1 has
+  ``h = 0`` with ``R = sigma_nc^2 I`` (eq. 12d), a constant likelihood.
+* ``height`` (eq. 13, return to the same height): 1 unconstrained, 2 stationary at a new height, 3 stationary
+  at the same height. An auxiliary state ``xi`` stores the height of the last stationary sample
+  (eq. 13a); mode 3 also observes ``[p]_3 - xi`` (eq. 13b) with variance ``sigma_h^2`` (eq. 13c).
+
+Inference (Sec. III): every leaf of the filter bank is an error-state Kalman filter conditioned on one mode
+sequence (eq. 4). At each sample every leaf is predicted once and branched into the three modes; a branch's
+weight is ``w_{k-1} Pi[j, i] N(0; y_hat, S)`` (eq. 6); the ``max_leaves`` most probable branches are kept
+(pruning, "maximum of nine leaves"). The output is the minimum-variance merge: position and velocity means and
+covariances by eq. 7, the attitude by the weighted chordal mean of eq. 8 (polar decomposition of
+``sum_i w_i C(q_i)``) with the covariance of eq. 9. The log-likelihood ``sum_k log p(y_k | y_{1:k-1})``
+(eq. 11b-c) and the filtered expected mode-transition counts are returned for learning ``Pi``
+(:func:`learn_transition`, eq. 11a).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit
+from numpy.typing import ArrayLike, NDArray
+
+from pdr import quaternion as quat
+from pdr.errors import InputError
+from pdr.foot.zupt import (
+    ZuptConfig,
+    _quat_exp,
+    _quat_mul,
+    _rotmat,
+    check_imu,
+    error_transition,
+    first_stationary_run,
+    mechanize,
+)
+from pdr.strapdown import initial_attitude_from_gravity
+
+Array = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+#: Model variants of seed 002 Sec. V and their mode names (mode index 0, 1, 2 = the paper's 1, 2, 3).
+VARIANTS: dict[str, tuple[str, str, str]] = {
+    "speed": ("unconstrained", "almost_stationary", "stationary"),
+    "height": ("unconstrained", "stationary_new_height", "stationary_same_height"),
+}
+
+#: Error-state layout: position, velocity, attitude (navigation-frame rotation vector), stored height xi.
+N_ERR = 10
+XI = 9
+
+#: Initial transition matrices of Sec. V (columns: from-mode, rows: to-mode).
+PI_INIT = {
+    "speed": ((1 / 2, 1 / 3, 0.0), (1 / 2, 1 / 3, 1 / 2), (0.0, 1 / 3, 1 / 2)),
+    "height": ((1 / 3, 0.0, 1 / 2), (1 / 3, 0.0, 0.0), (1 / 3, 1.0, 1 / 2)),
+}
+
+#: Default transition matrices and the rate (Hz) they belong to. ``speed``: learned by :func:`learn_transition`
+#: (6 EM iterations, best-likelihood iterate) from the first 90 s of the foot_stride_gcp ``own`` walks at
+#: 200 Hz (a different IMU and walker than the PyShoe evaluation trials); log-likelihood -318009 -> -276888.
+#: ``height``: the learned matrix of seed 002 Sec. V.B (its sampling rate is not stated; 100 Hz assumed).
+PI_DEFAULT: dict[str, tuple[tuple[tuple[float, float, float], ...], float]] = {
+    "speed": (((0.9908, 0.0277, 0.0), (0.0092, 0.9543, 0.0485), (0.0, 0.018, 0.9515)), 200.0),
+    "height": (((0.976, 0.0, 0.031), (0.003, 0.0, 0.0), (0.021, 1.0, 0.969)), 100.0),
+}
+
+
+def check_transition(pi: ArrayLike, field_name: str = "transition") -> Array:
+    """A (3, 3) column-stochastic matrix of probabilities, or InputError."""
+    m = np.asarray(pi, dtype=np.float64)
+    if m.shape != (3, 3) or not np.all(np.isfinite(m)) or np.any(m < 0) or np.any(m > 1):
+        raise InputError("the mode transition matrix must be 3x3 probabilities", field=field_name)
+    if not np.allclose(m.sum(axis=0), 1.0, atol=1e-6):
+        raise InputError(f"each column of the transition matrix must sum to 1, got {m.sum(axis=0)}",
+                         field=field_name)
+    return m
+
+
+def transition_at_rate(pi: ArrayLike, from_hz: float, to_hz: float) -> Array:
+    """Transition matrix of a chain sampled at ``to_hz`` with the same mode dwell times as ``pi`` at ``from_hz``.
+
+    Off-diagonal probabilities scale with the sample interval (``p_ij ~ rate_ij dt``), the diagonal takes the
+    rest; a column whose diagonal is 0 (a forced transition, e.g. mode 2 -> 3 of eq. 13) is kept as it is.
+    """
+    m = check_transition(pi).copy()
+    r = from_hz / to_hz
+    out = m.copy()
+    for i in range(3):
+        if m[i, i] == 0.0:
+            continue
+        off = [j for j in range(3) if j != i]
+        out[off, i] = np.clip(m[off, i] * r, 0.0, None)
+        s = float(out[off, i].sum())
+        if s >= 1.0:
+            out[off, i] /= s / 0.999
+            s = 0.999
+        out[i, i] = 1.0 - s
+    return out
+
+
+@dataclass(frozen=True)
+class FilterBankConfig:
+    """Settings of the filter bank (seed 002 eqs. 12-13).
+
+    Attributes
+    ----------
+    variant
+        ``speed`` (eq. 12) or ``height`` (eq. 13).
+    transition
+        (3, 3) column-stochastic ``Pi`` at ``transition_rate_hz``; ``None`` for :data:`PI_DEFAULT`.
+    transition_rate_hz
+        Sampling rate that ``transition`` belongs to, Hz.
+    sigma_v, sigma_omega, sigma_s
+        Per-mode standard deviations of the constraints on velocity (m/s), angular rate (rad/s) and
+        acceleration ``C(q) s + g`` (m/s^2), eq. 12e; entry 0 (unconstrained) is not used.
+    sigma_nc
+        ``sigma_nc`` of the unconstrained mode (eq. 12d): sets its constant likelihood.
+    sigma_h
+        Standard deviation of the same-height constraint, m (eq. 13c).
+    max_leaves
+        Leaves kept after pruning (seed: nine).
+    zupt
+        Process noise and initialisation shared with the ZUPT-aided INS.
+    """
+
+    variant: str = "speed"
+    transition: tuple[tuple[float, float, float], ...] | None = None
+    transition_rate_hz: float = 100.0
+    sigma_v: tuple[float, float, float] = (0.0, 0.1, 0.01)
+    sigma_omega: tuple[float, float, float] = (0.0, 0.5, 0.05)
+    sigma_s: tuple[float, float, float] = (0.0, 2.0, 0.3)
+    sigma_nc: float = 1.0
+    sigma_h: float = 0.01
+    max_leaves: int = 9
+    zupt: ZuptConfig = field(default_factory=ZuptConfig)
+
+    def __post_init__(self) -> None:
+        if self.variant not in VARIANTS:
+            raise InputError(f"unknown filter-bank variant '{self.variant}'; expected one of {tuple(VARIANTS)}",
+                             field="variant")
+        if self.transition is not None:
+            check_transition(self.transition)
+        for name in ("sigma_v", "sigma_omega", "sigma_s"):
+            v = np.asarray(getattr(self, name), dtype=np.float64)
+            if v.shape != (3,) or not np.all(np.isfinite(v[1:])) or np.any(v[1:] <= 0):
+                raise InputError("must be three standard deviations, the last two positive", field=name)
+        for name in ("sigma_nc", "sigma_h", "transition_rate_hz"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise InputError(f"must be a positive number, got {v}", field=name)
+        if not 1 <= self.max_leaves <= 243:
+            raise InputError("max_leaves must be between 1 and 243", field="max_leaves")
+
+    def transition_matrix(self, rate_hz: float) -> Array:
+        """``Pi`` at the recording's rate."""
+        if self.transition is None:
+            pi, from_hz = PI_DEFAULT[self.variant]
+            return transition_at_rate(pi, from_hz, rate_hz)
+        return transition_at_rate(self.transition, self.transition_rate_hz, rate_hz)
+
+
+@dataclass(frozen=True)
+class FilterBankTrack:
+    """Merged output of the filter bank, one row per IMU sample.
+
+    Attributes
+    ----------
+    t_s
+        (N,) sample times, s.
+    pos_n, vel_n
+        (N, 3) minimum-variance position (m) and velocity (m/s), ENU (eq. 7a).
+    q_nb
+        (N, 4) attitude: weighted chordal mean of the leaves' attitudes (eq. 8).
+    pos_var, vel_var, att_var
+        (N, 3) variances of eqs. 7b and 9 (m^2, m^2/s^2, rad^2).
+    mode_prob
+        (N, 3) posterior probability of each mode (sum of the leaves' weights per current mode).
+    mode
+        (N,) most probable mode (0, 1, 2 = the paper's modes 1, 2, 3).
+    log_likelihood
+        ``sum_k log p(y_k | y_{1:k-1})`` (eq. 11b-c).
+    transition_counts
+        (3, 3) filtered expected transition counts ``sum_k p(delta_k = j, delta_{k-1} = i | y_{1:k})``.
+    start_index
+        First navigated sample.
+    variant
+        Model variant.
+    warnings
+        Problems found in the input.
+    """
+
+    t_s: Array
+    pos_n: Array
+    vel_n: Array
+    q_nb: Array
+    pos_var: Array
+    vel_var: Array
+    att_var: Array
+    mode_prob: Array
+    mode: IntArray
+    log_likelihood: float
+    transition_counts: Array
+    start_index: int
+    variant: str
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def yaw(self) -> Array:
+        """(N,) yaw in rad, counter-clockwise from east."""
+        return quat.to_euler(self.q_nb)[2]
+
+    @property
+    def zero_velocity(self) -> NDArray[np.bool_]:
+        """(N,) True where a stationary (constrained) mode is the most probable."""
+        return np.asarray(self.mode != 0)
+
+
+def polar_rotation(m: ArrayLike) -> Array:
+    """The rotation closest to ``m`` in the Frobenius norm (eq. 8): ``U diag(1, 1, det(U V^T)) V^T``.
+
+    ``argmin_C ||C - M||_F`` over rotations; with ``M = sum_i w_i C_i`` it is the minimiser of
+    ``sum_i w_i ||C_i - C||_F^2`` (Moakher's chordal mean, ref. [13] of seed 002).
+    """
+    a = np.asarray(m, dtype=np.float64)
+    if a.shape != (3, 3) or not np.all(np.isfinite(a)):
+        raise InputError("expected a finite 3x3 matrix", field="m")
+    u, _, vt = np.linalg.svd(a)
+    d = np.sign(np.linalg.det(u @ vt)) or 1.0
+    return np.asarray(u @ np.diag([1.0, 1.0, d]) @ vt)
+
+
+@njit(cache=True)
+def _polar(m: Array) -> Array:  # pragma: no cover - compiled
+    u, _, vt = np.linalg.svd(m)
+    d = np.linalg.det(u @ vt)
+    s = np.eye(3)
+    s[2, 2] = 1.0 if d >= 0 else -1.0
+    return u @ s @ vt
+
+
+@njit(cache=True)
+def _rotvec_of(c: Array) -> Array:  # pragma: no cover - compiled
+    # Rotation vector of a rotation matrix (small and moderate angles).
+    cos_a = min(1.0, max(-1.0, 0.5 * (c[0, 0] + c[1, 1] + c[2, 2] - 1.0)))
+    a = math.acos(cos_a)
+    w = np.array([c[2, 1] - c[1, 2], c[0, 2] - c[2, 0], c[1, 0] - c[0, 1]])
+    k = 0.5 if a < 1e-8 else 0.5 * a / math.sin(a)
+    return k * w
+
+
+@njit(cache=True)
+def _quat_of(c: Array) -> Array:  # pragma: no cover - compiled
+    phi = _rotvec_of(c)
+    return _quat_exp(phi)
+
+
+@njit(cache=True)
+def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Array, qa: float, qg: float,
+                 P0: Array, log_pi: Array, sv: Array, sw: Array, ss: Array, snc: float, sh: float, height: bool,
+                 max_leaves: int, pos: Array, vel: Array, qs: Array, pvar: Array, vvar: Array, avar: Array,
+                 mprob: Array, counts: Array) -> float:  # pragma: no cover - compiled
+    n = t.size
+    L = max_leaves
+    # Leaves.
+    lp = np.zeros((L, 3))
+    lv = np.zeros((L, 3))
+    lq = np.zeros((L, 4))
+    lxi = np.zeros(L)
+    lP = np.zeros((L, N_ERR, N_ERR))
+    lw = np.full(L, -np.inf)
+    lm = np.zeros(L, dtype=np.int64)
+    lq[0] = q0
+    lP[0] = P0
+    lw[0] = 0.0
+    lm[0] = 2                                      # initialised at rest
+    n_leaves = 1
+    # Candidates.
+    C = 3 * L
+    cp = np.zeros((C, 3))
+    cv = np.zeros((C, 3))
+    cq = np.zeros((C, 4))
+    cxi = np.zeros(C)
+    cP = np.zeros((C, N_ERR, N_ERR))
+    cw = np.zeros(C)
+    cm = np.zeros(C, dtype=np.int64)
+    cparent = np.zeros(C, dtype=np.int64)
+    loglik = 0.0
+    log2pi = math.log(2.0 * math.pi)
+    for k in range(start + 1, n):
+        dt = t[k] - t[k - 1]
+        f_k = f_b[k]
+        w_k = w_b[k]
+        nc = 0
+        for i in range(n_leaves):
+            # Prediction (eq. 12a): one per leaf, shared by its three branches.
+            q = lq[i].copy()
+            p = lp[i].copy()
+            v = lv[i].copy()
+            f_n = mechanize(p, v, q, f_b[k - 1], w_b[k - 1], f_k, w_k, dt, g_n)
+            q /= math.sqrt(q[0] ** 2 + q[1] ** 2 + q[2] ** 2 + q[3] ** 2)
+            F = np.eye(N_ERR)
+            F[:9, :9] = error_transition(f_n, dt)
+            P = F @ lP[i] @ F.T
+            for a in range(3):
+                P[3 + a, 3 + a] += qa * dt * dt
+                P[6 + a, 6 + a] += qg * dt * dt
+            # Specific force of the predicted attitude, for the acceleration constraint C(q) s + g.
+            f_n = _rotmat(q) @ f_k
+            for j in range(3):
+                prior = log_pi[j, lm[i]]
+                if prior == -np.inf:
+                    continue
+                cp[nc] = p
+                cv[nc] = v
+                cq[nc] = q
+                cxi[nc] = lxi[i]
+                cm[nc] = j
+                cparent[nc] = i
+                m_dim = 10 if height else 9
+                if j == 0:
+                    cP[nc] = P
+                    ll = -0.5 * m_dim * (log2pi + 2.0 * math.log(snc))
+                else:
+                    same_h = height and j == 2
+                    dim = 10 if same_h else 9
+                    H = np.zeros((dim, N_ERR))
+                    e = np.zeros(dim)
+                    R = np.zeros(dim)
+                    for a in range(3):
+                        H[a, 3 + a] = 1.0
+                        e[a] = -v[a]
+                        R[a] = sv[j] ** 2
+                        e[3 + a] = -w_k[a]
+                        R[3 + a] = sw[j] ** 2
+                        e[6 + a] = -(f_n[a] + g_n[a])
+                        R[6 + a] = ss[j] ** 2
+                    # d(C s)/d(dtheta) = -[f_n]x (true = exp(dtheta) est).
+                    H[6, 7] = f_n[2]
+                    H[6, 8] = -f_n[1]
+                    H[7, 6] = -f_n[2]
+                    H[7, 8] = f_n[0]
+                    H[8, 6] = f_n[1]
+                    H[8, 7] = -f_n[0]
+                    if same_h:
+                        H[9, 2] = 1.0
+                        H[9, XI] = -1.0
+                        e[9] = -(p[2] - lxi[i])
+                        R[9] = sh ** 2
+                    S = H @ P @ H.T
+                    for a in range(dim):
+                        S[a, a] += R[a]
+                    S_inv = np.linalg.inv(S)
+                    K = P @ H.T @ S_inv
+                    dx = K @ e
+                    ikh = np.eye(N_ERR) - K @ H
+                    Pn = ikh @ P @ ikh.T
+                    for a in range(dim):
+                        for b in range(N_ERR):
+                            for c in range(N_ERR):
+                                Pn[b, c] += K[b, a] * R[a] * K[c, a]
+                    cP[nc] = Pn
+                    for a in range(3):
+                        cp[nc, a] += dx[a]
+                        cv[nc, a] += dx[3 + a]
+                    qq = _quat_mul(_quat_exp(dx[6:9]), q)
+                    cq[nc] = qq / math.sqrt(qq[0] ** 2 + qq[1] ** 2 + qq[2] ** 2 + qq[3] ** 2)
+                    cxi[nc] += dx[XI]
+                    sign, logdet = np.linalg.slogdet(S)
+                    ll = -0.5 * (dim * log2pi + logdet + e @ S_inv @ e)
+                    if height and dim == 9:
+                        ll += -0.5 * (log2pi + 2.0 * math.log(snc))    # the height row unconstrained
+                cw[nc] = lw[i] + prior + ll
+                nc += 1
+        # Normalise (eq. 6b); log p(y_k | y_{1:k-1}) of eq. 11c.
+        mx = -np.inf
+        for c in range(nc):
+            mx = max(mx, cw[c])
+        tot = 0.0
+        for c in range(nc):
+            tot += math.exp(cw[c] - mx)
+        lse = mx + math.log(tot)
+        loglik += lse
+        for c in range(nc):
+            cw[c] -= lse
+            counts[cm[c], lm[cparent[c]]] += math.exp(cw[c])
+        # Pruning: keep the max_leaves most probable branches.
+        order = np.argsort(-cw[:nc])
+        n_leaves = min(L, nc)
+        keep_tot = 0.0
+        for r in range(n_leaves):
+            c = order[r]
+            keep_tot += math.exp(cw[c])
+        lkeep = math.log(keep_tot)
+        for r in range(n_leaves):
+            c = order[r]
+            lp[r] = cp[c]
+            lv[r] = cv[c]
+            lq[r] = cq[c]
+            lxi[r] = cxi[c]
+            lP[r] = cP[c]
+            lw[r] = cw[c] - lkeep
+            lm[r] = cm[c]
+        # Eq. 13a: xi follows the height while stationary.
+        if height:
+            for r in range(n_leaves):
+                if lm[r] != 0:
+                    lxi[r] = lp[r, 2]
+                    for b in range(N_ERR):
+                        lP[r, XI, b] = lP[r, 2, b]
+                    for b in range(N_ERR):
+                        lP[r, b, XI] = lP[r, b, 2]
+                    lP[r, XI, XI] = lP[r, 2, 2]
+        # Merge (eqs. 7-9).
+        mean_p = np.zeros(3)
+        mean_v = np.zeros(3)
+        M = np.zeros((3, 3))
+        for r in range(n_leaves):
+            w = math.exp(lw[r])
+            mprob[k, lm[r]] += w
+            mean_p += w * lp[r]
+            mean_v += w * lv[r]
+            M += w * _rotmat(lq[r])
+        c_mv = _polar(M)
+        qs[k] = _quat_of(c_mv)
+        for r in range(n_leaves):
+            w = math.exp(lw[r])
+            dphi = _rotvec_of(c_mv @ _rotmat(lq[r]).T)
+            for a in range(3):
+                dp_ = lp[r, a] - mean_p[a]
+                dv_ = lv[r, a] - mean_v[a]
+                pvar[k, a] += w * (lP[r, a, a] + dp_ * dp_)
+                vvar[k, a] += w * (lP[r, 3 + a, 3 + a] + dv_ * dv_)
+                avar[k, a] += w * (lP[r, 6 + a, 6 + a] + dphi[a] * dphi[a])
+        pos[k] = mean_p
+        vel[k] = mean_v
+    return loglik
+
+
+def run_filterbank(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity: ArrayLike,
+                   config: FilterBankConfig | None = None) -> FilterBankTrack:
+    """Run the filter bank over a recording (seed 002 Sec. III with the models of Sec. V).
+
+    Parameters
+    ----------
+    t_s
+        (N,) strictly increasing sample times, s.
+    acc_b, gyro_b
+        (N, 3) specific force (m/s^2) and angular rate (rad/s), sensor frame.
+    zero_velocity
+        (N,) detector flags, used only to find the first stationary period for the coarse initialisation of
+        roll and pitch; the filter bank classifies the motion mode itself.
+    config
+        Model and noise settings.
+    """
+    cfg = config or FilterBankConfig()
+    t, f_b, w_b = check_imu(t_s, acc_b, gyro_b)
+    zv = np.asarray(zero_velocity, dtype=bool)
+    if zv.shape != t.shape:
+        raise InputError(f"expected shape {t.shape}, got {zv.shape}", field="zero_velocity")
+    n = t.size
+    rate = 1.0 / float(np.median(np.diff(t)))
+    z = cfg.zupt
+    min_len = max(3, int(round(0.1 * rate)))
+    a, b = first_stationary_run(zv, min_len)
+    b = min(b, a + max(min_len, int(round(z.init_window_s * rate))))
+    q0 = initial_attitude_from_gravity(np.mean(f_b[a:b], axis=0), yaw=z.yaw0)
+    P0 = np.zeros((N_ERR, N_ERR))
+    P0[3:6, 3:6] = np.eye(3) * z.init_sigma_vel**2
+    P0[6, 6] = P0[7, 7] = z.init_sigma_tilt**2
+    P0[8, 8] = z.init_sigma_yaw**2
+    pi = cfg.transition_matrix(rate)
+    with np.errstate(divide="ignore"):
+        log_pi = np.log(pi)
+    pos = np.zeros((n, 3))
+    vel = np.zeros((n, 3))
+    qs = np.tile(q0, (n, 1))
+    pvar = np.zeros((n, 3))
+    vvar = np.zeros((n, 3))
+    avar = np.zeros((n, 3))
+    mprob = np.zeros((n, 3))
+    mprob[: a + 1, 2] = 1.0
+    counts = np.zeros((3, 3))
+    loglik = _bank_kernel(t, np.ascontiguousarray(f_b), np.ascontiguousarray(w_b), a, q0,
+                          np.array([0.0, 0.0, -z.gravity]), z.sigma_acc**2, z.sigma_gyro**2, P0, log_pi,
+                          np.asarray(cfg.sigma_v, dtype=np.float64), np.asarray(cfg.sigma_omega, dtype=np.float64),
+                          np.asarray(cfg.sigma_s, dtype=np.float64), cfg.sigma_nc, cfg.sigma_h,
+                          cfg.variant == "height", cfg.max_leaves, pos, vel, qs, pvar, vvar, avar, mprob, counts)
+    return FilterBankTrack(t, pos, vel, quat.normalize(qs), pvar, vvar, avar, mprob,
+                           np.argmax(mprob, axis=1).astype(np.int64), float(loglik), counts, a, cfg.variant)
+
+
+def transition_ml(counts: ArrayLike) -> Array:
+    """Maximum-likelihood column-stochastic transition matrix of (expected) transition counts.
+
+    ``counts[j, i]`` = (expected) number of transitions from mode ``i`` to mode ``j``; ``Pi[j, i] =
+    counts[j, i] / sum_j counts[j, i]`` maximises ``sum_{ij} counts[j, i] log Pi[j, i]`` under the column
+    constraints. A mode never left keeps a unit diagonal.
+    """
+    c = np.asarray(counts, dtype=np.float64)
+    if c.ndim != 2 or c.shape[0] != c.shape[1] or np.any(c < 0) or not np.all(np.isfinite(c)):
+        raise InputError("counts must be a square matrix of non-negative numbers", field="counts")
+    tot = c.sum(axis=0)
+    out = np.where(tot > 0, c / np.where(tot > 0, tot, 1.0), np.eye(c.shape[0]))
+    return np.asarray(out)
+
+
+@dataclass(frozen=True)
+class TransitionLearning:
+    """Result of :func:`learn_transition`.
+
+    Attributes
+    ----------
+    transition
+        (3, 3) learned ``Pi`` at ``rate_hz``.
+    rate_hz
+        Sampling rate the matrix belongs to, Hz.
+    log_likelihood
+        (I+1,) total log-likelihood of the training data (eq. 11b) before each iteration and after the last.
+    """
+
+    transition: Array
+    rate_hz: float
+    log_likelihood: Array
+
+
+def learn_transition(sequences: Sequence[tuple[Array, Array, Array, Array]], config: FilterBankConfig | None = None,
+                     rate_hz: float = 100.0, iterations: int = 8, initial: ArrayLike | None = None
+                     ) -> TransitionLearning:
+    """Learn ``Pi`` by maximising the likelihood of training data (seed 002 eq. 11).
+
+    An expectation-maximisation iteration: run the filter bank with the current ``Pi`` over every training
+    sequence, collect the expected mode-transition counts of its (filtered, pruned) mode posterior, and set
+    ``Pi`` to their maximum-likelihood normalisation (:func:`transition_ml`). Structural zeros of the initial
+    matrix stay zero. The iterate with the largest likelihood (eq. 11b, evaluated by the filter bank, eq. 11c)
+    is returned.
+
+    Parameters
+    ----------
+    sequences
+        ``(t_s, acc_b, gyro_b, zero_velocity)`` per training recording, all at about ``rate_hz``.
+    config
+        Model settings (its transition matrix is replaced).
+    rate_hz
+        Sampling rate of the training data, Hz.
+    iterations
+        EM iterations.
+    initial
+        (3, 3) starting matrix; default the initial matrix of Sec. V for the variant.
+    """
+    base = config or FilterBankConfig()
+    if not sequences:
+        raise InputError("no training sequences", field="sequences")
+    pi = check_transition(PI_INIT[base.variant] if initial is None else initial, "initial")
+    history: list[float] = []
+    best_pi, best_ll = pi, -np.inf
+    for it in range(iterations + 1):
+        cfg = FilterBankConfig(**{**base.__dict__, "transition": tuple(map(tuple, pi.tolist())),
+                                  "transition_rate_hz": rate_hz})
+        counts = np.zeros((3, 3))
+        ll = 0.0
+        for t, f, w, zv in sequences:
+            tr = run_filterbank(t, f, w, zv, cfg)
+            counts += tr.transition_counts
+            ll += tr.log_likelihood
+        history.append(ll)
+        if ll > best_ll:
+            best_pi, best_ll = pi, ll
+        if it == iterations:
+            break
+        pi = transition_ml(counts * (pi > 0))
+    return TransitionLearning(best_pi, rate_hz, np.asarray(history))

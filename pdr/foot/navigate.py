@@ -1,0 +1,183 @@
+"""Foot navigation of a :class:`~pdr.recording.Recording`: input checks, detector, ZUPT-aided INS.
+
+The entry point of ``pdr foot``. It refuses recordings that are not from a foot-mounted IMU (a phone in a
+pocket never comes to rest once per step), puts accelerometer and gyroscope on one time base, and reports
+what it found wrong in the input (start in motion, saturated samples, gaps, rate changes) as warnings.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pdr.errors import InputError
+from pdr.foot.bc import run_bc
+from pdr.foot.detectors import DetectorConfig, detect
+from pdr.foot.filterbank import FilterBankConfig, run_filterbank
+from pdr.foot.zupt import Segmentation, ZuptConfig, run_zupt
+from pdr.preprocess import find_gaps
+from pdr.recording import Recording
+
+Array = NDArray[np.float64]
+
+#: Navigation methods of ``pdr foot``: ZUPT-aided INS, with step-wise dead reckoning, filter bank (seed 002
+#: eq. 12 and the return-to-same-height model of eq. 13), belief condensation (seed 000).
+METHODS: tuple[str, ...] = ("zupt", "stepwise", "filterbank", "filterbank-height", "bc")
+
+
+@dataclass(frozen=True)
+class FootImu:
+    """Accelerometer and gyroscope of one foot on a common time base.
+
+    Attributes
+    ----------
+    t_s
+        (N,) seconds on the recording's time axis.
+    acc_b
+        (N, 3) specific force, m/s^2, sensor frame.
+    gyro_b
+        (N, 3) angular rate, rad/s, sensor frame.
+    rate_hz
+        Sampling rate from the median interval over the first RATE_WINDOW_S seconds, Hz.
+    clock_offset_s
+        Add to ``t_s`` for the log's own clock (``t0_ns / 1e9``).
+    warnings
+        What was found wrong in the input.
+    """
+
+    t_s: Array
+    acc_b: Array
+    gyro_b: Array
+    rate_hz: float
+    clock_offset_s: float
+    warnings: tuple[str, ...] = ()
+
+
+def saturated_samples(values: Array, min_run: int = 3) -> int:
+    """Number of samples that sit at the largest absolute value of their axis for ``min_run`` samples or more.
+
+    A clipped sensor repeats its full-scale reading: runs of identical extreme values betray it.
+    """
+    v = np.asarray(values, dtype=np.float64)
+    count = 0
+    for axis in range(v.shape[1]):
+        x = v[:, axis]
+        peak = float(np.max(np.abs(x)))
+        if peak == 0.0:
+            continue
+        at_peak = np.abs(x) >= peak * (1.0 - 1e-9)
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], at_peak.astype(np.int8), [0]])))
+        runs = edges[1::2] - edges[::2]
+        count += int(np.sum(runs[runs >= min_run]))
+    return count
+
+
+#: Length of the start of a recording whose median sample interval defines its sampling rate, s.
+RATE_WINDOW_S = 5.0
+
+
+def sampling_rate_hz(t_s: Array) -> float:
+    """Sampling rate (Hz) from the median interval over the first :data:`RATE_WINDOW_S` of the samples.
+
+    The rate sets sample counts (detector windows, Algorithm 1 counters). Taking it from the start of the
+    recording rather than the whole lets an online navigator (:mod:`pdr.foot.online`) fix it as soon as that
+    much has arrived, so batch and online processing use the same counts.
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    head = t[: max(3, int(np.searchsorted(t, t[0] + RATE_WINDOW_S)))]
+    return float(1.0 / np.median(np.diff(head)))
+
+
+def check_foot_recording(recording: Recording) -> None:
+    """Refuse recordings that cannot be foot IMU data (a phone, or no accelerometer and gyroscope)."""
+    src = recording.source or None
+    if recording.device.role == "phone" and recording.device.placement != "foot":
+        raise InputError("this is a phone recording (device role 'phone'); foot navigation needs a foot-mounted "
+                         "IMU: use 'pdr track' for phone logs", source=src)
+    for kind in ("acc", "gyro"):
+        if not recording.has(kind):
+            raise InputError(f"foot navigation needs '{kind}' samples", source=src, field=kind)
+
+
+def foot_imu(recording: Recording) -> FootImu:
+    """Extract and check the foot IMU streams of a recording.
+
+    Raises
+    ------
+    InputError
+        The recording has no accelerometer or gyroscope, or comes from a phone.
+    """
+    src = recording.source or None
+    check_foot_recording(recording)
+    warnings = list(recording.warnings)
+    t = recording.t_s("acc")
+    acc = np.array(recording.values("acc"))
+    tg = recording.t_s("gyro")
+    gyro = np.array(recording.values("gyro"))
+    if tg.shape != t.shape or not np.array_equal(tg, t):
+        # Different sample instants: interpolate the gyroscope onto the accelerometer's times.
+        inside = (t >= tg[0]) & (t <= tg[-1])
+        t, acc = t[inside], acc[inside]
+        gyro = np.stack([np.interp(t, tg, gyro[:, i]) for i in range(3)], axis=1)
+        warnings.append("accelerometer and gyroscope have different timestamps: gyroscope interpolated")
+    if t.size < 10:
+        raise InputError(f"only {t.size} IMU samples", source=src, field="acc")
+    dt = np.diff(t)
+    rate = sampling_rate_hz(t)
+    gaps = find_gaps(t, factor=5.0)
+    if gaps:
+        longest = max(g.end_s - g.start_s for g in gaps)
+        warnings.append(f"{len(gaps)} gap(s) in the IMU samples (longest {longest:.3f} s): the filter "
+                        "predicts across them")
+    half = t.size // 2
+    if t.size > 200:
+        r1, r2 = 1.0 / np.median(dt[:half]), 1.0 / np.median(dt[half:])
+        if abs(r1 - r2) > 0.05 * max(r1, r2):
+            warnings.append(f"sampling rate changes from {r1:.1f} Hz to {r2:.1f} Hz")
+    for kind, values in (("accelerometer", acc), ("gyroscope", gyro)):
+        n_sat = saturated_samples(values)
+        if n_sat:
+            warnings.append(f"{n_sat} {kind} samples look saturated (repeated full-scale value)")
+    return FootImu(t, acc, gyro, rate, recording.origin_ns / 1e9, tuple(warnings))
+
+
+def navigate(recording: Recording, method: str = "zupt", detector: DetectorConfig | None = None,
+             zupt: ZuptConfig | None = None, segmentation: Segmentation | None = None,
+             filterbank: FilterBankConfig | None = None) -> tuple[FootImu, Any]:
+    """Foot-mounted navigation of a recording.
+
+    Parameters
+    ----------
+    recording
+        A foot IMU recording.
+    method
+        ``zupt`` (ZUPT-aided INS, seed 001 eqs. 1-5), ``stepwise`` (with the step segmentation and step-wise
+        dead reckoning of Algorithm 1), ``filterbank`` / ``filterbank-height`` (seed 002, eqs. 12 / 13), ``bc``
+        (belief condensation with the expert context, seed 000).
+    detector, zupt, segmentation, filterbank
+        Settings (defaults when omitted).
+
+    Returns
+    -------
+    The checked IMU input and the track: a :class:`ZuptTrack` (warnings of both combined in it) or a
+    :class:`~pdr.foot.filterbank.FilterBankTrack`; both have ``t_s``, ``pos_n``, ``vel_n``, ``q_nb``, ``yaw``,
+    ``zero_velocity`` and ``pos_var``.
+    """
+    if method not in METHODS:
+        raise InputError(f"unknown foot navigation method '{method}'; expected one of {METHODS}", field="method")
+    imu = foot_imu(recording)
+    zv = detect(imu.acc_b, imu.gyro_b, imu.rate_hz, detector)
+    if method == "bc":
+        return imu, replace(run_bc(imu.t_s, imu.acc_b, imu.gyro_b, zv), warnings=imu.warnings)
+    if method.startswith("filterbank"):
+        variant = "height" if method == "filterbank-height" else "speed"
+        fb = filterbank or FilterBankConfig(variant=variant, zupt=zupt or ZuptConfig())
+        if fb.variant != variant:
+            fb = replace(fb, variant=variant)
+        return imu, replace(run_filterbank(imu.t_s, imu.acc_b, imu.gyro_b, zv, fb), warnings=imu.warnings)
+    seg = (segmentation or Segmentation()) if method == "stepwise" else None
+    track = run_zupt(imu.t_s, imu.acc_b, imu.gyro_b, zv, zupt, seg, rate_hz=imu.rate_hz)
+    return imu, replace(track, warnings=imu.warnings + track.warnings)

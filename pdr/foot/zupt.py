@@ -1,0 +1,586 @@
+"""Zero-velocity-aided inertial navigation (ZUPT-aided INS) with an error-state Kalman filter.
+
+Seed 001 Sec. 3.1: the strapdown mechanization (eq. 1, :mod:`pdr.strapdown`) runs at the IMU rate; a
+first-order error model (eq. 2) propagates the covariance of the 9 error states ``(dp, dv, dtheta)``; samples
+flagged stationary by a zero-velocity detector give the pseudo-measurement ``y = v = 0`` (eqs. 3-4); the
+estimated errors are fed back into the navigation state and reset to zero (eq. 5). As in the seed, no sensor
+bias states are estimated.
+
+Error convention: ``error = true - estimate`` for position and velocity, and ``q_true = exp(dtheta) * q_est``
+(a navigation-frame rotation vector, :func:`pdr.quaternion.boxplus`). With it the attitude-to-velocity block
+of eq. 2 is ``-[f_n]x dt`` (the seed's ``+[f_n]x dt`` belongs to the opposite sign of ``dtheta``).
+
+The same loop implements the step-wise inertial navigation of Sec. 3.2 / Algorithm 1 (``segmentation``):
+at every reset the position and heading (and their covariance rows) are zeroed and handed over as
+``(dp_l, dpsi_l, P_w)`` to :mod:`pdr.foot.stepwise`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numba import njit
+from numpy.typing import ArrayLike, NDArray
+
+from pdr import quaternion as quat
+from pdr.errors import InputError
+from pdr.frames import GRAVITY_MPS2
+from pdr.strapdown import initial_attitude_from_gravity
+
+Array = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
+IntArray = NDArray[np.int64]
+
+# Indices of the error state (seed 001 eq. 2).
+POS = slice(0, 3)
+VEL = slice(3, 6)
+ATT = slice(6, 9)
+YAW = 8
+
+
+@dataclass(frozen=True)
+class ZuptConfig:
+    """Noise model of the ZUPT-aided INS (seed 001 eqs. 2-4).
+
+    Attributes
+    ----------
+    sigma_acc
+        Accelerometer process noise, m/s^2 (white, per sample: velocity noise ``sigma_acc * dt``).
+    sigma_gyro
+        Gyroscope process noise, rad/s (attitude noise ``sigma_gyro * dt``).
+    sigma_zupt
+        Standard deviation of the zero-velocity pseudo-measurement noise ``n_k`` of eq. 4, m/s.
+    init_sigma_vel
+        Initial velocity standard deviation, m/s.
+    init_sigma_tilt
+        Initial roll and pitch standard deviation, rad (after the coarse self-initialisation).
+    init_sigma_yaw
+        Initial heading standard deviation, rad (heading is not observable: it only sets the covariance).
+    gravity
+        Local gravity magnitude, m/s^2.
+    init_window_s
+        Length of the stationary period at the start used for the coarse self-initialisation, s.
+    yaw0
+        Initial yaw in rad (counter-clockwise from east in the navigation frame).
+    """
+
+    sigma_acc: float = 0.5
+    sigma_gyro: float = float(np.radians(0.5))
+    sigma_zupt: float = 0.01
+    init_sigma_vel: float = 0.01
+    init_sigma_tilt: float = float(np.radians(1.0))
+    init_sigma_yaw: float = float(np.radians(0.1))
+    gravity: float = GRAVITY_MPS2
+    init_window_s: float = 0.5
+    yaw0: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("sigma_acc", "sigma_gyro", "sigma_zupt", "init_sigma_vel", "init_sigma_tilt",
+                     "init_sigma_yaw", "gravity", "init_window_s"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise InputError(f"must be a positive number, got {value}", field=name)
+
+
+@dataclass(frozen=True)
+class Segmentation:
+    """Recursive step segmentation of Algorithm 1 (seed 001 eqs. 9-10).
+
+    Attributes
+    ----------
+    gamma_p
+        Threshold on the velocity variance ``P_vx`` (m^2/s^2) for a pending reset (eq. 9).
+    c_min_s
+        Minimum time between resets, s (``c_min`` of eq. 9).
+    c_max_s
+        Maximum time a reset may stay pending, s (``c_max`` of eq. 10): a reset happens at the end of a
+        stance or after this long in a long stationary period.
+    """
+
+    gamma_p: float = 1e-4
+    c_min_s: float = 0.3
+    c_max_s: float = 2.0
+
+
+@dataclass(frozen=True)
+class StepIncrement:
+    """Low-rate output of the step-wise inertial navigation at reset ``l`` (seed 001 eqs. 7-8).
+
+    Attributes
+    ----------
+    t_s
+        Time of the reset, s.
+    index
+        Sample index of the reset.
+    dp
+        (3,) displacement since the previous reset, m, in the local frame of the previous reset.
+    dpsi
+        Heading change since the previous reset, rad (counter-clockwise).
+    cov
+        (4, 4) covariance of ``(dp, dpsi)``: ``[[P_p, P_p,psi], [P_p,psi^T, P_psi]]``.
+    """
+
+    t_s: float
+    index: int
+    dp: Array
+    dpsi: float
+    cov: Array
+
+
+@dataclass(frozen=True)
+class ZuptTrack:
+    """Output of the ZUPT-aided INS, one row per IMU sample.
+
+    Attributes
+    ----------
+    t_s
+        (N,) sample times, s.
+    pos_n
+        (N, 3) position, m, ENU (start at the origin). With segmentation: the step-wise dead-reckoned
+        position ``x_l + R(chi_l) p_k``.
+    vel_n
+        (N, 3) velocity, m/s, ENU.
+    q_nb
+        (N, 4) attitude.
+    zero_velocity
+        (N,) the detector flags used as ZUPTs.
+    pos_var
+        (N, 3) variances of the position (m^2) of the local filter (since the last reset with
+        segmentation).
+    vel_var
+        (N, 3) variances of the velocity, m^2/s^2.
+    att_var
+        (N, 3) variances of the attitude error (roll, pitch, yaw about the ENU axes), rad^2.
+    steps
+        Step increments (only with segmentation).
+    start_index
+        First sample that was navigated (the coarse initialisation needs a stationary start).
+    warnings
+        Problems found in the input (start in motion, saturation, gaps).
+    """
+
+    t_s: Array
+    pos_n: Array
+    vel_n: Array
+    q_nb: Array
+    zero_velocity: BoolArray
+    pos_var: Array
+    vel_var: Array
+    att_var: Array
+    steps: tuple[StepIncrement, ...] = ()
+    start_index: int = 0
+    warnings: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def yaw(self) -> Array:
+        """(N,) yaw in rad, counter-clockwise from east."""
+        return quat.to_euler(self.q_nb)[2]
+
+
+def check_imu(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike) -> tuple[Array, Array, Array]:
+    """Validate IMU arrays: (N,) strictly increasing finite times and (N, 3) finite samples."""
+    t = np.asarray(t_s, dtype=np.float64)
+    f = np.asarray(acc_b, dtype=np.float64)
+    w = np.asarray(gyro_b, dtype=np.float64)
+    if t.ndim != 1 or t.size < 2:
+        raise InputError("need at least two samples", field="t_s")
+    for name, arr in (("acc_b", f), ("gyro_b", w)):
+        if arr.shape != (t.size, 3):
+            raise InputError(f"expected shape ({t.size}, 3), got {arr.shape}", field=name)
+        if not np.all(np.isfinite(arr)):
+            raise InputError(f"sample {int(np.argmax(~np.all(np.isfinite(arr), axis=1)))} is not finite",
+                             field=name)
+    if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        raise InputError("time must be finite and strictly increasing", field="t_s")
+    return t, f, w
+
+
+def first_stationary_run(zero_velocity: BoolArray, min_len: int) -> tuple[int, int]:
+    """(start, stop) of the first run of at least ``min_len`` consecutive True flags."""
+    z = np.concatenate([[False], np.asarray(zero_velocity, dtype=bool), [False]])
+    edges = np.flatnonzero(np.diff(z.astype(np.int8)))
+    starts, stops = edges[::2], edges[1::2]
+    ok = np.flatnonzero(stops - starts >= min_len)
+    if ok.size == 0:
+        raise InputError(f"no stationary period of {min_len} samples: the foot never comes to rest, so the "
+                         "attitude cannot be initialised (is this a foot-mounted IMU?)", field="zero_velocity")
+    i = int(ok[0])
+    return int(starts[i]), int(stops[i])
+
+
+@njit(cache=True)
+def _quat_mul(a: Array, b: Array) -> Array:  # pragma: no cover - compiled
+    return np.array([
+        a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+        a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+        a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+        a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0]])
+
+
+@njit(cache=True)
+def _quat_exp(phi: Array) -> Array:  # pragma: no cover - compiled
+    angle = math.sqrt(phi[0] ** 2 + phi[1] ** 2 + phi[2] ** 2)
+    k = 0.5 - angle * angle / 48.0 if angle < 1e-8 else math.sin(0.5 * angle) / angle
+    return np.array([math.cos(0.5 * angle), k * phi[0], k * phi[1], k * phi[2]])
+
+
+@njit(cache=True)
+def _rotmat(q: Array) -> Array:  # pragma: no cover - compiled
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+@njit(cache=True)
+def _yaw(q: Array) -> float:  # pragma: no cover - compiled
+    return math.atan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] * q[2] + q[3] * q[3]))
+
+
+@njit(cache=True)
+def mechanize(p: Array, v: Array, q: Array, f0_b: Array, w0_b: Array, f_b: Array, w_b: Array, dt: float,
+              g_n: Array) -> Array:  # pragma: no cover - compiled
+    """Second-order strapdown step (eq. 1 as :mod:`pdr.strapdown`) in place; returns the mean specific force f_n.
+
+    ``f0_b, w0_b`` are the samples at the start of the interval, ``f_b, w_b`` at its end: two-sample rotation
+    vector (trapezoid + coning term), acceleration integrated as varying linearly between the two ends.
+    """
+    theta = np.empty(3)
+    theta[0] = 0.5 * (w0_b[0] + w_b[0]) * dt + (w0_b[1] * w_b[2] - w0_b[2] * w_b[1]) * dt * dt / 12.0
+    theta[1] = 0.5 * (w0_b[1] + w_b[1]) * dt + (w0_b[2] * w_b[0] - w0_b[0] * w_b[2]) * dt * dt / 12.0
+    theta[2] = 0.5 * (w0_b[2] + w_b[2]) * dt + (w0_b[0] * w_b[1] - w0_b[1] * w_b[0]) * dt * dt / 12.0
+    c0 = _rotmat(q)
+    q1 = _quat_mul(q, _quat_exp(theta))
+    c1 = _rotmat(q1)
+    f_n = np.empty(3)
+    for i in range(3):
+        f0 = c0[i, 0] * f0_b[0] + c0[i, 1] * f0_b[1] + c0[i, 2] * f0_b[2]
+        f1 = c1[i, 0] * f_b[0] + c1[i, 1] * f_b[1] + c1[i, 2] * f_b[2]
+        a0 = f0 + g_n[i]
+        a1 = f1 + g_n[i]
+        p[i] += v[i] * dt + (a0 / 3.0 + a1 / 6.0) * dt * dt
+        v[i] += 0.5 * (a0 + a1) * dt
+        f_n[i] = 0.5 * (f0 + f1)
+    q[:] = q1
+    return f_n
+
+
+@njit(cache=True)
+def error_transition(f_n: Array, dt: float) -> Array:  # pragma: no cover - compiled
+    """Transition matrix of the 9 error states (eq. 2) over ``dt`` with specific force ``f_n``."""
+    F = np.eye(9)
+    for i in range(3):
+        F[i, 3 + i] = dt
+    # -[f_n]x dt: attitude error (true = exp(dtheta) est) to velocity error.
+    F[3, 7] = f_n[2] * dt
+    F[3, 8] = -f_n[1] * dt
+    F[4, 6] = -f_n[2] * dt
+    F[4, 8] = f_n[0] * dt
+    F[5, 6] = f_n[1] * dt
+    F[5, 7] = -f_n[0] * dt
+    return F
+
+
+@njit(cache=True)
+def zupt_predict(p: Array, v: Array, q: Array, P: Array, f0_b: Array, w0_b: Array, f_b: Array, w_b: Array,
+                 dt: float, g_n: Array, qa: float, qg: float) -> Array:  # pragma: no cover - compiled
+    """Mechanization (eq. 1) and covariance propagation (eq. 2) in place; returns the specific force f_n."""
+    f_n = mechanize(p, v, q, f0_b, w0_b, f_b, w_b, dt, g_n)
+    F = error_transition(f_n, dt)
+    P[:, :] = F @ P @ F.T
+    for i in range(3):
+        P[3 + i, 3 + i] += qa * dt * dt
+        P[6 + i, 6 + i] += qg * dt * dt
+    return f_n
+
+
+@njit(cache=True)
+def zupt_update(p: Array, v: Array, q: Array, P: Array, r_var: float) -> float:  # pragma: no cover - compiled
+    """Zero-velocity update (eqs. 3-4) with feedback (eq. 5) in place; returns the NIS of the innovation."""
+    S = P[3:6, 3:6] + np.eye(3) * r_var
+    S_inv = np.linalg.inv(S)
+    K = np.ascontiguousarray(P[:, 3:6]) @ S_inv
+    innov = -v
+    dx = K @ innov
+    # Joseph form: keeps P symmetric positive semi-definite with the tiny R of a ZUPT.
+    ikh = np.eye(9)
+    ikh[:, 3:6] -= K
+    P[:, :] = ikh @ P @ ikh.T + (K * r_var) @ K.T
+    for i in range(3):
+        p[i] += dx[i]
+        v[i] += dx[3 + i]
+    q[:] = _quat_mul(_quat_exp(dx[6:9]), q)
+    q /= math.sqrt(q[0] ** 2 + q[1] ** 2 + q[2] ** 2 + q[3] ** 2)
+    return float(innov @ S_inv @ innov)
+
+
+@njit(cache=True)
+def zupt_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, g_n: Array, qa: float, qg: float,
+                r_var: float, seg_on: bool, gamma_p: float, c_min: int, c_max: int, p: Array, v: Array, q: Array,
+                P: Array, dr: Array, counters: IntArray, pos: Array, vel: Array, qs: Array, pvar: Array,
+                vvar: Array, avar: Array, step_idx: IntArray, step_dp: Array, step_dpsi: Array,
+                step_cov: Array) -> int:  # pragma: no cover - compiled
+    """The filter loop over samples ``first..N-1`` (sample ``first - 1`` is the last one already processed).
+
+    The step to sample ``k`` uses the IMU samples ``k - 1`` and ``k`` (second-order mechanization).
+    Resumable: the navigation state ``p, v, q`` (local frame), the covariance ``P``, the step-wise dead
+    reckoning ``dr = (x_l, chi_l)`` and the Algorithm 1 counters ``counters = (c_p, c_d)`` are read at the start
+    and left updated in place, so feeding a recording in consecutive chunks (each with the previous chunk's last
+    sample prepended, ``first = 1``) performs exactly the operations of one run over the whole recording.
+    Per-sample outputs go to ``pos, vel, qs, pvar, vvar, avar`` at the sample's index; resets to ``step_*``.
+    Returns the number of resets.
+    """
+    n = t.size
+    x_l = dr[0:3]
+    chi_l = dr[3]
+    c_p = counters[0]
+    c_d = counters[1]
+    n_steps = 0
+    idx = np.array([0, 1, 2, 8])
+    for k in range(first, n):
+        zupt_predict(p, v, q, P, f_b[k - 1], w_b[k - 1], f_b[k], w_b[k], t[k] - t[k - 1], g_n, qa, qg)
+        if zv[k]:
+            zupt_update(p, v, q, P, r_var)
+        else:
+            q /= math.sqrt(q[0] ** 2 + q[1] ** 2 + q[2] ** 2 + q[3] ** 2)
+        if seg_on:
+            # Algorithm 1 lines 10-21: pending reset (eq. 9), reset (eq. 10).
+            c_p += 1
+            if P[3, 3] < gamma_p and c_p > c_min:
+                c_d += 1
+                if (not zv[k]) or c_d > c_max:
+                    psi = _yaw(q)
+                    step_idx[n_steps] = k
+                    step_dp[n_steps] = p
+                    step_dpsi[n_steps] = psi
+                    for i in range(4):
+                        for j in range(4):
+                            step_cov[n_steps, i, j] = P[idx[i], idx[j]]
+                    n_steps += 1
+                    c, s = math.cos(chi_l), math.sin(chi_l)
+                    x_l[0] += c * p[0] - s * p[1]
+                    x_l[1] += s * p[0] + c * p[1]
+                    x_l[2] += p[2]
+                    chi_l += psi
+                    # Line 16: position and heading to zero (velocity turns with the local frame).
+                    q_yaw = np.array([math.cos(-0.5 * psi), 0.0, 0.0, math.sin(-0.5 * psi)])
+                    q[:] = _quat_mul(q_yaw, q)
+                    c, s = math.cos(psi), math.sin(psi)
+                    v0, v1 = v[0], v[1]
+                    v[0] = c * v0 + s * v1
+                    v[1] = -s * v0 + c * v1
+                    p[:] = 0.0
+                    # Line 17: position and heading rows/columns of P to zero. By (6) they are decoupled from
+                    # velocity, roll and pitch, whose (small) covariance is kept.
+                    for i in idx:
+                        P[i, :] = 0.0
+                        P[:, i] = 0.0
+                    c_p = 0
+                    c_d = 0
+            c, s = math.cos(chi_l), math.sin(chi_l)
+            pos[k, 0] = x_l[0] + c * p[0] - s * p[1]
+            pos[k, 1] = x_l[1] + s * p[0] + c * p[1]
+            pos[k, 2] = x_l[2] + p[2]
+            vel[k, 0] = c * v[0] - s * v[1]
+            vel[k, 1] = s * v[0] + c * v[1]
+            vel[k, 2] = v[2]
+            qs[k] = _quat_mul(np.array([math.cos(0.5 * chi_l), 0.0, 0.0, math.sin(0.5 * chi_l)]), q)
+        else:
+            pos[k] = p
+            vel[k] = v
+            qs[k] = q
+        for i in range(3):
+            pvar[k, i] = P[i, i]
+            vvar[k, i] = P[3 + i, 3 + i]
+            avar[k, i] = P[6 + i, 6 + i]
+    dr[3] = chi_l
+    counters[0] = c_p
+    counters[1] = c_d
+    return n_steps
+
+
+@dataclass(frozen=True)
+class KernelSetup:
+    """Sample counts and noise terms of the filter loop at one sampling rate.
+
+    Attributes
+    ----------
+    rate_hz
+        Sampling rate the sample counts are derived from, Hz.
+    min_len
+        Shortest stationary run (samples) accepted for the coarse initialisation.
+    init_len
+        Samples of that run averaged for the initial roll and pitch.
+    c_min, c_max
+        Algorithm 1 counters in samples (0 without segmentation).
+    seg_on
+        Step segmentation enabled.
+    gamma_p
+        Velocity-variance threshold of eq. 9, m^2/s^2.
+    """
+
+    rate_hz: float
+    min_len: int
+    init_len: int
+    c_min: int
+    c_max: int
+    seg_on: bool
+    gamma_p: float
+
+
+def kernel_setup(rate_hz: float, config: ZuptConfig, segmentation: Segmentation | None) -> KernelSetup:
+    """Sample counts of the initialisation and of Algorithm 1 at ``rate_hz``."""
+    min_len = max(3, int(round(0.1 * rate_hz)))
+    init_len = max(min_len, int(round(config.init_window_s * rate_hz)))
+    c_min = c_max = 0
+    if segmentation is not None:
+        c_min = int(round(segmentation.c_min_s * rate_hz))
+        c_max = int(round(segmentation.c_max_s * rate_hz))
+    return KernelSetup(rate_hz, min_len, init_len, c_min, c_max, segmentation is not None,
+                       segmentation.gamma_p if segmentation is not None else 0.0)
+
+
+@dataclass
+class FilterState:
+    """Mutable state of the filter loop between samples (what :func:`zupt_kernel` reads and updates).
+
+    Attributes
+    ----------
+    p, v
+        (3,) position (m) and velocity (m/s) in the local frame of the last reset (ENU without segmentation).
+    q
+        (4,) attitude ``q_nb`` in that frame.
+    P
+        (9, 9) error covariance of ``(dp, dv, dtheta)``.
+    dr
+        (4,) step-wise dead reckoning ``(x_l (m, ENU), chi_l (rad))`` (eq. 7).
+    counters
+        (2,) int64 Algorithm 1 counters ``(c_p, c_d)`` in samples.
+    """
+
+    p: Array
+    v: Array
+    q: Array
+    P: Array
+    dr: Array
+    counters: IntArray
+
+    @classmethod
+    def initial(cls, q0: Array, config: ZuptConfig) -> FilterState:
+        """At rest at the origin with attitude ``q0`` and the initial covariance of ``config``."""
+        P = np.diag(np.r_[np.zeros(3), np.full(3, config.init_sigma_vel**2), np.full(2, config.init_sigma_tilt**2),
+                          config.init_sigma_yaw**2])
+        return cls(np.zeros(3), np.zeros(3), np.array(q0, dtype=np.float64), P, np.zeros(4),
+                   np.zeros(2, dtype=np.int64))
+
+    def to_dict(self) -> dict[str, list]:
+        """JSON-serialisable form (floats round-trip exactly)."""
+        return {"p": self.p.tolist(), "v": self.v.tolist(), "q": self.q.tolist(), "P": self.P.tolist(),
+                "dr": self.dr.tolist(), "counters": self.counters.tolist()}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, list]) -> FilterState:
+        f = np.float64
+        return cls(np.array(d["p"], f), np.array(d["v"], f), np.array(d["q"], f), np.array(d["P"], f),
+                   np.array(d["dr"], f), np.array(d["counters"], dtype=np.int64))
+
+
+@dataclass(frozen=True)
+class KernelOutput:
+    """Per-sample outputs of one :func:`run_kernel` call (rows before ``first`` hold the entry state) and the
+    resets it found (``step_idx`` indexes the call's samples).
+    """
+
+    pos: Array
+    vel: Array
+    qs: Array
+    pvar: Array
+    vvar: Array
+    avar: Array
+    step_idx: IntArray
+    step_dp: Array
+    step_dpsi: Array
+    step_cov: Array
+
+
+def run_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, state: FilterState,
+               config: ZuptConfig, setup: KernelSetup) -> KernelOutput:
+    """Run the filter loop over samples ``first..N-1`` of contiguous arrays, updating ``state`` in place."""
+    n = t.size
+    max_steps = n // max(1, setup.c_min) + 2 if setup.seg_on else 1
+    out = KernelOutput(np.zeros((n, 3)), np.zeros((n, 3)), np.tile(state.q, (n, 1)), np.zeros((n, 3)),
+                       np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(max_steps, dtype=np.int64),
+                       np.zeros((max_steps, 3)), np.zeros(max_steps), np.zeros((max_steps, 4, 4)))
+    g_n = np.array([0.0, 0.0, -config.gravity])
+    n_steps = zupt_kernel(t, f_b, w_b, zv, first, g_n, config.sigma_acc**2, config.sigma_gyro**2,
+                          config.sigma_zupt**2, setup.seg_on, setup.gamma_p, setup.c_min, setup.c_max, state.p,
+                          state.v, state.q, state.P, state.dr, state.counters, out.pos, out.vel, out.qs, out.pvar,
+                          out.vvar, out.avar, out.step_idx, out.step_dp, out.step_dpsi, out.step_cov)
+    return replace(out, step_idx=out.step_idx[:n_steps], step_dp=out.step_dp[:n_steps],
+                   step_dpsi=out.step_dpsi[:n_steps], step_cov=out.step_cov[:n_steps])
+
+
+def run_zupt(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity: ArrayLike,
+             config: ZuptConfig | None = None, segmentation: Segmentation | None = None,
+             rate_hz: float | None = None) -> ZuptTrack:
+    """Run the ZUPT-aided INS over a recording (seed 001 eqs. 1-5; Algorithm 1 with ``segmentation``).
+
+    Parameters
+    ----------
+    t_s
+        (N,) strictly increasing sample times, s.
+    acc_b
+        (N, 3) specific force including gravity, m/s^2, sensor frame.
+    gyro_b
+        (N, 3) angular rate, rad/s, sensor frame.
+    zero_velocity
+        (N,) bool zero-velocity flags (from :func:`pdr.foot.detectors.detect`).
+    config
+        Noise model.
+    segmentation
+        When given, perform the step-wise inertial navigation resets and step-wise dead reckoning.
+    rate_hz
+        Sampling rate that sets the sample counts of the initialisation and of Algorithm 1, Hz (default: from
+        the median sample interval).
+
+    Returns
+    -------
+    The track; samples before the first stationary period keep the initial state.
+    """
+    cfg = config or ZuptConfig()
+    t, f_b, w_b = check_imu(t_s, acc_b, gyro_b)
+    f_b = np.ascontiguousarray(f_b)
+    w_b = np.ascontiguousarray(w_b)
+    zv = np.asarray(zero_velocity, dtype=bool)
+    if zv.shape != t.shape:
+        raise InputError(f"expected shape {t.shape}, got {zv.shape}", field="zero_velocity")
+    rate = 1.0 / float(np.median(np.diff(t))) if rate_hz is None else float(rate_hz)
+    setup = kernel_setup(rate, cfg, segmentation)
+    warnings: list[str] = []
+
+    # Coarse self-initialisation of roll and pitch (Algorithm 1 line 3) on the first stationary period.
+    a, b = first_stationary_run(zv, setup.min_len)
+    b = min(b, a + setup.init_len)
+    warning = late_start_warning(a, float(t[a] - t[0]), rate)
+    if warning:
+        warnings.append(warning)
+    q0 = initial_attitude_from_gravity(np.mean(f_b[a:b], axis=0), yaw=cfg.yaw0)
+
+    state = FilterState.initial(q0, cfg)
+    out = run_kernel(t, f_b, w_b, zv, a + 1, state, cfg, setup)
+    out.vvar[: a + 1] = cfg.init_sigma_vel**2
+    out.avar[: a + 1] = np.diag(FilterState.initial(q0, cfg).P)[ATT]
+    steps = tuple(StepIncrement(float(t[k]), int(k), dp.copy(), float(dpsi), cov.copy())
+                  for k, dp, dpsi, cov in zip(out.step_idx, out.step_dp, out.step_dpsi, out.step_cov, strict=True))
+    return ZuptTrack(t, out.pos, out.vel, quat.normalize(out.qs), zv, out.pvar, out.vvar, out.avar, steps, a,
+                     tuple(warnings))
+
+
+def late_start_warning(start_index: int, start_s: float, rate_hz: float) -> str:
+    """The warning for a first stationary period more than 1 s into the recording ('' otherwise)."""
+    if start_index > int(round(1.0 * rate_hz)):
+        return (f"recording starts in motion: first stationary period at {start_s:.2f} s; "
+                "navigation starts there")
+    return ""

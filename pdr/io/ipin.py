@@ -1,0 +1,272 @@
+"""GetSensorData / IPIN competition logfiles (``.txt``, ``.txt.gz``) and their MATLAB ``.mat`` exports.
+
+Text format: one ``;``-separated record per line, ``%`` header comments (phone model, Android version).
+Records read here (fields after the tag):
+
+``ACCE|GYRO|MAGN;AppTimestamp(s);SensorTimestamp(s);x;y;z;Accuracy``
+    m/s^2 (including gravity), rad/s, uT in the Android device frame -> ``acc``, ``gyro``, ``mag``.
+``PRES;AppTimestamp(s);SensorTimestamp(s);Pres(mbar);Accuracy``
+    mbar = hPa -> ``baro``.
+``AHRS;AppTimestamp(s);SensorTimestamp(s);PitchX(deg);RollY(deg);YawZ(deg);Quat(2);Quat(3);Quat(4);Accuracy``
+    the Android rotation vector: ``Quat(2..4)`` are the x, y, z parts of the unit quaternion that rotates
+    device axes into East-North-Up, so ``q_nb = [sqrt(1 - |v|^2), x, y, z]`` directly -> ``orientation``.
+``POSI;AppTimestamp(s);Counter;Latitude(deg);Longitude(deg);FloorID;BuildingID``
+    surveyed landmark passed at that time -> :class:`~pdr.recording.PositionTruth` (``landmark``, ``enu``).
+
+Every other record (WIFI, BLE4, GNSS, LIGH, SOUN, ...) is skipped and counted in ``meta["ignored_records"]``.
+
+The ``.mat`` variant holds arrays ``Acce``/``Gyro``/``Magn`` ``[App, Sensor, x, y, z]``,
+``Pres`` ``[App, Sensor, mbar, accuracy]``, ``Ahrs`` ``[App, Sensor, pitch, roll, yaw, q2, q3, q4, accuracy]``
+and ``Posi`` ``[App, lat, lon, floor]`` (no device model).
+
+Time
+    The recording's clock is **AppTimestamp**: ``t0_ns = 0`` and ``t_s`` equals AppTimestamp seconds, the
+    time base of POSI and of the reference scorer (``tools/score_tracks.py``). AppTimestamp is when the app
+    received a sample (jittered by delivery); SensorTimestamp (seconds since boot) spaces samples accurately.
+    So each stream's sample times are ``SensorTimestamp + offset`` with ``offset = median(App - Sensor)``
+    over that stream (robust to delivery bursts; recorded per stream in ``meta["sensor_to_app_offset_s"]``).
+    On the competition files the spread of ``App - Sensor`` is about 20 ms, so the mapped times stay
+    within a few tens of ms of AppTimestamp.
+
+Positions
+    Latitude/longitude are projected to local east/north metres around the fixed competition origin
+    (lat 49.4611, lon 11.1110) with the equirectangular projection on a sphere of the WGS-84 semi-major
+    axis, exactly as the reference scorer does; up is 0 and the floor is ``FloorID``.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pdr.errors import InputError
+from pdr.frames import WGS84_SEMI_MAJOR_M, geodetic_to_local_enu
+from pdr.io.android import rotation_vector_to_q_nb
+from pdr.io.text import check_increasing_rows, head, parse_float_rows, read_text, strip_gz
+from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, SensorStream
+
+FORMAT = "ipin"
+DESCRIPTION = "GetSensorData / IPIN competition logfile (.txt[.gz]) or its .mat export, with POSI landmarks"
+
+#: Origin (lat, lon in degrees) of the local ENU frame of the IPIN 2023 Track 3 venue (Nuremberg).
+ORIGIN_LAT_LON_DEG = (49.4611, 11.1110)
+
+_XYZ = ("AppTimestamp", "SensorTimestamp", "x", "y", "z", "Accuracy")
+#: Record tag -> (stream kind, field names after the tag).
+SENSOR_RECORDS: dict[str, tuple[str, tuple[str, ...]]] = {
+    "ACCE": ("acc", _XYZ),
+    "GYRO": ("gyro", _XYZ),
+    "MAGN": ("mag", _XYZ),
+    "PRES": ("baro", ("AppTimestamp", "SensorTimestamp", "Pres", "Accuracy")),
+    "AHRS": ("orientation", ("AppTimestamp", "SensorTimestamp", "PitchX", "RollY", "YawZ",
+                             "Quat2", "Quat3", "Quat4", "Accuracy")),
+}
+POSI_FIELDS = ("AppTimestamp", "Counter", "Latitude", "Longitude", "FloorID", "BuildingID")
+#: ``.mat`` variable -> record tag.
+MAT_VARIABLES = {"Acce": "ACCE", "Gyro": "GYRO", "Magn": "MAGN", "Pres": "PRES", "Ahrs": "AHRS"}
+
+_RECORD_LINE = re.compile(rb"^(ACCE|GYRO|MAGN|AHRS|PRES|POSI);[-0-9.]", re.MULTILINE)
+_HEADER_KEYS = {"Manufacturer": "manufacturer", "Model": "model", "API Android version": "android_api",
+                "Android version Release": "android_release", "Version": "app_version",
+                "Date of creation": "created"}
+
+
+def sniff(path: str | Path) -> bool:
+    """True for a GetSensorData text logfile or an IPIN ``.mat`` export."""
+    p = Path(path)
+    if p.suffix.lower() == ".mat":
+        return _sniff_mat(p)
+    start = head(p)
+    return b"'GetSensorData'" in start or _RECORD_LINE.search(start) is not None
+
+
+def _sniff_mat(p: Path) -> bool:
+    if not head(p, 20).startswith(b"MATLAB"):
+        return False
+    try:
+        from scipy.io import whosmat
+        names = {name for name, _, _ in whosmat(str(p))}
+    except Exception:  # any unreadable .mat is simply not ours
+        return False
+    return {"Acce", "Gyro", "Posi"} <= names
+
+
+def read(path: str | Path) -> Recording:
+    """Read an IPIN logfile (``.txt``/``.txt.gz``) or ``.mat`` export; see the module docstring."""
+    p = Path(path)
+    if p.is_dir():
+        raise InputError("an IPIN log is a single .txt or .mat file, not a folder", source=str(p))
+    if p.suffix.lower() == ".mat":
+        return _read_mat(p)
+    return _read_text(p)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# text logfiles
+
+def _read_text(p: Path) -> Recording:
+    source = str(p)
+    lines = read_text(p).splitlines()
+    rows: dict[str, list[list[str]]] = {tag: [] for tag in (*SENSOR_RECORDS, "POSI")}
+    line_numbers: dict[str, list[int]] = {tag: [] for tag in rows}
+    ignored: dict[str, int] = {}
+    header: dict[str, str] = {}
+    for number, line in enumerate(lines, start=1):
+        if not line or line[0] == "%":
+            if line.startswith("%"):
+                _parse_header_line(line, header)
+            continue
+        tag, sep, rest = line.partition(";")
+        if tag in rows:
+            fields = rest.split(";")
+            if fields[-1] == "":  # a trailing separator
+                fields.pop()
+            rows[tag].append(fields)
+            line_numbers[tag].append(number)
+        elif sep and tag.isalnum():
+            ignored[tag] = ignored.get(tag, 0) + 1
+        elif line.strip():
+            raise InputError(f"not a GetSensorData record ('{line.strip()[:40]}')", source=source, line=number)
+    arrays: dict[str, tuple[NDArray[np.float64], Callable[[int], dict[str, Any]]]] = {}
+    for tag, fields_ in SENSOR_RECORDS.items():
+        if rows[tag]:
+            arr = parse_float_rows(rows[tag], line_numbers[tag], source, fields_[1])
+            check_increasing_rows(arr[:, 1], line_numbers[tag], source, f"{tag} SensorTimestamp")
+            arrays[tag] = (arr, _line_locator(line_numbers[tag]))
+    posi = None
+    if rows["POSI"]:
+        arr = parse_float_rows(rows["POSI"], line_numbers["POSI"], source, POSI_FIELDS)
+        posi = (arr[:, 0], arr[:, 2], arr[:, 3], arr[:, 4], _line_locator(line_numbers["POSI"]))
+        header["building_ids"] = ",".join(str(int(b)) for b in np.unique(arr[:, 5]))
+    meta: dict[str, Any] = {"header": header, "ignored_records": ignored}
+    return _assemble(p, arrays, posi, model=header.get("model", ""), meta=meta)
+
+
+def _line_locator(numbers: Sequence[int]) -> Callable[[int], dict[str, Any]]:
+    return lambda i: {"line": numbers[i]}
+
+
+def _parse_header_line(line: str, header: dict[str, str]) -> None:
+    key, sep, value = line.lstrip("% ").partition(":")
+    name = _HEADER_KEYS.get(key.strip())
+    if sep and name and name not in header:
+        header[name] = value.strip()
+
+
+# ---------------------------------------------------------------------------------------------------------
+# .mat exports
+
+def _read_mat(p: Path) -> Recording:
+    source = str(p)
+    try:
+        from scipy.io import loadmat
+        mat = loadmat(str(p))
+    except Exception as exc:  # scipy raises assorted types on corrupt files
+        raise InputError(f"not a readable MATLAB file ({type(exc).__name__}: {exc})", source=source) from None
+    arrays: dict[str, tuple[NDArray[np.float64], Callable[[int], dict[str, Any]]]] = {}
+    for var, tag in MAT_VARIABLES.items():
+        names = SENSOR_RECORDS[tag][1]
+        ncol = len(names) - (1 if tag in ("ACCE", "GYRO", "MAGN") else 0)  # xyz arrays lack Accuracy
+        arr = _mat_array(mat, var, ncol, source)
+        if arr is None:
+            continue
+        locate = _row_locator(var)
+        bad = np.flatnonzero(np.diff(arr[:, 1]) <= 0)
+        if bad.size:
+            raise InputError(f"SensorTimestamp does not increase ({arr[bad[0], 1]} then {arr[bad[0] + 1, 1]})",
+                             source=source, **locate(int(bad[0]) + 1))
+        arrays[tag] = (arr, locate)
+    posi = None
+    parr = _mat_array(mat, "Posi", 4, source)
+    if parr is not None:
+        posi = (parr[:, 0], parr[:, 1], parr[:, 2], parr[:, 3], _row_locator("Posi"))
+    meta: dict[str, Any] = {"header": {}, "ignored_records": {
+        k: int(np.shape(v)[0]) for k, v in mat.items()
+        if not k.startswith("__") and k not in MAT_VARIABLES and k != "Posi" and np.ndim(v) >= 1}}
+    return _assemble(p, arrays, posi, model="", meta=meta)
+
+
+def _row_locator(var: str) -> Callable[[int], dict[str, Any]]:
+    return lambda i: {"field": f"{var} row {i + 1}"}
+
+
+def _mat_array(mat: dict[str, Any], var: str, ncol: int, source: str) -> NDArray[np.float64] | None:
+    if var not in mat or np.size(mat[var]) == 0:
+        return None
+    try:
+        arr = np.asarray(mat[var], dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError("is not a numeric array", source=source, field=var) from None
+    if arr.ndim != 2 or arr.shape[1] < ncol:
+        raise InputError(f"expected an (N, {ncol}) array, got shape {arr.shape}", source=source, field=var)
+    arr = arr[:, :ncol]
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        r, c = np.argwhere(bad)[0]
+        raise InputError(f"value {arr[r, c]} in column {c + 1} is not finite", source=source,
+                         field=f"{var} row {r + 1}")
+    return arr
+
+
+# ---------------------------------------------------------------------------------------------------------
+# shared assembly
+
+def _assemble(p: Path, arrays: dict[str, tuple[NDArray[np.float64], Callable[[int], dict[str, Any]]]],
+              posi: tuple[Any, ...] | None, model: str, meta: dict[str, Any]) -> Recording:
+    source = str(p)
+    if not arrays:
+        raise InputError("no ACCE, GYRO, MAGN, PRES or AHRS records: not a usable GetSensorData log",
+                         source=source)
+    streams: dict[str, SensorStream] = {}
+    offsets: dict[str, float] = {}
+    for tag, (arr, _) in arrays.items():
+        kind = SENSOR_RECORDS[tag][0]
+        t_ns, offsets[kind] = _app_clock_ns(arr[:, 0], arr[:, 1])
+        if tag == "PRES":
+            values = arr[:, 2:3]  # mbar == hPa
+        elif tag == "AHRS":
+            values = rotation_vector_to_q_nb(arr[:, 5:8])
+        else:
+            values = arr[:, 2:5]
+        streams[kind] = SensorStream(kind, t_ns, values)
+    truth = GroundTruth()
+    if posi is not None:
+        truth = GroundTruth(positions=_landmarks(source, *posi))
+        meta["posi_count"] = len(truth.positions) if truth.positions is not None else 0
+    meta.update({
+        "clock": "AppTimestamp seconds (t0_ns = 0): t_s == AppTimestamp; samples spaced by SensorTimestamp",
+        "sensor_to_app_offset_s": offsets,
+        "file": strip_gz(p.name),
+    })
+    device = DeviceInfo(platform="android", model=model, role="phone", placement="hand")
+    return Recording(streams=streams, device=device, t0_ns=0, truth=truth, source=source, format=FORMAT,
+                     meta=meta)
+
+
+def _app_clock_ns(app_s: NDArray[np.float64], sensor_s: NDArray[np.float64]) -> tuple[NDArray[np.int64], float]:
+    """Sample times on the AppTimestamp clock (int ns): SensorTimestamp + median(App - Sensor)."""
+    offset_s = float(np.median(app_s - sensor_s))
+    t_ns = np.round(sensor_s * 1e9).astype(np.int64) + np.int64(round(offset_s * 1e9))
+    return t_ns, offset_s
+
+
+def _landmarks(source: str, t_s: NDArray[np.float64], lat: NDArray[np.float64], lon: NDArray[np.float64],
+               floor: NDArray[np.float64], locate: Callable[[int], dict[str, Any]]) -> PositionTruth:
+    back = np.flatnonzero(np.diff(t_s) < 0)
+    if back.size:
+        i = int(back[0]) + 1
+        raise InputError(f"POSI time goes backwards ({t_s[i - 1]} then {t_s[i]})", source=source, **locate(i))
+    for name, values, limit in (("Latitude", lat, 90.0), ("Longitude", lon, 180.0)):
+        out = np.flatnonzero(np.abs(values) > limit)
+        if out.size:
+            raise InputError(f"POSI {name} {values[out[0]]} is out of range", source=source,
+                             **locate(int(out[0])))
+    en = geodetic_to_local_enu(lat, lon, *ORIGIN_LAT_LON_DEG, radius_m=WGS84_SEMI_MAJOR_M)
+    pos = np.column_stack([en, np.zeros(t_s.size)])
+    return PositionTruth(t_s=t_s, pos_m=pos, floor=floor, kind="landmark", frame="enu",
+                         origin_lat_lon_deg=ORIGIN_LAT_LON_DEG)

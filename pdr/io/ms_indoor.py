@@ -1,0 +1,214 @@
+r"""Microsoft Indoor Location Competition 2.0 traces (``.txt`` / ``.txt.gz``), with ``TYPE_WAYPOINT`` truth.
+
+Tab-separated, one record per line, ``#`` lines are metadata (``startTime``, ``SiteID``, ``FloorName``,
+``Brand``, ``Model``, ``AndroidName``, sensor names, ``endTime``). Records read here:
+
+``<unix_ms> TYPE_ACCELEROMETER|TYPE_GYROSCOPE|TYPE_MAGNETIC_FIELD x y z accuracy``
+    m/s^2 (incl. gravity), rad/s, uT, Android device frame -> ``acc``, ``gyro``, ``mag``.
+``<unix_ms> TYPE_ROTATION_VECTOR x y z accuracy``
+    Android rotation vector -> ``orientation`` (``q_nb``, see :mod:`pdr.io.android`).
+``<unix_ms> TYPE_*_UNCALIBRATED x y z bx by bz accuracy``
+    the first three values -> ``acc_uncal``, ``gyro_uncal``, ``mag_uncal`` (biases are not kept).
+``<unix_ms> TYPE_WAYPOINT x_m y_m``
+    surveyor-labelled position on the floor map -> :class:`~pdr.recording.PositionTruth`
+    (``kind="waypoint"``, ``frame="map"``, floor from ``FloorName``: ``F3`` -> 3, ``B1`` -> -1).
+
+Other records (WiFi, beacons, ``TYPE_DIST1`` ...) are skipped and counted in ``meta["ignored_records"]``.
+
+Time: ``t_ns`` are Unix-epoch nanoseconds (the trace's milliseconds times 10^6); ``t0_ns`` is the first
+timestamp of any record read, so ``t_s`` starts near 0 and ``t0_ns / 1e9 + t_s`` is Unix time in
+seconds (the reference scorer ``tools/ms_ref.py`` works on that Unix-seconds axis).
+
+Defensive parsing (known quirks of the upstream traces):
+
+* A line that lacks its newline runs into the next record (``...\t31574142012157\tTYPE_...``). It is split
+  before every 13-digit timestamp followed by a ``TYPE_`` tag; a fragment that is still malformed
+  after the split is dropped and reported in :attr:`Recording.warnings`.
+* Repeated timestamps within one sensor: the first sample at a timestamp is kept and later ones are
+  dropped with a warning (counting exact copies and conflicting values separately), since a stream's
+  timestamps must increase strictly. A timestamp that goes backwards is an error.
+
+Any other malformed line (wrong number of fields, text or NaN in a numeric field) raises
+:class:`~pdr.errors.InputError` naming the file and line.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pdr.errors import InputError
+from pdr.io.android import rotation_vector_to_q_nb
+from pdr.io.text import check_increasing_rows, head, parse_float_rows, read_text, strip_gz
+from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, SensorStream
+
+FORMAT = "ms_indoor"
+DESCRIPTION = "Microsoft Indoor Location Competition 2.0 trace (.txt[.gz]), TYPE_WAYPOINT truth"
+
+_XYZA = ("timestamp_ms", "x", "y", "z", "accuracy")
+_UNCAL = ("timestamp_ms", "x", "y", "z", "bias_x", "bias_y", "bias_z", "accuracy")
+#: Record type -> (stream kind, numeric field names, i.e. every field but the type tag).
+SENSOR_RECORDS: dict[str, tuple[str, tuple[str, ...]]] = {
+    "TYPE_ACCELEROMETER": ("acc", _XYZA),
+    "TYPE_GYROSCOPE": ("gyro", _XYZA),
+    "TYPE_MAGNETIC_FIELD": ("mag", _XYZA),
+    "TYPE_ROTATION_VECTOR": ("orientation", _XYZA),
+    "TYPE_ACCELEROMETER_UNCALIBRATED": ("acc_uncal", _UNCAL),
+    "TYPE_GYROSCOPE_UNCALIBRATED": ("gyro_uncal", _UNCAL),
+    "TYPE_MAGNETIC_FIELD_UNCALIBRATED": ("mag_uncal", _UNCAL),
+}
+WAYPOINT_FIELDS = ("timestamp_ms", "x_m", "y_m")
+
+_RECORD = re.compile(rb"^\d{13}\tTYPE_[A-Z_]+\t", re.MULTILINE)
+#: Where a run-on line must be cut: before a 13-digit Unix-ms timestamp followed by a record tag.
+_RUN_ON_CUT = re.compile(r"(?<=.)(?=\d{13}\tTYPE_)")
+_META_KEYS = ("startTime", "endTime", "SiteID", "SiteName", "FloorId", "FloorName", "Brand", "Model",
+              "AndroidName", "APILevel", "VersionName")
+
+
+def sniff(path: str | Path) -> bool:
+    """True for a trace whose first records look like ``<13-digit ms><TAB>TYPE_...``."""
+    start = head(path)
+    return _RECORD.search(start) is not None
+
+
+def read(path: str | Path) -> Recording:
+    """Read one Microsoft indoor-location trace; see the module docstring."""
+    p = Path(path)
+    if p.is_dir():
+        raise InputError("a Microsoft indoor-location trace is a single .txt file, not a folder", source=str(p))
+    source = str(p)
+    wanted = (*SENSOR_RECORDS, "TYPE_WAYPOINT")
+    rows: dict[str, list[list[str]]] = {tag: [] for tag in wanted}
+    numbers: dict[str, list[int]] = {tag: [] for tag in wanted}
+    ignored: dict[str, int] = {}
+    meta_header: dict[str, str] = {}
+    warnings: list[str] = []
+    run_on_lines = 0
+    dropped: list[int] = []
+    for number, line in enumerate(read_text(p).splitlines(), start=1):
+        if not line.strip():
+            continue
+        if line[0] == "#":
+            _parse_meta(line, meta_header)
+            continue
+        pieces = [line]
+        if line.count("\tTYPE_") > 1:
+            pieces = _RUN_ON_CUT.split(line)
+            run_on_lines += 1
+        for k, piece in enumerate(pieces):
+            fields = piece.rstrip("\t").split("\t")
+            if len(fields) < 2:
+                if len(pieces) > 1:
+                    dropped.append(number)
+                    continue
+                raise InputError(f"expected '<unix_ms>\\t<TYPE_...>\\t...', found '{piece.strip()[:40]}'",
+                                 source=source, line=number)
+            tag = fields[1]
+            if tag not in rows:
+                ignored[tag] = ignored.get(tag, 0) + 1
+                continue
+            numeric = [fields[0], *fields[2:]]
+            expected = len(SENSOR_RECORDS[tag][1]) if tag in SENSOR_RECORDS else len(WAYPOINT_FIELDS)
+            if len(pieces) > 1 and k < len(pieces) - 1 and not _is_clean(numeric, expected):
+                dropped.append(number)  # the fragment that lost its end to the run-on
+                continue
+            rows[tag].append(numeric)
+            numbers[tag].append(number)
+    if run_on_lines:
+        warnings.append(f"split {run_on_lines} line(s) that ran into the next record")
+    if dropped:
+        warnings.append(f"dropped {len(dropped)} malformed fragment(s) of run-on lines (lines "
+                        f"{', '.join(str(n) for n in dropped[:10])}{', ...' if len(dropped) > 10 else ''})")
+    streams: dict[str, SensorStream] = {}
+    for tag, (kind, names) in SENSOR_RECORDS.items():
+        if not rows[tag]:
+            continue
+        arr = parse_float_rows(rows[tag], numbers[tag], source, names)
+        arr, lines = _drop_repeated_times(arr, numbers[tag], source, tag, warnings)
+        t_ns = np.round(arr[:, 0]).astype(np.int64) * 1_000_000
+        values = rotation_vector_to_q_nb(arr[:, 1:4]) if kind == "orientation" else arr[:, 1:4]
+        streams[kind] = SensorStream(kind, t_ns, values)
+    if not streams:
+        raise InputError("no accelerometer, gyroscope, magnetometer or rotation-vector records: not a usable "
+                         "indoor-location trace", source=source)
+    firsts = [int(s.t_ns[0]) for s in streams.values()]
+    truth = GroundTruth()
+    if rows["TYPE_WAYPOINT"]:
+        wp = parse_float_rows(rows["TYPE_WAYPOINT"], numbers["TYPE_WAYPOINT"], source, WAYPOINT_FIELDS)
+        back = np.flatnonzero(np.diff(wp[:, 0]) < 0)
+        if back.size:
+            i = int(back[0]) + 1
+            raise InputError(f"waypoint time goes backwards ({wp[i - 1, 0]:.0f} then {wp[i, 0]:.0f})",
+                             source=source, line=numbers["TYPE_WAYPOINT"][i], field="timestamp_ms")
+        wp_ns = np.round(wp[:, 0]).astype(np.int64) * 1_000_000
+        firsts.append(int(wp_ns[0]))
+    t0_ns = min(firsts)
+    if rows["TYPE_WAYPOINT"]:
+        floor = floor_number(meta_header.get("FloorName", ""))
+        truth = GroundTruth(positions=PositionTruth(
+            t_s=(wp_ns - t0_ns) / 1e9, pos_m=np.column_stack([wp[:, 1:3], np.zeros(len(wp))]),
+            floor=np.full(len(wp), floor), kind="waypoint", frame="map"))
+    meta: dict[str, Any] = {
+        "clock": "unix_epoch",
+        "t0_unix_s": t0_ns / 1e9,
+        "header": meta_header,
+        "ignored_records": ignored,
+        "file": strip_gz(p.name),
+        "site_id": meta_header.get("SiteID", ""),
+        "floor_name": meta_header.get("FloorName", ""),
+    }
+    device = DeviceInfo(platform="android", model=meta_header.get("Model", ""), role="phone", placement="hand")
+    return Recording(streams=streams, device=device, t0_ns=t0_ns, truth=truth, source=source, format=FORMAT,
+                     warnings=tuple(warnings), meta=meta)
+
+
+def floor_number(name: str) -> float:
+    """Floor number from a floor name: ``F3`` or ``3F`` -> 3, ``B1`` -> -1; NaN when not recognised."""
+    m = re.fullmatch(r"\s*(?:F(\d+)|(\d+)F|B(\d+))\s*", name, flags=re.IGNORECASE)
+    if m is None:
+        return float("nan")
+    if m.group(3) is not None:
+        return -float(m.group(3))
+    return float(m.group(1) or m.group(2))
+
+
+def _parse_meta(line: str, out: dict[str, str]) -> None:
+    for item in line.lstrip("#").split("\t"):
+        key, sep, value = item.partition(":")
+        key = key.strip()
+        if sep and key in _META_KEYS and key not in out:
+            out[key] = value.strip()
+
+
+def _is_clean(numeric: list[str], expected: int) -> bool:
+    if len(numeric) != expected:
+        return False
+    try:
+        return all(np.isfinite(float(v)) for v in numeric)
+    except ValueError:
+        return False
+
+
+def _drop_repeated_times(arr: NDArray[np.float64], lines: list[int], source: str, tag: str,
+                         warnings: list[str]) -> tuple[NDArray[np.float64], list[int]]:
+    """Keep the first sample of each repeated timestamp (with a warning); error on time going back."""
+    t = arr[:, 0]
+    if t.size > 1:
+        back = np.flatnonzero(np.diff(t) < 0)
+        if back.size:
+            check_increasing_rows(t, lines, source, f"{tag} timestamp_ms")
+        repeat = np.flatnonzero(np.diff(t) == 0) + 1
+        if repeat.size:
+            exact = int(np.sum(np.all(arr[repeat, 1:] == arr[repeat - 1, 1:], axis=1)))
+            keep = np.ones(t.size, dtype=bool)
+            keep[repeat] = False
+            warnings.append(f"{tag}: dropped {repeat.size} sample(s) repeating the previous timestamp "
+                            f"({exact} exact copies, {repeat.size - exact} with other values; first kept), "
+                            f"first at line {lines[int(repeat[0])]}")
+            return arr[keep], [n for n, k in zip(lines, keep, strict=True) if k]
+    return arr, lines

@@ -1,0 +1,225 @@
+"""Oxford Step Counter dataset: accelerometer recordings with ground-truth steps.
+
+Two layouts, each plain or ``.gz``:
+
+Trial folder ``optimisation/data/<Phone>_<User>_<Surface>_<Position>_<n>/`` (or its ``accelerometer.csv``)
+    ``accelerometer.csv``: no header, ``timestamp_ns, accuracy, ax, ay, az`` (m/s^2, incl. gravity, Android
+    device frame, ns since boot). ``stepcounter.csv``: no header, ``timestamp_ns, chan1, chan2`` (0/1) from
+    two foot-contact switches on the same clock; the true steps are the rising edges (0 -> 1) of either
+    channel, merged and sorted into :attr:`GroundTruth.step_times_s` (per channel also in
+    ``extra["step_times_chan1_s"]`` / ``extra["step_times_chan2_s"]``). ``metadata.txt`` (sensor name) and
+    ``notes.txt`` (free text, often "<n> steps") go into ``meta``.
+Validation file ``validation/user<k>_<position>_<unixms>.csv``
+    no header, ``timestamp_ns, ax, ay, az, steps_algo, steps_ground_truth, steps_hw`` (cumulative counts);
+    each increment of ``steps_ground_truth`` is a true step at that sample's time (an increment of k
+    repeats the time k times).
+
+Placement comes from the folder or file name: FrontPocket -> ``trouser_pocket_front``, BackPocket ->
+``trouser_pocket_back``, InHand/hand and SwingingArm -> ``hand``, NeckPouch -> ``neck``, Armband ->
+``armband``, Purse/bag -> ``bag``; anything else (e.g. ``_Patient_3``) is unknown.
+
+Timestamps: the phones logged at SENSOR_DELAY_FASTEST, so the rate is jittery (about 100-405 Hz). A sample
+whose timestamp repeats the previous one, or goes back before the latest kept one, is dropped with a
+warning (the first of a repeated timestamp is kept). If more than 1 % of the samples would be dropped the
+clock is considered broken and :class:`~pdr.errors.InputError` names the first offending line. ``t0_ns`` is
+the first accelerometer timestamp.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pdr.errors import InputError
+from pdr.io.text import find_member, head, parse_float_rows, read_text, strip_gz
+from pdr.recording import DeviceInfo, GroundTruth, Recording, SensorStream
+
+FORMAT = "oxford"
+DESCRIPTION = "Oxford Step Counter trial folder / accelerometer.csv / validation user*.csv, with true steps"
+
+ACC_FIELDS = ("timestamp_ns", "accuracy", "ax", "ay", "az")
+STEP_FIELDS = ("timestamp_ns", "chan1", "chan2")
+VALIDATION_FIELDS = ("timestamp_ns", "ax", "ay", "az", "steps_algo", "steps_ground_truth", "steps_hw")
+#: Largest fraction of samples that may be dropped for repeated/backward timestamps before it is an error.
+MAX_DROPPED_FRACTION = 0.01
+
+#: Lower-case name fragment -> placement (first match wins).
+PLACEMENT_BY_NAME: tuple[tuple[str, str], ...] = (
+    ("frontpocket", "trouser_pocket_front"),
+    ("backpocket", "trouser_pocket_back"),
+    ("neckpouch", "neck"),
+    ("armband", "armband"),
+    ("swingingarm", "hand"),
+    ("inhand", "hand"),
+    ("hand", "hand"),
+    ("purse", "bag"),
+    ("bag", "bag"),
+)
+
+_ACC_LINE = re.compile(rb"^\d{6,},-?\d+,[-+0-9.eE]+,[-+0-9.eE]+,[-+0-9.eE]+\r?$", re.MULTILINE)
+_VALIDATION_NAME = re.compile(r"^user\d+_[A-Za-z]+_\d+\.csv(\.gz)?$")
+_VALIDATION_LINE = re.compile(rb"^\d{6,}(,[-+0-9.eE]+){6}\r?$", re.MULTILINE)
+
+
+def sniff(path: str | Path) -> bool:
+    """True for a trial folder, its ``accelerometer.csv[.gz]``, or a ``validation/user*_*.csv[.gz]`` file."""
+    p = Path(path)
+    try:
+        if p.is_dir():
+            acc = find_member(p, "accelerometer.csv")
+            return acc is not None and find_member(p, "stepcounter.csv") is not None and _looks_like_acc(acc)
+    except OSError:
+        return False
+    if strip_gz(p.name) == "accelerometer.csv":
+        return _looks_like_acc(p)
+    if _VALIDATION_NAME.match(p.name):
+        return _first_line_matches(p, _VALIDATION_LINE)
+    return False
+
+
+def _looks_like_acc(p: Path) -> bool:
+    return _first_line_matches(p, _ACC_LINE)
+
+
+def _first_line_matches(p: Path, pattern: re.Pattern[bytes]) -> bool:
+    first = head(p, 512).split(b"\n", 1)[0]
+    return pattern.match(first) is not None
+
+
+def placement_from_name(name: str) -> str | None:
+    """Placement named in a trial folder or file name, or None."""
+    low = name.lower()
+    for fragment, placement in PLACEMENT_BY_NAME:
+        if fragment in low:
+            return placement
+    return None
+
+
+def read(path: str | Path) -> Recording:
+    """Read a trial folder, its accelerometer file, or a validation file; see the module docstring."""
+    p = Path(path)
+    if p.is_dir():
+        acc = find_member(p, "accelerometer.csv")
+        if acc is None:
+            raise InputError("no accelerometer.csv[.gz] in the trial folder", source=str(p))
+        return _read_trial(p, acc)
+    if strip_gz(p.name) == "accelerometer.csv":
+        return _read_trial(p.parent, p)
+    if _VALIDATION_NAME.match(p.name) or not strip_gz(p.name).startswith("stepcounter"):
+        return _read_validation(p)
+    raise InputError("a step-counter file alone has no sensor data; pass the trial folder", source=str(p))
+
+
+def _csv_rows(path: Path, columns: tuple[str, ...]) -> tuple[NDArray[np.float64], list[int]]:
+    source = str(path)
+    rows: list[list[str]] = []
+    numbers: list[int] = []
+    for number, line in enumerate(read_text(path).splitlines(), start=1):
+        if line.strip():
+            rows.append(line.split(","))
+            numbers.append(number)
+    if not rows:
+        raise InputError("empty file: no samples", source=source)
+    return parse_float_rows(rows, numbers, source, columns), numbers
+
+
+def _monotonic(t: NDArray[np.float64], numbers: list[int], source: str, field: str,
+               warnings: list[str]) -> NDArray[np.bool_]:
+    """Mask of samples to keep: strictly after every earlier kept sample. Warns; errors past the limit."""
+    keep = np.ones(t.size, dtype=bool)
+    if t.size > 1:
+        keep[1:] = t[1:] > np.maximum.accumulate(t)[:-1]
+    dropped = int(np.count_nonzero(~keep))
+    if dropped:
+        first = int(np.flatnonzero(~keep)[0])
+        repeats = int(np.count_nonzero(np.diff(t) == 0))
+        where = f"first at line {numbers[first]} ({t[first - 1]:.0f} then {t[first]:.0f})"
+        if dropped > MAX_DROPPED_FRACTION * t.size:
+            raise InputError(f"time goes backwards or repeats in {dropped} of {t.size} samples; {where}",
+                             source=source, line=numbers[first], field=field)
+        warnings.append(f"{Path(source).name}: dropped {dropped} sample(s) with a repeated ({repeats}) or "
+                        f"backward timestamp (jittery SENSOR_DELAY_FASTEST clock), {where}")
+    return keep
+
+
+def _read_trial(folder: Path, acc_path: Path) -> Recording:
+    warnings: list[str] = []
+    source = str(acc_path)
+    arr, numbers = _csv_rows(acc_path, ACC_FIELDS)
+    keep = _monotonic(arr[:, 0], numbers, source, "timestamp_ns", warnings)
+    arr = arr[keep]
+    t_ns = np.round(arr[:, 0]).astype(np.int64)
+    t0_ns = int(t_ns[0])
+    stream = SensorStream("acc", t_ns, arr[:, 2:5])
+    meta: dict[str, Any] = {"trial": folder.name, "accuracy_values": sorted({int(a) for a in np.unique(arr[:, 1])})}
+    truth = GroundTruth()
+    steps_path = find_member(folder, "stepcounter.csv")
+    if steps_path is not None:
+        truth = _contact_switch_truth(steps_path, t0_ns, warnings)
+    else:
+        warnings.append("no stepcounter.csv in the trial folder: no step ground truth")
+    for name in ("metadata.txt", "notes.txt"):
+        member = find_member(folder, name)
+        if member is not None:
+            text = read_text(member).strip()
+            meta[name.removesuffix(".txt")] = text
+            m = re.search(r"(\d+)\s*steps", text, flags=re.IGNORECASE)
+            if name == "notes.txt" and m:
+                meta["notes_step_count"] = int(m.group(1))
+    phone = folder.name.split("_")[0] if not folder.name.startswith("_") else ""
+    device = DeviceInfo(platform="android", model=phone, role="phone", placement=placement_from_name(folder.name))
+    return Recording(streams={"acc": stream}, device=device, t0_ns=t0_ns, truth=truth, source=str(folder),
+                     format=FORMAT, warnings=tuple(warnings), meta=meta)
+
+
+def rising_edges(t_s: NDArray[np.float64], state: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Times at which a 0/1 contact signal switches on (the sample where it first reads 1)."""
+    on = state > 0.5
+    return t_s[1:][on[1:] & ~on[:-1]]
+
+
+def _contact_switch_truth(path: Path, t0_ns: int, warnings: list[str]) -> GroundTruth:
+    source = str(path)
+    arr, numbers = _csv_rows(path, STEP_FIELDS)
+    bad = np.flatnonzero(~np.isin(arr[:, 1:], (0.0, 1.0)))
+    if bad.size:
+        r, c = divmod(int(bad[0]), 2)
+        raise InputError(f"contact switch value {arr[r, 1 + c]} is not 0 or 1", source=source, line=numbers[r],
+                         field=STEP_FIELDS[1 + c])
+    keep = _monotonic(arr[:, 0], numbers, source, "timestamp_ns", warnings)
+    arr = arr[keep]
+    t_s = (np.round(arr[:, 0]).astype(np.int64) - np.int64(t0_ns)) / 1e9
+    chan1 = rising_edges(t_s, arr[:, 1])
+    chan2 = rising_edges(t_s, arr[:, 2])
+    return GroundTruth(step_times_s=np.sort(np.concatenate([chan1, chan2])),
+                       extra={"step_times_chan1_s": chan1, "step_times_chan2_s": chan2})
+
+
+def _read_validation(p: Path) -> Recording:
+    warnings: list[str] = []
+    source = str(p)
+    arr, numbers = _csv_rows(p, VALIDATION_FIELDS)
+    keep = _monotonic(arr[:, 0], numbers, source, "timestamp_ns", warnings)
+    arr = arr[keep]
+    kept_lines = [n for n, k in zip(numbers, keep, strict=True) if k]
+    t_ns = np.round(arr[:, 0]).astype(np.int64)
+    t0_ns = int(t_ns[0])
+    t_s = (t_ns - np.int64(t0_ns)) / 1e9
+    counts = arr[:, 5]
+    increments = np.diff(counts)
+    down = np.flatnonzero(increments < 0)
+    if down.size:
+        i = int(down[0]) + 1
+        raise InputError(f"cumulative ground-truth step count decreases ({counts[i - 1]:g} then {counts[i]:g})",
+                         source=source, line=kept_lines[i], field="steps_ground_truth")
+    steps = np.repeat(t_s[1:], np.round(increments).astype(np.int64))
+    truth = GroundTruth(step_times_s=steps)
+    meta = {"file": strip_gz(p.name), "steps_algo": float(arr[-1, 4] - arr[0, 4]),
+            "steps_hw_counter": float(arr[-1, 6] - arr[0, 6])}
+    device = DeviceInfo(platform="android", role="phone", placement=placement_from_name(p.name))
+    return Recording(streams={"acc": SensorStream("acc", t_ns, arr[:, 1:4])}, device=device, t0_ns=t0_ns,
+                     truth=truth, source=source, format=FORMAT, warnings=tuple(warnings), meta=meta)

@@ -1,0 +1,260 @@
+"""Landmarks (seed 003 Sec. 3): identification by a three-level decision tree, and a site description.
+
+Decision tree (seed 003 Fig. 2), evaluated on the intervals the step detector gives:
+
+1. **elevator**: a pair of opposite impulses of the vertical specific force (hyper- then hypo-gravity or
+   the reverse) with a stationary ride between them, no steps during it; the magnetic magnitude change
+   at entry and exit marks the doors (reported as ``mag_change_uT``). When a barometer is present, the
+   altitude change during the ride must exceed half a floor.
+2. **walking/stairs vs escalator/standing**: acceleration variance (steps exist only in the first group);
+   between steps, **escalator vs standing** by the variance of the magnetic magnitude.
+3. **walking vs stairs up/down**: for a trouser-pocket phone the leg-pitch pattern (eqs. 1-3: the opening
+   angle ``Delta Pitch = Pitch_max - Pitch_min`` is larger upstairs and smaller downstairs than on the
+   flat, ``Pitch_max`` is larger upstairs and ``Pitch_min`` larger downstairs), compared with a running
+   baseline of flat walking; when a barometer is present its vertical rate decides (it is also the only
+   cue for hand-held phones, whose pitch does not follow the leg).
+
+Neighbour-step correction (Sec. 3): a step whose label differs from both neighbours, which agree, takes
+their label.
+
+Site description (JSON)::
+
+    {"name": "...", "floor_height_m": 4.0,
+     "landmarks": [{"id": "S1", "type": "stairs_up" | "stairs_down" | "stairs" | "elevator" | "escalator",
+                    "east_m": 12.0, "north_m": 3.5, "floor": 0,
+                    "heading_deg": [80, 100],      # interval of compass headings (clockwise from north)
+                    "radius_m": 8.0}]}
+
+A detected landmark is matched to the nearest site landmark of a compatible type on the current floor
+within its radius; its heading interval gives ``UH_landmark`` (centre) with a standard deviation of a sixth
+of the width (three-sigma interval, Sec. 5) for both UKFs, and its position fixes the track.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pdr.errors import InputError
+from pdr.frames import heading_deg_to_yaw
+
+FloatArray = NDArray[np.float64]
+
+MODES: tuple[str, ...] = ("walking", "stairs_up", "stairs_down", "elevator", "escalator", "standing")
+LANDMARK_TYPES: tuple[str, ...] = ("stairs_up", "stairs_down", "stairs", "elevator", "escalator")
+
+
+@dataclass(frozen=True)
+class LandmarkConfig:
+    """Thresholds of the decision tree.
+
+    Attributes
+    ----------
+    stairs_rate_mps
+        Barometric vertical rate above which a step is on stairs (m/s).
+    pitch_open_ratio_up, pitch_open_ratio_down
+        Eq. 2: opening-angle ratio to the flat baseline above which (below which) a step is up (down) stairs.
+    pitch_shift_deg
+        Eq. 3: shift of ``Pitch_max`` (up) or ``Pitch_min`` (down) above the flat baseline (deg).
+    elevator_impulse_mps2, elevator_impulse_s
+        Vertical specific-force impulse of an elevator start/stop: magnitude (m/s^2) and minimum duration (s).
+    elevator_max_ride_s
+        Longest time between the two impulses (s).
+    escalator_mag_var
+        Variance of the magnetic magnitude (uT^2) above which standing still is an escalator ride.
+    """
+
+    stairs_rate_mps: float = 0.12
+    pitch_open_ratio_up: float = 1.25
+    pitch_open_ratio_down: float = 0.8
+    pitch_shift_deg: float = 8.0
+    elevator_impulse_mps2: float = 0.2
+    elevator_impulse_s: float = 0.8
+    elevator_max_ride_s: float = 60.0
+    escalator_mag_var: float = 4.0
+
+
+def classify_step(vertical_rate_mps: float | None, pitch_max_deg: float | None, pitch_min_deg: float | None,
+                  baseline: tuple[float, float, float] | None, config: LandmarkConfig) -> str:
+    """Third level of the tree for one step: ``walking``, ``stairs_up`` or ``stairs_down``.
+
+    ``baseline`` is the flat-walking (opening angle, Pitch_max, Pitch_min) in degrees.
+    """
+    if vertical_rate_mps is not None and math.isfinite(vertical_rate_mps):
+        if vertical_rate_mps > config.stairs_rate_mps:
+            return "stairs_up"
+        if vertical_rate_mps < -config.stairs_rate_mps:
+            return "stairs_down"
+        return "walking"
+    if pitch_max_deg is None or pitch_min_deg is None or baseline is None:
+        return "walking"
+    opening = pitch_max_deg - pitch_min_deg                         # eq. 1
+    b_open, b_max, b_min = baseline
+    if opening > config.pitch_open_ratio_up * b_open and pitch_max_deg > b_max + config.pitch_shift_deg:
+        return "stairs_up"                                          # eqs. 2-3
+    if opening < config.pitch_open_ratio_down * b_open and pitch_min_deg > b_min + config.pitch_shift_deg:
+        return "stairs_down"                                        # eqs. 2-3
+    return "walking"
+
+
+def neighbour_correction(prev: str, cur: str, nxt: str) -> str:
+    """Seed 003 Sec. 3: a label that differs from two agreeing neighbours takes theirs."""
+    return prev if prev == nxt and cur != prev else cur
+
+
+@dataclass(frozen=True)
+class SiteLandmark:
+    """A surveyed landmark: type, position (m, site ENU), floor, compass heading interval (deg), match radius."""
+
+    id: str
+    type: str
+    east_m: float
+    north_m: float
+    floor: float
+    heading_deg: tuple[float, float]
+    radius_m: float = 8.0
+
+    def yaw_and_var(self) -> tuple[float, float]:
+        """Centre of the heading interval as internal yaw (rad) and its variance (sigma = width / 6)."""
+        lo, hi = self.heading_deg
+        width = (hi - lo) % 360.0
+        centre = lo + width / 2.0
+        sigma = math.radians(max(width, 1.0)) / 6.0
+        return float(heading_deg_to_yaw(centre)), sigma * sigma
+
+    def matches(self, mode: str) -> bool:
+        if self.type == "stairs":
+            return mode in ("stairs_up", "stairs_down")
+        return self.type == mode
+
+
+@dataclass(frozen=True)
+class Site:
+    """A site description: named landmarks and the floor height."""
+
+    name: str
+    landmarks: tuple[SiteLandmark, ...]
+    floor_height_m: float = 4.0
+
+    @classmethod
+    def from_dict(cls, d: Any, source: str = "site") -> Site:
+        if not isinstance(d, dict) or not isinstance(d.get("landmarks"), list):
+            raise InputError("expected an object with a 'landmarks' list", source=source)
+        out = []
+        for i, lm in enumerate(d["landmarks"]):
+            where = f"{source} landmark {i}"
+            try:
+                typ = str(lm["type"])
+                if typ not in LANDMARK_TYPES:
+                    raise InputError(f"type must be one of {LANDMARK_TYPES}", source=where, field="type")
+                hd = lm["heading_deg"]
+                if not (isinstance(hd, list | tuple) and len(hd) == 2):
+                    raise InputError("heading_deg must be [from, to] in degrees", source=where, field="heading_deg")
+                out.append(SiteLandmark(str(lm.get("id", i)), typ, float(lm["east_m"]), float(lm["north_m"]),
+                                        float(lm.get("floor", 0)), (float(hd[0]), float(hd[1])),
+                                        float(lm.get("radius_m", 8.0))))
+            except KeyError as exc:
+                raise InputError(f"missing field {exc}", source=where) from None
+            except (TypeError, ValueError) as exc:
+                raise InputError(f"bad value ({exc})", source=where) from None
+        try:
+            fh = float(d.get("floor_height_m", 4.0))
+        except (TypeError, ValueError):
+            raise InputError("floor_height_m must be a number", source=source, field="floor_height_m") from None
+        return cls(str(d.get("name", "")), tuple(out), fh)
+
+    @classmethod
+    def load(cls, path: str | Path) -> Site:
+        try:
+            d = json.loads(Path(path).read_text())
+        except (OSError, json.JSONDecodeError) as exc:
+            raise InputError(f"cannot read site description ({exc})", source=str(path)) from None
+        return cls.from_dict(d, source=str(path))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "floor_height_m": self.floor_height_m,
+                "landmarks": [{"id": lm.id, "type": lm.type, "east_m": lm.east_m, "north_m": lm.north_m,
+                               "floor": lm.floor, "heading_deg": list(lm.heading_deg), "radius_m": lm.radius_m}
+                              for lm in self.landmarks]}
+
+    def match(self, mode: str, east_m: float, north_m: float, floor: float) -> SiteLandmark | None:
+        """Nearest landmark of a compatible type within its radius (same floor when the floor is known)."""
+        best, best_d = None, math.inf
+        for lm in self.landmarks:
+            if not lm.matches(mode):
+                continue
+            if math.isfinite(floor) and math.isfinite(lm.floor) and abs(lm.floor - floor) > 1.0:
+                continue
+            d = math.hypot(lm.east_m - east_m, lm.north_m - north_m)
+            if d <= lm.radius_m and d < best_d:
+                best, best_d = lm, d
+        return best
+
+
+class ElevatorDetector:
+    """First level of the tree: a pair of opposite vertical specific-force impulses with no steps between.
+
+    Feed the low-passed vertical specific force minus gravity (m/s^2) on the grid; reports
+    ``(start_idx, end_idx, direction)`` with direction +1 (up: positive impulse first) or -1.
+    """
+
+    def __init__(self, rate_hz: float, config: LandmarkConfig | None = None) -> None:
+        self.rate_hz = float(rate_hz)
+        self.config = config or LandmarkConfig()
+        self.run_sign = 0
+        self.run_start = -1
+        self.run_len = 0
+        self.first: tuple[int, int, int] | None = None   # (start, end, sign) of a pending first impulse
+        self.index = 0
+
+    def update(self, dv: FloatArray, moving: NDArray[np.bool_]) -> list[tuple[int, int, int]]:
+        c = self.config
+        need = int(round(c.elevator_impulse_s * self.rate_hz))
+        max_ride = int(round(c.elevator_max_ride_s * self.rate_hz))
+        sign = np.where(dv > c.elevator_impulse_mps2, 1, np.where(dv < -c.elevator_impulse_mps2, -1, 0))
+        out: list[tuple[int, int, int]] = []
+        # Only sign changes and their run lengths matter: loop over run boundaries, not samples.
+        change = np.flatnonzero(np.diff(np.concatenate([[self.run_sign], sign])) != 0)
+        bounds = [int(b) for b in change] + [int(sign.size)]
+        pos = 0
+        for b in bounds:
+            self.run_len += b - pos
+            if b < sign.size:
+                self._end_run(self.index + b, need, max_ride, moving, pos, out)
+                self.run_sign = int(sign[b])
+                self.run_start = self.index + b
+                self.run_len = 0
+            pos = b
+        self.index += sign.size
+        return out
+
+    def _end_run(self, end: int, need: int, max_ride: int, moving: NDArray[np.bool_], _pos: int,
+                 out: list[tuple[int, int, int]]) -> None:
+        if self.run_sign == 0 or self.run_len < need:
+            return
+        if self.first is not None and end - self.first[1] > max_ride:
+            self.first = None
+        if self.first is None or self.first[2] == self.run_sign:
+            self.first = (self.run_start, end, self.run_sign)
+            return
+        out.append((self.first[0], end, self.first[2]))
+        self.first = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"rate_hz": self.rate_hz, "run_sign": self.run_sign, "run_start": self.run_start,
+                "run_len": self.run_len, "first": list(self.first) if self.first else None, "index": self.index}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any], config: LandmarkConfig | None = None) -> ElevatorDetector:
+        e = cls(float(d["rate_hz"]), config)
+        e.run_sign, e.run_start, e.run_len = int(d["run_sign"]), int(d["run_start"]), int(d["run_len"])
+        f = d["first"]
+        e.first = (int(f[0]), int(f[1]), int(f[2])) if f else None
+        e.index = int(d["index"])
+        return e

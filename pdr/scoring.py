@@ -1,0 +1,110 @@
+"""Accuracy figures of a track against reference positions, as the datasets' scorers define them.
+
+The conventions of ``../shared/data/README.md`` and its independent reference ``tools/score_tracks.py``:
+
+* landmark error (IPIN): the track is interpolated at the landmark times, translated so it starts at the
+  first landmark, and the error at every later landmark is reported; ``align="none"`` keeps the absolute
+  heading, ``align="first-segment"`` also rotates the track about the first landmark so its displacement
+  over the first landmark interval points along the true first segment;
+* waypoint error (MS traces, map frame not north-aligned): start at the first waypoint and one rotation
+  about it fitted in least squares to all waypoints;
+* distance ratio: path length of the track between the first and last landmark times over the true path
+  length through the landmarks;
+* step-count error: ``100 (detected - true) / true`` percent.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pdr.errors import InputError
+
+FloatArray = NDArray[np.float64]
+
+
+def _interp(track_t: FloatArray, track_en: FloatArray, t: FloatArray) -> FloatArray:
+    if track_t.size < 2:
+        raise InputError("track has fewer than two positions", source="scoring")
+    return np.column_stack([np.interp(t, track_t, track_en[:, 0]), np.interp(t, track_t, track_en[:, 1])])
+
+
+def landmark_errors(track_t: FloatArray, track_en: FloatArray, truth_t: FloatArray, truth_en: FloatArray,
+                    align: str = "none") -> FloatArray:
+    """Horizontal errors (m) at landmarks 2..K (see the module doc); ``align`` is ``none`` or ``first-segment``."""
+    if align not in ("none", "first-segment"):
+        raise InputError("align must be 'none' or 'first-segment'", field="align", source="scoring")
+    gt = np.asarray(truth_en, dtype=np.float64)[:, :2]
+    est = _interp(np.asarray(track_t), np.asarray(track_en)[:, :2], np.asarray(truth_t))
+    est = est - est[0] + gt[0]
+    if align == "first-segment" and gt.shape[0] > 1:
+        d_est, d_gt = est[1] - est[0], gt[1] - gt[0]
+        a = math.atan2(d_gt[1], d_gt[0]) - math.atan2(d_est[1], d_est[0])
+        c, s = math.cos(a), math.sin(a)
+        est = gt[0] + (est - est[0]) @ np.array([[c, s], [-s, c]])
+    return np.asarray(np.linalg.norm(est[1:] - gt[1:], axis=1))
+
+
+def waypoint_errors(track_t: FloatArray, track_xy: FloatArray, truth_t: FloatArray, truth_xy: FloatArray
+                    ) -> FloatArray:
+    """Errors (m) at waypoints 2..K after starting at the first and one least-squares rotation about it."""
+    gt = np.asarray(truth_xy, dtype=np.float64)[:, :2]
+    est = _interp(np.asarray(track_t), np.asarray(track_xy)[:, :2], np.asarray(truth_t))
+    rel, g = est - est[0], gt - gt[0]
+    a = math.atan2(float(np.sum(rel[:, 0] * g[:, 1] - rel[:, 1] * g[:, 0])),
+                   float(np.sum(rel[:, 0] * g[:, 0] + rel[:, 1] * g[:, 1])))
+    r = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+    est = gt[0] + rel @ r.T
+    return np.asarray(np.linalg.norm(est[1:] - gt[1:], axis=1))
+
+
+def distance_ratio(track_t: FloatArray, track_en: FloatArray, truth_t: FloatArray, truth_en: FloatArray) -> float:
+    """Track path length between the first and last landmark times over the true path length."""
+    t = np.asarray(track_t)
+    en = np.asarray(track_en)[:, :2]
+    sel = (t >= truth_t[0]) & (t <= truth_t[-1])
+    est = float(np.sum(np.linalg.norm(np.diff(en[sel], axis=0), axis=1)))
+    true = float(np.sum(np.linalg.norm(np.diff(np.asarray(truth_en)[:, :2], axis=0), axis=1)))
+    if true <= 0:
+        raise InputError("true path has zero length", source="scoring")
+    return est / true
+
+
+def bounce_free_step_count(edges_per_foot: list[FloatArray], min_fraction: float = 0.5) -> int:
+    """Number of foot contacts after removing contact-switch bounces.
+
+    A rising edge of one foot's switch that follows that foot's previous kept edge by less than
+    ``min_fraction`` times the foot's median edge interval (about one stride, 1 s) is a bounce: a foot
+    cannot strike twice within half a stride. The Oxford step-counter switches bounce 0.1-0.3 s after a
+    contact on some walks (13-20 times on some armband and swinging-arm walks).
+
+    Parameters
+    ----------
+    edges_per_foot
+        Per foot, the sorted rising-edge times (s).
+    min_fraction
+        Shortest kept interval as a fraction of the foot's median interval.
+    """
+    n = 0
+    for edges in edges_per_foot:
+        t = np.asarray(edges, dtype=np.float64)
+        if t.size < 3:
+            n += t.size
+            continue
+        shortest = min_fraction * float(np.median(np.diff(t)))
+        last = t[0]
+        n += 1
+        for x in t[1:].tolist():
+            if x - last >= shortest:
+                n += 1
+                last = x
+    return n
+
+
+def step_count_error_pct(detected: int, true: int) -> float:
+    """``100 (detected - true) / true``."""
+    if true <= 0:
+        raise InputError("true step count must be positive", source="scoring")
+    return 100.0 * (detected - true) / true

@@ -1,0 +1,10 @@
+"""Simulator: deterministic synthetic recordings with ground truth (phones in pocket, torso, hand; shoe IMUs).
+
+``simulate(scenario, seed) -> Recording``; scenarios are JSON (:func:`load_scenario`,
+:func:`parse_scenario`). See :mod:`pdr.sim.simulate` for what the ground truth holds.
+"""
+
+from pdr.sim.scenario import Scenario, load_scenario, parse_scenario
+from pdr.sim.simulate import simulate
+
+__all__ = ["Scenario", "load_scenario", "parse_scenario", "simulate"]

@@ -1,0 +1,92 @@
+"""API blueprints under ``/api/v1`` and the helpers views share (services, authentication, JSON bodies)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from flask import current_app, request
+
+from server.auth import FailureLimiter, User, lookup, token_from_request
+from server.config import Settings
+from server.errors import APIError
+from server.jobs import InProcessWorker, NoWorker
+from server.processing import SessionProcessing
+from server.store import Store
+
+
+@dataclass
+class Services:
+    """Everything a view needs, attached to the app as ``app.extensions['pdr']``."""
+
+    settings: Settings
+    store: Store
+    processing: SessionProcessing
+    worker: InProcessWorker | NoWorker
+    auth_failures: FailureLimiter
+
+
+def services() -> Services:
+    svc: Services = current_app.extensions["pdr"]
+    return svc
+
+
+def current_user(allow_query_token: bool = False) -> User:
+    """The authenticated user; 401 without a valid token, 429 after too many failures from one address."""
+    svc = services()
+    client = request.remote_addr or "?"
+    svc.auth_failures.check(client)
+    token = token_from_request(request, allow_query_token)
+    if not token and not allow_query_token and "token" in request.args:
+        raise APIError(403, "a token in the query string is accepted on ingest endpoints only; "
+                            "send 'Authorization: Bearer <token>'")
+    if not token:
+        raise APIError(401, "authentication required: send 'Authorization: Bearer <token>'")
+    with svc.store.engine.connect() as conn:
+        user = lookup(conn, token)
+    if user is None:
+        svc.auth_failures.fail(client)
+        raise APIError(401, "invalid or revoked API token")
+    return user
+
+
+def json_body() -> Any:
+    """The request's JSON body: 415 if it is not declared JSON, 400 if it does not parse."""
+    if not request.is_json:
+        raise APIError(415, "expected a JSON body with 'Content-Type: application/json'")
+    try:
+        body = request.get_json(silent=True)
+    except RecursionError:  # the JSON parser recurses per nesting level
+        raise APIError(400, "request body is not valid JSON (nested too deeply)") from None
+    if body is None:
+        raise APIError(400, "request body is not valid JSON")
+    return body
+
+
+@dataclass(frozen=True)
+class Upload:
+    """A log file from a multipart request: its bytes, file name and detected (or given) format."""
+
+    payload: bytes
+    filename: str
+    format: str
+
+    @property
+    def descriptor(self) -> str:
+        """``FORMAT/FILENAME``, as :func:`server.processing.read_uploaded_file` takes it."""
+        return f"{self.format}/{self.filename}"
+
+
+def uploaded_log(what: str = "log") -> Upload:
+    """The multipart ``file`` field (400 if missing, 422 if empty) and its format (field ``format`` or detected)."""
+    from server.processing import detect_uploaded_format
+
+    upload = request.files.get("file")
+    if upload is None:
+        raise APIError(400, f"multipart upload needs a 'file' field with the {what}")
+    payload = upload.read()
+    upload.close()
+    if not payload:
+        raise APIError(422, "uploaded file is empty", details={"field": "file"})
+    filename = upload.filename or "upload"
+    return Upload(payload, filename, request.form.get("format") or detect_uploaded_format(payload, filename))

@@ -1,0 +1,45 @@
+"""Shoe units' low-rate interface: ``POST /api/v1/sessions/{id}/steps`` with step-wise dead-reckoning summaries.
+
+The body is a ``pdr-foot-steps/1`` payload (:mod:`pdr.foot.summaries`, JSON Schema ``FootSteps`` in the OpenAPI
+document). Like native batches it is stored raw before processing and is idempotent by its ``batch_id``
+(a re-sent identical payload is a no-op, different content under the same id a 409); the session's
+``left_foot`` / ``right_foot`` processor (:class:`server.foot_processor.FootProcessor`) composes the summaries.
+"""
+
+from __future__ import annotations
+
+from flask import Blueprint, Response, jsonify, request
+
+from pdr.errors import InputError
+from pdr.foot.summaries import SCHEMA, steps_from_json
+from server.api import current_user, json_body, services
+from server.errors import APIError
+from server.processing import FOOT_STEPS_JSON
+from server.schemas import validate
+
+bp = Blueprint("foot", __name__, url_prefix="/api/v1/sessions")
+
+
+@bp.post("/<session_id>/steps")
+def add_step_summaries(session_id: str) -> tuple[Response, int]:
+    """Ingest step summaries of one shoe unit; re-sending the same ``batch_id`` is a no-op."""
+    user = current_user(allow_query_token=True)
+    svc = services()
+    svc.store.session_row(session_id, user.id)
+    body = json_body()
+    validate(body, SCHEMA, "step summaries")
+    batch_id = body["batch_id"]
+    try:
+        summaries = steps_from_json(body, source=f"batch '{batch_id}'")
+    except InputError as exc:
+        raise APIError(422, str(exc), details=exc.details()) from None
+    bid, created = svc.store.add_batch(session_id, device_role=summaries.role, client_batch_id=batch_id,
+                                       payload_format=FOOT_STEPS_JSON, payload=request.get_data(),
+                                       t_first_ns=summaries.t_first_ns, t_last_ns=summaries.t_last_ns)
+    if created:
+        dev = body["device"]
+        svc.store.upsert_device(session_id, summaries.role, device_id=dev.get("device_id", ""), platform="imu",
+                                model=dev.get("model", ""), placement="foot")
+        svc.worker.submit(session_id)
+    return jsonify({"batch_id": batch_id, "id": bid, "duplicate": not created,
+                    "steps": len(summaries.steps)}), 201 if created else 200

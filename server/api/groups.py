@@ -1,0 +1,232 @@
+"""Groups: cooperative localization of several agents by the server as fusion centre (seed 001 Sec. 3.3-4).
+
+An agent (a person with two shoe IMUs and a ranging radio, optionally linked to one of the user's sessions)
+joins a group with its initial pose, then uploads batches of events: step-wise dead-reckoning summaries of
+each foot and range measurements (between agents, to anchors, position fixes, pressure differences; the JSON
+forms are those of :mod:`pdr.fusion.measurements`). The server buffers them, applies them in time order to the
+group's joint state (:class:`pdr.fusion.group.Group`) and answers each upload with the correction for the
+uploading agent. Agents that lost contact upload their buffered summaries when they return.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from flask import Blueprint, Response, current_app, jsonify, request
+
+from pdr.fusion.centre import FusionConfig
+from pdr.fusion.group import Group
+from pdr.fusion.measurements import StepSummary, parse_event
+from server.api import current_user, json_body, services
+from server.errors import APIError
+from server.group_store import GroupStore
+from server.schemas import validate
+
+bp = Blueprint("groups", __name__, url_prefix="/api/v1/groups")
+
+_NAME = {"type": "string", "minLength": 1, "maxLength": 200}
+_NUMBER = {"type": "number"}
+_VEC3 = {"type": "array", "items": _NUMBER, "minItems": 3, "maxItems": 3}
+
+CREATE_GROUP: dict[str, Any] = {
+    "type": "object", "additionalProperties": False,
+    "properties": {
+        "name": {"type": "string", "maxLength": 200},
+        "config": {"type": "object", "description": "pdr.fusion.centre.FusionConfig fields (separation, ranging, "
+                                                    "feet, lattice_points, lattice_extent, robust, ...)"},
+        "contact_timeout_s": {"type": "number", "exclusiveMinimum": 0},
+        "max_range_age_s": {"type": "number", "exclusiveMinimum": 0},
+    },
+}
+
+JOIN_GROUP: dict[str, Any] = {
+    "type": "object", "additionalProperties": False, "required": ["agent", "pos0_n"],
+    "properties": {
+        "agent": _NAME,
+        "session_id": {"type": "string", "maxLength": 36},
+        "pos0_n": _VEC3,
+        "heading0_deg": {"type": "number", "description": "compass heading, clockwise from north"},
+        "cov0": {"type": "array", "items": {"type": "array", "items": _NUMBER, "minItems": 4, "maxItems": 4},
+                 "minItems": 4, "maxItems": 4, "description": "(4, 4) covariance of x, y, z (m) and yaw (rad)"},
+        "t_s": _NUMBER,
+        "foot_offsets_n": {"type": "array", "items": _VEC3},
+    },
+}
+
+UPLOAD: dict[str, Any] = {
+    "type": "object", "additionalProperties": False, "required": ["batch_id", "agent", "events"],
+    "properties": {
+        "batch_id": _NAME,
+        "agent": _NAME,
+        "events": {"type": "array", "maxItems": 100_000, "items": {"type": "object"}},
+    },
+}
+
+
+def store() -> GroupStore:
+    """The group repository (one per app, over the service's engine)."""
+    ext = current_app.extensions
+    if "pdr_groups" not in ext:
+        ext["pdr_groups"] = GroupStore(services().store.engine)
+    repo: GroupStore = ext["pdr_groups"]
+    return repo
+
+
+def _float(value: float) -> float | None:
+    return None if not math.isfinite(value) else float(value)
+
+
+def group_json(row: Any, detail: bool = False) -> dict[str, Any]:
+    """Public representation of a group row."""
+    repo = store()
+    group = repo.state(row.id)
+    out: dict[str, Any] = {
+        "id": row.id, "name": row.name, "created_at": row.created_at.isoformat(),
+        "updated_at": row.updated_at.isoformat(),
+        "agents": [{"agent": a.agent, "session_id": a.session_id, "in_contact": group.in_contact(a.agent)
+                    if a.agent in group.latest_s else False, "latest_s": group.latest_s.get(a.agent)}
+                   for a in repo.agents(row.id)],
+        "clock_s": _float(group.clock_s), "pending": group.pending, "counts": dict(group.counts),
+    }
+    if detail:
+        out["config"] = group.centre.config.to_dict()
+        out["contact_timeout_s"] = group.contact_timeout_s
+        out["max_range_age_s"] = group.max_range_age_s
+        out["fusion_counts"] = dict(group.centre.counts)
+    return out
+
+
+def correction_json(group: Group, agent: str) -> dict[str, Any]:
+    """The fused estimate of an agent's feet (positions m ENU, yaw rad, covariance) with compass headings."""
+    corr = group.correction(agent).to_dict()
+    corr["heading_deg"] = [(90.0 - math.degrees(corr["mean"][4 * i + 3])) % 360.0 for i in range(len(corr["feet"]))]
+    return corr
+
+
+@bp.post("")
+def create_group() -> tuple[Response, int]:
+    """Create a group with its fusion parameters."""
+    user = current_user()
+    body = json_body()
+    validate(body, CREATE_GROUP, "group")
+    group = Group(FusionConfig.from_dict(body.get("config", {})), float(body.get("contact_timeout_s", 10.0)),
+                  float(body.get("max_range_age_s", 2.0)))
+    gid = store().create(user.id, body.get("name", ""), group)
+    return jsonify(group_json(store().row(gid, user.id), detail=True)), 201
+
+
+@bp.get("")
+def list_groups() -> Response:
+    user = current_user()
+    return jsonify({"groups": [group_json(r) for r in store().list_for(user.id)]})
+
+
+@bp.get("/<group_id>")
+def get_group(group_id: str) -> Response:
+    user = current_user()
+    return jsonify(group_json(store().row(group_id, user.id), detail=True))
+
+
+@bp.post("/<group_id>/agents")
+def join_group(group_id: str) -> tuple[Response, int]:
+    """Add an agent with its initial pose (and optionally link it to one of the user's sessions)."""
+    user = current_user()
+    repo = store()
+    repo.row(group_id, user.id)
+    body = json_body()
+    validate(body, JOIN_GROUP, "agent")
+    session_id = body.get("session_id")
+    if session_id is not None:
+        services().store.session_row(session_id, user.id)            # 404 for a session that is not the user's
+    agent = body["agent"]
+    if any(a.agent == agent for a in repo.agents(group_id)):
+        raise APIError(409, f"agent '{agent}' is already in the group", details={"field": "agent"})
+    heading = math.radians(90.0 - float(body.get("heading0_deg", 90.0)))
+
+    def join(group: Group) -> dict[str, Any]:
+        group.join(agent, body["pos0_n"], heading, body.get("cov0"), float(body.get("t_s", 0.0)),
+                   body.get("foot_offsets_n"))
+        return correction_json(group, agent)
+
+    corr = repo.modify(group_id, join)
+    repo.add_agent(group_id, agent, session_id)
+    return jsonify({"agent": agent, "session_id": session_id, "correction": corr}), 201
+
+
+@bp.post("/<group_id>/uploads")
+def upload(group_id: str) -> tuple[Response, int]:
+    """Step summaries and ranges of one agent; re-sending the same ``batch_id`` is a no-op."""
+    user = current_user(allow_query_token=True)
+    repo = store()
+    repo.row(group_id, user.id)
+    body = json_body()
+    validate(body, UPLOAD, "upload")
+    agent = body["agent"]
+    members = {a.agent for a in repo.agents(group_id)}
+    if agent not in members:
+        raise APIError(422, f"agent '{agent}' has not joined the group", details={"field": "agent"})
+    events = [parse_event(e, f"events[{i}]") for i, e in enumerate(body["events"])]   # 422 naming the event
+    feet = repo.state(group_id).centre.config.feet
+    for i, ev in enumerate(events):                  # everything checked before the raw upload is stored
+        unknown = [a for a in ev.agents if a not in members]
+        if unknown:
+            raise APIError(422, f"events[{i}]: agent '{unknown[0]}' has not joined the group",
+                           details={"source": f"events[{i}]", "field": "agent"})
+        if isinstance(ev, StepSummary) and ev.foot not in feet:
+            raise APIError(422, f"events[{i}]: foot must be one of {', '.join(feet)}",
+                           details={"source": f"events[{i}]", "field": "foot"})
+    uid, created = repo.add_upload(group_id, agent, body["batch_id"], request.get_data())
+    if not created:
+        return jsonify({"batch_id": body["batch_id"], "id": uid, "duplicate": True}), 200
+
+    def apply(group: Group) -> dict[str, Any]:
+        accepted = group.submit(events, reporter=agent)
+        report = group.process()
+        return {"accepted": accepted, **report, "correction": correction_json(group, agent)}
+
+    result = repo.modify(group_id, apply)
+    return jsonify({"batch_id": body["batch_id"], "id": uid, "duplicate": False, **result}), 201
+
+
+@bp.post("/<group_id>/flush")
+def flush(group_id: str) -> Response:
+    """Apply every buffered event now, without waiting for agents out of contact (e.g. at the end of a mission)."""
+    user = current_user()
+    repo = store()
+    repo.row(group_id, user.id)
+    return jsonify(repo.modify(group_id, lambda g: g.process(flush=True)))
+
+
+@bp.get("/<group_id>/agents/<agent>/correction")
+def correction(group_id: str, agent: str) -> Response:
+    """The fused estimate of an agent's feet, to correct its local dead reckoning."""
+    user = current_user()
+    repo = store()
+    repo.row(group_id, user.id)
+    group = repo.state(group_id)
+    if agent not in group.latest_s:
+        raise APIError(404, f"no agent '{agent}' in group '{group_id}'")
+    return jsonify(correction_json(group, agent))
+
+
+@bp.get("/<group_id>/tracks")
+def tracks(group_id: str) -> Response:
+    """Fused reset poses of every foot: ``{agents: {agent: {foot: [[t_s, east_m, north_m, up_m, heading_deg]]}}}``.
+
+    Query: ``agent`` (repeatable) to select agents, ``since_s`` for rows after a time.
+    """
+    user = current_user()
+    repo = store()
+    repo.row(group_id, user.id)
+    since = request.args.get("since_s")
+    try:
+        since_s = float(since) if since is not None else None
+    except ValueError:
+        raise APIError(422, "since_s must be a number (s)", details={"field": "since_s"}) from None
+    out: dict[str, dict[str, list[list[float]]]] = {}
+    for r in repo.track(group_id, request.args.getlist("agent") or None, since_s):
+        out.setdefault(r.agent, {}).setdefault(r.foot, []).append(
+            [r.t_s, r.east_m, r.north_m, r.up_m, r.heading_deg])
+    return jsonify({"group_id": group_id, "agents": out})
+

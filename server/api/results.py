@@ -1,0 +1,119 @@
+"""Results of a session: track (JSON, CSV, GeoJSON), steps, motion modes, landmarks, floors; ``?since=`` polling."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from typing import Any
+
+from flask import Blueprint, Response, jsonify, request
+
+from pdr.frames import local_enu_to_geodetic
+from server.api import current_user, services
+from server.errors import APIError
+
+bp = Blueprint("results", __name__, url_prefix="/api/v1/sessions")
+
+#: Columns of the track, identical to ``pdr track`` CSV output.
+TRACK_COLUMNS = ("t_s", "east_m", "north_m", "up_m", "floor", "heading_deg", "step_length_m", "mode")
+EVENT_KINDS = {"steps": "step", "modes": "mode", "landmarks": "landmark", "floors": "floor"}
+
+
+def parse_since() -> float | None:
+    """The ``?since=`` query parameter (seconds on the log's clock), validated; None when absent."""
+    raw = request.args.get("since")
+    if raw is None:
+        return None
+    try:
+        value = float(raw)
+    except ValueError:
+        raise APIError(400, f"'since' must be a number of seconds, got '{raw[:40]}'") from None
+    if not math.isfinite(value):
+        raise APIError(400, "'since' must be finite")
+    return value
+
+
+def _clean(v: Any) -> Any:
+    return None if isinstance(v, float) and not math.isfinite(v) else v
+
+
+@bp.get("/<session_id>/track")
+def track(session_id: str) -> Response:
+    """The track, one row per step: ``?format=json|csv|geojson``, ``?device=ROLE``, ``?since=T_S``."""
+    user = current_user()
+    svc = services()
+    row = svc.store.session_row(session_id, user.id)
+    fmt = request.args.get("format", "json")
+    if fmt not in ("json", "csv", "geojson"):
+        raise APIError(400, f"unknown format '{fmt[:20]}'; use json, csv or geojson")
+    points = svc.store.track(session_id, request.args.get("device"), parse_since())
+    rows = [{c: _clean(getattr(p, c)) for c in TRACK_COLUMNS} | {"device": p.device_role, "provisional": p.provisional}
+            for p in points]
+    if fmt == "csv":
+        buf = io.StringIO()
+        writer = csv.writer(buf, lineterminator="\n")
+        writer.writerow(TRACK_COLUMNS)
+        for r in rows:
+            writer.writerow(["" if r[c] is None else (repr(r[c]) if isinstance(r[c], float) else r[c])
+                             for c in TRACK_COLUMNS])
+        return Response(buf.getvalue(), mimetype="text/csv",
+                        headers={"Content-Disposition": f'attachment; filename="{session_id}.csv"'})
+    if fmt == "geojson":
+        return Response(json.dumps(_geojson(rows, row)), mimetype="application/geo+json")
+    next_since = max(r["t_s"] for r in rows) if rows else parse_since()
+    return jsonify({"session": session_id, "columns": list(TRACK_COLUMNS), "points": rows, "count": len(rows),
+                    "next_since": next_since})
+
+
+def _geojson(rows: list[dict[str, Any]], session: Any) -> dict[str, Any]:
+    """Track as a GeoJSON LineString per device: WGS-84 when the session has an origin, else local metres."""
+    geodetic = session.origin_lat_deg is not None
+    features = []
+    for device in sorted({r["device"] for r in rows}):
+        mine = [r for r in rows if r["device"] == device]
+        if geodetic:
+            lat, lon = local_enu_to_geodetic([r["east_m"] for r in mine], [r["north_m"] for r in mine],
+                                             session.origin_lat_deg, session.origin_lon_deg)
+            coords = [[float(lo), float(la), r["up_m"]] for lo, la, r in zip(lon, lat, mine, strict=True)]
+        else:
+            coords = [[r["east_m"], r["north_m"], r["up_m"]] for r in mine]
+        features.append({"type": "Feature", "geometry": {"type": "LineString", "coordinates": coords},
+                         "properties": {"device": device, "t_s": [r["t_s"] for r in mine],
+                                        "floor": [r["floor"] for r in mine], "mode": [r["mode"] for r in mine]}})
+    out: dict[str, Any] = {"type": "FeatureCollection", "features": features}
+    if not geodetic:
+        out["crs_note"] = "local ENU metres (x east, y north) from the start; the session has no geodetic origin"
+    return out
+
+
+def _events(session_id: str, what: str) -> Response:
+    user = current_user()
+    svc = services()
+    svc.store.session_row(session_id, user.id)
+    rows = svc.store.events(session_id, EVENT_KINDS[what], parse_since())
+    items = [{"t_s": r.t_s, "t_end_s": r.t_end_s, "label": r.label, "value": _clean(r.value),
+              "device": r.device_role, "provisional": r.provisional, **json.loads(r.data or "{}")} for r in rows]
+    return jsonify({"session": session_id, what: items, "count": len(items),
+                    "next_since": items[-1]["t_s"] if items else parse_since()})
+
+
+@bp.get("/<session_id>/steps")
+def steps(session_id: str) -> Response:
+    return _events(session_id, "steps")
+
+
+@bp.get("/<session_id>/modes")
+def modes(session_id: str) -> Response:
+    return _events(session_id, "modes")
+
+
+@bp.get("/<session_id>/landmarks")
+def landmarks(session_id: str) -> Response:
+    return _events(session_id, "landmarks")
+
+
+@bp.get("/<session_id>/floors")
+def floors(session_id: str) -> Response:
+    return _events(session_id, "floors")

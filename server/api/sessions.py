@@ -1,0 +1,174 @@
+"""Sessions: create (empty, or from an uploaded log file), list, detail, devices, native batches, reprocess."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from typing import Any
+
+from flask import Blueprint, Response, jsonify, request
+
+from pdr.errors import InputError
+from pdr.recording import Recording
+from server import plausibility
+from server.api import current_user, json_body, services, uploaded_log
+from server.errors import APIError
+from server.processing import FILE_PREFIX, NATIVE_JSON, read_uploaded_file
+from server.schemas import CREATE_SESSION, PAIR_DEVICE, validate
+
+bp = Blueprint("sessions", __name__, url_prefix="/api/v1/sessions")
+
+
+#: Which device's track summarises a session: the fused foot track, else the phone, else a foot.
+ROLE_PRIORITY = ("fused", "phone", "left_foot", "right_foot")
+
+
+def primary_role(roles: Any) -> str:
+    """The role whose track stands for the session in lists (steps, distance, duration)."""
+    return next((r for r in ROLE_PRIORITY if r in roles), next(iter(sorted(roles)), ""))
+
+
+def session_json(row: Any, detail: bool = False) -> dict[str, Any]:
+    """Public representation of a session row."""
+    svc = services()
+    per_role = svc.store.track_summary(row.id)
+    main = per_role.get(primary_role(per_role), {"steps": 0, "distance_m": 0.0, "first_t_s": 0.0, "last_t_s": 0.0})
+    out: dict[str, Any] = {
+        "id": row.id, "session_id": row.client_session_id, "name": row.name, "source": row.source,
+        "placement": row.placement, "status": row.status, "created_at": row.created_at.isoformat(),
+        "updated_at": row.updated_at.isoformat(), "steps": int(main["steps"]),
+        "distance_m": round(main["distance_m"], 3), "duration_s": round(main["last_t_s"] - main["first_t_s"], 3),
+        "tracks": {role: {k: round(v, 3) for k, v in summary.items()} for role, summary in per_role.items()},
+        "warnings": json.loads(row.warnings or "[]"),
+        "batches": svc.store.batch_summary(row.id),
+        "devices": [{"role": d.role, "device_id": d.device_id, "platform": d.platform, "model": d.model,
+                     "placement": d.placement} for d in svc.store.devices(row.id)],
+        "origin": ({"lat_deg": row.origin_lat_deg, "lon_deg": row.origin_lon_deg}
+                   if row.origin_lat_deg is not None else None),
+    }
+    if detail:
+        out["batch_list"] = [{"id": b.id, "batch_id": b.client_batch_id, "device_role": b.device_role,
+                              "format": b.payload_format, "size_bytes": b.size_bytes, "status": b.status,
+                              "error": b.error, "received_at": b.received_at.isoformat()}
+                             for b in svc.store.batch_list(row.id)]
+    return out
+
+
+def time_span_ns(rec: Recording) -> tuple[int, int]:
+    firsts = [int(s.t_ns[0]) for s in rec.streams.values() if len(s)]
+    lasts = [int(s.t_ns[-1]) for s in rec.streams.values() if len(s)]
+    return min(firsts), max(lasts)
+
+
+@bp.post("")
+def create_session() -> tuple[Response, int]:
+    """Create an empty session (JSON body) or a session from an uploaded log file (multipart ``file``)."""
+    user = current_user()
+    svc = services()
+    if request.files:
+        return _create_from_file(user.id)
+    body = json_body()
+    validate(body, CREATE_SESSION, "session")
+    device = body.get("device") or {}
+    sid, created = svc.store.create_session(user.id, source="native", client_session_id=body.get("session_id"),
+                                            name=body.get("name", ""), placement=body.get("placement"))
+    if device:
+        svc.store.upsert_device(sid, device.get("role", "phone"), device_id=device.get("device_id", ""),
+                                platform=device.get("platform", "unknown"), model=device.get("model", ""),
+                                placement=device.get("placement"))
+    if body.get("origin"):
+        svc.store.set_session(sid, origin_lat_deg=body["origin"]["lat_deg"], origin_lon_deg=body["origin"]["lon_deg"])
+    return jsonify(session_json(svc.store.session_row(sid, user.id))), 201 if created else 200
+
+
+def _create_from_file(user_id: int) -> tuple[Response, int]:
+    svc = services()
+    upload = uploaded_log()
+    payload, filename, descriptor = upload.payload, upload.filename, upload.descriptor
+    recording = read_uploaded_file(payload, descriptor)  # validate before accepting
+    placement = request.form.get("placement") or recording.device.placement
+    digest = hashlib.sha256(payload).hexdigest()
+    sid, created = svc.store.create_session(user_id, source="upload",
+                                            client_session_id=request.form.get("session_id") or f"file-{digest[:24]}",
+                                            name=filename, placement=placement)
+    dev = recording.device
+    svc.store.upsert_device(sid, dev.role, device_id=dev.device_id, platform=dev.platform, model=dev.model,
+                            placement=placement)
+    t_first, t_last = time_span_ns(recording)
+    svc.store.add_batch(sid, device_role=dev.role, client_batch_id=f"file-{digest[:32]}",
+                        payload_format=FILE_PREFIX + descriptor, payload=payload, t_first_ns=t_first, t_last_ns=t_last)
+    svc.store.set_session(sid, t0_ns=recording.origin_ns)
+    if recording.truth.positions is not None and recording.truth.positions.origin_lat_lon_deg:
+        lat, lon = recording.truth.positions.origin_lat_lon_deg
+        svc.store.set_session(sid, origin_lat_deg=lat, origin_lon_deg=lon)
+    svc.worker.submit(sid)
+    return jsonify(session_json(svc.store.session_row(sid, user_id))), 201 if created else 200
+
+
+@bp.get("")
+def list_sessions() -> Response:
+    user = current_user()
+    rows = services().store.list_sessions(user.id)
+    return jsonify({"sessions": [session_json(r) for r in rows]})
+
+
+@bp.get("/<session_id>")
+def get_session(session_id: str) -> Response:
+    user = current_user()
+    return jsonify(session_json(services().store.session_row(session_id, user.id), detail=True))
+
+
+@bp.post("/<session_id>/devices")
+def pair_device(session_id: str) -> tuple[Response, int]:
+    """Pair a device (e.g. shoe IMUs with roles left_foot / right_foot) with a session."""
+    user = current_user()
+    svc = services()
+    svc.store.session_row(session_id, user.id)
+    body = json_body()
+    validate(body, PAIR_DEVICE, "device")
+    svc.store.upsert_device(session_id, body["role"], device_id=body.get("device_id", ""),
+                            platform=body.get("platform", "imu" if body["role"] != "phone" else "unknown"),
+                            model=body.get("model", ""), placement=body.get("placement"))
+    return jsonify(session_json(svc.store.session_row(session_id, user.id))), 201
+
+
+@bp.post("/<session_id>/batches")
+def add_native_batch(session_id: str) -> tuple[Response, int]:
+    """Ingest a native JSON batch (``pdr-batch/1``); re-sending the same ``batch_id`` is a no-op."""
+    from pdr.io.native import batch_from_json
+
+    user = current_user(allow_query_token=True)
+    svc = services()
+    svc.store.session_row(session_id, user.id)
+    body = json_body()
+    batch_id = body.get("batch_id") if isinstance(body, dict) else None
+    if not isinstance(batch_id, str) or not batch_id:
+        raise APIError(422, "a native batch needs a non-empty string 'batch_id'", details={"field": "batch_id"})
+    try:
+        recording = batch_from_json(body, source=f"batch '{batch_id}'")
+    except InputError as exc:
+        raise APIError(422, str(exc), details=exc.details()) from None
+    role = recording.device.role
+    t_first, t_last = time_span_ns(recording)
+    plausibility.check_identity(svc.store.engine, session_id, batch_id, body.get("session_id"), recording)
+    plausibility.check_batch(svc.store.engine, session_id, NATIVE_JSON, recording, t_first, t_last)
+    bid, created = svc.store.add_batch(session_id, device_role=role, client_batch_id=batch_id,
+                                       payload_format=NATIVE_JSON, payload=request.get_data(),
+                                       t_first_ns=t_first, t_last_ns=t_last)
+    if created:
+        dev = recording.device
+        svc.store.upsert_device(session_id, role, device_id=dev.device_id, platform=dev.platform, model=dev.model,
+                                placement=dev.placement)
+        svc.worker.submit(session_id)
+    return jsonify({"batch_id": batch_id, "id": bid, "duplicate": not created}), 201 if created else 200
+
+
+@bp.post("/<session_id>/reprocess")
+def reprocess(session_id: str) -> tuple[Response, int]:
+    """Rebuild every result of the session from its stored raw batches."""
+    user = current_user()
+    svc = services()
+    svc.store.session_row(session_id, user.id)
+    svc.processing.clear(session_id)
+    svc.worker.submit(session_id)
+    return jsonify({"id": session_id, "status": "pending"}), 202

@@ -1,0 +1,77 @@
+"""Service configuration from ``PDR_*`` environment variables, shared by ``pdr serve``, ``pdr users`` and workers.
+
+| variable | meaning | default |
+|---|---|---|
+| ``PDR_DATA_DIR`` | data directory of the embedded default (SQLite file, report files) | ``./var`` |
+| ``DATABASE_URL`` | SQLAlchemy URL; ``postgresql://...`` to scale out (``PDR_DATABASE_URL`` wins) | SQLite |
+| ``PDR_MAX_UPLOAD_MB`` | largest accepted request body, MB | 64 |
+| ``PDR_WORKER`` | ``inprocess`` (a web-process thread), ``redis`` (``pdr worker`` jobs), ``none`` | ``inprocess`` |
+| ``PDR_AUTH_FAILURES_PER_MINUTE`` | failed authentications per client address before 429 | 30 |
+| ``PDR_MODELS_DIR`` | folder of trained classifier models | ``models/`` of the checkout |
+| ``REDIS_URL`` | Redis of the job queue and shared rate limits (``PDR_WORKER=redis``) | ``redis://127.0.0.1:6379/0`` |
+| ``PDR_REDIS_NAMESPACE`` | queue name and key prefix in Redis (several deployments can share one Redis) | ``pdr`` |
+| ``PDR_DATA_QUOTA_MB`` | refuse uploads (507) once the data directory holds this much; 0 = no quota | 0 |
+| ``PDR_PROCESSOR`` | ``module:callable`` processor factory (``server.processing.ProcessorFactory``) | built-in |
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Resolved configuration of one service instance."""
+
+    data_dir: Path
+    database_url: str
+    max_upload_bytes: int
+    worker: str
+    auth_failures_per_minute: int
+    models_dir: Path
+    redis_url: str = "redis://127.0.0.1:6379/0"
+    redis_namespace: str = "pdr"
+    data_quota_bytes: int = 0
+    processor: str = "server.processors:make_processor"
+
+    @property
+    def is_sqlite(self) -> bool:
+        return self.database_url.startswith("sqlite")
+
+
+def _normalise_db_url(url: str) -> str:
+    # Plain postgres:// or postgresql:// URLs (as most hosts hand them out) use the psycopg 3 driver.
+    for prefix in ("postgres://", "postgresql://"):
+        if url.startswith(prefix):
+            return "postgresql+psycopg://" + url[len(prefix):]
+    return url
+
+
+def load_settings(environ: Mapping[str, str] | None = None, overrides: Mapping[str, object] | None = None) -> Settings:
+    """Settings from the environment (``os.environ`` by default), with explicit overrides (tests)."""
+    env = os.environ if environ is None else environ
+    o = dict(overrides or {})
+    data_dir = Path(str(o.get("data_dir") or env.get("PDR_DATA_DIR") or "var")).resolve()
+    url = str(o.get("database_url") or env.get("PDR_DATABASE_URL") or env.get("DATABASE_URL")
+              or f"sqlite:///{data_dir / 'pdr.sqlite3'}")
+    worker = str(o.get("worker") or env.get("PDR_WORKER") or "inprocess")
+    if worker not in ("inprocess", "none", "redis"):
+        raise ValueError(f"PDR_WORKER must be 'inprocess', 'redis' or 'none', got {worker!r}")
+    return Settings(
+        data_dir=data_dir,
+        database_url=_normalise_db_url(url),
+        max_upload_bytes=int(float(str(o.get("max_upload_mb") or env.get("PDR_MAX_UPLOAD_MB") or 64)) * 1024 * 1024),
+        worker=worker,
+        auth_failures_per_minute=int(str(o.get("auth_failures_per_minute")
+                                         or env.get("PDR_AUTH_FAILURES_PER_MINUTE") or 30)),
+        models_dir=Path(str(o.get("models_dir") or env.get("PDR_MODELS_DIR") or REPO_ROOT / "models")),
+        redis_url=str(o.get("redis_url") or env.get("REDIS_URL") or "redis://127.0.0.1:6379/0"),
+        redis_namespace=str(o.get("redis_namespace") or env.get("PDR_REDIS_NAMESPACE") or "pdr"),
+        data_quota_bytes=int(float(str(o.get("data_quota_mb") or env.get("PDR_DATA_QUOTA_MB") or 0)) * 1024 * 1024),
+        processor=str(o.get("processor") or env.get("PDR_PROCESSOR") or "server.processors:make_processor"),
+    )

@@ -1,0 +1,97 @@
+"""Job execution: the embedded default runs processing on a background thread of the web process.
+
+``InProcessWorker.submit(session_id)`` queues a session; the thread waits ``settle_s`` so that a burst of
+uploads (and messages arriving slightly out of order) is processed together, then processes the session's
+pending batches. At start-up, batches left pending or interrupted by a crash are queued again.
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+import time
+
+from server.processing import SessionProcessing
+
+log = logging.getLogger(__name__)
+
+
+class InProcessWorker:
+    """A daemon thread processing queued sessions one after another."""
+
+    def __init__(self, processing: SessionProcessing, settle_s: float = 0.2) -> None:
+        self.processing = processing
+        self.settle_s = settle_s
+        self._queue: queue.Queue[str | None] = queue.Queue()
+        self._queued: set[str] = set()
+        self._guard = threading.Lock()
+        self._thread: threading.Thread | None = None
+        self._idle = threading.Event()
+        self._idle.set()
+
+    def start(self) -> None:
+        if self._thread is None:
+            self._thread = threading.Thread(target=self._run, name="pdr-worker", daemon=True)
+            self._thread.start()
+
+    def recover(self) -> None:
+        """Requeue sessions with batches left pending or interrupted by a previous crash."""
+        store = self.processing.store
+        store.reset_interrupted()
+        for session_id in store.sessions_with_pending():
+            self.submit(session_id)
+
+    def submit(self, session_id: str) -> None:
+        with self._guard:
+            if session_id in self._queued:
+                return
+            self._queued.add(session_id)
+            self._idle.clear()
+        self._queue.put(session_id)
+
+    def wait_idle(self, timeout_s: float = 60.0) -> bool:
+        """Block until every queued session is processed (tests, benchmarks)."""
+        return self._idle.wait(timeout_s)
+
+    def stop(self) -> None:
+        self._queue.put(None)
+        if self._thread is not None:
+            self._thread.join(timeout=10)
+            self._thread = None
+
+    def _run(self) -> None:
+        while True:
+            session_id = self._queue.get()
+            if session_id is None:
+                return
+            if self.settle_s > 0:
+                time.sleep(self.settle_s)
+            with self._guard:
+                self._queued.discard(session_id)
+            try:
+                self.processing.process_session(session_id)
+            except Exception:  # keep the worker alive; the batch status says what failed
+                log.exception("processing session %s failed", session_id)
+            with self._guard:
+                if not self._queued and self._queue.empty():
+                    self._idle.set()
+
+
+class NoWorker:
+    """External workers process the queue (``PDR_WORKER=none``); the web process only stores batches."""
+
+    def start(self) -> None:
+        """Nothing to start."""
+
+    def recover(self) -> None:
+        """External workers recover on their own."""
+
+    def submit(self, session_id: str) -> None:
+        """Batches stay pending in the database until a worker takes them."""
+
+    def wait_idle(self, timeout_s: float = 60.0) -> bool:
+        return True
+
+    def stop(self) -> None:
+        """Nothing to stop."""

@@ -1,0 +1,181 @@
+"""The OpenAPI 3.1 document of the API, served at ``/api/v1/openapi.json``.
+
+Request body schemas are the ones the views validate with (:mod:`server.schemas`), so the document
+cannot drift from what the server accepts.
+"""
+
+from __future__ import annotations
+
+import json
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+import pdr
+from pdr.foot.summaries import SCHEMA as FOOT_STEPS
+from server import schemas
+from server.api import groups
+
+ERROR = {
+    "type": "object", "required": ["error"],
+    "properties": {"error": {"type": "object", "required": ["status", "code", "message", "details"],
+                             "properties": {"status": {"type": "integer"}, "code": {"type": "string"},
+                                            "message": {"type": "string"}, "details": {"type": "object"}}}},
+}
+SESSION_ID = {"name": "session_id", "in": "path", "required": True, "schema": {"type": "string"}}
+NAME = {"name": "name", "in": "path", "required": True, "schema": {"type": "string"}}
+REPORT_ID = {"name": "report_id", "in": "path", "required": True, "schema": {"type": "string"}}
+AGENT = {"name": "agent", "in": "path", "required": True, "schema": {"type": "string"}}
+GROUP_ID = {"name": "group_id", "in": "path", "required": True, "schema": {"type": "string"}}
+SINCE = {"name": "since", "in": "query", "required": False, "schema": {"type": "number"},
+         "description": "only rows with t_s greater than this (incremental polling)"}
+TOKEN_QUERY = {"name": "token", "in": "query", "required": False, "schema": {"type": "string"},
+               "description": "API token for clients that cannot set headers (ingest endpoints only; "
+                              "query strings can end up in logs)"}
+
+
+def _errors(*codes: int) -> dict[str, Any]:
+    ref = {"$ref": "#/components/schemas/Error"}
+    return {str(c): {"description": "error", "content": {"application/json": {"schema": ref}}} for c in codes}
+
+
+def _json_body(schema: dict[str, Any] | str) -> dict[str, Any]:
+    s = {"$ref": f"#/components/schemas/{schema}"} if isinstance(schema, str) else schema
+    return {"required": True, "content": {"application/json": {"schema": s}}}
+
+
+def _ok(description: str, media: str = "application/json") -> dict[str, Any]:
+    return {"description": description, "content": {media: {"schema": {"type": "object"} if "json" in media
+                                                              else {"type": "string"}}}}
+
+
+def _op(summary: str, responses: dict[str, Any], **extra: Any) -> dict[str, Any]:
+    return {"summary": summary, "responses": responses, **extra}
+
+
+def _results_path(what: str) -> dict[str, Any]:
+    return {"get": _op(f"{what} of a session", {"200": _ok(what)} | _errors(400, 401, 404),
+                       parameters=[SESSION_ID, SINCE])}
+
+
+@cache
+def openapi_document() -> dict[str, Any]:
+    batch_schema = json.loads((Path(pdr.__file__).parent / "io" / "schemas" / "batch.schema.json").read_text())
+    batch_schema.pop("$schema", None)
+    batch_schema.pop("$id", None)
+    common = _errors(401, 404, 413, 415, 422, 429)
+    return {
+        "openapi": "3.1.0",
+        "info": {"title": "pdr-backend API", "version": pdr.__version__,
+                 "description": "Pedestrian navigation backend: ingest phone and shoe IMU data, get tracks, "
+                                "motion context and sensor reports. Authenticate with 'Authorization: Bearer'."},
+        "components": {
+            "securitySchemes": {"bearer": {"type": "http", "scheme": "bearer"},
+                                "queryToken": {"type": "apiKey", "in": "query", "name": "token"}},
+            "schemas": {"Error": ERROR, "CreateSession": schemas.CREATE_SESSION, "Device": schemas.PAIR_DEVICE,
+                        "NativeBatch": batch_schema, "SensorLoggerMessage": schemas.SENSOR_LOGGER_MESSAGE,
+                        "ClassifyWindow": schemas.CLASSIFY_WINDOW, "CreateGroup": groups.CREATE_GROUP,
+                        "JoinGroup": groups.JOIN_GROUP, "GroupUpload": groups.UPLOAD,
+                        "FootSteps": FOOT_STEPS},
+        },
+        "security": [{"bearer": []}],
+        "paths": {
+            "/api/v1/health": {"get": _op("service health", {"200": _ok("ok")}, security=[])},
+            "/api/v1/openapi.json": {"get": _op("this document", {"200": _ok("OpenAPI document")}, security=[])},
+            "/api/v1/sessions": {
+                "get": _op("list the user's sessions", {"200": _ok("sessions")} | _errors(401)),
+                "post": _op("create a session (JSON) or upload a whole log file (multipart 'file')",
+                            {"201": _ok("created"), "200": _ok("already existed")} | common | _errors(400),
+                            requestBody={"required": True, "content": {
+                                "application/json": {"schema": {"$ref": "#/components/schemas/CreateSession"}},
+                                "multipart/form-data": {"schema": {"type": "object", "required": ["file"],
+                                                                   "properties": {
+                                                                       "file": {"type": "string", "format": "binary"},
+                                                                       "format": {"type": "string"},
+                                                                       "placement": {"type": "string"},
+                                                                       "session_id": {"type": "string"}}}}}}),
+            },
+            "/api/v1/sessions/{session_id}": {
+                "get": _op("session detail with processing status, batches and warnings",
+                           {"200": _ok("session")} | _errors(401, 404), parameters=[SESSION_ID])},
+            "/api/v1/sessions/{session_id}/devices": {
+                "post": _op("pair a device (shoe IMUs: left_foot / right_foot)", {"201": _ok("paired")} | common,
+                            parameters=[SESSION_ID], requestBody=_json_body("Device"))},
+            "/api/v1/sessions/{session_id}/batches": {
+                "post": _op("ingest a native JSON batch (idempotent by batch_id)",
+                            {"201": _ok("stored"), "200": _ok("duplicate ignored")} | common | _errors(400, 409),
+                            parameters=[SESSION_ID, TOKEN_QUERY], requestBody=_json_body("NativeBatch"),
+                            security=[{"bearer": []}, {"queryToken": []}])},
+            "/api/v1/sessions/{session_id}/reprocess": {
+                "post": _op("rebuild all results from the raw batches", {"202": _ok("queued")} | _errors(401, 404),
+                            parameters=[SESSION_ID])},
+            "/api/v1/sessions/{session_id}/track": {
+                "get": _op("track, one row per step", {"200": {"description": "track", "content": {
+                    "application/json": {"schema": {"type": "object"}}, "text/csv": {"schema": {"type": "string"}},
+                    "application/geo+json": {"schema": {"type": "object"}}}}} | _errors(400, 401, 404),
+                    parameters=[SESSION_ID, SINCE,
+                                {"name": "format", "in": "query", "schema": {"enum": ["json", "csv", "geojson"]}},
+                                {"name": "device", "in": "query", "schema": {"type": "string"}}])},
+            "/api/v1/sessions/{session_id}/steps": _results_path("steps") | {
+                "post": _op("ingest a shoe unit's step-wise dead-reckoning summaries (idempotent by batch_id)",
+                            {"201": _ok("stored"), "200": _ok("duplicate ignored")} | common | _errors(400, 409),
+                            parameters=[SESSION_ID, TOKEN_QUERY], requestBody=_json_body("FootSteps"),
+                            security=[{"bearer": []}, {"queryToken": []}])},
+            "/api/v1/sessions/{session_id}/modes": _results_path("motion modes"),
+            "/api/v1/sessions/{session_id}/landmarks": _results_path("landmarks"),
+            "/api/v1/sessions/{session_id}/floors": _results_path("floors"),
+            "/api/v1/sessions/{session_id}/track/columns": _results_path("track as one array per column"),
+            "/api/v1/sessions/{session_id}/truth": {
+                "get": _op("ground truth positions of uploaded logs", {"200": _ok("truth")} | _errors(401, 404),
+                           parameters=[SESSION_ID])},
+            "/api/v1/models": {"get": _op("classifier models", {"200": _ok("models")} | _errors(401))},
+            "/api/v1/models/{name}": {
+                "get": _op("model card", {"200": _ok("card")} | _errors(401, 404), parameters=[NAME])},
+            "/api/v1/classify": {
+                "post": _op("classify the windows of a native batch", {"200": _ok("one decision per window")}
+                            | common, requestBody=_json_body("ClassifyWindow"))},
+            "/api/v1/reports": {"get": _op("the user's reports", {"200": _ok("reports")} | _errors(401))},
+            "/api/v1/reports/allan": {
+                "post": _op("Allan-variance report of a static log (multipart 'file')",
+                            {"202": _ok("queued")} | common | _errors(400),
+                            requestBody={"required": True, "content": {"multipart/form-data": {"schema": {
+                                "type": "object", "required": ["file"],
+                                "properties": {"file": {"type": "string", "format": "binary"},
+                                               "format": {"type": "string"}}}}}})},
+            "/api/v1/reports/{report_id}": {
+                "get": _op("report status and every number", {"200": _ok("report")} | _errors(401, 404),
+                           parameters=[REPORT_ID])},
+            "/api/v1/reports/{report_id}/report.html": {
+                "get": _op("self-contained HTML report", {"200": _ok("page", "text/html")} | _errors(401, 404),
+                           parameters=[REPORT_ID])},
+            "/api/v1/reports/{report_id}/files/{name}": {
+                "get": _op("a report file (PNG plot, imu.yaml, JSON)", {"200": _ok("file", "application/octet-stream")}
+                           | _errors(401, 404), parameters=[REPORT_ID, NAME])},
+            "/api/v1/groups": {
+                "get": _op("the user's cooperative groups", {"200": _ok("groups")} | _errors(401)),
+                "post": _op("create a group", {"201": _ok("created")} | common, requestBody=_json_body("CreateGroup"))},
+            "/api/v1/groups/{group_id}": {
+                "get": _op("group detail", {"200": _ok("group")} | _errors(401, 404), parameters=[GROUP_ID])},
+            "/api/v1/groups/{group_id}/agents": {
+                "post": _op("join an agent", {"201": _ok("joined")} | common, parameters=[GROUP_ID],
+                            requestBody=_json_body("JoinGroup"))},
+            "/api/v1/groups/{group_id}/uploads": {
+                "post": _op("step summaries and ranges of an agent (idempotent)", {"200": _ok("stored")} | common
+                            | _errors(409), parameters=[GROUP_ID], requestBody=_json_body("GroupUpload"))},
+            "/api/v1/groups/{group_id}/flush": {
+                "post": _op("apply everything buffered", {"200": _ok("applied")} | _errors(401, 404),
+                            parameters=[GROUP_ID])},
+            "/api/v1/groups/{group_id}/tracks": {
+                "get": _op("fused tracks of every agent", {"200": _ok("tracks")} | _errors(401, 404),
+                           parameters=[GROUP_ID])},
+            "/api/v1/groups/{group_id}/agents/{agent}/correction": {
+                "get": _op("correction for an agent's local estimate", {"200": _ok("correction")}
+                           | _errors(401, 404), parameters=[GROUP_ID, AGENT])},
+            "/api/v1/ingest/sensor-logger": {
+                "post": _op("Sensor Logger HTTP push; errors the app shows its user are answered 499 (text)",
+                            {"200": _ok("accepted"), "499": _ok("error shown to the user", "text/plain"),
+                             "413": _errors(413)["413"]},
+                            parameters=[TOKEN_QUERY], requestBody=_json_body("SensorLoggerMessage"),
+                            security=[{"bearer": []}, {"queryToken": []}])},
+        },
+    }

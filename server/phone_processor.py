@@ -1,0 +1,127 @@
+"""The phone PDR pipeline (:class:`pdr.pipeline.PdrPipeline`) and motion-mode classifier as a session processor.
+
+Pipeline events become result rows: each ``step`` a track row (the columns of ``pdr track``) and a
+``step`` event; ``elevator`` and site ``landmark`` events ``landmark`` events; ``floor_change`` a
+``floor`` event; ``notice`` a session warning. Motion modes come from the shipped streaming classifier
+(:class:`classifiers.streaming.StreamingClassifier`, one ``mode`` event per window with its confidence)
+once the pipeline has found the phone in a trouser pocket (the model's training placement); for other
+placements, or when the recording lacks a sensor the model needs, from the pipeline's per-step modes.
+The provisional tail (:meth:`PhoneProcessor.tail`) is what :meth:`PdrPipeline.finish` would add if the
+session ended now, so a session's track equals ``pdr track`` on the same data at any time.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from classifiers.streaming import StreamingClassifier
+from pdr.errors import InputError
+from pdr.pipeline import PdrPipeline, PipelineConfig
+from pdr.recording import Recording
+from server.processing import ProcessorOutput, SessionContext
+from server.store import EventRow, TrackRow
+
+#: Session placements (pdr.recording.PLACEMENTS) -> pipeline placement groups.
+PLACEMENT_GROUPS = {"trouser_pocket_front": "pocket", "trouser_pocket_back": "pocket", "trouser_pocket": "pocket",
+                    "hand": "hand", "torso": "torso", "neck": "torso"}
+
+
+#: Placement (pipeline group) the shipped motion-mode model was trained for (MobiFall: trouser pocket).
+MODEL_PLACEMENT = "pocket"
+
+
+def _num(x: Any) -> float | None:
+    return None if x is None else float(x)
+
+
+class PhoneProcessor:
+    """Online phone PDR and motion modes for one session; state = pipeline + classifier state (JSON)."""
+
+    def __init__(self, ctx: SessionContext, state: bytes | None) -> None:
+        self.classifier: StreamingClassifier | None = None
+        if state:
+            d = json.loads(state)
+            self.pipeline = PdrPipeline.from_dict(d["pipeline"])
+            self.last_mode: str = d["last_mode"]
+            self.classifier_status: str = d.get("classifier_status", "pending")
+            if d.get("classifier") is not None:
+                self.classifier = StreamingClassifier.from_state(d["classifier"])
+        else:
+            placement = PLACEMENT_GROUPS.get(ctx.placement or "", "auto")
+            self.pipeline = PdrPipeline(PipelineConfig(placement=placement))
+            self.last_mode = ""
+            self.classifier_status = "pending"
+
+    def update(self, recording: Recording) -> ProcessorOutput:
+        events = self.pipeline.update(recording)
+        modes, notice = self._classify(recording)
+        out, self.last_mode = convert_events(events, self.last_mode, step_modes=self.classifier_status != "active")
+        out.events += modes
+        if notice:
+            out.warnings.append(notice)
+        return out
+
+    def _classify(self, recording: Recording) -> tuple[list[EventRow], str]:
+        """Mode events of the windows this batch completes; a notice when the classifier is turned off."""
+        if self.classifier_status == "off" or self.pipeline.placement is None:
+            return [], ""
+        if self.pipeline.placement != MODEL_PLACEMENT:
+            self.classifier, self.classifier_status = None, "off"
+            return [], (f"motion modes from step patterns only: the mode classifier is trained for a phone in a "
+                        f"trouser pocket, this one is carried in the {self.pipeline.placement}")
+        try:
+            if self.classifier is None:
+                self.classifier = StreamingClassifier()
+            results = self.classifier.update(recording)
+        except InputError as exc:
+            self.classifier, self.classifier_status = None, "off"
+            return [], f"motion modes from step patterns only: the mode classifier cannot use this data ({exc})"
+        self.classifier_status = "active"
+        return [EventRow("mode", r.t_start_s, t_end_s=r.t_end_s, label=r.mode, value=r.confidence,
+                         data={"window_mode": r.window_mode}) for r in results], ""
+
+    def tail(self) -> ProcessorOutput:
+        copy = PdrPipeline.from_dict(self.pipeline.to_dict())
+        out, _ = convert_events(copy.finish(), self.last_mode, step_modes=self.classifier_status != "active")
+        return out
+
+    def to_bytes(self) -> bytes:
+        return json.dumps({"pipeline": self.pipeline.to_dict(), "last_mode": self.last_mode,
+                           "classifier_status": self.classifier_status,
+                           "classifier": None if self.classifier is None else self.classifier.state()}).encode()
+
+
+def convert_events(events: list[dict[str, Any]], last_mode: str,
+                   step_modes: bool = True) -> tuple[ProcessorOutput, str]:
+    """Result rows of pipeline events; returns them with the step mode in force after them.
+
+    ``step_modes``: also emit a ``mode`` event where the pipeline's per-step mode changes.
+    """
+    out = ProcessorOutput()
+    for e in events:
+        kind = e.get("type")
+        if kind == "step":
+            out.track.append(TrackRow(float(e["t_s"]), float(e["east_m"]), float(e["north_m"]), float(e["up_m"]),
+                                      _num(e.get("floor")), _num(e.get("heading_deg")), _num(e.get("step_length_m")),
+                                      e.get("mode")))
+            out.events.append(EventRow("step", float(e["t_s"]), t_end_s=None, label=e.get("mode"),
+                                       value=_num(e.get("step_length_m")),
+                                       data={"t_start_s": e.get("t_start_s"), "heading_deg": e.get("heading_deg"),
+                                             "floor": e.get("floor")}))
+            mode = str(e.get("mode") or "")
+            if mode and mode != last_mode:
+                if step_modes:
+                    out.events.append(EventRow("mode", float(e.get("t_start_s", e["t_s"])), label=mode))
+                last_mode = mode
+        elif kind in ("elevator", "landmark"):
+            t = float(e.get("t_s", e.get("t_start_s", 0.0)))
+            label = "elevator" if kind == "elevator" else str(e.get("mode") or e.get("landmark") or "landmark")
+            data = {k: v for k, v in e.items() if k not in ("type", "t_s") and isinstance(v, str | int | float)}
+            out.events.append(EventRow("landmark", float(e.get("t_start_s", t)), t_end_s=_num(e.get("t_end_s")),
+                                       label=label, data=data))
+        elif kind == "floor_change":
+            out.events.append(EventRow("floor", float(e["t_s"]), value=_num(e.get("floor")), label="floor"))
+        elif kind == "notice":
+            out.warnings.append(str(e.get("message", "")))
+    return out, last_mode

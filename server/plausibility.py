@@ -1,0 +1,122 @@
+"""Plausibility checks of an uploaded batch before it is stored: units and time axis.
+
+A batch that parses can still be wrong in ways that would silently corrupt its session: sensor values in
+the wrong unit (an accelerometer in g, a barometer in Pa, a magnetometer in Gauss, where the batch format
+promises SI), or timestamps from another clock (a batch days away from the rest of its session, or
+spanning days by itself). Those are refused with 422 and a message naming the stream and what to fix;
+the session is left as it was.
+
+Units are judged by the physics of :mod:`pdr.units` (median norm of specific force ~1 g, geomagnetic
+field 25-65 uT, air pressure 300-1100 hPa); only a *confident* detection of another unit is refused, an
+undecidable stream (free fall, a magnet nearby) is accepted. Angular rate cannot be judged on a short
+batch and is not checked.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+import numpy as np
+from sqlalchemy import Engine, func, select
+
+from pdr import units
+from pdr.recording import Recording
+from server import db
+from server.errors import APIError
+
+#: Longest time span of one uploaded batch, s (a day: batches are seconds to minutes long).
+MAX_BATCH_SPAN_S = 86_400.0
+#: Farthest a batch may start from the time span of its session's other batches, s.
+MAX_SESSION_GAP_S = 86_400.0
+
+#: Client-chosen identifiers (batch ids): the pattern of session ids (:data:`server.schemas.CLIENT_ID`).
+ID_PATTERN = re.compile(r"[A-Za-z0-9._:\-]{1,200}")
+#: Longest device text fields (the ``devices`` columns are VARCHAR(200), which PostgreSQL enforces).
+MAX_DEVICE_TEXT = 200
+
+_SI = {"acc": "m/s^2", "mag": "uT", "pressure": "hPa"}
+_DETECT = {"acc": units.detect_acc_unit, "mag": units.detect_mag_unit, "pressure": units.detect_pressure_unit}
+_FAMILY = {"acc": "acc", "acc_uncal": "acc", "gravity": "acc", "mag": "mag", "mag_uncal": "mag", "baro": "pressure"}
+
+
+#: Largest magnitude a sensor can physically report, per unit family (SI): far beyond any real sensor's range
+#: (high-g accelerometers: 200 g; gyros: 2000 deg/s = 35 rad/s), so only corrupt or mis-scaled data hits it.
+MAX_ABS = {"acc": 1e4, "gyro": 1e4, "mag": 1e6, "pressure": 1e4}
+_RANGE_FAMILY = {**_FAMILY, "gyro": "gyro", "gyro_uncal": "gyro"}
+
+
+def check_units(recording: Recording) -> None:
+    """422 if a stream's values are physically impossible or confidently in a non-SI unit."""
+    for kind, stream in recording.streams.items():
+        bound_family = _RANGE_FAMILY.get(kind)
+        if bound_family is not None and len(stream) and float(np.abs(stream.values).max()) > MAX_ABS[bound_family]:
+            raise APIError(422, f"stream '{kind}' holds a value of magnitude {float(np.abs(stream.values).max()):.3g}, "
+                                f"beyond any sensor (limit {MAX_ABS[bound_family]:g} in SI units); batch not stored",
+                           details={"field": f"streams.{kind}.values"})
+        family = _FAMILY.get(kind)
+        if family is None or len(stream) == 0 or (kind == "gravity" and len(stream) < 2):
+            continue
+        detected = _DETECT[family](stream.values)
+        if detected is not None and detected != _SI[family]:
+            raise APIError(422, f"stream '{kind}' looks like {detected}, but batches carry {_SI[family]} "
+                                f"(multiply by {units._UNITS_OF[family][detected]:g}); batch not stored",
+                           details={"field": f"streams.{kind}.values", "detected_unit": detected})
+
+
+def check_time(engine: Engine, session_id: str, role: str, payload_format: str, t_first_ns: int,
+               t_last_ns: int) -> None:
+    """422 if the batch spans more than a day, or lies more than a day away from the session's other batches
+    of the same device and format (each device has its own clock).
+    """
+    span_s = (t_last_ns - t_first_ns) / 1e9
+    if span_s > MAX_BATCH_SPAN_S:
+        raise APIError(422, f"the batch's timestamps span {span_s / 86400:.1f} days; a batch covers seconds to "
+                            f"minutes (timestamps from another clock or another unit?); batch not stored",
+                       details={"field": "streams.*.t_ns"})
+    b = db.batches
+    with engine.connect() as conn:
+        lo, hi = conn.execute(select(func.min(b.c.t_first_ns), func.max(b.c.t_last_ns))
+                              .where(b.c.session_id == session_id, b.c.device_role == role,
+                                     b.c.payload_format == payload_format)).one()
+    if lo is None or hi is None:
+        return
+    gap_s = max(lo - t_last_ns, t_first_ns - hi, 0) / 1e9
+    if gap_s > MAX_SESSION_GAP_S:
+        raise APIError(422, f"the batch is {gap_s / 86400:.1f} days away from the session's other batches "
+                            f"(clock reset, or a batch of another session?); batch not stored",
+                       details={"field": "streams.*.t_ns"})
+
+
+def check_batch(engine: Engine, session_id: str, payload_format: str, recording: Recording, t_first_ns: int,
+                t_last_ns: int) -> None:
+    """Every plausibility check of a batch about to be stored in ``session_id``."""
+    check_units(recording)
+    check_time(engine, session_id, recording.device.role, payload_format, t_first_ns, t_last_ns)
+
+
+def check_identity(engine: Engine, session_id: str, batch_id: str, labelled_session: Any,
+                   recording: Recording) -> None:
+    """422 for a batch id or device fields that are not plain identifiers of bounded length; 409 for a batch
+    labelled (its ``session_id``) for another of the user's sessions, i.e. sent to the wrong session.
+    """
+    if not ID_PATTERN.fullmatch(batch_id):
+        raise APIError(422, "'batch_id' must be 1 to 200 letters, digits or . _ : - characters",
+                       details={"field": "batch_id"})
+    dev = recording.device
+    for field, value in (("device_id", dev.device_id), ("model", dev.model)):
+        if len(value or "") > MAX_DEVICE_TEXT:
+            raise APIError(422, f"'device.{field}' is longer than {MAX_DEVICE_TEXT} characters",
+                           details={"field": f"device.{field}"})
+    if not isinstance(labelled_session, str) or not labelled_session:
+        return
+    s = db.sessions
+    with engine.connect() as conn:
+        own = conn.execute(select(s.c.user_id, s.c.client_session_id).where(s.c.id == session_id)).one()
+        if labelled_session == own.client_session_id:
+            return
+        other = conn.execute(select(s.c.id).where(s.c.user_id == own.user_id,
+                                                 s.c.client_session_id == labelled_session)).first()
+    if other is not None:
+        raise APIError(409, f"the batch is labelled for your session '{labelled_session}', not this one; "
+                            "send it to that session; batch not stored", details={"field": "session_id"})

@@ -1,0 +1,245 @@
+"""Turning stored raw batches into results: decoding payloads and driving each device's online processor.
+
+A *processor* is the online algorithm of one device role of a session (the phone PDR pipeline, or foot
+navigation for a shoe IMU): ``update(recording) -> ProcessorOutput`` and ``to_bytes()`` / ``from_bytes``
+for its state, so that a new batch costs time proportional to the batch and any worker can resume it.
+Batches of a session are processed in time order, one at a time; a batch that starts before what was
+already processed (an out-of-order upload) triggers a rebuild of the session from its raw batches.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+from pdr.errors import InputError
+from pdr.foot.summaries import StepSummaryBatch
+from pdr.recording import Recording
+from server.store import BatchRecord, EventRow, Store, TrackRow
+
+log = logging.getLogger(__name__)
+
+#: Payload formats of stored batches.
+NATIVE_JSON = "native-json"
+SENSOR_LOGGER_JSON = "sensor-logger-json"
+FOOT_STEPS_JSON = "foot-steps-json"  # step-wise dead-reckoning summaries (pdr.foot.summaries), not a Recording
+FILE_PREFIX = "file:"
+
+
+@dataclass
+class ProcessorOutput:
+    """What one processed batch adds: track rows, events and warnings for the user."""
+
+    track: list[TrackRow] = field(default_factory=list)
+    events: list[EventRow] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+
+class Processor(Protocol):
+    def update(self, recording: Recording) -> ProcessorOutput: ...
+
+    def to_bytes(self) -> bytes: ...
+
+
+class FinishingProcessor(Processor, Protocol):
+    def tail(self) -> ProcessorOutput:
+        """What ending the session now would add (without changing the processor's state)."""
+        ...
+
+
+@dataclass(frozen=True)
+class SessionContext:
+    """What a processor may know about its session when it is created."""
+
+    session_id: str
+    role: str
+    placement: str | None
+    meta: dict[str, Any]
+
+
+ProcessorFactory = Callable[[SessionContext, bytes | None], Processor]
+
+
+def decode_payload(batch: BatchRecord) -> Recording | StepSummaryBatch:
+    """What a raw batch holds for its processor: a :class:`Recording`, or foot step summaries."""
+    if batch.payload_format == FOOT_STEPS_JSON:
+        from pdr.foot.summaries import steps_from_json
+        source = f"batch '{batch.client_batch_id}'"
+        return steps_from_json(_json(batch.payload, source), source=source)
+    return decode_batch(batch)
+
+
+def decode_batch(batch: BatchRecord) -> Recording:
+    """The :class:`Recording` stored in a raw batch; :class:`InputError` if it cannot be read."""
+    fmt = batch.payload_format
+    source = f"batch '{batch.client_batch_id}'"
+    if fmt == NATIVE_JSON:
+        from pdr.io.native import batch_from_json
+        return batch_from_json(_json(batch.payload, source), source=source)
+    if fmt == SENSOR_LOGGER_JSON:
+        from pdr.io.sensor_logger import parse_push_message
+        return parse_push_message(_json(batch.payload, source), source=source)
+    if fmt.startswith(FILE_PREFIX):
+        return read_uploaded_file(batch.payload, fmt[len(FILE_PREFIX):])
+    raise InputError(f"unknown stored payload format '{fmt}'", source=source)
+
+
+def _json(payload: bytes, source: str) -> Any:
+    try:
+        return json.loads(payload)
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise InputError(f"not valid JSON ({exc})", source=source) from None
+
+
+def read_uploaded_file(payload: bytes, descriptor: str) -> Recording:
+    """Read an uploaded log file; ``descriptor`` is ``FORMAT/FILENAME`` (the name keeps suffixes like .gz).
+
+    The reader runs in a resource-limited child process (:mod:`server.sandbox`): a file that crashes a
+    parser or exhausts memory is an :class:`InputError`, not the end of the service.
+    """
+    from server.sandbox import read_isolated
+
+    fmt, _, filename = descriptor.partition("/")
+    _, recording = read_isolated(payload, filename, fmt or None)
+    assert recording is not None
+    return recording
+
+
+def detect_uploaded_format(payload: bytes, filename: str) -> str:
+    """Format name of an uploaded file (autodetected as for ``pdr inspect``, in a child process)."""
+    from server.sandbox import read_isolated
+
+    return read_isolated(payload, filename, detect_only=True)[0]
+
+
+class SessionLocks:
+    """One lock per session: batches of a session are processed one at a time (within this process)."""
+
+    def __init__(self) -> None:
+        self._locks: dict[str, threading.Lock] = {}
+        self._guard = threading.Lock()
+
+    def get(self, session_id: str) -> threading.Lock:
+        with self._guard:
+            return self._locks.setdefault(session_id, threading.Lock())
+
+
+class SessionProcessing:
+    """Processes the pending batches of sessions with the processors made by ``factory``."""
+
+    #: Exceptions that are not the batch's fault (lost database connection, lost lease): re-raised for the
+    #: caller to retry instead of marking the batch failed. Empty in the embedded default.
+    transient: tuple[type[BaseException], ...] = ()
+
+    def __init__(self, store: Store, factory: ProcessorFactory) -> None:
+        self.store = store
+        self.factory = factory
+        self.locks = SessionLocks()
+
+    def process_session(self, session_id: str) -> None:
+        """Process every pending batch of the session, in time order; rebuild if one arrived late."""
+        with self.locks.get(session_id):
+            processed = False
+            while True:
+                pending = self.store.batches(session_id, ["pending"])
+                if not pending:
+                    break
+                if self._arrived_late(session_id, pending):
+                    log.info("session %s: out-of-order batch, rebuilding from raw data", session_id)
+                    self.store.clear_results(session_id)
+                    continue
+                last_of_role = {b.device_role: b.id for b in pending}
+                live: dict[str, Processor] = {}  # processors kept between the batches of this pass
+                for batch in pending:
+                    self._process_batch(session_id, batch, with_tail=last_of_role[batch.device_role] == batch.id,
+                                        live=live)
+                processed = True
+            if processed:
+                self._fuse_feet(session_id)
+            self._finish(session_id)
+
+    def clear(self, session_id: str) -> None:
+        """Forget the session's results so that processing rebuilds them from raw batches."""
+        with self.locks.get(session_id):
+            self.store.clear_results(session_id)
+            self.store.set_session(session_id, status="pending")
+
+    def reprocess(self, session_id: str) -> None:
+        """Rebuild all results of a session from its raw batches, now."""
+        self.clear(session_id)
+        self.process_session(session_id)
+
+    def _arrived_late(self, session_id: str, pending: list[BatchRecord]) -> bool:
+        for role in {b.device_role for b in pending}:
+            _, watermark = self.store.load_state(session_id, role)
+            firsts = [b.t_first_ns for b in pending if b.device_role == role and b.t_first_ns is not None]
+            if watermark is not None and firsts and min(firsts) <= watermark:
+                return True
+        return False
+
+    def _context(self, session_id: str, role: str) -> SessionContext:
+        row = self.store.session_row(session_id)
+        placement = row.placement
+        for dev in self.store.devices(session_id):
+            if dev.role == role and dev.placement:
+                placement = dev.placement
+        return SessionContext(session_id, role, placement, json.loads(row.meta or "{}"))
+
+    def _process_batch(self, session_id: str, batch: BatchRecord, with_tail: bool = True,
+                       live: dict[str, Processor] | None = None) -> None:
+        """Process one batch; ``live`` caches processors by role so that a pass restores each state once."""
+        live = {} if live is None else live
+        self.store.set_batch_status(batch.id, "processing")
+        role = batch.device_role
+        try:
+            recording = decode_payload(batch)
+            processor = live.pop(role, None)
+            if processor is None:
+                state, _ = self.store.load_state(session_id, role)
+                processor = self.factory(self._context(session_id, role), state)
+            if isinstance(recording, StepSummaryBatch):
+                if not hasattr(processor, "update_steps"):
+                    raise InputError(f"device role '{role}' does not take step summaries")
+                out, last_t_ns = processor.update_steps(recording), recording.t_last_ns
+            else:
+                out = processor.update(recording)
+                last_t_ns = max(int(s.t_ns[-1]) for s in recording.streams.values() if len(s))
+            tail = processor.tail() if with_tail and hasattr(processor, "tail") else ProcessorOutput()
+            self.store.commit_results(session_id, role, batch.id, processor.to_bytes(), last_t_ns,
+                                      out.track, out.events, tail_track=tail.track, tail_events=tail.events)
+            live[role] = processor  # only a processor whose state was committed is reused
+            self.store.add_session_warnings(session_id, list(recording.warnings) + out.warnings)
+            if (isinstance(recording, Recording) and recording.truth.positions is not None
+                    and recording.truth.positions.origin_lat_lon_deg):
+                lat, lon = recording.truth.positions.origin_lat_lon_deg
+                self.store.set_session(session_id, origin_lat_deg=lat, origin_lon_deg=lon)
+        except self.transient:
+            raise
+        except InputError as exc:
+            self.store.set_batch_status(batch.id, "failed", str(exc))
+        except Exception as exc:  # a processing bug must not lose the raw batch or stop the worker
+            log.exception("processing batch %s of session %s failed", batch.id, session_id)
+            self.store.set_batch_status(batch.id, "failed", f"internal processing error: {type(exc).__name__}: {exc}")
+
+    def _fuse_feet(self, session_id: str) -> None:
+        """Session-level stage after a pass: the fused dual-foot track (role ``fused``, :mod:`server.fused_feet`)."""
+        from server.fused_feet import fuse_session  # imports the foot processor, which imports this module
+
+        try:
+            fuse_session(self.store, session_id)
+        except self.transient:
+            raise
+        except InputError as exc:
+            self.store.add_session_warnings(session_id, [f"fused foot track: {exc}"])
+        except Exception as exc:  # a fusion bug must not stop the worker; the feet's own tracks stay
+            log.exception("fusing the feet of session %s failed", session_id)
+            self.store.add_session_warnings(session_id, [f"fused foot track: internal error: {type(exc).__name__}"])
+
+    def _finish(self, session_id: str) -> None:
+        summary = self.store.batch_summary(session_id)
+        status = "failed" if summary.get("failed") or summary.get("dead") else ("done" if summary else "empty")
+        self.store.set_session(session_id, status=status)

@@ -1,0 +1,102 @@
+"""Reading uploaded log files in a separate, resource-limited process.
+
+An uploaded file is untrusted input to parsers that are not all memory-safe or bounded: a corrupt
+MATLAB file makes ``scipy.io.loadmat`` (native code) crash the whole interpreter with a segmentation
+fault (reproduced with scipy 1.17 on a PyShoe ``.mat`` whose header bytes 176-208 are zeroed), and a
+gzip bomb within the upload limit decompresses to tens of GB. Read in the web process, either takes
+the service down. Here the reader runs in a child Python process with an address-space and CPU-time
+limit; a crash, a limit or a timeout becomes an :class:`~pdr.errors.InputError` (422 for an upload, a
+``failed`` batch in processing) and the service keeps running.
+
+The child is started per file (about a second of interpreter start-up): uploads of whole files are
+rare and large, batches (the frequent path) are parsed in-process from JSON.
+"""
+
+from __future__ import annotations
+
+import copyreg
+import os
+import pickle
+import resource
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+from pdr.errors import InputError
+from pdr.recording import Recording
+
+#: Address space a reader may use, MB (``PDR_READER_MEMORY_MB``; a 64 MB upload of any format needs far less).
+MEMORY_LIMIT_MB = 4096
+#: CPU time a reader may use, s, and wall-clock time the parent waits.
+CPU_LIMIT_S = 300
+WALL_LIMIT_S = 600
+
+
+def read_isolated(payload: bytes, filename: str, fmt: str | None = None,
+                  detect_only: bool = False) -> tuple[str, Recording | None]:
+    """(format, recording) of an uploaded file, read in a child process; ``detect_only`` skips reading.
+
+    Raises
+    ------
+    InputError
+        The reader's own error, or the file crashed the reader or exceeded the limits.
+    """
+    safe_name = Path(filename).name or "upload"
+    with tempfile.TemporaryDirectory(prefix="pdr-upload-") as tmp:
+        path = Path(tmp) / safe_name
+        path.write_bytes(payload)
+        out = Path(tmp) / "result.pickle"
+        cmd = [sys.executable, "-m", "server.sandbox", str(path), fmt or "", "1" if detect_only else "0", str(out)]
+        try:
+            proc = subprocess.run(cmd, capture_output=True, timeout=WALL_LIMIT_S, check=False)
+        except subprocess.TimeoutExpired:
+            raise InputError(f"reading the file took longer than {WALL_LIMIT_S} s", source=safe_name) from None
+        if not out.exists():
+            why = (f"killed by signal {-proc.returncode}" if proc.returncode < 0
+                   else f"exit status {proc.returncode}")
+            raise InputError(f"the file could not be read within the service's limits (the reader crashed: {why}); "
+                             "it is corrupt or not a supported log", source=safe_name)
+        result: tuple[Any, ...] = pickle.loads(out.read_bytes())  # written by our own child process
+    if result[0] == "ok":
+        return result[1], result[2]
+    if result[0] == "input_error":
+        _, message, source, line, field, code = result
+        err = InputError(message, source=source, line=line, field=field)
+        err.code = code
+        raise err
+    raise RuntimeError(f"{result[1]}: {result[2]}")
+
+
+def _proxy(d: dict[Any, Any]) -> MappingProxyType[Any, Any]:
+    """Rebuild a read-only mapping (recordings hold them; pickle cannot by default)."""
+    return MappingProxyType(d)
+
+
+def _child(path: str, fmt: str, detect_only: bool, out: str) -> None:
+    from server import sandbox  # this module by its import name (not __main__), so the parent finds _proxy
+
+    copyreg.pickle(MappingProxyType, lambda m: (sandbox._proxy, (dict(m),)))
+    memory = int(os.environ.get("PDR_READER_MEMORY_MB", MEMORY_LIMIT_MB)) * 1024**2
+    resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
+    resource.setrlimit(resource.RLIMIT_CPU, (CPU_LIMIT_S, CPU_LIMIT_S))
+    from pdr.io import detect_format, read_recording
+
+    try:
+        name = fmt or detect_format(path)
+        result: tuple[Any, ...] = ("ok", name, None if detect_only else read_recording(path, format=name))
+    except InputError as exc:
+        source = None if exc.source is None else str(exc.source).replace(str(Path(path).parent) + "/", "")
+        result = ("input_error", exc.message, source, exc.line, exc.field, exc.code)
+    except MemoryError:
+        result = ("input_error", "the file needs more memory than the service allows (a compression bomb?)",
+                  None, None, None, "invalid_input")
+    except Exception as exc:  # a reader bug: reported as such by the parent
+        result = ("error", type(exc).__name__, str(exc)[:2000])
+    Path(out).write_bytes(pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL))
+
+
+if __name__ == "__main__":
+    _child(sys.argv[1], sys.argv[2], sys.argv[3] == "1", sys.argv[4])

@@ -1,0 +1,76 @@
+"""JSON Schemas of request bodies (validated with ``jsonschema``; also published in the OpenAPI document)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jsonschema
+
+from pdr.recording import DEVICE_ROLES, PLACEMENTS, PLATFORMS
+from server.errors import APIError
+
+CLIENT_ID = {"type": "string", "minLength": 1, "maxLength": 200, "pattern": r"^[A-Za-z0-9._:\-]+$"}
+
+DEVICE = {
+    "type": "object",
+    "additionalProperties": False,
+    "properties": {
+        "role": {"enum": list(DEVICE_ROLES)},
+        "device_id": {"type": "string", "maxLength": 200},
+        "platform": {"enum": list(PLATFORMS)},
+        "model": {"type": "string", "maxLength": 200},
+        "placement": {"enum": [*PLACEMENTS, None]},
+    },
+}
+
+CREATE_SESSION = {
+    "type": "object",
+    "additionalProperties": False,
+    "properties": {
+        "session_id": CLIENT_ID,
+        "name": {"type": "string", "maxLength": 200},
+        "placement": {"enum": [*PLACEMENTS, None]},
+        "device": DEVICE,
+        "origin": {
+            "type": "object", "additionalProperties": False, "required": ["lat_deg", "lon_deg"],
+            "properties": {"lat_deg": {"type": "number", "minimum": -90, "maximum": 90},
+                           "lon_deg": {"type": "number", "minimum": -180, "maximum": 180}},
+        },
+    },
+}
+
+PAIR_DEVICE = {**DEVICE, "required": ["role"]}
+
+SENSOR_LOGGER_MESSAGE = {
+    "type": "object",
+    "required": ["messageId", "sessionId", "deviceId", "payload"],
+    "properties": {
+        "messageId": {"type": ["integer", "string"]},
+        "sessionId": {"type": "string", "minLength": 1, "maxLength": 200},
+        "deviceId": {"type": "string", "minLength": 1, "maxLength": 200},
+        "payload": {"type": "array", "items": {
+            "type": "object", "required": ["name", "time", "values"],
+            "properties": {"name": {"type": "string"}, "time": {"type": ["integer", "number"]},
+                           "values": {"type": "object"}}}},
+    },
+}
+
+CLASSIFY_WINDOW = {
+    "type": "object",
+    "required": ["batch"],
+    "additionalProperties": False,
+    "properties": {
+        "model": {"type": "string", "maxLength": 100, "pattern": r"^[A-Za-z0-9._\-]+$"},
+        "batch": {"type": "object", "description": "a native batch (pdr-batch/1) covering one window or more"},
+    },
+}
+
+
+def validate(body: Any, schema: dict[str, Any], what: str) -> None:
+    """Raise a 422 naming the offending JSON path when ``body`` does not match ``schema``."""
+    validator = jsonschema.Draft202012Validator(schema)
+    error = next(iter(sorted(validator.iter_errors(body), key=lambda e: list(e.absolute_path))), None)
+    if error is not None:
+        path = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in error.absolute_path).lstrip(".")
+        raise APIError(422, f"invalid {what}: {path or '(body)'}: {error.message}",
+                       details={"path": path, "validator": error.validator})

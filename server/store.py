@@ -1,0 +1,309 @@
+"""Persistence of sessions, devices, raw batches, processing state and results (SQLAlchemy Core).
+
+Every write that acknowledges an upload commits before the HTTP answer, so an accepted batch survives a
+crash. Raw payloads are zlib-compressed; their SHA-256 makes re-sent batches idempotent.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import uuid
+import zlib
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from sqlalchemy import Connection, Engine, Row, delete, func, insert, select, update
+from sqlalchemy.exc import IntegrityError
+
+from server import db
+from server.errors import APIError
+
+SESSION_COLUMNS = ("id", "client_session_id", "source", "name", "placement", "status", "created_at", "updated_at",
+                   "t0_ns", "origin_lat_deg", "origin_lon_deg")
+
+
+@dataclass(frozen=True)
+class BatchRecord:
+    """A stored raw batch, decompressed."""
+
+    id: int
+    session_id: str
+    device_role: str
+    client_batch_id: str
+    payload_format: str
+    payload: bytes
+    t_first_ns: int | None
+    t_last_ns: int | None
+    status: str
+
+
+@dataclass(frozen=True)
+class TrackRow:
+    """One step of a track, in the columns of ``pdr track`` (local metres, heading clockwise from north)."""
+
+    t_s: float
+    east_m: float
+    north_m: float
+    up_m: float
+    floor: float | None
+    heading_deg: float | None
+    step_length_m: float | None
+    mode: str | None
+
+
+@dataclass(frozen=True)
+class EventRow:
+    """A result event: ``kind`` is step, mode, landmark or floor; ``label``/``value`` per kind."""
+
+    kind: str
+    t_s: float
+    t_end_s: float | None = None
+    label: str | None = None
+    value: float | None = None
+    data: dict[str, Any] | None = None
+
+
+class Store:
+    """Repository over one database engine."""
+
+    def __init__(self, engine: Engine) -> None:
+        self.engine = engine
+
+    # -- sessions --------------------------------------------------------------------------------
+    def create_session(self, user_id: int, *, source: str, client_session_id: str | None = None, name: str = "",
+                       placement: str | None = None, meta: dict[str, Any] | None = None) -> tuple[str, bool]:
+        """Create (or find, by the client's id) a session; returns (id, created)."""
+        client_id = client_session_id or uuid.uuid4().hex
+        now = db.utcnow()
+        with self.engine.begin() as conn:
+            existing = conn.execute(select(db.sessions.c.id).where(
+                db.sessions.c.user_id == user_id, db.sessions.c.source == source,
+                db.sessions.c.client_session_id == client_id)).first()
+            if existing:
+                return str(existing.id), False
+            sid = str(uuid.uuid4())
+            try:
+                conn.execute(insert(db.sessions).values(
+                    id=sid, user_id=user_id, client_session_id=client_id, source=source, name=name or client_id,
+                    placement=placement, status="empty", created_at=now, updated_at=now, warnings="[]",
+                    meta=json.dumps(meta or {})))
+            except IntegrityError:
+                conn.rollback()
+                return self.create_session(user_id, source=source, client_session_id=client_id, name=name,
+                                           placement=placement, meta=meta)
+        return sid, True
+
+    def session_row(self, session_id: str, user_id: int | None = None) -> Row[Any]:
+        """The session; 404 when absent or owned by another user (existence is not revealed)."""
+        q = select(db.sessions).where(db.sessions.c.id == session_id)
+        with self.engine.connect() as conn:
+            row = conn.execute(q).first()
+        if row is None or (user_id is not None and row.user_id != user_id):
+            raise APIError(404, f"no session '{session_id}'")
+        return row
+
+    def list_sessions(self, user_id: int) -> list[Row[Any]]:
+        with self.engine.connect() as conn:
+            return list(conn.execute(select(db.sessions).where(db.sessions.c.user_id == user_id)
+                                     .order_by(db.sessions.c.created_at)))
+
+    def set_session(self, session_id: str, **values: Any) -> None:
+        values["updated_at"] = db.utcnow()
+        with self.engine.begin() as conn:
+            conn.execute(update(db.sessions).where(db.sessions.c.id == session_id).values(**values))
+
+    def add_session_warnings(self, session_id: str, warnings: Iterable[str]) -> None:
+        new = [w for w in warnings if w]
+        if not new:
+            return
+        with self.engine.begin() as conn:
+            row = conn.execute(select(db.sessions.c.warnings).where(db.sessions.c.id == session_id)).first()
+            current = json.loads(row.warnings) if row else []
+            merged = current + [w for w in new if w not in current]
+            conn.execute(update(db.sessions).where(db.sessions.c.id == session_id).values(warnings=json.dumps(merged)))
+
+    # -- devices ---------------------------------------------------------------------------------
+    def upsert_device(self, session_id: str, role: str, *, device_id: str = "", platform: str = "unknown",
+                      model: str = "", placement: str | None = None) -> None:
+        with self.engine.begin() as conn:
+            found = conn.execute(select(db.devices.c.id).where(db.devices.c.session_id == session_id,
+                                                              db.devices.c.role == role)).first()
+            values = dict(device_id=device_id, platform=platform, model=model, placement=placement)
+            if found:
+                conn.execute(update(db.devices).where(db.devices.c.id == found.id).values(**values))
+            else:
+                conn.execute(insert(db.devices).values(session_id=session_id, role=role, **values))
+
+    def devices(self, session_id: str) -> list[Row[Any]]:
+        with self.engine.connect() as conn:
+            return list(conn.execute(select(db.devices).where(db.devices.c.session_id == session_id)
+                                     .order_by(db.devices.c.role)))
+
+    # -- batches ---------------------------------------------------------------------------------
+    def add_batch(self, session_id: str, *, device_role: str, client_batch_id: str, payload_format: str,
+                  payload: bytes, t_first_ns: int | None, t_last_ns: int | None) -> tuple[int, bool]:
+        """Persist a raw batch; returns (id, created). A re-sent identical batch is a no-op; a different
+        payload under the same client batch id is a 409 conflict.
+        """
+        digest = hashlib.sha256(payload).hexdigest()
+        q = select(db.batches.c.id, db.batches.c.payload_sha256).where(
+            db.batches.c.session_id == session_id, db.batches.c.client_batch_id == client_batch_id)
+        with self.engine.begin() as conn:
+            found = conn.execute(q).first()
+            if found is None:
+                try:
+                    with conn.begin_nested():
+                        res = conn.execute(insert(db.batches).values(
+                            session_id=session_id, device_role=device_role, client_batch_id=client_batch_id,
+                            payload_format=payload_format, payload=zlib.compress(payload, 6), payload_sha256=digest,
+                            size_bytes=len(payload), t_first_ns=t_first_ns, t_last_ns=t_last_ns,
+                            received_at=db.utcnow(), status="pending"))
+                    conn.execute(update(db.sessions).where(db.sessions.c.id == session_id)
+                                 .values(status="pending", updated_at=db.utcnow()))
+                    key = res.inserted_primary_key
+                    assert key is not None
+                    return int(key[0]), True
+                except IntegrityError:
+                    found = conn.execute(q).first()
+            assert found is not None
+        if found.payload_sha256 != digest:
+            raise APIError(409, f"batch '{client_batch_id}' was already received with different content",
+                           details={"batch_id": client_batch_id})
+        return int(found.id), False
+
+    def batches(self, session_id: str, statuses: Sequence[str] | None = None,
+                with_payload: bool = True) -> list[BatchRecord]:
+        """Batches of a session in processing order (first sample time, then arrival)."""
+        cols = [db.batches.c.id, db.batches.c.session_id, db.batches.c.device_role, db.batches.c.client_batch_id,
+                db.batches.c.payload_format, db.batches.c.t_first_ns, db.batches.c.t_last_ns, db.batches.c.status]
+        if with_payload:
+            cols.append(db.batches.c.payload)
+        q = select(*cols).where(db.batches.c.session_id == session_id)
+        if statuses:
+            q = q.where(db.batches.c.status.in_(list(statuses)))
+        q = q.order_by(db.batches.c.t_first_ns, db.batches.c.id)
+        with self.engine.connect() as conn:
+            rows = list(conn.execute(q))
+        return [BatchRecord(int(r.id), r.session_id, r.device_role, r.client_batch_id, r.payload_format,
+                            zlib.decompress(r.payload) if with_payload else b"", r.t_first_ns, r.t_last_ns,
+                            r.status) for r in rows]
+
+    def batch_summary(self, session_id: str) -> dict[str, int]:
+        with self.engine.connect() as conn:
+            rows = conn.execute(select(db.batches.c.status, func.count()).where(db.batches.c.session_id == session_id)
+                                .group_by(db.batches.c.status))
+            return {str(r[0]): int(r[1]) for r in rows}
+
+    def batch_list(self, session_id: str) -> list[Row[Any]]:
+        with self.engine.connect() as conn:
+            return list(conn.execute(
+                select(db.batches.c.id, db.batches.c.client_batch_id, db.batches.c.device_role,
+                       db.batches.c.payload_format, db.batches.c.size_bytes, db.batches.c.t_first_ns,
+                       db.batches.c.t_last_ns, db.batches.c.received_at, db.batches.c.status, db.batches.c.error)
+                .where(db.batches.c.session_id == session_id).order_by(db.batches.c.t_first_ns, db.batches.c.id)))
+
+    def set_batch_status(self, batch_id: int, status: str, error: str | None = None) -> None:
+        with self.engine.begin() as conn:
+            conn.execute(update(db.batches).where(db.batches.c.id == batch_id).values(
+                status=status, error=error, processed_at=db.utcnow()))
+
+    def sessions_with_pending(self) -> list[str]:
+        with self.engine.connect() as conn:
+            rows = conn.execute(select(db.batches.c.session_id).where(
+                db.batches.c.status.in_(["pending", "processing"])).distinct())
+            return [str(r[0]) for r in rows]
+
+    def reset_interrupted(self) -> None:
+        """Batches left 'processing' by a crashed worker go back to 'pending'."""
+        with self.engine.begin() as conn:
+            conn.execute(update(db.batches).where(db.batches.c.status == "processing").values(status="pending"))
+
+    # -- processing state and results ------------------------------------------------------------
+    def load_state(self, session_id: str, role: str) -> tuple[bytes | None, int | None]:
+        with self.engine.connect() as conn:
+            row = conn.execute(select(db.processor_states.c.state, db.processor_states.c.last_t_ns).where(
+                db.processor_states.c.session_id == session_id, db.processor_states.c.device_role == role)).first()
+        if row is None:
+            return None, None
+        return zlib.decompress(row.state), row.last_t_ns
+
+    def commit_results(self, session_id: str, role: str, batch_id: int | None, state: bytes, last_t_ns: int | None,
+                       track: Sequence[TrackRow], events: Sequence[EventRow],
+                       guard: Callable[[Connection], None] | None = None,
+                       tail_track: Sequence[TrackRow] = (), tail_events: Sequence[EventRow] = ()) -> None:
+        """Atomically store a processed batch's results, the processor state after it and its status.
+
+        The role's provisional rows are replaced by ``tail_track``/``tail_events``: what the processor would
+        still emit if the session ended now (e.g. the last step), flagged ``provisional``.
+
+        ``batch_id`` is ``None`` for results derived from other roles' results (the fused foot track).
+
+        ``guard(conn)`` runs first in the same transaction and may raise to abort the commit (a worker
+        checking that it still holds the session's lease, :mod:`server.leases`).
+        """
+        now = db.utcnow()
+        with self.engine.begin() as conn:
+            if guard is not None:
+                guard(conn)
+            key = (db.processor_states.c.session_id == session_id) & (db.processor_states.c.device_role == role)
+            values = dict(state=zlib.compress(state, 6), last_t_ns=last_t_ns, updated_at=now)
+            if conn.execute(select(db.processor_states.c.session_id).where(key)).first():
+                conn.execute(update(db.processor_states).where(key).values(**values))
+            else:
+                conn.execute(insert(db.processor_states).values(session_id=session_id, device_role=role, **values))
+            for table in (db.track_points, db.events):
+                conn.execute(delete(table).where(table.c.session_id == session_id, table.c.device_role == role,
+                                                 table.c.provisional.is_(True)))
+            for rows, provisional in ((track, False), (tail_track, True)):
+                if rows:
+                    conn.execute(insert(db.track_points), [
+                        dict(session_id=session_id, device_role=role, provisional=provisional, **r.__dict__)
+                        for r in rows])
+            for evs, provisional in ((events, False), (tail_events, True)):
+                if evs:
+                    conn.execute(insert(db.events), [
+                        dict(session_id=session_id, device_role=role, kind=e.kind, t_s=e.t_s, t_end_s=e.t_end_s,
+                             label=e.label, value=e.value, data=json.dumps(e.data or {}), provisional=provisional)
+                        for e in evs])
+            if batch_id is not None:
+                conn.execute(update(db.batches).where(db.batches.c.id == batch_id).values(
+                    status="done", error=None, processed_at=now))
+
+    def clear_results(self, session_id: str) -> None:
+        """Forget every result and processor state of a session and mark its batches pending (reprocess)."""
+        with self.engine.begin() as conn:
+            for table in (db.track_points, db.events, db.processor_states):
+                conn.execute(delete(table).where(table.c.session_id == session_id))
+            conn.execute(delete(db.batch_attempts).where(db.batch_attempts.c.batch_id.in_(
+                select(db.batches.c.id).where(db.batches.c.session_id == session_id))))
+            conn.execute(update(db.batches).where(db.batches.c.session_id == session_id)
+                         .values(status="pending", error=None, processed_at=None))
+
+    def track(self, session_id: str, role: str | None = None, since_s: float | None = None) -> list[Row[Any]]:
+        q = select(db.track_points).where(db.track_points.c.session_id == session_id)
+        if role:
+            q = q.where(db.track_points.c.device_role == role)
+        if since_s is not None:
+            q = q.where(db.track_points.c.t_s > since_s)
+        with self.engine.connect() as conn:
+            return list(conn.execute(q.order_by(db.track_points.c.device_role, db.track_points.c.t_s,
+                                                db.track_points.c.id)))
+
+    def track_summary(self, session_id: str) -> dict[str, dict[str, float]]:
+        """Per device role: steps, distance (sum of step lengths, m) and first/last step time (s), by SQL."""
+        tp = db.track_points
+        q = (select(tp.c.device_role, func.count(), func.coalesce(func.sum(tp.c.step_length_m), 0.0),
+                    func.min(tp.c.t_s), func.max(tp.c.t_s))
+             .where(tp.c.session_id == session_id).group_by(tp.c.device_role))
+        with self.engine.connect() as conn:
+            return {str(r[0]): {"steps": int(r[1]), "distance_m": float(r[2]), "first_t_s": float(r[3]),
+                                "last_t_s": float(r[4])} for r in conn.execute(q)}
+
+    def events(self, session_id: str, kind: str, since_s: float | None = None) -> list[Row[Any]]:
+        q = select(db.events).where(db.events.c.session_id == session_id, db.events.c.kind == kind)
+        if since_s is not None:
+            q = q.where(db.events.c.t_s > since_s)
+        with self.engine.connect() as conn:
+            return list(conn.execute(q.order_by(db.events.c.t_s, db.events.c.id)))

@@ -1,0 +1,945 @@
+/* The service's page: sign-in with an API token, sessions list, session view, Allan reports, model cards.
+ *
+ * Everything comes from the JSON API with "Authorization: Bearer <token>"; the token lives in this tab's
+ * sessionStorage and never in a URL. Views are chosen by the URL fragment (#/sessions, #/session/ID,
+ * #/reports, #/report/ID, #/models). Text from the server is only ever set with textContent. */
+"use strict";
+
+(() => {
+  const TOKEN_KEY = "pdr.token";
+  const API = "/api/v1";
+  const LIVE_STATUSES = new Set(["pending", "processing", "empty"]);
+  const RECENT_MS = 10 * 60 * 1000;
+  const FOOT_ROLES = new Set(["left_foot", "right_foot"]);
+  const $ = (id) => document.getElementById(id);
+  const enc = encodeURIComponent;
+  const { fmt, fmtDuration } = Plot;
+
+  /** Exposed for the browser tests: render timings (ms) of the last session view. */
+  const page = { timings: {} };
+  window.pdrPage = page;
+
+  let generation = 0; // bumped on every navigation: late answers of an old view are dropped
+  let pollTimer = null;
+  let map = null;
+  let current = null; // the open session's state
+
+  // -- API --------------------------------------------------------------------------------------
+  class ApiError extends Error {
+    constructor(status, code, message) {
+      super(message);
+      this.status = status;
+      this.code = code;
+    }
+
+    /** A sentence for people: the server's message and the HTTP status. */
+    readable(what) {
+      const status = this.status ? ` (HTTP ${this.status}${this.code ? ", " + this.code : ""})` : "";
+      return `${what ? what + ": " : ""}${this.message}${status}`;
+    }
+  }
+
+  const token = () => sessionStorage.getItem(TOKEN_KEY);
+
+  async function apiFetch(path, accept) {
+    const tok = token();
+    if (!tok) throw new ApiError(401, "unauthorized", "please sign in with your API token");
+    let resp;
+    try {
+      resp = await fetch(path, {
+        headers: { Authorization: `Bearer ${tok}`, Accept: accept || "application/json" },
+        cache: "no-store", credentials: "omit", referrerPolicy: "no-referrer",
+      });
+    } catch (err) {
+      throw new ApiError(0, "network", `the service could not be reached (${err.message})`);
+    }
+    if (!resp.ok) {
+      let message = `${resp.status} ${resp.statusText || "error"}`, code = "";
+      try {
+        const body = await resp.json();
+        if (body && body.error && body.error.message) { message = body.error.message; code = body.error.code || ""; }
+      } catch (_) { /* not a JSON error body: keep the status line */ }
+      const err = new ApiError(resp.status, code, message);
+      if (resp.status === 401) signOut(err.readable("Your token was not accepted"));
+      throw err;
+    }
+    return resp;
+  }
+
+  const apiJson = async (path) => (await apiFetch(path)).json();
+
+  /** Track rows (objects) of a ``/track/columns`` answer (one array per column: compact and fast to serve). */
+  function rowsOfColumns(body) {
+    const c = body.columns, n = body.count, rows = new Array(n);
+    for (let i = 0; i < n; i++) {
+      rows[i] = { t_s: c.t_s[i], east_m: c.east_m[i], north_m: c.north_m[i], up_m: c.up_m[i], floor: c.floor[i],
+        heading_deg: c.heading_deg[i], step_length_m: c.step_length_m[i], mode: c.mode[i], device: c.device[i],
+        provisional: c.provisional ? c.provisional[i] : false };
+    }
+    return rows;
+  }
+
+  /** Download an API resource as a file (the token goes in the header, so a plain link cannot do it). */
+  async function download(path, filename, accept) {
+    const resp = await apiFetch(path, accept);
+    const blob = await resp.blob();
+    const url = URL.createObjectURL(blob);
+    const a = document.createElement("a");
+    a.href = url;
+    a.download = filename;
+    document.body.appendChild(a);
+    a.click();
+    a.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 60000);
+  }
+
+  // -- messages and view switching --------------------------------------------------------------
+  function showMessage(text, kind) {
+    const box = $("message");
+    box.textContent = text;
+    box.className = `message ${kind || "error"}`;
+    box.hidden = false;
+  }
+
+  function clearMessage() {
+    $("message").hidden = true;
+    $("message").textContent = "";
+  }
+
+  function reportError(err, what) {
+    if (err instanceof ApiError) {
+      if (err.status !== 401) showMessage(err.readable(what));
+    } else {
+      showMessage(`${what}: ${err && err.message ? err.message : err}`);
+      console.error(err);
+    }
+  }
+
+  function show(view) {
+    for (const sec of document.querySelectorAll("main > .view")) sec.hidden = sec.id !== `view-${view}`;
+    for (const a of document.querySelectorAll("#nav a")) {
+      a.classList.toggle("active", a.dataset.view === view || a.dataset.view === view + "s");
+    }
+    $("nav").hidden = view === "signin";
+  }
+
+  function el(tag, attrs, text) {
+    const node = document.createElement(tag);
+    for (const [k, v] of Object.entries(attrs || {})) {
+      if (k === "class") node.className = v; else node.setAttribute(k, v);
+    }
+    if (text !== undefined && text !== null) node.textContent = String(text);
+    return node;
+  }
+
+  function clearNode(node) {
+    while (node.firstChild) node.removeChild(node.firstChild);
+  }
+
+  function notAvailable(container, text) {
+    clearNode(container);
+    container.appendChild(el("p", { class: "not-available", "data-role": "not-available" }, text));
+  }
+
+  function stopPolling() {
+    if (pollTimer) clearTimeout(pollTimer);
+    pollTimer = null;
+  }
+
+  /** Forget the token and every piece of the previous user's data shown on the page. */
+  function signOut(reason) {
+    sessionStorage.removeItem(TOKEN_KEY);
+    stopPolling();
+    generation++;
+    current = null;
+    for (const id of ["session-title", "session-summary", "session-warnings", "truth-panel", "reports-body",
+      "report-body", "models-body", "legend"]) clearNode($(id));
+    for (const id of ["sessions-table", "batches-table"]) clearNode($(id).querySelector("tbody"));
+    for (const id of ["map", "timeline", "steps-plot", "heading-plot"]) clearNode($(id));
+    show("signin");
+    if (reason) showMessage(reason); else clearMessage();
+  }
+
+  // -- routing ----------------------------------------------------------------------------------
+  function route() {
+    stopPolling();
+    generation++;
+    clearMessage();
+    if (!token()) { show("signin"); $("token").focus(); return; }
+    const [view, ...rest] = (location.hash || "#/sessions").replace(/^#\/?/, "").split("/");
+    const arg = rest.length ? decodeURIComponent(rest.join("/")) : "";
+    switch (view) {
+      case "session": return openSession(arg);
+      case "reports": return showReports();
+      case "report": return showReport(arg);
+      case "models": return showModels();
+      default: return showSessions();
+    }
+  }
+
+  async function signIn(ev) {
+    ev.preventDefault();
+    const input = $("token");
+    const candidate = input.value.trim();
+    if (!candidate) return;
+    sessionStorage.setItem(TOKEN_KEY, candidate);
+    input.value = "";
+    try {
+      await apiFetch(`${API}/sessions`); // proves the token before showing anything
+      route();
+    } catch (err) {
+      if (!(err instanceof ApiError && err.status === 401)) {
+        sessionStorage.removeItem(TOKEN_KEY);
+        reportError(err, "Could not sign in");
+      }
+    }
+  }
+
+  // -- sessions list ----------------------------------------------------------------------------
+  function deviceText(devices) {
+    if (!devices || !devices.length) return "–";
+    return devices.map((d) => [d.model || d.platform || "device", d.role !== "phone" ? `(${d.role})` : ""]
+      .filter(Boolean).join(" ")).join(", ");
+  }
+
+  function statusBadge(status, batches) {
+    const span = el("span", { class: `status ${status}`, "data-role": "status" }, status);
+    if (batches && Object.keys(batches).length) {
+      span.title = Object.entries(batches).map(([k, v]) => `${v} ${k}`).join(", ") + " batches";
+    }
+    return span;
+  }
+
+  function warningsCell(warnings) {
+    const td = el("td", { class: "warnings" });
+    if (!warnings || !warnings.length) { td.textContent = "–"; return td; }
+    const details = el("details");
+    details.appendChild(el("summary", {}, `${warnings.length} warning${warnings.length > 1 ? "s" : ""}`));
+    const ul = el("ul");
+    for (const w of warnings) ul.appendChild(el("li", {}, w));
+    details.appendChild(ul);
+    details.addEventListener("click", (ev) => ev.stopPropagation());
+    td.appendChild(details);
+    return td;
+  }
+
+  async function showSessions() {
+    show("sessions");
+    const gen = generation;
+    const refresh = async () => {
+      let body;
+      try {
+        body = await apiJson(`${API}/sessions`);
+      } catch (err) {
+        if (gen === generation) reportError(err, "Could not load the sessions");
+        return;
+      }
+      if (gen !== generation) return;
+      renderSessions(body.sessions || []);
+      // Live while something is uploading or processing; slower otherwise (new uploads still show up).
+      const live = (body.sessions || []).some((s) => LIVE_STATUSES.has(s.status));
+      pollTimer = setTimeout(refresh, live ? 1500 : 5000);
+    };
+    await refresh();
+  }
+
+  function renderSessions(sessions) {
+    const tbody = $("sessions-table").querySelector("tbody");
+    clearNode(tbody);
+    $("sessions-empty").hidden = sessions.length > 0;
+    const sorted = sessions.slice().sort((a, b) => String(b.created_at).localeCompare(String(a.created_at)));
+    for (const s of sorted) {
+      const tr = el("tr", { class: "clickable", "data-session": s.id });
+      const name = el("td");
+      const a = el("a", { href: `#/session/${enc(s.id)}` }, s.name || s.session_id || s.id);
+      name.appendChild(a);
+      tr.appendChild(name);
+      tr.appendChild(el("td", {}, deviceText(s.devices)));
+      tr.appendChild(el("td", {}, s.placement || "–"));
+      tr.appendChild(el("td", {}, s.created_at ? new Date(s.created_at).toLocaleString() : "–"));
+      tr.appendChild(el("td", {}, s.steps > 1 ? fmtDuration(s.duration_s) : "–"));
+      tr.appendChild(el("td", { class: "num", "data-role": "distance" }, `${fmt(s.distance_m, 1)} m`));
+      tr.appendChild(el("td", { class: "num", "data-role": "steps" }, s.steps));
+      const st = el("td");
+      st.appendChild(statusBadge(s.status, s.batches));
+      tr.appendChild(st);
+      tr.appendChild(warningsCell(s.warnings));
+      tr.addEventListener("click", () => { location.hash = `#/session/${enc(s.id)}`; });
+      tbody.appendChild(tr);
+    }
+    $("sessions-updated").textContent = `updated ${new Date().toLocaleTimeString()}`;
+  }
+
+  // -- session view -----------------------------------------------------------------------------
+  /** The device whose track is "the" track: the fused/phone one, else the first. */
+  function primaryDevice(devices) {
+    return devices.find((d) => !FOOT_ROLES.has(d)) || devices[0];
+  }
+
+  function groupByDevice(rows) {
+    const by = new Map();
+    for (const r of rows) {
+      const d = r.device || "phone";
+      if (!by.has(d)) by.set(d, []);
+      by.get(d).push(r);
+    }
+    for (const list of by.values()) list.sort((a, b) => a.t_s - b.t_s);
+    return by;
+  }
+
+  /** Linear interpolation of a device's track (rows sorted by t_s) at time t; null outside its span. */
+  function positionAt(rows, t) {
+    if (!rows.length || t < rows[0].t_s || t > rows[rows.length - 1].t_s) return null;
+    let lo = 0, hi = rows.length - 1;
+    while (hi - lo > 1) {
+      const mid = (lo + hi) >> 1;
+      if (rows[mid].t_s <= t) lo = mid; else hi = mid;
+    }
+    const a = rows[lo], b = rows[hi];
+    const w = b.t_s > a.t_s ? (t - a.t_s) / (b.t_s - a.t_s) : 0;
+    return [a.east_m + w * (b.east_m - a.east_m), a.north_m + w * (b.north_m - a.north_m)];
+  }
+
+  async function openSession(id) {
+    const gen = generation;
+    const t0 = performance.now();
+    page.timings = { start: t0 };
+    show("session");
+    $("session-title").textContent = "Loading…";
+    $("session-body").hidden = false;
+    for (const svgId of ["map", "timeline", "steps-plot", "heading-plot", "legend"]) clearNode($(svgId));
+    delete $("map").dataset.points;
+    clearNode($("session-summary"));
+    clearNode($("session-warnings"));
+    clearNode($("truth-panel"));
+    // The track first, alone: it is what the view is for, and the server answers it fastest without
+    // the detail request competing for it; the header, landmarks and truth follow.
+    let track;
+    try {
+      track = await apiJson(`${API}/sessions/${enc(id)}/track/columns`);
+    } catch (err) {
+      if (gen !== generation) return;
+      $("session-title").textContent = "Session not available";
+      $("session-body").hidden = true;
+      for (const svgId of ["map", "timeline", "steps-plot", "heading-plot", "legend"]) clearNode($(svgId));
+      clearNode($("batches-table").querySelector("tbody"));
+      reportError(err, "Could not open the session");
+      return;
+    }
+    if (gen !== generation) return;
+    page.timings.fetched = performance.now() - t0;
+    current = { id, detail: null, rows: rowsOfColumns(track), landmarks: [], truth: null };
+    current.byDevice = groupByDevice(current.rows);
+    $("colour-by").value = current.byDevice.size > 1 ? "device" : "mode";
+    setupFloorFilter();
+    renderSessionData(false);
+    page.timings.firstRender = performance.now() - t0;
+    // Paint-inclusive time: the next animation frame comes after layout and paint of the new SVG.
+    requestAnimationFrame(() => { page.timings.firstPaint = performance.now() - t0; });
+    try {
+      current.detail = await apiJson(`${API}/sessions/${enc(id)}`);
+    } catch (err) {
+      if (gen === generation) reportError(err, "Could not load the session's details");
+      return;
+    }
+    if (gen !== generation) return;
+    renderSessionHeader();
+    loadExtras(gen);
+    schedulePoll(gen, current.detail);
+  }
+
+  /** Poll while the session is processing or was updated in the last minutes (a phone streaming batches:
+   * its status turns "done" between batches). */
+  function schedulePoll(gen, detail) {
+    if (LIVE_STATUSES.has(detail.status)) pollTimer = setTimeout(() => pollSession(gen), 1500);
+    else if (Date.now() - Date.parse(detail.updated_at) < RECENT_MS) pollTimer = setTimeout(() => pollSession(gen), 2000);
+  }
+
+  async function loadExtras(gen) {
+    const id = current.id;
+    const [landmarks, truth] = await Promise.allSettled([apiJson(`${API}/sessions/${enc(id)}/landmarks`),
+      apiJson(`${API}/sessions/${enc(id)}/truth`)]);
+    if (gen !== generation) return;
+    if (landmarks.status === "fulfilled") current.landmarks = landmarks.value.landmarks || [];
+    if (truth.status === "fulfilled") current.truth = truth.value;
+    else current.truthError = truth.reason;
+    renderSessionData(true);
+    page.timings.complete = performance.now() - page.timings.start;
+  }
+
+  /** Poll while uploading: each device's new rows with ?device=&since= (its last time), and the status. */
+  async function pollSession(gen) {
+    if (gen !== generation || !current) return;
+    const id = current.id;
+    try {
+      const detail = await apiJson(`${API}/sessions/${enc(id)}`);
+      const roles = new Set([...(detail.devices || []).map((d) => d.role), ...current.byDevice.keys()]);
+      // Provisional rows (the processor's tail) are replaced by the next batch: ask from each device's last
+      // final row and swap the tail; redraw only when something differs.
+      const finals = current.rows.filter((r) => !r.provisional);
+      const finalsBy = groupByDevice(finals);
+      const fresh = [];
+      for (const role of roles) {
+        const mine = finalsBy.get(role) || [];
+        const since = mine.length ? `&since=${mine[mine.length - 1].t_s}` : "";
+        const body = await apiJson(`${API}/sessions/${enc(id)}/track/columns?device=${enc(role)}${since}`);
+        if (gen !== generation) return;
+        for (const r of rowsOfColumns(body)) fresh.push(r);
+      }
+      const key = (rows) => JSON.stringify(rows.map((r) => [r.device, r.t_s, r.east_m, r.north_m, r.provisional]));
+      const changed = key(fresh) !== key(current.rows.filter((r) => r.provisional));
+      if (changed) current.rows = finals.concat(fresh);
+      const added = changed ? 1 : 0;
+      if (gen !== generation) return;
+      current.detail = detail;
+      renderSessionHeader();
+      if (added !== 0) {
+        current.byDevice = groupByDevice(current.rows);
+        setupFloorFilter();
+        renderSessionData(true);
+      }
+      if (added !== 0 && !LIVE_STATUSES.has(detail.status)) loadExtras(gen);
+      schedulePoll(gen, detail);
+    } catch (err) {
+      if (gen === generation) reportError(err, "Live update stopped");
+    }
+  }
+
+  function renderSessionHeader() {
+    const d = current.detail;
+    $("session-title").textContent = d.name || d.session_id || d.id;
+    const summary = $("session-summary");
+    clearNode(summary);
+    const part = (label, value, role) => {
+      const span = el("span", role ? { "data-role": role } : {});
+      span.appendChild(el("strong", {}, `${label}: `));
+      span.appendChild(document.createTextNode(value));
+      summary.appendChild(span);
+    };
+    const st = el("span");
+    st.appendChild(el("strong", {}, "Status: "));
+    st.appendChild(statusBadge(d.status, d.batches));
+    summary.appendChild(st);
+    part("Device", deviceText(d.devices));
+    part("Placement", d.placement || "–");
+    part("Start", d.created_at ? new Date(d.created_at).toLocaleString() : "–");
+    part("Duration", fmtDuration(d.duration_s));
+    part("Distance", `${fmt(d.distance_m, 1)} m`);
+    part("Steps", String(d.steps), "steps");
+    const warn = $("session-warnings");
+    clearNode(warn);
+    if (d.warnings && d.warnings.length) {
+      const box = el("div", { class: "warn-box" });
+      box.appendChild(el("strong", {}, `Warnings (${d.warnings.length})`));
+      const ul = el("ul");
+      for (const w of d.warnings) ul.appendChild(el("li", {}, w));
+      box.appendChild(ul);
+      warn.appendChild(box);
+    }
+    const tbody = $("batches-table").querySelector("tbody");
+    clearNode(tbody);
+    for (const b of d.batch_list || []) {
+      const tr = el("tr");
+      tr.appendChild(el("td", {}, b.batch_id));
+      tr.appendChild(el("td", {}, b.device_role));
+      tr.appendChild(el("td", {}, b.format));
+      tr.appendChild(el("td", { class: "num" }, b.size_bytes < 1024 ? `${b.size_bytes} B` : `${fmt(b.size_bytes / 1024, 1)} KiB`));
+      tr.appendChild(el("td", {}, b.received_at ? new Date(b.received_at).toLocaleString() : "–"));
+      const st = el("td");
+      st.appendChild(statusBadge(b.status));
+      tr.appendChild(st);
+      tr.appendChild(el("td", {}, b.error || ""));
+      tbody.appendChild(tr);
+    }
+  }
+
+  function setupFloorFilter() {
+    const select = $("floor-filter");
+    const floors = new Set();
+    for (const r of current.rows) if (r.floor !== null && r.floor !== undefined) floors.add(Math.round(r.floor));
+    const key = [...floors].sort((a, b) => a - b).join(",");
+    if (select.dataset.floors === key) return;
+    const keep = select.value;
+    select.dataset.floors = key;
+    clearNode(select);
+    select.appendChild(el("option", { value: "" }, "all"));
+    for (const f of [...floors].sort((a, b) => a - b)) select.appendChild(el("option", { value: String(f) }, String(f)));
+    select.value = floors.has(Number(keep)) && keep !== "" ? keep : "";
+    select.disabled = floors.size < 2;
+  }
+
+  /** Track layers for the map: per device, polylines split where the colour changes or the floor is hidden. */
+  function trackLayers() {
+    const floorSel = $("floor-filter").value;
+    const floor = floorSel === "" ? null : Number(floorSel);
+    const byDevice = $("colour-by").value === "device";
+    const tracks = [];
+    for (const [device, rows] of current.byDevice) {
+      const segments = [];
+      let seg = null, prev = null;
+      for (const r of rows) {
+        const visible = floor === null || (r.floor !== null && r.floor !== undefined && Math.round(r.floor) === floor);
+        if (!visible) { seg = null; prev = null; continue; }
+        const mode = r.mode || "unknown";
+        const colour = byDevice ? Plot.deviceColour(device) : Plot.modeColour(mode);
+        if (!seg || seg.colour !== colour) {
+          seg = { colour, mode: byDevice ? device : mode, coords: [], count: 0 };
+          if (prev) seg.coords.push(prev.east_m, prev.north_m); // joins the previous segment
+          segments.push(seg);
+        }
+        seg.coords.push(r.east_m, r.north_m);
+        seg.count++;
+        prev = r;
+      }
+      tracks.push({ device, foot: FOOT_ROLES.has(device) && current.byDevice.size > 1,
+        segments: segments.map((s) => ({ colour: s.colour, mode: s.mode, count: s.count, xy: Float64Array.from(s.coords) })) });
+    }
+    return tracks;
+  }
+
+  function truthPoints() {
+    const t = current.truth;
+    if (!t || !t.truth) return [];
+    const pts = [];
+    for (const set of t.truth) for (const p of set.points || []) pts.push(Object.assign({ kind: set.kind }, p));
+    pts.sort((a, b) => a.t_s - b.t_s);
+    return pts;
+  }
+
+  function renderSessionData(keepView) {
+    const devices = [...current.byDevice.keys()];
+    const primary = primaryDevice(devices);
+    const primaryRows = current.byDevice.get(primary) || [];
+    const markers = [];
+    if (primaryRows.length) {
+      const a = primaryRows[0], b = primaryRows[primaryRows.length - 1];
+      markers.push({ e: a.east_m, n: a.north_m, cls: "marker start", px: 6, title: `start (${primary})` });
+      markers.push({ e: b.east_m, n: b.north_m, cls: "marker end", px: 6, title: `end (${primary})` });
+    }
+    for (const lm of current.landmarks) {
+      const rows = current.byDevice.get(lm.device) || primaryRows;
+      const pos = Number.isFinite(lm.east_m) && Number.isFinite(lm.north_m) ? [lm.east_m, lm.north_m] : positionAt(rows, lm.t_s);
+      if (pos) markers.push({ e: pos[0], n: pos[1], cls: "landmark", px: 5, title: `${lm.label || "landmark"} at ${fmt(lm.t_s, 1)} s` });
+    }
+    const truth = truthPoints();
+    const errors = [];
+    const errorT = [], errorM = [];
+    for (const p of truth) {
+      const est = positionAt(primaryRows, p.t_s);
+      if (!est) continue;
+      errorT.push(p.t_s);
+      errorM.push(Math.hypot(est[0] - p.east_m, est[1] - p.north_m));
+      errors.push([p.east_m, p.north_m, est[0], est[1]]);
+    }
+    if (truth.length <= 500) {
+      for (const p of truth) markers.push({ e: p.east_m, n: p.north_m, cls: "truth-point", px: 4, title: `truth ${p.kind} at ${fmt(p.t_s, 1)} s` });
+    }
+    if (!map) map = new Plot.TrackMap($("map"), $("scale-bar"));
+    const step = Math.max(1, Math.ceil(errors.length / 500));
+    map.draw({ tracks: trackLayers(), truth: truth.map((p) => ({ e: p.east_m, n: p.north_m })),
+      errors: errors.filter((_, i) => i % step === 0), markers,
+      empty: current.detail && LIVE_STATUSES.has(current.detail.status) ? "waiting for the first track points…" : "this session has no track" },
+    keepView);
+    renderLegend(truth.length > 0);
+    renderCharts(primary);
+    renderTruthPanel(truth, errorT, errorM, primary);
+  }
+
+  function renderLegend(hasTruth) {
+    const legend = $("legend");
+    clearNode(legend);
+    const item = (colour, label, round) => {
+      const div = el("div", { class: "item" });
+      const sw = el("span", { class: round ? "swatch round" : "swatch" });
+      sw.style.background = colour;
+      div.appendChild(sw);
+      div.appendChild(el("span", {}, label));
+      legend.appendChild(div);
+    };
+    if ($("colour-by").value === "device") {
+      for (const d of current.byDevice.keys()) item(Plot.deviceColour(d), d);
+    } else {
+      const modes = new Set(current.rows.map((r) => r.mode || "unknown"));
+      for (const m of modes) item(Plot.modeColour(m), m);
+      if (current.byDevice.size > 1) legend.appendChild(el("div", { class: "muted" }, "dashed: single foot"));
+    }
+    item("#12b76a", "start", true);
+    item("#d92d20", "end", true);
+    if (current.landmarks.length) item("#f79009", "landmark", true);
+    if (hasTruth) item("#111", "ground truth (– – –), error in red");
+  }
+
+  function renderCharts(primary) {
+    const rows = current.byDevice.get(primary) || [];
+    const tMin = current.rows.length ? Math.min(...[...current.byDevice.values()].map((r) => r[0].t_s)) : undefined;
+    const tMax = current.rows.length ? Math.max(...[...current.byDevice.values()].map((r) => r[r.length - 1].t_s)) : undefined;
+    // Motion mode as a band of runs; floor as a step line.
+    const bands = [];
+    for (let i = 0; i < rows.length; i++) {
+      const mode = rows[i].mode || "unknown";
+      const t1 = i + 1 < rows.length ? rows[i + 1].t_s : rows[i].t_s;
+      const last = bands[bands.length - 1];
+      if (last && last.label === mode) last.t1 = t1;
+      else bands.push({ t0: rows[i].t_s, t1, label: mode, colour: Plot.modeColour(mode) });
+    }
+    const floorsKnown = rows.some((r) => r.floor !== null && r.floor !== undefined);
+    Plot.timeChart($("timeline"), floorsKnown ? [{ name: "floor", colour: "#344054", t: rows.map((r) => r.t_s),
+      y: rows.map((r) => (r.floor === null ? NaN : r.floor)) }] : [],
+    { title: `motion mode (band) and floor${floorsKnown ? "" : " (no floor estimate)"}`, bands, steps: true, tMin, tMax,
+      yMin: floorsKnown ? undefined : 0, yMax: floorsKnown ? undefined : 1, empty: "no track yet",
+      yFormat: (v) => (Number.isInteger(v) ? String(v) : "") });
+    const series = (key) => [...current.byDevice].map(([device, r]) => ({
+      name: device, colour: current.byDevice.size > 1 ? Plot.deviceColour(device) : "#1f6feb",
+      t: r.map((x) => x.t_s), y: r.map((x) => (x[key] === null || x[key] === undefined ? NaN : x[key])),
+      breakAbove: key === "heading_deg" ? 180 : undefined,
+    }));
+    Plot.timeChart($("steps-plot"), series("step_length_m"), { title: "step length (m)", tMin, tMax, empty: "no steps yet" });
+    Plot.timeChart($("heading-plot"), series("heading_deg"), { title: "heading (° clockwise from north)", tMin, tMax,
+      yMin: 0, yMax: 360, empty: "no steps yet" });
+  }
+
+  function renderTruthPanel(truth, errorT, errorM, primary) {
+    const panel = $("truth-panel");
+    clearNode(panel);
+    if (current.truthError) {
+      const e = current.truthError;
+      notAvailable(panel, e instanceof ApiError ? e.readable("Ground truth is not available") : String(e));
+      return;
+    }
+    if (!current.truth) { panel.appendChild(el("p", { class: "muted" }, "Loading ground truth…")); return; }
+    const problems = (current.truth.truth || []).filter((s) => s.error).map((s) => s.error);
+    for (const p of problems) panel.appendChild(el("p", { class: "warn-box" }, `Truth could not be read: ${p}`));
+    if (!truth.length) {
+      panel.appendChild(el("p", { class: "muted", "data-role": "no-truth" },
+        "No ground truth in this session (uploaded logs with surveyed landmarks or waypoints carry it)."));
+      return;
+    }
+    const stats = el("p", { class: "stats", "data-role": "truth-stats" });
+    const kinds = [...new Set(truth.map((p) => p.kind))].join(", ");
+    const add = (label, value) => {
+      const s = el("span");
+      s.appendChild(el("strong", {}, `${label}: `));
+      s.appendChild(document.createTextNode(value));
+      stats.appendChild(s);
+    };
+    add("Truth points", `${truth.length} (${kinds})`);
+    if (errorM.length) {
+      const mean = errorM.reduce((a, b) => a + b, 0) / errorM.length;
+      const rms = Math.sqrt(errorM.reduce((a, b) => a + b * b, 0) / errorM.length);
+      add(`Horizontal error of ${primary} (${errorM.length} points)`, "");
+      add("mean", `${fmt(mean, 2)} m`);
+      add("RMS", `${fmt(rms, 2)} m`);
+      add("max", `${fmt(errorM.reduce((a, b) => Math.max(a, b), 0), 2)} m`);
+      add("last", `${fmt(errorM[errorM.length - 1], 2)} m`);
+    } else {
+      add("Error", "no truth point falls within the track's time span");
+    }
+    panel.appendChild(stats);
+    if (errorM.length) {
+      const svg = Plot.svgEl("svg", { class: "chart", id: "error-plot" }, panel);
+      Plot.timeChart(svg, [{ name: "error", colour: "#d92d20", t: errorT, y: errorM }],
+        { title: "horizontal error (m) against time", yMin: 0 });
+    }
+  }
+
+  // -- reports and models -----------------------------------------------------------------------
+  const MISSING = new Set([404, 405, 501]);
+
+  async function showReports() {
+    show("reports");
+    const gen = generation;
+    const body = $("reports-body");
+    notAvailable(body, "Loading…");
+    let data;
+    try {
+      data = await apiJson(`${API}/reports`);
+    } catch (err) {
+      if (gen !== generation) return;
+      if (err instanceof ApiError && MISSING.has(err.status)) {
+        notAvailable(body, `Allan reports are not available on this server (GET ${API}/reports answered ${err.status}).`);
+      } else {
+        notAvailable(body, err instanceof ApiError ? err.readable("Could not load the reports") : String(err));
+      }
+      return;
+    }
+    if (gen !== generation) return;
+    const reports = Array.isArray(data) ? data : data.reports || [];
+    clearNode(body);
+    if (!reports.length) {
+      body.appendChild(el("p", { class: "muted" }, `No reports yet: POST a static log to ${API}/reports/allan.`));
+      return;
+    }
+    const table = el("table", { class: "grid" });
+    const head = el("tr");
+    for (const h of ["Report", "Kind", "Source", "Created", "Status"]) head.appendChild(el("th", {}, h));
+    table.appendChild(el("thead")).appendChild(head);
+    const tbody = table.appendChild(el("tbody"));
+    for (const r of reports) {
+      const tr = el("tr", { class: "clickable" });
+      const td = el("td");
+      td.appendChild(el("a", { href: `#/report/${enc(r.id)}` }, r.id));
+      tr.appendChild(td);
+      tr.appendChild(el("td", {}, r.kind || "allan"));
+      tr.appendChild(el("td", {}, r.source || r.source_name || "–"));
+      tr.appendChild(el("td", {}, r.created_at ? new Date(r.created_at).toLocaleString() : "–"));
+      const st = el("td");
+      st.appendChild(statusBadge(r.status || "done"));
+      tr.appendChild(st);
+      tr.addEventListener("click", () => { location.hash = `#/report/${enc(r.id)}`; });
+      tbody.appendChild(tr);
+    }
+    body.appendChild(table);
+  }
+
+  const ALLAN_UNITS = {
+    gyro: { adev: "rad/s", N: "rad/√s", B: "rad/s", K: "rad/s/√s", Q: "rad", R: "rad/s²" },
+    acc: { adev: "m/s²", N: "m/s/√s", B: "m/s²", K: "m/s²/√s", Q: "m/s", R: "m/s³" },
+  };
+  const AXIS_COLOURS = { x: "#d92d20", y: "#12b76a", z: "#1f6feb" };
+
+  /** The report's sensors: {gyro: {x: {tau_s, adev, N, ...}, ...}, acc: ...} at the top or under "sensors". */
+  function reportSensors(report) {
+    const root = report && typeof report.sensors === "object" ? report.sensors : report || {};
+    const out = [];
+    for (const [name, value] of Object.entries(root)) {
+      if (!value || typeof value !== "object") continue;
+      const axesRoot = value.axes && typeof value.axes === "object" ? value.axes : value;
+      const axes = Object.entries(axesRoot).filter(([, a]) => a && Array.isArray(a.tau_s) && Array.isArray(a.adev));
+      if (axes.length) out.push({ name, value, axes });
+    }
+    return out;
+  }
+
+  const TERMS = ["N", "B", "K", "Q", "R"];
+
+  /** One sensor of an Allan report: log-log curves with intervals and the fitted model, terms, grade, impact. */
+  function renderAllanSensor(body, s) {
+    const units = Object.assign({}, ALLAN_UNITS[s.name] || {}, s.value.term_units || {});
+    const adevUnit = s.value.unit || units.adev || "";
+    body.appendChild(el("h2", {}, s.name));
+    const svg = Plot.svgEl("svg", { class: "loglog", "data-sensor": s.name }, body);
+    const colour = (axis) => AXIS_COLOURS[axis] || Plot.deviceColour(axis);
+    Plot.logLogChart(svg, s.axes.map(([axis, a]) => ({
+      name: axis, colour: colour(axis), x: a.tau_s, y: a.adev, lo: a.adev_lo, hi: a.adev_hi,
+    })), {
+      title: `${s.name}: overlapping Allan deviation (dashed: fitted noise model)`, yLabel: `σ(τ) ${adevUnit}`,
+      lines: s.axes.filter(([, a]) => a.fit && Array.isArray(a.fit.model_adev))
+        .map(([axis, a]) => ({ x: a.tau_s, y: a.fit.model_adev, colour: colour(axis), dash: "5 4" })),
+    });
+    const table = el("table", { class: "grid terms" });
+    const head = el("tr");
+    head.appendChild(el("th", {}, "axis"));
+    for (const term of TERMS) head.appendChild(el("th", { class: "num" }, `${term}${units[term] ? ` (${units[term]})` : ""}`));
+    table.appendChild(el("thead")).appendChild(head);
+    const tbody = table.appendChild(el("tbody"));
+    for (const [axis, a] of s.axes) {
+      const tr = el("tr");
+      tr.appendChild(el("td", {}, axis));
+      for (const term of TERMS) {
+        const v = a[term] && typeof a[term] === "object" ? a[term].value : a[term];
+        const bound = a.fit && a.fit.upper_bound ? a.fit.upper_bound[term] : null;
+        const td = el("td", { class: "num" }, Number.isFinite(v) ? v.toExponential(3)
+          : Number.isFinite(bound) ? `not resolved (< ${bound.toExponential(2)})` : "not resolved");
+        if (!Number.isFinite(v) && a.fit && a.fit.reason && a.fit.reason[term]) td.title = a.fit.reason[term];
+        tr.appendChild(td);
+      }
+      tbody.appendChild(tr);
+    }
+    body.appendChild(table);
+    const summary = {};
+    for (const k of ["unit", "rate_hz", "duration_s", "n_samples"]) if (s.value[k] !== undefined) summary[k] = s.value[k];
+    if (s.value.grade && s.value.grade.overall) summary.grade = s.value.grade.overall;
+    if (Object.keys(summary).length) body.appendChild(keyValues(summary));
+    const impact = s.value.pdr_impact;
+    if (impact && impact.axes && Object.keys(impact.axes).length) {
+      body.appendChild(el("h3", {}, "Predicted PDR impact of the bias instability"));
+      const t = el("table", { class: "grid impact" });
+      const h = el("tr");
+      for (const c of ["axis", "bias (°/h)", "2 % position error", "3 % position error", "3° heading error"]) h.appendChild(el("th", {}, c));
+      t.appendChild(el("thead")).appendChild(h);
+      const tb = t.appendChild(el("tbody"));
+      for (const [axis, v] of Object.entries(impact.axes)) {
+        const r = el("tr");
+        const readable = v.readable || {};
+        for (const cell of [axis, fmt(v.bias_deg_h, 3), readable["2pct"] || fmtDuration(v.time_to_2pct_s),
+          readable["3pct"] || fmtDuration(v.time_to_3pct_s), readable["3deg"] || fmtDuration(v.time_to_3deg_s)]) {
+          r.appendChild(el("td", {}, cell));
+        }
+        tb.appendChild(r);
+      }
+      body.appendChild(t);
+    }
+  }
+
+  async function showReport(id) {
+    show("report");
+    const gen = generation;
+    const body = $("report-body");
+    notAvailable(body, "Loading…");
+    $("report-title").textContent = `Allan report ${id}`;
+    let data;
+    try {
+      data = await apiJson(`${API}/reports/${enc(id)}`);
+    } catch (err) {
+      if (gen !== generation) return;
+      notAvailable(body, err instanceof ApiError && MISSING.has(err.status) && err.code !== "not_found"
+        ? `Allan reports are not available on this server (HTTP ${err.status}).`
+        : err instanceof ApiError ? err.readable("Could not load the report") : String(err));
+      return;
+    }
+    if (gen !== generation) return;
+    let report = data.result !== undefined ? data.result : data.report !== undefined ? data.report : data;
+    if (typeof report === "string") {
+      try { report = JSON.parse(report); } catch (_) { report = { text: report }; }
+    }
+    clearNode(body);
+    if (data.status && data.status !== "done") body.appendChild(el("p", { class: "warn-box" },
+      `Report status: ${data.status}${data.error ? ` (${data.error})` : ""}`));
+    const sensors = reportSensors(report || {});
+    if (!sensors.length) {
+      body.appendChild(el("p", { class: "muted" }, data.status && data.status !== "done"
+        ? "The report is not ready yet." : "This report has no Allan curves."));
+    }
+    for (const s of sensors) renderAllanSensor(body, s);
+    const rec = report && report.recording;
+    if (rec && typeof rec === "object") {
+      body.appendChild(el("h2", {}, "Recording"));
+      body.appendChild(keyValues(rec));
+    }
+    if (report && Array.isArray(report.flags) && report.flags.length) {
+      body.appendChild(el("h2", {}, "Flags"));
+      const ul = el("ul", { class: "warnings" });
+      for (const f of report.flags) ul.appendChild(el("li", {}, f));
+      body.appendChild(ul);
+    }
+    if (report && report.settings && typeof report.settings === "object") {
+      const det = el("details");
+      det.appendChild(el("summary", {}, "Analysis settings"));
+      det.appendChild(keyValues(report.settings));
+      body.appendChild(det);
+    }
+    await showReportImages(id, data, body, gen);
+  }
+
+  function reportFiles(data) {
+    return (data.files || []).map((f) => (typeof f === "string" ? { name: f } : f)).filter((f) => f && f.name);
+  }
+
+  const reportFileUrl = (id, f) => f.url || `${API}/reports/${enc(id)}/files/${enc(f.name)}`;
+
+  async function showReportImages(id, data, body, gen) {
+    for (const f of reportFiles(data).filter((x) => /\.png$/i.test(x.name))) {
+      try {
+        const blob = await (await apiFetch(reportFileUrl(id, f), "image/png")).blob();
+        if (gen !== generation) return;
+        const img = el("img", { alt: f.name, src: URL.createObjectURL(blob), class: "report-png" });
+        body.appendChild(img);
+      } catch (err) {
+        if (gen === generation) body.appendChild(el("p", { class: "muted" }, err.readable ? err.readable(f.name) : String(err)));
+      }
+    }
+  }
+
+  async function downloadReportHtml() {
+    const id = decodeURIComponent(location.hash.replace(/^#\/report\//, ""));
+    let data = {};
+    try { data = await apiJson(`${API}/reports/${enc(id)}`); } catch (_) { /* fall back to the default name */ }
+    const f = reportFiles(data).find((x) => /\.html?$/i.test(x.name)) || { name: "report.html" };
+    try {
+      await download(reportFileUrl(id, f), `allan-report-${id}.html`, "text/html");
+    } catch (err) {
+      reportError(err, "The report HTML could not be downloaded");
+    }
+  }
+
+  /** A nested definition list of a JSON value (model cards, report metadata). */
+  function keyValues(obj, depth) {
+    const dl = el("dl", { class: "kv" });
+    for (const [k, v] of Object.entries(obj)) {
+      dl.appendChild(el("dt", {}, k));
+      const dd = el("dd");
+      if (v && typeof v === "object" && !Array.isArray(v) && (depth || 0) < 4) dd.appendChild(keyValues(v, (depth || 0) + 1));
+      else if (Array.isArray(v)) {
+        const scalars = v.every((x) => x === null || typeof x !== "object");
+        if (scalars) dd.textContent = v.length > 40 ? `${v.slice(0, 40).join(", ")} … (${v.length} items)` : v.join(", ");
+        else for (const x of v.slice(0, 50)) dd.appendChild(x && typeof x === "object" ? keyValues(x, (depth || 0) + 1) : el("div", {}, x));
+      } else if (typeof v === "number") dd.textContent = fmt(v, 4);
+      else dd.textContent = v === null ? "–" : typeof v === "object" ? JSON.stringify(v) : String(v);
+      dl.appendChild(dd);
+    }
+    return dl;
+  }
+
+  async function showModels() {
+    show("models");
+    const gen = generation;
+    const body = $("models-body");
+    notAvailable(body, "Loading…");
+    let data;
+    try {
+      data = await apiJson(`${API}/models`);
+    } catch (err) {
+      if (gen !== generation) return;
+      notAvailable(body, err instanceof ApiError && MISSING.has(err.status)
+        ? `Model cards are not available on this server (GET ${API}/models answered ${err.status}).`
+        : err instanceof ApiError ? err.readable("Could not load the models") : String(err));
+      return;
+    }
+    if (gen !== generation) return;
+    const models = Array.isArray(data) ? data : data.models || [];
+    clearNode(body);
+    if (!models.length) { body.appendChild(el("p", { class: "muted" }, "No trained models are installed.")); return; }
+    const grid = el("div", { class: "cards" });
+    for (const m of models) {
+      const card = el("div", { class: "card", "data-model": m.name || "" });
+      card.appendChild(el("h3", {}, m.name || "model"));
+      const content = m.card && typeof m.card === "object" ? m.card : Object.fromEntries(Object.entries(m).filter(([k]) => k !== "name"));
+      card.appendChild(keyValues(content));
+      if (m.name) {
+        const det = el("details", { class: "model-card" });
+        det.appendChild(el("summary", {}, "Model card"));
+        det.addEventListener("toggle", async () => {
+          if (!det.open || det.dataset.loaded) return;
+          det.dataset.loaded = "1";
+          try {
+            const full = await apiJson(`${API}/models/${enc(m.name)}`);
+            det.appendChild(el("pre", { class: "card-text" }, full.card_markdown || "This model has no card text."));
+          } catch (err) {
+            det.appendChild(el("p", { class: "muted" }, err.readable ? err.readable("The model card is not available") : String(err)));
+          }
+        });
+        card.appendChild(det);
+      }
+      grid.appendChild(card);
+    }
+    body.appendChild(grid);
+  }
+
+  // -- wiring -----------------------------------------------------------------------------------
+  function redrawSession() {
+    if (current) renderSessionData(false);
+  }
+
+  document.addEventListener("DOMContentLoaded", () => {
+    $("signin-form").addEventListener("submit", signIn);
+    $("sign-out").addEventListener("click", () => { signOut(); location.hash = "#/sessions"; });
+    $("floor-filter").addEventListener("change", redrawSession);
+    $("colour-by").addEventListener("change", () => { if (current) renderSessionData(true); });
+    $("zoom-in").addEventListener("click", () => map && map.box && map.zoom(1 / 1.5));
+    $("zoom-out").addEventListener("click", () => map && map.box && map.zoom(1.5));
+    $("zoom-reset").addEventListener("click", () => map && map.fit());
+    const dl = (format, ext) => async () => {
+      if (!current) return;
+      try {
+        await download(`${API}/sessions/${enc(current.id)}/track?format=${format}`, `${current.id}.${ext}`);
+      } catch (err) {
+        reportError(err, `The ${ext.toUpperCase()} download failed`);
+      }
+    };
+    $("dl-csv").addEventListener("click", dl("csv", "csv"));
+    $("dl-geojson").addEventListener("click", dl("geojson", "geojson"));
+    $("dl-report-html").addEventListener("click", downloadReportHtml);
+    window.addEventListener("hashchange", route);
+    route();
+  });
+})();

@@ -1,0 +1,25 @@
+"""Shared fixtures: location of the real datasets (``../shared/data``), skipped cleanly when absent."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+SHARED_DATA = Path(os.environ.get("PDR_SHARED_DATA", REPO_ROOT.parent / "shared" / "data"))
+
+
+def data_path(*parts: str) -> Path:
+    """Path inside the shared datasets; skips the calling test when it does not exist."""
+    p = SHARED_DATA.joinpath(*parts)
+    if not p.exists():
+        pytest.skip(f"shared dataset not available: {p}")
+    return p
+
+
+@pytest.fixture
+def shared_data() -> Path:
+    """Root of ../shared/data (test skipped when absent)."""
+    return data_path()

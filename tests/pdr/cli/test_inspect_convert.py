@@ -1,0 +1,181 @@
+"""``pdr inspect`` and ``pdr convert`` on synthetic native logs: reported figures, round trips, errors."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from pdr.cli import main
+from pdr.cli.convert import excerpt
+from pdr.io import native
+from pdr.recording import DeviceInfo, GroundTruth, Labels, PositionTruth, Recording, SensorStream
+
+T0_NS = 1_700_000_000_000_000_000
+
+
+def _recording() -> Recording:
+    rng = np.random.default_rng(0)
+    t_acc = np.arange(0, 20, 0.01)                       # 100 Hz, 20 s
+    t_gyro = np.arange(0, 20, 0.005)
+    t_gyro = t_gyro[(t_gyro < 8.0) | (t_gyro >= 9.5)]    # 200 Hz with one 1.5 s gap
+    acc = np.tile([0.0, 0.0, 9.81], (t_acc.size, 1)) + 0.01 * rng.standard_normal((t_acc.size, 3))
+    gyro = 0.01 * rng.standard_normal((t_gyro.size, 3))
+    streams = {
+        "acc": SensorStream("acc", T0_NS + np.round(t_acc * 1e9).astype(np.int64), acc),
+        "gyro": SensorStream("gyro", T0_NS + np.round(t_gyro * 1e9).astype(np.int64), gyro),
+    }
+    steps = np.arange(1.0, 19.0, 0.5)
+    truth = GroundTruth(
+        positions=PositionTruth(np.array([0.0, 10.0, 19.0]), np.array([[0, 0, 0], [7, 0, 0], [13, 0, 0.0]]),
+                                kind="waypoint"),
+        step_times_s=steps, step_lengths_m=np.full(steps.size, 0.7),
+        modes=Labels(np.array([0.0, 12.0]), np.array([12.0, 20.0]), ("walk", "stand")),
+        extra={"zero_velocity_t_s": t_acc, "zero_velocity": (t_acc > 12).astype(np.int8),
+               "calibration": np.eye(3), "step_times_left_s": steps[::2]},
+    )
+    return Recording(streams, device=DeviceInfo("android", "Pixel 7", "phone", "hand"), t0_ns=T0_NS,
+                     truth=truth, source="synthetic", format="native")
+
+
+@pytest.fixture
+def native_log(tmp_path):
+    return native.write(_recording(), tmp_path / "rec")
+
+
+def _run(capsys, *argv):
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_inspect_json_reports_rates_durations_gaps_and_truth(capsys, native_log):
+    code, out, err = _run(capsys, "inspect", str(native_log), "--json")
+    assert code == 0, err
+    s = json.loads(out)
+    assert s["format"] == "native"
+    assert s["device"] == {"platform": "android", "model": "Pixel 7", "role": "phone", "placement": "hand",
+                           "device_id": ""}
+    assert s["duration_s"] == pytest.approx(19.995)
+    st = {x["kind"]: x for x in s["streams"]}
+    assert st["acc"]["samples"] == 2000 and st["acc"]["rate_hz"] == pytest.approx(100.0)
+    assert st["acc"]["duration_s"] == pytest.approx(19.99) and st["acc"]["gaps"] == 0
+    assert st["acc"]["longest_gap_s"] is None and st["acc"]["unit"] == "m/s^2"
+    assert st["acc"]["median_norm"] == pytest.approx(9.81, abs=0.01)
+    assert st["gyro"]["rate_hz"] == pytest.approx(200.0)
+    assert st["gyro"]["gaps"] == 1 and st["gyro"]["longest_gap_s"] == pytest.approx(1.505)
+    assert st["gyro"]["mean_rate_hz"] < 200 * 0.95  # the gap shows in the mean rate
+    assert st["gyro"]["first_s"] == 0.0 and st["gyro"]["last_s"] == pytest.approx(19.995)
+    truth = s["truth"]
+    assert truth["positions"] == {"points": 3, "kind": "waypoint", "frame": "enu", "floors": []}
+    assert truth["step_times_s"] == {"steps": 36} and truth["step_count"] == 36
+    assert truth["modes"] == {"intervals": 2, "labels": ["stand", "walk"]}
+    assert truth["extra"]["calibration"] == {"shape": [3, 3], "dtype": "float64"}
+    assert s["warnings"] == []
+
+
+def test_inspect_text_output(capsys, native_log):
+    code, out, _ = _run(capsys, "inspect", str(native_log))
+    assert code == 0
+    assert "format:    native" in out
+    assert "android Pixel 7, role phone, placement hand" in out
+    gyro_line = next(line for line in out.splitlines() if line.strip().startswith("gyro"))
+    assert "200.00" in gyro_line and "rad/s" in gyro_line and gyro_line.split()[-1] == "1.505"
+    assert "step_times_s: steps 36" in out
+    assert "warnings:  none" in out
+
+
+def test_inspect_lists_formats(capsys):
+    code, out, _ = _run(capsys, "inspect", "--formats")
+    assert code == 0
+    names = [line.split()[0] for line in out.splitlines()]
+    assert "native" in names and "ipin" in names
+    code, out, _ = _run(capsys, "inspect", "--formats", "--json")
+    assert code == 0 and "native" in json.loads(out)
+
+
+@pytest.mark.parametrize("content", [b"\x00\x01\x02\xff" * 200, b"just some text\nthat is no log\n", b""])
+def test_inspect_unrecognised_input_is_a_clean_error(capsys, tmp_path, content):
+    bad = tmp_path / "mystery.dat"
+    bad.write_bytes(content)
+    code, out, err = _run(capsys, "inspect", str(bad))
+    assert code == 2 and out == ""
+    assert err.startswith(f"error: {bad}")
+    assert "Traceback" not in err
+
+
+def test_inspect_missing_file_and_unknown_forced_format(capsys, tmp_path, native_log):
+    missing = tmp_path / "nope.txt"
+    code, _, err = _run(capsys, "inspect", str(missing))
+    assert code == 2 and err.startswith(f"error: {missing}") and "no such file" in err
+    code, _, err = _run(capsys, "inspect", str(native_log), "--format", "klingon")
+    assert code == 2 and err.startswith(f"error: {native_log}") and "unknown format 'klingon'" in err
+
+
+def test_inspect_forced_wrong_format_is_a_clean_error(capsys, tmp_path):
+    garbage = tmp_path / "garbage.bin"
+    garbage.write_bytes(bytes(range(256)) * 20)
+    code, _, err = _run(capsys, "inspect", str(garbage), "--format", "native")
+    assert code == 2 and err.startswith(f"error: {garbage}") and "Traceback" not in err
+
+
+def test_inspect_without_log(capsys):
+    code, _, err = _run(capsys, "inspect")
+    assert code == 2 and err.startswith("error:")
+
+
+# ----------------------------------------------------------------------------------------- convert
+
+@pytest.mark.parametrize("target", ["out_folder", "out.zip", "out.json", "out.json.gz"])
+def test_convert_round_trips(capsys, tmp_path, native_log, target):
+    out = tmp_path / target
+    code, stdout, err = _run(capsys, "convert", str(native_log), "--to", "native", str(out))
+    assert code == 0, err
+    assert stdout.startswith(f"wrote {out}")
+    assert native.read(out) == native.read(native_log)
+
+
+def test_convert_excerpt_cuts_streams_and_truth(capsys, tmp_path, native_log):
+    out = tmp_path / "cut"
+    code, _, err = _run(capsys, "convert", str(native_log), "--to", "native", str(out),
+                        "--start", "5", "--end", "15")
+    assert code == 0, err
+    rec = native.read(out)
+    assert rec.origin_ns == T0_NS + 5_000_000_000
+    assert rec.t_s("acc")[0] == pytest.approx(0.0) and rec.t_s("acc")[-1] == pytest.approx(9.99)
+    assert len(rec.stream("acc")) == 1000
+    np.testing.assert_allclose(rec.truth.step_times_s, np.arange(0.0, 10.0, 0.5))
+    assert rec.truth.step_count == 20
+    np.testing.assert_allclose(rec.truth.positions.t_s, [5.0])
+    np.testing.assert_allclose(rec.truth.modes.t_start_s, [0.0, 7.0])
+    np.testing.assert_allclose(rec.truth.modes.t_end_s, [7.0, 10.0])
+    assert rec.truth.extra["zero_velocity"].shape == (1000,)
+    np.testing.assert_allclose(rec.truth.extra["zero_velocity_t_s"][[0, -1]], [0.0, 9.99])
+    assert "calibration" not in rec.truth.extra
+    np.testing.assert_allclose(rec.truth.extra["step_times_left_s"], np.arange(0.0, 10.0, 1.0))
+    assert any("'calibration' is not time-indexed: dropped" in w for w in rec.warnings)
+    assert rec.meta["excerpt"]["start_s"] == 5.0 and rec.meta["excerpt"]["end_s"] == 15.0
+
+
+def test_excerpt_drops_a_bare_step_count_with_a_warning():
+    rec = _recording()
+    rec = Recording(rec.streams, t0_ns=rec.t0_ns, truth=GroundTruth(step_count=40))
+    part = excerpt(rec, 2.0, 4.0)
+    assert part.truth.step_count is None
+    assert any("step_count" in w for w in part.warnings)
+
+
+def test_convert_errors(capsys, tmp_path, native_log):
+    code, _, err = _run(capsys, "convert", str(tmp_path / "missing"), "--to", "native", str(tmp_path / "o"))
+    assert code == 2 and err.startswith(f"error: {tmp_path / 'missing'}")
+    code, _, err = _run(capsys, "convert", str(native_log), "--to", "native", str(tmp_path / "o"),
+                        "--start", "30", "--end", "40")
+    assert code == 2 and "no samples between" in err
+    code, _, err = _run(capsys, "convert", str(native_log), "--to", "native", str(tmp_path / "o"),
+                        "--start", "5", "--end", "5")
+    assert code == 2 and "empty window" in err
+    blocker = tmp_path / "afile"
+    blocker.write_text("x")
+    code, _, err = _run(capsys, "convert", str(native_log), "--to", "native", str(blocker))
+    assert code == 2 and err.startswith(f"error: {blocker}")

@@ -1,0 +1,61 @@
+"""Belief condensation (seed 000): simulate-then-recover, context model, EM learning."""
+
+import numpy as np
+import pytest
+
+from pdr.errors import InputError
+from pdr.foot.bc import BCConfig, ContextModel, learn_context, potential_factors, run_bc
+from pdr.foot.detectors import detect
+from tests.pdr.foot.gait import simulate_gait
+
+
+def test_straight_walk_is_recovered_noise_free() -> None:
+    g = simulate_gait(n_strides=6, stride_m=1.4)
+    tr = run_bc(g.t_s, g.acc_b, g.gyro_b, detect(g.acc_b, g.gyro_b, 200.0))
+    assert np.linalg.norm(tr.pos_n[-1, :2] - g.pos_n[-1, :2]) < 0.05 * 6 * 1.4
+    assert tr.zero_velocity[g.stance].mean() > 0.9
+    assert np.all(tr.pos_var >= 0)
+
+
+def test_constant_prior_shortens_the_strides() -> None:
+    # Eq. 7 with a constant f(Px): the swing component pulls the velocity to zero at every sample.
+    g = simulate_gait(n_strides=4, stride_m=1.4)
+    zv = detect(g.acc_b, g.gyro_b, 200.0)
+    flat = run_bc(g.t_s, g.acc_b, g.gyro_b, zv, BCConfig(divide_by_prior=False))
+    ratio = run_bc(g.t_s, g.acc_b, g.gyro_b, zv)
+    assert flat.pos_n[-1, 0] < 0.8 * g.pos_n[-1, 0]
+    assert abs(ratio.pos_n[-1, 0] - g.pos_n[-1, 0]) < 0.1
+
+
+def test_potential_factors_divide_gaussians() -> None:
+    ctx = ContextModel.expert()
+    var, logc = potential_factors(ctx, True)
+    assert np.all(np.isinf(var[1])) and logc[1] == 0.0
+    x = np.linspace(-0.1, 0.1, 5)[:, None] * np.ones(9)
+    s1, s2 = ctx.sds[0] ** 2, ctx.sds[1] ** 2
+
+    def logn(x, v):
+        return -0.5 * np.sum(np.log(2 * np.pi * v) + x**2 / v, axis=1)
+
+    np.testing.assert_allclose(logc[0] + logn(x, var[0]), logn(x, s1) - logn(x, s2), rtol=1e-9)
+
+
+def test_em_recovers_a_two_component_scale_mixture() -> None:
+    rng = np.random.default_rng(0)
+    sd1 = np.repeat([0.03, 0.3, 0.15], 3)
+    sd2 = np.repeat([1.5, 6.0, 2.5], 3)
+    n1, n2 = 3000, 5000
+    x = np.concatenate([rng.normal(0, 1, (n1, 9)) * sd1, rng.normal(0, 1, (n2, 9)) * sd2])
+    model = learn_context(x, m=2, iterations=100)
+    np.testing.assert_allclose(model.weights, [n1 / (n1 + n2), n2 / (n1 + n2)], atol=0.02)
+    np.testing.assert_allclose(model.sds[0], sd1, rtol=0.1)
+    np.testing.assert_allclose(model.sds[1], sd2, rtol=0.1)
+
+
+def test_bad_input() -> None:
+    with pytest.raises(InputError, match="sum to 1"):
+        ContextModel(np.array([0.5, 0.6]), np.zeros((2, 9)), np.ones((2, 9)))
+    with pytest.raises(InputError, match="positive"):
+        BCConfig(var_acc=0.0)
+    with pytest.raises(InputError, match="samples"):
+        learn_context(np.zeros((5, 9)))

@@ -1,0 +1,105 @@
+"""Filter bank (seed 002): analytic checks, simulate-then-recover, transition learning."""
+
+import numpy as np
+import pytest
+
+from pdr import quaternion as quat
+from pdr.errors import InputError
+from pdr.foot.detectors import detect
+from pdr.foot.filterbank import (
+    FilterBankConfig,
+    check_transition,
+    learn_transition,
+    polar_rotation,
+    run_filterbank,
+    transition_at_rate,
+    transition_ml,
+)
+from pdr.foot.zupt import run_zupt
+from tests.pdr.foot.gait import simulate_gait
+
+
+def test_polar_decomposition_gives_the_chordal_mean_rotation() -> None:
+    rng = np.random.default_rng(0)
+    base = quat.from_euler(0.3, -0.2, 1.0)
+    qs = quat.multiply(quat.from_rotvec(rng.normal(0, 0.1, (9, 3))), base)
+    w = rng.dirichlet(np.ones(9))
+    c = polar_rotation(np.einsum("i,ijk->jk", w, quat.to_rotmat(qs)))
+    np.testing.assert_allclose(c @ c.T, np.eye(3), atol=1e-12)
+    assert np.linalg.det(c) == pytest.approx(1.0, abs=1e-12)
+    # Close to the base rotation the leaves scatter around, and exact for identical leaves.
+    assert quat.angle_between(quat.from_rotmat(c), base) < 0.1
+    same = polar_rotation(quat.to_rotmat(base) * 1.0)
+    np.testing.assert_allclose(same, quat.to_rotmat(base), atol=1e-12)
+    # A reflection-like input still gives a proper rotation.
+    assert np.linalg.det(polar_rotation(np.diag([1.0, 1.0, -1.0]))) == pytest.approx(1.0)
+
+
+def test_transition_ml_recovers_a_known_markov_chain() -> None:
+    pi = np.array([[0.9, 0.2, 0.0], [0.1, 0.7, 0.05], [0.0, 0.1, 0.95]])
+    rng = np.random.default_rng(1)
+    n = 40_000
+    s = np.zeros(n, dtype=int)
+    for k in range(1, n):
+        s[k] = rng.choice(3, p=pi[:, s[k - 1]])
+    counts = np.zeros((3, 3))
+    np.add.at(counts, (s[1:], s[:-1]), 1.0)
+    est = transition_ml(counts)
+    np.testing.assert_allclose(est, pi, atol=0.02)
+    np.testing.assert_allclose(est.sum(axis=0), 1.0)
+    assert np.all(est[pi == 0] == 0)
+
+
+def test_transition_at_rate_keeps_dwell_times() -> None:
+    pi = check_transition([[0.99, 0.02, 0.0], [0.01, 0.96, 0.05], [0.0, 0.02, 0.95]])
+    np.testing.assert_allclose(transition_at_rate(pi, 100.0, 100.0), pi)
+    fast = transition_at_rate(pi, 100.0, 200.0)
+    np.testing.assert_allclose(fast.sum(axis=0), 1.0)
+    # Mean dwell time 1 / (1 - p_ii) samples doubles when the rate doubles.
+    np.testing.assert_allclose((1 - np.diag(pi)) / (1 - np.diag(fast)), 2.0, rtol=1e-9)
+    with pytest.raises(InputError, match="sum to 1"):
+        check_transition(np.full((3, 3), 0.5))
+
+
+@pytest.mark.parametrize("variant", ["speed", "height"])
+def test_filter_bank_recovers_a_simulated_walk(variant: str) -> None:
+    g = simulate_gait(n_strides=8, stride_m=1.3, turn_rad=np.radians(10.0), sigma_acc=0.02, sigma_gyro=0.002,
+                      seed=2)
+    zv = detect(g.acc_b, g.gyro_b, 200.0)
+    tr = run_filterbank(g.t_s, g.acc_b, g.gyro_b, zv, FilterBankConfig(variant=variant))
+    zupt = run_zupt(g.t_s, g.acc_b, g.gyro_b, zv)
+    err = np.linalg.norm(tr.pos_n[-1, :2] - g.pos_n[-1, :2])
+    assert err < 0.01 * 8 * 1.3
+    assert err < 2.0 * np.linalg.norm(zupt.pos_n[-1, :2] - g.pos_n[-1, :2]) + 0.02
+    # The most probable mode finds the stances and the swings.
+    core = g.stance & (np.convolve(g.stance, np.ones(21), "same") >= 21)
+    swing = ~g.stance & (np.convolve(~g.stance, np.ones(61), "same") >= 61)
+    assert tr.zero_velocity[core].mean() > 0.95
+    assert tr.zero_velocity[swing].mean() < 0.05
+    # Merged covariances (eqs. 7b, 9) are PSD, mode probabilities a distribution.
+    assert np.all(tr.pos_var >= 0) and np.all(tr.vel_var >= 0) and np.all(tr.att_var >= 0)
+    np.testing.assert_allclose(tr.mode_prob[tr.start_index + 1:].sum(axis=1), 1.0, atol=1e-9)
+    np.testing.assert_allclose(np.linalg.norm(tr.q_nb, axis=1), 1.0, atol=1e-12)
+    assert np.isfinite(tr.log_likelihood)
+    if variant == "height":
+        assert abs(tr.pos_n[-1, 2] - g.pos_n[-1, 2]) < 0.02
+
+
+def test_learning_raises_the_likelihood_and_gives_a_low_pass_chain() -> None:
+    g = simulate_gait(n_strides=4, sigma_acc=0.05, sigma_gyro=0.005, seed=4)
+    zv = detect(g.acc_b, g.gyro_b, 200.0)
+    res = learn_transition([(g.t_s, g.acc_b, g.gyro_b, zv)], rate_hz=200.0, iterations=2)
+    assert res.log_likelihood.max() > res.log_likelihood[0]
+    assert res.transition[0, 0] > 0.9 and res.transition[2, 2] > 0.9
+    np.testing.assert_allclose(res.transition.sum(axis=0), 1.0)
+    # Structural zeros of the initial matrix (no direct 1 <-> 3 jump) stay zero.
+    assert res.transition[2, 0] == 0.0 and res.transition[0, 2] == 0.0
+
+
+def test_bad_configuration() -> None:
+    with pytest.raises(InputError, match="variant"):
+        FilterBankConfig(variant="fast")
+    with pytest.raises(InputError, match="sigma_v"):
+        FilterBankConfig(sigma_v=(0.0, -1.0, 0.1))
+    with pytest.raises(InputError, match="max_leaves"):
+        FilterBankConfig(max_leaves=0)

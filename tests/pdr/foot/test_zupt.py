@@ -1,0 +1,97 @@
+import numpy as np
+import pytest
+from scipy.stats import chi2
+
+from pdr import quaternion as quat
+from pdr.errors import InputError
+from pdr.foot.detectors import detect
+from pdr.foot.stepwise import dead_reckon
+from pdr.foot.zupt import Segmentation, ZuptConfig, run_zupt
+from pdr.frames import wrap_angle
+from tests.pdr.foot.gait import simulate_gait
+
+
+def _horizontal(a: np.ndarray) -> np.ndarray:
+    return np.linalg.norm(a[..., :2], axis=-1)
+
+
+def test_straight_walk_is_recovered_noise_free() -> None:
+    g = simulate_gait(n_strides=10, stride_m=1.4)
+    tr = run_zupt(g.t_s, g.acc_b, g.gyro_b, g.stance)
+    # 14 m walked: final position within 1 cm, vertical back on the floor within 1 cm.
+    assert _horizontal(tr.pos_n[-1] - g.pos_n[-1]) < 0.01
+    assert abs(tr.pos_n[-1, 2]) < 0.01
+    np.testing.assert_allclose(tr.pos_n[:, :2], g.pos_n[:, :2], atol=0.02)
+    # Roll and pitch found by the coarse self-initialisation.
+    roll, pitch, _ = quat.to_euler(tr.q_nb[-1])
+    assert roll == pytest.approx(0.1, abs=1e-3) and pitch == pytest.approx(-0.2, abs=1e-3)
+
+
+def test_turning_walk_with_noise_and_detected_stances() -> None:
+    g = simulate_gait(n_strides=12, stride_m=1.2, turn_rad=np.radians(15.0), sigma_acc=0.02, sigma_gyro=0.002,
+                      seed=3)
+    zv = detect(g.acc_b, g.gyro_b, 200.0)
+    tr = run_zupt(g.t_s, g.acc_b, g.gyro_b, zv)
+    dist = 12 * 1.2
+    assert _horizontal(tr.pos_n[-1] - g.pos_n[-1]) < 0.01 * dist
+    assert abs(wrap_angle(tr.yaw[-1] - g.yaw[-1])) < np.radians(1.0)
+
+
+def test_attitude_and_velocity_errors_are_consistent_with_the_covariance() -> None:
+    # NEES of roll/pitch/velocity at the end of the last stance, over Monte Carlo runs: within chi-square bounds.
+    cfg = ZuptConfig(sigma_acc=0.05, sigma_gyro=0.005)
+    nees = []
+    for seed in range(20):
+        g = simulate_gait(n_strides=4, sigma_acc=0.05, sigma_gyro=0.005, seed=seed)
+        tr = run_zupt(g.t_s, g.acc_b, g.gyro_b, g.stance, cfg)
+        roll, pitch, _ = quat.to_euler(tr.q_nb[-1])
+        e = np.array([roll - 0.1, pitch + 0.2])
+        nees.append(float(e @ e / np.mean(tr.att_var[-1, :2])))
+    lo, hi = chi2.ppf([0.005, 0.995], 2 * len(nees)) / len(nees)
+    assert lo < np.mean(nees) < hi
+
+
+def test_position_error_stays_inside_the_reported_uncertainty() -> None:
+    misses = 0
+    for seed in range(10):
+        g = simulate_gait(n_strides=8, sigma_acc=0.05, sigma_gyro=0.005, seed=100 + seed)
+        tr = run_zupt(g.t_s, g.acc_b, g.gyro_b, g.stance, ZuptConfig(sigma_acc=0.05, sigma_gyro=0.005))
+        err = tr.pos_n[-1, :2] - g.pos_n[-1, :2]
+        misses += int(np.linalg.norm(err) > 3.0 * np.sqrt(tr.pos_var[-1, :2].sum()))
+    assert misses <= 2
+
+
+def test_stepwise_dead_reckoning_reproduces_the_full_filter() -> None:
+    g = simulate_gait(n_strides=10, turn_rad=np.radians(20.0), sigma_acc=0.02, sigma_gyro=0.002, seed=5)
+    full = run_zupt(g.t_s, g.acc_b, g.gyro_b, g.stance)
+    sw = run_zupt(g.t_s, g.acc_b, g.gyro_b, g.stance, segmentation=Segmentation())
+    assert len(sw.steps) == 10          # one reset per stride (the last stance never ends)
+    np.testing.assert_allclose(sw.pos_n, full.pos_n, atol=0.01)
+    dr = dead_reckon(sw.steps)
+    np.testing.assert_allclose(dr.pos_n[-1], sw.pos_n[sw.steps[-1].index], atol=1e-9)
+    # Accumulated position variance of the dead reckoning matches the full filter's within 10 %.
+    k = sw.steps[-1].index
+    assert np.trace(dr.cov[-1, :2, :2]) == pytest.approx(full.pos_var[k, :2].sum(), rel=0.1)
+    assert dr.heading[-1] == pytest.approx(full.yaw[k], abs=1e-3)
+
+
+def test_bad_input_is_reported() -> None:
+    g = simulate_gait(n_strides=2)
+    with pytest.raises(InputError, match="never comes to rest"):
+        run_zupt(g.t_s, g.acc_b, g.gyro_b, np.zeros(g.t_s.size, dtype=bool))
+    with pytest.raises(InputError, match="strictly increasing"):
+        run_zupt(g.t_s[::-1], g.acc_b, g.gyro_b, g.stance)
+    with pytest.raises(InputError, match="zero_velocity"):
+        run_zupt(g.t_s, g.acc_b, g.gyro_b, g.stance[:-1])
+    bad = g.acc_b.copy()
+    bad[5, 0] = np.nan
+    with pytest.raises(InputError, match="not finite"):
+        run_zupt(g.t_s, bad, g.gyro_b, g.stance)
+
+
+def test_start_in_motion_is_reported() -> None:
+    g = simulate_gait(n_strides=4, stance_s=0.5)
+    zv = g.stance.copy()
+    zv[:100] = False   # detector misses the initial stance: first rest found later
+    tr = run_zupt(g.t_s, g.acc_b, g.gyro_b, zv)
+    assert any("starts in motion" in w for w in tr.warnings)

@@ -1,0 +1,245 @@
+"""Hostile input for every reader: mutated real files either read or raise InputError, nothing else.
+
+Each reader gets a small valid seed (repository fixtures and mobile_logs; excerpts of the shared datasets
+for the others, marked ``data``), which hypothesis mutates: NaN/infinities/huge or empty fields, garbage
+tokens, SQL and path injection strings, dropped, duplicated and swapped lines, truncation, random bytes,
+a destroyed header, an empty member. The file is then read with the reader forced and with format
+detection. Anything but a :class:`Recording` or an :class:`InputError` (with a message) is a bug.
+MATLAB files go through the service's sandbox (see ``ISOLATED``). ``PDR_FUZZ_EXAMPLES`` raises the number
+of examples per seed (default 12; the slow run uses 600).
+"""
+
+from __future__ import annotations
+
+import gzip
+import io
+import json
+import os
+import re
+import tempfile
+import zipfile
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from pdr.errors import InputError
+from pdr.io.registry import _by_name, read_recording
+from pdr.recording import Recording
+from tests.conftest import REPO_ROOT, data_path
+
+EXAMPLES = int(os.environ.get("PDR_FUZZ_EXAMPLES", "12"))
+#: Formats read with ``scipy.io.loadmat``, which can crash the interpreter on corrupt files (a native
+#: segmentation fault, not an exception): fuzzed through the service's sandbox (server/sandbox.py), which
+#: must turn every crash into an InputError, with fewer examples (a child process per example).
+ISOLATED = {"pyshoe"}
+ISOLATED_EXAMPLES = 15
+NASTY = ["NaN", "nan", "inf", "-Infinity", "1e309", "-1e309", "", " ", "abc", "0x1F", "9" * 60, "-0", "1e-320",
+         "null", "true", "[]", "{}", '"', "'; DROP TABLE batches;--", "../../../../etc/passwd", "\x00", "\u00e9",
+         "\ufeff", "-9223372036854775809", "1.5.3", "1,5"]
+
+
+@dataclass(frozen=True)
+class Seed:
+    """A valid input: ``files`` (relative path -> content) stored as ``pack`` under the name ``root``."""
+
+    fmt: str
+    root: str
+    files: dict[str, bytes]
+    pack: str  # file | gz | zip | folder | binary
+
+    def write(self, base: Path, files: dict[str, bytes]) -> Path:
+        path = base / self.root
+        if self.pack in ("file", "binary"):
+            path.write_bytes(next(iter(files.values())))
+        elif self.pack == "gz":
+            path.write_bytes(gzip.compress(next(iter(files.values()))))
+        elif self.pack == "zip":
+            with zipfile.ZipFile(path, "w") as z:
+                for name, content in files.items():
+                    z.writestr(name, content)
+        else:
+            for name, content in files.items():
+                (path / name).parent.mkdir(parents=True, exist_ok=True)
+                (path / name).write_bytes(content)
+        return path
+
+
+def _head(content: bytes, lines: int, name: str = ".csv") -> bytes:
+    if _is_binary(name):
+        return content
+    return b"".join(content.splitlines(keepends=True)[:lines])
+
+
+def _is_binary(name: str) -> bool:
+    return name.endswith((".npy", ".npz", ".mat", ".zip", ".gz"))
+
+
+def _text_tree(folder: Path, lines: int = 150) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): _head(p.read_bytes(), lines, p.name) for p in sorted(folder.rglob("*"))
+            if p.is_file()}
+
+
+def _zip_tree(path: Path, lines: int = 150) -> dict[str, bytes]:
+    with zipfile.ZipFile(path) as z:
+        return {n: _head(z.read(n), lines, n) for n in z.namelist() if not n.endswith("/")}
+
+
+def _native_batch() -> bytes:
+    from tests.server.helpers import phone_batch
+
+    return json.dumps(phone_batch("b1", 0.0)).encode()
+
+
+def _npz() -> bytes:
+    z = np.load(data_path("allan_static_imudata", "adis_16405_imu1.npz"))
+    buf = io.BytesIO()
+    np.savez(buf, data=z["data"][:3000], columns=z["columns"], fs=z["fs"])
+    return buf.getvalue()
+
+
+FIXTURES = REPO_ROOT / "tests" / "pdr" / "io" / "fixtures"
+LOGS = REPO_ROOT / "mobile_logs"
+
+SEEDS: dict[str, Callable[[], Seed]] = {
+    "native-zip": lambda: Seed("native", "walk.zip", _zip_tree(LOGS / "sim" / "pocket_office.zip"), "zip"),
+    "native-json": lambda: Seed("native", "batch.json", {"batch.json": _native_batch()}, "file"),
+    "ms_indoor": lambda: Seed("ms_indoor", "trace.txt.gz", {"t": _head(gzip.decompress(
+        (LOGS / "real" / "ms_indoor_site2_F3_5dd51a7650e04e0006f5642c.txt.gz").read_bytes()), 300)}, "gz"),
+    "sensorconnect": lambda: Seed("sensorconnect", "SensorConnectData_42.csv", {"c": (
+        FIXTURES / "sensorconnect" / "SensorConnectData_42_head.csv").read_bytes()}, "file"),
+    "phyphox": lambda: Seed("phyphox", "export", _text_tree(FIXTURES / "phyphox" / "android_export"), "folder"),
+    "sensor_logger-folder": lambda: Seed("sensor_logger", "rec", _text_tree(
+        FIXTURES / "sensor_logger" / "android_face_up"), "folder"),
+    "sensor_logger-push": lambda: Seed("sensor_logger", "push.json", {"p": (
+        FIXTURES / "sensor_logger" / "android_push.json").read_bytes()}, "file"),
+}
+DATA_SEEDS: dict[str, Callable[[], Seed]] = {
+    "ipin": lambda: Seed("ipin", "logfile.txt", {"t": _head(data_path(
+        "ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial01_repetition01.txt").read_bytes(), 400)}, "file"),
+    "oxford": lambda: Seed("oxford", "accelerometer.csv.gz", {"a": _head(gzip.decompress(data_path(
+        "oxford_step_counter", "optimisation", "data", "Samsung_Carmelo_Hard_FrontPocket_1",
+        "accelerometer.csv.gz").read_bytes()), 300)}, "gz"),
+    "mobifall": lambda: Seed("mobifall", "WAL_acc_2_1.txt.gz", {"a": _head(gzip.decompress(data_path(
+        "mobifall_v2_pocket", "sub2", "ADL", "WAL", "WAL_acc_2_1.txt.gz").read_bytes()), 200)}, "gz"),
+    "driving": lambda: Seed("driving", "17", _text_tree(data_path("driving_phone_mount", "17"), 200), "folder"),
+    "xio": lambda: Seed("xio", "short_walk.csv", {"x": _head(data_path("xio_gait_loop", "short_walk.csv")
+                                                             .read_bytes(), 300)}, "file"),
+    "pyshoe": lambda: Seed("pyshoe", "2017-11-22-11-35-59.mat", {"m": data_path(
+        "pyshoe_vicon", "2017-11-22-11-35-59.mat").read_bytes()}, "binary"),
+    "static_npz": lambda: Seed("static_npz", "imu.npz", {"n": _npz()}, "binary"),
+}
+
+
+@st.composite
+def text_mutation(draw: st.DrawFn, content: bytes) -> bytes:
+    lines = content.splitlines(keepends=True) or [b""]
+    op = draw(st.sampled_from(["token", "token", "token", "drop", "dup", "swap", "truncate", "insert", "header",
+                               "empty", "long_line"]))
+    i = draw(st.integers(0, len(lines) - 1))
+    if op == "token":
+        tokens = list(re.finditer(rb"[^,;\t \r\n]+", lines[i]))
+        if tokens:
+            m = tokens[draw(st.integers(0, len(tokens) - 1))]
+            nasty = draw(st.sampled_from(NASTY)).encode()
+            lines[i] = lines[i][:m.start()] + nasty + lines[i][m.end():]
+    elif op == "drop":
+        del lines[i]
+    elif op == "dup":
+        lines.insert(i, lines[i])
+    elif op == "swap":
+        j = draw(st.integers(0, len(lines) - 1))
+        lines[i], lines[j] = lines[j], lines[i]
+    elif op == "truncate":
+        return content[:draw(st.integers(0, len(content)))]
+    elif op == "insert":
+        at = draw(st.integers(0, len(content)))
+        return content[:at] + draw(st.binary(min_size=1, max_size=40)) + content[at:]
+    elif op == "header":
+        lines[0] = draw(st.text(max_size=60)).encode("utf-8", "surrogatepass") + b"\n"
+    elif op == "empty":
+        return b""
+    else:
+        lines[i] = b",".join([draw(st.sampled_from(NASTY)).encode()] * 5000) + b"\n"
+    return b"".join(lines)
+
+
+@st.composite
+def binary_mutation(draw: st.DrawFn, content: bytes) -> bytes:
+    op = draw(st.sampled_from(["truncate", "flip", "insert", "zero"]))
+    at = draw(st.integers(0, max(0, len(content) - 1)))
+    if op == "truncate":
+        return content[:at]
+    if op == "insert":
+        return content[:at] + draw(st.binary(min_size=1, max_size=64)) + content[at:]
+    n = draw(st.integers(1, 64))
+    block = bytes(n) if op == "zero" else bytes(b ^ 0xFF for b in content[at:at + n])
+    return content[:at] + block + content[at + len(block):]
+
+
+def check_reader(seed: Seed, data: st.DataObject) -> None:
+    files = dict(seed.files)
+    name = data.draw(st.sampled_from(sorted(files)))
+    mutate = binary_mutation if seed.pack == "binary" or _is_binary(name) else text_mutation
+    files[name] = data.draw(mutate(files[name]))
+    module = _by_name()[seed.fmt]
+    if seed.fmt in ISOLATED:
+        from server.sandbox import read_isolated
+
+        for fmt in (seed.fmt, None):
+            try:
+                read_isolated(next(iter(files.values())), seed.root, fmt)
+            except InputError as exc:
+                assert str(exc), "an InputError needs a message"
+        return
+    with tempfile.TemporaryDirectory(prefix="pdr-fuzz-") as tmp:
+        path = seed.write(Path(tmp), files)
+        for read in (module.read, read_recording):
+            try:
+                rec = read(path)
+            except InputError as exc:
+                assert str(exc), "an InputError needs a message"
+                continue
+            assert isinstance(rec, Recording)
+
+
+def _run(seed_factory: Callable[[], Seed], examples: int) -> None:
+    seed = seed_factory()
+    module = _by_name()[seed.fmt]
+    with tempfile.TemporaryDirectory(prefix="pdr-fuzz-") as tmp:  # the seed itself is valid
+        assert isinstance(module.read(seed.write(Path(tmp), seed.files)), Recording)
+
+    if seed.fmt in ISOLATED:
+        examples = min(examples, ISOLATED_EXAMPLES)
+
+    @settings(max_examples=examples, deadline=None, database=None,
+              suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+    @given(data=st.data())
+    def fuzz(data: st.DataObject) -> None:
+        check_reader(seed, data)
+
+    fuzz()
+
+
+@pytest.mark.parametrize("seed", sorted(SEEDS))
+def test_reader_survives_hostile_input(seed):
+    _run(SEEDS[seed], EXAMPLES)
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("seed", sorted(DATA_SEEDS))
+def test_reader_survives_hostile_input_on_dataset_excerpts(seed):
+    if seed in ISOLATED:
+        pytest.skip("read in a child process per example: fuzzed in the slow run")
+    _run(DATA_SEEDS[seed], EXAMPLES)
+
+
+@pytest.mark.slow
+@pytest.mark.data
+@pytest.mark.parametrize("seed", sorted(SEEDS | DATA_SEEDS))
+def test_reader_survives_many_hostile_inputs(seed):
+    _run((SEEDS | DATA_SEEDS)[seed], 600)

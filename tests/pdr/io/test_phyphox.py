@@ -1,0 +1,152 @@
+import gzip
+import shutil
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pdr.errors import InputError
+from pdr.io import phyphox
+from tests.pdr.io._registry import detect_or_skip
+
+FIXTURE = Path(__file__).parent / "fixtures" / "phyphox" / "android_export"
+START_NS = 1_717_000_000_250_000_000
+RESUME_NS = 1_717_000_010_250_000_000
+
+
+def _zip(folder: Path, out: Path, top: str | None = None) -> Path:
+    with zipfile.ZipFile(out, "w") as zf:
+        for f in sorted(folder.rglob("*")):
+            if f.is_file():
+                rel = str(f.relative_to(folder))
+                zf.write(f, f"{top}/{rel}" if top else rel)
+    return out
+
+
+@pytest.mark.parametrize("packaging", ["folder", "zip", "zip_with_top_folder"])
+def test_export_streams_units_and_epoch_clock(packaging, tmp_path):
+    path = FIXTURE
+    if packaging != "folder":
+        path = _zip(FIXTURE, tmp_path / "export.zip", top="Acceleration 2024-05-29" if "top" in packaging else None)
+    assert phyphox.sniff(path)
+    rec = phyphox.read(path)
+    assert rec.device.platform == "android" and rec.device.model == "Pixel 7"
+    assert set(rec.streams) == {"acc", "lin_acc", "gyro", "mag", "baro"}
+    np.testing.assert_allclose(rec.values("acc").mean(axis=0), [0.0, 0.0, 9.81], atol=0.1)  # face-up
+    np.testing.assert_allclose(rec.values("mag").mean(axis=0), [1.0, 21.0, -40.0], atol=0.3)  # uT
+    assert rec.values("baro").mean() == pytest.approx(1012.3, abs=0.05)
+    assert rec.warnings == ()
+    # experiment time 1.29e-4 s after the first START at epoch 1717000000.25 s, exactly in ns
+    assert rec.stream("acc").t_ns[0] == START_NS + 129_000
+    # samples after the resume (experiment time >= 0.5 s) are placed after the 9.5 s pause
+    t = rec.stream("gyro").t_ns
+    first_after = int(np.argmax(t > START_NS + 600_000_000))
+    exp_time = float((FIXTURE / "Gyroscope.csv").read_text().splitlines()[first_after + 1].split(",")[0])
+    assert t[first_after] == RESUME_NS + round((exp_time - 0.5) * 1e9)
+    assert rec.stream("acc").median_rate_hz() == pytest.approx(50.0, rel=0.05)
+
+
+def test_single_csv_and_gz_use_experiment_time(tmp_path):
+    src = FIXTURE / "Gyroscope.csv"
+    gz = tmp_path / "Gyroscope.csv.gz"
+    gz.write_bytes(gzip.compress(src.read_bytes()))
+    for p in (src, gz):
+        assert phyphox.sniff(p)
+        rec = phyphox.read(p)
+        assert set(rec.streams) == {"gyro"}
+        assert rec.stream("gyro").t_ns[0] == 5_000_000
+        assert any("experiment time" in w for w in rec.warnings)
+
+
+def test_semicolon_decimal_comma_dialect(tmp_path):
+    text = ('"Time (s)";"Acceleration x (m/s^2)";"Acceleration y (m/s^2)";"Acceleration z (m/s^2)";'
+            '"Absolute acceleration (m/s^2)"\n'
+            "0,000000000E0;1,0E-2;-2,0E-2;9,81E0;9,81E0\n1,000000000E-2;1,0E-2;-2,0E-2;9,80E0;9,80E0\n")
+    p = tmp_path / "Raw Data.csv"
+    p.write_text(text, encoding="utf-8")
+    assert phyphox.sniff(p)
+    rec = phyphox.read(p)
+    np.testing.assert_allclose(rec.values("acc"), [[0.01, -0.02, 9.81], [0.01, -0.02, 9.80]])
+
+
+def test_degree_and_g_units_converted(tmp_path):
+    p = tmp_path / "Raw Data.csv"
+    p.write_text('"Time (s)","Gyroscope x (deg/s)","Gyroscope y (deg/s)","Gyroscope z (deg/s)"\n0,180,0,-90\n'
+                 "0.01,180,0,-90\n")
+    np.testing.assert_allclose(phyphox.read(p).values("gyro")[0], [np.pi, 0, -np.pi / 2])
+
+
+def _copy(tmp_path):
+    dst = tmp_path / "export"
+    shutil.copytree(FIXTURE, dst)
+    return dst
+
+
+def _edit_line(path: Path, line: int, new: str):
+    lines = path.read_text().splitlines()
+    lines[line - 1] = new
+    path.write_text("\n".join(lines) + "\n")
+
+
+@pytest.mark.parametrize(("edit", "line", "field", "match"), [
+    (lambda p: p.write_text('"Time (s)","Gyroscope x (rad/s)","Gyroscope y (rad/s)","Gyroscope z (rad/s)"\n'), 2,
+     None, "no samples"),
+    (lambda p: p.write_text(p.read_text()[:-20]), None, None, "expected 4 fields"),
+    (lambda p: _edit_line(p, 3, "2.0E-2,1.0E-3,2.0E-3"), 3, None, "expected 4 fields"),
+    (lambda p: _edit_line(p, 3, "2.0E-2,1.0E-3,2.0E-3,4.0E-3,9"), 3, None, "expected 4 fields"),
+    (lambda p: _edit_line(p, 4, "3.0E-2,1.0E-3,abc,4.0E-3"), 4, "Gyroscope y (rad/s)", "not a number"),
+    (lambda p: _edit_line(p, 4, "3.0E-2,1.0E-3,NaN,4.0E-3"), 4, "Gyroscope y (rad/s)", "not finite"),
+    (lambda p: _edit_line(p, 5, "1.0E-3,1.0E-3,2.0E-3,4.0E-3"), 5, "Time (s)", "backwards"),
+    (lambda p: p.write_text('"Time (s)","Gyroscope x (rad/h)","Gyroscope y (rad/h)","Gyroscope z (rad/h)"\n0,1,2,3\n'),
+     1, "Gyroscope x (rad/h)", "unknown unit"),
+])
+def test_bad_data_csv_names_file_line_field(tmp_path, edit, line, field, match):
+    folder = _copy(tmp_path)
+    target = folder / "Gyroscope.csv"
+    edit(target)
+    with pytest.raises(InputError, match=match) as err:
+        phyphox.read(folder)
+    assert str(err.value.source).endswith("Gyroscope.csv")
+    if line is None:
+        line = len(target.read_text().splitlines())
+    assert err.value.line == line and err.value.field == field
+
+
+def test_bad_time_csv(tmp_path):
+    folder = _copy(tmp_path)
+    (folder / "meta" / "time.csv").write_text('"event","experiment time","system time"\n"START",0,soon\n')
+    with pytest.raises(InputError, match="not a number") as err:
+        phyphox.read(folder)
+    assert err.value.line == 2 and err.value.field == "system time"
+    (folder / "meta" / "time.csv").write_text('"event","when"\n"START",0\n')
+    with pytest.raises(InputError, match="missing column") as err:
+        phyphox.read(folder)
+    assert err.value.line == 1
+
+
+def test_binary_member_and_foreign_inputs(tmp_path):
+    folder = _copy(tmp_path)
+    (folder / "Gyroscope.csv").write_bytes(b"\x00\x01\x02" * 100)
+    with pytest.raises(InputError, match="Gyroscope.csv.*binary"):
+        phyphox.read(folder)
+    g = tmp_path / "g.csv"
+    g.write_bytes(bytes(range(256)))
+    assert not phyphox.sniff(g)
+    xio = tmp_path / "x.csv"
+    xio.write_text("Time (s),Gyroscope X (deg/s),Gyroscope Y (deg/s),Gyroscope Z (deg/s)\n0,1,2,3\n")
+    assert not phyphox.sniff(xio)
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert not phyphox.sniff(empty)
+    bad_zip = tmp_path / "b.zip"
+    bad_zip.write_bytes(b"PK\x03\x04nope")
+    assert not phyphox.sniff(bad_zip)
+    only_meta = tmp_path / "only_meta"
+    shutil.copytree(FIXTURE / "meta", only_meta / "meta")
+    with pytest.raises(InputError, match="no phyphox data set"):
+        phyphox.read(only_meta)
+
+
+def test_detect_format():
+    assert detect_or_skip(FIXTURE) == "phyphox"

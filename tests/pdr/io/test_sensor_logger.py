@@ -1,0 +1,299 @@
+import copy
+import gzip
+import json
+import shutil
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pdr.errors import InputError
+from pdr.io import sensor_logger
+from tests.pdr.io._registry import detect_or_skip
+
+FIXTURES = Path(__file__).parent / "fixtures" / "sensor_logger"
+EXPORTS = ["android_face_up", "ios_face_up", "ios_face_up_standardised"]
+FACE_UP = np.array([0.0, 0.0, 9.81])
+
+
+def _zip_folder(folder: Path, out: Path, top: str | None = None) -> Path:
+    with zipfile.ZipFile(out, "w") as zf:
+        for f in sorted(folder.iterdir()):
+            zf.write(f, f"{top}/{f.name}" if top else f.name)
+    return out
+
+
+def _assert_face_up(rec):
+    for kind in ("acc", "gravity", "acc_uncal"):
+        mean = rec.values(kind).mean(axis=0)
+        np.testing.assert_allclose(mean, FACE_UP, atol=0.15, err_msg=kind)
+    # the attitude rotates the device's up (its z axis) onto ENU up
+    from pdr import quaternion
+    up = quaternion.rotate(rec.values("orientation"), np.array([0.0, 0.0, 1.0]))
+    assert np.all(up[:, 2] > 0.99)
+
+
+@pytest.mark.parametrize("name", EXPORTS)
+@pytest.mark.parametrize("packaging", ["folder", "zip", "zip_with_top_folder"])
+def test_face_up_reads_plus_g_whatever_the_platform(name, packaging, tmp_path):
+    path = FIXTURES / name
+    if packaging == "zip":
+        path = _zip_folder(path, tmp_path / f"{name}.zip")
+    elif packaging == "zip_with_top_folder":
+        path = _zip_folder(path, tmp_path / f"{name}.zip", top="2024-05-29_16-26-40")
+    assert sensor_logger.sniff(path)
+    rec = sensor_logger.read(path)
+    _assert_face_up(rec)
+    assert rec.warnings == ()
+    assert rec.device.platform == name.split("_")[0]
+    assert rec.device.model in ("Pixel 7", "iPhone 14")
+    assert rec.meta["convention"] == ("ios" if name == "ios_face_up" else "android")
+    assert rec.format == "sensor_logger"
+    for kind in ("lin_acc", "gyro", "mag", "baro", "gyro_uncal", "mag_uncal"):
+        assert rec.has(kind), kind
+    assert rec.values("baro").mean() == pytest.approx(1009.7, abs=0.1)
+
+
+@pytest.mark.parametrize("name", ["android_push.json", "ios_push_list.json"])
+def test_push_files_read_plus_g(name, tmp_path):
+    p = FIXTURES / name
+    assert sensor_logger.sniff(p)
+    rec = sensor_logger.read(p)
+    _assert_face_up(rec)
+    assert rec.meta["session_id"].endswith("session-7f3a")
+    gz = tmp_path / (name + ".gz")
+    gz.write_bytes(gzip.compress(p.read_bytes()))
+    assert sensor_logger.sniff(gz)
+    assert sensor_logger.read(gz) == rec
+
+
+def test_columns_are_read_by_name_not_position():
+    """The export writes z,y,x: a reader going by position would swap x and z."""
+    first = (FIXTURES / "android_face_up" / "Gravity.csv").read_text().splitlines()
+    assert first[0] == "time,seconds_elapsed,z,y,x"
+    rec = sensor_logger.read(FIXTURES / "android_face_up")
+    z, y, x = (float(v) for v in first[1].split(",")[2:])
+    np.testing.assert_array_equal(rec.values("gravity")[0], [x, y, z])
+    assert rec.stream("gravity").t_ns[0] == int(first[1].split(",")[0])
+
+
+def test_ios_acc_is_user_acceleration_plus_gravity_sign_flipped():
+    folder = FIXTURES / "ios_face_up"
+    rec = sensor_logger.read(folder)
+    lin = np.loadtxt(folder / "Accelerometer.csv", delimiter=",", skiprows=1)
+    grav = np.loadtxt(folder / "Gravity.csv", delimiter=",", skiprows=1)
+    # same device-motion timestamps: exact sums, negated into the specific-force convention
+    np.testing.assert_array_equal(rec.stream("acc").t_ns, rec.stream("lin_acc").t_ns)
+    expected = -(lin[:, [4, 3, 2]] + grav[:, [4, 3, 2]])
+    np.testing.assert_allclose(rec.values("acc"), expected, rtol=0, atol=1e-12)
+
+
+def test_android_prefers_total_acceleration():
+    rec = sensor_logger.read(FIXTURES / "android_face_up")
+    total = np.loadtxt(FIXTURES / "android_face_up" / "TotalAcceleration.csv", delimiter=",", skiprows=1)
+    assert len(rec.stream("acc")) == total.shape[0]
+    np.testing.assert_array_equal(rec.values("acc")[:, 2], total[:, 2])
+
+
+def _ios_message():
+    return json.loads((FIXTURES / "ios_push_list.json").read_text())[0]
+
+
+def test_parse_push_message_api():
+    msg = _ios_message()
+    rec = sensor_logger.parse_push_message(msg, source="message 0")
+    assert rec.source == "message 0"
+    assert rec.meta["message_id"] == 0 and rec.meta["device_id"] == "ios-0a1b2c"
+    assert rec.meta["convention"] == "ios"
+    _assert_face_up(rec)
+    explicit = sensor_logger.parse_push_message(msg, platform="ios", standardised=False)
+    assert dict(explicit.streams) == dict(rec.streams)
+    assert explicit.device.platform == "ios" and rec.device.platform == "unknown"
+
+
+def test_convention_inferred_from_gravity_and_orientation():
+    msg = _ios_message()
+    msg["payload"] = [e for e in msg["payload"] if e["name"] != "accelerometeruncalibrated"]
+    rec = sensor_logger.parse_push_message(msg)
+    assert rec.meta["convention"] == "ios" and "points down" in rec.meta["convention_reason"]
+    _assert_face_up_minus_uncal(rec)
+
+
+def _assert_face_up_minus_uncal(rec):
+    np.testing.assert_allclose(rec.values("acc").mean(axis=0), FACE_UP, atol=0.15)
+
+
+def test_unknown_convention_assumes_android_with_warning():
+    msg = _ios_message()
+    msg["payload"] = [e for e in msg["payload"] if e["name"] in ("gyroscope", "magnetometer")]
+    rec = sensor_logger.parse_push_message(msg)
+    assert rec.meta["convention"] == "android"
+    assert any("platform unknown" in w for w in rec.warnings)
+
+
+def test_wrong_orientation_convention_is_dropped():
+    msg = copy.deepcopy(_ios_message())
+    for e in msg["payload"]:
+        if e["name"] == "orientation":  # a quaternion tilted by 90 degrees: cannot be this phone's attitude
+            e["values"].update({"qw": 0.7071, "qx": 0.7071, "qy": 0.0, "qz": 0.0})
+    rec = sensor_logger.parse_push_message(msg, platform="ios", standardised=False)
+    assert not rec.has("orientation")
+    assert any("orientation dropped" in w for w in rec.warnings)
+
+
+def test_payload_order_and_repeats():
+    msg = _ios_message()
+    msg["payload"] = list(reversed(msg["payload"]))
+    gyro = next(e for e in msg["payload"] if e["name"] == "gyroscope")
+    msg["payload"].append(copy.deepcopy(gyro))
+    rec = sensor_logger.parse_push_message(msg)
+    assert np.all(np.diff(rec.stream("gyro").t_ns) > 0)
+    assert any("gyroscope: dropped 1 samples" in w for w in rec.warnings)
+
+
+def test_string_times_and_ignored_readings():
+    msg = _ios_message()
+    for e in msg["payload"]:
+        e["time"] = str(e["time"])
+    msg["payload"].append({"name": "location", "time": "1717000000123456789", "values": {"latitude": 51.5}})
+    rec = sensor_logger.parse_push_message(msg)
+    assert rec.meta["ignored_readings"] == {"location": 1}
+    assert rec.stream("acc").t_ns[0] > 1_700_000_000_000_000_000
+
+
+@pytest.mark.parametrize(("mutate", "field", "match"), [
+    (lambda m: m.__setitem__("payload", {}), "payload", "list of readings"),
+    (lambda m: m["payload"][3]["values"].pop("x"), r"payload[3].values.x", "missing"),
+    (lambda m: m["payload"][3]["values"].__setitem__("y", "abc"), "payload[3].values.y", "not a number"),
+    (lambda m: m["payload"][3]["values"].__setitem__("z", float("nan")), "payload[3].values.z", "not finite"),
+    (lambda m: m["payload"][5].__setitem__("time", True), "payload[5].time", "boolean"),
+    (lambda m: m["payload"][5].pop("time"), "payload[5].time", "missing"),
+    (lambda m: m["payload"][2].__setitem__("values", [1, 2, 3]), "payload[2].values", "object of values"),
+    (lambda m: m["payload"].__setitem__(1, "accelerometer"), "payload[1]", "string 'name'"),
+])
+def test_bad_push_message_names_json_path(mutate, field, match):
+    msg = _ios_message()
+    msg["payload"] = [e for e in msg["payload"] if e["name"] in sensor_logger.READINGS]
+    mutate(msg)
+    with pytest.raises(InputError, match=match) as err:
+        sensor_logger.parse_push_message(msg, source="message 7")
+    assert err.value.field == field and err.value.source == "message 7"
+
+
+def test_push_without_sensor_readings_and_mixed_sessions(tmp_path):
+    with pytest.raises(InputError, match="no supported sensor readings"):
+        sensor_logger.parse_push_message({"messageId": 1, "sessionId": "s", "deviceId": "d", "payload": [
+            {"name": "location", "time": 1, "values": {}}]})
+    msgs = json.loads((FIXTURES / "ios_push_list.json").read_text())
+    msgs[1]["sessionId"] = "another"
+    p = tmp_path / "mixed.json"
+    p.write_text(json.dumps(msgs))
+    with pytest.raises(InputError, match="2 recording sessions"):
+        sensor_logger.read(p)
+
+
+def test_json_export_records(tmp_path):
+    folder = FIXTURES / "ios_face_up"
+    records = [{"sensor": "Metadata", "platform": "ios", "standardisation": "false", "device name": "iPhone 14"}]
+    for name in ("Accelerometer", "Gravity", "Orientation"):
+        lines = (folder / f"{name}.csv").read_text().splitlines()
+        header = lines[0].split(",")
+        for line in lines[1:]:
+            records.append({"sensor": name, **dict(zip(header, line.split(","), strict=True))})
+    p = tmp_path / "export.json"
+    p.write_text(json.dumps(records))
+    assert sensor_logger.sniff(p)
+    rec = sensor_logger.read(p)
+    np.testing.assert_allclose(rec.values("acc").mean(axis=0), FACE_UP, atol=0.15)
+    assert rec.device.platform == "ios"
+
+
+def _copy_export(tmp_path, name="ios_face_up"):
+    dst = tmp_path / name
+    shutil.copytree(FIXTURES / name, dst)
+    return dst
+
+
+def _edit_line(path: Path, line: int, new: str | None):
+    lines = path.read_text().splitlines()
+    if new is None:
+        del lines[line - 1:]
+    else:
+        lines[line - 1] = new
+    path.write_text("\n".join(lines) + "\n")
+
+
+@pytest.mark.parametrize(("edit", "line", "field", "match"), [
+    (lambda p: p.write_text(""), 1, None, "empty file"),
+    (lambda p: p.write_text(p.read_text()[:-25]), None, None, None),  # truncated last line: caught below
+    (lambda p: _edit_line(p, 4, "1717000000150000000,0.03,0.1"), 4, None, "expected 5 fields"),
+    (lambda p: _edit_line(p, 4, "1717000000150000000,0.03,0.1,0.2,0.3,0.4"), 4, None, "expected 5 fields"),
+    (lambda p: _edit_line(p, 5, "1717000000160000000,0.04,0.1,abc,0.3"), 5, "y", "not a number"),
+    (lambda p: _edit_line(p, 5, "1717000000160000000,0.04,0.1,NaN,0.3"), 5, "y", "not finite"),
+    (lambda p: _edit_line(p, 6, "1717000000000000000,0.05,0.1,0.2,0.3"), 6, "time", "backwards"),
+    (lambda p: _edit_line(p, 6, "1.7e18,0.05,0.1,0.2,0.3"), 6, "time", "not an integer"),
+    (lambda p: p.write_text("time,seconds_elapsed,z,y\n1,0,1,2\n"), 1, "x", "missing column 'x'"),
+    (lambda p: p.write_bytes(b"\x00\x01garbage" * 30), None, None, "binary"),
+])
+def test_bad_csv_names_file_line_field(tmp_path, edit, line, field, match):
+    folder = _copy_export(tmp_path)
+    target = folder / "Gyroscope.csv"
+    edit(target)
+    if match is None:  # a cut-off last line has too few fields
+        with pytest.raises(InputError, match="expected 5 fields") as err:
+            sensor_logger.read(folder)
+        assert err.value.line == len(target.read_text().splitlines())
+        return
+    with pytest.raises(InputError, match=match) as err:
+        sensor_logger.read(folder)
+    assert "Gyroscope.csv" in str(err.value.source)
+    assert err.value.line == line and err.value.field == field
+
+
+def test_repeated_timestamps_in_csv_are_dropped(tmp_path):
+    folder = _copy_export(tmp_path)
+    target = folder / "Gyroscope.csv"
+    lines = target.read_text().splitlines()
+    lines.insert(3, lines[2])
+    target.write_text("\n".join(lines) + "\n")
+    rec = sensor_logger.read(folder)
+    assert len(rec.stream("gyro")) == len(lines) - 2
+    assert any("gyroscope: dropped 1" in w for w in rec.warnings)
+
+
+def test_missing_metadata_infers_convention(tmp_path):
+    folder = _copy_export(tmp_path)
+    (folder / "Metadata.csv").unlink()
+    rec = sensor_logger.read(folder)
+    assert rec.meta["convention"] == "ios" and rec.meta["metadata"] == "missing"
+    _assert_face_up(rec)
+
+
+def test_foreign_inputs_are_not_sniffed(tmp_path):
+    assert not sensor_logger.sniff(tmp_path)  # empty folder
+    (tmp_path / "Accelerometer.csv").write_text('"Time (s)","Acceleration x (m/s^2)"\n0,1\n')  # phyphox
+    assert not sensor_logger.sniff(tmp_path)
+    g = tmp_path / "g.json"
+    g.write_bytes(bytes(range(256)))
+    assert not sensor_logger.sniff(g)
+    with pytest.raises(InputError):
+        sensor_logger.read(g)
+    other = tmp_path / "o.json"
+    other.write_text('{"format": "pdr-batch/1"}')
+    assert not sensor_logger.sniff(other)
+    bad = tmp_path / "b.zip"
+    bad.write_bytes(b"PK\x03\x04junk")
+    assert not sensor_logger.sniff(bad)
+    with pytest.raises(InputError, match="zip"):
+        sensor_logger.read(bad)
+    no_sensors = tmp_path / "empty_export"
+    no_sensors.mkdir()
+    (no_sensors / "Metadata.csv").write_text("platform\nios\n")
+    with pytest.raises(InputError, match="no supported sensor CSV"):
+        sensor_logger.read(no_sensors)
+
+
+@pytest.mark.parametrize("name", [*EXPORTS, "android_push.json", "ios_push_list.json"])
+def test_detect_format(name):
+    assert detect_or_skip(FIXTURES / name) == "sensor_logger"

@@ -1,0 +1,104 @@
+import gzip
+
+import numpy as np
+import pytest
+
+from pdr.errors import InputError
+from pdr.io import xio
+from tests.conftest import data_path
+from tests.pdr.io._registry import detect_or_skip
+
+HEADER = ("Time (s),Gyroscope X (deg/s),Gyroscope Y (deg/s),Gyroscope Z (deg/s),"
+          "Accelerometer X (g),Accelerometer Y (g),Accelerometer Z (g)")
+
+
+def _text(n=40, extra_rows=()):
+    rows = [HEADER]
+    for i in range(n):
+        rows.append(f"{i * 0.0025!r},90,0,-180,0,0,1")
+    rows.extend(extra_rows)
+    return "\n".join(rows) + "\n"
+
+
+def _write(tmp_path, text, name="walk.csv"):
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def test_units_converted(tmp_path):
+    p = _write(tmp_path, _text())
+    assert xio.sniff(p)
+    rec = xio.read(p)
+    np.testing.assert_allclose(rec.values("gyro")[0], [np.pi / 2, 0, -np.pi])
+    np.testing.assert_allclose(rec.values("acc")[0], [0, 0, 9.80665])
+    assert rec.stream("acc").median_rate_hz() == pytest.approx(400.0)
+    assert rec.device.placement == "foot" and rec.device.platform == "imu"
+
+
+def test_optional_magnetometer_and_rad_units(tmp_path):
+    header = ("Time (s),Gyroscope X (rad/s),Gyroscope Y (rad/s),Gyroscope Z (rad/s),Accelerometer X (m/s^2),"
+              "Accelerometer Y (m/s^2),Accelerometer Z (m/s^2),Magnetometer X (µT),Magnetometer Y (µT),"
+              "Magnetometer Z (µT),Barometer (hPa)")
+    p = _write(tmp_path, header + "\n0,1,2,3,0,0,9.8,20,0,-40,1013\n0.01,1,2,3,0,0,9.8,20,0,-40,1013\n")
+    rec = xio.read(p)
+    np.testing.assert_allclose(rec.values("gyro")[0], [1, 2, 3])
+    np.testing.assert_allclose(rec.values("mag")[0], [20, 0, -40])
+    np.testing.assert_allclose(rec.values("baro")[:, 0], [1013, 1013])
+
+
+def test_repeated_rows_dropped_with_warning(tmp_path):
+    lines = _text(5).splitlines()
+    lines.insert(3, lines[2])  # an exact copy, as in the x-io logs
+    rec = xio.read(_write(tmp_path, "\n".join(lines) + "\n"))
+    assert len(rec.stream("acc")) == 5
+    assert rec.warnings == ("dropped 1 rows that repeat the previous timestamp (1 of them exact copies of the "
+                            "previous row)",)
+
+
+def test_gz(tmp_path):
+    gz = tmp_path / "walk.csv.gz"
+    gz.write_bytes(gzip.compress(_text().encode()))
+    assert xio.sniff(gz)
+    assert len(xio.read(gz).stream("gyro")) == 40
+
+
+@pytest.mark.parametrize(("text", "line", "field", "match"), [
+    ("", 1, None, "empty file"),
+    (HEADER + "\n", 2, None, "no samples"),
+    (_text(3) + "0.01,1,2,3,0,0", 5, None, "expected 7 fields"),
+    (_text(3, ["0.01,1,2,3,0,0,1,7"]), 5, None, "expected 7 fields"),
+    (_text(3, ["0.01,1,x2,3,0,0,1"]), 5, "Gyroscope Y (deg/s)", "not a number"),
+    (_text(3, ["0.01,1,2,3,0,NaN,1"]), 5, "Accelerometer Y (g)", "not finite"),
+    (_text(3, ["0.001,1,2,3,0,0,1"]), 5, "Time (s)", "backwards"),
+    (HEADER.replace("(g)", "(furlongs)") + "\n0,1,2,3,0,0,1\n", 1, "Accelerometer X (furlongs)", "unknown"),
+])
+def test_bad_input_names_file_line_field(tmp_path, text, line, field, match):
+    p = _write(tmp_path, text)
+    with pytest.raises(InputError, match=match) as err:
+        xio.read(p)
+    assert err.value.source == str(p) and err.value.line == line and err.value.field == field
+
+
+def test_garbage_and_foreign(tmp_path):
+    g = _write(tmp_path, "", "g.csv")
+    g.write_bytes(b"\x00\xff" * 500)
+    assert not xio.sniff(g)
+    with pytest.raises(InputError, match="binary"):
+        xio.read(g)
+    phyphox = _write(tmp_path, '"Time (s)","Gyroscope x (rad/s)","Gyroscope y (rad/s)"\n0,1,2\n', "Gyroscope.csv")
+    assert not xio.sniff(phyphox)
+    assert not xio.sniff(tmp_path)
+
+
+@pytest.mark.data
+def test_real_short_walk():
+    p = data_path("xio_gait_loop", "short_walk.csv")
+    rec = xio.read(p)
+    assert rec.stream("acc").median_rate_hz() == pytest.approx(398.3, abs=1.0)
+    assert rec.duration_s == pytest.approx(41.6, abs=0.1)
+    assert len(rec.stream("acc")) == 16539 - 205  # the repeated rows are gone
+    assert np.linalg.norm(rec.values("acc")[:200], axis=1).mean() == pytest.approx(9.80, abs=0.05)
+    assert np.abs(rec.values("gyro")[:200]).max() < 0.1  # rad/s while standing
+    assert any("205 rows" in w for w in rec.warnings)
+    assert detect_or_skip(p) == "xio"

@@ -1,0 +1,113 @@
+"""``pdr track`` / ``pdr calibrate`` / ``pdr eval ipin|steps``: outputs, agreement with the reference scorer."""
+
+import csv
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pdr.cli import main
+from pdr.scoring import landmark_errors
+from tests.conftest import SHARED_DATA, data_path
+
+SIM = Path(__file__).resolve().parents[2] / "mobile_logs" / "sim"
+
+
+def read_rows(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def test_track_writes_csv_and_geojson(tmp_path, capsys):
+    out, gj = tmp_path / "t.csv", tmp_path / "t.geojson"
+    assert main(["track", str(SIM / "hand_escalator.zip"), "--out", str(out), "--geojson", str(gj)]) == 0
+    rows = read_rows(out)
+    assert rows and list(rows[0]) == ["t_s", "east_m", "north_m", "up_m", "floor", "heading_deg", "step_length_m",
+                                      "mode"]
+    t = np.array([float(r["t_s"]) for r in rows])
+    assert np.all(np.diff(t) > 0)
+    assert all(0 <= float(r["heading_deg"]) < 360 for r in rows)
+    assert json.loads(gj.read_text())["features"][0]["geometry"]["type"] == "LineString"
+    assert "steps" in capsys.readouterr().out
+
+
+def test_track_bad_input_is_a_clean_error(tmp_path, capsys):
+    assert main(["track", str(tmp_path / "missing.txt"), "--out", str(tmp_path / "x.csv")]) == 2
+    assert "no such file" in capsys.readouterr().err
+    bad = tmp_path / "site.json"
+    bad.write_text('{"landmarks": [{"type": "lift"}]}')
+    assert main(["track", str(SIM / "hand_escalator.zip"), "--site", str(bad), "--out", str(tmp_path / "x.csv")]) == 2
+    assert "type must be one of" in capsys.readouterr().err
+
+
+def test_calibrate_scales_to_the_known_distance(tmp_path):
+    from pdr.io import read_recording
+    rec = read_recording(SIM / "hand_escalator.zip")
+    walked = float(np.sum(rec.truth.step_lengths_m))
+    cal = tmp_path / "cal.json"
+    assert main(["calibrate", str(SIM / "hand_escalator.zip"), "--distance", f"{walked}", "--out", str(cal)]) == 0
+    out = tmp_path / "t.csv"
+    assert main(["track", str(SIM / "hand_escalator.zip"), "--calibration", str(cal), "--out", str(out)]) == 0
+    dist = sum(float(r["step_length_m"]) for r in read_rows(out))
+    assert dist == pytest.approx(walked, rel=0.01)
+
+
+def _ipin_ref():
+    path = SHARED_DATA.parent / "tools" / "ipin_ref.py"
+    if not path.exists():
+        pytest.skip("reference scorer not available")
+    spec = importlib.util.spec_from_file_location("ipin_ref", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@pytest.mark.data
+def test_ipin_eval_agrees_with_the_reference_scorer(tmp_path, capsys):
+    logdir = data_path("ipin2023_t3", "logfiles")
+    ref = _ipin_ref()
+    one = tmp_path / "logs"
+    one.mkdir()
+    src = logdir / "IPIN2023_T3_TrainingTrial22_repetition01.txt"
+    (one / src.name).symlink_to(src)
+    tracks = tmp_path / "tracks"
+    assert main(["eval", "ipin", str(one), "--placement", "hand", "--tracks", str(tracks), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    rows = read_rows(tracks / (src.stem + ".csv"))
+    t = np.array([float(r["t_s"]) for r in rows])
+    en = np.array([[float(r["east_m"]), float(r["north_m"])] for r in rows])
+    log = ref.read_log(str(src))
+    e_ref = ref.score(t, en, log, "none")[0]
+    tt, gt, _ = ref.truth(log)
+    assert np.allclose(landmark_errors(t, en, tt, gt, "none"), e_ref, atol=1e-9)
+    assert res["files"][0]["p75_abs_m"] == pytest.approx(float(np.percentile(e_ref, 75)), abs=0.01)
+    # Regression guard for this route (hand-held, floor -2): measured 3.6 m p75, ratio 0.99.
+    assert res["files"][0]["p75_abs_m"] < 6.0
+    assert abs(res["files"][0]["distance_ratio"] - 1) < 0.05
+
+
+@pytest.mark.data
+def test_steps_eval_on_two_oxford_walks(capsys):
+    root = data_path("oxford_step_counter", "optimisation", "data")
+    walks = [root / "Samsung_Dario_Hard_FrontPocket_2", root / "Samsung_Carmelo_Hard_InHand_2"]
+    for w in walks:
+        if not w.exists():
+            pytest.skip(f"missing {w}")
+    from pdr.io import read_recording
+    from pdr.pipeline import PdrPipeline, track_rows
+    for w in walks:
+        rec = read_recording(w)
+        n = len(track_rows(PdrPipeline().run(rec)))
+        assert abs(n - rec.truth.step_count) / rec.truth.step_count < 0.02
+
+
+@pytest.mark.data
+@pytest.mark.slow
+def test_full_oxford_step_count(capsys):
+    assert main(["eval", "steps", str(data_path("oxford_step_counter")), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)["overall"]
+    # Measured 1.14 % mean absolute error over pocket/hand/bag/armband walks (target 1 %, not reached;
+    # switch bounces in the contact-switch truth alone account for 0.88 %, see pdr.steps).
+    assert res["mean_abs_error_pct_pocket_hand_bag_armband"] < 1.4

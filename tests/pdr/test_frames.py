@@ -1,0 +1,24 @@
+import numpy as np
+import pytest
+
+from pdr import frames
+
+
+@pytest.mark.parametrize(("yaw", "heading"), [(0.0, 90.0), (np.pi / 2, 0.0), (np.pi, 270.0), (-np.pi / 2, 180.0)])
+def test_yaw_heading_conversion(yaw, heading):
+    assert frames.yaw_to_heading_deg(yaw) == pytest.approx(heading)
+    assert frames.wrap_angle(frames.heading_deg_to_yaw(heading) - yaw) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_local_enu_round_trip_and_scale():
+    en = frames.geodetic_to_local_enu(49.4620, 11.1110, 49.4611, 11.1110)
+    assert en[1] == pytest.approx(100.08, abs=0.05)  # 0.0009 deg of latitude
+    lat, lon = frames.local_enu_to_geodetic(25.0, -40.0, 49.4611, 11.1110)
+    np.testing.assert_allclose(frames.geodetic_to_local_enu(lat, lon, 49.4611, 11.1110), [25.0, -40.0], atol=1e-6)
+
+
+def test_pressure_altitude_round_trip():
+    h = frames.pressure_to_altitude_m(frames.altitude_to_pressure_hpa(3.0, 976.0), 976.0)
+    assert h == pytest.approx(3.0)
+    # About 0.12 hPa per metre near sea level.
+    assert frames.altitude_to_pressure_hpa(0.0) - frames.altitude_to_pressure_hpa(1.0) == pytest.approx(0.12, abs=0.01)

@@ -1,0 +1,54 @@
+"""Step-length patterns (eqs. 13-18) and the model fit (eq. 19)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from pdr.errors import InputError
+from pdr.step_length import StepLengthModel, calibrate_k, fit_model, step_patterns
+
+
+def test_patterns_of_a_known_signal():
+    fs = 50.0
+    a_n = 9.80665 + np.array([0.0, 2.0, 0.0, -2.0] * 5)
+    a_v = 9.80665 + np.array([1.0, -1.0] * 10)
+    p = step_patterns(a_n, a_v, fs)
+    assert p[0] == pytest.approx(fs / 20)
+    assert p[1] == pytest.approx(2.0)
+    assert p[2] == pytest.approx(1.0)
+    assert p[3] == pytest.approx(20.0 / fs)
+    assert p[4] == pytest.approx(4.0) and p[5] == pytest.approx(2.0)
+
+
+def test_fit_recovers_k_and_b():
+    rng = np.random.default_rng(0)
+    k, q, b = 0.5, 0.25, 0.1
+    segs = []
+    for _ in range(12):
+        pats = rng.uniform(1, 10, (int(rng.integers(8, 30)), 6))
+        segs.append((pats, float(np.sum(k * pats[:, 4] ** q + b))))
+    res = fit_model(segs, "p5", q)
+    assert res.model.k == pytest.approx(k, rel=1e-9) and res.model.b == pytest.approx(b, abs=1e-9)
+    assert res.rms_rel_error < 1e-9
+
+
+def test_calibrate_and_save_load(tmp_path):
+    pats = np.full((20, 6), 16.0)
+    m = calibrate_k(StepLengthModel(pattern="p5", q=0.25, b=0.0), pats, 14.0)
+    assert np.sum(m.length(pats)) == pytest.approx(14.0)
+    m.save(tmp_path / "cal.json")
+    assert StepLengthModel.load(tmp_path / "cal.json") == m
+    (tmp_path / "bad.json").write_text(json.dumps({"x": 1}))
+    with pytest.raises(InputError, match="step_length"):
+        StepLengthModel.load(tmp_path / "bad.json")
+    with pytest.raises(InputError, match="at least 5"):
+        calibrate_k(m, pats[:2], 3.0)
+    with pytest.raises(InputError, match="pattern"):
+        StepLengthModel(pattern="p9")
+
+
+def test_stairs_shorter():
+    m = StepLengthModel()
+    p = np.full(6, 9.0)
+    assert m.length(p, True) < m.length(p, False)

@@ -1,0 +1,61 @@
+"""Fixtures: an app on a temporary SQLite database with a deterministic test processor, and two users."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+from flask import Flask
+from flask.testing import FlaskClient
+
+from pdr.recording import Recording
+from server import auth
+from server.app import create_app
+from server.processing import ProcessorOutput, SessionContext
+from server.store import EventRow, TrackRow
+
+
+class CountingProcessor:
+    """Test double: one track row per batch at the batch's last sample; state = batches seen."""
+
+    def __init__(self, ctx: SessionContext, state: bytes | None) -> None:
+        self.count = json.loads(state)["count"] if state else 0
+
+    def update(self, recording: Recording) -> ProcessorOutput:
+        self.count += 1
+        last_ns = max(int(s.t_ns[-1]) for s in recording.streams.values())
+        t = last_ns / 1e9
+        return ProcessorOutput(track=[TrackRow(t, float(self.count), 0.0, 0.0, 0.0, 90.0, 1.0, "walking")],
+                               events=[EventRow("step", t, value=1.0)])
+
+    def to_bytes(self) -> bytes:
+        return json.dumps({"count": self.count}).encode()
+
+
+def make_app(tmp_path: Any, **overrides: Any) -> Flask:
+    cfg = {"data_dir": str(tmp_path), "processor_factory": CountingProcessor, "settle_s": 0.0, **overrides}
+    return create_app(cfg)
+
+
+@pytest.fixture
+def app(tmp_path: Any) -> Iterator[Flask]:
+    app = make_app(tmp_path)
+    yield app
+    app.extensions["pdr"].worker.stop()
+
+
+@pytest.fixture
+def client(app: Flask) -> FlaskClient:
+    return app.test_client()
+
+
+@pytest.fixture
+def tokens(app: Flask) -> dict[str, str]:
+    with app.extensions["pdr"].store.engine.begin() as conn:
+        return {"alice": auth.add_user(conn, "alice"), "bob": auth.add_user(conn, "bob")}
+
+
+def bearer(token: str) -> dict[str, str]:
+    return {"Authorization": f"Bearer {token}"}

@@ -1,0 +1,38 @@
+"""Building native batches for server tests."""
+
+from __future__ import annotations
+
+import io
+import json
+from typing import Any
+
+import numpy as np
+
+from pdr.io.native import batch_to_json
+from pdr.recording import DeviceInfo, Recording, SensorStream
+
+
+def phone_batch(batch_id: str, start_s: float, duration_s: float = 1.0, rate_hz: float = 50.0,
+                role: str = "phone") -> dict[str, Any]:
+    """A native batch of a phone at rest: acc (0, 0, 9.81) and zero gyro, epoch-ns timestamps."""
+    n = int(round(duration_s * rate_hz))
+    t_ns = (1_700_000_000_000_000_000 + np.round((start_s + np.arange(n) / rate_hz) * 1e9)).astype(np.int64)
+    rec = Recording({"acc": SensorStream("acc", t_ns, np.tile([0.0, 0.0, 9.81], (n, 1))),
+                     "gyro": SensorStream("gyro", t_ns, np.zeros((n, 3)))},
+                    DeviceInfo(platform="android", model="test", role=role), t0_ns=1_700_000_000_000_000_000)
+    return batch_to_json(rec, session_id="s1", batch_id=batch_id)
+
+
+def as_bytes(obj: Any) -> bytes:
+    return json.dumps(obj).encode()
+
+
+def multipart(fields: dict[str, Any]) -> tuple[bytes, str]:
+    """A multipart/form-data body built in memory (the test client spools large ones to a temp file it never
+    closes); values are strings or ``(bytes, filename)`` pairs. Returns (body, content type)."""
+    from werkzeug.datastructures import FileStorage
+    from werkzeug.test import encode_multipart
+
+    values = {k: FileStorage(io.BytesIO(v[0]), filename=v[1]) if isinstance(v, tuple) else v for k, v in fields.items()}
+    boundary, body = encode_multipart(values)
+    return body, f"multipart/form-data; boundary={boundary}"

@@ -1,0 +1,135 @@
+"""Every error status has a JSON body ``{"error": {status, code, message, details}}`` and no traceback."""
+
+from __future__ import annotations
+
+import pytest
+from flask import Flask
+from flask.testing import FlaskClient
+
+from tests.server.conftest import bearer, make_app
+from tests.server.helpers import phone_batch
+
+
+def assert_error(resp, status: int, match: str = "") -> dict:  # noqa: ANN001
+    assert resp.status_code == status, resp.get_data(as_text=True)
+    body = resp.get_json()
+    err = body["error"]
+    assert set(err) == {"status", "code", "message", "details"}
+    assert err["status"] == status
+    assert match.lower() in err["message"].lower()
+    assert "Traceback" not in resp.get_data(as_text=True)
+    return err
+
+
+def _session(client: FlaskClient, token: str) -> str:
+    resp = client.post("/api/v1/sessions", json={"session_id": "walk-1"}, headers=bearer(token))
+    assert resp.status_code == 201
+    return resp.get_json()["id"]
+
+
+def test_400_malformed_json(client, tokens):
+    resp = client.post("/api/v1/sessions", data="{not json", content_type="application/json",
+                       headers=bearer(tokens["alice"]))
+    assert_error(resp, 400, "not valid JSON")
+
+
+def test_401_missing_and_wrong_token(client, tokens):
+    assert_error(client.get("/api/v1/sessions"), 401, "authentication required")
+    assert_error(client.get("/api/v1/sessions", headers=bearer("pdr_wrong")), 401, "invalid")
+
+
+def test_403_query_token_outside_ingest(client, tokens):
+    assert_error(client.get(f"/api/v1/sessions?token={tokens['alice']}"), 403, "ingest endpoints only")
+
+
+def test_404_unknown_route_and_other_users_session(client, tokens):
+    assert_error(client.get("/api/v1/nothing-here"), 404)
+    sid = _session(client, tokens["alice"])
+    assert_error(client.get(f"/api/v1/sessions/{sid}", headers=bearer(tokens["bob"])), 404, "no session")
+    assert_error(client.get(f"/api/v1/sessions/{sid}/track", headers=bearer(tokens["bob"])), 404)
+    resp = client.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch("b1", 0.0), headers=bearer(tokens["bob"]))
+    assert_error(resp, 404)
+    assert client.get("/api/v1/sessions", headers=bearer(tokens["bob"])).get_json()["sessions"] == []
+
+
+def test_405_wrong_method(client, tokens):
+    resp = client.delete("/api/v1/sessions", headers=bearer(tokens["alice"]))
+    assert_error(resp, 405)
+    assert "GET" in resp.headers["Allow"]
+
+
+def test_409_same_batch_id_different_content(client, tokens):
+    sid = _session(client, tokens["alice"])
+    h = bearer(tokens["alice"])
+    assert client.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch("b1", 0.0), headers=h).status_code == 201
+    again = client.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch("b1", 0.0), headers=h)
+    assert again.status_code == 200 and again.get_json()["duplicate"] is True
+    assert_error(client.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch("b1", 5.0), headers=h), 409,
+                 "different content")
+
+
+def test_413_body_too_large(tmp_path, tokens):  # noqa: ARG001
+    app = make_app(tmp_path / "small", max_upload_mb=0.001)
+    try:
+        resp = app.test_client().post("/api/v1/sessions", data=b"x" * 5000, content_type="application/json")
+        assert_error(resp, 413, "too large")
+    finally:
+        app.extensions["pdr"].worker.stop()
+
+
+def test_415_not_json(client, tokens):
+    resp = client.post("/api/v1/sessions", data="session_id=x", content_type="text/plain",
+                       headers=bearer(tokens["alice"]))
+    assert_error(resp, 415, "application/json")
+
+
+@pytest.mark.parametrize(
+    ("body", "match"),
+    [({"session_id": "bad id with spaces"}, "session_id"), ({"placement": "shoe"}, "placement"),
+     ({"unexpected": 1}, "unexpected")],
+)
+def test_422_schema_violations_name_the_field(client, tokens, body, match):
+    err = assert_error(client.post("/api/v1/sessions", json=body, headers=bearer(tokens["alice"])), 422, match)
+    assert "path" in err["details"]
+
+
+def test_422_invalid_batch_names_stream_and_sample(client, tokens):
+    sid = _session(client, tokens["alice"])
+    batch = phone_batch("b1", 0.0)
+    batch["streams"]["acc"]["t_ns"][3] = batch["streams"]["acc"]["t_ns"][2]
+    resp = client.post(f"/api/v1/sessions/{sid}/batches", json=batch, headers=bearer(tokens["alice"]))
+    assert_error(resp, 422, "acc")
+    assert client.get(f"/api/v1/sessions/{sid}", headers=bearer(tokens["alice"])).get_json()["batch_list"] == []
+
+
+def test_429_after_repeated_failed_authentication(tmp_path):
+    app = make_app(tmp_path / "rl", auth_failures_per_minute=3)
+    try:
+        c = app.test_client()
+        for _ in range(3):
+            assert c.get("/api/v1/sessions", headers=bearer("pdr_guess")).status_code == 401
+        assert_error(c.get("/api/v1/sessions", headers=bearer("pdr_guess")), 429, "too many")
+    finally:
+        app.extensions["pdr"].worker.stop()
+
+
+def test_500_is_json_without_traceback(app: Flask):
+    @app.get("/api/v1/_boom")
+    def boom():  # noqa: ANN202
+        raise RuntimeError("secret internals")
+
+    resp = app.test_client().get("/api/v1/_boom")
+    err = assert_error(resp, 500, "internal server error")
+    assert "secret internals" not in err["message"]
+
+
+def test_openapi_documents_every_api_route(app: Flask, client):
+    doc = client.get("/api/v1/openapi.json").get_json()
+    assert doc["openapi"].startswith("3.1")
+    documented = {(path, method) for path, ops in doc["paths"].items() for method in ops}
+    for rule in app.url_map.iter_rules():
+        if not rule.rule.startswith("/api/v1"):
+            continue
+        path = rule.rule.replace("<", "{").replace(">", "}")
+        for method in rule.methods - {"HEAD", "OPTIONS"}:
+            assert (path, method.lower()) in documented, f"{method} {path} missing from the OpenAPI document"

@@ -1,0 +1,124 @@
+"""Groups API: cooperative localization with the server as fusion centre (access control, errors, fusion)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+from flask import Flask
+from flask.testing import FlaskClient
+
+from pdr.fusion.measurements import event_to_dict
+from pdr.fusion.simulation import SimulationConfig, StepEvent, march_scenario, run_scenario
+from pdr.fusion.state import FootKey
+from server.api import groups
+from tests.server.conftest import bearer
+
+
+@pytest.fixture
+def gapp(app: Flask) -> Flask:
+    if "groups" not in app.blueprints:              # until the app factory registers it
+        app.register_blueprint(groups.bp)
+    return app
+
+
+@pytest.fixture
+def gclient(gapp: Flask) -> FlaskClient:
+    return gapp.test_client()
+
+
+def scenario() -> Any:
+    return march_scenario(2, 30, SimulationConfig(), np.random.default_rng(9))
+
+
+def join_all(client: FlaskClient, token: str, gid: str, sc: Any) -> None:
+    for a in sc.agents:
+        left = sc.truth[FootKey(a, "left")].pos_n[0]
+        right = sc.truth[FootKey(a, "right")].pos_n[0]
+        r = client.post(f"/api/v1/groups/{gid}/agents", headers=bearer(token),
+                        json={"agent": a, "pos0_n": left.tolist(), "heading0_deg": 90.0,
+                              "foot_offsets_n": [[0, 0, 0], (right - left).tolist()]})
+        assert r.status_code == 201, r.get_json()
+
+
+def events_json(sc: Any, agent: str, t0: float, t1: float) -> list[dict[str, Any]]:
+    from pdr.fusion.measurements import InterAgentRange, StepSummary
+    out = []
+    for e in sc.events():
+        if not t0 <= e.t_s < t1:
+            continue
+        if isinstance(e, StepEvent) and e.agent == agent:
+            out.append(event_to_dict(StepSummary(e.agent, e.foot, e.increment)))
+        elif not isinstance(e, StepEvent) and e.agent_a == agent:
+            out.append(event_to_dict(InterAgentRange(e.t_s, e.agent_a, e.agent_b, e.measured_m)))
+    return out
+
+
+def test_group_fuses_uploads_like_the_library(gclient: FlaskClient, tokens: dict[str, str]) -> None:
+    tok = tokens["alice"]
+    r = gclient.post("/api/v1/groups", headers=bearer(tok), json={"name": "team", "contact_timeout_s": 30})
+    assert r.status_code == 201
+    gid = r.get_json()["id"]
+    sc = scenario()
+    join_all(gclient, tok, gid, sc)
+    for t0 in range(0, 31, 10):
+        for a in sc.agents:
+            r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=bearer(tok),
+                             json={"batch_id": f"{a}-{t0}", "agent": a, "events": events_json(sc, a, t0, t0 + 10)})
+            assert r.status_code == 201, r.get_json()
+            assert r.get_json()["correction"]["agent"] == a
+    again = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=bearer(tok),
+                         json={"batch_id": "a0-0", "agent": "a0", "events": []})
+    assert again.status_code == 200 and again.get_json()["duplicate"]
+    assert gclient.post(f"/api/v1/groups/{gid}/flush", headers=bearer(tok)).status_code == 200
+    corr = gclient.get(f"/api/v1/groups/{gid}/agents/a1/correction", headers=bearer(tok)).get_json()
+    reference = run_scenario(sc)
+    np.testing.assert_allclose(corr["mean"], reference.centre.correction("a1").mean, atol=1e-9)
+    tracks = gclient.get(f"/api/v1/groups/{gid}/tracks", headers=bearer(tok)).get_json()["agents"]
+    assert set(tracks) == {"a0", "a1"} and len(tracks["a0"]["left"]) == 31       # initial pose + 30 steps
+    east = [row[1] for row in tracks["a0"]["left"]]
+    assert east[-1] == pytest.approx(30.0, abs=2.0)
+    detail = gclient.get(f"/api/v1/groups/{gid}", headers=bearer(tok)).get_json()
+    assert detail["pending"] == 0 and detail["fusion_counts"]["ranges"] > 0
+    listed = gclient.get("/api/v1/groups", headers=bearer(tok)).get_json()["groups"]
+    assert [g["id"] for g in listed] == [gid]
+
+
+def test_access_control_and_errors(gclient: FlaskClient, tokens: dict[str, str]) -> None:
+    alice, bob = bearer(tokens["alice"]), bearer(tokens["bob"])
+    assert gclient.get("/api/v1/groups").status_code == 401
+    gid = gclient.post("/api/v1/groups", headers=alice, json={"name": "a"}).get_json()["id"]
+    assert gclient.get(f"/api/v1/groups/{gid}", headers=bob).status_code == 404
+    assert gclient.post(f"/api/v1/groups/{gid}/agents", headers=bob,
+                        json={"agent": "x", "pos0_n": [0, 0, 0]}).status_code == 404
+    assert gclient.get("/api/v1/groups", headers=bob).get_json() == {"groups": []}
+    r = gclient.post("/api/v1/groups", headers=alice, json={"name": "a", "colour": 1})
+    assert r.status_code == 422 and r.get_json()["error"]["code"] == "invalid_input"
+    r = gclient.post("/api/v1/groups", headers=alice, json={"config": {"feet": []}})
+    assert r.status_code == 422 and "feet" in r.get_json()["error"]["message"]
+    assert gclient.post("/api/v1/groups", headers=alice, data="x").status_code == 415
+    r = gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice, json={"agent": "x", "pos0_n": [0, 0]})
+    assert r.status_code == 422
+    r = gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice,
+                     json={"agent": "x", "pos0_n": [0, 0, 0], "session_id": "nope"})
+    assert r.status_code == 404
+    assert gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice,
+                        json={"agent": "x", "pos0_n": [0, 0, 0]}).status_code == 201
+    assert gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice,
+                        json={"agent": "x", "pos0_n": [0, 0, 0]}).status_code == 409
+    bad = [({"batch_id": "b", "agent": "y", "events": []}, "has not joined"),
+           ({"batch_id": "b", "agent": "x", "events": [{"type": "range", "agent_a": "x", "agent_b": "z",
+                                                         "t_s": 1, "range_m": 2}]}, "events[0]: agent 'z'"),
+           ({"batch_id": "b", "agent": "x", "events": [{"type": "step", "agent": "x", "foot": "left", "t_s": 1,
+                                                         "dp": [1, 0], "dpsi": 0, "cov": []}]}, "events[0]"),
+           ({"batch_id": "b", "agent": "x", "events": [{"type": "step", "agent": "x", "foot": "hand", "t_s": 1,
+                                                         "dp": [1, 0, 0], "dpsi": 0,
+                                                         "cov": np.eye(4).tolist()}]}, "foot must be")]
+    for body, message in bad:
+        r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=alice, json=body)
+        assert r.status_code == 422 and message in r.get_json()["error"]["message"], r.get_json()
+    assert gclient.get(f"/api/v1/groups/{gid}/agents/zz/correction", headers=alice).status_code == 404
+    assert gclient.get(f"/api/v1/groups/{gid}/tracks?since_s=abc", headers=alice).status_code == 422
+    assert gclient.post(f"/api/v1/groups/{gid}/uploads", headers=bob,
+                        json={"batch_id": "b", "agent": "x", "events": []}).status_code == 404

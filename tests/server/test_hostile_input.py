@@ -1,0 +1,341 @@
+"""Hostile input to the API: every case gets a 4xx with a clear message, and the session stays intact.
+
+Named cases (malformed JSON, deep nesting, huge bodies, NaN/Infinity, int64 overflow, timestamps days
+away, wrong units, a batch labelled for another session, SQL and path injection in names), hypothesis
+fuzzing of the native batch and Sensor Logger endpoints, and schemathesis against the OpenAPI document.
+"""
+
+from __future__ import annotations
+
+import copy
+import gc
+import io
+import json
+import math
+import warnings
+from typing import Any
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from sqlalchemy import inspect as sa_inspect
+
+from server import auth
+from tests.server.conftest import bearer, make_app
+from tests.server.helpers import phone_batch
+
+
+@pytest.fixture
+def env(tmp_path: Any) -> Any:
+    app = make_app(tmp_path, max_upload_mb=1)
+    with app.extensions["pdr"].store.engine.begin() as conn:
+        h = bearer(auth.add_user(conn, "mallory"))
+    c = app.test_client()
+    sid = c.post("/api/v1/sessions", json={"session_id": "victim"}, headers=h).get_json()["id"]
+    for i in range(3):
+        r = c.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch(f"b{i}", float(i)), headers=h)
+        assert r.status_code == 201
+    app.extensions["pdr"].worker.wait_idle()
+    yield app, c, h, sid
+    app.extensions["pdr"].worker.stop()
+
+
+def _snapshot(app: Any, c: Any, h: dict[str, str], sid: str) -> Any:
+    app.extensions["pdr"].worker.wait_idle()
+    detail = c.get(f"/api/v1/sessions/{sid}", headers=h).get_json()
+    track = c.get(f"/api/v1/sessions/{sid}/track", headers=h).get_json()["points"]
+    return [(b["batch_id"], b["status"]) for b in detail["batch_list"]], track
+
+
+def _post_raw(c: Any, sid: str, h: dict[str, str], body: bytes, content_type: str = "application/json") -> Any:
+    return c.post(f"/api/v1/sessions/{sid}/batches", data=body, headers=h, content_type=content_type)
+
+
+def _batch(**changes: Any) -> dict[str, Any]:
+    b = phone_batch("evil", 100.0)
+    b.update(changes)
+    return b
+
+
+def _deep(n: int) -> bytes:
+    return b'{"batch_id": "deep", "streams": ' + b"[" * n + b"]" * n + b"}"
+
+
+def _far_future() -> dict[str, Any]:
+    b = phone_batch("future", 0.0)
+    for s in b["streams"].values():
+        s["t_ns"] = [t + 10 * 365 * 86400 * 10**9 for t in s["t_ns"]]
+    return b
+
+
+def _long_span() -> dict[str, Any]:
+    b = phone_batch("span", 100.0)
+    for s in b["streams"].values():
+        s["t_ns"][-1] += 3 * 86400 * 10**9
+    return b
+
+
+def _in_g() -> dict[str, Any]:
+    b = phone_batch("in-g", 100.0)
+    b["streams"]["acc"]["values"] = [[x / 9.80665 for x in row] for row in b["streams"]["acc"]["values"]]
+    return b
+
+
+def _overflow() -> bytes:
+    b = phone_batch("overflow", 100.0)
+    text = json.dumps(b)
+    first = str(b["streams"]["acc"]["t_ns"][0])
+    return text.replace(first, "9" * 30, 1).encode()
+
+
+def _nan() -> bytes:
+    b = phone_batch("nan", 100.0)
+    b["streams"]["acc"]["values"][3][1] = math.nan
+    return json.dumps(b).encode()  # Python writes NaN, which JSON parsers of the service must refuse or catch
+
+
+CASES: dict[str, tuple[Any, int, str]] = {
+    # name: (body bytes or JSON object, expected status, words the message must contain)
+    "malformed JSON": (b'{"batch_id": "x", "streams": {', 400, "not valid JSON"),
+    "not JSON at all": (b"\x00\x01\x02garbage", 400, "not valid JSON"),
+    "JSON array": (b"[1, 2, 3]", 422, "batch_id"),
+    "deep nesting": (_deep(100_000), 400, "JSON"),
+    "huge array over the upload limit": (b'{"batch_id": "big", "x": [' + b"1," * 700_000 + b"1]}", 413, "too large"),
+    "NaN value": (_nan(), 422, "not finite"),
+    "Infinity value": (json.dumps(phone_batch("inf", 100.0)).replace("9.81", "Infinity", 1).encode(), 422,
+                       "not finite"),
+    "timestamp beyond int64": (_overflow(), 422, "int64"),
+    "timestamps 10 years after the session": (_far_future(), 422, "days away"),
+    "one batch spanning 3 days": (_long_span(), 422, "span"),
+    "accelerometer in g": (_in_g(), 422, "looks like g"),
+    "unknown stream kind": (_batch(streams={"laser": {"t_ns": [1], "values": [[1.0]]}}), 422, "laser"),
+    "wrong column count": (_batch(streams={"acc": {"t_ns": [1, 2], "values": [[1.0, 2.0], [1.0, 2.0]]}}), 422,
+                           "acc"),
+    "timestamps not increasing": (_batch(streams={"acc": {"t_ns": [5, 4], "values": [[0, 0, 9.8], [0, 0, 9.8]]}}),
+                                  422, "increase"),
+    "SQL injection in batch id": (_batch(batch_id="b'); DROP TABLE batches;--"), 422, "batch_id"),
+    "path injection in batch id": (_batch(batch_id="../../../etc/passwd"), 422, "batch_id"),
+    "SQL injection in device model": (_batch(device={"platform": "android", "model": "x'; DROP TABLE users;--" * 20,
+                                                     "role": "phone"}), 422, "model"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_hostile_batch_gets_a_clear_4xx_and_leaves_the_session_intact(env, case):
+    app, c, h, sid = env
+    before = _snapshot(app, c, h, sid)
+    body, status, words = CASES[case]
+    raw = body if isinstance(body, bytes) else json.dumps(body).encode()
+    r = _post_raw(c, sid, h, raw)
+    assert r.status_code == status, r.get_data()[:300]
+    error = r.get_json()["error"]
+    assert error["status"] == status and words.lower() in error["message"].lower(), error
+    assert _snapshot(app, c, h, sid) == before
+    tables = set(sa_inspect(app.extensions["pdr"].store.engine).get_table_names())
+    assert {"users", "batches", "sessions"} <= tables
+
+
+def test_wrong_content_type_is_415(env):
+    app, c, h, sid = env
+    r = _post_raw(c, sid, h, json.dumps(phone_batch("x", 50.0)).encode(), content_type="text/plain")
+    assert r.status_code == 415 and "application/json" in r.get_json()["error"]["message"]
+
+
+def test_batch_labelled_for_another_of_the_users_sessions_is_refused(env):
+    app, c, h, sid = env
+    other = c.post("/api/v1/sessions", json={"session_id": "other-walk"}, headers=h).get_json()["id"]
+    before = [_snapshot(app, c, h, s) for s in (sid, other)]
+    b = phone_batch("mixed", 50.0)
+    b["session_id"] = "other-walk"
+    r = c.post(f"/api/v1/sessions/{sid}/batches", json=b, headers=h)
+    assert r.status_code == 409 and "other-walk" in r.get_json()["error"]["message"]
+    assert [_snapshot(app, c, h, s) for s in (sid, other)] == before
+
+
+def test_injection_in_names_is_stored_as_inert_text(env):
+    app, c, h, sid = env
+    name = "walk'); DROP TABLE sessions;-- ../../etc/passwd <script>alert(1)</script>"
+    r = c.post("/api/v1/sessions", json={"session_id": "inj-1", "name": name}, headers=h)
+    assert r.status_code == 201 and r.get_json()["name"] == name
+    assert c.post("/api/v1/sessions", json={"session_id": "x'; DROP TABLE users;--"}, headers=h).status_code == 422
+    assert c.get(f"/api/v1/sessions/{sid}", headers=h).status_code == 200
+
+
+def test_uploaded_file_name_cannot_escape_the_temporary_folder(env, tmp_path):
+    app, c, h, sid = env
+    target = tmp_path / "escaped.txt"
+    data = {"file": (io.BytesIO(b"not a log"), f"../../../../..{target}")}
+    r = c.post("/api/v1/sessions", data=data, headers=h, content_type="multipart/form-data")
+    assert 400 <= r.status_code < 500 and r.get_json()["error"]["message"]
+    assert not target.exists()
+
+
+def test_sensor_logger_hostile_messages_get_the_apps_499_with_a_message(env):
+    app, c, h, _ = env
+    good = json.loads(json.dumps({"messageId": 1, "sessionId": "sl", "deviceId": "d", "payload": [
+        {"name": "accelerometer", "time": 1_700_000_000_000_000_000 + i * 10_000_000,
+         "values": {"x": 0.0, "y": 0.0, "z": 9.81}} for i in range(20)]}))
+    for body in (b"{", b"[]", json.dumps({**good, "payload": "x"}).encode(), _deep(50_000),
+                 json.dumps({**good, "sessionId": "a'; DROP TABLE sessions;--" * 20}).encode()):
+        r = c.post("/api/v1/ingest/sensor-logger", data=body, headers=h, content_type="application/json")
+        assert r.status_code == 499 and r.get_data(as_text=True).startswith("pdr: "), (body[:60], r.get_data()[:200])
+
+
+# -- property-based fuzzing of the ingest endpoints ----------------------------------------------------
+NASTY: list[Any] = [math.nan, math.inf, -math.inf, 10**30, -(10**30), 2**63, -1, 0, 1e308, "", "x" * 1000,
+                    None, True, [], {}, [[[]]], "'; DROP TABLE batches;--", "../../etc/passwd", 1.5]
+
+
+def _paths(obj: Any, prefix: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
+    out = [prefix]
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            out += _paths(v, (*prefix, k))
+    elif isinstance(obj, list) and obj:
+        for i in {0, len(obj) - 1}:
+            out += _paths(obj[i], (*prefix, i))
+    return out
+
+
+@st.composite
+def mutated_batch(draw: st.DrawFn) -> bytes:
+    b = phone_batch(f"f{draw(st.integers(0, 10**6))}", 100.0 + draw(st.integers(0, 100)), duration_s=0.2)
+    for _ in range(draw(st.integers(1, 3))):
+        paths = _paths(b)[1:]
+        path = draw(st.sampled_from(paths))
+        parent = b
+        for p in path[:-1]:
+            parent = parent[p]
+        action = draw(st.sampled_from(["set", "set", "delete", "wrap"]))
+        if action == "delete" and isinstance(parent, dict):
+            del parent[path[-1]]
+        elif action == "wrap":
+            parent[path[-1]] = [copy.deepcopy(parent[path[-1]])]
+        else:
+            parent[path[-1]] = copy.deepcopy(draw(st.sampled_from(NASTY)))
+    raw = json.dumps(b).encode()
+    if draw(st.booleans()) and draw(st.booleans()):
+        raw = raw[:draw(st.integers(0, len(raw)))]
+    return raw
+
+
+def test_fuzzed_native_batches_never_fail_the_server_and_never_touch_other_data(env):
+    app, c, h, sid = env
+    before = _snapshot(app, c, h, sid)
+    fuzzed = c.post("/api/v1/sessions", json={"session_id": "fuzzed"}, headers=h).get_json()["id"]
+    accepted: list[str] = []
+
+    @settings(max_examples=120, deadline=None, database=None, suppress_health_check=list(HealthCheck))
+    @given(raw=mutated_batch())
+    def fuzz(raw: bytes) -> None:
+        r = _post_raw(c, fuzzed, h, raw)
+        assert r.status_code in (200, 201, 400, 409, 413, 415, 422), (r.status_code, r.get_data()[:300], raw[:300])
+        if r.status_code >= 400:
+            assert r.get_json()["error"]["message"]
+        elif r.status_code == 201:
+            accepted.append(r.get_json()["batch_id"])
+
+    fuzz()
+    assert _snapshot(app, c, h, sid) == before
+    stored = [b for b, _ in _snapshot(app, c, h, fuzzed)[0]]
+    assert sorted(stored) == sorted(accepted)
+
+
+@st.composite
+def mutated_message(draw: st.DrawFn) -> bytes:
+    msg: dict[str, Any] = {"messageId": draw(st.integers(0, 10**9)), "sessionId": "fz", "deviceId": "d",
+                           "payload": [{"name": draw(st.sampled_from(["accelerometer", "gyroscope", "magnetometer",
+                                                                       "barometer", "gravity", "orientation", "x"])),
+                                        "time": 1_700_000_000_000_000_000 + i * 10_000_000,
+                                        "values": {"x": 0.1, "y": 0.2, "z": 9.8}} for i in range(5)]}
+    for _ in range(draw(st.integers(0, 3))):
+        path = draw(st.sampled_from(_paths(msg)[1:]))
+        parent: Any = msg
+        for p in path[:-1]:
+            parent = parent[p]
+        parent[path[-1]] = copy.deepcopy(draw(st.sampled_from(NASTY)))
+    return json.dumps(msg).encode()
+
+
+def test_fuzzed_sensor_logger_messages_get_200_or_499(env):
+    app, c, h, _ = env
+
+    @settings(max_examples=80, deadline=None, database=None, suppress_health_check=list(HealthCheck))
+    @given(raw=mutated_message())
+    def fuzz(raw: bytes) -> None:
+        r = c.post("/api/v1/ingest/sensor-logger", data=raw, headers=h, content_type="application/json")
+        assert r.status_code in (200, 499), (r.status_code, r.get_data()[:300], raw[:300])
+
+    fuzz()
+
+
+# -- schemathesis against the published OpenAPI document ------------------------------------------------
+def test_openapi_operations_never_answer_5xx(tmp_path):
+    import schemathesis
+    from schemathesis.checks import not_a_server_error
+
+    app = make_app(tmp_path)
+    with app.extensions["pdr"].store.engine.begin() as conn:
+        h = bearer(auth.add_user(conn, "schema"))
+    c = app.test_client()
+    sid = c.post("/api/v1/sessions", json={"session_id": "s"}, headers=h).get_json()["id"]
+    c.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch("b0", 0.0), headers=h)
+    schema = schemathesis.openapi.from_wsgi("/api/v1/openapi.json", app)
+    failures: list[str] = []
+    try:
+        for result in schema.get_all_operations():
+            operation = result.ok()
+
+            @settings(max_examples=15, deadline=None, database=None, suppress_health_check=list(HealthCheck))
+            @given(case=operation.as_strategy())
+            def run(case: Any) -> None:
+                if "session_id" in (case.path_parameters or {}) and not case.path_parameters["session_id"].strip():
+                    case.path_parameters["session_id"] = sid
+                response = case.call(headers=h)
+                try:
+                    case.validate_response(response, checks=[not_a_server_error])
+                except Exception as exc:  # collect every operation's failure, then report them together
+                    failures.append(f"{case.method} {case.formatted_path}: {str(exc)[:300]}")
+
+            run()
+    finally:
+        app.extensions["pdr"].worker.stop()
+    assert failures == []
+
+
+# -- uploaded files that attack the readers themselves --------------------------------------------------
+@pytest.mark.data
+def test_file_that_crashes_the_mat_reader_is_a_422_and_the_service_survives(env):
+    from tests.conftest import data_path
+
+    app, c, h, sid = env
+    raw = data_path("pyshoe_vicon", "2017-11-22-11-35-59.mat").read_bytes()
+    crashing = (raw[:176] + bytes(33) + raw[209:])[:20_000]  # segfaults scipy.io.loadmat (scipy 1.17) in-process
+    r = c.post("/api/v1/sessions", data={"file": (io.BytesIO(crashing), "trial.mat"), "format": "pyshoe"},
+               headers=h, content_type="multipart/form-data")
+    assert r.status_code == 422 and "crashed" in r.get_json()["error"]["message"]
+    assert c.get(f"/api/v1/sessions/{sid}", headers=h).status_code == 200
+
+
+@pytest.mark.slow
+def test_gzip_bomb_upload_is_a_422_within_the_memory_limit(tmp_path, monkeypatch):
+    import zlib
+
+    app = make_app(tmp_path)
+    with app.extensions["pdr"].store.engine.begin() as conn:
+        h = bearer(auth.add_user(conn, "bomber"))
+    c = app.test_client()
+    monkeypatch.setenv("PDR_READER_MEMORY_MB", "1024")
+    comp = zlib.compressobj(9, zlib.DEFLATED, 31)  # gzip container
+    chunk = bytes(2**20)
+    bomb = b"".join(comp.compress(chunk) for _ in range(2048)) + comp.flush()  # 2 GB of zeros in ~2 MB
+    with warnings.catch_warnings():  # werkzeug spools a 2 MB upload to a temporary file that only GC closes
+        warnings.simplefilter("ignore", ResourceWarning)
+        r = c.post("/api/v1/sessions", data={"file": (io.BytesIO(bomb), "walk.txt.gz"), "format": "ms_indoor"},
+                   headers=h, content_type="multipart/form-data")
+        gc.collect()
+    app.extensions["pdr"].worker.stop()
+    assert r.status_code == 422, r.get_data()[:300]
+    message = r.get_json()["error"]["message"]
+    assert "memory" in message or "limits" in message
+    assert c.get("/api/v1/sessions", headers=h).status_code == 200

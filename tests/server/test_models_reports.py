@@ -1,0 +1,84 @@
+"""Model listing and cards, window classification, Allan reports through the API."""
+
+from __future__ import annotations
+
+import io
+import time
+
+import numpy as np
+import pytest
+
+from pdr.io.native import batch_to_json
+from pdr.recording import DeviceInfo, Recording, SensorStream
+from tests.server.conftest import bearer
+from tests.server.helpers import multipart
+
+
+def test_models_list_and_card(client, tokens):
+    h = bearer(tokens["alice"])
+    models = client.get("/api/v1/models", headers=h).get_json()["models"]
+    names = [m["name"] for m in models]
+    assert "motion_mode" in names
+    card = client.get("/api/v1/models/motion_mode", headers=h).get_json()
+    assert "Model card" in card["card_markdown"]
+    assert client.get("/api/v1/models/nope", headers=h).status_code == 404
+    assert client.get("/api/v1/models").status_code == 401
+
+
+def _walk_batch(seconds: float = 8.0) -> dict:
+    rate = 100.0
+    t = np.arange(int(seconds * rate)) / rate
+    t_ns = (1_700_000_000_000_000_000 + np.round(t * 1e9)).astype(np.int64)
+    step = 2 * np.pi * 1.9 * t
+    acc = np.c_[0.8 * np.sin(step), 9.81 + 2.5 * np.sin(2 * step), 0.6 * np.cos(step)]
+    gyro = np.c_[0.9 * np.cos(step), 0.2 * np.sin(step), 0.1 * np.sin(2 * step)]
+    rec = Recording({"acc": SensorStream("acc", t_ns, acc), "gyro": SensorStream("gyro", t_ns, gyro)},
+                    DeviceInfo(platform="android"), t0_ns=int(t_ns[0]))
+    return batch_to_json(rec, batch_id="w")
+
+
+def test_classify_window(client, tokens):
+    h = bearer(tokens["alice"])
+    resp = client.post("/api/v1/classify", json={"batch": _walk_batch()}, headers=h)
+    assert resp.status_code == 200, resp.get_json()
+    windows = resp.get_json()["windows"]
+    assert len(windows) >= 3
+    assert all({"t_start_s", "t_end_s", "mode", "confidence"} <= set(w) for w in windows)
+    assert windows[0]["t_start_s"] >= 1_700_000_000.0  # on the log's clock
+    short = client.post("/api/v1/classify", json={"batch": _walk_batch(1.0)}, headers=h)
+    assert short.status_code == 422
+
+
+def _static_npz(seconds: float = 200.0, rate: float = 100.0) -> bytes:
+    rng = np.random.default_rng(3)
+    n = int(seconds * rate)
+    gyro = np.radians(0.02) * rng.standard_normal((n, 3)) + 1e-3
+    acc = np.array([0.0, 0.0, 9.81]) + 0.003 * rng.standard_normal((n, 3))
+    buf = io.BytesIO()
+    np.savez(buf, data=np.c_[gyro, acc], columns=np.array(["Gyro X", "Gyro Y", "Gyro Z", "Accel X", "Accel Y",
+                                                           "Accel Z"]), fs=rate)
+    return buf.getvalue()
+
+
+@pytest.mark.timeout(120)
+def test_allan_report_round_trip(client, tokens):
+    h = bearer(tokens["alice"])
+    body, content_type = multipart({"file": (_static_npz(), "static.npz")})
+    resp = client.post("/api/v1/reports/allan", data=body, headers=h, content_type=content_type)
+    assert resp.status_code == 202, resp.get_json()
+    rid = resp.get_json()["id"]
+    deadline = time.monotonic() + 90
+    while True:
+        rep = client.get(f"/api/v1/reports/{rid}", headers=h).get_json()
+        if rep["status"] != "pending":
+            break
+        assert time.monotonic() < deadline
+        time.sleep(0.2)
+    assert rep["status"] == "done", rep["error"]
+    assert {"report.json", "report.html", "gyro.png", "acc.png", "imu.yaml"} <= set(rep["files"])
+    assert rep["report"]["gyro"] and rep["report"]["acc"]
+    png = client.get(f"/api/v1/reports/{rid}/files/gyro.png", headers=h)
+    assert png.status_code == 200 and png.data[:8] == b"\x89PNG\r\n\x1a\n"
+    html = client.get(f"/api/v1/reports/{rid}/report.html", headers=h)
+    assert html.status_code == 200 and b"<html" in html.data.lower()
+    assert client.get(f"/api/v1/reports/{rid}", headers=bearer(tokens["bob"])).status_code == 404

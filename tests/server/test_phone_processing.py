@@ -1,0 +1,57 @@
+"""The real phone processor in the service: PDR track plus motion modes from the shipped classifier."""
+
+from __future__ import annotations
+
+from collections import Counter
+
+import pytest
+
+from tests.conftest import data_path
+from tests.server.conftest import bearer, make_app
+from tests.server.helpers import multipart
+
+pytestmark = [pytest.mark.data, pytest.mark.timeout(300)]
+
+
+@pytest.fixture
+def real_app(tmp_path):
+    from server import auth
+
+    app = make_app(tmp_path, processor_factory=None)
+    with app.extensions["pdr"].store.engine.begin() as conn:
+        token = auth.add_user(conn, "walker")
+    yield app, token
+    app.extensions["pdr"].worker.stop()
+
+
+def _upload(app, token: str, path, placement: str | None = None) -> dict:  # noqa: ANN001
+    c = app.test_client()
+    form: dict = {"file": (path.read_bytes(), path.name)}
+    if placement:
+        form["placement"] = placement
+    body, content_type = multipart(form)
+    resp = c.post("/api/v1/sessions", data=body, headers=bearer(token), content_type=content_type)
+    assert resp.status_code == 201, resp.get_json()
+    sid = resp.get_json()["id"]
+    assert app.extensions["pdr"].worker.wait_idle(240)
+    return c.get(f"/api/v1/sessions/{sid}", headers=bearer(token)).get_json()
+
+
+def test_pocket_walk_gets_a_track_and_walking_modes(real_app):
+    app, token = real_app
+    walk = data_path("mobifall_v2_pocket", "sub2", "ADL", "WAL")
+    session = _upload(app, token, next(walk.glob("WAL_acc_*")), placement="trouser_pocket")
+    assert session["status"] == "done", session
+    assert session["steps"] > 300  # five minutes of walking
+    modes = app.test_client().get(f"/api/v1/sessions/{session['id']}/modes", headers=bearer(token)).get_json()
+    labels = Counter(m["label"] for m in modes["modes"])
+    assert labels.most_common(1)[0][0] == "walking", labels
+    assert labels["walking"] / sum(labels.values()) > 0.8
+
+
+def test_hand_held_walk_uses_step_modes_and_says_so(real_app):
+    app, token = real_app
+    log = data_path("ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial01_repetition01.txt")
+    session = _upload(app, token, log)
+    assert session["status"] == "done" and session["steps"] > 100
+    assert any("trained for a phone in a trouser pocket" in w for w in session["warnings"])

@@ -1,0 +1,125 @@
+"""Ingest and processing: durability, idempotency, time order, rebuilds, failures, access control."""
+
+from __future__ import annotations
+
+from flask.testing import FlaskClient
+
+from tests.server.conftest import bearer, make_app
+from tests.server.helpers import phone_batch
+
+
+def _new_session(client: FlaskClient, token: str, name: str = "walk") -> str:
+    return client.post("/api/v1/sessions", json={"session_id": name}, headers=bearer(token)).get_json()["id"]
+
+
+def _track(client: FlaskClient, sid: str, token: str) -> list[dict]:
+    return client.get(f"/api/v1/sessions/{sid}/track", headers=bearer(token)).get_json()["points"]
+
+
+def test_batches_processed_in_time_order_even_when_sent_out_of_order(app, client, tokens):
+    h = bearer(tokens["alice"])
+    sid = _new_session(client, tokens["alice"])
+    for i in (0, 1, 2):
+        resp = client.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch(f"b{i}", float(i)), headers=h)
+        assert resp.status_code == 201
+    app.extensions["pdr"].worker.wait_idle()
+    in_order = _track(client, sid, tokens["alice"])
+    assert [p["east_m"] for p in in_order] == [1.0, 2.0, 3.0]
+
+    # A late batch from before everything processed so far: the session is rebuilt in time order.
+    sid2 = _new_session(client, tokens["alice"], "walk-2")
+    for i in (0, 2, 1):
+        client.post(f"/api/v1/sessions/{sid2}/batches", json=phone_batch(f"b{i}", float(i)), headers=h)
+        app.extensions["pdr"].worker.wait_idle()
+    assert _track(client, sid2, tokens["alice"]) == in_order
+
+
+def test_reprocess_gives_identical_results(app, client, tokens):
+    h = bearer(tokens["alice"])
+    sid = _new_session(client, tokens["alice"])
+    for i in range(4):
+        client.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch(f"b{i}", float(i)), headers=h)
+    app.extensions["pdr"].worker.wait_idle()
+    before = _track(client, sid, tokens["alice"])
+    steps_before = client.get(f"/api/v1/sessions/{sid}/steps", headers=h).get_json()["steps"]
+    assert client.post(f"/api/v1/sessions/{sid}/reprocess", headers=h).status_code == 202
+    app.extensions["pdr"].worker.wait_idle()
+    assert _track(client, sid, tokens["alice"]) == before
+    assert client.get(f"/api/v1/sessions/{sid}/steps", headers=h).get_json()["steps"] == steps_before
+
+
+def test_since_returns_only_new_rows(app, client, tokens):
+    h = bearer(tokens["alice"])
+    sid = _new_session(client, tokens["alice"])
+    for i in range(3):
+        client.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch(f"b{i}", float(i)), headers=h)
+    app.extensions["pdr"].worker.wait_idle()
+    full = client.get(f"/api/v1/sessions/{sid}/track", headers=h).get_json()
+    later = client.get(f"/api/v1/sessions/{sid}/track?since={full['points'][0]['t_s']}", headers=h).get_json()
+    assert later["points"] == full["points"][1:]
+    csv_text = client.get(f"/api/v1/sessions/{sid}/track?format=csv", headers=h).get_data(as_text=True)
+    assert csv_text.splitlines()[0] == "t_s,east_m,north_m,up_m,floor,heading_deg,step_length_m,mode"
+    assert len(csv_text.splitlines()) == 4
+    geo = client.get(f"/api/v1/sessions/{sid}/track?format=geojson", headers=h).get_json()
+    assert len(geo["features"][0]["geometry"]["coordinates"]) == 3
+
+
+def test_processing_failure_keeps_raw_batch_and_is_visible(tmp_path, tokens):  # noqa: ARG001
+    class Broken:
+        def __init__(self, ctx, state):  # noqa: ANN001
+            pass
+
+        def update(self, recording):  # noqa: ANN001
+            raise RuntimeError("algorithm bug")
+
+        def to_bytes(self) -> bytes:
+            return b""
+
+    app = make_app(tmp_path / "broken", processor_factory=Broken)
+    try:
+        from server import auth
+        with app.extensions["pdr"].store.engine.begin() as conn:
+            token = auth.add_user(conn, "carol")
+        c = app.test_client()
+        sid = _new_session(c, token)
+        resp = c.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch("b0", 0.0), headers=bearer(token))
+        assert resp.status_code == 201
+        app.extensions["pdr"].worker.wait_idle()
+        detail = c.get(f"/api/v1/sessions/{sid}", headers=bearer(token)).get_json()
+        assert detail["status"] == "failed"
+        assert "algorithm bug" in detail["batch_list"][0]["error"]
+        assert app.extensions["pdr"].store.batches(sid)[0].payload  # raw data kept
+    finally:
+        app.extensions["pdr"].worker.stop()
+
+
+def test_accepted_batches_survive_restart_and_are_processed(tmp_path):
+    from server import auth
+
+    first = make_app(tmp_path, worker="none")  # accepts and stores, processes nothing
+    with first.extensions["pdr"].store.engine.begin() as conn:
+        token = auth.add_user(conn, "dave")
+    c = first.test_client()
+    sid = _new_session(c, token)
+    for i in range(3):
+        c.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch(f"b{i}", float(i)), headers=bearer(token))
+    first.extensions["pdr"].store.engine.dispose()
+
+    second = make_app(tmp_path)  # same data directory: the pending batches are recovered and processed
+    try:
+        second.extensions["pdr"].worker.wait_idle()
+        pts = _track(second.test_client(), sid, token)
+        assert [p["east_m"] for p in pts] == [1.0, 2.0, 3.0]
+    finally:
+        second.extensions["pdr"].worker.stop()
+
+
+def test_devices_pairing_and_listing(client, tokens):
+    h = bearer(tokens["alice"])
+    sid = _new_session(client, tokens["alice"])
+    resp = client.post(f"/api/v1/sessions/{sid}/devices", json={"role": "left_foot", "model": "MTw"}, headers=h)
+    assert resp.status_code == 201
+    roles = [d["role"] for d in resp.get_json()["devices"]]
+    assert roles == ["left_foot"]
+    listing = client.get("/api/v1/sessions", headers=h).get_json()["sessions"]
+    assert [s["id"] for s in listing] == [sid] and listing[0]["session_id"] == "walk"

@@ -1,0 +1,55 @@
+"""Sensor Logger HTTP push: sessions from sessionId, duplicates ignored, out of order accepted, 499 for user errors."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pdr.io.sensor_logger_writer import to_push_messages
+from pdr.recording import DeviceInfo, Recording, SensorStream
+from tests.server.conftest import bearer
+
+URL = "/api/v1/ingest/sensor-logger"
+
+
+def _messages(n_s: int = 4) -> list[dict]:
+    t = 1_700_000_000_000_000_000 + np.arange(n_s * 50, dtype=np.int64) * 20_000_000
+    rec = Recording({"acc": SensorStream("acc", t, np.tile([0.0, 0.0, 9.81], (t.size, 1))),
+                     "gyro": SensorStream("gyro", t, np.zeros((t.size, 3)))}, DeviceInfo(platform="android"))
+    return to_push_messages(rec, session_id="sl-session", device_id="pixel-7", period_s=1.0)
+
+
+def test_push_messages_with_duplicate_and_reorder(app, client, tokens):
+    msgs = _messages()
+    order = [msgs[0], msgs[2], msgs[1], msgs[1], msgs[3]]  # message 2 before 1, and 1 sent twice
+    answers = [client.post(f"{URL}?token={tokens['alice']}", json=m) for m in order]
+    assert [a.status_code for a in answers] == [200] * 5
+    assert [a.get_json()["duplicate"] for a in answers] == [False, False, False, True, False]
+    app.extensions["pdr"].worker.wait_idle()
+    sessions = client.get("/api/v1/sessions", headers=bearer(tokens["alice"])).get_json()["sessions"]
+    assert len(sessions) == 1 and sessions[0]["session_id"] == "sl-session" and sessions[0]["source"] == "sensor_logger"
+    assert sessions[0]["devices"][0]["device_id"] == "pixel-7"
+    track_url = f"/api/v1/sessions/{sessions[0]['id']}/track"
+    pts = client.get(track_url, headers=bearer(tokens["alice"])).get_json()["points"]
+    assert [p["east_m"] for p in pts] == [1.0, 2.0, 3.0, 4.0]  # processed in time order
+    assert pts == sorted(pts, key=lambda p: p["t_s"])
+
+
+def test_user_visible_errors_are_499_text(client, tokens):
+    msg = _messages(1)[0]
+    no_token = client.post(URL, json=msg)
+    assert no_token.status_code == 499 and no_token.mimetype == "text/plain"
+    assert "authentication" in no_token.get_data(as_text=True)
+    bad = dict(msg, payload=[{"name": "gyroscope", "time": 1, "values": {"x": "NaN?", "y": 0, "z": 0}}])
+    resp = client.post(f"{URL}?token={tokens['alice']}", json=bad)
+    assert resp.status_code == 499 and "payload[0].values.x" in resp.get_data(as_text=True)
+    missing = client.post(f"{URL}?token={tokens['alice']}", json={"payload": []})
+    assert missing.status_code == 499 and "messageId" in missing.get_data(as_text=True)
+    garbage = client.post(f"{URL}?token={tokens['alice']}", data=b"\x00\xff", content_type="application/json")
+    assert garbage.status_code == 499
+    assert client.get("/api/v1/sessions", headers=bearer(tokens["alice"])).get_json()["sessions"] == []
+
+
+def test_empty_payload_is_accepted_without_a_session(client, tokens):
+    resp = client.post(f"{URL}?token={tokens['alice']}",
+                       json={"messageId": 1, "sessionId": "s", "deviceId": "d", "payload": []})
+    assert resp.status_code == 200 and resp.get_json()["stored"] is False

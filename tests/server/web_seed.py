@@ -1,0 +1,150 @@
+"""Seeded data for the web page's tests: synthetic walks stored as results, a truth-carrying log, a test processor.
+
+The walks are written straight into the store (a raw batch per device plus its results, as a processed
+upload would leave them), so the page can be tested before the real processors exist and with sessions
+of any length.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from pdr.io.native import batch_to_json
+from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, SensorStream
+from server import auth
+from server.processing import NATIVE_JSON, ProcessorOutput, SessionContext
+from server.store import EventRow, Store, TrackRow
+
+#: Offset of the test processor's track from the truth: east 0.3 m, north 0.4 m -> 0.5 m error everywhere.
+TRUTH_OFFSET_M = (0.3, 0.4)
+
+
+class WebTestProcessor:
+    """Test double: a log with truth positions gives a track at the truth times, offset by ``TRUTH_OFFSET_M``
+    (so the page's error is known: 0.5 m); any other batch gives one walking step at its last sample,
+    advancing 0.7 m east per batch (state: batches seen).
+    """
+
+    def __init__(self, ctx: SessionContext, state: bytes | None) -> None:
+        self.count = json.loads(state)["count"] if state else 0
+
+    def update(self, recording: Recording) -> ProcessorOutput:
+        pos = recording.truth.positions
+        if pos is not None:
+            de, dn = TRUTH_OFFSET_M
+            track = [TrackRow(float(t), float(p[0] + de), float(p[1] + dn), 0.0, 0.0, 90.0, 0.7, "walking")
+                     for t, p in zip(pos.t_s, pos.pos_m, strict=True)]
+            return ProcessorOutput(track=track)
+        self.count += 1
+        last_ns = max(int(s.t_ns[-1]) for s in recording.streams.values())
+        t = (last_ns - recording.origin_ns) / 1e9 + self.count
+        return ProcessorOutput(track=[TrackRow(t, 0.7 * self.count, 0.0, 0.0, 0.0, 90.0, 0.7, "walking")],
+                               events=[EventRow("step", t, value=0.7)])
+
+    def to_bytes(self) -> bytes:
+        return json.dumps({"count": self.count}).encode()
+
+
+@dataclass(frozen=True)
+class Walk:
+    """A synthetic walk: one row per step (local metres, heading clockwise from north)."""
+
+    t_s: np.ndarray
+    east_m: np.ndarray
+    north_m: np.ndarray
+    floor: np.ndarray
+    heading_deg: np.ndarray
+    step_length_m: np.ndarray
+    mode: list[str]
+
+    def rows(self, offset_east_m: float = 0.0) -> list[TrackRow]:
+        return [TrackRow(float(t), float(e) + offset_east_m, float(n), 3.5 * float(f), float(f), float(h), float(s), m)
+                for t, e, n, f, h, s, m in zip(self.t_s, self.east_m, self.north_m, self.floor, self.heading_deg,
+                                               self.step_length_m, self.mode, strict=True)]
+
+
+def corridor_walk(duration_s: float, cadence_hz: float = 1.6, seed: int = 0) -> Walk:
+    """Laps of a 60 m x 30 m corridor loop, a floor change every 20 minutes, pauses and stair runs."""
+    rng = np.random.default_rng(seed)
+    n = int(duration_s * cadence_hz)
+    t = np.arange(n) / cadence_hz
+    length = 0.7 + 0.05 * rng.standard_normal(n)
+    s = np.cumsum(length) % 180.0  # arc length along the 180 m loop
+    east = np.select([s < 60, s < 90, s < 150], [s, 60.0, 150.0 - s], 0.0)
+    north = np.select([s < 60, s < 90, s < 150], [0.0, s - 60.0, 30.0], 180.0 - s)
+    heading = np.select([s < 60, s < 90, s < 150], [90.0, 0.0, 270.0], 180.0)
+    floor = np.floor(t / 1200.0) % 3
+    block = (t // 60).astype(int)
+    mode = ["standing" if b % 10 == 9 else ("stairs_up" if (t[i] % 1200.0) < 30 and t[i] > 60 else "walking")
+            for i, b in enumerate(block)]
+    return Walk(t, east, north, floor, heading, length, mode)
+
+
+def user_id(store: Store, token: str) -> int:
+    with store.engine.connect() as conn:
+        user = auth.lookup(conn, token)
+    assert user is not None
+    return user.id
+
+
+def seed_session(store: Store, token: str, name: str, tracks: dict[str, list[TrackRow]], *,
+                 placement: str | None = "pocket", model: str = "Pixel 7", warnings: tuple[str, ...] = (),
+                 landmarks: tuple[tuple[float, str], ...] = ()) -> str:
+    """A processed session of the token's user with the given track per device role; returns its id."""
+    sid, _ = store.create_session(user_id(store, token), source="native", client_session_id=name, name=name,
+                                  placement=placement)
+    for role, rows in tracks.items():
+        store.upsert_device(sid, role, device_id=f"{role}-1", platform="android" if role == "phone" else "imu",
+                            model=model if role == "phone" else "shoe IMU", placement=placement)
+        t_last_ns = int(rows[-1].t_s * 1e9) if rows else 0
+        bid, _ = store.add_batch(sid, device_role=role, client_batch_id=f"seed-{role}", payload_format=NATIVE_JSON,
+                                 payload=json.dumps({"seed": name, "role": role}).encode(), t_first_ns=0,
+                                 t_last_ns=t_last_ns)
+        events = [EventRow("landmark", t, label=label) for t, label in landmarks] if role == next(iter(tracks)) else []
+        store.commit_results(sid, role, bid, b"{}", t_last_ns, rows, events)
+    store.add_session_warnings(sid, list(warnings))
+    store.set_session(sid, status="done")
+    return sid
+
+
+def truth_log(duration_s: float = 60.0, rate_hz: float = 50.0) -> dict[str, Any]:
+    """A ``pdr-batch/1`` log of a phone with waypoint truth every 5 s around a 20 m x 10 m rectangle."""
+    n = int(duration_s * rate_hz)
+    t0 = 1_700_000_000_000_000_000
+    t_ns = (t0 + np.round(np.arange(n) / rate_hz * 1e9)).astype(np.int64)
+    tw = np.arange(0.0, duration_s, 5.0)
+    s = (tw * 1.0) % 60.0
+    east = np.select([s < 20, s < 30, s < 50], [s, 20.0, 50.0 - s], 0.0)
+    north = np.select([s < 20, s < 30, s < 50], [0.0, s - 20.0, 10.0], 60.0 - s)
+    truth = GroundTruth(positions=PositionTruth(tw, np.column_stack([east, north, np.zeros_like(tw)]),
+                                                kind="waypoint"))
+    rec = Recording({"acc": SensorStream("acc", t_ns, np.tile([0.0, 0.0, 9.81], (n, 1))),
+                     "gyro": SensorStream("gyro", t_ns, np.zeros((n, 3)))},
+                    DeviceInfo(platform="android", model="truth-phone", role="phone"), t0_ns=t0, truth=truth)
+    return batch_to_json(rec, session_id="truth-walk", batch_id="truth-1")
+
+
+def expected_truth_error_m() -> float:
+    return math.hypot(*TRUTH_OFFSET_M)
+
+
+def allan_report(duration_s: float = 600.0, rate_hz: float = 100.0) -> dict[str, Any]:
+    """A real ``pdr.allan`` report (``report.json`` content) of a synthetic static IMU record."""
+    from pdr.allan.characterise import characterise_recording
+    from pdr.allan.report import report_dict
+    from pdr.allan.synthetic import random_walk, white_noise
+
+    rng = np.random.default_rng(0)
+    n = int(duration_s * rate_hz)
+    t_ns = (np.arange(n) * (1e9 / rate_hz)).astype(np.int64)
+    gyro = np.column_stack([white_noise(n, rate_hz, 2e-4, rng) + random_walk(n, rate_hz, 1e-5, rng) for _ in range(3)])
+    acc = np.column_stack([white_noise(n, rate_hz, 1.5e-3, rng) for _ in range(3)]) + [0.0, 0.0, 9.81]
+    rec = Recording({"gyro": SensorStream("gyro", t_ns, gyro), "acc": SensorStream("acc", t_ns, acc)},
+                    DeviceInfo(platform="imu", model="synthetic", role="phone"))
+    report: dict[str, Any] = report_dict(characterise_recording(rec))
+    return report
