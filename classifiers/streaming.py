@@ -16,11 +16,12 @@ another process, and pdr/ receives this object by dependency injection without i
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
 
-from classifiers.artifacts import DEFAULT_MODEL, load_model
+from classifiers.artifacts import DEFAULT_MODEL, load_model, resolve_model_dir
 from classifiers.features import extract_features
 from classifiers.model import ContextModel
 from classifiers.windows import WINDOW_STREAMS, WindowConfig, make_windows
@@ -28,6 +29,20 @@ from pdr.errors import InputError
 from pdr.recording import Recording, SensorStream
 
 STATE_VERSION = 1
+
+
+def shared_model(name_or_path: str) -> ContextModel:
+    """The saved model, loaded once per process and file version (resuming a classifier per batch is cheap).
+
+    Models are only read by the classifier, so one instance serves every session.
+    """
+    path = resolve_model_dir(name_or_path) / "model.json"
+    return _load_version(str(path.parent.resolve()), path.stat().st_mtime_ns)
+
+
+@lru_cache(maxsize=8)
+def _load_version(folder: str, _mtime_ns: int) -> ContextModel:
+    return load_model(folder)
 #: Raw history kept before the next window's start (s): covers the resampler's support and gaps.
 _HISTORY_S = 1.0
 
@@ -76,7 +91,7 @@ class StreamingClassifier:
     """
 
     def __init__(self, model: ContextModel | str = DEFAULT_MODEL) -> None:
-        self.model = load_model(model) if isinstance(model, str) else model
+        self.model = shared_model(model) if isinstance(model, str) else model
         self.model_name = str(self.model.info.get("name", model if isinstance(model, str) else ""))
         self.t0_ns: int | None = None
         self.next_window = 0
@@ -151,11 +166,11 @@ class StreamingClassifier:
                                                 res.proba, strict=True)]
 
     def state(self) -> dict[str, Any]:
-        """JSON-serialisable state (model name, clock origin, next window, filter, raw sample buffers)."""
+        """State for :func:`pdr.state_codec.dumps`: model name, clock origin, next window, filter, sample buffers."""
         return {
             "version": STATE_VERSION, "model": self.model_name, "window": self.window.to_dict(),
             "t0_ns": self.t0_ns, "next_window": self.next_window, "filter": self.filter.state(),
-            "buffers": {k: {"t_ns": t.tolist(), "values": v.tolist()} for k, (t, v) in self.buffers.items()},
+            "buffers": {k: {"t_ns": t.copy(), "values": v.copy()} for k, (t, v) in self.buffers.items()},
         }
 
     @classmethod

@@ -203,7 +203,7 @@ class _History:
 
     def to_dict(self) -> dict[str, Any]:
         return {"size": self.size, "start": self.start,
-                **{n: getattr(self, n).tolist() for n in _FIELDS}}
+                **{n: getattr(self, n).copy() for n in _FIELDS}}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> _History:

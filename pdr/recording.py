@@ -399,6 +399,9 @@ class Recording:
         if self.t0_ns is None:
             firsts = [int(s.t_ns[0]) for s in streams.values() if len(s)]
             object.__setattr__(self, "t0_ns", min(firsts) if firsts else 0)
+        elif isinstance(self.t0_ns, bool) or not isinstance(self.t0_ns, int | np.integer):
+            raise InputError(f"t0_ns must be an integer number of nanoseconds, got {self.t0_ns!r}",
+                             source=self.source or None, field="t0_ns")
         else:
             object.__setattr__(self, "t0_ns", int(self.t0_ns))
         object.__setattr__(self, "warnings", tuple(self.warnings))

@@ -12,10 +12,10 @@ session ended now, so a session's track equals ``pdr track`` on the same data at
 
 from __future__ import annotations
 
-import json
 from typing import Any
 
 from classifiers.streaming import StreamingClassifier
+from pdr import state_codec
 from pdr.errors import InputError
 from pdr.pipeline import PdrPipeline, PipelineConfig
 from pdr.recording import Recording
@@ -36,12 +36,12 @@ def _num(x: Any) -> float | None:
 
 
 class PhoneProcessor:
-    """Online phone PDR and motion modes for one session; state = pipeline + classifier state (JSON)."""
+    """Online phone PDR and motion modes of one session; its state is stored with :mod:`pdr.state_codec`."""
 
     def __init__(self, ctx: SessionContext, state: bytes | None) -> None:
         self.classifier: StreamingClassifier | None = None
         if state:
-            d = json.loads(state)
+            d = state_codec.loads(state)
             self.pipeline = PdrPipeline.from_dict(d["pipeline"])
             self.last_mode: str = d["last_mode"]
             self.classifier_status: str = d.get("classifier_status", "pending")
@@ -87,9 +87,9 @@ class PhoneProcessor:
         return out
 
     def to_bytes(self) -> bytes:
-        return json.dumps({"pipeline": self.pipeline.to_dict(), "last_mode": self.last_mode,
-                           "classifier_status": self.classifier_status,
-                           "classifier": None if self.classifier is None else self.classifier.state()}).encode()
+        return state_codec.dumps({"pipeline": self.pipeline.to_dict(), "last_mode": self.last_mode,
+                                  "classifier_status": self.classifier_status,
+                                  "classifier": None if self.classifier is None else self.classifier.state()})
 
 
 def convert_events(events: list[dict[str, Any]], last_mode: str,

@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
-from pdr.io.text import find_member, head, parse_float_rows, read_text, strip_gz
+from pdr.io.text import find_member, head, parse_float_rows, read_text, strip_gz, timestamps_ns
 from pdr.recording import DeviceInfo, GroundTruth, Labels, Recording, SensorStream
 
 FORMAT = "driving"
@@ -146,7 +146,8 @@ def _read_sensor(p: Path, kind: str, warnings: list[str]) -> SensorStream:
         i = int(back[0]) + 1
         raise InputError(f"time goes backwards ({t[i - 1]:.0f} then {t[i]:.0f})", source=source, line=numbers[i],
                          field="uptimeNanos")
-    t_ns, values, merged = average_repeated_times(np.round(t).astype(np.int64), arr[:, 1:4])
+    t_ns, values, merged = average_repeated_times(timestamps_ns(t, source, "uptimeNanos", line_numbers=numbers),
+                                                      arr[:, 1:4])
     if merged:
         warnings.append(f"{p.name}: averaged {merged} row(s) that repeat the previous timestamp into one sample "
                         "each")

@@ -47,7 +47,7 @@ from numpy.typing import NDArray
 from pdr.errors import InputError
 from pdr.frames import WGS84_SEMI_MAJOR_M, geodetic_to_local_enu
 from pdr.io.android import rotation_vector_to_q_nb
-from pdr.io.text import check_increasing_rows, head, parse_float_rows, read_text, strip_gz
+from pdr.io.text import check_increasing_rows, head, parse_float_rows, read_text, strip_gz, timestamps_ns
 from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, SensorStream
 
 FORMAT = "ipin"
@@ -251,7 +251,8 @@ def _assemble(p: Path, arrays: dict[str, tuple[NDArray[np.float64], Callable[[in
 def _app_clock_ns(app_s: NDArray[np.float64], sensor_s: NDArray[np.float64]) -> tuple[NDArray[np.int64], float]:
     """Sample times on the AppTimestamp clock (int ns): SensorTimestamp + median(App - Sensor)."""
     offset_s = float(np.median(app_s - sensor_s))
-    t_ns = np.round(sensor_s * 1e9).astype(np.int64) + np.int64(round(offset_s * 1e9))
+    t_ns = (timestamps_ns(sensor_s, "SensorTimestamp", "SensorTimestamp", scale=1e9)
+            + timestamps_ns(np.array([offset_s]), "AppTimestamp", "AppTimestamp", scale=1e9)[0])
     return t_ns, offset_s
 
 

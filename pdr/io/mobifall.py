@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
-from pdr.io.text import check_increasing_rows, find_member, head, parse_float_rows, read_text, strip_gz
+from pdr.io.text import check_increasing_rows, find_member, head, parse_float_rows, read_text, strip_gz, timestamps_ns
 from pdr.recording import DeviceInfo, GroundTruth, Labels, Recording, SensorStream
 
 FORMAT = "mobifall"
@@ -156,7 +156,7 @@ def _read_file(p: Path) -> tuple[str, dict[str, str], NDArray[np.int64], NDArray
         raise InputError("no samples after '@DATA'", source=source)
     arr = parse_float_rows(rows, numbers, source, FIELDS)
     check_increasing_rows(arr[:, 0], numbers, source, "timestamp_ns")
-    return kind, header, np.round(arr[:, 0]).astype(np.int64), arr[:, 1:4]
+    return kind, header, timestamps_ns(arr[:, 0], source, "timestamp_ns", line_numbers=numbers), arr[:, 1:4]
 
 
 def _kind_of(p: Path, header_lines: list[str], source: str) -> str:

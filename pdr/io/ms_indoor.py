@@ -43,7 +43,7 @@ from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.io.android import rotation_vector_to_q_nb
-from pdr.io.text import check_increasing_rows, head, parse_float_rows, read_text, strip_gz
+from pdr.io.text import check_increasing_rows, head, parse_float_rows, read_text, strip_gz, timestamps_ns
 from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, SensorStream
 
 FORMAT = "ms_indoor"
@@ -130,7 +130,7 @@ def read(path: str | Path) -> Recording:
             continue
         arr = parse_float_rows(rows[tag], numbers[tag], source, names)
         arr, lines = _drop_repeated_times(arr, numbers[tag], source, tag, warnings)
-        t_ns = np.round(arr[:, 0]).astype(np.int64) * 1_000_000
+        t_ns = timestamps_ns(arr[:, 0], source, "timestamp_ms", multiplier=1_000_000, line_numbers=lines)
         values = rotation_vector_to_q_nb(arr[:, 1:4]) if kind == "orientation" else arr[:, 1:4]
         streams[kind] = SensorStream(kind, t_ns, values)
     if not streams:
@@ -145,7 +145,8 @@ def read(path: str | Path) -> Recording:
             i = int(back[0]) + 1
             raise InputError(f"waypoint time goes backwards ({wp[i - 1, 0]:.0f} then {wp[i, 0]:.0f})",
                              source=source, line=numbers["TYPE_WAYPOINT"][i], field="timestamp_ms")
-        wp_ns = np.round(wp[:, 0]).astype(np.int64) * 1_000_000
+        wp_ns = timestamps_ns(wp[:, 0], source, "timestamp_ms", multiplier=1_000_000,
+                              line_numbers=numbers["TYPE_WAYPOINT"])
         firsts.append(int(wp_ns[0]))
     t0_ns = min(firsts)
     if rows["TYPE_WAYPOINT"]:

@@ -34,6 +34,7 @@ from typing import Any
 
 import jsonschema
 import numpy as np
+from referencing import Registry, Resource
 
 from pdr.errors import InputError
 from pdr.io.bundle import Bundle, is_zip
@@ -57,17 +58,29 @@ _LABEL_COLUMNS = ("t_start_s", "t_end_s", "label")
 # --------------------------------------------------------------------------------------------- JSON batch
 
 @cache
-def batch_schema() -> dict[str, Any]:
-    """The JSON Schema of a ``pdr-batch/1`` document."""
-    text = resources.files("pdr.io.schemas").joinpath("batch.schema.json").read_text(encoding="utf-8")
+def _schema(name: str) -> dict[str, Any]:
+    text = resources.files("pdr.io.schemas").joinpath(name).read_text(encoding="utf-8")
     schema: dict[str, Any] = json.loads(text)
     return schema
 
 
+def batch_schema() -> dict[str, Any]:
+    """The JSON Schema of a ``pdr-batch/1`` document."""
+    return _schema("batch.schema.json")
+
+
+def folder_schema() -> dict[str, Any]:
+    """The JSON Schema of the ``meta.json`` index of a ``pdr-native/1`` folder (refers to the batch schema)."""
+    return _schema("folder.schema.json")
+
+
 @cache
-def _validator() -> jsonschema.protocols.Validator:
-    cls = jsonschema.validators.validator_for(batch_schema())
-    return cls(batch_schema())
+def _validator(name: str) -> jsonschema.protocols.Validator:
+    """Validator for one schema file; ``$ref`` to the other schema file of this package resolves locally."""
+    registry: Registry = Registry().with_resources(
+        (_schema(n)["$id"], Resource.from_contents(_schema(n))) for n in ("batch.schema.json", "folder.schema.json"))
+    cls = jsonschema.validators.validator_for(_schema(name))
+    return cls(_schema(name), registry=registry)
 
 
 def json_path(parts: Any) -> str:
@@ -100,16 +113,31 @@ def validate_batch(obj: Any, *, source: str = "batch") -> None:
         for kind, s in streams.items():
             small[kind] = _stream_skeleton(kind, s, where)
         skeleton = {**obj, "streams": small}
-    error = jsonschema.exceptions.best_match(_validator().iter_errors(skeleton))
+    error = jsonschema.exceptions.best_match(_validator("batch.schema.json").iter_errors(skeleton))
     if error is not None:
         path = list(error.absolute_path)
         if len(path) >= 4 and path[0] == "streams" and (path[1], path[2]) in where and path[3] == 0:
             path[3] = where[(path[1], path[2])]
-        msg = error.message
-        if error.validator in ("type", "enum", "const", "minItems", "maxItems", "required",
-                               "additionalProperties", "minProperties", "minimum", "maxLength", "minLength"):
-            msg = f"{_short(error.instance)} is invalid: expected {_expectation(error)}"
-        raise InputError(msg, source=source, field=json_path(path))
+        raise _schema_error(error, path, source)
+
+
+def validate_folder_meta(obj: Any, *, source: str = "meta.json") -> None:
+    """Check a decoded folder ``meta.json`` against its schema; :class:`InputError` naming the JSON path."""
+    if not isinstance(obj, dict):
+        raise InputError(f"meta.json must be a JSON object, got {type(obj).__name__}", source=source, field="$")
+    error = jsonschema.exceptions.best_match(_validator("folder.schema.json").iter_errors(obj))
+    if error is not None:
+        raise _schema_error(error, list(error.absolute_path), source)
+
+
+def _schema_error(error: jsonschema.ValidationError, path: list[Any], source: str) -> InputError:
+    msg = error.message
+    if "propertyNames" in error.absolute_schema_path:  # a bad key: name it in the path
+        path = [*path, error.instance]
+    if error.validator in ("type", "enum", "const", "minItems", "maxItems", "required", "additionalProperties",
+                           "minProperties", "minimum", "maxLength", "minLength"):
+        msg = f"{_short(error.instance)} is invalid: expected {_expectation(error)}"
+    return InputError(msg, source=source, field=json_path(path))
 
 
 def _expectation(error: jsonschema.ValidationError) -> str:
@@ -520,15 +548,8 @@ def read(path: str | Path) -> Recording:
     if not isinstance(meta, dict) or meta.get("format") != FOLDER_FORMAT:
         raise InputError(f"not a native recording: expected \"format\": \"{FOLDER_FORMAT}\"", source=meta_name,
                          field="format")
-    streams = {}
-    stream_files = meta.get("streams")
-    if not isinstance(stream_files, dict) or not stream_files:
-        raise InputError("expected an object of stream kind -> CSV file", source=meta_name, field="streams")
-    for kind, fname in stream_files.items():
-        if kind not in STREAM_KINDS:
-            raise InputError(f"unknown stream kind '{kind}' (expected one of {sorted(STREAM_KINDS)})",
-                             source=meta_name, field=f"streams.{kind}")
-        streams[kind] = _read_stream(members, kind, str(fname))
+    validate_folder_meta(meta, source=meta_name)
+    streams = {kind: _read_stream(members, kind, fname) for kind, fname in meta["streams"].items()}
     truth = _read_truth(members, meta.get("truth") or {}, meta_name)
     return _recording(streams, _device_from_json(meta.get("device") or {}, meta_name), meta.get("t0_ns"), truth,
                       str(p), tuple(meta.get("warnings") or ()), dict(meta.get("meta") or {}))

@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
-from pdr.io.text import find_member, head, parse_float_rows, read_text, strip_gz
+from pdr.io.text import find_member, head, parse_float_rows, read_text, strip_gz, timestamps_ns
 from pdr.recording import DeviceInfo, GroundTruth, Recording, SensorStream
 
 FORMAT = "oxford"
@@ -152,7 +152,8 @@ def _read_trial(folder: Path, acc_path: Path) -> Recording:
     arr, numbers = _csv_rows(acc_path, ACC_FIELDS)
     keep = _monotonic(arr[:, 0], numbers, source, "timestamp_ns", warnings)
     arr = arr[keep]
-    t_ns = np.round(arr[:, 0]).astype(np.int64)
+    kept_lines = [n for n, k in zip(numbers, keep, strict=True) if k]
+    t_ns = timestamps_ns(arr[:, 0], source, "timestamp_ns", line_numbers=kept_lines)
     t0_ns = int(t_ns[0])
     stream = SensorStream("acc", t_ns, arr[:, 2:5])
     meta: dict[str, Any] = {"trial": folder.name, "accuracy_values": sorted({int(a) for a in np.unique(arr[:, 1])})}
@@ -192,7 +193,7 @@ def _contact_switch_truth(path: Path, t0_ns: int, warnings: list[str]) -> Ground
                          field=STEP_FIELDS[1 + c])
     keep = _monotonic(arr[:, 0], numbers, source, "timestamp_ns", warnings)
     arr = arr[keep]
-    t_s = (np.round(arr[:, 0]).astype(np.int64) - np.int64(t0_ns)) / 1e9
+    t_s = (timestamps_ns(arr[:, 0], source, "timestamp_ns") - np.int64(t0_ns)) / 1e9
     chan1 = rising_edges(t_s, arr[:, 1])
     chan2 = rising_edges(t_s, arr[:, 2])
     return GroundTruth(step_times_s=np.sort(np.concatenate([chan1, chan2])),
@@ -206,7 +207,7 @@ def _read_validation(p: Path) -> Recording:
     keep = _monotonic(arr[:, 0], numbers, source, "timestamp_ns", warnings)
     arr = arr[keep]
     kept_lines = [n for n, k in zip(numbers, keep, strict=True) if k]
-    t_ns = np.round(arr[:, 0]).astype(np.int64)
+    t_ns = timestamps_ns(arr[:, 0], source, "timestamp_ns", line_numbers=kept_lines)
     t0_ns = int(t_ns[0])
     t_s = (t_ns - np.int64(t0_ns)) / 1e9
     counts = arr[:, 5]

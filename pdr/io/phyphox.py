@@ -33,7 +33,7 @@ import numpy as np
 from pdr.errors import InputError
 from pdr.io.bundle import Bundle, is_zip
 from pdr.io.csvtable import parse_table, split_header
-from pdr.io.text import decode_text, head, read_bytes, strip_gz
+from pdr.io.text import decode_text, head, read_bytes, strip_gz, timestamps_ns
 from pdr.recording import DeviceInfo, Recording, SensorStream
 from pdr.units import ACC_UNITS, GYRO_UNITS, MAG_UNITS, PRESSURE_UNITS
 
@@ -192,7 +192,7 @@ def _epoch_ns(t_s: np.ndarray, clock: list[tuple[float, int]] | None, source: st
         raise InputError(f"experiment time beyond {MAX_EXPERIMENT_S:g} s (found {float(np.max(np.abs(t_s))):g} s)",
                          source=source, field=TIME_COLUMN)
     if clock is None:
-        return np.round(t_s * 1e9).astype(np.int64)
+        return timestamps_ns(t_s, source, TIME_COLUMN, scale=1e9)
     if any(not (0 <= c[1] < 2**62) for c in clock):
         raise InputError("system time outside the representable epoch range", source="meta/time.csv",
                          field="systemTime")
@@ -200,7 +200,7 @@ def _epoch_ns(t_s: np.ndarray, clock: list[tuple[float, int]] | None, source: st
     base_ns = np.array([c[1] for c in clock], dtype=np.int64)
     k = np.clip(np.searchsorted(starts, t_s, side="right") - 1, 0, len(clock) - 1)
     # the epoch part stays integer (parsed exactly from the text), only the offset is a float
-    return base_ns[k] + np.round((t_s - starts[k]) * 1e9).astype(np.int64)
+    return base_ns[k] + timestamps_ns(t_s - starts[k], "meta/time.csv", "experimentTime", scale=1e9)
 
 
 def _csv_rows(text: str, source: str) -> list[list[str]]:

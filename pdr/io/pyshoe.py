@@ -36,6 +36,7 @@ import numpy as np
 
 from pdr.errors import InputError
 from pdr.io import matfile
+from pdr.io.text import timestamps_ns
 from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, SensorStream
 
 FORMAT = "pyshoe"
@@ -65,7 +66,7 @@ def read(path: str | Path) -> Recording:
         raise InputError(f"{ts.size} timestamps but {imu.shape[0]} imu rows", source=source, field="ts")
     if ts.size == 0:
         raise InputError("no samples", source=source, field="imu")
-    t_ns = np.round(ts * 1e9).astype(np.int64)
+    t_ns = timestamps_ns(ts, source, "ts", scale=1e9)
     bad = np.flatnonzero(np.diff(t_ns) <= 0)
     if bad.size:
         i = int(bad[0]) + 1

@@ -41,7 +41,7 @@ from pdr import quaternion
 from pdr.errors import InputError
 from pdr.io import matfile
 from pdr.io.csvtable import Table, parse_table, split_header
-from pdr.io.text import head, read_text, strip_gz
+from pdr.io.text import head, read_text, strip_gz, timestamps_ns
 from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, SensorStream
 from pdr.units import ACC_UNITS, GYRO_UNITS, MAG_UNITS, detect_acc_unit, detect_mag_unit
 
@@ -107,7 +107,7 @@ def read(path: str | Path) -> Recording:
         raise InputError("no samples after the header", source=source, line=2)
     table.check_increasing(time_col)
     t_s = table.column(time_col)
-    t_ns = np.round(t_s * 1e9).astype(np.int64)
+    t_ns = timestamps_ns(t_s, source, time_col, scale=1e9)
 
     variant = 2 if "estCompensatedAccelX" in table.header or "estAngularRateX" in table.header else 1
     channels, euler = (_EST, _EST_EULER) if variant == 2 else (_RAW, _RAW_EULER)

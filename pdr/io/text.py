@@ -142,3 +142,25 @@ def check_increasing_rows(t: NDArray[np.generic], line_numbers: Sequence[int], s
             what = "repeats" if t[i] == t[i - 1] else "goes backwards"
             raise InputError(f"time {what} ({t[i - 1]} then {t[i]})", source=source, line=line_numbers[i],
                              field=field)
+
+
+#: Largest magnitude of an int64 nanosecond timestamp we accept (about 292 years from the epoch or boot).
+MAX_ABS_NS = float(2**63 - 2**12)
+
+
+def timestamps_ns(t: NDArray[np.float64], source: str, field: str, *, scale: float = 1.0, multiplier: int = 1,
+                  line_numbers: Sequence[int] | None = None) -> NDArray[np.int64]:
+    """``round(t * scale) * multiplier`` as int64 nanoseconds; :class:`InputError` for a time out of range.
+
+    ``scale`` converts float units before rounding (1e9 for seconds), ``multiplier`` whole units after it
+    (1_000_000 for integer milliseconds, exact). A timestamp far in the future or past (beyond int64
+    nanoseconds) is reported with its line when ``line_numbers`` are given, never wrapped around.
+    """
+    r = np.round(np.asarray(t, dtype=np.float64) * scale)
+    bad = ~(np.abs(r) * multiplier <= MAX_ABS_NS)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InputError(f"time {t[i]!r} is out of range (beyond ±292 years as int64 nanoseconds)", source=source,
+                         line=None if line_numbers is None else line_numbers[i], field=field)
+    out: NDArray[np.int64] = r.astype(np.int64) * np.int64(multiplier)
+    return out

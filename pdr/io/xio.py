@@ -21,7 +21,7 @@ import numpy as np
 
 from pdr.errors import InputError
 from pdr.io.csvtable import parse_table, split_header
-from pdr.io.text import head, read_text, strip_gz
+from pdr.io.text import head, read_text, strip_gz, timestamps_ns
 from pdr.recording import DeviceInfo, Recording, SensorStream
 from pdr.units import ACC_UNITS, GYRO_UNITS, MAG_UNITS, PRESSURE_UNITS
 
@@ -70,7 +70,7 @@ def read(path: str | Path) -> Recording:
         i = int(back[0]) + 1
         raise InputError(f"time goes backwards ({t_s[i - 1]} then {t_s[i]})", source=source, line=table.line(i),
                          field="Time (s)")
-    t_ns = np.round(t_s * 1e9).astype(np.int64)
+    t_ns = timestamps_ns(t_s, source, "Time (s)", scale=1e9)
     keep = np.r_[True, np.diff(t_ns) > 0]
 
     groups: dict[str, dict[str, tuple[str, str]]] = {}

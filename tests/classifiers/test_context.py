@@ -15,6 +15,7 @@ from classifiers.streaming import StreamingClassifier
 from classifiers.tasks import Task
 from classifiers.training import fit_model
 from classifiers.windows import WindowConfig, make_windows
+from pdr import state_codec
 from pdr.io import read_recording
 from pdr.recording import GroundTruth, Labels, Recording, SensorStream
 from tests.conftest import data_path
@@ -112,7 +113,7 @@ def test_streaming_with_context_equals_offline() -> None:
     for i, (a, b) in enumerate(zip(edges[:-1], edges[1:], strict=False)):
         out += clf.update(rec.slice_time(a, b))
         if i == 9:
-            clf = StreamingClassifier.from_state(json.loads(json.dumps(clf.state())), model=model)
+            clf = StreamingClassifier.from_state(state_codec.loads(state_codec.dumps(clf.state())), model=model)
     # Decisions lag by the context margin; the last windows wait for data that never comes.
     lag = int(np.ceil(model.margin_s / cfg.hop_s)) + 1
     assert len(offline) - lag <= len(out) < len(offline)

@@ -22,6 +22,7 @@ from classifiers.tasks import get_task
 from classifiers.training import cross_validate, fit_model
 from classifiers.windows import WindowConfig, make_windows, resample_box
 from pdr import quaternion as quat
+from pdr import state_codec
 from pdr.errors import InputError
 from pdr.recording import GroundTruth, Labels, Recording, SensorStream
 
@@ -344,7 +345,7 @@ def test_streaming_equals_offline_and_resumes(trained) -> None:  # type: ignore[
     for i, (a, b) in enumerate(zip(edges[:-1], edges[1:], strict=False)):
         out += clf.update(rec.slice_time(a, b))
         if i == 5:  # serialise and resume mid-session
-            clf = StreamingClassifier.from_state(json.loads(json.dumps(clf.state())), model=model)
+            clf = StreamingClassifier.from_state(state_codec.loads(state_codec.dumps(clf.state())), model=model)
     assert len(out) == len(offline) - 1 or len(out) == len(offline)
     t0 = rec.origin_ns / 1e9
     np.testing.assert_allclose([r.t_start_s for r in out], offline.t_start_s[: len(out)] + t0, atol=1e-6)

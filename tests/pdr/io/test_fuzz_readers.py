@@ -6,7 +6,7 @@ tokens, SQL and path injection strings, dropped, duplicated and swapped lines, t
 a destroyed header, an empty member. The file is then read with the reader forced and with format
 detection. Anything but a :class:`Recording` or an :class:`InputError` (with a message) is a bug.
 MATLAB files go through the service's sandbox (see ``ISOLATED``). ``PDR_FUZZ_EXAMPLES`` raises the number
-of examples per seed (default 12; the slow run uses 600).
+of examples per seed (default 12); ``PDR_FUZZ_SLOW_EXAMPLES`` those of the slow run (default 600).
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ from pdr.recording import Recording
 from tests.conftest import REPO_ROOT, data_path
 
 EXAMPLES = int(os.environ.get("PDR_FUZZ_EXAMPLES", "12"))
+SLOW_EXAMPLES = int(os.environ.get("PDR_FUZZ_SLOW_EXAMPLES", "600"))
 #: Formats read with ``scipy.io.loadmat``, which can crash the interpreter on corrupt files (a native
 #: segmentation fault, not an exception): fuzzed through the service's sandbox (server/sandbox.py), which
 #: must turn every crash into an InputError, with fewer examples (a child process per example).
@@ -242,4 +243,4 @@ def test_reader_survives_hostile_input_on_dataset_excerpts(seed):
 @pytest.mark.data
 @pytest.mark.parametrize("seed", sorted(SEEDS | DATA_SEEDS))
 def test_reader_survives_many_hostile_inputs(seed):
-    _run((SEEDS | DATA_SEEDS)[seed], 600)
+    _run((SEEDS | DATA_SEEDS)[seed], SLOW_EXAMPLES)

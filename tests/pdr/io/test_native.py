@@ -307,10 +307,36 @@ def test_meta_json_problems(tmp_path):
     meta = json.loads((folder / "meta.json").read_text())
     meta["streams"]["accel"] = "acc.csv"
     (folder / "meta.json").write_text(json.dumps(meta))
-    with pytest.raises(InputError, match="unknown stream kind 'accel'") as err:
+    with pytest.raises(InputError, match="'accel' is invalid: expected one of \\['acc', ") as err:
         native.read(folder)
     assert err.value.field == "streams.accel"
     meta["streams"] = {"acc": "nope.csv"}
     (folder / "meta.json").write_text(json.dumps(meta))
     with pytest.raises(InputError, match="missing member 'nope.csv'"):
         native.read(folder)
+
+
+@pytest.mark.parametrize(("edit", "field", "message"), [
+    (lambda m: m["truth"].update(positions={"kind": "dense"}), "truth.positions", "missing: \\['file'\\]"),
+    (lambda m: m["truth"].update(extra={"q": {}}), "truth.extra.q", "missing: \\['file'\\]"),
+    (lambda m: m["truth"].update(steps="steps.csv"), "truth.steps", "expected type object"),
+    (lambda m: m.update(t0_ns=float("nan")), "t0_ns", "expected type integer"),
+    (lambda m: m.update(meta=[1, 2]), "meta", "expected type object"),
+    (lambda m: m.update(warnings="x"), "warnings", "expected type array"),
+])
+def test_meta_json_structure_is_checked_by_the_folder_schema(tmp_path, edit, field, message):
+    """Hostile meta.json contents (found by fuzzing) give an InputError naming the JSON path, never a crash."""
+    folder = native.write(_simple(), tmp_path / "r")
+    meta = json.loads((folder / "meta.json").read_text())
+    meta.setdefault("truth", {})
+    edit(meta)
+    (folder / "meta.json").write_text(json.dumps(meta))
+    with pytest.raises(InputError, match=message) as err:
+        native.read(folder)
+    assert err.value.field == field
+
+
+def test_recording_rejects_a_non_integer_time_origin():
+    rec = _simple()
+    with pytest.raises(InputError, match="t0_ns must be an integer"):
+        Recording(dict(rec.streams), t0_ns=float("nan"))
