@@ -108,6 +108,8 @@ def test_steps_eval_on_two_oxford_walks(capsys):
 def test_full_oxford_step_count(capsys):
     assert main(["eval", "steps", str(data_path("oxford_step_counter")), "--json"]) == 0
     res = json.loads(capsys.readouterr().out)["overall"]
-    # Measured 1.14 % mean absolute error over pocket/hand/bag/armband walks (target 1 %, not reached;
-    # switch bounces in the contact-switch truth alone account for 0.88 %, see pdr.steps).
-    assert res["mean_abs_error_pct_pocket_hand_bag_armband"] < 1.4
+    # Measured 1.09 % mean absolute error over pocket/hand/bag/armband walks, 0.58 % against the truth without
+    # contact-switch bounces (1.14 % / 0.63 % before the walk-end rule; target 1 %, not reached: switch bounces
+    # in the contact-switch truth alone account for 0.88 %, see pdr.steps).
+    assert res["mean_abs_error_pct_pocket_hand_bag_armband"] < 1.2
+    assert res["mean_abs_error_pct_pocket_hand_bag_armband_bounce_free"] < 0.62
