@@ -185,7 +185,7 @@ class OnlineFootNavigator:
             setattr(nav, name, int(d[name]))
         nav.buf_t_ns = _ints(d["buf_t_ns"])
         nav.buf_acc, nav.buf_gyro = _rows(d["buf_acc"]), _rows(d["buf_gyro"])
-        nav.filter = None if d["filter"] is None else FilterState.from_dict(d["filter"])
+        nav.filter = None if d["filter"] is None else FilterState.from_dict(d["filter"], nav.zupt)
         nav.gyro_last = None if d["gyro_last"] is None else (int(d["gyro_last"][0]), list(d["gyro_last"][1]))
         nav.acc_pending_t_ns, nav.acc_pending = _ints(d["acc_pending_t_ns"]), _rows(d["acc_pending"])
         nav.warned, nav.warnings = list(d["warned"]), list(d["warnings"])

@@ -13,6 +13,23 @@ of eq. 2 is ``-[f_n]x dt`` (the seed's ``+[f_n]x dt`` belongs to the opposite si
 The same loop implements the step-wise inertial navigation of Sec. 3.2 / Algorithm 1 (``segmentation``):
 at every reset the position and heading (and their covariance rows) are zeroed and handed over as
 ``(dp_l, dpsi_l, P_w)`` to :mod:`pdr.foot.stepwise`.
+
+Heading drift (``ZuptConfig.hde_directions``): the heading is not observable from ZUPTs (seed 001 eq. 6), so
+the INS heading drifts; on the LORD 3DM-GX5 walks of ``foot_stride_gcp`` by about -0.2 deg per stride, a
+drift that is not a constant gyroscope bias (bias states estimated from the ZUPTs or from stance angular rates
+made it worse) and that a foot-level magnetometer cannot remove (the field's direction swings by tens of
+degrees from stride to stride). It is removed by heuristic drift elimination (Borenstein, Ojeda, Kwanmuang
+2009, "Heuristic reduction of gyro drift in IMU-based personnel tracking systems"; Jimenez et al. 2012,
+"Improved heuristic drift elimination"): most walking indoors follows a few dominant directions of the
+building, ``hde_directions`` evenly spaced ones, the first of them the direction of the first straight
+stretch. After ``hde_min_strides`` consecutive strides that agree within ``hde_straight_tol``, a stride
+whose direction lies within ``hde_max_dev`` of a dominant direction is a measurement of the heading error
+(noise ``hde_sigma_dir``). It updates a two-state Kalman filter of the heading error and of the heading
+drift rate (random walks ``sigma_heading_rw`` and ``sigma_drift_rw``); the estimated error is fed back into
+the attitude and the estimated drift rate is removed from the attitude at every sample, so the correction
+persists through turns and curved stretches where no measurement is made. Positions already travelled are
+not moved (the correction acts from the current stride on). Strides off the dominant directions, curved
+walking and standing still give no measurement.
 """
 
 from __future__ import annotations
@@ -64,6 +81,25 @@ class ZuptConfig:
         Length of the stationary period at the start used for the coarse self-initialisation, s.
     yaw0
         Initial yaw in rad (counter-clockwise from east in the navigation frame).
+    hde_directions
+        Number of evenly spaced dominant walking directions for the heuristic drift elimination (4: a
+        rectangular building; 8 adds the diagonals); 0 disables it.
+    hde_sigma_dir
+        Standard deviation of a straight stride's direction about the dominant direction it follows, rad.
+    hde_max_dev
+        Largest deviation from a dominant direction that is taken as drift, rad.
+    hde_straight_tol
+        Largest change of direction between consecutive strides of a straight stretch, rad.
+    hde_min_strides
+        Strides of a straight stretch before its strides count as measurements.
+    hde_min_stride_m
+        Shortest horizontal stride (m) that has a direction (shorter ones are ignored).
+    sigma_drift0
+        Initial standard deviation of the heading drift rate, rad/s.
+    sigma_drift_rw
+        Random walk of the heading drift rate, rad/s per sqrt(s).
+    sigma_heading_rw
+        Random walk of the heading error in the drift filter, rad per sqrt(s).
     """
 
     sigma_acc: float = 0.5
@@ -75,13 +111,35 @@ class ZuptConfig:
     gravity: float = GRAVITY_MPS2
     init_window_s: float = 0.5
     yaw0: float = 0.0
+    hde_directions: int = 4
+    hde_sigma_dir: float = float(np.radians(2.0))
+    hde_max_dev: float = float(np.radians(10.0))
+    hde_straight_tol: float = float(np.radians(5.0))
+    hde_min_strides: int = 3
+    hde_min_stride_m: float = 0.3
+    sigma_drift0: float = float(np.radians(0.2))
+    sigma_drift_rw: float = float(np.radians(0.005))
+    sigma_heading_rw: float = float(np.radians(0.05))
 
     def __post_init__(self) -> None:
         for name in ("sigma_acc", "sigma_gyro", "sigma_zupt", "init_sigma_vel", "init_sigma_tilt",
-                     "init_sigma_yaw", "gravity", "init_window_s"):
+                     "init_sigma_yaw", "gravity", "init_window_s", "hde_sigma_dir", "hde_max_dev",
+                     "hde_straight_tol", "hde_min_stride_m", "sigma_drift0", "sigma_drift_rw", "sigma_heading_rw"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
                 raise InputError(f"must be a positive number, got {value}", field=name)
+        for name in ("hde_directions", "hde_min_strides"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
+                raise InputError(f"must be a non-negative integer, got {value!r}", field=name)
+        if self.hde_min_strides < 1:
+            raise InputError(f"must be at least 1, got {self.hde_min_strides}", field="hde_min_strides")
+
+    def hde_params(self) -> Array:
+        """Parameters of the drift elimination as the kernel reads them (see :func:`heading_drift_update`)."""
+        return np.array([float(self.hde_directions), self.hde_sigma_dir**2, self.hde_max_dev, self.hde_straight_tol,
+                         float(self.hde_min_strides), self.hde_min_stride_m, self.sigma_heading_rw**2,
+                         self.sigma_drift_rw**2])
 
 
 @dataclass(frozen=True)
@@ -316,19 +374,102 @@ def zupt_update(p: Array, v: Array, q: Array, P: Array, r_var: float) -> float: 
     return float(innov @ S_inv @ innov)
 
 
+#: Layout of the drift-elimination state array (:attr:`FilterState.hde`).
+HDE_RATE, HDE_P00, HDE_P01, HDE_P11, HDE_LAST_X, HDE_LAST_Y, HDE_HAVE_LAST, HDE_REF, HDE_HAVE_REF, HDE_COUNT, \
+    HDE_PREV, HDE_UPDATES = range(12)
+HDE_SIZE = 12
+
+
+def initial_hde_state(config: ZuptConfig) -> Array:
+    """Drift-elimination state at the start: no drift rate (variance ``sigma_drift0^2``), no stride yet."""
+    h = np.zeros(HDE_SIZE)
+    h[HDE_P11] = config.sigma_drift0**2
+    return h
+
+
+@njit(cache=True)
+def _rotate_yaw(q: Array, angle: float) -> None:  # pragma: no cover - compiled
+    # q := Rz(angle) * q: turn the attitude about the navigation-frame vertical (commutes with chi_l of Sec. 3.2).
+    q[:] = _quat_mul(np.array([math.cos(0.5 * angle), 0.0, 0.0, math.sin(0.5 * angle)]), q)
+
+
+@njit(cache=True)
+def _wrap(a: float) -> float:  # pragma: no cover - compiled
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@njit(cache=True)
+def heading_drift_predict(q: Array, hde: Array, dt: float, par: Array) -> None:  # pragma: no cover - compiled
+    """Remove the estimated heading drift over ``dt`` from ``q`` and propagate the drift filter's covariance.
+
+    State ``(e, d)``: heading error (estimate minus truth, rad) and its rate (rad/s) left after removing the
+    estimated rate ``hde[HDE_RATE]``; ``e_k = e_{k-1} + d dt``, both random walks (``par[6]``, ``par[7]``).
+    """
+    _rotate_yaw(q, -hde[HDE_RATE] * dt)
+    p00, p01, p11 = hde[HDE_P00], hde[HDE_P01], hde[HDE_P11]
+    hde[HDE_P00] = p00 + 2.0 * dt * p01 + dt * dt * p11 + par[6] * dt
+    hde[HDE_P01] = p01 + dt * p11
+    hde[HDE_P11] = p11 + par[7] * dt
+
+
+@njit(cache=True)
+def heading_drift_update(q: Array, hde: Array, x: float, y: float, par: Array) -> bool:  # pragma: no cover
+    """Heuristic drift elimination at the end of a stance with the foot at ``(x, y)`` (m, navigation frame).
+
+    The stride since the previous stance end has direction ``psi``; after ``par[4]`` straight strides (each
+    within ``par[3]`` of the previous) its deviation ``e`` from the nearest of ``par[0]`` dominant directions,
+    if within ``par[2]``, is a measurement of the heading error with variance ``par[1]``. The Kalman update of
+    ``(e, d)`` is fed back: the attitude turned by ``-e_hat``, ``d_hat`` added to the removed drift rate.
+    Returns whether a measurement was made.
+    """
+    if hde[HDE_HAVE_LAST] == 0.0:
+        hde[HDE_LAST_X], hde[HDE_LAST_Y], hde[HDE_HAVE_LAST] = x, y, 1.0
+        return False
+    dx, dy = x - hde[HDE_LAST_X], y - hde[HDE_LAST_Y]
+    if math.hypot(dx, dy) < par[5]:
+        return False
+    hde[HDE_LAST_X], hde[HDE_LAST_Y] = x, y
+    psi = math.atan2(dy, dx)
+    straight = hde[HDE_COUNT] > 0 and abs(_wrap(psi - hde[HDE_PREV])) <= par[3]
+    hde[HDE_COUNT] = hde[HDE_COUNT] + 1.0 if straight else 1.0
+    hde[HDE_PREV] = psi
+    if hde[HDE_COUNT] < par[4]:
+        return False
+    if hde[HDE_HAVE_REF] == 0.0:
+        # The first straight stretch sets the dominant directions.
+        hde[HDE_REF], hde[HDE_HAVE_REF] = psi, 1.0
+    n_dir = par[0]
+    e = _wrap(n_dir * (psi - hde[HDE_REF])) / n_dir
+    if abs(e) > par[2]:
+        return False
+    p00, p01, p11 = hde[HDE_P00], hde[HDE_P01], hde[HDE_P11]
+    s = p00 + par[1]
+    k0, k1 = p00 / s, p01 / s
+    e_hat, d_hat = k0 * e, k1 * e
+    hde[HDE_P00] = p00 - k0 * p00
+    hde[HDE_P01] = p01 - k0 * p01
+    hde[HDE_P11] = p11 - k1 * p01
+    _rotate_yaw(q, -e_hat)
+    hde[HDE_RATE] += d_hat
+    hde[HDE_PREV] = psi - e_hat
+    hde[HDE_UPDATES] += 1.0
+    return True
+
+
 @njit(cache=True)
 def zupt_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, g_n: Array, qa: float, qg: float,
                 r_var: float, seg_on: bool, gamma_p: float, c_min: int, c_max: int, p: Array, v: Array, q: Array,
                 P: Array, dr: Array, counters: IntArray, pos: Array, vel: Array, qs: Array, pvar: Array,
                 vvar: Array, avar: Array, step_idx: IntArray, step_dp: Array, step_dpsi: Array,
-                step_cov: Array) -> int:  # pragma: no cover - compiled
+                step_cov: Array, hde_par: Array, hde: Array) -> int:  # pragma: no cover - compiled
     """The filter loop over samples ``first..N-1`` (sample ``first - 1`` is the last one already processed).
 
     The step to sample ``k`` uses the IMU samples ``k - 1`` and ``k`` (second-order mechanization).
     Resumable: the navigation state ``p, v, q`` (local frame), the covariance ``P``, the step-wise dead
-    reckoning ``dr = (x_l, chi_l)`` and the Algorithm 1 counters ``counters = (c_p, c_d)`` are read at the start
-    and left updated in place, so feeding a recording in consecutive chunks (each with the previous chunk's last
-    sample prepended, ``first = 1``) performs exactly the operations of one run over the whole recording.
+    reckoning ``dr = (x_l, chi_l)``, the Algorithm 1 counters ``counters = (c_p, c_d)`` and the drift-elimination
+    state ``hde`` (parameters ``hde_par``, :meth:`ZuptConfig.hde_params`; off when ``hde_par[0] == 0``) are read at
+    the start and left updated in place, so feeding a recording in consecutive chunks (each with the previous
+    chunk's last sample prepended, ``first = 1``) performs exactly the operations of one run over the whole recording.
     Per-sample outputs go to ``pos, vel, qs, pvar, vvar, avar`` at the sample's index; resets to ``step_*``.
     Returns the number of resets.
     """
@@ -339,8 +480,11 @@ def zupt_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, g_n
     c_d = counters[1]
     n_steps = 0
     idx = np.array([0, 1, 2, 8])
+    hde_on = hde_par[0] > 0
     for k in range(first, n):
         zupt_predict(p, v, q, P, f_b[k - 1], w_b[k - 1], f_b[k], w_b[k], t[k] - t[k - 1], g_n, qa, qg)
+        if hde_on:
+            heading_drift_predict(q, hde, t[k] - t[k - 1], hde_par)
         if zv[k]:
             zupt_update(p, v, q, P, r_var)
         else:
@@ -379,6 +523,14 @@ def zupt_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, g_n
                         P[:, i] = 0.0
                     c_p = 0
                     c_d = 0
+        if hde_on and zv[k - 1] and not zv[k]:
+            # End of a stance: heuristic drift elimination on the stride just completed.
+            if seg_on:
+                c, s = math.cos(chi_l), math.sin(chi_l)
+                heading_drift_update(q, hde, x_l[0] + c * p[0] - s * p[1], x_l[1] + s * p[0] + c * p[1], hde_par)
+            else:
+                heading_drift_update(q, hde, p[0], p[1], hde_par)
+        if seg_on:
             c, s = math.cos(chi_l), math.sin(chi_l)
             pos[k, 0] = x_l[0] + c * p[0] - s * p[1]
             pos[k, 1] = x_l[1] + s * p[0] + c * p[1]
@@ -458,6 +610,9 @@ class FilterState:
         (4,) step-wise dead reckoning ``(x_l (m, ENU), chi_l (rad))`` (eq. 7).
     counters
         (2,) int64 Algorithm 1 counters ``(c_p, c_d)`` in samples.
+    hde
+        (HDE_SIZE,) state of the heuristic drift elimination (drift rate, its filter's covariance, the last
+        stride end, the dominant direction, the straight-stride count; see :func:`heading_drift_update`).
     """
 
     p: Array
@@ -466,6 +621,7 @@ class FilterState:
     P: Array
     dr: Array
     counters: IntArray
+    hde: Array = field(default_factory=lambda: np.zeros(HDE_SIZE))
 
     @classmethod
     def initial(cls, q0: Array, config: ZuptConfig) -> FilterState:
@@ -473,18 +629,20 @@ class FilterState:
         P = np.diag(np.r_[np.zeros(3), np.full(3, config.init_sigma_vel**2), np.full(2, config.init_sigma_tilt**2),
                           config.init_sigma_yaw**2])
         return cls(np.zeros(3), np.zeros(3), np.array(q0, dtype=np.float64), P, np.zeros(4),
-                   np.zeros(2, dtype=np.int64))
+                   np.zeros(2, dtype=np.int64), initial_hde_state(config))
 
     def to_dict(self) -> dict[str, list]:
         """JSON-serialisable form (floats round-trip exactly)."""
         return {"p": self.p.tolist(), "v": self.v.tolist(), "q": self.q.tolist(), "P": self.P.tolist(),
-                "dr": self.dr.tolist(), "counters": self.counters.tolist()}
+                "dr": self.dr.tolist(), "counters": self.counters.tolist(), "hde": self.hde.tolist()}
 
     @classmethod
-    def from_dict(cls, d: dict[str, list]) -> FilterState:
+    def from_dict(cls, d: dict[str, list], config: ZuptConfig | None = None) -> FilterState:
+        """Inverse of :meth:`to_dict`; a state saved before the drift elimination existed starts it afresh."""
         f = np.float64
+        hde = np.array(d["hde"], f) if "hde" in d else initial_hde_state(config or ZuptConfig())
         return cls(np.array(d["p"], f), np.array(d["v"], f), np.array(d["q"], f), np.array(d["P"], f),
-                   np.array(d["dr"], f), np.array(d["counters"], dtype=np.int64))
+                   np.array(d["dr"], f), np.array(d["counters"], dtype=np.int64), hde)
 
 
 @dataclass(frozen=True)
@@ -517,7 +675,8 @@ def run_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, stat
     n_steps = zupt_kernel(t, f_b, w_b, zv, first, g_n, config.sigma_acc**2, config.sigma_gyro**2,
                           config.sigma_zupt**2, setup.seg_on, setup.gamma_p, setup.c_min, setup.c_max, state.p,
                           state.v, state.q, state.P, state.dr, state.counters, out.pos, out.vel, out.qs, out.pvar,
-                          out.vvar, out.avar, out.step_idx, out.step_dp, out.step_dpsi, out.step_cov)
+                          out.vvar, out.avar, out.step_idx, out.step_dp, out.step_dpsi, out.step_cov,
+                          config.hde_params(), state.hde)
     return replace(out, step_idx=out.step_idx[:n_steps], step_dp=out.step_dp[:n_steps],
                    step_dpsi=out.step_dpsi[:n_steps], step_cov=out.step_cov[:n_steps])
 
