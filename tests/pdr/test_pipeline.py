@@ -1,12 +1,12 @@
 """Online pipeline: simulated walks with truth, random chunking == one batch, state round trip, bad input."""
 
-import json
 import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from pdr import state_codec
 from pdr.frames import heading_deg_to_yaw, wrap_angle
 from pdr.io.registry import read_recording
 from pdr.pipeline import PdrPipeline, PipelineConfig, track_rows
@@ -60,13 +60,13 @@ def test_random_chunks_give_the_same_track(hand_walk):
             assert a == b
 
 
-def test_state_survives_json_round_trip(hand_walk):
+def test_state_survives_a_stored_round_trip(hand_walk):
     one = track_rows(PdrPipeline(PipelineConfig()).run(hand_walk))
     t0, t1 = hand_walk.time_span_s()
     mid = 0.5 * (t0 + t1)
     p = PdrPipeline(PipelineConfig())
     ev = p.update(hand_walk.slice_time(t0, mid))
-    p2 = PdrPipeline.from_dict(json.loads(json.dumps(p.to_dict())))
+    p2 = PdrPipeline.from_dict(state_codec.loads(state_codec.dumps(p.to_dict())))
     ev += p2.update(hand_walk.slice_time(mid, t1 + 1)) + p2.finish()
     rows = track_rows(ev)
     assert [r["t_s"] for r in rows] == [r["t_s"] for r in one]
