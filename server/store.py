@@ -24,6 +24,14 @@ SESSION_COLUMNS = ("id", "client_session_id", "source", "name", "placement", "st
                    "t0_ns", "origin_lat_deg", "origin_lon_deg")
 
 
+def unpack_state(blob: bytes) -> bytes:
+    """A stored processor state. States are stored as the processor wrote them: they are rewritten after every
+    batch and hold float arrays that barely compress; rows of older versions were zlib-compressed (they start
+    with the zlib header byte 0x78, which neither a JSON nor a :mod:`pdr.state_codec` state starts with).
+    """
+    return zlib.decompress(blob) if blob[:1] == b"\x78" else bytes(blob)
+
+
 @dataclass(frozen=True)
 class BatchRecord:
     """A stored raw batch, decompressed."""
@@ -227,7 +235,7 @@ class Store:
                 db.processor_states.c.session_id == session_id, db.processor_states.c.device_role == role)).first()
         if row is None:
             return None, None
-        return zlib.decompress(row.state), row.last_t_ns
+        return unpack_state(row.state), row.last_t_ns
 
     def commit_results(self, session_id: str, role: str, batch_id: int | None, state: bytes, last_t_ns: int | None,
                        track: Sequence[TrackRow], events: Sequence[EventRow],
@@ -248,7 +256,7 @@ class Store:
             if guard is not None:
                 guard(conn)
             key = (db.processor_states.c.session_id == session_id) & (db.processor_states.c.device_role == role)
-            values = dict(state=zlib.compress(state, 6), last_t_ns=last_t_ns, updated_at=now)
+            values = dict(state=state, last_t_ns=last_t_ns, updated_at=now)
             if conn.execute(select(db.processor_states.c.session_id).where(key)).first():
                 conn.execute(update(db.processor_states).where(key).values(**values))
             else:

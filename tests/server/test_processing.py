@@ -123,3 +123,15 @@ def test_devices_pairing_and_listing(client, tokens):
     assert roles == ["left_foot"]
     listing = client.get("/api/v1/sessions", headers=h).get_json()["sessions"]
     assert [s["id"] for s in listing] == [sid] and listing[0]["session_id"] == "walk"
+
+
+def test_processor_states_are_stored_as_written_and_older_zlib_rows_still_load():
+    import zlib
+
+    from pdr import state_codec
+    from server.store import unpack_state
+
+    state = state_codec.dumps({"a": [1.5, 2.5]})
+    assert unpack_state(state) == state
+    assert unpack_state(b'{"navigator": null}') == b'{"navigator": null}'
+    assert unpack_state(zlib.compress(state, 6)) == state  # a row written before states were stored raw
