@@ -24,6 +24,15 @@ error is a 3-vector rotation, ``q_true = exp(dtheta) q``).
 
 Deviation from the text: the angular rate is kept in the body frame (the gyroscope's, so that eq. 6 holds as
 written); the context's Gaussian components are isotropic per quantity, so the frame does not change them.
+
+Noise values for real foot IMUs (issue #5; :class:`BCConfig` documents each): Table I belongs to the seed's
+100 Hz XSens walks ("dynamic-related values roughly 50 % of their maximum, measurement-related values from
+specification", Sec. VI). On the 200 Hz LORD IMUs of PyShoe and foot_stride_gcp they made the filter diverge
+(PyShoe median ARMSE 78 m): heel strikes far beyond the Table I jerk went into the tilt, a loose attitude
+process noise let accelerometer and context residuals re-fit the attitude at every sample, and a free gyroscope
+bias learnt the foot's rolling in stance. The defaults apply the seed's own rules to these IMUs (jerk at half
+the measured maximum, the exactly discretised white-jerk model, gyroscope noise from the data sheet, no
+gyroscope bias state as in seed 001); :meth:`BCConfig.table_i` keeps Table I.
 """
 
 from __future__ import annotations
@@ -99,20 +108,47 @@ class BCConfig:
     Attributes
     ----------
     jerk_psd
-        Scale of the constant-acceleration process noise ``Sigma^{d,1}`` (Table I: 275), (m/s^3)^2 s.
+        Power spectral density ``q`` of the white jerk that drives the constant-acceleration model (eq. 2),
+        (m/s^3)^2 s: the acceleration variance grows by ``q dt`` per step, as the ``Sigma^{d,1}`` of Table I.
+        Table I's 275 is "roughly 50 % of the maximum" (Sec. VI) of the seed's 100 Hz XSens walks; a real
+        heel strike changes the specific force by 20-50 m/s^2 within one 5 ms sample (PyShoe and
+        foot_stride_gcp, 200 Hz: jerks up to 1.4e4 m/s^3), and half of that maximum is ``(25 m/s^2)^2 / 5 ms
+        = 1.25e5``. With 275 an impact cannot be followed by the acceleration state and the accelerometer
+        update (eq. 5) puts a large part of it into the tilt: a 20 degree tilt error, a phantom 4 m/s^2
+        horizontal acceleration and a velocity that runs away (the divergence of issue #5).
+    exact_jerk
+        Discretise the white jerk exactly (Bar-Shalom's white-noise-jerk model, the seed's ref. [36]): the
+        full correlated ``q [[dt^5/20, dt^4/8, dt^3/6], [dt^4/8, dt^3/3, dt^2/2], [dt^3/6, dt^2/2, dt]]``.
+        Table I writes only a diagonal ``q (dt^3/6, dt^2/2, dt)``, i.e. an extra velocity random walk of
+        ``q dt / 2`` (m/s)^2 per second that no measurement observes: with the ``q`` of real heel strikes it
+        is 300 (m/s)^2/s and the swing velocity becomes as uncertain as the swing component of the context,
+        which then cannot recognise the next stance. ``False`` gives Table I's diagonal.
     sigma_quat
-        Table I ``Sigma^{d,2} = 0.2 dt^2 / 2``: its scale 0.2 (1/s^2); the attitude error variance per step
-        is ``4 * 0.2 dt^2 / 2`` (rad^2, a quaternion error ``dtheta / 2``).
+        Table I ``Sigma^{d,2} = sigma_quat dt^2 / 2`` per quaternion component (1/s^2); the attitude error
+        variance per step is ``4 * sigma_quat dt^2 / 2`` (rad^2, a quaternion error ``dtheta / 2``). It is the
+        error of holding the angular rate over a sample (eq. 3, footnote 2), which the gyroscope measures at
+        every sample. Table I's 0.2 is an attitude random walk of 2.6 deg/sqrt(s) at 200 Hz, 6000 times what
+        the gyroscope noise adds: the filter then re-fits the attitude to every accelerometer and context
+        residual (heel-off rolling taken as stance moves the pitch by 5 deg, the heading by several degrees
+        per stride; measured on foot_stride_gcp walk 32: -3 deg/s of heading drift). Default 1e-5.
     omega_psd
         ``Sigma^{d,3} = 10 dt`` (rad/s^2)^2 s.
     bias_psd
-        ``Sigma^{d,4} = 1e-5 dt`` for both biases.
+        ``Sigma^{d,4} = 1e-5 dt`` for the accelerometer bias, (m/s^2)^2 / s.
+    gyro_bias_psd
+        ``Sigma^{d,4}`` for the gyroscope bias, (rad/s)^2 / s (Table I: 1e-5, default 0).
     var_acc
         Accelerometer measurement variance ``Sigma^f`` (Table I: 8e-3), (m/s^2)^2.
     var_gyro
-        Gyroscope measurement variance ``Sigma^omega`` (Table I: 6e-3), (rad/s)^2.
+        Gyroscope measurement variance ``Sigma^omega``, (rad/s)^2. Table I's 6e-3 "comes from specification"
+        (Sec. VI) of the seed's XSens MTi; the foot IMUs here (LORD MicroStrain 3DM-GX3/GX5, noise density
+        0.03 deg/s/sqrt(Hz) or better) give (0.03 deg/s * sqrt(100 Hz))^2 = 3e-5 at 200 Hz.
     init_sigma_bias_acc, init_sigma_bias_gyro
-        Prior standard deviations of the biases, m/s^2 and rad/s.
+        Prior standard deviations of the biases, m/s^2 and rad/s. The gyroscope bias is observable only
+        through the context's zero-mean angular rate in stance; a real foot rolls while on the ground (mean
+        rate over the detector's stance samples 0.1 rad/s, against a bias of 0.001 rad/s in the initial rest
+        of the same recordings), so a free gyroscope bias learns the rolling (0.1-0.3 rad/s) and turns it into
+        heading drift. Default 0: not estimated, as in the ZUPT-aided INS (seed 001).
     init_sigma_tilt, init_sigma_yaw
         Prior attitude standard deviations after the coarse alignment, rad.
     context
@@ -128,14 +164,16 @@ class BCConfig:
         noise-free simulated walk); dividing by it leaves the swing unconstrained.
     """
 
-    jerk_psd: float = 275.0
-    sigma_quat: float = 0.2
+    jerk_psd: float = 1.25e5
+    exact_jerk: bool = True
+    sigma_quat: float = 1e-5
     omega_psd: float = 10.0
     bias_psd: float = 1e-5
+    gyro_bias_psd: float = 0.0
     var_acc: float = 8e-3
-    var_gyro: float = 6e-3
+    var_gyro: float = 3e-5
     init_sigma_bias_acc: float = 0.05
-    init_sigma_bias_gyro: float = 0.01
+    init_sigma_bias_gyro: float = 0.0
     init_sigma_tilt: float = math.radians(1.0)
     init_sigma_yaw: float = math.radians(0.1)
     context: ContextModel | None = None
@@ -145,11 +183,22 @@ class BCConfig:
 
     def __post_init__(self) -> None:
         for name in ("jerk_psd", "sigma_quat", "omega_psd", "bias_psd", "var_acc", "var_gyro",
-                     "init_sigma_bias_acc", "init_sigma_bias_gyro", "init_sigma_tilt", "init_sigma_yaw",
-                     "gravity", "init_window_s"):
+                     "init_sigma_bias_acc", "init_sigma_tilt", "init_sigma_yaw", "gravity", "init_window_s"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise InputError(f"must be a positive number, got {v}", field=name)
+        for name in ("gyro_bias_psd", "init_sigma_bias_gyro"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise InputError(f"must be a non-negative number, got {v}", field=name)
+
+    @classmethod
+    def table_i(cls, **changes: object) -> BCConfig:
+        """The seed's own values (Table I, diagonal ``Sigma^{d,1}``, free biases): its 100 Hz XSens walks."""
+        kw: dict[str, object] = {"jerk_psd": 275.0, "exact_jerk": False, "sigma_quat": 0.2, "var_gyro": 6e-3,
+                                 "gyro_bias_psd": 1e-5, "init_sigma_bias_gyro": 0.01}
+        kw.update(changes)
+        return cls(**kw)  # type: ignore[arg-type]
 
 
 @dataclass(frozen=True)
@@ -210,10 +259,11 @@ def _skew(x: Array) -> Array:  # pragma: no cover - compiled
 
 @njit(cache=True)
 def _bc_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Array, P0: Array,
-               jerk: float, squat: float, somega: float, sbias: float, r_f: float, r_w: float,
+               jerk: float, squat: float, somega: float, sbias: float, sbias_w: float, r_f: float, r_w: float,
                alpha: Array, mu: Array, var: Array, logc: Array, stance: int,
                pos: Array, vel: Array, acc: Array, qs: Array, om: Array, bias: Array,
-               pvar: Array, vvar: Array, avar: Array, sprob: Array) -> None:  # pragma: no cover - compiled
+               pvar: Array, vvar: Array, avar: Array, sprob: Array,
+               exact: bool) -> None:  # pragma: no cover - compiled
     n = t.size
     m = alpha.size
     p = np.zeros(3)
@@ -243,13 +293,23 @@ def _bc_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Arr
                 F[TH + i, W_ + j] = c_old[i, j] * dt        # body-rate error turns the attitude
         P = F @ P @ F.T
         for i in range(3):
-            P[P_ + i, P_ + i] += jerk * dt ** 3 / 6.0
-            P[V_ + i, V_ + i] += jerk * dt ** 2 / 2.0
+            if exact:                                   # white jerk, exactly discretised (BCConfig.exact_jerk)
+                P[P_ + i, P_ + i] += jerk * dt ** 5 / 20.0
+                P[P_ + i, V_ + i] += jerk * dt ** 4 / 8.0
+                P[V_ + i, P_ + i] += jerk * dt ** 4 / 8.0
+                P[P_ + i, A_ + i] += jerk * dt ** 3 / 6.0
+                P[A_ + i, P_ + i] += jerk * dt ** 3 / 6.0
+                P[V_ + i, V_ + i] += jerk * dt ** 3 / 3.0
+                P[V_ + i, A_ + i] += jerk * dt ** 2 / 2.0
+                P[A_ + i, V_ + i] += jerk * dt ** 2 / 2.0
+            else:                                       # Table I's diagonal
+                P[P_ + i, P_ + i] += jerk * dt ** 3 / 6.0
+                P[V_ + i, V_ + i] += jerk * dt ** 2 / 2.0
             P[A_ + i, A_ + i] += jerk * dt
             P[TH + i, TH + i] += 4.0 * squat * dt * dt / 2.0
             P[W_ + i, W_ + i] += somega * dt
             P[BF + i, BF + i] += sbias * dt
-            P[BW + i, BW + i] += sbias * dt
+            P[BW + i, BW + i] += sbias_w * dt
         # --- measurement update f(y_k | x_k), linearised (eqs. 5-6) ---
         c = _rotmat(q)
         s_n = a - g_n                                   # specific force in the navigation frame
@@ -402,9 +462,10 @@ def run_bc(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity: A
     sprob = np.zeros(n)
     sprob[: a0 + 1] = 1.0
     _bc_kernel(t, np.ascontiguousarray(f_b), np.ascontiguousarray(w_b), a0, q0, np.array([0.0, 0.0, -cfg.gravity]),
-               P0, cfg.jerk_psd, cfg.sigma_quat, cfg.omega_psd, cfg.bias_psd, cfg.var_acc, cfg.var_gyro,
+               P0, cfg.jerk_psd, cfg.sigma_quat, cfg.omega_psd, cfg.bias_psd, cfg.gyro_bias_psd, cfg.var_acc,
+               cfg.var_gyro,
                np.ascontiguousarray(ctx.weights), np.ascontiguousarray(ctx.means),
-               var, logc, stance, pos, vel, acc, qs, om, bias, pvar, vvar, avar, sprob)
+               var, logc, stance, pos, vel, acc, qs, om, bias, pvar, vvar, avar, sprob, cfg.exact_jerk)
     return BCTrack(t, pos, vel, acc, quat.normalize(qs), om, bias, pvar, vvar, avar, sprob, a0)
 
 
