@@ -94,7 +94,11 @@ class AttitudeConfig:
     var_window_s
         Time constant of the trailing exponential windows for the variances of eqs. 12-13 (s).
     alpha, beta, kappa
-        Unscented transform parameters (eqs. 35-37).
+        Unscented transform parameters (eqs. 35-37; the paper's 1e-3, 2, 0), also used by the unscented
+        transforms of the landmark row and of the second UKF (:mod:`pdr.heading`). With the attitude
+        covariances met in practice (yaw sigma of a few degrees) the measurement functions are close to
+        linear over the sigma-point spread, so alpha = 0.5 or 1 gives the same headings as 1e-3, and the
+        UKF the same as the EKF (``pdr eval pocket-heading``, ``pdr eval ipin``).
     static_gyro_std, static_acc_std, static_mag_std, static_min_s
         Stationary detection (the user stands; the phone may tremble in the hand): trailing standard
         deviations of the gyro (rad/s, norm over the axes), of ``|a|`` (m/s^2) and of ``|m|`` (uT) below

@@ -173,6 +173,16 @@ def scatter_of(f_n: FloatArray, q1: FloatArray) -> FloatArray:
     return np.asarray(c.T @ (d.T @ d) @ c)
 
 
+def scatter_in_frame(m_dcs1: FloatArray, q1: FloatArray, q2: FloatArray) -> FloatArray:
+    """A scatter matrix expressed in the device frame of ``q1`` carried into that of ``q2`` (3, 3).
+
+    ``a^DCS2 = R^T a^DCS1`` with ``R = C_nb(q1)^T C_nb(q2)`` the temporary rotation from DCS2 to DCS1
+    (eqs. 14-15), so ``M2 = R^T M1 R``; then ``f(q2, M2) = f(q1, M1)`` (the samples do not move in GCS).
+    """
+    r = quat.to_rotmat(np.asarray(q1, dtype=np.float64)).T @ quat.to_rotmat(np.asarray(q2, dtype=np.float64))
+    return np.asarray(r.T @ np.asarray(m_dcs1, dtype=np.float64) @ r)
+
+
 def f_of_q(q1: FloatArray, m_dcs1: FloatArray, psi0: float) -> float:
     """``f(q(t1))`` of eqs. 27-32 (corrected factor 2, see module doc): principal-axis angle in RCS (rad)."""
     c_nb = quat.to_rotmat(q1)
@@ -244,6 +254,10 @@ def landmark_attitude_update(q1: FloatArray, p_q: FloatArray, m_dcs1: FloatArray
     innov = float(wrap_angle(d_uh - (z[0] + zm_d)))
     q_new = _quat_add(np.asarray(q1, dtype=np.float64), k * innov)           # eq. 40
     p_new = p - np.outer(k, k) * pzz
+    # Repeated landmark rows (every step of a flight) on a rank-deficient quaternion covariance can leave
+    # eigenvalues slightly below zero by rounding: project back onto the positive semi-definite cone.
+    vals, vecs = np.linalg.eigh(0.5 * (p_new + p_new.T))
+    p_new = (vecs * np.maximum(vals, 1e-12)) @ vecs.T
     return quat.normalize(q_new), 0.5 * (p_new + p_new.T)
 
 

@@ -27,7 +27,10 @@ Site description (JSON)::
 
 A detected landmark is matched to the nearest site landmark of a compatible type on the current floor
 within its radius; its heading interval gives ``UH_landmark`` (centre) with a standard deviation of a sixth
-of the width (three-sigma interval, Sec. 5) for both UKFs, and its position fixes the track.
+of the width (three-sigma interval, Sec. 5) for both UKFs, and its position fixes the track. A flight of
+stairs is matched at its first step (which fixes the position) and then observed at every step the tree
+labels stairs (:class:`pdr.pipeline.PdrPipeline`). :func:`pdr.sim.site_document` writes the site
+description of a simulated scenario.
 """
 
 from __future__ import annotations
@@ -182,6 +185,10 @@ class Site:
                 "landmarks": [{"id": lm.id, "type": lm.type, "east_m": lm.east_m, "north_m": lm.north_m,
                                "floor": lm.floor, "heading_deg": list(lm.heading_deg), "radius_m": lm.radius_m}
                               for lm in self.landmarks]}
+
+    def by_id(self, landmark_id: str) -> SiteLandmark | None:
+        """The landmark with this id, or None."""
+        return next((lm for lm in self.landmarks if lm.id == landmark_id), None)
 
     def match(self, mode: str, east_m: float, north_m: float, floor: float) -> SiteLandmark | None:
         """Nearest landmark of a compatible type within its radius (same floor when the floor is known)."""

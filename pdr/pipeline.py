@@ -11,7 +11,8 @@ big batch):
 4. per step: patterns and length (seed 004 eqs. 13-19), heading (:mod:`pdr.heading`: device heading +
    offset for hand-held/torso, improved RMPCA + second UKF for the trouser pocket), landmark label
    (:mod:`pdr.landmarks`, with the neighbour-step correction, which delays each step by one step),
-   site landmark fixes, floor (:mod:`pdr.floors`), and the PDR position (:mod:`pdr.track`, eqs. 20-22);
+   site landmarks (a flight of stairs: position fix at its first step, heading rows of both UKFs at every
+   step of it), floor (:mod:`pdr.floors`), and the PDR position (:mod:`pdr.track`, eqs. 20-22);
 5. elevator rides from the vertical specific force (:class:`pdr.landmarks.ElevatorDetector`).
 
 Events are plain dicts: ``{"type": "step", "t_s", "east_m", "north_m", "up_m", "floor", "heading_deg",
@@ -38,6 +39,7 @@ from scipy import signal
 from pdr import quaternion as quat
 from pdr.attitude import AttitudeConfig, AttitudeFilter, AttitudeState
 from pdr.errors import InputError
+from pdr.filters.ukf import SigmaPoints
 from pdr.floors import FloorConfig, FloorTracker
 from pdr.frames import GRAVITY_MPS2, wrap_angle, yaw_to_heading_deg
 from pdr.grid import OnlineGrid
@@ -51,6 +53,7 @@ from pdr.heading import (
     mean_yaw,
     pca_axis,
     resolve_direction,
+    scatter_in_frame,
     scatter_of,
     thigh_swing_evidence,
     yaw_variance,
@@ -254,6 +257,9 @@ class PdrPipeline:
         self.prev_step_start: int | None = None
         self.direction_vote = DirectionVote()
         self.prev_mode = ""
+        self.stairs_landmark: str | None = None
+        self.landmark_updates = 0
+        self.landmark_attitude_updates = 0
         self.pending: dict[str, Any] | None = None
         self.pitch_baseline: list[float] | None = None
         self.last_floor = float(c.initial_floor)
@@ -309,6 +315,8 @@ class PdrPipeline:
             "elevator": self.elevator.to_dict(), "track": self.track.to_dict(), "offset": self.offset.to_dict(),
             "history": self.history.to_dict(), "placement": self.placement, "t0_ns": self.t0_ns,
             "prev_yaw": self.prev_yaw, "prev_q": self.prev_q, "prev_mode": self.prev_mode,
+            "stairs_landmark": self.stairs_landmark, "landmark_updates": self.landmark_updates,
+            "landmark_attitude_updates": self.landmark_attitude_updates,
             "prev_step_start": self.prev_step_start, "direction_score": self.direction_vote.score,
             "direction_votes": self.direction_vote.n,
             "pending": _jsonable(self.pending),
@@ -331,6 +339,10 @@ class PdrPipeline:
             p.history = _History.from_dict(d["history"])
             p.placement, p.t0_ns = d["placement"], int(d["t0_ns"])
             p.prev_yaw, p.prev_q, p.prev_mode = d["prev_yaw"], d["prev_q"], str(d["prev_mode"])
+            # Absent in states saved before per-step stairs landmarks.
+            p.stairs_landmark = d.get("stairs_landmark")
+            p.landmark_updates = int(d.get("landmark_updates", 0))
+            p.landmark_attitude_updates = int(d.get("landmark_attitude_updates", 0))
             p.prev_step_start = None if d["prev_step_start"] is None else int(d["prev_step_start"])
             p.direction_vote.score = float(d["direction_score"])
             p.direction_vote.n = int(d["direction_votes"])
@@ -489,7 +501,7 @@ class PdrPipeline:
                     self.pending["yaw"] = float(wrap_angle(self.pending["yaw"] + math.pi))
                     self.pending["psi0"] = float(wrap_angle(self.pending["psi0"] + math.pi))
             m1 = scatter_of(f_str, st.q)
-            est = improved_rmpca_ut(st.q, st.P, m1, psi0, c.heading_process_var)
+            est = improved_rmpca_ut(st.q, st.P, m1, psi0, c.heading_process_var, self._ut_points())
             self.prev_yaw = est.yaw
         else:
             dev = mean_yaw(h.yaw_z[sl] if self.placement == "torso" else h.yaw_y[sl])   # seed 004 eq. 21
@@ -521,7 +533,7 @@ class PdrPipeline:
         rec = {"s": s, "e": e, "t_start": float(h.t[sl][0]), "t_end": float(h.t[sl][-1]) + 1.0 / c.rate_hz,
                "pats": pats.tolist(), "yaw": est.yaw, "var": est.var, "psi0": psi0, "axis": axis,
                "mode": mode, "up": float(h.up[sl][-1]), "floor": float(h.floor[sl][-1]), "m1": m1.tolist(),
-               "peak": peak}
+               "q1": st.q.tolist(), "peak": peak}
         events: list[Event] = []
         if self.pending is not None:
             events += self._emit_step(self.pending, rec)
@@ -538,20 +550,39 @@ class PdrPipeline:
         length = float(self.config.step_length.length(np.array(rec["pats"]), on_stairs))
         est = HeadingEstimate(rec["yaw"], rec["var"])
         events: list[Event] = []
-        if self.site is not None and on_stairs and self.prev_mode not in ("stairs_up", "stairs_down"):
-            lm = self.site.match(mode, self.track.east_m, self.track.north_m, rec["floor"])
+        if self.site is not None and on_stairs:
+            # Every step of a flight of stairs observes the landmark (seed 003 Sec. 5: a landmark is available
+            # while the decision tree labels the steps stairs). The flight is matched at its first step, which
+            # also fixes the position; the following steps of the flight keep that landmark.
+            entering = self.prev_mode not in ("stairs_up", "stairs_down")
+            if entering:
+                lm = self.site.match(mode, self.track.east_m, self.track.north_m, rec["floor"])
+                self.stairs_landmark = None if lm is None else lm.id
+            else:
+                lm = self.site.by_id(self.stairs_landmark) if self.stairs_landmark is not None else None
             if lm is not None:
                 yaw_lm, var_lm = lm.yaw_and_var()
                 st = self.attitude.state
                 d_uh = float(wrap_angle(yaw_lm - rec["psi0"]))
+                attitude_updated = False
                 if abs(d_uh) < math.pi / 4 and self.placement == "pocket":
-                    # First UKF landmark row (eqs. 20, 32) on the current attitude.
-                    st.q[:], st.P[:, :] = landmark_attitude_update(st.q, st.P, np.array(rec["m1"]), rec["psi0"],
-                                                                   d_uh, var_lm)
+                    # First UKF landmark row (eqs. 20, 32) on the current attitude. The step's scatter matrix
+                    # was expressed in the device frame of the attitude q1 the filter had when the step was
+                    # processed; the filter has moved on by one step since (output delay), so the samples are
+                    # carried into the current device frame (eqs. 14-16 with t1 = now) before f(q) is evaluated.
+                    m_now = scatter_in_frame(np.array(rec["m1"]), np.array(rec["q1"]), st.q)
+                    st.q[:], st.P[:, :] = landmark_attitude_update(st.q, st.P, m_now, rec["psi0"], d_uh, var_lm,
+                                                                   self._ut_points())
+                    attitude_updated = True
                 est = fuse_landmark(est, yaw_lm, var_lm)                 # second UKF (eq. 42)
-                self.track.fix(lm.east_m, lm.north_m, 1.0)
-                events.append({"type": "landmark", "t_s": self._clock(rec["t_start"]), "landmark": lm.id,
-                               "mode": mode})
+                if entering:
+                    self.track.fix(lm.east_m, lm.north_m, 1.0)
+                    events.append({"type": "landmark", "t_s": self._clock(rec["t_start"]), "landmark": lm.id,
+                                   "mode": mode})
+                self.landmark_updates += 1
+                self.landmark_attitude_updates += int(attitude_updated)
+        else:
+            self.stairs_landmark = None
         if self.placement == "pocket" and self.prev_yaw is not None:
             # The step after this one is already resolved (one-step output delay): it keeps its own heading,
             # moved by the correction a landmark made here (replacing it by this step's would make every
@@ -568,6 +599,11 @@ class PdrPipeline:
             "patterns": rec["pats"],
         })
         return events
+
+    def _ut_points(self) -> SigmaPoints:
+        """Sigma points of the unscented transforms on ``q(t1)`` (eqs. 35-37), with the attitude UKF's parameters."""
+        a = self.config.attitude
+        return SigmaPoints(4, alpha=a.alpha, beta=a.beta, kappa=a.kappa)
 
     def _clock(self, t_s: float) -> float:
         return t_s
