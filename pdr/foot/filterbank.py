@@ -77,6 +77,16 @@ PI_DEFAULT: dict[str, tuple[tuple[tuple[float, float, float], ...], float]] = {
     "height": (((0.976, 0.0, 0.031), (0.003, 0.0, 0.0), (0.021, 1.0, 0.969)), 100.0),
 }
 
+#: Default accelerometer process-noise PSD ((m/s^2)^2 s) of the ``height`` leaves (issue #5). Eq. 13 has no
+#: almost-stationary mode: a stance is entered only through the stationary modes 2 and 3, so the leaf's velocity
+#: covariance at the end of a swing must cover the real velocity error there, else the stationary likelihood
+#: (eq. 6c) vanishes, the unconstrained mode wins every later sample and the velocity error grows without bound.
+#: Calibrated on the same training data as ``PI_DEFAULT["speed"]`` (first 90 s of the foot_stride_gcp ``own``
+#: walks): the ZUPT INS's predicted velocity just before each stance, ``|v|^2 / 3 = q T_swing``, median over 357
+#: swings q = 0.009 (the mean, 0.34, is dominated by a few outlier swings). The ``speed`` variant keeps
+#: ``ZuptConfig.sigma_acc``: its almost-stationary mode (sigma_v = 0.1 m/s) absorbs that error instead.
+ACC_PSD_DEFAULT: dict[str, float | None] = {"speed": None, "height": 0.009}
+
 
 def check_transition(pi: ArrayLike, field_name: str = "transition") -> Array:
     """A (3, 3) column-stochastic matrix of probabilities, or InputError."""
@@ -130,6 +140,10 @@ class FilterBankConfig:
         ``sigma_nc`` of the unconstrained mode (eq. 12d): sets its constant likelihood.
     sigma_h
         Standard deviation of the same-height constraint, m (eq. 13c).
+    acc_psd
+        Accelerometer process-noise PSD of the leaves, (m/s^2)^2 s: velocity variance ``acc_psd * dt`` per
+        sample, whatever the rate. ``None``: :data:`ACC_PSD_DEFAULT` of the variant, and where that is ``None``
+        ``zupt.sigma_acc`` (velocity variance ``sigma_acc^2 dt^2`` per sample, as the ZUPT INS).
     max_leaves
         Leaves kept after pruning (seed: nine).
     zupt
@@ -144,6 +158,7 @@ class FilterBankConfig:
     sigma_s: tuple[float, float, float] = (0.0, 2.0, 0.3)
     sigma_nc: float = 1.0
     sigma_h: float = 0.01
+    acc_psd: float | None = None
     max_leaves: int = 9
     zupt: ZuptConfig = field(default_factory=ZuptConfig)
 
@@ -161,8 +176,17 @@ class FilterBankConfig:
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise InputError(f"must be a positive number, got {v}", field=name)
+        if self.acc_psd is not None and not (math.isfinite(self.acc_psd) and self.acc_psd > 0):
+            raise InputError(f"must be a positive number, got {self.acc_psd}", field="acc_psd")
         if not 1 <= self.max_leaves <= 243:
             raise InputError("max_leaves must be between 1 and 243", field="max_leaves")
+
+    def acc_noise_var(self, rate_hz: float) -> float:
+        """Accelerometer process noise ``qa`` of the kernel (velocity variance ``qa dt^2`` per sample), (m/s^2)^2."""
+        psd = self.acc_psd if self.acc_psd is not None else ACC_PSD_DEFAULT[self.variant]
+        if psd is None:
+            return float(self.zupt.sigma_acc**2)
+        return float(psd * rate_hz)               # psd dt = qa dt^2
 
     def transition_matrix(self, rate_hz: float) -> Array:
         """``Pi`` at the recording's rate."""
@@ -494,7 +518,7 @@ def run_filterbank(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_vel
     mprob[: a + 1, 2] = 1.0
     counts = np.zeros((3, 3))
     loglik = _bank_kernel(t, np.ascontiguousarray(f_b), np.ascontiguousarray(w_b), a, q0,
-                          np.array([0.0, 0.0, -z.gravity]), z.sigma_acc**2, z.sigma_gyro**2, P0, log_pi,
+                          np.array([0.0, 0.0, -z.gravity]), cfg.acc_noise_var(rate), z.sigma_gyro**2, P0, log_pi,
                           np.asarray(cfg.sigma_v, dtype=np.float64), np.asarray(cfg.sigma_omega, dtype=np.float64),
                           np.asarray(cfg.sigma_s, dtype=np.float64), cfg.sigma_nc, cfg.sigma_h,
                           cfg.variant == "height", cfg.max_leaves, pos, vel, qs, pvar, vvar, avar, mprob, counts)

@@ -103,3 +103,23 @@ def test_bad_configuration() -> None:
         FilterBankConfig(sigma_v=(0.0, -1.0, 0.1))
     with pytest.raises(InputError, match="max_leaves"):
         FilterBankConfig(max_leaves=0)
+
+
+def test_height_variant_regains_stance_after_a_swing_velocity_error() -> None:
+    # Issue #5: a swing-time accelerometer disturbance (1.5 m/s^2 for 0.4 s: up to 0.6 m/s of velocity error
+    # at foot-down, as the worst real walking swings show) must not make the eq. 13 bank lose the stances. With
+    # the ZUPT INS's per-sample process noise the leaf covariance says ~0.03 m/s, the stationary likelihood
+    # (eq. 6c) vanishes and the unconstrained mode absorbs the rest of the walk; the calibrated acc_psd keeps them.
+    g = simulate_gait(n_strides=8, stride_m=1.3, sigma_acc=0.02, sigma_gyro=0.002, seed=5)
+    acc = g.acc_b.copy()
+    swing = ~g.stance & (np.convolve(~g.stance, np.ones(41), "same") >= 41)
+    acc[swing, 0] += 1.5
+    zv = detect(acc, g.gyro_b, 200.0)
+    core = g.stance & (np.convolve(g.stance, np.ones(21), "same") >= 21) & (g.t_s > 2.0)
+    tr = run_filterbank(g.t_s, acc, g.gyro_b, zv, FilterBankConfig(variant="height"))
+    assert tr.zero_velocity[core].mean() > 0.9
+    assert np.max(np.linalg.norm(tr.vel_n, axis=1)) < 6.0             # true swing peak: 4.4 m/s
+    old = run_filterbank(g.t_s, acc, g.gyro_b, zv, FilterBankConfig(variant="height", acc_psd=0.5**2 / 200.0))
+    assert old.zero_velocity[core].mean() < 0.5
+    with pytest.raises(InputError, match="positive"):
+        FilterBankConfig(acc_psd=0.0)
