@@ -19,14 +19,27 @@ each update. The landmark row ``Delta UH = f(q)`` (eqs. 14-32) is applied once p
 :func:`landmark_update` (see :mod:`pdr.heading`).
 
 Gyro bias: while the user stands (quasi-static accelerometer, small spread of ``|a|`` and of the gyro for
-``static_min_s``; a hand-held phone still trembles) gravity and the local magnetic field are fixed in the
-navigation frame, even where the field is disturbed, so their body-frame directions ``u`` obey
-``du/dt = u x (omega_raw - b)``. Low-passed versions of both sides give three rows per vector,
-``[us]x b = LP(u x omega_raw) - d(us)/dt``; their normal equations are accumulated over stationary samples
-in blocks of ``bias_hold_s`` that enter one block late (the trailing detectors see the end of standing
-late), with forgetting ``bias_tau_s`` and a small ridge towards zero, and solved for ``b``. Unlike the mean
-of the raw gyro, this is not biased by the slow rotation of a hand-held phone. (On an escalator or in an
-elevator the field moves with the user; the spread of ``|m|`` usually excludes such periods.)
+``static_min_s``; a hand-held phone still trembles) gravity is fixed in the navigation frame, also in a moving
+elevator cabin (its acceleration is vertical), so its body-frame direction ``u`` obeys
+``du/dt = u x (omega_raw - b)``. Low-passed versions of both sides give the rows
+``[us]x b = LP(u x omega_raw) - d(us)/dt`` (rank 2: blind to the bias about the vertical). That component
+comes from the gyro alone, ``us^T b = us^T omega_raw``, while the device does not rotate (trailing gyro
+spread within the white noise ``sigma_gyro`` of eq. 9 on each axis, e.g. a phone in the pocket of a standing
+user): at rest the gyro mean is the bias, and the field adds only its own changes. A user carried through
+the building's field (elevator cabin) sees the field change although the device does not rotate; explaining
+that change as rotation corrupted the bias (``pdr eval pocket-heading``: up to 2.6 deg/s in the stairs +
+elevator walks, against 0.3-0.6 deg/s true). While the device rotates (a hand-held phone trembles and turns
+slowly, so the gyro mean is not the bias) the component comes from the local magnetic field's rows of the
+gravity rows' form, provided the field passes the magnetic-disturbance test of eq. 13 over the stationary
+period: its magnitude and its dip relative to gravity (both invariant under any rotation of the device
+while the field is fixed in the navigation frame) stay within ``eps_m1`` and ``eps_dip_deg`` of their
+values at the start of the period. The normal equations are accumulated over stationary samples in
+blocks of ``bias_hold_s`` that enter one block late (the trailing detectors see the end of standing late,
+and a field that starts to move is noticed late: a block's magnetic rows enter only if neither it nor the
+next block saw the field move or the device at rest), with forgetting ``bias_tau_s`` and a small ridge
+towards zero, and solved for ``b``. Unlike the mean of the raw gyro, the
+gravity and (fixed) field rows are not biased by the slow rotation of a hand-held phone. A field that
+moves only in azimuth, at constant magnitude and dip, while a hand-held phone rotates still enters the bias.
 
 Magnetometer rows (eq. 13, adapted to disturbed buildings): the reference magnitude and dip follow the
 measured field with time constant ``mag_ref_tau_s`` (so the gates reject abrupt disturbances, not a
@@ -69,8 +82,14 @@ _AUX_VS_A, _AUX_VS_M = 14, 17           # (3 each) low-passed unit vectors of a 
 _AUX_CW_A, _AUX_CW_M = 20, 23           # (3 each) low-passed cross products u x omega_raw
 _AUX_BN, _AUX_BR = 26, 35               # (9) normal matrix and (3) right-hand side of the bias least squares
 _AUX_WAS_STILL, _AUX_BIAS_READY = 38, 39  # previous sample stationary; first stationary period over
-_AUX_P0, _AUX_P1, _AUX_BLOCK_S = 40, 52, 64  # (12 each) pending blocks of bias rows, age of the newer (s)
-_AUX_SIZE = 65
+_AUX_P0, _AUX_P1, _AUX_BLOCK_S = 40, 52, 64  # (12 each) pending blocks of gravity bias rows, age of the newer (s)
+_AUX_M0, _AUX_M1 = 65, 77               # (12 each) pending blocks of magnetic-field bias rows
+_AUX_V0, _AUX_V1 = 89, 101              # (12 each) pending blocks of vertical mean-gyro bias rows
+_AUX_ML = 113                           # (3) low-passed magnetic field (uT, body frame)
+_AUX_FREF = 116                         # (2) field invariants at the start of the stationary period (uT)
+_AUX_FBAD = 118                         # (3) field moved: in the older block, in the newer block, in the period
+_AUX_SIZE = 121
+_AUX_SIZE_V1 = 65                       # size of the layout before the blocks above
 #: Bit flags of the per-sample ``used`` output.
 USED_ACC, USED_MAG, STATIONARY = 1, 2, 4
 
@@ -103,6 +122,8 @@ class AttitudeConfig:
         Stationary detection (the user stands; the phone may tremble in the hand): trailing standard
         deviations of the gyro (rad/s, norm over the axes), of ``|a|`` (m/s^2) and of ``|m|`` (uT) below
         these, with the accelerometer quasi-static (eq. 12), for at least ``static_min_s`` (s).
+        ``eps_m1`` and ``eps_dip_deg`` also bound the change of the field's magnitude and dip relative to
+        gravity within a stationary period for its rows to enter the gyro bias.
     bias_tau_s, bias_smooth_s, bias_prior_s, bias_hold_s
         Gyro bias least squares over stationary samples: forgetting time constant (s of stationary data),
         low-pass time constant of the vectors (s), ridge weight towards zero bias (s of data), and the
@@ -330,9 +351,9 @@ def _ekf_update(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatArray,
 
 @numba.njit(cache=True)
 def _bias_rows(aux: FloatArray, vs: int, cw: int, u: FloatArray, w_raw: FloatArray, ks: float, ts: float,
-               accumulate: bool, weight: float) -> None:
+               accumulate: bool, weight: float, o: int) -> None:
     """Low-pass ``u`` and ``u x omega_raw``; if ``accumulate``, add the rows ``[us]x b = cw - d(us)/dt`` to the
-    newer pending block (9 normal-matrix then 3 right-hand-side entries at ``_AUX_P1``).
+    pending block at ``aux[o:o + 12]`` (9 normal-matrix then 3 right-hand-side entries).
 
     A vector fixed in the navigation frame obeys ``du/dt = u x (omega_raw - b)`` in the body frame; a
     linear low-pass keeps the relation, so ``us x b = LP(u x omega_raw) - d(us)/dt`` (3 rows, rank 2).
@@ -354,7 +375,6 @@ def _bias_rows(aux: FloatArray, vs: int, cw: int, u: FloatArray, w_raw: FloatArr
     # Normal equations of S b = y with S = [us]x: S^T S = |us|^2 I - us us^T, S^T y = y x us.
     n2 = s0 * s0 + s1 * s1 + s2 * s2
     c = weight * ts
-    o = _AUX_P1
     aux[o] += c * (n2 - s0 * s0)
     aux[o + 1] -= c * s0 * s1
     aux[o + 2] -= c * s0 * s2
@@ -367,6 +387,47 @@ def _bias_rows(aux: FloatArray, vs: int, cw: int, u: FloatArray, w_raw: FloatArr
     aux[o + 9] += c * (y1 * s2 - y2 * s1)
     aux[o + 10] += c * (y2 * s0 - y0 * s2)
     aux[o + 11] += c * (y0 * s1 - y1 * s0)
+
+
+@numba.njit(cache=True)
+def _vertical_rows(aux: FloatArray, o: int, w_raw: FloatArray, ts: float) -> None:
+    """Add the row ``us^T b = us^T omega_raw`` (``us`` the low-passed unit specific force, i.e. up in the body
+    frame) to the pending block at ``aux[o:o + 12]``: a standing user's device does not turn about the
+    vertical on average, so there the gyro mean is the bias. It completes the gravity rows (rank 2, blind to
+    this component): their normal matrices add up to ``|us|^2 I``.
+    """
+    s0, s1, s2 = aux[_AUX_VS_A], aux[_AUX_VS_A + 1], aux[_AUX_VS_A + 2]
+    nn = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+    if nn < 1e-9:
+        return
+    s0, s1, s2 = s0 / nn, s1 / nn, s2 / nn
+    y = s0 * w_raw[0] + s1 * w_raw[1] + s2 * w_raw[2]
+    aux[o] += ts * s0 * s0
+    aux[o + 1] += ts * s0 * s1
+    aux[o + 2] += ts * s0 * s2
+    aux[o + 3] += ts * s1 * s0
+    aux[o + 4] += ts * s1 * s1
+    aux[o + 5] += ts * s1 * s2
+    aux[o + 6] += ts * s2 * s0
+    aux[o + 7] += ts * s2 * s1
+    aux[o + 8] += ts * s2 * s2
+    aux[o + 9] += ts * s0 * y
+    aux[o + 10] += ts * s1 * y
+    aux[o + 11] += ts * s2 * y
+
+
+@numba.njit(cache=True)
+def _field_invariants(aux: FloatArray) -> tuple[float, float]:
+    """Vertical and horizontal components (uT) of the low-passed field relative to the low-passed gravity
+    direction: the two quantities a device rotation leaves unchanged while the field is fixed in the navigation
+    frame (the magnitude and dip of eq. 13).
+    """
+    s0, s1, s2 = aux[_AUX_VS_A], aux[_AUX_VS_A + 1], aux[_AUX_VS_A + 2]
+    nn = max(math.sqrt(s0 * s0 + s1 * s1 + s2 * s2), 1e-9)
+    m0, m1, m2 = aux[_AUX_ML], aux[_AUX_ML + 1], aux[_AUX_ML + 2]
+    v = (m0 * s0 + m1 * s1 + m2 * s2) / nn
+    h2 = m0 * m0 + m1 * m1 + m2 * m2 - v * v
+    return v, math.sqrt(max(h2, 0.0))
 
 
 @numba.njit(cache=True)
@@ -424,6 +485,11 @@ def _run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: bo
                 aux[_AUX_VAR_M_SQ] = 0.0
                 for i in range(3):
                     aux[_AUX_VS_M + i] = mv[i] / max(mn, 1e-9)
+            if aux[_AUX_N] == 0 or (aux[_AUX_ML] == 0 and aux[_AUX_ML + 1] == 0 and aux[_AUX_ML + 2] == 0):
+                for i in range(3):
+                    aux[_AUX_ML + i] = mv[i]
+            for i in range(3):
+                aux[_AUX_ML + i] += ks * (mv[i] - aux[_AUX_ML + i])
             dm = mn - aux[_AUX_VAR_M_MEAN]
             aux[_AUX_VAR_M_MEAN] += ka * dm
             aux[_AUX_VAR_M_SQ] = (1 - ka) * (aux[_AUX_VAR_M_SQ] + ka * dm * dm)
@@ -443,6 +509,7 @@ def _run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: bo
         else:
             aux[_AUX_STATIC_S] = 0.0
         stationary = aux[_AUX_STATIC_S] >= static_min_s
+        period_start = stationary and aux[_AUX_WAS_STILL] == 0
         if stationary:
             aux[_AUX_WAS_STILL] = 1.0
         elif aux[_AUX_WAS_STILL] > 0:
@@ -454,25 +521,57 @@ def _run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: bo
                 _set_yaw_covariance(q, p, init_yaw_sigma)
             aux[_AUX_BIAS_READY] = 1.0
         if has_gyro:
-            # Gyro bias by least squares over stationary samples: gravity and the local magnetic field are
-            # fixed in the navigation frame while the user stands, even where the field is disturbed.
+            # Gyro bias by least squares over stationary samples. Gravity is fixed in the navigation frame while
+            # the user stands (also in a moving elevator cabin: its acceleration is vertical); the local magnetic
+            # field only while the user is not carried through the building's field (elevator, escalator), and
+            # only then may its rows set the bias component about the vertical. Otherwise that component comes
+            # from the gyro alone (at rest the mean of the gyro about the vertical is the bias).
             u = a / max(an, 1e-9)
-            _bias_rows(aux, _AUX_VS_A, _AUX_CW_A, u, gyro[k], ks, ts, stationary, 1.0)
+            _bias_rows(aux, _AUX_VS_A, _AUX_CW_A, u, gyro[k], ks, ts, stationary, 1.0, _AUX_P1)
             if has_mag:
-                _bias_rows(aux, _AUX_VS_M, _AUX_CW_M, mag[k] / max(mn, 1e-9), gyro[k], ks, ts, stationary, 1.0)
+                _bias_rows(aux, _AUX_VS_M, _AUX_CW_M, mag[k] / max(mn, 1e-9), gyro[k], ks, ts, stationary, 1.0,
+                           _AUX_M1)
             if stationary:
                 used[k] |= 4
+                _vertical_rows(aux, _AUX_V1, gyro[k], ts)
+                if has_mag:
+                    # Magnetic-disturbance test of eq. 13 for the bias rows: a field fixed in the navigation frame
+                    # keeps its magnitude and dip relative to gravity, i.e. its vertical and horizontal components,
+                    # under any rotation of the device. A departure from the values at the start of the stationary
+                    # period by more than the stillness spread of |m| marks the field as moving for the rest of
+                    # the period (a slowly moving field may stay within a single block's spread).
+                    fv, fh = _field_invariants(aux)
+                    if period_start:
+                        aux[_AUX_FREF], aux[_AUX_FREF + 1] = fv, fh
+                        aux[_AUX_FBAD + 2] = 0.0
+                    elif (abs(math.hypot(fv, fh) - math.hypot(aux[_AUX_FREF], aux[_AUX_FREF + 1])) > eps_m1
+                          or abs(math.atan2(fv, fh) - math.atan2(aux[_AUX_FREF], aux[_AUX_FREF + 1])) > eps_dip):
+                        aux[_AUX_FBAD + 2] = 1.0
+                    if aux[_AUX_FBAD + 2] > 0 or aux[_AUX_VAR_W_SQ] < 3.0 * sigma_gyro * sigma_gyro:
+                        # Disturbed field, or a device that does not rotate (gyro spread within its white
+                        # noise, eq. 9): there the gyro mean about the vertical is the bias and the field's
+                        # rows would only add its changes (a cabin carried through the building's field).
+                        aux[_AUX_FBAD + 1] = 1.0
                 aux[_AUX_G] += kg * (an - aux[_AUX_G])
                 aux[_AUX_BLOCK_S] += ts
                 if aux[_AUX_BLOCK_S] >= bias_hold_s:
                     # Rows are committed one block late: the trailing detectors notice the end of a
                     # stationary period (first step, phone lifted) only after a delay, and the rows of that
-                    # delay (linear acceleration, moving field) must not enter the bias.
+                    # delay (linear acceleration) must not enter the bias. Likewise a field that starts to move
+                    # is noticed late: the older block's magnetic rows count only if neither block saw it move.
+                    mag_ok = has_mag and aux[_AUX_FBAD] == 0 and aux[_AUX_FBAD + 1] == 0
+                    extra = _AUX_M0 if mag_ok else _AUX_V0
                     fb = decay ** (aux[_AUX_BLOCK_S] / ts)
                     for i in range(12):
-                        aux[_AUX_BN + i] = fb * aux[_AUX_BN + i] + aux[_AUX_P0 + i]
+                        aux[_AUX_BN + i] = fb * aux[_AUX_BN + i] + aux[_AUX_P0 + i] + aux[extra + i]
                         aux[_AUX_P0 + i] = aux[_AUX_P1 + i]
+                        aux[_AUX_M0 + i] = aux[_AUX_M1 + i]
+                        aux[_AUX_V0 + i] = aux[_AUX_V1 + i]
                         aux[_AUX_P1 + i] = 0.0
+                        aux[_AUX_M1 + i] = 0.0
+                        aux[_AUX_V1 + i] = 0.0
+                    aux[_AUX_FBAD] = aux[_AUX_FBAD + 1]
+                    aux[_AUX_FBAD + 1] = aux[_AUX_FBAD + 2]
                     aux[_AUX_BLOCK_S] = 0.0
                     if aux[_AUX_BN] + aux[_AUX_BN + 4] + aux[_AUX_BN + 8] > 0:
                         nm = np.empty((3, 3))
@@ -486,8 +585,11 @@ def _run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: bo
                         for i in range(3):
                             bias[i] = sol[i]
             else:
-                for i in range(24):
-                    aux[_AUX_P0 + i] = 0.0
+                for o in (_AUX_P0, _AUX_M0, _AUX_V0):
+                    for i in range(24):
+                        aux[o + i] = 0.0
+                for i in range(3):
+                    aux[_AUX_FBAD + i] = 0.0
                 aux[_AUX_BLOCK_S] = 0.0
             # Time update (eqs. 6-9, 34).
             for i in range(3):
@@ -650,6 +752,9 @@ class AttitudeState:
                      np.array(d["bias"], dtype=np.float64), np.array(d["aux"], dtype=np.float64))
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"bad attitude state ({exc})", source="attitude state") from None
+        if st.aux.shape == (_AUX_SIZE_V1,):
+            # State saved before the magnetic and vertical bias rows had blocks of their own: nothing pending.
+            st.aux = np.concatenate([st.aux, np.zeros(_AUX_SIZE - _AUX_SIZE_V1)])
         if st.q.shape != (4,) or st.P.shape != (4, 4) or st.bias.shape != (3,) or st.aux.shape != (_AUX_SIZE,):
             raise InputError("attitude state arrays have wrong shapes", source="attitude state")
         return st
