@@ -47,6 +47,7 @@ from pdr.foot.zupt import (
     first_stationary_run,
     mechanize,
 )
+from pdr.frames import GRAVITY_MPS2
 from pdr.strapdown import initial_attitude_from_gravity
 
 Array = NDArray[np.float64]
@@ -77,15 +78,22 @@ PI_DEFAULT: dict[str, tuple[tuple[tuple[float, float, float], ...], float]] = {
     "height": (((0.976, 0.0, 0.031), (0.003, 0.0, 0.0), (0.021, 1.0, 0.969)), 100.0),
 }
 
-#: Default accelerometer process-noise PSD ((m/s^2)^2 s) of the ``height`` leaves (issue #5). Eq. 13 has no
-#: almost-stationary mode: a stance is entered only through the stationary modes 2 and 3, so the leaf's velocity
-#: covariance at the end of a swing must cover the real velocity error there, else the stationary likelihood
-#: (eq. 6c) vanishes, the unconstrained mode wins every later sample and the velocity error grows without bound.
-#: Calibrated on the same training data as ``PI_DEFAULT["speed"]`` (first 90 s of the foot_stride_gcp ``own``
-#: walks): the ZUPT INS's predicted velocity just before each stance, ``|v|^2 / 3 = q T_swing``, median over 357
-#: swings q = 0.009 (the mean, 0.34, is dominated by a few outlier swings). The ``speed`` variant keeps
-#: ``ZuptConfig.sigma_acc``: its almost-stationary mode (sigma_v = 0.1 m/s) absorbs that error instead.
-ACC_PSD_DEFAULT: dict[str, float | None] = {"speed": None, "height": 0.009}
+#: Default accelerometer process-noise PSD ((m/s^2)^2 s) of the leaves and spread ``sigma_nc`` of the unconstrained
+#: mode (eq. 12d), issue #5. ``height``: both learned by :func:`learn_swing_noise` from ZUPT-INS runs over the same
+#: training data as ``PI_DEFAULT["speed"]`` (first 90 s of the six foot_stride_gcp ``own`` walks, 357 swings):
+#: pooled maximum likelihood ``q = sum |v|^2 / (3 sum T_swing)`` = 0.39 and ``sigma_nc`` = 2.73 (leave-one-walk-out:
+#: q 0.41-0.52, sigma_nc 2.69-2.81, but q = 0.023 without the fast walk 35, whose swings carry most of the velocity
+#: error). Eq. 13 has no almost-stationary mode: a stance is entered only if the leaf's velocity covariance at
+#: foot-down covers the real velocity error there (else the stationary likelihood, eq. 6c, vanishes and the
+#: unconstrained mode wins every later sample) and if the unconstrained mode's constant likelihood is as low as a
+#: swing's residuals deserve (``sigma_nc`` = 1 stands for a spread of 1 m/s, 1 rad/s, 1 m/s^2, far narrower than a
+#: swing). The former height defaults (median swing q = 0.009, ``sigma_nc`` = 1) lost the stances of the PyShoe
+#: running trials. ``speed``: keeps ``ZuptConfig.sigma_acc`` and ``sigma_nc`` = 1; its almost-stationary mode
+#: (sigma_v = 0.1 m/s) absorbs the swing error while walking, and the learned values, which repair its running
+#: trials too, loosen the walking stances (PyShoe median ARMSE 0.069 -> 0.111 m, measured for issue #5).
+ACC_PSD_DEFAULT: dict[str, float | None] = {"speed": None, "height": 0.39}
+#: Default ``sigma_nc`` per variant (see :data:`ACC_PSD_DEFAULT`).
+SIGMA_NC_DEFAULT: dict[str, float] = {"speed": 1.0, "height": 2.73}
 
 
 def check_transition(pi: ArrayLike, field_name: str = "transition") -> Array:
@@ -137,7 +145,9 @@ class FilterBankConfig:
         Per-mode standard deviations of the constraints on velocity (m/s), angular rate (rad/s) and
         acceleration ``C(q) s + g`` (m/s^2), eq. 12e; entry 0 (unconstrained) is not used.
     sigma_nc
-        ``sigma_nc`` of the unconstrained mode (eq. 12d): sets its constant likelihood.
+        ``sigma_nc`` of the unconstrained mode (eq. 12d): sets its constant likelihood; default learned from
+        swings (:func:`learn_swing_noise`, :data:`ACC_PSD_DEFAULT`); ``None``: :data:`SIGMA_NC_DEFAULT` of the
+        variant.
     sigma_h
         Standard deviation of the same-height constraint, m (eq. 13c).
     acc_psd
@@ -156,7 +166,7 @@ class FilterBankConfig:
     sigma_v: tuple[float, float, float] = (0.0, 0.1, 0.01)
     sigma_omega: tuple[float, float, float] = (0.0, 0.5, 0.05)
     sigma_s: tuple[float, float, float] = (0.0, 2.0, 0.3)
-    sigma_nc: float = 1.0
+    sigma_nc: float | None = None
     sigma_h: float = 0.01
     acc_psd: float | None = None
     max_leaves: int = 9
@@ -172,7 +182,9 @@ class FilterBankConfig:
             v = np.asarray(getattr(self, name), dtype=np.float64)
             if v.shape != (3,) or not np.all(np.isfinite(v[1:])) or np.any(v[1:] <= 0):
                 raise InputError("must be three standard deviations, the last two positive", field=name)
-        for name in ("sigma_nc", "sigma_h", "transition_rate_hz"):
+        if self.sigma_nc is not None and not (math.isfinite(self.sigma_nc) and self.sigma_nc > 0):
+            raise InputError(f"must be a positive number, got {self.sigma_nc}", field="sigma_nc")
+        for name in ("sigma_h", "transition_rate_hz"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise InputError(f"must be a positive number, got {v}", field=name)
@@ -187,6 +199,10 @@ class FilterBankConfig:
         if psd is None:
             return float(self.zupt.sigma_acc**2)
         return float(psd * rate_hz)               # psd dt = qa dt^2
+
+    def unconstrained_sigma(self) -> float:
+        """``sigma_nc`` of eq. 12d: the configured value or :data:`SIGMA_NC_DEFAULT` of the variant."""
+        return float(self.sigma_nc if self.sigma_nc is not None else SIGMA_NC_DEFAULT[self.variant])
 
     def transition_matrix(self, rate_hz: float) -> Array:
         """``Pi`` at the recording's rate."""
@@ -520,7 +536,7 @@ def run_filterbank(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_vel
     loglik = _bank_kernel(t, np.ascontiguousarray(f_b), np.ascontiguousarray(w_b), a, q0,
                           np.array([0.0, 0.0, -z.gravity]), cfg.acc_noise_var(rate), z.sigma_gyro**2, P0, log_pi,
                           np.asarray(cfg.sigma_v, dtype=np.float64), np.asarray(cfg.sigma_omega, dtype=np.float64),
-                          np.asarray(cfg.sigma_s, dtype=np.float64), cfg.sigma_nc, cfg.sigma_h,
+                          np.asarray(cfg.sigma_s, dtype=np.float64), cfg.unconstrained_sigma(), cfg.sigma_h,
                           cfg.variant == "height", cfg.max_leaves, pos, vel, qs, pvar, vvar, avar, mprob, counts)
     return FilterBankTrack(t, pos, vel, quat.normalize(qs), pvar, vvar, avar, mprob,
                            np.argmax(mprob, axis=1).astype(np.int64), float(loglik), counts, a, cfg.variant)
@@ -606,3 +622,79 @@ def learn_transition(sequences: Sequence[tuple[Array, Array, Array, Array]], con
             break
         pi = transition_ml(counts * (pi > 0))
     return TransitionLearning(best_pi, rate_hz, np.asarray(history))
+
+
+@dataclass(frozen=True)
+class SwingNoise:
+    """Result of :func:`learn_swing_noise`.
+
+    Attributes
+    ----------
+    acc_psd
+        Pooled maximum-likelihood accelerometer process-noise PSD, (m/s^2)^2 s.
+    sigma_nc
+        Spread of the unconstrained mode (eq. 12d): geometric mean of the swing residuals' RMS per variable.
+    rms
+        (9,) RMS of ``[v (m/s), omega (rad/s), C(q) s + g (m/s^2)]`` over the swing samples.
+    swings
+        Swings used for ``acc_psd``.
+    """
+
+    acc_psd: float
+    sigma_nc: float
+    rms: Array
+    swings: int
+
+
+def learn_swing_noise(runs: Sequence[tuple[Array, Array, Array, Array, Array, Array]],
+                      gravity: float = GRAVITY_MPS2) -> SwingNoise:
+    """Learn the leaves' process noise and the unconstrained mode's spread from ZUPT-INS runs (issue #5).
+
+    The stances come from the ZUPT detector, the states from the ZUPT-aided INS (as seed 000 learns its context
+    from the states of a ZUPT-EKF run); the rest of the bank's model is learned by eq. 11 (:func:`learn_transition`).
+
+    * ``acc_psd``: a swing's velocity error is ``N(0, q T I)`` after ``T`` seconds without a ZUPT; the INS's
+      predicted velocity ``v`` at the last swing sample before each stance is that error, and the maximum
+      likelihood ``q`` over all swings is ``sum |v|^2 / (3 sum T)``.
+    * ``sigma_nc``: the unconstrained mode's likelihood is ``N(y; 0, sigma_nc^2 I)`` evaluated at ``y = 0``
+      (eq. 12d); the isotropic Gaussian with the same volume (determinant) as the swing samples' residuals
+      ``[v, omega, C(q) s + g]`` has ``sigma_nc`` = geometric mean of their per-variable RMS.
+
+    Parameters
+    ----------
+    runs
+        ``(t_s, vel_n, q_nb, acc_b, gyro_b, zero_velocity)`` per training recording: times (s), the ZUPT INS's
+        velocity (m/s, ENU) and attitude, the IMU's specific force (m/s^2) and angular rate (rad/s), the
+        detector's flags.
+    gravity
+        m/s^2.
+    """
+    v2, dur, res = 0.0, 0.0, []
+    swings = 0
+    for t_s, vel_n, q_nb, acc_b, gyro_b, zero_velocity in runs:
+        t = np.asarray(t_s, dtype=np.float64)
+        zv = np.asarray(zero_velocity, dtype=bool)
+        vel = np.asarray(vel_n, dtype=np.float64)
+        if zv.shape != t.shape or vel.shape != (t.size, 3):
+            raise InputError("each run needs (N,) times and flags and (N, 3) velocities", field="runs")
+        edges = np.flatnonzero(np.diff(zv.astype(np.int8)))
+        if edges.size == 0:
+            continue
+        lift = edges[zv[edges]] + 1                    # first swing sample
+        down = edges[~zv[edges]] + 1                   # first stance sample
+        for s in down:
+            before = lift[lift < s]
+            if before.size == 0:
+                continue
+            v2 += float(np.sum(vel[s - 1] ** 2))
+            dur += float(t[s - 1] - t[before[-1] - 1])
+            swings += 1
+        swing = ~zv
+        swing[: int(np.argmax(zv))] = False            # before the first stance the INS is not aligned
+        a_n = quat.rotate(np.asarray(q_nb, dtype=np.float64)[swing], np.asarray(acc_b, dtype=np.float64)[swing])
+        a_n[:, 2] -= gravity
+        res.append(np.concatenate([vel[swing], np.asarray(gyro_b, dtype=np.float64)[swing], a_n], axis=1))
+    if swings == 0 or dur <= 0:
+        raise InputError("no swing between two detected stances in the training runs", field="runs")
+    rms = np.sqrt(np.mean(np.concatenate(res) ** 2, axis=0))
+    return SwingNoise(v2 / (3.0 * dur), float(np.exp(np.mean(np.log(rms)))), rms, swings)

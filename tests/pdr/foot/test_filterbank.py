@@ -9,6 +9,7 @@ from pdr.foot.detectors import detect
 from pdr.foot.filterbank import (
     FilterBankConfig,
     check_transition,
+    learn_swing_noise,
     learn_transition,
     polar_rotation,
     run_filterbank,
@@ -119,7 +120,47 @@ def test_height_variant_regains_stance_after_a_swing_velocity_error() -> None:
     tr = run_filterbank(g.t_s, acc, g.gyro_b, zv, FilterBankConfig(variant="height"))
     assert tr.zero_velocity[core].mean() > 0.9
     assert np.max(np.linalg.norm(tr.vel_n, axis=1)) < 6.0             # true swing peak: 4.4 m/s
-    old = run_filterbank(g.t_s, acc, g.gyro_b, zv, FilterBankConfig(variant="height", acc_psd=0.5**2 / 200.0))
+    old = run_filterbank(g.t_s, acc, g.gyro_b, zv, FilterBankConfig(variant="height", acc_psd=0.5**2 / 200.0,
+                                                                    sigma_nc=1.0))
     assert old.zero_velocity[core].mean() < 0.5
     with pytest.raises(InputError, match="positive"):
         FilterBankConfig(acc_psd=0.0)
+
+
+def _running_gait(disturbance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, object]:
+    # Short stances, 2.5 m strides and a swing-time accelerometer disturbance (m/s^2, 0.2 s per swing).
+    g = simulate_gait(n_strides=12, stride_m=2.5, stance_s=0.15, swing_s=0.4, sigma_acc=0.02, sigma_gyro=0.002,
+                      seed=5)
+    acc = g.acc_b.copy()
+    swing = ~g.stance & (np.convolve(~g.stance, np.ones(41), "same") >= 41)
+    acc[swing, 0] += disturbance
+    return g.t_s, acc, g.gyro_b, detect(acc, g.gyro_b, 200.0), g
+
+
+def test_swing_noise_is_learned_from_zupt_runs() -> None:
+    # Issue #5: the velocity error at foot-down grows with the disturbance, q with its square.
+    learned = []
+    for d in (2.0, 4.0):
+        t, acc, gyro, zv, _ = _running_gait(d)
+        z = run_zupt(t, acc, gyro, zv)
+        learned.append(learn_swing_noise([(t, z.vel_n, z.q_nb, acc, gyro, zv)]))
+    assert learned[0].swings == learned[1].swings >= 10
+    assert 2.5 < learned[1].acc_psd / learned[0].acc_psd < 6.0
+    assert learned[1].rms[0] > 1.0                                  # forward swing velocity, m/s
+    with pytest.raises(InputError, match="no swing"):
+        t = np.arange(100) / 100.0
+        learn_swing_noise([(t, np.zeros((100, 3)), np.tile([1.0, 0, 0, 0], (100, 1)), np.zeros((100, 3)),
+                            np.zeros((100, 3)), np.ones(100, dtype=bool))])
+
+
+def test_height_variant_keeps_running_stances_with_the_learned_swing_noise() -> None:
+    # Issue #5 regression: learned acc_psd and sigma_nc (ACC_PSD_DEFAULT, SIGMA_NC_DEFAULT) are the defaults.
+    t, acc, gyro, zv, g = _running_gait(4.0)
+    cfg = FilterBankConfig(variant="height")
+    assert cfg.unconstrained_sigma() > 2.0 and cfg.acc_noise_var(200.0) > 0.3 * 200.0
+    core = g.stance & (np.convolve(g.stance, np.ones(9), "same") >= 9) & (g.t_s > 1.0)
+    tr = run_filterbank(t, acc, gyro, zv, cfg)
+    assert tr.zero_velocity[core].mean() > 0.95
+    assert np.linalg.norm(tr.pos_n[-1, :2] - g.pos_n[-1, :2]) < 0.15
+    with pytest.raises(InputError, match="sigma_nc"):
+        FilterBankConfig(sigma_nc=-1.0)
