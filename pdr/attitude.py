@@ -36,7 +36,9 @@ while the field is fixed in the navigation frame) stay within ``eps_m1`` and ``e
 values at the start of the period. The normal equations are accumulated over stationary samples in
 blocks of ``bias_hold_s`` that enter one block late (the trailing detectors see the end of standing late,
 and a field that starts to move is noticed late: a block's magnetic rows enter only if neither it nor the
-next block saw the field move or the device at rest), with forgetting ``bias_tau_s`` and a small ridge
+next block saw the field move or the device at rest; when standing ends, the older block enters if the newer,
+partial one lasted at least ``var_window_s``, the time constant within which the detectors notice the first
+step), with forgetting ``bias_tau_s`` and a small ridge
 towards zero, and solved for ``b``. Unlike the mean of the raw gyro, the
 gravity and (fixed) field rows are not biased by the slow rotation of a hand-held phone. A field that
 moves only in azimuth, at constant magnitude and dip, while a hand-held phone rotates still enters the bias.
@@ -431,6 +433,35 @@ def _field_invariants(aux: FloatArray) -> tuple[float, float]:
 
 
 @numba.njit(cache=True)
+def _commit_block(aux: FloatArray, bias: FloatArray, has_mag: bool, fb: float, bias_prior: float) -> None:
+    """Add the older pending block of bias rows (gravity rows, and the field's rows if neither block saw the field
+    move, else the vertical mean-gyro rows) to the forgotten normal equations (factor ``fb``), move the newer
+    block into its place, and solve for the gyro bias (ridge ``bias_prior`` towards zero), in place.
+    """
+    mag_ok = has_mag and aux[_AUX_FBAD] == 0 and aux[_AUX_FBAD + 1] == 0
+    extra = _AUX_M0 if mag_ok else _AUX_V0
+    for i in range(12):
+        aux[_AUX_BN + i] = fb * aux[_AUX_BN + i] + aux[_AUX_P0 + i] + aux[extra + i]
+        aux[_AUX_P0 + i] = aux[_AUX_P1 + i]
+        aux[_AUX_M0 + i] = aux[_AUX_M1 + i]
+        aux[_AUX_V0 + i] = aux[_AUX_V1 + i]
+        aux[_AUX_P1 + i] = 0.0
+        aux[_AUX_M1 + i] = 0.0
+        aux[_AUX_V1 + i] = 0.0
+    if aux[_AUX_BN] + aux[_AUX_BN + 4] + aux[_AUX_BN + 8] > 0:
+        nm = np.empty((3, 3))
+        for i in range(3):
+            for j in range(3):
+                nm[i, j] = aux[_AUX_BN + 3 * i + j] + (bias_prior if i == j else 0.0)
+        rhs = np.empty(3)
+        for i in range(3):
+            rhs[i] = aux[_AUX_BR + i]
+        sol = np.linalg.solve(nm, rhs)
+        for i in range(3):
+            bias[i] = sol[i]
+
+
+@numba.njit(cache=True)
 def _run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: bool, has_mag: bool, ts: float,
                 q: FloatArray, p: FloatArray, bias: FloatArray, aux: FloatArray, prm: FloatArray,
                 unscented: bool, h_east: float) -> tuple[FloatArray, NDArray[np.int64]]:
@@ -559,32 +590,17 @@ def _run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: bo
                     # stationary period (first step, phone lifted) only after a delay, and the rows of that
                     # delay (linear acceleration) must not enter the bias. Likewise a field that starts to move
                     # is noticed late: the older block's magnetic rows count only if neither block saw it move.
-                    mag_ok = has_mag and aux[_AUX_FBAD] == 0 and aux[_AUX_FBAD + 1] == 0
-                    extra = _AUX_M0 if mag_ok else _AUX_V0
-                    fb = decay ** (aux[_AUX_BLOCK_S] / ts)
-                    for i in range(12):
-                        aux[_AUX_BN + i] = fb * aux[_AUX_BN + i] + aux[_AUX_P0 + i] + aux[extra + i]
-                        aux[_AUX_P0 + i] = aux[_AUX_P1 + i]
-                        aux[_AUX_M0 + i] = aux[_AUX_M1 + i]
-                        aux[_AUX_V0 + i] = aux[_AUX_V1 + i]
-                        aux[_AUX_P1 + i] = 0.0
-                        aux[_AUX_M1 + i] = 0.0
-                        aux[_AUX_V1 + i] = 0.0
+                    _commit_block(aux, bias, has_mag, decay ** (aux[_AUX_BLOCK_S] / ts), bias_prior)
                     aux[_AUX_FBAD] = aux[_AUX_FBAD + 1]
                     aux[_AUX_FBAD + 1] = aux[_AUX_FBAD + 2]
                     aux[_AUX_BLOCK_S] = 0.0
-                    if aux[_AUX_BN] + aux[_AUX_BN + 4] + aux[_AUX_BN + 8] > 0:
-                        nm = np.empty((3, 3))
-                        for i in range(3):
-                            for j in range(3):
-                                nm[i, j] = aux[_AUX_BN + 3 * i + j] + (bias_prior if i == j else 0.0)
-                        rhs = np.empty(3)
-                        for i in range(3):
-                            rhs[i] = aux[_AUX_BR + i]
-                        sol = np.linalg.solve(nm, rhs)
-                        for i in range(3):
-                            bias[i] = sol[i]
             else:
+                if aux[_AUX_BLOCK_S] >= var_tau:
+                    # End of standing after a partial block at least as long as the detectors' trailing window
+                    # (time constant var_window_s, within which they notice the first step): the delay's rows
+                    # lie in the partial block, so the complete block before it is clean and enters now. (A
+                    # stand of just under two blocks, e.g. the opening stand of a walk, otherwise left no bias.)
+                    _commit_block(aux, bias, has_mag, decay ** (aux[_AUX_BLOCK_S] / ts), bias_prior)
                 for o in (_AUX_P0, _AUX_M0, _AUX_V0):
                     for i in range(24):
                         aux[o + i] = 0.0
