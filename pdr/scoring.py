@@ -9,7 +9,8 @@ The conventions of ``../shared/data/README.md`` and its independent reference ``
 * waypoint error (MS traces, map frame not north-aligned): start at the first waypoint and one rotation
   about it fitted in least squares to all waypoints;
 * distance ratio: path length of the track between the first and last landmark times over the true path
-  length through the landmarks;
+  length through the landmarks; :func:`distance_ratio_same_floor` keeps only the landmark intervals on one
+  floor (the straight line across a floor change is not the walked path);
 * step-count error: ``100 (detected - true) / true`` percent.
 """
 
@@ -70,6 +71,33 @@ def distance_ratio(track_t: FloatArray, track_en: FloatArray, truth_t: FloatArra
     if true <= 0:
         raise InputError("true path has zero length", source="scoring")
     return est / true
+
+
+def distance_ratio_same_floor(track_t: FloatArray, track_en: FloatArray, truth_t: FloatArray, truth_en: FloatArray,
+                              truth_floor: FloatArray) -> float:
+    """Distance ratio over the landmark intervals that start and end on the same floor.
+
+    The true path between two landmarks is known only as the straight line between them; across a floor
+    change that line is not the walked path (a flight of stairs winds: IPIN trial 52 descends two floors
+    in a full turn whose ends are 3.5 m apart), so those intervals are left out. Within each interval the
+    track is interpolated at both landmark times, so no partial step is lost at a landmark. NaN if no
+    interval is left.
+    """
+    t = np.asarray(track_t)
+    en = np.asarray(track_en)[:, :2]
+    gt = np.asarray(truth_en, dtype=np.float64)[:, :2]
+    tt = np.asarray(truth_t, dtype=np.float64)
+    fl = np.asarray(truth_floor, dtype=np.float64)
+    ends = _interp(t, en, tt)
+    est = true = 0.0
+    for k in range(tt.size - 1):
+        if not fl[k] == fl[k + 1]:
+            continue
+        inside = (t > tt[k]) & (t < tt[k + 1])
+        pts = np.vstack([ends[k:k + 1], en[inside], ends[k + 1:k + 2]])
+        est += float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+        true += float(np.linalg.norm(gt[k + 1] - gt[k]))
+    return est / true if true > 0 else math.nan
 
 
 def bounce_free_step_count(edges_per_foot: list[FloatArray], min_fraction: float = 0.5) -> int:

@@ -70,7 +70,13 @@ class StepLengthModel:
     The default (``K = 0.452 * p1^0.5``, i.e. proportional to the square root of the step frequency) won on
     the IPIN 2023 hand-held development logs (``pdr calibrate --fit DIR``: median distance error 2.0 %
     leave-one-log-out; p4^0.25 3.1 %, p5^0.25 3.4 %, p2 and p3 worse). It is a population default; use
-    ``pdr calibrate`` for a user or a different carriage.
+    ``pdr calibrate`` for a user or a different carriage. Those logs come from two phones (two actors): the
+    SM-G930F logs (trials 21, 26, 52) need 0.66-0.70 m per detected step on the flat where the SM-A520F
+    logs need 0.55-0.60 m, at the same cadence, and no pattern separates them (refitting K and b of every
+    pattern and exponent leaving one route out, over the flat landmark intervals: the best worst-route
+    error is 17 %, p1^1 with an offset, this pattern 21 %; at least 14 of 25 logs stay outside 3 %).
+    Rescaling ``K`` for that walker on the other G930F routes (:func:`calibrate_k`, leaving the route out)
+    brings their distance ratios over the flat landmark intervals from 0.82-0.86 to 0.96-1.03.
 
     Attributes
     ----------

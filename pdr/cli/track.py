@@ -21,6 +21,7 @@ from pdr.recording import Recording
 from pdr.scoring import (
     bounce_free_step_count,
     distance_ratio,
+    distance_ratio_same_floor,
     landmark_errors,
     step_count_error_pct,
     waypoint_errors,
@@ -174,6 +175,7 @@ def eval_ipin(args: argparse.Namespace) -> int:
     abs_all: list[np.ndarray] = []
     al_all: list[np.ndarray] = []
     ratios: list[float] = []
+    flat_ratios: list[float] = []
     site = Site.load(args.site) if args.site else None
     for f in files:
         rec = read_recording(f)
@@ -195,6 +197,10 @@ def eval_ipin(args: argparse.Namespace) -> int:
         e_abs = landmark_errors(t, en, t_truth, pt.pos_m, "none")
         e_al = landmark_errors(t, en, t_truth, pt.pos_m, "first-segment")
         ratio = distance_ratio(t, en, t_truth, pt.pos_m)
+        flat = (distance_ratio_same_floor(t, en, t_truth, pt.pos_m, pt.floor) if pt.floor is not None
+                else distance_ratio_same_floor(t, en, t_truth, pt.pos_m, np.zeros(len(t_truth))))
+        if math.isfinite(flat):
+            flat_ratios.append(flat)
         floors_ok = None
         if pt.floor is not None and np.isfinite(pt.floor).all():
             est_floor = np.array([r["floor"] for r in rows])
@@ -205,14 +211,18 @@ def eval_ipin(args: argparse.Namespace) -> int:
         ratios.append(ratio)
         per.append({"file": f.name, "steps": len(rows), "landmarks": int(e_abs.size),
                     "p75_abs_m": _pct(e_abs, 75), "median_abs_m": _pct(e_abs, 50), "p75_aligned_m": _pct(e_al, 75),
-                    "distance_ratio": ratio, "floor_correct": floors_ok})
+                    "distance_ratio": ratio, "distance_ratio_same_floor": flat, "floor_correct": floors_ok})
     a = np.concatenate(abs_all) if abs_all else np.zeros(0)
     s = np.concatenate(al_all) if al_all else np.zeros(0)
     r = np.array(ratios)
+    rf = np.array(flat_ratios)
     summary: dict[str, Any] = {"files": len(ratios), "median_abs_m": _pct(a, 50), "p75_abs_m": _pct(a, 75),
                "median_aligned_m": _pct(s, 50), "p75_aligned_m": _pct(s, 75),
                "distance_ratio_median": _pct(r, 50), "distance_ratio_iqr": [_pct(r, 25), _pct(r, 75)],
-               "abs_ratio_minus_1_median": _pct(np.abs(r - 1), 50), "abs_ratio_minus_1_max": _pct(np.abs(r - 1), 100)}
+               "abs_ratio_minus_1_median": _pct(np.abs(r - 1), 50), "abs_ratio_minus_1_max": _pct(np.abs(r - 1), 100),
+               "same_floor_ratio_median": _pct(rf, 50), "same_floor_ratio_iqr": [_pct(rf, 25), _pct(rf, 75)],
+               "same_floor_abs_ratio_minus_1_max": _pct(np.abs(rf - 1), 100),
+               "same_floor_outside_3pct": int(np.sum(np.abs(rf - 1) > 0.03))}
 
     def lines() -> Iterator[str]:
         for p in per:
@@ -220,12 +230,17 @@ def eval_ipin(args: argparse.Namespace) -> int:
                 yield f"{p['file']}: {p['error']}"
             else:
                 yield (f"{p['file']}: p75 {p['p75_abs_m']:.2f} m absolute, {p['p75_aligned_m']:.2f} m aligned, "
-                       f"ratio {p['distance_ratio']:.3f}, {p['steps']} steps")
+                       f"ratio {p['distance_ratio']:.3f} (same floor {p['distance_ratio_same_floor']:.3f}), "
+                       f"{p['steps']} steps")
         yield (f"ALL ({summary['files']} files): absolute median {summary['median_abs_m']:.2f} "
                f"p75 {summary['p75_abs_m']:.2f} m; aligned median {summary['median_aligned_m']:.2f} "
                f"p75 {summary['p75_aligned_m']:.2f} m; distance ratio median {summary['distance_ratio_median']:.3f} "
                f"(IQR {summary['distance_ratio_iqr'][0]:.3f}-{summary['distance_ratio_iqr'][1]:.3f}), "
-               f"max |ratio-1| {summary['abs_ratio_minus_1_max']:.3f}")
+               f"max |ratio-1| {summary['abs_ratio_minus_1_max']:.3f}; same-floor distance ratio median "
+               f"{summary['same_floor_ratio_median']:.3f} (IQR {summary['same_floor_ratio_iqr'][0]:.3f}-"
+               f"{summary['same_floor_ratio_iqr'][1]:.3f}), max |ratio-1| "
+               f"{summary['same_floor_abs_ratio_minus_1_max']:.3f}, {summary['same_floor_outside_3pct']} "
+               f"outside 3 %")
     _emit(summary, per, args.json, lines())
     return 0
 

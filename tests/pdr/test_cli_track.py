@@ -113,3 +113,22 @@ def test_full_oxford_step_count(capsys):
     # in the contact-switch truth alone account for 0.88 %, see pdr.steps).
     assert res["mean_abs_error_pct_pocket_hand_bag_armband"] < 1.2
     assert res["mean_abs_error_pct_pocket_hand_bag_armband_bounce_free"] < 0.62
+
+
+def test_distance_ratio_same_floor_leaves_out_floor_changes():
+    from pdr.scoring import distance_ratio, distance_ratio_same_floor
+    # Landmarks: 10 m east on floor 0, then a winding stair (walked 12 m, ends 2 m apart) to floor -1.
+    truth_t = np.array([0.0, 10.0, 22.0])
+    truth_en = np.array([[0.0, 0.0], [10.0, 0.0], [12.0, 0.0]])
+    floor = np.array([0.0, 0.0, -1.0])
+    t = np.linspace(0.0, 10.0, 11)
+    en = np.column_stack([t, np.zeros_like(t)])
+    ang = np.linspace(0.0, 2 * np.pi, 13)[1:]
+    stair = np.column_stack([10.0 + 2.0 * ang / (2 * np.pi) + np.sin(ang), 1 - np.cos(ang)])
+    t_all = np.concatenate([t, 10.0 + np.arange(1, 13)])
+    en_all = np.vstack([en, stair])
+    assert distance_ratio(t_all, en_all, truth_t, truth_en) > 1.3        # the straight line under-counts the stair
+    assert distance_ratio_same_floor(t_all, en_all, truth_t, truth_en, floor) == pytest.approx(1.0)
+    # A landmark between two track rows: the interval is cut at the interpolated position (no partial step lost).
+    assert distance_ratio_same_floor(t, en, np.array([0.5, 9.5]), np.array([[0.5, 0.0], [9.5, 0.0]]),
+                                     np.zeros(2)) == pytest.approx(1.0)

@@ -241,3 +241,39 @@ def test_real_walk_ending_in_handling():
     true = rec.truth.step_times_s
     assert abs(len(steps) - true.size) <= 2
     assert np.count_nonzero(t[steps.start_idx] > true[-1] + 1.0) <= 1
+
+
+def test_short_walks_between_stops_before_a_walk_are_counted():
+    # Hand-held between landmarks (IPIN trial 21): 4 steps, a 2.8 s stop, 4 steps, a 1.5 s stop, then a
+    # 20-step walk, all at one rhythm. The short runs cannot confirm a bout alone (6 steps); the walk
+    # after them confirms with their rhythm, so they are steps (before: only the 20 were counted).
+    run1 = 2.0 + 0.7 * np.arange(4)
+    run2 = run1[-1] + 2.8 + 0.7 * np.arange(4)
+    walk_t = run2[-1] + 1.5 + 0.7 * np.arange(20)
+    times = np.concatenate([run1, run2, walk_t])
+    steps = detect_steps(bumps(times, np.full(times.size, 1.5), times[-1] + 3.0), FS)
+    assert len(steps) == times.size
+    # Irregular handling-like runs (strides 1.1 s / 0.84 s) before the same walk stay out.
+    handling = 1.0 + np.cumsum([0.0, 0.62, 0.48, 0.36])
+    times = np.concatenate([handling, handling[-1] + 1.8 + 0.7 * np.arange(20)])
+    steps = detect_steps(bumps(times, np.full(times.size, 1.5), times[-1] + 3.0), FS)
+    assert len(steps) == 20
+
+
+@pytest.mark.data
+def test_real_short_walks_between_landmarks_are_counted():
+    # IPIN 2023 trial 21 repetition 1 (hand-held): the walker passes landmarks at 61.1, 66.0 and 70.5 s
+    # (7.0 m) in two runs of 4 steps with a slow turn between them, then walks on. Before short walks were
+    # kept no step was counted in 61-70.5 s; now the 8 are.
+    from pdr.grid import OnlineGrid
+    from pdr.io import read_recording
+    path = data_path("ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial21_repetition01.txt")
+    rec = read_recording(path)
+    grid = OnlineGrid(FS, ("acc",))
+    grid.push(rec)
+    t1, v1 = grid.pull()
+    t2, v2 = grid.flush()
+    t = np.concatenate([t1, t2]) - rec.origin_ns / 1e9
+    steps = detect_steps(np.concatenate([v1["acc"], v2["acc"]]), FS)
+    start_t = t[steps.start_idx]
+    assert np.sum((start_t > 61.1) & (start_t < 70.5)) == 8
