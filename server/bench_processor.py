@@ -5,7 +5,8 @@ stored JSON payload, restores the session's processor from its stored state, upd
 provisional tail and encodes the new state. This replays a simulated phone session exactly so (warm-up
 batches first, so that the pipeline's 30 s history and the classifier's buffers are full) and prints the
 mean milliseconds per batch of each stage and the size of the stored state, i.e. the worker's CPU cost
-per batch apart from the database (``pdr bench load`` measures the whole deployment).
+per batch apart from the database (``pdr bench load`` measures the whole deployment). Like a worker, it
+runs with ``PDR_NATIVE_THREADS`` BLAS threads (default 1).
 """
 
 from __future__ import annotations
@@ -55,6 +56,9 @@ def measure(minutes: float, warmup_s: float, batch_s: float, placement: str, see
 
 
 def _run(args: argparse.Namespace) -> int:
+    from server.config import limit_native_threads
+
+    limit_native_threads()  # as in a worker process
     result = measure(args.minutes, args.warmup_s, args.batch_s, args.placement, args.seed)
     if args.json:
         print(json.dumps(result, indent=2))

@@ -17,7 +17,9 @@ def _serve(args: argparse.Namespace) -> int:
     from waitress import serve
 
     from server.app import create_app
+    from server.config import limit_native_threads
 
+    limit_native_threads()
     app = create_app()
     settings = app.extensions["pdr"].settings
     print(f"pdr service on http://{args.host}:{args.port}/api/v1/health (data: {settings.database_url})",

@@ -17,7 +17,7 @@ import sys
 import time
 import uuid
 
-from server.config import load_settings
+from server.config import limit_native_threads, load_settings
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -35,6 +35,7 @@ def _run(args: argparse.Namespace) -> int:
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s", stream=sys.stderr)
     settings = load_settings()
+    limit_native_threads()
     settings.data_dir.mkdir(parents=True, exist_ok=True)
     migrations.upgrade(settings.database_url)
     store = Store(make_engine(settings.database_url))
