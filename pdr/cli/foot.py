@@ -19,7 +19,7 @@ from pdr.foot.dual import DualFootConfig, DualFootTrack, navigate_feet
 from pdr.foot.filterbank import FilterBankTrack
 from pdr.foot.metrics import loop_closure_error, path_length, pyshoe_armse, stride_errors
 from pdr.foot.navigate import METHODS, FootImu, navigate
-from pdr.foot.zupt import ZuptTrack
+from pdr.foot.zupt import ZuptConfig, ZuptTrack
 from pdr.frames import yaw_to_heading_deg
 from pdr.fusion.constraints import SeparationConfig
 from pdr.io.pyshoe import VICON_TO_RIGHT_HANDED
@@ -217,6 +217,26 @@ def _dataset_dirs(root: Path) -> dict[str, Path]:
     return found
 
 
+#: Suffix of the evaluated method names run without the heuristic drift elimination (:mod:`pdr.foot.drift`).
+NO_HDE = "/no-hde"
+
+
+def eval_variants(methods: tuple[str, ...], hde: str) -> tuple[str, ...]:
+    """Names of the evaluated runs: each method with (its own name) and/or without (``+ NO_HDE``) drift elimination."""
+    out: list[str] = []
+    for method in methods:
+        out += [method] if hde != "off" else []
+        out += [method + NO_HDE] if hde != "on" else []
+    return tuple(out)
+
+
+def _navigate_variant(rec: Any, variant: str, args: argparse.Namespace) -> tuple[FootImu, Any]:
+    """Navigate ``rec`` by an evaluated run name of :func:`eval_variants`."""
+    method = variant.removesuffix(NO_HDE)
+    zupt = ZuptConfig(hde_directions=0) if variant.endswith(NO_HDE) else None
+    return navigate(rec, method, _detector_config(args), zupt=zupt)
+
+
 def eval_pyshoe(d: Path, args: argparse.Namespace, tracks: Path | None, method: str) -> dict[str, Any]:
     """PyShoe ARMSE per trial (crawling trials excluded), against the VICON truth.
 
@@ -236,7 +256,7 @@ def eval_pyshoe(d: Path, args: argparse.Namespace, tracks: Path | None, method: 
             continue
         rec = read_recording(f)
         t0 = time.perf_counter()
-        imu, track = navigate(rec, method, _detector_config(args))
+        imu, track = _navigate_variant(rec, method, args)
         cpu = time.perf_counter() - t0
         truth = rec.truth.positions
         if truth is None:
@@ -263,7 +283,7 @@ def eval_xio(d: Path, args: argparse.Namespace, tracks: Path | None, method: str
     rows: list[dict[str, Any]] = []
     for f in sorted(d.glob("*.csv")):
         rec = read_recording(f)
-        imu, track = navigate(rec, method, _detector_config(args))
+        imu, track = _navigate_variant(rec, method, args)
         err, pct = loop_closure_error(track.pos_n)
         rows.append({"file": f.name, "loop_error_m": err, "loop_error_pct": pct,
                      "distance_m": path_length(track.pos_n)})
@@ -289,7 +309,7 @@ def eval_gcp(d: Path, args: argparse.Namespace, tracks: Path | None, method: str
         truth = rec.truth.positions
         if truth is None or truth.kind != "stride" or len(truth) < 2:
             continue
-        imu, track = navigate(rec, method, _detector_config(args))
+        imu, track = _navigate_variant(rec, method, args)
         est = np.stack([np.interp(truth.t_s, track.t_s, track.pos_n[:, i]) for i in range(2)], axis=1)
         e = stride_errors(est, truth.pos_m[:, :2])
         dist = path_length(truth.pos_m)
@@ -340,13 +360,13 @@ def run_eval(args: argparse.Namespace) -> int:
     if not root.exists():
         raise InputError("no such folder", source=str(root))
     tracks = Path(args.tracks) if args.tracks else None
-    methods = EVAL_METHODS if args.method == "all" else (args.method,)
+    methods = eval_variants(EVAL_METHODS if args.method == "all" else (args.method,), args.hde)
     out: dict[str, Any] = {"methods": list(methods), "detector": args.detector}
     evaluators = {"pyshoe_vicon": eval_pyshoe, "xio_gait_loop": eval_xio, "foot_stride_gcp": eval_gcp}
     for name, d in _dataset_dirs(root).items():
         out[name] = {}
         for method in methods:
-            sub = tracks / name / method if tracks is not None else None
+            sub = tracks / name / method.replace("/", "_") if tracks is not None else None
             if sub is not None:
                 sub.mkdir(parents=True, exist_ok=True)
             out[name][method] = evaluators[name](d, args, sub, method)
@@ -365,5 +385,8 @@ def register_eval(targets: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print figures as JSON")
     p.add_argument("--tracks", help="write each track CSV into this folder (for tools/score_tracks.py)")
     p.add_argument("--limit", type=int, default=0, help="only the first N files per dataset (0: all)")
+    p.add_argument("--hde", choices=("on", "off", "both"), default="both",
+                   help="heuristic heading drift elimination (pdr.foot.drift, the same for every method): with it "
+                        "(rows named by the method), without it (rows named METHOD/no-hde), or both (default)")
     _add_options(p, evaluation=True)
     p.set_defaults(func=run_eval)

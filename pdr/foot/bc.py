@@ -38,7 +38,7 @@ gyroscope bias state as in seed 001); :meth:`BCConfig.table_i` keeps Table I.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
@@ -46,7 +46,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
-from pdr.foot.zupt import _quat_exp, _quat_mul, _rotmat, check_imu, first_stationary_run
+from pdr.foot.drift import drift_predict, drift_update, initial_state, rotate_yaw
+from pdr.foot.zupt import ZuptConfig, _quat_exp, _quat_mul, _rotmat, check_imu, first_stationary_run
 from pdr.frames import GRAVITY_MPS2
 from pdr.strapdown import initial_attitude_from_gravity
 
@@ -162,6 +163,11 @@ class BCConfig:
         a constant. Applied at every sample, a constant ``f(Px)`` makes the swing component a zero-velocity
         pull of 2.5 m/s at the IMU rate, which shortens every stride (measured: half the distance on a
         noise-free simulated walk); dividing by it leaves the swing unconstrained.
+    hde
+        Heuristic drift elimination of the heading (:mod:`pdr.foot.drift`): its ``hde_*``, ``sigma_drift*`` and
+        ``sigma_heading_rw`` settings, the same as the ZUPT INS's (``ZuptConfig(hde_directions=0)``: off). It
+        measures the heading error on the condensed position's strides, a stride ending when the stance
+        component's weight falls below 0.5.
     """
 
     jerk_psd: float = 1.25e5
@@ -180,6 +186,7 @@ class BCConfig:
     gravity: float = GRAVITY_MPS2
     init_window_s: float = 0.5
     divide_by_prior: bool = True
+    hde: ZuptConfig = field(default_factory=ZuptConfig)
 
     def __post_init__(self) -> None:
         for name in ("jerk_psd", "sigma_quat", "omega_psd", "bias_psd", "var_acc", "var_gyro",
@@ -263,8 +270,10 @@ def _bc_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Arr
                alpha: Array, mu: Array, var: Array, logc: Array, stance: int,
                pos: Array, vel: Array, acc: Array, qs: Array, om: Array, bias: Array,
                pvar: Array, vvar: Array, avar: Array, sprob: Array,
-               exact: bool) -> None:  # pragma: no cover - compiled
+               exact: bool, hde_par: Array, hde: Array) -> None:  # pragma: no cover - compiled
     n = t.size
+    hde_on = hde_par[0] > 0
+    was_stance = True                                   # aligned at rest
     m = alpha.size
     p = np.zeros(3)
     v = np.zeros(3)
@@ -398,6 +407,16 @@ def _bc_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Arr
             bw[i] += dmean[BW + i]
         q = _quat_mul(_quat_exp(dmean[TH:TH + 3]), q)
         q /= math.sqrt(q[0] ** 2 + q[1] ** 2 + q[2] ** 2 + q[3] ** 2)
+        if hde_on:
+            # Heuristic drift elimination (pdr.foot.drift) on the condensed estimate; a stance ends when the
+            # stance component's weight falls below 0.5.
+            rotate_yaw(q, drift_predict(hde, dt, hde_par))
+            in_stance = sprob[k] > 0.5
+            if was_stance and not in_stance:
+                turn = drift_update(hde, p[0], p[1], hde_par)
+                if turn != 0.0:
+                    rotate_yaw(q, turn)
+            was_stance = in_stance
         pos[k] = p
         vel[k] = v
         acc[k] = a
@@ -465,7 +484,8 @@ def run_bc(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity: A
                P0, cfg.jerk_psd, cfg.sigma_quat, cfg.omega_psd, cfg.bias_psd, cfg.gyro_bias_psd, cfg.var_acc,
                cfg.var_gyro,
                np.ascontiguousarray(ctx.weights), np.ascontiguousarray(ctx.means),
-               var, logc, stance, pos, vel, acc, qs, om, bias, pvar, vvar, avar, sprob, cfg.exact_jerk)
+               var, logc, stance, pos, vel, acc, qs, om, bias, pvar, vvar, avar, sprob, cfg.exact_jerk,
+               cfg.hde.hde_params(), initial_state(cfg.hde.sigma_drift0))
     return BCTrack(t, pos, vel, acc, quat.normalize(qs), om, bias, pvar, vvar, avar, sprob, a0)
 
 

@@ -23,6 +23,11 @@ covariances by eq. 7, the attitude by the weighted chordal mean of eq. 8 (polar 
 ``sum_i w_i C(q_i)``) with the covariance of eq. 9. The log-likelihood ``sum_k log p(y_k | y_{1:k-1})``
 (eq. 11b-c) and the filtered expected mode-transition counts are returned for learning ``Pi``
 (:func:`learn_transition`, eq. 11a).
+
+Heading drift: as in the ZUPT INS, heuristic drift elimination (:mod:`pdr.foot.drift`, settings
+``zupt.hde_*``, off with ``hde_directions=0``) turns every leaf's attitude by the estimated drift at every
+sample, and at the end of each stance of the merged mode posterior (unconstrained probability rising above 0.5)
+the stride of the merged position measures the heading error, whose correction turns every leaf alike.
 """
 
 from __future__ import annotations
@@ -37,6 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
+from pdr.foot.drift import drift_predict, drift_update, initial_state, rotate_yaw
 from pdr.foot.zupt import (
     ZuptConfig,
     _quat_exp,
@@ -311,8 +317,10 @@ def _quat_of(c: Array) -> Array:  # pragma: no cover - compiled
 def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Array, qa: float, qg: float,
                  P0: Array, log_pi: Array, sv: Array, sw: Array, ss: Array, snc: float, sh: float, height: bool,
                  max_leaves: int, pos: Array, vel: Array, qs: Array, pvar: Array, vvar: Array, avar: Array,
-                 mprob: Array, counts: Array) -> float:  # pragma: no cover - compiled
+                 mprob: Array, counts: Array, hde_par: Array, hde: Array) -> float:  # pragma: no cover - compiled
     n = t.size
+    hde_on = hde_par[0] > 0
+    was_stance = True                              # initialised at rest
     L = max_leaves
     # Leaves.
     lp = np.zeros((L, 3))
@@ -463,6 +471,11 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
                     for b in range(N_ERR):
                         lP[r, b, XI] = lP[r, b, 2]
                     lP[r, XI, XI] = lP[r, 2, 2]
+        if hde_on:
+            # Heuristic drift elimination (pdr.foot.drift): the estimated drift is removed from every leaf.
+            turn = drift_predict(hde, dt, hde_par)
+            for r in range(n_leaves):
+                rotate_yaw(lq[r], turn)
         # Merge (eqs. 7-9).
         mean_p = np.zeros(3)
         mean_v = np.zeros(3)
@@ -486,6 +499,16 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
                 avar[k, a] += w * (lP[r, 6 + a, 6 + a] + dphi[a] * dphi[a])
         pos[k] = mean_p
         vel[k] = mean_v
+        in_stance = mprob[k, 0] < 0.5
+        if hde_on and was_stance and not in_stance:
+            # End of a stance of the merged mode posterior: the stride of the merged position measures the
+            # heading error; the correction turns every leaf and the merged attitude alike.
+            turn = drift_update(hde, mean_p[0], mean_p[1], hde_par)
+            if turn != 0.0:
+                for r in range(n_leaves):
+                    rotate_yaw(lq[r], turn)
+                rotate_yaw(qs[k], turn)
+        was_stance = in_stance
     return loglik
 
 
@@ -537,7 +560,8 @@ def run_filterbank(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_vel
                           np.array([0.0, 0.0, -z.gravity]), cfg.acc_noise_var(rate), z.sigma_gyro**2, P0, log_pi,
                           np.asarray(cfg.sigma_v, dtype=np.float64), np.asarray(cfg.sigma_omega, dtype=np.float64),
                           np.asarray(cfg.sigma_s, dtype=np.float64), cfg.unconstrained_sigma(), cfg.sigma_h,
-                          cfg.variant == "height", cfg.max_leaves, pos, vel, qs, pvar, vvar, avar, mprob, counts)
+                          cfg.variant == "height", cfg.max_leaves, pos, vel, qs, pvar, vvar, avar, mprob, counts,
+                          z.hde_params(), initial_state(z.sigma_drift0))
     return FilterBankTrack(t, pos, vel, quat.normalize(qs), pvar, vvar, avar, mprob,
                            np.argmax(mprob, axis=1).astype(np.int64), float(loglik), counts, a, cfg.variant)
 

@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
-from pdr.foot.bc import run_bc
+from pdr.foot.bc import BCConfig, run_bc
 from pdr.foot.detectors import DetectorConfig, detect
 from pdr.foot.filterbank import FilterBankConfig, run_filterbank
 from pdr.foot.zupt import Segmentation, ZuptConfig, run_zupt
@@ -158,7 +158,8 @@ def navigate(recording: Recording, method: str = "zupt", detector: DetectorConfi
         dead reckoning of Algorithm 1), ``filterbank`` / ``filterbank-height`` (seed 002, eqs. 12 / 13), ``bc``
         (belief condensation with the expert context, seed 000).
     detector, zupt, segmentation, filterbank
-        Settings (defaults when omitted).
+        Settings (defaults when omitted). The heading drift elimination settings of ``zupt`` (``hde_*``,
+        :mod:`pdr.foot.drift`) apply to every method: ``ZuptConfig(hde_directions=0)`` turns it off for all.
 
     Returns
     -------
@@ -171,7 +172,8 @@ def navigate(recording: Recording, method: str = "zupt", detector: DetectorConfi
     imu = foot_imu(recording)
     zv = detect(imu.acc_b, imu.gyro_b, imu.rate_hz, detector)
     if method == "bc":
-        return imu, replace(run_bc(imu.t_s, imu.acc_b, imu.gyro_b, zv), warnings=imu.warnings)
+        bc = BCConfig(hde=zupt or ZuptConfig())
+        return imu, replace(run_bc(imu.t_s, imu.acc_b, imu.gyro_b, zv, bc), warnings=imu.warnings)
     if method.startswith("filterbank"):
         variant = "height" if method == "filterbank-height" else "speed"
         fb = filterbank or FilterBankConfig(variant=variant, zupt=zupt or ZuptConfig())

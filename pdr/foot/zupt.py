@@ -15,21 +15,9 @@ at every reset the position and heading (and their covariance rows) are zeroed a
 ``(dp_l, dpsi_l, P_w)`` to :mod:`pdr.foot.stepwise`.
 
 Heading drift (``ZuptConfig.hde_directions``): the heading is not observable from ZUPTs (seed 001 eq. 6), so
-the INS heading drifts; on the LORD 3DM-GX5 walks of ``foot_stride_gcp`` by about -0.2 deg per stride, a
-drift that is not a constant gyroscope bias (bias states estimated from the ZUPTs or from stance angular rates
-made it worse) and that a foot-level magnetometer cannot remove (the field's direction swings by tens of
-degrees from stride to stride). It is removed by heuristic drift elimination (Borenstein, Ojeda, Kwanmuang
-2009, "Heuristic reduction of gyro drift in IMU-based personnel tracking systems"; Jimenez et al. 2012,
-"Improved heuristic drift elimination"): most walking indoors follows a few dominant directions of the
-building, ``hde_directions`` evenly spaced ones, the first of them the direction of the first straight
-stretch. After ``hde_min_strides`` consecutive strides that agree within ``hde_straight_tol``, a stride
-whose direction lies within ``hde_max_dev`` of a dominant direction is a measurement of the heading error
-(noise ``hde_sigma_dir``). It updates a two-state Kalman filter of the heading error and of the heading
-drift rate (random walks ``sigma_heading_rw`` and ``sigma_drift_rw``); the estimated error is fed back into
-the attitude and the estimated drift rate is removed from the attitude at every sample, so the correction
-persists through turns and curved stretches where no measurement is made. Positions already travelled are
-not moved (the correction acts from the current stride on). Strides off the dominant directions, curved
-walking and standing still give no measurement.
+the INS heading drifts; it is removed by heuristic drift elimination (:mod:`pdr.foot.drift`, shared with the
+filter bank and belief condensation): straight strides along one of a few dominant directions measure the
+heading error, a two-state Kalman filter of heading error and drift rate feeds it back into the attitude.
 """
 
 from __future__ import annotations
@@ -43,6 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
+from pdr.foot.drift import HDE_SIZE, drift_predict, drift_update, initial_state, rotate_yaw
 from pdr.frames import GRAVITY_MPS2
 from pdr.strapdown import initial_attitude_from_gravity
 
@@ -136,7 +125,7 @@ class ZuptConfig:
             raise InputError(f"must be at least 1, got {self.hde_min_strides}", field="hde_min_strides")
 
     def hde_params(self) -> Array:
-        """Parameters of the drift elimination as the kernel reads them (see :func:`heading_drift_update`)."""
+        """Parameters of the drift elimination as the kernel reads them (see :func:`pdr.foot.drift.drift_update`)."""
         return np.array([float(self.hde_directions), self.hde_sigma_dir**2, self.hde_max_dev, self.hde_straight_tol,
                          float(self.hde_min_strides), self.hde_min_stride_m, self.sigma_heading_rw**2,
                          self.sigma_drift_rw**2])
@@ -374,88 +363,6 @@ def zupt_update(p: Array, v: Array, q: Array, P: Array, r_var: float) -> float: 
     return float(innov @ S_inv @ innov)
 
 
-#: Layout of the drift-elimination state array (:attr:`FilterState.hde`).
-HDE_RATE, HDE_P00, HDE_P01, HDE_P11, HDE_LAST_X, HDE_LAST_Y, HDE_HAVE_LAST, HDE_REF, HDE_HAVE_REF, HDE_COUNT, \
-    HDE_PREV, HDE_UPDATES = range(12)
-HDE_SIZE = 12
-
-
-def initial_hde_state(config: ZuptConfig) -> Array:
-    """Drift-elimination state at the start: no drift rate (variance ``sigma_drift0^2``), no stride yet."""
-    h = np.zeros(HDE_SIZE)
-    h[HDE_P11] = config.sigma_drift0**2
-    return h
-
-
-@njit(cache=True)
-def _rotate_yaw(q: Array, angle: float) -> None:  # pragma: no cover - compiled
-    # q := Rz(angle) * q: turn the attitude about the navigation-frame vertical (commutes with chi_l of Sec. 3.2).
-    q[:] = _quat_mul(np.array([math.cos(0.5 * angle), 0.0, 0.0, math.sin(0.5 * angle)]), q)
-
-
-@njit(cache=True)
-def _wrap(a: float) -> float:  # pragma: no cover - compiled
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
-
-
-@njit(cache=True)
-def heading_drift_predict(q: Array, hde: Array, dt: float, par: Array) -> None:  # pragma: no cover - compiled
-    """Remove the estimated heading drift over ``dt`` from ``q`` and propagate the drift filter's covariance.
-
-    State ``(e, d)``: heading error (estimate minus truth, rad) and its rate (rad/s) left after removing the
-    estimated rate ``hde[HDE_RATE]``; ``e_k = e_{k-1} + d dt``, both random walks (``par[6]``, ``par[7]``).
-    """
-    _rotate_yaw(q, -hde[HDE_RATE] * dt)
-    p00, p01, p11 = hde[HDE_P00], hde[HDE_P01], hde[HDE_P11]
-    hde[HDE_P00] = p00 + 2.0 * dt * p01 + dt * dt * p11 + par[6] * dt
-    hde[HDE_P01] = p01 + dt * p11
-    hde[HDE_P11] = p11 + par[7] * dt
-
-
-@njit(cache=True)
-def heading_drift_update(q: Array, hde: Array, x: float, y: float, par: Array) -> bool:  # pragma: no cover
-    """Heuristic drift elimination at the end of a stance with the foot at ``(x, y)`` (m, navigation frame).
-
-    The stride since the previous stance end has direction ``psi``; after ``par[4]`` straight strides (each
-    within ``par[3]`` of the previous) its deviation ``e`` from the nearest of ``par[0]`` dominant directions,
-    if within ``par[2]``, is a measurement of the heading error with variance ``par[1]``. The Kalman update of
-    ``(e, d)`` is fed back: the attitude turned by ``-e_hat``, ``d_hat`` added to the removed drift rate.
-    Returns whether a measurement was made.
-    """
-    if hde[HDE_HAVE_LAST] == 0.0:
-        hde[HDE_LAST_X], hde[HDE_LAST_Y], hde[HDE_HAVE_LAST] = x, y, 1.0
-        return False
-    dx, dy = x - hde[HDE_LAST_X], y - hde[HDE_LAST_Y]
-    if math.hypot(dx, dy) < par[5]:
-        return False
-    hde[HDE_LAST_X], hde[HDE_LAST_Y] = x, y
-    psi = math.atan2(dy, dx)
-    straight = hde[HDE_COUNT] > 0 and abs(_wrap(psi - hde[HDE_PREV])) <= par[3]
-    hde[HDE_COUNT] = hde[HDE_COUNT] + 1.0 if straight else 1.0
-    hde[HDE_PREV] = psi
-    if hde[HDE_COUNT] < par[4]:
-        return False
-    if hde[HDE_HAVE_REF] == 0.0:
-        # The first straight stretch sets the dominant directions.
-        hde[HDE_REF], hde[HDE_HAVE_REF] = psi, 1.0
-    n_dir = par[0]
-    e = _wrap(n_dir * (psi - hde[HDE_REF])) / n_dir
-    if abs(e) > par[2]:
-        return False
-    p00, p01, p11 = hde[HDE_P00], hde[HDE_P01], hde[HDE_P11]
-    s = p00 + par[1]
-    k0, k1 = p00 / s, p01 / s
-    e_hat, d_hat = k0 * e, k1 * e
-    hde[HDE_P00] = p00 - k0 * p00
-    hde[HDE_P01] = p01 - k0 * p01
-    hde[HDE_P11] = p11 - k1 * p01
-    _rotate_yaw(q, -e_hat)
-    hde[HDE_RATE] += d_hat
-    hde[HDE_PREV] = psi - e_hat
-    hde[HDE_UPDATES] += 1.0
-    return True
-
-
 @njit(cache=True)
 def zupt_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, g_n: Array, qa: float, qg: float,
                 r_var: float, seg_on: bool, gamma_p: float, c_min: int, c_max: int, p: Array, v: Array, q: Array,
@@ -484,7 +391,7 @@ def zupt_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, g_n
     for k in range(first, n):
         zupt_predict(p, v, q, P, f_b[k - 1], w_b[k - 1], f_b[k], w_b[k], t[k] - t[k - 1], g_n, qa, qg)
         if hde_on:
-            heading_drift_predict(q, hde, t[k] - t[k - 1], hde_par)
+            rotate_yaw(q, drift_predict(hde, t[k] - t[k - 1], hde_par))
         if zv[k]:
             zupt_update(p, v, q, P, r_var)
         else:
@@ -527,9 +434,11 @@ def zupt_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, g_n
             # End of a stance: heuristic drift elimination on the stride just completed.
             if seg_on:
                 c, s = math.cos(chi_l), math.sin(chi_l)
-                heading_drift_update(q, hde, x_l[0] + c * p[0] - s * p[1], x_l[1] + s * p[0] + c * p[1], hde_par)
+                turn = drift_update(hde, x_l[0] + c * p[0] - s * p[1], x_l[1] + s * p[0] + c * p[1], hde_par)
             else:
-                heading_drift_update(q, hde, p[0], p[1], hde_par)
+                turn = drift_update(hde, p[0], p[1], hde_par)
+            if turn != 0.0:
+                rotate_yaw(q, turn)
         if seg_on:
             c, s = math.cos(chi_l), math.sin(chi_l)
             pos[k, 0] = x_l[0] + c * p[0] - s * p[1]
@@ -612,7 +521,7 @@ class FilterState:
         (2,) int64 Algorithm 1 counters ``(c_p, c_d)`` in samples.
     hde
         (HDE_SIZE,) state of the heuristic drift elimination (drift rate, its filter's covariance, the last
-        stride end, the dominant direction, the straight-stride count; see :func:`heading_drift_update`).
+        stride end, the dominant direction, the straight-stride count; see :mod:`pdr.foot.drift`).
     """
 
     p: Array
@@ -629,7 +538,7 @@ class FilterState:
         P = np.diag(np.r_[np.zeros(3), np.full(3, config.init_sigma_vel**2), np.full(2, config.init_sigma_tilt**2),
                           config.init_sigma_yaw**2])
         return cls(np.zeros(3), np.zeros(3), np.array(q0, dtype=np.float64), P, np.zeros(4),
-                   np.zeros(2, dtype=np.int64), initial_hde_state(config))
+                   np.zeros(2, dtype=np.int64), initial_state(config.sigma_drift0))
 
     def to_dict(self) -> dict[str, list]:
         """JSON-serialisable form (floats round-trip exactly)."""
@@ -640,7 +549,7 @@ class FilterState:
     def from_dict(cls, d: dict[str, list], config: ZuptConfig | None = None) -> FilterState:
         """Inverse of :meth:`to_dict`; a state saved before the drift elimination existed starts it afresh."""
         f = np.float64
-        hde = np.array(d["hde"], f) if "hde" in d else initial_hde_state(config or ZuptConfig())
+        hde = np.array(d["hde"], f) if "hde" in d else initial_state((config or ZuptConfig()).sigma_drift0)
         return cls(np.array(d["p"], f), np.array(d["v"], f), np.array(d["q"], f), np.array(d["P"], f),
                    np.array(d["dr"], f), np.array(d["counters"], dtype=np.int64), hde)
 

@@ -67,3 +67,12 @@ def simulate_gait(n_strides: int = 10, stride_m: float = 1.4, turn_rad: float = 
     acc_b = acc_b + rng.normal(0.0, sigma_acc, acc_b.shape) if sigma_acc else acc_b
     gyro_b = gyro_b + rng.normal(0.0, sigma_gyro, gyro_b.shape) if sigma_gyro else gyro_b
     return Gait(t, acc_b, gyro_b, pos, yaw, ~swing)
+
+
+def gyro_drift_walk(drift_deg_s: float, n_strides: int = 40, seed: int = 11) -> tuple[Gait, np.ndarray]:
+    """Straight walk (1.4 m strides, light noise) and a gyroscope whose constant bias drifts the heading by
+    ``drift_deg_s`` (deg/s): returns the gait and the biased (N, 3) gyroscope samples, rad/s."""
+    g = simulate_gait(n_strides=n_strides, stride_m=1.4, sigma_acc=0.02, sigma_gyro=0.002, seed=seed)
+    bias_n = np.array([0.0, 0.0, np.radians(drift_deg_s)])
+    bias_b = quat.rotate(quat.conjugate(quat.from_euler(0.1, -0.2, 0.0)), bias_n)
+    return g, g.gyro_b + bias_b

@@ -8,7 +8,7 @@ from pdr.foot.detectors import detect
 from pdr.foot.stepwise import dead_reckon
 from pdr.foot.zupt import Segmentation, ZuptConfig, run_zupt
 from pdr.frames import wrap_angle
-from tests.pdr.foot.gait import simulate_gait
+from tests.pdr.foot.gait import gyro_drift_walk, simulate_gait
 
 
 def _horizontal(a: np.ndarray) -> np.ndarray:
@@ -97,19 +97,11 @@ def test_start_in_motion_is_reported() -> None:
     assert any("starts in motion" in w for w in tr.warnings)
 
 
-def _gyro_drift_walk(drift_deg_s: float, n_strides: int = 40, seed: int = 11):
-    # Straight walk; the gyroscope has a constant bias whose vertical part drifts the heading by drift_deg_s.
-    g = simulate_gait(n_strides=n_strides, stride_m=1.4, sigma_acc=0.02, sigma_gyro=0.002, seed=seed)
-    bias_n = np.array([0.0, 0.0, np.radians(drift_deg_s)])
-    bias_b = quat.rotate(quat.conjugate(quat.from_euler(0.1, -0.2, 0.0)), bias_n)
-    return g, g.gyro_b + bias_b
-
-
 def test_heading_drift_of_a_gyro_bias_is_removed_on_a_straight_walk() -> None:
     # Simulate then recover: 0.15 deg/s of heading drift over a 56 m, 45 s straight walk turns the heading by about
     # 7 deg and leaves the end 3.2 m off without the drift elimination; with it the final heading is within 1 deg
     # and the end within 1.5 % of the distance (what is left is walked while the drift rate is being learnt).
-    g, gyro = _gyro_drift_walk(0.15)
+    g, gyro = gyro_drift_walk(0.15)
     dist = 40 * 1.4
     off = run_zupt(g.t_s, g.acc_b, gyro, g.stance, ZuptConfig(hde_directions=0))
     on = run_zupt(g.t_s, g.acc_b, gyro, g.stance)
@@ -129,7 +121,7 @@ def test_drift_elimination_leaves_curved_walks_and_clean_gyros_alone() -> None:
     off = run_zupt(g.t_s, g.acc_b, g.gyro_b, g.stance, ZuptConfig(hde_directions=0))
     np.testing.assert_allclose(on.pos_n, off.pos_n, atol=1e-9)
     # A straight walk with an unbiased gyroscope stays as good as without it.
-    g2, gyro = _gyro_drift_walk(0.0)
+    g2, gyro = gyro_drift_walk(0.0)
     on2 = run_zupt(g2.t_s, g2.acc_b, gyro, g2.stance)
     assert _horizontal(on2.pos_n[-1] - g2.pos_n[-1]) < 0.005 * 40 * 1.4
 
