@@ -139,11 +139,16 @@ class SiteLandmark:
 
 @dataclass(frozen=True)
 class Site:
-    """A site description: named landmarks and the floor height."""
+    """A site description: named landmarks, the floor height and optionally the magnetic declination.
+
+    ``declination_deg`` (deg, east positive; JSON key of the same name, optional): when given, the pipeline's
+    attitude filter uses it instead of ``AttitudeConfig.mag_declination_deg``.
+    """
 
     name: str
     landmarks: tuple[SiteLandmark, ...]
     floor_height_m: float = 4.0
+    declination_deg: float | None = None
 
     @classmethod
     def from_dict(cls, d: Any, source: str = "site") -> Site:
@@ -170,7 +175,16 @@ class Site:
             fh = float(d.get("floor_height_m", 4.0))
         except (TypeError, ValueError):
             raise InputError("floor_height_m must be a number", source=source, field="floor_height_m") from None
-        return cls(str(d.get("name", "")), tuple(out), fh)
+        decl = d.get("declination_deg")
+        if decl is not None:
+            try:
+                decl = float(decl)
+            except (TypeError, ValueError):
+                decl = math.nan
+            if not -180.0 <= decl <= 180.0:
+                raise InputError("declination_deg must be a number of degrees in [-180, 180]", source=source,
+                                 field="declination_deg")
+        return cls(str(d.get("name", "")), tuple(out), fh, decl)
 
     @classmethod
     def load(cls, path: str | Path) -> Site:
@@ -181,7 +195,8 @@ class Site:
         return cls.from_dict(d, source=str(path))
 
     def to_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "floor_height_m": self.floor_height_m,
+        extra = {} if self.declination_deg is None else {"declination_deg": self.declination_deg}
+        return {"name": self.name, "floor_height_m": self.floor_height_m, **extra,
                 "landmarks": [{"id": lm.id, "type": lm.type, "east_m": lm.east_m, "north_m": lm.north_m,
                                "floor": lm.floor, "heading_deg": list(lm.heading_deg), "radius_m": lm.radius_m}
                               for lm in self.landmarks]}

@@ -5,6 +5,8 @@ Stages per batch (each keeps its own state, so a session can be fed batch by bat
 big batch):
 
 1. :class:`pdr.grid.OnlineGrid`: acc, gyro, mag, baro on one uniform grid (``rate_hz``);
+   the magnetometer's hard-iron offset is learnt online from the gyro (:mod:`pdr.magcal`) and removed once
+   significant; a site's ``declination_deg`` replaces the configured declination;
 2. :class:`pdr.steps.StepDetector` (seed 004 Sec. 3.2) on the accelerometer;
 3. :class:`pdr.attitude.AttitudeFilter` (seed 003 UKF, or the EKF baseline), run in segments that end
    where steps become known, so a landmark can update the attitude (eqs. 14-32) at a deterministic sample;
@@ -59,6 +61,7 @@ from pdr.heading import (
     yaw_variance,
 )
 from pdr.landmarks import ElevatorDetector, LandmarkConfig, Site, classify_step, neighbour_correction
+from pdr.magcal import HardIronEstimator, MagCalConfig
 from pdr.recording import Recording
 from pdr.step_length import StepLengthModel, step_patterns
 from pdr.steps import StepConfig, StepDetector
@@ -116,6 +119,7 @@ class PipelineConfig:
     step_length: StepLengthModel = field(default_factory=StepLengthModel)
     floors: FloorConfig = field(default_factory=FloorConfig)
     landmarks: LandmarkConfig = field(default_factory=LandmarkConfig)
+    magcal: MagCalConfig = field(default_factory=MagCalConfig)
 
     def __post_init__(self) -> None:
         if self.placement not in ("auto", "pocket", "hand", "torso"):
@@ -134,7 +138,7 @@ class PipelineConfig:
     def from_dict(cls, d: dict[str, Any]) -> PipelineConfig:
         try:
             sub = {"step": StepConfig, "attitude": AttitudeConfig, "step_length": StepLengthModel,
-                   "floors": FloorConfig, "landmarks": LandmarkConfig}
+                   "floors": FloorConfig, "landmarks": LandmarkConfig, "magcal": MagCalConfig}
             kw = {k: (sub[k](**v) if k in sub else v) for k, v in d.items()}
             return cls(**kw)
         except TypeError as exc:
@@ -243,7 +247,11 @@ class PdrPipeline:
         c = self.config
         self.grid: OnlineGrid | None = None
         self.steps = StepDetector(c.rate_hz, c.step)
-        self.attitude = AttitudeFilter(c.rate_hz, c.attitude, c.attitude_method)
+        # A site that knows its magnetic declination overrides the configured one.
+        att = c.attitude if site is None or site.declination_deg is None else replace(
+            c.attitude, mag_declination_deg=site.declination_deg)
+        self.attitude = AttitudeFilter(c.rate_hz, att, c.attitude_method)
+        self.magcal = HardIronEstimator(c.rate_hz, c.magcal)
         self.floors = FloorTracker(c.rate_hz, c.floors if site is None else replace(
             c.floors, floor_height_m=site.floor_height_m), c.initial_floor)
         self.elevator = ElevatorDetector(c.rate_hz, c.landmarks)
@@ -311,7 +319,7 @@ class PdrPipeline:
         return {
             "config": self.config.to_dict(), "site": None if self.site is None else self.site.to_dict(),
             "grid": None if self.grid is None else self.grid.to_dict(), "steps": self.steps.state_dict(),
-            "attitude": self.attitude.state.to_dict(), "floors": self.floors.to_dict(),
+            "attitude": self.attitude.state.to_dict(), "magcal": self.magcal.to_dict(), "floors": self.floors.to_dict(),
             "elevator": self.elevator.to_dict(), "track": self.track.to_dict(), "offset": self.offset.to_dict(),
             "history": self.history.to_dict(), "placement": self.placement, "t0_ns": self.t0_ns,
             "prev_yaw": self.prev_yaw, "prev_q": self.prev_q, "prev_mode": self.prev_mode,
@@ -332,6 +340,8 @@ class PdrPipeline:
             p.grid = None if d["grid"] is None else OnlineGrid.from_dict(d["grid"])
             p.steps = StepDetector.from_state_dict(d["steps"])
             p.attitude.state = AttitudeState.from_dict(d["attitude"])
+            if d.get("magcal") is not None:
+                p.magcal = HardIronEstimator.from_dict(d["magcal"], p.config.rate_hz, p.config.magcal)
             p.floors = FloorTracker.from_dict(d["floors"])
             p.elevator = ElevatorDetector.from_dict(d["elevator"], p.config.landmarks)
             p.track = TrackState.from_dict(d["track"])
@@ -388,6 +398,9 @@ class PdrPipeline:
         kinds = self.grid.kinds
         gyro = vals["gyro"] if "gyro" in kinds and n else None
         mag = vals["mag"] if "mag" in kinds and n else None
+        if mag is not None and gyro is not None:
+            # Hard-iron offset learnt online from the rotation (pdr.magcal); applied only once significant.
+            mag = self.magcal.update(mag, gyro, self.attitude.state.bias)
         mag_n = np.linalg.norm(mag, axis=1) if mag is not None else np.full(n, np.nan)
         if "baro" in kinds and n:
             up, floor = self.floors.update(vals["baro"][:, 0], np.ones(n, dtype=bool))

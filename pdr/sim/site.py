@@ -4,7 +4,8 @@ A scenario places landmarks implicitly: a ``stairs`` segment is a flight walked 
 heading, an ``elevator`` segment a cabin entered at the current position, an ``escalator`` segment a ride
 along the current heading. :func:`site_document` writes them as the site description JSON that
 :class:`pdr.landmarks.Site` reads (``{"name", "floor_height_m", "landmarks": [...]}``), so a simulated walk
-can be processed with the landmarks a surveyor would have given for the same building (seed 003 Sec. 5:
+can be processed with the landmarks (and the magnetic declination, ``declination_deg``) a surveyor would
+have given for the same building (seed 003 Sec. 5:
 each landmark carries an interval covering all possible user headings there; the pipeline takes its centre
 as ``UH_landmark`` and a sixth of its width as the standard deviation).
 
@@ -25,6 +26,7 @@ Nothing random is involved: the site depends on the scenario only (:func:`pdr.si
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from types import MappingProxyType
 from typing import Any
@@ -80,4 +82,5 @@ def site_document(scenario: Scenario | Mapping[str, Any], half_width_deg: Mappin
             "floor": floor, "heading_deg": [float((heading - half) % 360.0), float((heading + half) % 360.0)],
             "radius_m": float(radius_m),
         })
-    return {"name": sc.name or "simulated site", "floor_height_m": float(sc.floor_height_m), "landmarks": landmarks}
+    return {"name": sc.name or "simulated site", "floor_height_m": float(sc.floor_height_m),
+            "declination_deg": math.degrees(sc.magnetic.declination_rad), "landmarks": landmarks}

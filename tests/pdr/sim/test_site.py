@@ -91,7 +91,9 @@ def test_stairs_landmark_corrects_a_seeded_heading_error(side, seed):
         return t, err, pipe
 
     t, e0, _ = errors(None)
-    _, e1, pipe = errors(Site.from_dict(site_document(sc)))
+    doc = site_document(sc)
+    doc.pop("declination_deg")                                  # else the site's declination replaces -15 deg
+    _, e1, pipe = errors(Site.from_dict(doc))
     after = (t > t_after) & (t < t_after + 10.0)
     assert pipe.landmark_updates >= 5 and pipe.landmark_attitude_updates == pipe.landmark_updates
     assert e0[after].mean() > 8.0                               # the wrong declination turns every heading
@@ -101,3 +103,32 @@ def test_stairs_landmark_corrects_a_seeded_heading_error(side, seed):
     state = pipe.to_dict()
     again = PdrPipeline.from_dict(state)
     assert again.stairs_landmark == pipe.stairs_landmark and again.landmark_updates == pipe.landmark_updates
+
+
+def test_site_carries_the_scenario_declination_and_the_pipeline_uses_it():
+    sc = {**_stairs_walk(), "magnetic": {"declination_deg": -7.5}}
+    doc = site_document(sc)
+    assert doc["declination_deg"] == pytest.approx(-7.5)
+    site = Site.from_dict(doc)
+    assert site.declination_deg == pytest.approx(-7.5) and site.to_dict() == doc
+    pipe = PdrPipeline(PipelineConfig(attitude=AttitudeConfig(mag_declination_deg=20.0)), site=site)
+    assert pipe.attitude.config.mag_declination_deg == pytest.approx(-7.5)
+    # Optional: without it the configured declination stays.
+    del doc["declination_deg"]
+    bare = Site.from_dict(doc)
+    assert bare.declination_deg is None and "declination_deg" not in bare.to_dict()
+    pipe = PdrPipeline(PipelineConfig(attitude=AttitudeConfig(mag_declination_deg=20.0)), site=bare)
+    assert pipe.attitude.config.mag_declination_deg == 20.0
+    again = PdrPipeline.from_dict(PdrPipeline(site=site).to_dict())
+    assert again.attitude.config.mag_declination_deg == pytest.approx(-7.5)
+
+
+@pytest.mark.parametrize("bad", ["east", 400, None])
+def test_site_declination_must_be_degrees(bad):
+    from pdr.errors import InputError
+    doc = {"landmarks": [], "declination_deg": bad}
+    if bad is None:
+        assert Site.from_dict(doc).declination_deg is None
+        return
+    with pytest.raises(InputError, match="declination_deg"):
+        Site.from_dict(doc)
