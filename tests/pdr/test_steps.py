@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pdr.errors import InputError
-from pdr.steps import StepConfig, StepDetector, detect_steps
+from pdr.steps import StepConfig, StepDetector, Steps, detect_steps
 from tests.conftest import data_path
 
 FS = 50.0
@@ -128,11 +128,8 @@ def test_soft_steps_inside_a_walk_are_inferred_from_the_rhythm():
     assert np.all(np.abs(got - lag - times) < 0.1)   # the inferred starts sit where the soft steps were
 
 
-@pytest.mark.data
-@pytest.mark.parametrize("walk", ["Pixel_Jamie_Hard_BackPocket_1", "Samsung_Carmelo_Hard_Purse_2"])
-def test_real_walk_with_handling_before_it(walk):
-    # Seconds of putting the phone away before the first foot contact: the gap-only bout rule counted
-    # 14 (back pocket) and 8 (bag) extra steps. Measured now: 256 of 257 and 264 of 263 contact-switch steps.
+def _oxford_walk_steps(walk: str) -> tuple[np.ndarray, Steps, np.ndarray]:
+    """Grid times (s), detected steps and contact-switch step times (s) of an Oxford optimisation walk."""
     from pdr.grid import OnlineGrid
     from pdr.io import read_recording
     rec = read_recording(data_path("oxford_step_counter", "optimisation", "data", walk))
@@ -141,8 +138,15 @@ def test_real_walk_with_handling_before_it(walk):
     t1, v1 = grid.pull()
     t2, v2 = grid.flush()
     t = np.concatenate([t1, t2]) - rec.t0_ns / 1e9
-    steps = detect_steps(np.concatenate([v1["acc"], v2["acc"]]), FS)
-    true = rec.truth.step_times_s
+    return t, detect_steps(np.concatenate([v1["acc"], v2["acc"]]), FS), rec.truth.step_times_s
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("walk", ["Pixel_Jamie_Hard_BackPocket_1", "Samsung_Carmelo_Hard_Purse_2"])
+def test_real_walk_with_handling_before_it(walk):
+    # Seconds of putting the phone away before the first foot contact: the gap-only bout rule counted
+    # 14 (back pocket) and 8 (bag) extra steps. Measured now: 256 of 257 and 264 of 263 contact-switch steps.
+    t, steps, true = _oxford_walk_steps(walk)
     assert abs(len(steps) - true.size) <= 0.01 * true.size
     assert np.count_nonzero(t[steps.start_idx] < true[0] - 1.0) <= 2
 
@@ -229,16 +233,7 @@ def test_real_walk_ending_in_handling():
     # Pixel_Jamie_Hard_Purse_2: after the last foot contact the bag swings and the phone is taken out of it
     # (6 s of soft peaks, then the phone turns over). Before the walk-end rule: 374 steps for 364 contacts;
     # measured now: 364.
-    from pdr.grid import OnlineGrid
-    from pdr.io import read_recording
-    rec = read_recording(data_path("oxford_step_counter", "optimisation", "data", "Pixel_Jamie_Hard_Purse_2"))
-    grid = OnlineGrid(FS, ("acc",))
-    grid.push(rec)
-    t1, v1 = grid.pull()
-    t2, v2 = grid.flush()
-    t = np.concatenate([t1, t2]) - rec.t0_ns / 1e9
-    steps = detect_steps(np.concatenate([v1["acc"], v2["acc"]]), FS)
-    true = rec.truth.step_times_s
+    t, steps, true = _oxford_walk_steps("Pixel_Jamie_Hard_Purse_2")
     assert abs(len(steps) - true.size) <= 2
     assert np.count_nonzero(t[steps.start_idx] > true[-1] + 1.0) <= 1
 
