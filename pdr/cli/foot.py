@@ -52,6 +52,13 @@ def _add_options(p: argparse.ArgumentParser, evaluation: bool = False) -> None:
     p.add_argument("--detector", choices=DETECTORS, default="shoe", help="zero-velocity detector (default shoe)")
     p.add_argument("--threshold", type=float, help="detector threshold gamma_z (default 3e4)")
     p.add_argument("--fixed-threshold", action="store_true", help="disable the gait-adaptive threshold")
+    smoother = ("on", "off", "both") if evaluation else ("on", "off")
+    p.add_argument("--smoother", choices=smoother, default="on",
+                   help="OFFLINE ONLY, method zupt only: Rauch-Tung-Striebel fixed-interval smoother over the whole "
+                        "recording (pdr.filters.rts) on top of the causal ZUPT-EKF (default on; off gives the "
+                        "causal filter's track, what online processing produces)"
+                        + ("; both: smoothed rows named by the method and filtered rows named METHOD"
+                           + NO_SMOOTHER if evaluation else ""))
 
 
 def track_rows(imu: FootImu, track: ZuptTrack | FilterBankTrack | BCTrack) -> dict[str, np.ndarray]:
@@ -177,7 +184,7 @@ def run_foot(args: argparse.Namespace) -> int:
     if not args.log:
         raise InputError("give a foot IMU LOG (or --left and --right for dual-foot fusion)", field="log")
     rec = read_recording(args.log)
-    imu, track = navigate(rec, args.method, _detector_config(args))
+    imu, track = navigate(rec, args.method, _detector_config(args), smooth=args.smoother == "on")
     for w in track.warnings:
         print(f"warning: {w}", file=sys.stderr)
     if args.per_step:
@@ -219,22 +226,32 @@ def _dataset_dirs(root: Path) -> dict[str, Path]:
 
 #: Suffix of the evaluated method names run without the heuristic drift elimination (:mod:`pdr.foot.drift`).
 NO_HDE = "/no-hde"
+#: Suffix of the evaluated ``zupt`` runs without the RTS smoother (the causal filter) when ``--smoother both``.
+NO_SMOOTHER = "/filtered"
+#: Methods that have an offline smoother.
+SMOOTHED_METHODS: tuple[str, ...] = ("zupt",)
 
 
-def eval_variants(methods: tuple[str, ...], hde: str) -> tuple[str, ...]:
-    """Names of the evaluated runs: each method with (its own name) and/or without (``+ NO_HDE``) drift elimination."""
+def eval_variants(methods: tuple[str, ...], hde: str, smoother: str = "off") -> tuple[str, ...]:
+    """Names of the evaluated runs: each method with (its own name) and/or without (``+ NO_HDE``) drift
+    elimination; with ``smoother == 'both'`` a smoothable method also without its smoother (``+ NO_SMOOTHER``).
+    """
     out: list[str] = []
     for method in methods:
-        out += [method] if hde != "off" else []
-        out += [method + NO_HDE] if hde != "on" else []
+        forms = [method, method + NO_SMOOTHER] if smoother == "both" and method in SMOOTHED_METHODS else [method]
+        for form in forms:
+            out += [form] if hde != "off" else []
+            out += [form + NO_HDE] if hde != "on" else []
     return tuple(out)
 
 
 def _navigate_variant(rec: Any, variant: str, args: argparse.Namespace) -> tuple[FootImu, Any]:
     """Navigate ``rec`` by an evaluated run name of :func:`eval_variants`."""
-    method = variant.removesuffix(NO_HDE)
+    name = variant.removesuffix(NO_HDE)
+    method = name.removesuffix(NO_SMOOTHER)
+    smooth = args.smoother != "off" and not name.endswith(NO_SMOOTHER)
     zupt = ZuptConfig(hde_directions=0) if variant.endswith(NO_HDE) else None
-    return navigate(rec, method, _detector_config(args), zupt=zupt)
+    return navigate(rec, method, _detector_config(args), zupt=zupt, smooth=smooth)
 
 
 def eval_pyshoe(d: Path, args: argparse.Namespace, tracks: Path | None, method: str) -> dict[str, Any]:
@@ -360,8 +377,8 @@ def run_eval(args: argparse.Namespace) -> int:
     if not root.exists():
         raise InputError("no such folder", source=str(root))
     tracks = Path(args.tracks) if args.tracks else None
-    methods = eval_variants(EVAL_METHODS if args.method == "all" else (args.method,), args.hde)
-    out: dict[str, Any] = {"methods": list(methods), "detector": args.detector}
+    methods = eval_variants(EVAL_METHODS if args.method == "all" else (args.method,), args.hde, args.smoother)
+    out: dict[str, Any] = {"methods": list(methods), "detector": args.detector, "smoother": args.smoother}
     evaluators = {"pyshoe_vicon": eval_pyshoe, "xio_gait_loop": eval_xio, "foot_stride_gcp": eval_gcp}
     for name, d in _dataset_dirs(root).items():
         out[name] = {}

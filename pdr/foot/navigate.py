@@ -146,7 +146,7 @@ def foot_imu(recording: Recording) -> FootImu:
 
 def navigate(recording: Recording, method: str = "zupt", detector: DetectorConfig | None = None,
              zupt: ZuptConfig | None = None, segmentation: Segmentation | None = None,
-             filterbank: FilterBankConfig | None = None) -> tuple[FootImu, Any]:
+             filterbank: FilterBankConfig | None = None, smooth: bool = True) -> tuple[FootImu, Any]:
     """Foot-mounted navigation of a recording.
 
     Parameters
@@ -160,6 +160,10 @@ def navigate(recording: Recording, method: str = "zupt", detector: DetectorConfi
     detector, zupt, segmentation, filterbank
         Settings (defaults when omitted). The heading drift elimination settings of ``zupt`` (``hde_*``,
         :mod:`pdr.foot.drift`) apply to every method: ``ZuptConfig(hde_directions=0)`` turns it off for all.
+    smooth
+        ``zupt`` only: the RTS fixed-interval smoother over the whole recording (:func:`pdr.foot.zupt.run_zupt`;
+        default on, since this function processes a whole recording offline; :mod:`pdr.foot.online` keeps the
+        causal filter); other methods ignore it.
 
     Returns
     -------
@@ -181,5 +185,6 @@ def navigate(recording: Recording, method: str = "zupt", detector: DetectorConfi
             fb = replace(fb, variant=variant)
         return imu, replace(run_filterbank(imu.t_s, imu.acc_b, imu.gyro_b, zv, fb), warnings=imu.warnings)
     seg = (segmentation or Segmentation()) if method == "stepwise" else None
-    track = run_zupt(imu.t_s, imu.acc_b, imu.gyro_b, zv, zupt, seg, rate_hz=imu.rate_hz)
+    track = run_zupt(imu.t_s, imu.acc_b, imu.gyro_b, zv, zupt, seg, rate_hz=imu.rate_hz,
+                     smooth=smooth and seg is None)
     return imu, replace(track, warnings=imu.warnings + track.warnings)

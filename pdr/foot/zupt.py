@@ -31,6 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
+from pdr.filters.rts import rts_step
 from pdr.foot.drift import HDE_SIZE, drift_predict, drift_update, initial_state, rotate_yaw
 from pdr.frames import GRAVITY_MPS2
 from pdr.strapdown import initial_attitude_from_gravity
@@ -335,22 +336,32 @@ def zupt_predict(p: Array, v: Array, q: Array, P: Array, f0_b: Array, w0_b: Arra
                  dt: float, g_n: Array, qa: float, qg: float) -> Array:  # pragma: no cover - compiled
     """Mechanization (eq. 1) and covariance propagation (eq. 2) in place; returns the specific force f_n."""
     f_n = mechanize(p, v, q, f0_b, w0_b, f_b, w_b, dt, g_n)
-    F = error_transition(f_n, dt)
-    P[:, :] = F @ P @ F.T
-    for i in range(3):
-        P[3 + i, 3 + i] += qa * dt * dt
-        P[6 + i, 6 + i] += qg * dt * dt
+    propagate_covariance(P, error_transition(f_n, dt), dt, qa, qg)
     return f_n
 
 
 @njit(cache=True)
-def zupt_update(p: Array, v: Array, q: Array, P: Array, r_var: float) -> float:  # pragma: no cover - compiled
-    """Zero-velocity update (eqs. 3-4) with feedback (eq. 5) in place; returns the NIS of the innovation."""
+def propagate_covariance(P: Array, F: Array, dt: float, qa: float, qg: float) -> None:  # pragma: no cover
+    """``P := F P F^T + Q`` in place (eq. 2), white velocity noise ``qa dt^2`` and attitude noise ``qg dt^2``."""
+    P[:, :] = F @ P @ F.T
+    for i in range(3):
+        P[3 + i, 3 + i] += qa * dt * dt
+        P[6 + i, 6 + i] += qg * dt * dt
+
+
+@njit(cache=True)
+def zupt_update(p: Array, v: Array, q: Array, P: Array, r_var: float,
+                dx_out: Array) -> float:  # pragma: no cover - compiled
+    """Zero-velocity update (eqs. 3-4) with feedback (eq. 5) in place; returns the NIS of the innovation.
+
+    The error estimate fed back (9,) is written to ``dx_out`` (what an RTS smoother needs).
+    """
     S = P[3:6, 3:6] + np.eye(3) * r_var
     S_inv = np.linalg.inv(S)
     K = np.ascontiguousarray(P[:, 3:6]) @ S_inv
     innov = -v
     dx = K @ innov
+    dx_out[:] = dx
     # Joseph form: keeps P symmetric positive semi-definite with the tiny R of a ZUPT.
     ikh = np.eye(9)
     ikh[:, 3:6] -= K
@@ -368,7 +379,8 @@ def zupt_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, g_n
                 r_var: float, seg_on: bool, gamma_p: float, c_min: int, c_max: int, p: Array, v: Array, q: Array,
                 P: Array, dr: Array, counters: IntArray, pos: Array, vel: Array, qs: Array, pvar: Array,
                 vvar: Array, avar: Array, step_idx: IntArray, step_dp: Array, step_dpsi: Array,
-                step_cov: Array, hde_par: Array, hde: Array) -> int:  # pragma: no cover - compiled
+                step_cov: Array, hde_par: Array, hde: Array, sm_P: Array, sm_fn: Array,
+                sm_dx: Array) -> int:  # pragma: no cover - compiled
     """The filter loop over samples ``first..N-1`` (sample ``first - 1`` is the last one already processed).
 
     The step to sample ``k`` uses the IMU samples ``k - 1`` and ``k`` (second-order mechanization).
@@ -378,6 +390,9 @@ def zupt_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, g_n
     the start and left updated in place, so feeding a recording in consecutive chunks (each with the previous
     chunk's last sample prepended, ``first = 1``) performs exactly the operations of one run over the whole recording.
     Per-sample outputs go to ``pos, vel, qs, pvar, vvar, avar`` at the sample's index; resets to ``step_*``.
+    When ``sm_P`` has rows (one per sample), what the RTS smoother (:func:`zupt_smooth_kernel`) needs is stored
+    at the sample's index too: the covariance after the update ``sm_P``, the specific force of the step to the
+    sample ``sm_fn`` (rebuilds ``F``) and the error fed back ``sm_dx`` (zero without an update).
     Returns the number of resets.
     """
     n = t.size
@@ -388,12 +403,20 @@ def zupt_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, g_n
     n_steps = 0
     idx = np.array([0, 1, 2, 8])
     hde_on = hde_par[0] > 0
+    store = sm_P.shape[0] > 0
+    dx = np.zeros(9)
+    if store:
+        sm_P[first - 1] = P
     for k in range(first, n):
-        zupt_predict(p, v, q, P, f_b[k - 1], w_b[k - 1], f_b[k], w_b[k], t[k] - t[k - 1], g_n, qa, qg)
+        f_n = zupt_predict(p, v, q, P, f_b[k - 1], w_b[k - 1], f_b[k], w_b[k], t[k] - t[k - 1], g_n, qa, qg)
         if hde_on:
             rotate_yaw(q, drift_predict(hde, t[k] - t[k - 1], hde_par))
+        if store:
+            sm_fn[k] = f_n
         if zv[k]:
-            zupt_update(p, v, q, P, r_var)
+            zupt_update(p, v, q, P, r_var, dx)
+            if store:
+                sm_dx[k] = dx
         else:
             q /= math.sqrt(q[0] ** 2 + q[1] ** 2 + q[2] ** 2 + q[3] ** 2)
         if seg_on:
@@ -456,10 +479,45 @@ def zupt_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, g_n
             pvar[k, i] = P[i, i]
             vvar[k, i] = P[3 + i, 3 + i]
             avar[k, i] = P[6 + i, 6 + i]
+        if store:
+            sm_P[k] = P
     dr[3] = chi_l
     counters[0] = c_p
     counters[1] = c_d
     return n_steps
+
+
+@njit(cache=True)
+def zupt_smooth_kernel(t: Array, first: int, qa: float, qg: float, sm_P: Array, sm_fn: Array, sm_dx: Array,
+                       pos: Array, vel: Array, qs: Array, pvar: Array, vvar: Array,
+                       avar: Array) -> None:  # pragma: no cover - compiled
+    """RTS backward pass of the error-state filter (:mod:`pdr.filters.rts`) over samples ``first - 1..N-1``.
+
+    ``F`` and the predicted covariance ``P_k+1|k = F P_k|k F^T + Q`` are rebuilt from the stored specific
+    force instead of being stored. The smoothed errors correct ``pos, vel, qs`` in place as eq. 5 does
+    (``q := exp(dtheta) q``); ``sm_P`` is overwritten by the smoothed covariances and ``pvar, vvar, avar`` by
+    their diagonals. Without segmentation only (a reset of Algorithm 1 makes ``P_k+1|k`` singular).
+    """
+    n = t.size
+    e_next = np.zeros(9)
+    e = np.zeros(9)
+    zero = np.zeros(9)
+    for k in range(n - 2, first - 2, -1):
+        dt = t[k + 1] - t[k]
+        F = error_transition(sm_fn[k + 1], dt)
+        Pp = sm_P[k].copy()
+        propagate_covariance(Pp, F, dt, qa, qg)
+        rts_step(zero, sm_P[k], F, -sm_dx[k + 1], Pp, e_next, sm_P[k + 1], e, sm_P[k])
+        for i in range(3):
+            pos[k, i] += e[i]
+            vel[k, i] += e[3 + i]
+        qk = _quat_mul(_quat_exp(e[6:9]), qs[k])
+        qs[k] = qk / math.sqrt(qk[0] ** 2 + qk[1] ** 2 + qk[2] ** 2 + qk[3] ** 2)
+        for i in range(3):
+            pvar[k, i] = sm_P[k, i, i]
+            vvar[k, i] = sm_P[k, 3 + i, 3 + i]
+            avar[k, i] = sm_P[k, 6 + i, 6 + i]
+        e_next[:] = e
 
 
 @dataclass(frozen=True)
@@ -573,9 +631,17 @@ class KernelOutput:
 
 
 def run_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, state: FilterState,
-               config: ZuptConfig, setup: KernelSetup) -> KernelOutput:
-    """Run the filter loop over samples ``first..N-1`` of contiguous arrays, updating ``state`` in place."""
+               config: ZuptConfig, setup: KernelSetup, smooth: bool = False) -> KernelOutput:
+    """Run the filter loop over samples ``first..N-1`` of contiguous arrays, updating ``state`` in place.
+
+    With ``smooth`` (offline, without segmentation) the RTS backward pass then replaces the per-sample outputs
+    from ``first - 1`` on by the smoothed ones; ``state`` stays the causal filter's.
+    """
+    if smooth and setup.seg_on:
+        raise InputError("the RTS smoother works without step segmentation only", field="smoother")
     n = t.size
+    m = n if smooth else 0
+    sm_P, sm_fn, sm_dx = np.zeros((m, 9, 9)), np.zeros((m, 3)), np.zeros((m, 9))
     max_steps = n // max(1, setup.c_min) + 2 if setup.seg_on else 1
     out = KernelOutput(np.zeros((n, 3)), np.zeros((n, 3)), np.tile(state.q, (n, 1)), np.zeros((n, 3)),
                        np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(max_steps, dtype=np.int64),
@@ -585,14 +651,17 @@ def run_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, stat
                           config.sigma_zupt**2, setup.seg_on, setup.gamma_p, setup.c_min, setup.c_max, state.p,
                           state.v, state.q, state.P, state.dr, state.counters, out.pos, out.vel, out.qs, out.pvar,
                           out.vvar, out.avar, out.step_idx, out.step_dp, out.step_dpsi, out.step_cov,
-                          config.hde_params(), state.hde)
+                          config.hde_params(), state.hde, sm_P, sm_fn, sm_dx)
+    if smooth:
+        zupt_smooth_kernel(t, first, config.sigma_acc**2, config.sigma_gyro**2, sm_P, sm_fn, sm_dx, out.pos,
+                           out.vel, out.qs, out.pvar, out.vvar, out.avar)
     return replace(out, step_idx=out.step_idx[:n_steps], step_dp=out.step_dp[:n_steps],
                    step_dpsi=out.step_dpsi[:n_steps], step_cov=out.step_cov[:n_steps])
 
 
 def run_zupt(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity: ArrayLike,
              config: ZuptConfig | None = None, segmentation: Segmentation | None = None,
-             rate_hz: float | None = None) -> ZuptTrack:
+             rate_hz: float | None = None, smooth: bool = False) -> ZuptTrack:
     """Run the ZUPT-aided INS over a recording (seed 001 eqs. 1-5; Algorithm 1 with ``segmentation``).
 
     Parameters
@@ -612,6 +681,9 @@ def run_zupt(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity:
     rate_hz
         Sampling rate that sets the sample counts of the initialisation and of Algorithm 1, Hz (default: from
         the median sample interval).
+    smooth
+        Offline only: replace the filtered track by the RTS-smoothed one (:func:`zupt_smooth_kernel`, the
+        error-state form of :mod:`pdr.filters.rts`); not with ``segmentation``. Memory: about 0.8 kB per sample.
 
     Returns
     -------
@@ -637,9 +709,14 @@ def run_zupt(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity:
     q0 = initial_attitude_from_gravity(np.mean(f_b[a:b], axis=0), yaw=cfg.yaw0)
 
     state = FilterState.initial(q0, cfg)
-    out = run_kernel(t, f_b, w_b, zv, a + 1, state, cfg, setup)
-    out.vvar[: a + 1] = cfg.init_sigma_vel**2
-    out.avar[: a + 1] = np.diag(FilterState.initial(q0, cfg).P)[ATT]
+    out = run_kernel(t, f_b, w_b, zv, a + 1, state, cfg, setup, smooth=smooth)
+    if smooth:
+        # Samples before navigation starts take the smoothed state of its first sample.
+        for arr in (out.pos, out.vel, out.qs, out.pvar, out.vvar, out.avar):
+            arr[:a] = arr[a]
+    else:
+        out.vvar[: a + 1] = cfg.init_sigma_vel**2
+        out.avar[: a + 1] = np.diag(FilterState.initial(q0, cfg).P)[ATT]
     steps = tuple(StepIncrement(float(t[k]), int(k), dp.copy(), float(dpsi), cov.copy())
                   for k, dp, dpsi, cov in zip(out.step_idx, out.step_dp, out.step_dpsi, out.step_cov, strict=True))
     return ZuptTrack(t, out.pos, out.vel, quat.normalize(out.qs), zv, out.pvar, out.vvar, out.avar, steps, a,
