@@ -12,7 +12,7 @@ Model (eq. 19): ``Delta s_k = K p_j(k)^q + b``. :func:`fit_model` fits ``K`` and
 squares on walked distances of known length (segments between landmarks: the sum over the segment's
 steps of ``K p^q + b`` must equal the segment length), for each pattern ``j`` and exponent ``q``;
 :func:`calibrate_k` rescales ``K`` for one user from one walk of known length (``pdr calibrate``).
-On stairs the step is shorter: ``stairs_factor`` scales the horizontal step length there.
+On stairs the step is shorter: one tread, ``stairs_m``, whoever walks.
 """
 
 from __future__ import annotations
@@ -65,18 +65,29 @@ def step_patterns(a_n: FloatArray, a_v: FloatArray, rate_hz: float) -> FloatArra
 
 @dataclass(frozen=True)
 class StepLengthModel:
-    """``Delta s = K p^q + b`` (eq. 19) on one pattern, with a shorter step on stairs.
+    """``Delta s = K p^q + b`` (eq. 19) on one pattern; on stairs a fixed, shorter horizontal step.
 
-    The default (``K = 0.452 * p1^0.5``, i.e. proportional to the square root of the step frequency) won on
-    the IPIN 2023 hand-held development logs (``pdr calibrate --fit DIR``: median distance error 2.0 %
-    leave-one-log-out; p4^0.25 3.1 %, p5^0.25 3.4 %, p2 and p3 worse). It is a population default; use
-    ``pdr calibrate`` for a user or a different carriage. Those logs come from two phones (two actors): the
-    SM-G930F logs (trials 21, 26, 52) need 0.66-0.70 m per detected step on the flat where the SM-A520F
-    logs need 0.55-0.60 m, at the same cadence, and no pattern separates them (refitting K and b of every
-    pattern and exponent leaving one route out, over the flat landmark intervals: the best worst-route
-    error is 17 %, p1^1 with an offset, this pattern 21 %; at least 14 of 25 logs stay outside 3 %).
-    Rescaling ``K`` for that walker on the other G930F routes (:func:`calibrate_k`, leaving the route out)
-    brings their distance ratios over the flat landmark intervals from 0.82-0.86 to 0.96-1.03.
+    Default ``K = 0.4575 * p1^0.5`` (step length proportional to the square root of the step frequency): ``K``
+    is the least-squares fit (relative error) over the landmark intervals on one floor of the 25 IPIN 2023
+    hand-held development logs (``pdr calibrate DIR --fit --placement hand``). Leaving each log's route out of
+    the fit, p1^0.5 gives a median distance error of 3.2 % (13 of 25 logs outside 3 %, worst 18 %); p1^(1/3)
+    2.8 % (12, 17 %) wins that table narrowly but lengthens the MS indoor hand-held traces' 75th percentile
+    error (``pdr eval ms``: 4.66 -> 4.83 m; this model: 4.57 m), so p1^0.5 stays. p2-p6 and fits with an
+    offset ``b`` do worse (offset fits turn ``K`` negative: a constant step).
+
+    It is a population default. The logs come from two phones, which stand for two actors: the SM-G930F
+    logs (trials 21, 26, 52) need 0.64-0.69 m per detected step on the flat where the SM-A520F logs need
+    0.52-0.63 m, at the same cadence, and no pattern separates them. Per-user calibration (:func:`calibrate_k`,
+    ``pdr calibrate``) on the same phone's other routes moves those logs from 0.81-0.88 to 0.93-1.07
+    (``pdr eval ipin DIR --calibrate cross``). The same walker's stride also differs between routes and
+    between repetitions of one route by up to 5-9 % at the same cadence, which no pattern here explains.
+
+    Stairs: seed 004 only says the step is "forced to be shorter". A step on stairs covers one tread, a
+    property of the staircase rather than the walker, so its horizontal length is ``stairs_m`` (not scaled
+    by ``K``; a per-user calibration leaves it alone). Default 0.33 m: the barometer gives 0.145-0.156 m of
+    height per stairs step over the four flights of IPIN trial 52, and the stair step rule 2 R + T = 0.63 m
+    then gives a tread T of 0.32-0.34 m. No data set here has the horizontal path on stairs, so this is not
+    measured against truth.
 
     Attributes
     ----------
@@ -84,33 +95,32 @@ class StepLengthModel:
         ``p1`` ... ``p6``.
     k, q, b
         Scale (m per pattern unit^q), exponent, offset (m).
-    stairs_factor
-        Multiplier of the horizontal step length on stairs.
+    stairs_m
+        Horizontal length of a step on stairs (m).
     min_m, max_m
-        Clamp of a single step length (m).
+        Clamp of a single step length on the flat (m).
     """
 
     pattern: str = "p1"
-    k: float = 0.452
+    k: float = 0.4575
     q: float = 0.5
     b: float = 0.0
-    stairs_factor: float = 0.6
+    stairs_m: float = 0.33
     min_m: float = 0.2
     max_m: float = 1.4
 
     def __post_init__(self) -> None:
         if self.pattern not in PATTERNS:
             raise InputError(f"pattern must be one of {PATTERNS}", field="pattern", source="step length model")
-        for name in ("k", "q", "b", "stairs_factor", "min_m", "max_m"):
+        for name in ("k", "q", "b", "stairs_m", "min_m", "max_m"):
             if not np.isfinite(getattr(self, name)):
                 raise InputError("must be finite", field=name, source="step length model")
 
     def length(self, patterns: FloatArray, on_stairs: bool | FloatArray = False) -> FloatArray:
-        """Step length(s) in m from (6,) or (K, 6) patterns."""
+        """Horizontal step length(s) in m from (6,) or (K, 6) patterns; ``stairs_m`` where ``on_stairs``."""
         p = np.asarray(patterns, dtype=np.float64)[..., PATTERNS.index(self.pattern)]
-        s = self.k * np.maximum(p, 0.0) ** self.q + self.b
-        s = np.where(on_stairs, s * self.stairs_factor, s)
-        return np.clip(s, self.min_m, self.max_m)
+        s = np.clip(self.k * np.maximum(p, 0.0) ** self.q + self.b, self.min_m, self.max_m)
+        return np.where(on_stairs, self.stairs_m, s)
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -150,8 +160,8 @@ class FitResult:
         return float(np.sqrt(np.mean(self.rel_errors**2)))
 
 
-def fit_model(segments: list[tuple[FloatArray, float]], pattern: str, q: float, fit_offset: bool = True,
-              stairs_factor: float = 0.6) -> FitResult:
+def fit_model(segments: list[tuple[FloatArray, float]], pattern: str, q: float, fit_offset: bool = True
+              ) -> FitResult:
     """Least-squares ``K`` (and ``b``) of eq. 19 from segments of known length.
 
     Parameters
@@ -181,27 +191,28 @@ def fit_model(segments: list[tuple[FloatArray, float]], pattern: str, q: float, 
     sol, *_ = np.linalg.lstsq(a, np.array(rhs), rcond=None)
     k = float(sol[0])
     b = float(sol[1]) if fit_offset else 0.0
-    model = StepLengthModel(pattern=pattern, k=k, q=q, b=b, stairs_factor=stairs_factor, min_m=0.0, max_m=10.0)
+    model = StepLengthModel(pattern=pattern, k=k, q=q, b=b, min_m=0.0, max_m=10.0)
     rel = a @ sol - 1.0
     return FitResult(model, rel)
 
 
 def calibrate_k(model: StepLengthModel, patterns: FloatArray, walked_m: float,
                 on_stairs: FloatArray | None = None) -> StepLengthModel:
-    """Per-user calibration: rescale ``K`` so the walk's steps add up to ``walked_m`` (b kept).
+    """Per-user calibration: rescale ``K`` so the walk's steps add up to ``walked_m`` (``b``, ``stairs_m`` kept).
 
-    ``on_stairs`` (K,) bool marks steps whose length the model shortens by ``stairs_factor``.
+    ``on_stairs`` (K,) bool marks steps on stairs: they count ``stairs_m`` each and do not inform ``K``.
+    The clamp ``min_m``/``max_m`` is not applied while solving.
     """
     if not walked_m > 0:
         raise InputError(f"walked distance must be positive, got {walked_m}", field="distance_m")
     pats = np.asarray(patterns, dtype=np.float64)
-    if pats.ndim != 2 or pats.shape[0] < 5:
-        raise InputError(f"need at least 5 detected steps to calibrate, got {pats.shape[0] if pats.ndim else 0}",
-                         source="calibration")
-    j = PATTERNS.index(model.pattern)
-    f = np.ones(pats.shape[0]) if on_stairs is None else np.where(np.asarray(on_stairs, bool), model.stairs_factor, 1.0)
-    sp = float(np.sum(f * np.maximum(pats[:, j], 0.0) ** model.q))
-    k = (walked_m - model.b * float(np.sum(f))) / sp
+    stairs = np.zeros(pats.shape[0] if pats.ndim else 0, bool) if on_stairs is None else np.asarray(on_stairs, bool)
+    flat = pats[~stairs] if pats.ndim == 2 else pats
+    if flat.ndim != 2 or flat.shape[0] < 5:
+        raise InputError(f"need at least 5 detected steps off stairs to calibrate, got "
+                         f"{flat.shape[0] if flat.ndim else 0}", source="calibration")
+    sp = float(np.sum(np.maximum(flat[:, PATTERNS.index(model.pattern)], 0.0) ** model.q))
+    k = (walked_m - model.stairs_m * float(np.sum(stairs)) - model.b * flat.shape[0]) / sp
     if not k > 0:
         raise InputError("calibration gives a non-positive scale; check the distance", field="distance_m")
     return StepLengthModel(**{**asdict(model), "k": k})

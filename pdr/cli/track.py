@@ -142,6 +142,11 @@ def register_eval(targets: argparse._SubParsersAction) -> None:
         p.add_argument("--limit", type=int, default=0, help="only the first N files (0: all)")
         if name != "steps":
             _common_options(p)
+        if name == "ipin":
+            p.add_argument("--calibrate", default="none", choices=("none", "cross", "cross-rep"),
+                           help="also score each log after recalibrating the step-length scale K (pdr calibrate) "
+                                "on OTHER logs of the same phone: cross = its other routes, cross-rep = the other "
+                                "repetitions of its route (never the log itself)")
         p.set_defaults(func=func)
 
 
@@ -167,15 +172,66 @@ def _emit(summary: dict[str, Any], per_file: list[dict[str, Any]], as_json: bool
             print(line)
 
 
+def _ipin_scores(rows: list[dict[str, Any]], t_truth: np.ndarray, pt: Any) -> dict[str, Any]:
+    """Landmark errors, distance ratios and floor agreement of one track (see :mod:`pdr.scoring`)."""
+    t = np.array([r["t_s"] for r in rows])
+    en = np.array([[r["east_m"], r["north_m"]] for r in rows])
+    e_abs = landmark_errors(t, en, t_truth, pt.pos_m, "none")
+    e_al = landmark_errors(t, en, t_truth, pt.pos_m, "first-segment")
+    floors = pt.floor if pt.floor is not None else np.zeros(len(t_truth))
+    floors_ok = None
+    if pt.floor is not None and np.isfinite(pt.floor).all():
+        est_floor = np.array([r["floor"] for r in rows])
+        floors_ok = float(np.mean(est_floor[np.clip(np.searchsorted(t, t_truth), 0, len(rows) - 1)] == pt.floor))
+    return {"steps": len(rows), "landmarks": int(e_abs.size), "p75_abs_m": _pct(e_abs, 75),
+            "median_abs_m": _pct(e_abs, 50), "p75_aligned_m": _pct(e_al, 75),
+            "distance_ratio": distance_ratio(t, en, t_truth, pt.pos_m),
+            "distance_ratio_same_floor": distance_ratio_same_floor(t, en, t_truth, pt.pos_m, floors),
+            "floor_correct": floors_ok, "_abs": e_abs, "_aligned": e_al}
+
+
+def _ipin_summary(scores: list[dict[str, Any]]) -> dict[str, Any]:
+    a = np.concatenate([p["_abs"] for p in scores]) if scores else np.zeros(0)
+    s = np.concatenate([p["_aligned"] for p in scores]) if scores else np.zeros(0)
+    r = np.array([p["distance_ratio"] for p in scores])
+    rf = np.array([p["distance_ratio_same_floor"] for p in scores])
+    rf = rf[np.isfinite(rf)]
+    return {"files": len(scores), "median_abs_m": _pct(a, 50), "p75_abs_m": _pct(a, 75),
+            "median_aligned_m": _pct(s, 50), "p75_aligned_m": _pct(s, 75),
+            "distance_ratio_median": _pct(r, 50), "distance_ratio_iqr": [_pct(r, 25), _pct(r, 75)],
+            "abs_ratio_minus_1_median": _pct(np.abs(r - 1), 50), "abs_ratio_minus_1_max": _pct(np.abs(r - 1), 100),
+            "same_floor_ratio_median": _pct(rf, 50), "same_floor_ratio_iqr": [_pct(rf, 25), _pct(rf, 75)],
+            "same_floor_abs_ratio_minus_1_max": _pct(np.abs(rf - 1), 100),
+            "same_floor_outside_3pct": int(np.sum(np.abs(rf - 1) > 0.03))}
+
+
+def _ipin_summary_line(label: str, m: dict[str, Any]) -> str:
+    return (f"{label} ({m['files']} files): absolute median {m['median_abs_m']:.2f} "
+            f"p75 {m['p75_abs_m']:.2f} m; aligned median {m['median_aligned_m']:.2f} "
+            f"p75 {m['p75_aligned_m']:.2f} m; distance ratio median {m['distance_ratio_median']:.3f} "
+            f"(IQR {m['distance_ratio_iqr'][0]:.3f}-{m['distance_ratio_iqr'][1]:.3f}), "
+            f"max |ratio-1| {m['abs_ratio_minus_1_max']:.3f}; same-floor distance ratio median "
+            f"{m['same_floor_ratio_median']:.3f} (IQR {m['same_floor_ratio_iqr'][0]:.3f}-"
+            f"{m['same_floor_ratio_iqr'][1]:.3f}), max |ratio-1| "
+            f"{m['same_floor_abs_ratio_minus_1_max']:.3f}, {m['same_floor_outside_3pct']} outside 3 %")
+
+
 def eval_ipin(args: argparse.Namespace) -> int:
+    """Per-file and overall IPIN figures; with ``--calibrate`` also after a per-phone step-length calibration.
+
+    ``--calibrate cross``: each log's step-length scale K is recalibrated (``pdr calibrate``'s code,
+    :func:`pdr.cli.calibrate.calibrate_on_walks`) on the same phone's logs of OTHER routes, over their
+    landmark intervals on one floor; ``cross-rep``: on the other repetitions of the same route with the same
+    phone. The evaluated log never takes part in its own calibration. The phone model stands for the walker.
+    """
+    from dataclasses import replace
+
+    from pdr.cli.calibrate import calibrate_on_walks, calibration_partners, landmark_walk, trial_key
     files = _files(args.dir, ("*.txt", "*.txt.gz", "*.mat"))
     if args.limit:
         files = files[:args.limit]
     per: list[dict[str, Any]] = []
-    abs_all: list[np.ndarray] = []
-    al_all: list[np.ndarray] = []
-    ratios: list[float] = []
-    flat_ratios: list[float] = []
+    done: list[dict[str, Any]] = []           # scored files with what a second pass needs
     site = Site.load(args.site) if args.site else None
     for f in files:
         rec = read_recording(f)
@@ -184,7 +240,8 @@ def eval_ipin(args: argparse.Namespace) -> int:
             continue
         t_truth = rec.origin_ns / 1e9 + pt.t_s
         floor0 = float(pt.floor[0]) if pt.floor is not None and np.isfinite(pt.floor[0]) else 0.0
-        rows, notices = run_pipeline(rec, config_from_args(args, floor0), site)
+        cfg = config_from_args(args, floor0)
+        rows, notices = run_pipeline(rec, cfg, site)
         name = f.name[:-4] if f.name.endswith(".txt") else f.name
         if args.tracks:
             Path(args.tracks).mkdir(parents=True, exist_ok=True)
@@ -192,56 +249,58 @@ def eval_ipin(args: argparse.Namespace) -> int:
         if len(rows) < 2:
             per.append({"file": f.name, "steps": len(rows), "error": "empty track", "notices": notices})
             continue
-        t = np.array([r["t_s"] for r in rows])
-        en = np.array([[r["east_m"], r["north_m"]] for r in rows])
-        e_abs = landmark_errors(t, en, t_truth, pt.pos_m, "none")
-        e_al = landmark_errors(t, en, t_truth, pt.pos_m, "first-segment")
-        ratio = distance_ratio(t, en, t_truth, pt.pos_m)
-        flat = (distance_ratio_same_floor(t, en, t_truth, pt.pos_m, pt.floor) if pt.floor is not None
-                else distance_ratio_same_floor(t, en, t_truth, pt.pos_m, np.zeros(len(t_truth))))
-        if math.isfinite(flat):
-            flat_ratios.append(flat)
-        floors_ok = None
-        if pt.floor is not None and np.isfinite(pt.floor).all():
-            est_floor = np.array([r["floor"] for r in rows])
-            fl = est_floor[np.clip(np.searchsorted(t, t_truth), 0, len(rows) - 1)]
-            floors_ok = float(np.mean(fl == pt.floor))
-        abs_all.append(e_abs)
-        al_all.append(e_al)
-        ratios.append(ratio)
-        per.append({"file": f.name, "steps": len(rows), "landmarks": int(e_abs.size),
-                    "p75_abs_m": _pct(e_abs, 75), "median_abs_m": _pct(e_abs, 50), "p75_aligned_m": _pct(e_al, 75),
-                    "distance_ratio": ratio, "distance_ratio_same_floor": flat, "floor_correct": floors_ok})
-    a = np.concatenate(abs_all) if abs_all else np.zeros(0)
-    s = np.concatenate(al_all) if al_all else np.zeros(0)
-    r = np.array(ratios)
-    rf = np.array(flat_ratios)
-    summary: dict[str, Any] = {"files": len(ratios), "median_abs_m": _pct(a, 50), "p75_abs_m": _pct(a, 75),
-               "median_aligned_m": _pct(s, 50), "p75_aligned_m": _pct(s, 75),
-               "distance_ratio_median": _pct(r, 50), "distance_ratio_iqr": [_pct(r, 25), _pct(r, 75)],
-               "abs_ratio_minus_1_median": _pct(np.abs(r - 1), 50), "abs_ratio_minus_1_max": _pct(np.abs(r - 1), 100),
-               "same_floor_ratio_median": _pct(rf, 50), "same_floor_ratio_iqr": [_pct(rf, 25), _pct(rf, 75)],
-               "same_floor_abs_ratio_minus_1_max": _pct(np.abs(rf - 1), 100),
-               "same_floor_outside_3pct": int(np.sum(np.abs(rf - 1) > 0.03))}
+        p = {"file": f.name, "phone": rec.device.model, **_ipin_scores(rows, t_truth, pt)}
+        per.append(p)
+        done.append({"path": f, "per": p, "cfg": cfg, "route": trial_key(f), "phone": rec.device.model,
+                     "walk": landmark_walk(rows, t_truth, pt.pos_m, pt.floor)})
+    summary = _ipin_summary([d["per"] for d in done])
+    calibrated: list[dict[str, Any]] = []
+    if args.calibrate != "none":
+        routes, phones = [d["route"] for d in done], [d["phone"] for d in done]
+        usable = [d["walk"] is not None for d in done]
+        for i, d in enumerate(done):
+            partners = [done[k] for k in calibration_partners(i, routes, phones, usable, args.calibrate)]
+            if not partners:
+                d["per"]["calibrated"] = {"error": "no calibration walk"}
+                continue
+            model = calibrate_on_walks(d["cfg"].step_length, [o["walk"] for o in partners])
+            rec = read_recording(d["path"])
+            truth = rec.truth.positions
+            assert truth is not None   # scored in the first pass
+            rows, _ = run_pipeline(rec, replace(d["cfg"], step_length=model), site)
+            c = {"k": model.k, "calibrated_on": [o["path"].name for o in partners],
+                 **_ipin_scores(rows, rec.origin_ns / 1e9 + truth.t_s, truth)}
+            d["per"]["calibrated"] = c
+            calibrated.append(c)
+        summary["calibrated"] = {"mode": args.calibrate, **_ipin_summary(calibrated)}
+        summary["calibrated"]["without_calibration_walk"] = len(done) - len(calibrated)
 
     def lines() -> Iterator[str]:
         for p in per:
             if "error" in p:
                 yield f"{p['file']}: {p['error']}"
-            else:
-                yield (f"{p['file']}: p75 {p['p75_abs_m']:.2f} m absolute, {p['p75_aligned_m']:.2f} m aligned, "
-                       f"ratio {p['distance_ratio']:.3f} (same floor {p['distance_ratio_same_floor']:.3f}), "
-                       f"{p['steps']} steps")
-        yield (f"ALL ({summary['files']} files): absolute median {summary['median_abs_m']:.2f} "
-               f"p75 {summary['p75_abs_m']:.2f} m; aligned median {summary['median_aligned_m']:.2f} "
-               f"p75 {summary['p75_aligned_m']:.2f} m; distance ratio median {summary['distance_ratio_median']:.3f} "
-               f"(IQR {summary['distance_ratio_iqr'][0]:.3f}-{summary['distance_ratio_iqr'][1]:.3f}), "
-               f"max |ratio-1| {summary['abs_ratio_minus_1_max']:.3f}; same-floor distance ratio median "
-               f"{summary['same_floor_ratio_median']:.3f} (IQR {summary['same_floor_ratio_iqr'][0]:.3f}-"
-               f"{summary['same_floor_ratio_iqr'][1]:.3f}), max |ratio-1| "
-               f"{summary['same_floor_abs_ratio_minus_1_max']:.3f}, {summary['same_floor_outside_3pct']} "
-               f"outside 3 %")
-    _emit(summary, per, args.json, lines())
+                continue
+            line = (f"{p['file']}: p75 {p['p75_abs_m']:.2f} m absolute, {p['p75_aligned_m']:.2f} m aligned, "
+                    f"ratio {p['distance_ratio']:.3f} (same floor {p['distance_ratio_same_floor']:.3f}), "
+                    f"{p['steps']} steps")
+            c = p.get("calibrated")
+            if c is not None:
+                line += (f" | {c['error']}" if "error" in c else
+                         f" | calibrated K {c['k']:.4f} on {len(c['calibrated_on'])} logs: ratio "
+                         f"{c['distance_ratio']:.3f} (same floor {c['distance_ratio_same_floor']:.3f}), "
+                         f"p75 {c['p75_abs_m']:.2f} m absolute")
+            yield line
+        yield _ipin_summary_line("ALL", summary)
+        if "calibrated" in summary:
+            m = summary["calibrated"]
+            yield _ipin_summary_line(f"CALIBRATED --calibrate {m['mode']}", m) + (
+                f"; {m['without_calibration_walk']} files without a calibration walk (default model)"
+                if m["without_calibration_walk"] else "")
+    out = [{k: v for k, v in p.items() if not k.startswith("_")} for p in per]
+    for p in out:
+        if isinstance(p.get("calibrated"), dict):
+            p["calibrated"] = {k: v for k, v in p["calibrated"].items() if not k.startswith("_")}
+    _emit(summary, out, args.json, lines())
     return 0
 
 

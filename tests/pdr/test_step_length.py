@@ -44,11 +44,30 @@ def test_calibrate_and_save_load(tmp_path):
         StepLengthModel.load(tmp_path / "bad.json")
     with pytest.raises(InputError, match="at least 5"):
         calibrate_k(m, pats[:2], 3.0)
+    with pytest.raises(InputError, match="at least 5"):   # steps on stairs do not inform K
+        calibrate_k(m, pats[:6], 3.0, np.array([True] * 2 + [False] * 4))
     with pytest.raises(InputError, match="pattern"):
         StepLengthModel(pattern="p9")
 
 
-def test_stairs_shorter():
-    m = StepLengthModel()
-    p = np.full(6, 9.0)
-    assert m.length(p, True) < m.length(p, False)
+def test_stairs_step_is_one_tread_whoever_walks():
+    p = np.full(6, 1.8)                        # 1.8 steps/s
+    for k in (0.40, 0.55):
+        m = StepLengthModel(k=k)
+        assert m.length(p, True) == pytest.approx(m.stairs_m)
+        assert m.length(p, True) < m.length(p, False)
+    flags = np.array([False, True, True, False])
+    assert np.allclose(StepLengthModel().length(np.tile(p, (4, 1)), flags)[flags], StepLengthModel().stairs_m)
+
+
+def test_calibration_recovers_k_from_a_walk_with_stairs():
+    """Simulate a walk (flat steps from eq. 19 with a known K, stairs steps of one tread), recover K."""
+    rng = np.random.default_rng(3)
+    pats = rng.uniform(1.4, 2.2, (60, 6))
+    stairs = np.zeros(60, bool)
+    stairs[20:35] = True
+    truth = StepLengthModel(k=0.52, q=0.5, stairs_m=0.30)
+    walked = float(np.sum(truth.length(pats, stairs)))
+    got = calibrate_k(StepLengthModel(k=0.45, q=0.5, stairs_m=0.30), pats, walked, stairs)
+    assert got.k == pytest.approx(0.52, rel=1e-9)
+    assert got.stairs_m == 0.30 and got.b == 0.0
