@@ -79,7 +79,9 @@ def distance_ratio_same_floor(track_t: FloatArray, track_en: FloatArray, truth_t
 
     The true path between two landmarks is known only as the straight line between them; across a floor
     change that line is not the walked path (a flight of stairs winds: IPIN trial 52 descends two floors
-    in a full turn whose ends are 3.5 m apart), so those intervals are left out. Within each interval the
+    in a full turn whose ends are 3.5 m apart; its whole-route ratio is about 2 for that reason), so those
+    intervals are left out. Trial 52's same-floor ratio (0.90-0.92 with the default step length) is then not a
+    truth artefact: it is the SM-G930F walker's longer stride, as on trials 21 and 26. Within each interval the
     track is interpolated at both landmark times, so no partial step is lost at a landmark. NaN if no
     interval is left.
     """

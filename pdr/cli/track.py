@@ -249,10 +249,13 @@ def eval_ipin(args: argparse.Namespace) -> int:
         if len(rows) < 2:
             per.append({"file": f.name, "steps": len(rows), "error": "empty track", "notices": notices})
             continue
-        p = {"file": f.name, "phone": rec.device.model, **_ipin_scores(rows, t_truth, pt)}
+        walk = landmark_walk(rows, t_truth, pt.pos_m, pt.floor)
+        # Metres per detected step the truth implies on one floor (the walker's stride, if no step is missed).
+        p = {"file": f.name, "phone": rec.device.model, **_ipin_scores(rows, t_truth, pt),
+             "truth_m_per_step": walk.length_m / walk.patterns.shape[0] if walk is not None else math.nan}
         per.append(p)
         done.append({"path": f, "per": p, "cfg": cfg, "route": trial_key(f), "phone": rec.device.model,
-                     "walk": landmark_walk(rows, t_truth, pt.pos_m, pt.floor)})
+                     "walk": walk})
     summary = _ipin_summary([d["per"] for d in done])
     calibrated: list[dict[str, Any]] = []
     if args.calibrate != "none":
@@ -282,7 +285,8 @@ def eval_ipin(args: argparse.Namespace) -> int:
                 continue
             line = (f"{p['file']}: p75 {p['p75_abs_m']:.2f} m absolute, {p['p75_aligned_m']:.2f} m aligned, "
                     f"ratio {p['distance_ratio']:.3f} (same floor {p['distance_ratio_same_floor']:.3f}), "
-                    f"{p['steps']} steps")
+                    f"{p['steps']} steps ({p['truth_m_per_step']:.3f} m/step on one floor by truth, "
+                    f"{p['phone'] or 'phone ?'})")
             c = p.get("calibrated")
             if c is not None:
                 line += (f" | {c['error']}" if "error" in c else
