@@ -39,6 +39,8 @@ def _detector_config(args: argparse.Namespace) -> DetectorConfig:
     kw: dict[str, Any] = {"method": args.detector, "adaptive": not args.fixed_threshold}
     if args.threshold is not None:
         kw["threshold"] = args.threshold
+    if args.run_gain is not None:
+        kw["run_gain"] = args.run_gain
     return DetectorConfig(**kw)
 
 
@@ -52,6 +54,11 @@ def _add_options(p: argparse.ArgumentParser, evaluation: bool = False) -> None:
     p.add_argument("--detector", choices=DETECTORS, default="shoe", help="zero-velocity detector (default shoe)")
     p.add_argument("--threshold", type=float, help="detector threshold gamma_z (default 3e4)")
     p.add_argument("--fixed-threshold", action="store_true", help="disable the gait-adaptive threshold")
+    p.add_argument("--run-gain", type=float, help="factor of the gait-adaptive threshold (default "
+                                                  f"{DetectorConfig().run_gain:g})")
+    p.add_argument("--gyro-bias", choices=("on", "off"), default="off",
+                   help="OFFLINE ONLY, method zupt only: remove the gyroscope bias measured over the still samples of "
+                        "the whole recording (default off: PyShoe and foot_stride_gcp gain, xio_gait_loop loses)")
     smoother = ("on", "off", "both") if evaluation else ("on", "off")
     p.add_argument("--smoother", choices=smoother, default="on",
                    help="OFFLINE ONLY, method zupt only: Rauch-Tung-Striebel fixed-interval smoother over the whole "
@@ -184,7 +191,8 @@ def run_foot(args: argparse.Namespace) -> int:
     if not args.log:
         raise InputError("give a foot IMU LOG (or --left and --right for dual-foot fusion)", field="log")
     rec = read_recording(args.log)
-    imu, track = navigate(rec, args.method, _detector_config(args), smooth=args.smoother == "on")
+    imu, track = navigate(rec, args.method, _detector_config(args), smooth=args.smoother == "on",
+                          gyro_bias=args.gyro_bias == "on")
     for w in track.warnings:
         print(f"warning: {w}", file=sys.stderr)
     if args.per_step:
@@ -251,7 +259,7 @@ def _navigate_variant(rec: Any, variant: str, args: argparse.Namespace) -> tuple
     method = name.removesuffix(NO_SMOOTHER)
     smooth = args.smoother != "off" and not name.endswith(NO_SMOOTHER)
     zupt = ZuptConfig(hde_directions=0) if variant.endswith(NO_HDE) else None
-    return navigate(rec, method, _detector_config(args), zupt=zupt, smooth=smooth)
+    return navigate(rec, method, _detector_config(args), zupt=zupt, smooth=smooth, gyro_bias=args.gyro_bias == "on")
 
 
 def eval_pyshoe(d: Path, args: argparse.Namespace, tracks: Path | None, method: str) -> dict[str, Any]:

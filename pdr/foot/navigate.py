@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.foot.bc import BCConfig, run_bc
-from pdr.foot.detectors import DetectorConfig, detect
+from pdr.foot.detectors import DetectorConfig, detect, stationary_gyro_bias
 from pdr.foot.filterbank import FilterBankConfig, run_filterbank
 from pdr.foot.zupt import Segmentation, ZuptConfig, run_zupt
 from pdr.preprocess import find_gaps
@@ -146,7 +146,8 @@ def foot_imu(recording: Recording) -> FootImu:
 
 def navigate(recording: Recording, method: str = "zupt", detector: DetectorConfig | None = None,
              zupt: ZuptConfig | None = None, segmentation: Segmentation | None = None,
-             filterbank: FilterBankConfig | None = None, smooth: bool = True) -> tuple[FootImu, Any]:
+             filterbank: FilterBankConfig | None = None, smooth: bool = True,
+             gyro_bias: bool = False) -> tuple[FootImu, Any]:
     """Foot-mounted navigation of a recording.
 
     Parameters
@@ -164,6 +165,9 @@ def navigate(recording: Recording, method: str = "zupt", detector: DetectorConfi
         ``zupt`` only: the RTS fixed-interval smoother over the whole recording (:func:`pdr.foot.zupt.run_zupt`;
         default on, since this function processes a whole recording offline; :mod:`pdr.foot.online` keeps the
         causal filter); other methods ignore it.
+    gyro_bias
+        ``zupt`` only, offline: remove the gyroscope bias measured over the still samples of the whole recording
+        (:func:`pdr.foot.detectors.stationary_gyro_bias`) before navigating; other methods ignore it.
 
     Returns
     -------
@@ -185,6 +189,9 @@ def navigate(recording: Recording, method: str = "zupt", detector: DetectorConfi
             fb = replace(fb, variant=variant)
         return imu, replace(run_filterbank(imu.t_s, imu.acc_b, imu.gyro_b, zv, fb), warnings=imu.warnings)
     seg = (segmentation or Segmentation()) if method == "stepwise" else None
-    track = run_zupt(imu.t_s, imu.acc_b, imu.gyro_b, zv, zupt, seg, rate_hz=imu.rate_hz,
+    gyro = imu.gyro_b
+    if gyro_bias and method == "zupt":
+        gyro = gyro - stationary_gyro_bias(imu.acc_b, gyro, imu.rate_hz)
+    track = run_zupt(imu.t_s, imu.acc_b, gyro, zv, zupt, seg, rate_hz=imu.rate_hz,
                      smooth=smooth and seg is None)
     return imu, replace(track, warnings=imu.warnings + track.warnings)

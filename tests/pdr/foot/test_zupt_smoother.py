@@ -53,3 +53,10 @@ def test_smoother_refuses_segmentation() -> None:
     g = simulate_gait(n_strides=2)
     with pytest.raises(InputError, match="without step segmentation"):
         run_zupt(g.t_s, g.acc_b, g.gyro_b, g.stance, segmentation=Segmentation(), smooth=True)
+
+
+def test_eval_names_filtered_and_smoothed_runs() -> None:
+    from pdr.cli.foot import eval_variants
+    assert eval_variants(("zupt", "bc"), "on", "both") == ("zupt", "zupt/filtered", "bc")
+    assert eval_variants(("zupt",), "both", "on") == ("zupt", "zupt/no-hde")
+    assert eval_variants(("zupt",), "off", "both") == ("zupt/no-hde", "zupt/filtered/no-hde")
