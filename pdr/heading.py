@@ -54,12 +54,24 @@ Device heading (hand-held and torso)
     The yaw of the device forward axis averaged over the step (seed 004 eq. 21, on the unwrapped yaw),
     plus an offset: zero by default, or the running doubled-angle mean of ``RMPCA - device yaw`` reduced
     to (-90, 90] degrees when ``offset="pca"``.
+
+Heuristic drift elimination of the step heading (:class:`StepDriftElimination`)
+    Indoors the magnetometer-referenced heading is deflected by the building's steel by tens of degrees,
+    differently from place to place, while the walks follow a few dominant directions. The heuristic drift
+    elimination of the foot navigators (:mod:`pdr.foot.drift`: a two-state Kalman filter of the heading
+    error, straight strides near a dominant direction measure it) is applied to the per-step heading: its
+    stride positions are those of the corrected step headings and lengths, and the correction is added to
+    the heading of the following steps (positions already output are not moved). The dominant directions
+    are learnt online from the walk itself (no map): the circular mean of ``n_dir psi`` over the raw
+    (uncorrected) directions of the strides in straight runs of at least ``learn_min_strides`` strides,
+    so a short stretch (or the handling before a walk) does not set them.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -67,6 +79,7 @@ from numpy.typing import NDArray
 from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.filters.ukf import SigmaPoints
+from pdr.foot import drift
 from pdr.frames import wrap_angle
 
 FloatArray = NDArray[np.float64]
@@ -308,4 +321,120 @@ class OffsetEstimator:
     def from_dict(cls, d: dict[str, float]) -> OffsetEstimator:
         o = cls(float(d["weight"]))
         o.c, o.s = float(d["c"]), float(d["s"])
+        return o
+
+
+@dataclass(frozen=True)
+class DriftEliminationConfig:
+    """Parameters of :class:`StepDriftElimination` (angles in degrees, SI otherwise).
+
+    Attributes
+    ----------
+    directions
+        Number of evenly spaced dominant directions (4: a rectangular building).
+    sigma_dir_deg
+        Standard deviation of a straight stride's deviation from its dominant direction, as a measurement
+        of the heading error.
+    max_dev_deg
+        Largest deviation from a dominant direction that is taken as heading error.
+    straight_tol_deg
+        Largest direction change between consecutive strides of a straight run.
+    min_strides
+        Straight strides in a row before a stride measures the heading error.
+    learn_min_strides
+        Straight strides in a row before a stride enters the dominant-direction estimate.
+    min_stride_m
+        Shortest stride (m); shorter ones (standing, shuffling) are skipped.
+    sigma_heading_rw_deg
+        Random walk of the heading error (deg/sqrt(s)).
+    steps_per_stride
+        Steps per stride (two: the left-right sway of the device heading cancels over a stride).
+    """
+
+    directions: int = 4
+    sigma_dir_deg: float = 5.0
+    max_dev_deg: float = 10.0
+    straight_tol_deg: float = 5.0
+    min_strides: int = 2
+    learn_min_strides: int = 6
+    min_stride_m: float = 0.5
+    sigma_heading_rw_deg: float = 1.0
+    steps_per_stride: int = 2
+
+    def __post_init__(self) -> None:
+        if self.directions < 1 or self.min_strides < 1 or self.learn_min_strides < 1 or self.steps_per_stride < 1:
+            raise InputError("directions, min_strides, learn_min_strides and steps_per_stride must be >= 1",
+                             source="config", field="drift_elimination")
+
+    def params(self) -> FloatArray:
+        """The parameter vector of :mod:`pdr.foot.drift` (no drift-rate state: the heading error is a random walk)."""
+        return np.array([float(self.directions), math.radians(self.sigma_dir_deg) ** 2,
+                         math.radians(self.max_dev_deg), math.radians(self.straight_tol_deg),
+                         float(self.min_strides), self.min_stride_m, math.radians(self.sigma_heading_rw_deg) ** 2,
+                         0.0])
+
+
+class StepDriftElimination:
+    """Heuristic drift elimination of a per-step walking heading (module doc; :mod:`pdr.foot.drift`).
+
+    Feed every step in order with :meth:`step`; it returns the corrected yaw of that step (rad, ENU).
+    """
+
+    def __init__(self, config: DriftEliminationConfig | None = None) -> None:
+        self.config = config or DriftEliminationConfig()
+        self._par = self.config.params()
+        self.hde = drift.initial_state(0.0)
+        drift.drift_update(self.hde, 0.0, 0.0, self._par)      # the first stride starts at the origin
+        self.correction = 0.0          # added to the raw yaw (rad)
+        self.pos = [0.0, 0.0]          # corrected stride positions (m)
+        self.raw = [0.0, 0.0, 0.0, 0.0]  # raw positions now and at the last stride end (m)
+        self.dominant = [0.0, 0.0]     # sum of w (cos, sin)(n_dir psi) over learning strides
+        self.n_steps = 0
+        self.last_t = 0.0
+
+    def step(self, yaw: float, length_m: float, t_s: float) -> float:
+        """Corrected yaw (rad) of a step of raw yaw ``yaw`` (rad), length ``length_m`` (m), ending at ``t_s`` (s)."""
+        par = self._par
+        if self.n_steps and t_s > self.last_t:
+            self.correction += drift.drift_predict(self.hde, t_s - self.last_t, par)
+        self.last_t = t_s
+        out = float(wrap_angle(yaw + self.correction))
+        self.pos[0] += length_m * math.cos(out)
+        self.pos[1] += length_m * math.sin(out)
+        self.raw[0] += length_m * math.cos(yaw)
+        self.raw[1] += length_m * math.sin(yaw)
+        self.n_steps += 1
+        if self.n_steps % self.config.steps_per_stride == 0:
+            c, s = self.dominant
+            if c != 0.0 or s != 0.0:
+                self.hde[drift.HDE_REF] = math.atan2(s, c) / par[0]
+                self.hde[drift.HDE_HAVE_REF] = 1.0
+            turn = drift.drift_update(self.hde, self.pos[0], self.pos[1], par)
+            dx, dy = self.raw[0] - self.raw[2], self.raw[1] - self.raw[3]
+            if self.hde[drift.HDE_COUNT] >= self.config.learn_min_strides and math.hypot(dx, dy) >= par[5]:
+                psi, w = math.atan2(dy, dx), math.hypot(dx, dy)
+                self.dominant[0] += w * math.cos(par[0] * psi)
+                self.dominant[1] += w * math.sin(par[0] * psi)
+            self.raw[2], self.raw[3] = self.raw[0], self.raw[1]
+            self.correction = float(wrap_angle(self.correction + turn))
+        return out
+
+    @property
+    def updates(self) -> int:
+        """Number of strides that measured the heading error."""
+        return int(self.hde[drift.HDE_UPDATES])
+
+    def to_dict(self) -> dict[str, object]:
+        return {"hde": self.hde.tolist(), "correction": self.correction, "pos": list(self.pos), "raw": list(self.raw),
+                "dominant": list(self.dominant), "n_steps": self.n_steps, "last_t": self.last_t}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any], config: DriftEliminationConfig | None = None) -> StepDriftElimination:
+        o = cls(config)
+        o.hde = np.array(d["hde"], dtype=np.float64)
+        o.correction = float(d["correction"])
+        o.pos = [float(v) for v in d["pos"]]
+        o.raw = [float(v) for v in d["raw"]]
+        o.dominant = [float(v) for v in d["dominant"]]
+        o.n_steps, o.last_t = int(d["n_steps"]), float(d["last_t"])
         return o

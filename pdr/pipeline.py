@@ -47,8 +47,10 @@ from pdr.frames import GRAVITY_MPS2, wrap_angle, yaw_to_heading_deg
 from pdr.grid import OnlineGrid
 from pdr.heading import (
     DirectionVote,
+    DriftEliminationConfig,
     HeadingEstimate,
     OffsetEstimator,
+    StepDriftElimination,
     fuse_landmark,
     improved_rmpca_ut,
     landmark_attitude_update,
@@ -103,6 +105,9 @@ class PipelineConfig:
         Relative standard deviation of a step length, for the position covariance.
     history_s
         Length of the sample history kept for steps not yet processed (s).
+    drift_elimination
+        Hand/torso: heuristic drift elimination of the step heading towards dominant directions learnt
+        from the walk (:class:`pdr.heading.StepDriftElimination`, parameters ``hde``).
     """
 
     rate_hz: float = 50.0
@@ -114,12 +119,14 @@ class PipelineConfig:
     heading_process_var: float = math.radians(5.0) ** 2
     step_length_rel_sigma: float = 0.08
     history_s: float = 30.0
+    drift_elimination: bool = True
     step: StepConfig = field(default_factory=StepConfig)
     attitude: AttitudeConfig = field(default_factory=AttitudeConfig)
     step_length: StepLengthModel = field(default_factory=StepLengthModel)
     floors: FloorConfig = field(default_factory=FloorConfig)
     landmarks: LandmarkConfig = field(default_factory=LandmarkConfig)
     magcal: MagCalConfig = field(default_factory=MagCalConfig)
+    hde: DriftEliminationConfig = field(default_factory=DriftEliminationConfig)
 
     def __post_init__(self) -> None:
         if self.placement not in ("auto", "pocket", "hand", "torso"):
@@ -138,7 +145,8 @@ class PipelineConfig:
     def from_dict(cls, d: dict[str, Any]) -> PipelineConfig:
         try:
             sub = {"step": StepConfig, "attitude": AttitudeConfig, "step_length": StepLengthModel,
-                   "floors": FloorConfig, "landmarks": LandmarkConfig, "magcal": MagCalConfig}
+                   "floors": FloorConfig, "landmarks": LandmarkConfig, "magcal": MagCalConfig,
+                   "hde": DriftEliminationConfig}
             kw = {k: (sub[k](**v) if k in sub else v) for k, v in d.items()}
             return cls(**kw)
         except TypeError as exc:
@@ -257,6 +265,7 @@ class PdrPipeline:
         self.elevator = ElevatorDetector(c.rate_hz, c.landmarks)
         self.track = TrackState(float(start_en_m[0]), float(start_en_m[1]))
         self.offset = OffsetEstimator()
+        self.hde = StepDriftElimination(c.hde)
         self.history = _History(int(c.history_s * c.rate_hz))
         self.placement: str | None = None if c.placement == "auto" else c.placement
         self.t0_ns = 0
@@ -321,7 +330,8 @@ class PdrPipeline:
             "grid": None if self.grid is None else self.grid.to_dict(), "steps": self.steps.state_dict(),
             "attitude": self.attitude.state.to_dict(), "magcal": self.magcal.to_dict(), "floors": self.floors.to_dict(),
             "elevator": self.elevator.to_dict(), "track": self.track.to_dict(), "offset": self.offset.to_dict(),
-            "history": self.history.to_dict(), "placement": self.placement, "t0_ns": self.t0_ns,
+            "hde": self.hde.to_dict(), "history": self.history.to_dict(), "placement": self.placement,
+            "t0_ns": self.t0_ns,
             "prev_yaw": self.prev_yaw, "prev_q": self.prev_q, "prev_mode": self.prev_mode,
             "stairs_landmark": self.stairs_landmark, "landmark_updates": self.landmark_updates,
             "landmark_attitude_updates": self.landmark_attitude_updates,
@@ -346,6 +356,8 @@ class PdrPipeline:
             p.elevator = ElevatorDetector.from_dict(d["elevator"], p.config.landmarks)
             p.track = TrackState.from_dict(d["track"])
             p.offset = OffsetEstimator.from_dict(d["offset"])
+            if d.get("hde") is not None:      # absent in states saved before the drift elimination
+                p.hde = StepDriftElimination.from_dict(d["hde"], p.config.hde)
             p.history = _History.from_dict(d["history"])
             p.placement, p.t0_ns = d["placement"], int(d["t0_ns"])
             p.prev_yaw, p.prev_q, p.prev_mode = d["prev_yaw"], d["prev_q"], str(d["prev_mode"])
@@ -601,6 +613,9 @@ class PdrPipeline:
             # moved by the correction a landmark made here (replacing it by this step's would make every
             # other step resolve against a heading two steps old).
             self.prev_yaw = float(wrap_angle(self.prev_yaw + (est.yaw - rec["yaw"])))
+        if c.drift_elimination and self.placement in ("hand", "torso"):
+            # Heuristic drift elimination towards the walk's dominant directions (pdr.heading module doc).
+            est = HeadingEstimate(self.hde.step(est.yaw, length, rec["t_end"]), est.var)
         self.track.step(length, est.yaw, (c.step_length_rel_sigma * length) ** 2, est.var)
         self.prev_mode = mode
         events.append({
