@@ -43,6 +43,7 @@ from numpy.typing import ArrayLike, NDArray
 from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.foot.drift import drift_predict, drift_update, initial_state, rotate_yaw
+from pdr.foot.saturation import CLIP_EXCESS_FRACTION, clip_variance
 from pdr.foot.zupt import (
     ZuptConfig,
     _quat_exp,
@@ -100,6 +101,15 @@ PI_DEFAULT: dict[str, tuple[tuple[tuple[float, float, float], ...], float]] = {
 ACC_PSD_DEFAULT: dict[str, float | None] = {"speed": None, "height": 0.39}
 #: Default ``sigma_nc`` per variant (see :data:`ACC_PSD_DEFAULT`).
 SIGMA_NC_DEFAULT: dict[str, float] = {"speed": 1.0, "height": 2.73}
+
+#: Attitude process noise of clipped gyroscope samples (:mod:`pdr.foot.saturation`), as the standard deviation of
+#: the unknown excess rate over the full-scale reading, per variant (issue #5, measured on the three foot datasets
+#: with the ZUPT detector defaults, clip noise off -> on at 0.5):
+#: ``speed``: PyShoe median ARMSE 0.069 -> 0.060 m, trials over 1 m 8 -> 4 (five running trials stop diverging,
+#: 2017-11-27-11-13-41 gets worse, 7.7 -> 12.9 m), xio and gcp unchanged except walk 35 (3099 -> 861 %, still
+#: diverging). ``height``: PyShoe median 0.068 -> 0.064 m but foot_stride_gcp walks 34 and 35 diverge further
+#: (11.9 -> 21.3 %, 33 -> 141 %): off.
+CLIP_EXCESS_DEFAULT: dict[str, float] = {"speed": CLIP_EXCESS_FRACTION, "height": 0.0}
 
 
 def check_transition(pi: ArrayLike, field_name: str = "transition") -> Array:
@@ -162,6 +172,13 @@ class FilterBankConfig:
         ``zupt.sigma_acc`` (velocity variance ``sigma_acc^2 dt^2`` per sample, as the ZUPT INS).
     max_leaves
         Leaves kept after pruning (seed: nine).
+    clip_excess
+        Clipped gyroscope samples (:mod:`pdr.foot.saturation`) add attitude process noise for an unknown excess
+        rate with the standard deviation ``clip_excess * |w|`` (rad/s), constant over a run; 0: off; ``None``:
+        :data:`CLIP_EXCESS_DEFAULT` of the variant.
+    student_nu
+        Degrees of freedom of a Student-t in place of the normal density of the branch likelihood (eq. 6c),
+        the heavy-tailed variant that Sec. VI proposes; ``None``: normal (the seed's model).
     zupt
         Process noise and initialisation shared with the ZUPT-aided INS.
     """
@@ -176,6 +193,8 @@ class FilterBankConfig:
     sigma_h: float = 0.01
     acc_psd: float | None = None
     max_leaves: int = 9
+    clip_excess: float | None = None
+    student_nu: float | None = None
     zupt: ZuptConfig = field(default_factory=ZuptConfig)
 
     def __post_init__(self) -> None:
@@ -196,8 +215,16 @@ class FilterBankConfig:
                 raise InputError(f"must be a positive number, got {v}", field=name)
         if self.acc_psd is not None and not (math.isfinite(self.acc_psd) and self.acc_psd > 0):
             raise InputError(f"must be a positive number, got {self.acc_psd}", field="acc_psd")
+        if self.clip_excess is not None and not (math.isfinite(self.clip_excess) and self.clip_excess >= 0):
+            raise InputError(f"must be a non-negative number, got {self.clip_excess}", field="clip_excess")
+        if self.student_nu is not None and not (math.isfinite(self.student_nu) and self.student_nu > 0):
+            raise InputError(f"must be a positive number, got {self.student_nu}", field="student_nu")
         if not 1 <= self.max_leaves <= 243:
             raise InputError("max_leaves must be between 1 and 243", field="max_leaves")
+
+    def clip_fraction(self) -> float:
+        """``clip_excess``, or the variant's default (:data:`CLIP_EXCESS_DEFAULT`)."""
+        return CLIP_EXCESS_DEFAULT[self.variant] if self.clip_excess is None else float(self.clip_excess)
 
     def acc_noise_var(self, rate_hz: float) -> float:
         """Accelerometer process noise ``qa`` of the kernel (velocity variance ``qa dt^2`` per sample), (m/s^2)^2."""
@@ -314,10 +341,21 @@ def _quat_of(c: Array) -> Array:  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def _log_density(dim: int, logdet: float, chi2: float, nu: float) -> float:  # pragma: no cover - compiled
+    # log N(e; 0, S) (nu <= 0) or log of the multivariate Student-t with nu degrees of freedom and scale S,
+    # from dim, log|S| and chi2 = e' S^-1 e.
+    if nu <= 0.0:
+        return -0.5 * (dim * math.log(2.0 * math.pi) + logdet + chi2)
+    return (math.lgamma(0.5 * (nu + dim)) - math.lgamma(0.5 * nu) - 0.5 * dim * math.log(nu * math.pi)
+            - 0.5 * logdet - 0.5 * (nu + dim) * math.log1p(chi2 / nu))
+
+
+@njit(cache=True)
 def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Array, qa: float, qg: float,
                  P0: Array, log_pi: Array, sv: Array, sw: Array, ss: Array, snc: float, sh: float, height: bool,
                  max_leaves: int, pos: Array, vel: Array, qs: Array, pvar: Array, vvar: Array, avar: Array,
-                 mprob: Array, counts: Array, hde_par: Array, hde: Array) -> float:  # pragma: no cover - compiled
+                 mprob: Array, counts: Array, hde_par: Array, hde: Array,
+                 sat_var: Array, nu: float) -> float:  # pragma: no cover - compiled
     n = t.size
     hde_on = hde_par[0] > 0
     was_stance = True                              # initialised at rest
@@ -346,11 +384,12 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
     cm = np.zeros(C, dtype=np.int64)
     cparent = np.zeros(C, dtype=np.int64)
     loglik = 0.0
-    log2pi = math.log(2.0 * math.pi)
     for k in range(start + 1, n):
         dt = t[k] - t[k - 1]
         f_k = f_b[k]
         w_k = w_b[k]
+        sat_k = np.maximum(sat_var[k - 1], sat_var[k])
+        sat_any = sat_k.max() > 0.0
         nc = 0
         for i in range(n_leaves):
             # Prediction (eq. 12a): one per leaf, shared by its three branches.
@@ -365,6 +404,15 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
             for a in range(3):
                 P[3 + a, 3 + a] += qa * dt * dt
                 P[6 + a, 6 + a] += qg * dt * dt
+            if sat_any:
+                # Clipped gyroscope axes (pdr.foot.saturation): C diag(extra) C^T dt^2 on the attitude error.
+                cq_ = _rotmat(q)
+                for a in range(3):
+                    for b in range(3):
+                        acc_ = 0.0
+                        for c in range(3):
+                            acc_ += cq_[a, c] * sat_k[c] * cq_[b, c]
+                        P[6 + a, 6 + b] += acc_ * dt * dt
             # Specific force of the predicted attitude, for the acceleration constraint C(q) s + g.
             f_n = _rotmat(q) @ f_k
             for j in range(3):
@@ -380,7 +428,7 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
                 m_dim = 10 if height else 9
                 if j == 0:
                     cP[nc] = P
-                    ll = -0.5 * m_dim * (log2pi + 2.0 * math.log(snc))
+                    ll = _log_density(m_dim, 2.0 * m_dim * math.log(snc), 0.0, nu)
                 else:
                     same_h = height and j == 2
                     dim = 10 if same_h else 9
@@ -427,9 +475,9 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
                     cq[nc] = qq / math.sqrt(qq[0] ** 2 + qq[1] ** 2 + qq[2] ** 2 + qq[3] ** 2)
                     cxi[nc] += dx[XI]
                     sign, logdet = np.linalg.slogdet(S)
-                    ll = -0.5 * (dim * log2pi + logdet + e @ S_inv @ e)
+                    ll = _log_density(dim, logdet, float(e @ S_inv @ e), nu)
                     if height and dim == 9:
-                        ll += -0.5 * (log2pi + 2.0 * math.log(snc))    # the height row unconstrained
+                        ll += _log_density(1, 2.0 * math.log(snc), 0.0, nu)    # the height row unconstrained
                 cw[nc] = lw[i] + prior + ll
                 nc += 1
         # Normalise (eq. 6b); log p(y_k | y_{1:k-1}) of eq. 11c.
@@ -561,7 +609,9 @@ def run_filterbank(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_vel
                           np.asarray(cfg.sigma_v, dtype=np.float64), np.asarray(cfg.sigma_omega, dtype=np.float64),
                           np.asarray(cfg.sigma_s, dtype=np.float64), cfg.unconstrained_sigma(), cfg.sigma_h,
                           cfg.variant == "height", cfg.max_leaves, pos, vel, qs, pvar, vvar, avar, mprob, counts,
-                          z.hde_params(), initial_state(z.sigma_drift0))
+                          z.hde_params(), initial_state(z.sigma_drift0),
+                          clip_variance(w_b, cfg.clip_fraction()),
+                          cfg.student_nu if cfg.student_nu is not None else 0.0)
     return FilterBankTrack(t, pos, vel, quat.normalize(qs), pvar, vvar, avar, mprob,
                            np.argmax(mprob, axis=1).astype(np.int64), float(loglik), counts, a, cfg.variant)
 
@@ -600,9 +650,9 @@ class TransitionLearning:
     log_likelihood: Array
 
 
-def learn_transition(sequences: Sequence[tuple[Array, Array, Array, Array]], config: FilterBankConfig | None = None,
-                     rate_hz: float = 100.0, iterations: int = 8, initial: ArrayLike | None = None
-                     ) -> TransitionLearning:
+def learn_transition(sequences: Sequence[tuple[ArrayLike, ArrayLike, ArrayLike, ArrayLike]],
+                     config: FilterBankConfig | None = None, rate_hz: float = 100.0, iterations: int = 8,
+                     initial: ArrayLike | None = None) -> TransitionLearning:
     """Learn ``Pi`` by maximising the likelihood of training data (seed 002 eq. 11).
 
     An expectation-maximisation iteration: run the filter bank with the current ``Pi`` over every training
@@ -670,7 +720,7 @@ class SwingNoise:
     swings: int
 
 
-def learn_swing_noise(runs: Sequence[tuple[Array, Array, Array, Array, Array, Array]],
+def learn_swing_noise(runs: Sequence[tuple[ArrayLike, ArrayLike, ArrayLike, ArrayLike, ArrayLike, ArrayLike]],
                       gravity: float = GRAVITY_MPS2) -> SwingNoise:
     """Learn the leaves' process noise and the unconstrained mode's spread from ZUPT-INS runs (issue #5).
 
