@@ -286,6 +286,28 @@ def test_walk_right_after_handling_keeps_its_first_steps():
     steps = detect_steps(bumps(times, amps, times[-1] + 3.0), FS)
     assert len(steps) == walk_t.size
     assert abs(steps.start_idx.min() / FS - walk_t[0]) < 0.2
+    # The re-anchored candidate survives a state round trip between random chunks.
+    acc = bumps(times, amps, times[-1] + 3.0)
+    rng = np.random.default_rng(7)
+    det, got, i = StepDetector(FS), [], 0
+    while i < len(acc):
+        k = int(rng.integers(1, 60))
+        det = StepDetector.from_state_dict(json.loads(json.dumps(det.state_dict())))
+        got.append(det.update(acc[i:i + k], final=i + k >= len(acc))[0].start_idx)
+        i += k
+    assert np.array_equal(np.concatenate(got), steps.start_idx)
+
+
+def test_double_crossing_before_a_walk_is_not_gait_initiation():
+    # Two starts 0.3 s apart just before a walk at 0.65 s steps: a leg cannot step twice in 0.3 s at that
+    # pace. Their strides fit the walk's rhythm (the stride rule alone took both: 32 steps); the step
+    # interval against the same leg's next one (ratio 0.55, outside 1/step_spread) rejects the first.
+    pre = np.array([1.0, 1.3])
+    walk_t = pre[-1] + 0.8 + 0.65 * np.arange(30)
+    times = np.concatenate([pre, walk_t])
+    steps = detect_steps(bumps(times, np.full(times.size, 3.0), times[-1] + 3.0), FS)
+    assert walk_t.size <= len(steps) <= walk_t.size + 1
+    assert steps.start_idx.min() / FS > pre[0] + 0.2
 
 
 @pytest.mark.data
