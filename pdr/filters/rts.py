@@ -31,6 +31,8 @@ own backward loop.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
@@ -38,6 +40,41 @@ from numpy.typing import ArrayLike, NDArray
 from pdr.errors import InputError
 
 Array = NDArray[np.float64]
+
+
+@njit(cache=True)
+def _cholesky_solve(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
+    """``A^-1 B`` for a symmetric positive-definite (n, n) ``A`` and (n, m) ``B`` by Cholesky, in plain loops.
+
+    For the small matrices of a navigation filter, loops beat a LAPACK call's overhead.
+    """
+    n = A.shape[0]
+    m = B.shape[1]
+    L = np.zeros((n, n))
+    for i in range(n):
+        for j in range(i + 1):
+            acc = A[i, j]
+            for k in range(j):
+                acc -= L[i, k] * L[j, k]
+            if i == j:
+                if acc <= 0.0:
+                    raise np.linalg.LinAlgError("predicted covariance is not positive definite")
+                L[i, i] = math.sqrt(acc)
+            else:
+                L[i, j] = acc / L[j, j]
+    X = B.copy()
+    for c in range(m):
+        for i in range(n):  # L y = b
+            acc = X[i, c]
+            for k in range(i):
+                acc -= L[i, k] * X[k, c]
+            X[i, c] = acc / L[i, i]
+        for i in range(n - 1, -1, -1):  # L^T x = y
+            acc = X[i, c]
+            for k in range(i + 1, n):
+                acc -= L[k, i] * X[k, c]
+            X[i, c] = acc / L[i, i]
+    return X
 
 
 @njit(cache=True)
@@ -52,19 +89,44 @@ def rts_step(x_f: Array, P_f: Array, F_next: Array, x_p_next: Array, P_p_next: A
     F_next
         (n, n) transition from ``k`` to ``k + 1``.
     x_p_next, P_p_next
-        (n,), (n, n) predicted mean and covariance at ``k + 1`` (before its update).
+        (n,), (n, n) predicted mean and covariance at ``k + 1`` (before its update), positive definite.
     x_s_next, P_s_next
         (n,), (n, n) smoothed mean and covariance at ``k + 1``.
     x_s, P_s
         (n,), (n, n) outputs: smoothed mean and covariance at ``k`` (may alias ``x_f``/``P_f``).
     """
-    # C^T = P_p^-1 F P_f (P_p, P_f symmetric): a solve instead of an explicit inverse.
-    ct = np.linalg.solve(P_p_next, F_next @ P_f)
-    C = np.ascontiguousarray(ct.T)
-    mean = x_f + C @ (x_s_next - x_p_next)
-    cov = P_f + C @ (P_s_next - P_p_next) @ ct
-    x_s[:] = mean
-    P_s[:, :] = 0.5 * (cov + cov.T)
+    n = x_f.shape[0]
+    FP = np.zeros((n, n))
+    for i in range(n):
+        for k in range(n):
+            f = F_next[i, k]
+            if f != 0.0:
+                for j in range(n):
+                    FP[i, j] += f * P_f[k, j]
+    # C^T = P_p^-1 F P_f (P_p, P_f symmetric).
+    ct = _cholesky_solve(P_p_next, FP)
+    d = x_s_next - x_p_next
+    D = P_s_next - P_p_next
+    DC = np.zeros((n, n))  # D C^T
+    for i in range(n):
+        for k in range(n):
+            dik = D[i, k]
+            if dik != 0.0:
+                for j in range(n):
+                    DC[i, j] += dik * ct[k, j]
+    for i in range(n):
+        acc = x_f[i]
+        for k in range(n):
+            acc += ct[k, i] * d[k]
+        x_s[i] = acc
+    for i in range(n):
+        for j in range(i, n):
+            acc = 0.0
+            for k in range(n):
+                acc += ct[k, i] * DC[k, j]
+            v = 0.5 * (P_f[i, j] + P_f[j, i]) + acc
+            P_s[i, j] = v
+            P_s[j, i] = v
 
 
 @njit(cache=True)
