@@ -702,7 +702,11 @@ class StepDetector:
                 self._bout = self._bout[-_BOUT_HISTORY:]
             else:
                 self._bout = self._bout[-_CANDIDATE_HISTORY:]
-        if self._bout and (self._n_seen - 1 - self._bout[-1][0] > max_step or final):
+        # The bout is over when no start can come within max_step of its last one; a crossing still being
+        # decided by the kernel may (as in one batch, where it would arrive before the bout is closed).
+        pending = bool(self._bout) and self._kernel[_S_CAND] == 1.0 and (
+            self._kernel[_S_CAND_START] - self._bout[-1][0] <= max_step)
+        if self._bout and ((self._n_seen - 1 - self._bout[-1][0] > max_step and not pending) or final):
             close_bout(min(self._bout[-1][0] + max_step + 1, self._n_seen))
         steps = Steps(np.array(out_s, dtype=np.int64), np.array(out_e, dtype=np.int64),
                       np.array(out_c, dtype=np.int64), np.array(out_p, dtype=np.float64))

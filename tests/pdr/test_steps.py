@@ -55,6 +55,24 @@ def test_random_chunks_equal_one_batch():
     assert np.array_equal(np.concatenate(got), one.start_idx)
 
 
+def test_batch_end_does_not_close_a_bout_while_a_crossing_is_being_decided():
+    # A 1.15 s hesitation (just under max_step_s) in a walk of 0.45 s steps. A batch ending more than
+    # max_step_s after the last start, while the next crossing (which starts within max_step_s) is still
+    # rising to its peak, used to close the bout: the walk after it had to confirm again and steps were lost
+    # (Oxford Pixel_Jamie_Hard_SwingingArm_2 and Samsung_Jamie_Hard_InHand_1 lost one step each in random
+    # chunks). Every two-batch split around the hesitation must give the one-batch steps.
+    times = 2.0 + np.cumsum(np.concatenate([[0.0], np.full(10, 0.45), [1.15], np.full(10, 0.45)]))
+    acc = bumps(times, np.full(times.size, 3.0), times[-1] + 3.0)
+    one = detect_steps(acc, FS)
+    assert len(one) == times.size
+    for cut in range(int(times[10] * FS), int((times[11] + 0.5) * FS)):
+        det = StepDetector(FS)
+        a, _ = det.update(acc[:cut])
+        b, _ = det.update(acc[cut:], final=True)
+        for f in ("start_idx", "end_idx", "confirm_idx"):
+            assert np.array_equal(np.concatenate([getattr(a, f), getattr(b, f)]), getattr(one, f)), (cut, f)
+
+
 def test_state_round_trip():
     _, acc = walk(30)
     det = StepDetector(FS)
