@@ -809,6 +809,11 @@ class AttitudeFilter:
         self.state = AttitudeState()
         self._params = self.config.params()
 
+    def set_config(self, config: AttitudeConfig) -> None:
+        """Use new noise and gating parameters from the next sample on (the state is kept)."""
+        self.config = config
+        self._params = config.params()
+
     def run(self, acc_b: FloatArray, gyro_b: FloatArray | None = None, mag_b: FloatArray | None = None
             ) -> tuple[FloatArray, NDArray[np.int64]]:
         """Filter a batch of uniform samples.

@@ -105,6 +105,11 @@ class PipelineConfig:
         Relative standard deviation of a step length, for the position covariance.
     history_s
         Length of the sample history kept for steps not yet processed (s).
+    device_heading_sigma_gyro
+        Gyro noise of eq. 9 (rad/s) used instead of ``attitude.sigma_gyro`` once the placement is hand or
+        torso (the walking direction is the device heading, so the yaw matters, not the tilt during a thigh
+        swing): the larger process noise makes the magnetometer rows act over a shorter stretch of the walk.
+        None keeps ``attitude.sigma_gyro``.
     drift_elimination
         Hand/torso: heuristic drift elimination of the step heading towards dominant directions learnt
         from the walk (:class:`pdr.heading.StepDriftElimination`, parameters ``hde``).
@@ -119,6 +124,7 @@ class PipelineConfig:
     heading_process_var: float = math.radians(5.0) ** 2
     step_length_rel_sigma: float = 0.08
     history_s: float = 30.0
+    device_heading_sigma_gyro: float | None = 0.02
     drift_elimination: bool = True
     step: StepConfig = field(default_factory=StepConfig)
     attitude: AttitudeConfig = field(default_factory=AttitudeConfig)
@@ -268,6 +274,7 @@ class PdrPipeline:
         self.hde = StepDriftElimination(c.hde)
         self.history = _History(int(c.history_s * c.rate_hz))
         self.placement: str | None = None if c.placement == "auto" else c.placement
+        self._placement_known()
         self.t0_ns = 0
         self.prev_yaw: float | None = None
         self.prev_q: list[float] | None = None
@@ -360,6 +367,7 @@ class PdrPipeline:
                 p.hde = StepDriftElimination.from_dict(d["hde"], p.config.hde)
             p.history = _History.from_dict(d["history"])
             p.placement, p.t0_ns = d["placement"], int(d["t0_ns"])
+            p._placement_known()
             p.prev_yaw, p.prev_q, p.prev_mode = d["prev_yaw"], d["prev_q"], str(d["prev_mode"])
             # Absent in states saved before per-step stairs landmarks.
             p.stairs_landmark = d.get("stairs_landmark")
@@ -398,6 +406,7 @@ class PdrPipeline:
                 self.placement = _placement_group(self.placement_provider(batch))
             if self.placement is None:
                 self.placement = _placement_group(batch.device.placement)
+            self._placement_known()
         return events
 
     def _process(self, t: FloatArray, vals: dict[str, FloatArray], final: bool = False) -> list[Event]:
@@ -476,6 +485,12 @@ class PdrPipeline:
             out.append(ev)
         return out
 
+    def _placement_known(self) -> None:
+        """Attitude parameters of the placement: ``device_heading_sigma_gyro`` for hand and torso."""
+        sg = self.config.device_heading_sigma_gyro
+        if sg is not None and self.placement in ("hand", "torso") and self.attitude.config.sigma_gyro != sg:
+            self.attitude.set_config(replace(self.attitude.config, sigma_gyro=float(sg)))
+
     def _decide_placement(self, y_up: FloatArray) -> str:
         # Rule: a trouser-pocket phone's long axis swings with the thigh (tens of degrees per step).
         swing = math.degrees(float(np.arcsin(np.clip(y_up, -1, 1)).max() - np.arcsin(np.clip(y_up, -1, 1)).min()))
@@ -490,6 +505,7 @@ class PdrPipeline:
         c = self.config
         if self.placement is None:
             self.placement = self._decide_placement(h.y_up[sl])
+            self._placement_known()
             self.notices.append(f"placement decided by rule: {self.placement}")
         f_n = h.f_n[sl]
         a_v = f_n[:, 2]

@@ -172,3 +172,16 @@ def test_gyro_bias_from_a_short_opening_stand_of_a_pocket_walk(seed):
     pipe = PdrPipeline(PipelineConfig())
     pipe.run(rec)
     assert np.linalg.norm(pipe.attitude.state.bias - true_bias) < math.radians(0.1)
+
+
+def test_device_heading_placements_get_their_gyro_noise(hand_walk):
+    # Hand/torso: the walking direction is the device heading (eq. 9 noise device_heading_sigma_gyro); the
+    # pocket keeps attitude.sigma_gyro. A placement decided by the rule switches at that step, and a restored
+    # state keeps the switch.
+    assert PdrPipeline(PipelineConfig(placement="hand")).attitude.config.sigma_gyro == 0.02
+    assert PdrPipeline(PipelineConfig(placement="pocket")).attitude.config.sigma_gyro == 0.01
+    p = PdrPipeline(PipelineConfig())
+    assert p.attitude.config.sigma_gyro == 0.01
+    p.update(hand_walk)
+    assert p.placement == "hand" and p.attitude.config.sigma_gyro == 0.02
+    assert PdrPipeline.from_dict(p.to_dict()).attitude.config.sigma_gyro == 0.02
