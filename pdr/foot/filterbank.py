@@ -24,6 +24,11 @@ covariances by eq. 7, the attitude by the weighted chordal mean of eq. 8 (polar 
 (eq. 11b-c) and the filtered expected mode-transition counts are returned for learning ``Pi``
 (:func:`learn_transition`, eq. 11a).
 
+Deviation from eq. 12d (issue #5, :data:`NC_STATE_SPREAD_DEFAULT`): the unconstrained mode is scored on the
+residuals of ``h_0`` with the spread ``H P H^T + sigma_nc^2 I`` (still no state update), and clipped gyroscope
+samples add attitude process noise (:mod:`pdr.foot.saturation`); with the constant density of eq. 12d an uncertain
+leaf can never re-enter a stance and the bank runs away on sprint and running recordings.
+
 Heading drift: as in the ZUPT INS, heuristic drift elimination (:mod:`pdr.foot.drift`, settings
 ``zupt.hde_*``, off with ``hde_directions=0``) turns every leaf's attitude by the estimated drift at every
 sample, and at the end of each stance of the merged mode posterior (unconstrained probability rising above 0.5)
@@ -95,21 +100,30 @@ PI_DEFAULT: dict[str, tuple[tuple[tuple[float, float, float], ...], float]] = {
 #: unconstrained mode wins every later sample) and if the unconstrained mode's constant likelihood is as low as a
 #: swing's residuals deserve (``sigma_nc`` = 1 stands for a spread of 1 m/s, 1 rad/s, 1 m/s^2, far narrower than a
 #: swing). The former height defaults (median swing q = 0.009, ``sigma_nc`` = 1) lost the stances of the PyShoe
-#: running trials. ``speed``: keeps ``ZuptConfig.sigma_acc`` and ``sigma_nc`` = 1; its almost-stationary mode
-#: (sigma_v = 0.1 m/s) absorbs the swing error while walking, and the learned values, which repair its running
-#: trials too, loosen the walking stances (PyShoe median ARMSE 0.069 -> 0.111 m, measured for issue #5).
+#: running trials. ``speed``: keeps ``ZuptConfig.sigma_acc``; its almost-stationary mode (sigma_v = 0.1 m/s)
+#: absorbs the swing error while walking (the learned q loosens the walking stances: PyShoe median ARMSE 0.069 ->
+#: 0.111 m, measured for issue #5). It shares the learned ``sigma_nc`` since the unconstrained mode is scored with
+#: the leaf's spread (:data:`NC_STATE_SPREAD_DEFAULT`).
 ACC_PSD_DEFAULT: dict[str, float | None] = {"speed": None, "height": 0.39}
 #: Default ``sigma_nc`` per variant (see :data:`ACC_PSD_DEFAULT`).
-SIGMA_NC_DEFAULT: dict[str, float] = {"speed": 1.0, "height": 2.73}
+SIGMA_NC_DEFAULT: dict[str, float] = {"speed": 2.73, "height": 2.73}
 
-#: Attitude process noise of clipped gyroscope samples (:mod:`pdr.foot.saturation`), as the standard deviation of
-#: the unknown excess rate over the full-scale reading, per variant (issue #5, measured on the three foot datasets
-#: with the ZUPT detector defaults, clip noise off -> on at 0.5):
-#: ``speed``: PyShoe median ARMSE 0.069 -> 0.060 m, trials over 1 m 8 -> 4 (five running trials stop diverging,
-#: 2017-11-27-11-13-41 gets worse, 7.7 -> 12.9 m), xio and gcp unchanged except walk 35 (3099 -> 861 %, still
-#: diverging). ``height``: PyShoe median 0.068 -> 0.064 m but foot_stride_gcp walks 34 and 35 diverge further
-#: (11.9 -> 21.3 %, 33 -> 141 %): off.
-CLIP_EXCESS_DEFAULT: dict[str, float] = {"speed": CLIP_EXCESS_FRACTION, "height": 0.0}
+#: Default of :attr:`FilterBankConfig.nc_state_spread` and :attr:`FilterBankConfig.clip_excess` (issue #5). Why:
+#: a leaf whose velocity or attitude is uncertain (after clipped gyroscope samples, :mod:`pdr.foot.saturation`,
+#: or a missed stance) predicts the constraint residuals with the spread ``H P H^T + R``, so its stationary
+#: likelihood (eq. 6c) drops, whereas eq. 12d scores the unconstrained mode by the constant ``N(0; 0, sigma_nc^2
+#: I)``: past some uncertainty no stance can win again and the bank runs away (foot_stride_gcp walk 35, several
+#: PyShoe running trials). Scoring the unconstrained mode on the same residuals with ``H P H^T + sigma_nc^2 I``
+#: keeps the comparison about the residuals, not the leaf's uncertainty, and the clipped-sample noise makes that
+#: uncertainty honest. Both together, with ``sigma_nc`` = 2.73 for both variants, measured on the three foot
+#: datasets (``pdr eval foot /work/shared/data --method filterbank|filterbank-height --hde on``), before -> after:
+#: ``speed``: PyShoe median ARMSE 0.069 -> 0.062 m, trials over 1 m 8 -> 3 (largest 213 -> 13 m; walking trials
+#: lose 5-20 mm), xio 0.07 -> 0.09 %, gcp median 0.79 -> 0.89 % (walk 35: 3099 -> 1.7 %).
+#: ``height``: PyShoe median 0.068 -> 0.066 m, over 1 m 3 -> 1 (largest 61 -> 1.6 m), xio 0.04 -> 0.17 %, gcp
+#: median 1.37 -> 1.45 % (walk 35: 33 -> 3.6 %, walk 34: 11.9 -> 9.7 %). Either part alone is worse: clip noise
+#: without the state spread leaves walk 35 running away (speed 861 %, height 141 %); the state spread without clip
+#: noise leaves 7 speed trials over 1 m.
+NC_STATE_SPREAD_DEFAULT = True
 
 
 def check_transition(pi: ArrayLike, field_name: str = "transition") -> Array:
@@ -174,11 +188,15 @@ class FilterBankConfig:
         Leaves kept after pruning (seed: nine).
     clip_excess
         Clipped gyroscope samples (:mod:`pdr.foot.saturation`) add attitude process noise for an unknown excess
-        rate with the standard deviation ``clip_excess * |w|`` (rad/s), constant over a run; 0: off; ``None``:
-        :data:`CLIP_EXCESS_DEFAULT` of the variant.
+        rate with the standard deviation ``clip_excess * |w|`` (rad/s), constant over a run; 0: off (see
+        :data:`NC_STATE_SPREAD_DEFAULT`).
     student_nu
         Degrees of freedom of a Student-t in place of the normal density of the branch likelihood (eq. 6c),
         the heavy-tailed variant that Sec. VI proposes; ``None``: normal (the seed's model).
+    nc_state_spread
+        Score the unconstrained mode by ``N(0; h_0(x), H P H^T + sigma_nc^2 I)`` (the constrained modes' residuals
+        and leaf covariance with the spread ``sigma_nc``; no state update) instead of the constant
+        ``N(0; 0, sigma_nc^2 I)`` of eq. 12d (a deviation from the seed, see :data:`NC_STATE_SPREAD_DEFAULT`).
     zupt
         Process noise and initialisation shared with the ZUPT-aided INS.
     """
@@ -193,8 +211,9 @@ class FilterBankConfig:
     sigma_h: float = 0.01
     acc_psd: float | None = None
     max_leaves: int = 9
-    clip_excess: float | None = None
+    clip_excess: float = CLIP_EXCESS_FRACTION
     student_nu: float | None = None
+    nc_state_spread: bool = NC_STATE_SPREAD_DEFAULT
     zupt: ZuptConfig = field(default_factory=ZuptConfig)
 
     def __post_init__(self) -> None:
@@ -215,16 +234,12 @@ class FilterBankConfig:
                 raise InputError(f"must be a positive number, got {v}", field=name)
         if self.acc_psd is not None and not (math.isfinite(self.acc_psd) and self.acc_psd > 0):
             raise InputError(f"must be a positive number, got {self.acc_psd}", field="acc_psd")
-        if self.clip_excess is not None and not (math.isfinite(self.clip_excess) and self.clip_excess >= 0):
+        if not (math.isfinite(self.clip_excess) and self.clip_excess >= 0):
             raise InputError(f"must be a non-negative number, got {self.clip_excess}", field="clip_excess")
         if self.student_nu is not None and not (math.isfinite(self.student_nu) and self.student_nu > 0):
             raise InputError(f"must be a positive number, got {self.student_nu}", field="student_nu")
         if not 1 <= self.max_leaves <= 243:
             raise InputError("max_leaves must be between 1 and 243", field="max_leaves")
-
-    def clip_fraction(self) -> float:
-        """``clip_excess``, or the variant's default (:data:`CLIP_EXCESS_DEFAULT`)."""
-        return CLIP_EXCESS_DEFAULT[self.variant] if self.clip_excess is None else float(self.clip_excess)
 
     def acc_noise_var(self, rate_hz: float) -> float:
         """Accelerometer process noise ``qa`` of the kernel (velocity variance ``qa dt^2`` per sample), (m/s^2)^2."""
@@ -351,11 +366,35 @@ def _log_density(dim: int, logdet: float, chi2: float, nu: float) -> float:  # p
 
 
 @njit(cache=True)
+def _constraint_rows(v: Array, w_k: Array, f_n: Array, g_n: Array,
+                     dh: float) -> tuple[Array, Array]:  # pragma: no cover - compiled
+    # Rows of h_0 (eq. 12c) and of the height constraint (eq. 13b) with their residuals y - h = -h:
+    # velocity, angular rate, C(q) s + g (d(C s)/d(dtheta) = -[f_n]x, true = exp(dtheta) est), [p]_3 - xi.
+    H = np.zeros((10, N_ERR))
+    e = np.zeros(10)
+    for a in range(3):
+        H[a, 3 + a] = 1.0
+        e[a] = -v[a]
+        e[3 + a] = -w_k[a]
+        e[6 + a] = -(f_n[a] + g_n[a])
+    H[6, 7] = f_n[2]
+    H[6, 8] = -f_n[1]
+    H[7, 6] = -f_n[2]
+    H[7, 8] = f_n[0]
+    H[8, 6] = f_n[1]
+    H[8, 7] = -f_n[0]
+    H[9, 2] = 1.0
+    H[9, XI] = -1.0
+    e[9] = -dh
+    return H, e
+
+
+@njit(cache=True)
 def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Array, qa: float, qg: float,
                  P0: Array, log_pi: Array, sv: Array, sw: Array, ss: Array, snc: float, sh: float, height: bool,
                  max_leaves: int, pos: Array, vel: Array, qs: Array, pvar: Array, vvar: Array, avar: Array,
                  mprob: Array, counts: Array, hde_par: Array, hde: Array,
-                 sat_var: Array, nu: float) -> float:  # pragma: no cover - compiled
+                 sat_var: Array, nu: float, nc_state: bool) -> float:  # pragma: no cover - compiled
     n = t.size
     hde_on = hde_par[0] > 0
     was_stance = True                              # initialised at rest
@@ -415,6 +454,18 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
                         P[6 + a, 6 + b] += acc_ * dt * dt
             # Specific force of the predicted attitude, for the acceleration constraint C(q) s + g.
             f_n = _rotmat(q) @ f_k
+            H_all, e_all = _constraint_rows(v, w_k, f_n, g_n, p[2] - lxi[i])
+            m_dim = 10 if height else 9
+            if nc_state:
+                # Unconstrained mode scored on the same residuals with the spread sigma_nc (FilterBankConfig.
+                # nc_state_spread): its density widens with the leaf's uncertainty as the constrained modes' do.
+                S1 = H_all[:m_dim] @ P @ H_all[:m_dim].T
+                for a in range(m_dim):
+                    S1[a, a] += snc * snc
+                sign1, logdet1 = np.linalg.slogdet(S1)
+                ll_nc = _log_density(m_dim, logdet1, float(e_all[:m_dim] @ np.linalg.solve(S1, e_all[:m_dim])), nu)
+            else:
+                ll_nc = _log_density(m_dim, 2.0 * m_dim * math.log(snc), 0.0, nu)
             for j in range(3):
                 prior = log_pi[j, lm[i]]
                 if prior == -np.inf:
@@ -425,35 +476,20 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
                 cxi[nc] = lxi[i]
                 cm[nc] = j
                 cparent[nc] = i
-                m_dim = 10 if height else 9
                 if j == 0:
                     cP[nc] = P
-                    ll = _log_density(m_dim, 2.0 * m_dim * math.log(snc), 0.0, nu)
+                    ll = ll_nc
                 else:
                     same_h = height and j == 2
                     dim = 10 if same_h else 9
-                    H = np.zeros((dim, N_ERR))
-                    e = np.zeros(dim)
+                    H = H_all[:dim]
+                    e = e_all[:dim]
                     R = np.zeros(dim)
                     for a in range(3):
-                        H[a, 3 + a] = 1.0
-                        e[a] = -v[a]
                         R[a] = sv[j] ** 2
-                        e[3 + a] = -w_k[a]
                         R[3 + a] = sw[j] ** 2
-                        e[6 + a] = -(f_n[a] + g_n[a])
                         R[6 + a] = ss[j] ** 2
-                    # d(C s)/d(dtheta) = -[f_n]x (true = exp(dtheta) est).
-                    H[6, 7] = f_n[2]
-                    H[6, 8] = -f_n[1]
-                    H[7, 6] = -f_n[2]
-                    H[7, 8] = f_n[0]
-                    H[8, 6] = f_n[1]
-                    H[8, 7] = -f_n[0]
                     if same_h:
-                        H[9, 2] = 1.0
-                        H[9, XI] = -1.0
-                        e[9] = -(p[2] - lxi[i])
                         R[9] = sh ** 2
                     S = H @ P @ H.T
                     for a in range(dim):
@@ -477,7 +513,11 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
                     sign, logdet = np.linalg.slogdet(S)
                     ll = _log_density(dim, logdet, float(e @ S_inv @ e), nu)
                     if height and dim == 9:
-                        ll += _log_density(1, 2.0 * math.log(snc), 0.0, nu)    # the height row unconstrained
+                        # The height row unconstrained, scored as in the unconstrained mode.
+                        s9 = snc * snc
+                        if nc_state:
+                            s9 += P[2, 2] - 2.0 * P[2, XI] + P[XI, XI]
+                        ll += _log_density(1, math.log(s9), e_all[9] ** 2 / s9 if nc_state else 0.0, nu)
                 cw[nc] = lw[i] + prior + ll
                 nc += 1
         # Normalise (eq. 6b); log p(y_k | y_{1:k-1}) of eq. 11c.
@@ -610,8 +650,8 @@ def run_filterbank(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_vel
                           np.asarray(cfg.sigma_s, dtype=np.float64), cfg.unconstrained_sigma(), cfg.sigma_h,
                           cfg.variant == "height", cfg.max_leaves, pos, vel, qs, pvar, vvar, avar, mprob, counts,
                           z.hde_params(), initial_state(z.sigma_drift0),
-                          clip_variance(w_b, cfg.clip_fraction()),
-                          cfg.student_nu if cfg.student_nu is not None else 0.0)
+                          clip_variance(w_b, cfg.clip_excess),
+                          cfg.student_nu if cfg.student_nu is not None else 0.0, cfg.nc_state_spread)
     return FilterBankTrack(t, pos, vel, quat.normalize(qs), pvar, vvar, avar, mprob,
                            np.argmax(mprob, axis=1).astype(np.int64), float(loglik), counts, a, cfg.variant)
 
