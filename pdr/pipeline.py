@@ -11,7 +11,8 @@ big batch):
 3. :class:`pdr.attitude.AttitudeFilter` (seed 003 UKF, or the EKF baseline), run in segments that end
    where steps become known, so a landmark can update the attitude (eqs. 14-32) at a deterministic sample;
 4. per step: patterns and length (seed 004 eqs. 13-19), heading (:mod:`pdr.heading`: device heading +
-   offset for hand-held/torso, improved RMPCA + second UKF for the trouser pocket), landmark label
+   offset for hand-held/torso, improved RMPCA + second UKF for the trouser pocket; hand-held/torso headings
+   then pass the heuristic drift elimination :class:`pdr.heading.StepDriftElimination`), landmark label
    (:mod:`pdr.landmarks`, with the neighbour-step correction, which delays each step by one step),
    site landmarks (a flight of stairs: position fix at its first step, heading rows of both UKFs at every
    step of it), floor (:mod:`pdr.floors`), and the PDR position (:mod:`pdr.track`, eqs. 20-22);
