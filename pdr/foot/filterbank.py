@@ -455,11 +455,13 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
             # Specific force of the predicted attitude, for the acceleration constraint C(q) s + g.
             f_n = _rotmat(q) @ f_k
             H_all, e_all = _constraint_rows(v, w_k, f_n, g_n, p[2] - lxi[i])
+            PHt = P @ H_all.T                      # shared by the modes' innovation covariances and gains
+            HPHt = H_all @ PHt
             m_dim = 10 if height else 9
             if nc_state:
                 # Unconstrained mode scored on the same residuals with the spread sigma_nc (FilterBankConfig.
                 # nc_state_spread): its density widens with the leaf's uncertainty as the constrained modes' do.
-                S1 = H_all[:m_dim] @ P @ H_all[:m_dim].T
+                S1 = HPHt[:m_dim, :m_dim].copy()
                 for a in range(m_dim):
                     S1[a, a] += snc * snc
                 sign1, logdet1 = np.linalg.slogdet(S1)
@@ -491,11 +493,11 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
                         R[6 + a] = ss[j] ** 2
                     if same_h:
                         R[9] = sh ** 2
-                    S = H @ P @ H.T
+                    S = HPHt[:dim, :dim].copy()
                     for a in range(dim):
                         S[a, a] += R[a]
                     S_inv = np.linalg.inv(S)
-                    K = P @ H.T @ S_inv
+                    K = np.ascontiguousarray(PHt[:, :dim]) @ S_inv
                     dx = K @ e
                     ikh = np.eye(N_ERR) - K @ H
                     Pn = ikh @ P @ ikh.T
