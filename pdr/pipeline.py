@@ -275,7 +275,6 @@ class PdrPipeline:
         self.hde = StepDriftElimination(c.hde)
         self.history = _History(int(c.history_s * c.rate_hz))
         self.placement: str | None = None if c.placement == "auto" else c.placement
-        self._placement_known()
         self.t0_ns = 0
         self.prev_yaw: float | None = None
         self.prev_q: list[float] | None = None
@@ -368,7 +367,6 @@ class PdrPipeline:
                 p.hde = StepDriftElimination.from_dict(d["hde"], p.config.hde)
             p.history = _History.from_dict(d["history"])
             p.placement, p.t0_ns = d["placement"], int(d["t0_ns"])
-            p._placement_known()
             p.prev_yaw, p.prev_q, p.prev_mode = d["prev_yaw"], d["prev_q"], str(d["prev_mode"])
             # Absent in states saved before per-step stairs landmarks.
             p.stairs_landmark = d.get("stairs_landmark")
@@ -382,6 +380,8 @@ class PdrPipeline:
             p.notices = list(d["notices"])
             p._av_zi = None if d["av_zi"] is None else np.array(d["av_zi"], dtype=np.float64)
             p.n_input_samples = int(d["n_input_samples"])
+            if p.pending is not None or p.track.n_steps:      # a step was processed (see _placement_known)
+                p._placement_known()
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"bad pipeline state ({exc})", source="pipeline state") from None
         return p
@@ -407,7 +407,6 @@ class PdrPipeline:
                 self.placement = _placement_group(self.placement_provider(batch))
             if self.placement is None:
                 self.placement = _placement_group(batch.device.placement)
-            self._placement_known()
         return events
 
     def _process(self, t: FloatArray, vals: dict[str, FloatArray], final: bool = False) -> list[Event]:
@@ -487,7 +486,9 @@ class PdrPipeline:
         return out
 
     def _placement_known(self) -> None:
-        """Attitude parameters of the placement: ``device_heading_sigma_gyro`` for hand and torso."""
+        """Attitude parameters of the placement: ``device_heading_sigma_gyro`` for hand and torso, from the first
+        step on (the same sample whether the placement came from the configuration, a provider or the rule).
+        """
         sg = self.config.device_heading_sigma_gyro
         if sg is not None and self.placement in ("hand", "torso") and self.attitude.config.sigma_gyro != sg:
             self.attitude.set_config(replace(self.attitude.config, sigma_gyro=float(sg)))
@@ -506,8 +507,9 @@ class PdrPipeline:
         c = self.config
         if self.placement is None:
             self.placement = self._decide_placement(h.y_up[sl])
-            self._placement_known()
             self.notices.append(f"placement decided by rule: {self.placement}")
+        # From the first step on, whenever the placement became known (configuration, provider or rule).
+        self._placement_known()
         f_n = h.f_n[sl]
         a_v = f_n[:, 2]
         pats = step_patterns(h.an[sl], a_v, c.rate_hz)
