@@ -9,7 +9,8 @@ Learned on the training half:
 
 * filter bank: the leaves' accelerometer process noise and the unconstrained mode's ``sigma_nc`` from ZUPT-INS
   runs (:func:`pdr.foot.filterbank.learn_swing_noise`), then the mode transition matrix by maximum likelihood
-  (eq. 11, :func:`pdr.foot.filterbank.learn_transition`);
+  (eq. 11a, :func:`pdr.foot.filterbank.learn_transition`: a bounded derivative-free search from the default
+  matrix, ``--evaluations`` likelihood evaluations over the first ``--train-seconds`` of each training trial);
 * belief condensation: the m-component context mixture by EM from the states of a ZUPT-EKF run
   (Sec. V.C, :func:`pdr.foot.bc.learn_context`).
 
@@ -89,22 +90,34 @@ class Learned:
     notes: dict[str, Any]
 
 
-def learn(train: Sequence[Trial], variants: Sequence[str] = ("speed", "height"), iterations: int = 4,
-          m: int = 4) -> Learned:
-    """Fit the filter bank's noise and transition matrix and the BC context on ``train`` (see module doc)."""
+def learn(train: Sequence[Trial], variants: Sequence[str] = ("speed", "height"), evaluations: int = 40,
+          train_seconds: float = 15.0, m: int = 4) -> Learned:
+    """Fit the filter bank's noise and transition matrix and the BC context on ``train`` (see module doc).
+
+    ``Pi`` is searched with ``evaluations`` likelihood evaluations over the first ``train_seconds`` (s) of each
+    training trial (all of it if <= 0), starting from the variant's default matrix at the training rate.
+    """
     runs = [(t.imu.t_s, t.zupt.vel_n, t.zupt.q_nb, t.imu.acc_b, t.imu.gyro_b, t.zero_velocity) for t in train]
     swing = learn_swing_noise(runs)
     notes: dict[str, Any] = {"acc_psd": swing.acc_psd, "sigma_nc": swing.sigma_nc, "swings": swing.swings}
     rate = float(np.median([t.imu.rate_hz for t in train]))
-    seqs = [(t.imu.t_s, t.imu.acc_b, t.imu.gyro_b, t.zero_velocity) for t in train]
+    seqs = []
+    for t in train:
+        n = t.imu.t_s.size if train_seconds <= 0 else int(np.searchsorted(t.imu.t_s, t.imu.t_s[0] + train_seconds))
+        seqs.append((t.imu.t_s[:n], t.imu.acc_b[:n], t.imu.gyro_b[:n], t.zero_velocity[:n]))
+    notes["train_seconds"] = float(sum(s[0][-1] - s[0][0] for s in seqs))
     fb: dict[str, FilterBankConfig] = {}
     for variant in variants:
         base = FilterBankConfig(variant=variant, acc_psd=swing.acc_psd, sigma_nc=swing.sigma_nc)
-        res = learn_transition(seqs, base, rate_hz=rate, iterations=iterations)
+        res = learn_transition(seqs, base, rate_hz=rate, max_evaluations=evaluations,
+                               initial=FilterBankConfig(variant=variant).transition_matrix(rate))
         fb[variant] = replace(base, transition=tuple(map(tuple, res.transition.tolist())),
                               transition_rate_hz=rate)
         notes[f"transition_{variant}"] = np.round(res.transition, 4).tolist()
-        notes[f"loglik_{variant}"] = np.round(res.log_likelihood, 1).tolist()
+        notes[f"loglik_{variant}"] = {"initial": round(float(res.log_likelihood[0]), 1),
+                                      "best": round(float(res.best_so_far[-1]), 1),
+                                      "evaluations": int(res.log_likelihood.size),
+                                      "seconds": round(res.seconds, 1)}
     samples = np.concatenate([context_samples(t.zupt.vel_n[t.zupt.start_index:], t.zupt.q_nb[t.zupt.start_index:],
                                               t.imu.acc_b[t.zupt.start_index:], t.imu.gyro_b[t.zupt.start_index:])
                               for t in train])
@@ -153,7 +166,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     p = argparse.ArgumentParser(prog="python -m pdr.foot.crossval", description=__doc__.split("\n")[0])
     p.add_argument("dir", help="pyshoe_vicon folder")
-    p.add_argument("--iterations", type=int, default=4, help="EM iterations of eq. 11")
+    p.add_argument("--evaluations", type=int, default=40, help="likelihood evaluations of the eq. 11a search")
+    p.add_argument("--train-seconds", type=float, default=15.0,
+                   help="seconds of each training trial used to learn Pi (<= 0: all)")
     p.add_argument("--components", type=int, default=4, help="BC context components m")
     p.add_argument("--variants", default="speed,height")
     p.add_argument("--json", help="write all figures to this file")
@@ -163,7 +178,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     halves = {"odd": trials[0::2], "even": trials[1::2]}        # 1st, 3rd, ... and 2nd, 4th, ... trial
     report: dict[str, Any] = {}
     for name, other in (("odd", "even"), ("even", "odd")):
-        learned = learn(halves[name], variants, args.iterations, args.components)
+        learned = learn(halves[name], variants, args.evaluations, args.train_seconds, args.components)
         rows = evaluate(halves[other], learned, variants)
         summ = summary(rows)
         report[f"learn_{name}_test_{other}"] = {"learned": learned.notes, "per_trial": rows, "summary": summ}

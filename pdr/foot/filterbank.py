@@ -21,8 +21,7 @@ weight is ``w_{k-1} Pi[j, i] N(0; y_hat, S)`` (eq. 6); the ``max_leaves`` most p
 (pruning, "maximum of nine leaves"). The output is the minimum-variance merge: position and velocity means and
 covariances by eq. 7, the attitude by the weighted chordal mean of eq. 8 (polar decomposition of
 ``sum_i w_i C(q_i)``) with the covariance of eq. 9. The log-likelihood ``sum_k log p(y_k | y_{1:k-1})``
-(eq. 11b-c) and the filtered expected mode-transition counts are returned for learning ``Pi``
-(:func:`learn_transition`, eq. 11a).
+(eq. 11b-c) is returned; :func:`learn_transition` maximises it over ``Pi`` (eq. 11a).
 
 Deviation from eq. 12d (issue #5, :data:`NC_STATE_SPREAD_DEFAULT`): the unconstrained mode is scored on the
 residuals of ``h_0`` with the spread ``H P H^T + sigma_nc^2 I`` (still no state update), and clipped gyroscope
@@ -38,6 +37,7 @@ the stride of the merged position measures the heading error, whose correction t
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -75,14 +75,16 @@ VARIANTS: dict[str, tuple[str, str, str]] = {
 N_ERR = 10
 XI = 9
 
-#: Initial transition matrices of Sec. V (columns: from-mode, rows: to-mode).
+#: Initial transition matrices of Sec. V (columns: from-mode, rows: to-mode); their zeros are the transitions that
+#: the mode diagrams of Fig. 1 leave out, kept zero by :func:`learn_transition`.
 PI_INIT = {
     "speed": ((1 / 2, 1 / 3, 0.0), (1 / 2, 1 / 3, 1 / 2), (0.0, 1 / 3, 1 / 2)),
     "height": ((1 / 3, 0.0, 1 / 2), (1 / 3, 0.0, 0.0), (1 / 3, 1.0, 1 / 2)),
 }
 
-#: Default transition matrices and the rate (Hz) they belong to. ``speed``: learned by :func:`learn_transition`
-#: (6 EM iterations, best-likelihood iterate) from the first 90 s of the foot_stride_gcp ``own`` walks at
+#: Default transition matrices and the rate (Hz) they belong to. ``speed``: learned by an earlier EM approximation
+#: of eq. 11 (filtered expected transition counts, 6 iterations, best-likelihood iterate; since replaced by the
+#: direct likelihood search of :func:`learn_transition`) from the first 90 s of the foot_stride_gcp ``own`` walks at
 #: 200 Hz (a different IMU and walker than the PyShoe evaluation trials); log-likelihood -318009 -> -276888.
 #: ``height``: the learned matrix of seed 002 Sec. V.B (its sampling rate is not stated; 100 Hz assumed).
 PI_DEFAULT: dict[str, tuple[tuple[tuple[float, float, float], ...], float]] = {
@@ -658,19 +660,36 @@ def run_filterbank(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_vel
                            np.argmax(mprob, axis=1).astype(np.int64), float(loglik), counts, a, cfg.variant)
 
 
-def transition_ml(counts: ArrayLike) -> Array:
-    """Maximum-likelihood column-stochastic transition matrix of (expected) transition counts.
+#: Bound of the column log-odds that parametrise ``Pi`` in :func:`learn_transition` (``|log(Pi[j, i] / Pi[r, i])|``
+#: <= 12: no free entry below ~6e-6, so no transition of Fig. 1 is ruled out by the search).
+LOGIT_BOUND = 12.0
+#: Side of the initial Nelder-Mead simplex in those log-odds (a factor e^2 ~ 7 in a probability ratio).
+SIMPLEX_STEP = 2.0
 
-    ``counts[j, i]`` = (expected) number of transitions from mode ``i`` to mode ``j``; ``Pi[j, i] =
-    counts[j, i] / sum_j counts[j, i]`` maximises ``sum_{ij} counts[j, i] log Pi[j, i]`` under the column
-    constraints. A mode never left keeps a unit diagonal.
+
+class _Budget(Exception):
+    """The likelihood-evaluation budget of :func:`learn_transition` is spent."""
+
+
+def _transition_coords(mask: NDArray[np.bool_]) -> list[tuple[int, int, int]]:
+    """Free entries ``(j, i, r)`` of a structure mask: ``Pi[j, i]`` is parametrised by its log-odds against the
+    reference ``Pi[r, i]`` of its column (the diagonal if free, else the first free entry).
     """
-    c = np.asarray(counts, dtype=np.float64)
-    if c.ndim != 2 or c.shape[0] != c.shape[1] or np.any(c < 0) or not np.all(np.isfinite(c)):
-        raise InputError("counts must be a square matrix of non-negative numbers", field="counts")
-    tot = c.sum(axis=0)
-    out = np.where(tot > 0, c / np.where(tot > 0, tot, 1.0), np.eye(c.shape[0]))
-    return np.asarray(out)
+    out = []
+    for i in range(mask.shape[1]):
+        free = np.flatnonzero(mask[:, i])
+        r = i if mask[i, i] else int(free[0])
+        out += [(int(j), i, r) for j in free if j != r]
+    return out
+
+
+def _transition_of(theta: Array, mask: NDArray[np.bool_], coords: list[tuple[int, int, int]]) -> Array:
+    """Column-stochastic ``Pi`` of log-odds ``theta``: a softmax over each column's free entries."""
+    logit = np.where(mask, 0.0, -np.inf)
+    for (j, i, _), v in zip(coords, theta, strict=True):
+        logit[j, i] = v
+    e = np.exp(logit - logit.max(axis=0))
+    return np.asarray(e / e.sum(axis=0))
 
 
 @dataclass(frozen=True)
@@ -680,64 +699,112 @@ class TransitionLearning:
     Attributes
     ----------
     transition
-        (3, 3) learned ``Pi`` at ``rate_hz``.
+        (3, 3) learned ``Pi`` at ``rate_hz``: the evaluated matrix of largest likelihood.
     rate_hz
         Sampling rate the matrix belongs to, Hz.
     log_likelihood
-        (I+1,) total log-likelihood of the training data (eq. 11b) before each iteration and after the last.
+        (E,) log-likelihood of the training data (eq. 11b, the sum over the sequences) at each evaluated
+        ``Pi`` in the order of evaluation; entry 0 is the initial matrix.
+    seconds
+        Wall-clock cost of the search, s.
     """
 
     transition: Array
     rate_hz: float
     log_likelihood: Array
+    seconds: float
+
+    @property
+    def best_so_far(self) -> Array:
+        """(E,) largest log-likelihood found up to each evaluation (non-decreasing)."""
+        return np.asarray(np.maximum.accumulate(self.log_likelihood))
+
+
+def transition_log_likelihood(sequences: Sequence[tuple[ArrayLike, ArrayLike, ArrayLike, ArrayLike]],
+                              config: FilterBankConfig, transition: ArrayLike, rate_hz: float) -> float:
+    """``log p(y_{1:k}; Pi)`` of eq. 11b summed over training sequences, each evaluated by the filter bank (eq. 11c).
+
+    Everything but ``Pi`` (noise, pruning to ``max_leaves``, first navigated sample) is fixed by ``config`` and
+    the data, so values for different ``Pi`` are comparable (``log p(y_1)`` is left out: it does not depend on
+    ``Pi``). ``transition`` is at ``rate_hz``; a sequence at another rate gets it via :func:`transition_at_rate`.
+    """
+    pi = check_transition(transition)
+    cfg = FilterBankConfig(**{**config.__dict__, "transition": tuple(map(tuple, pi.tolist())),
+                              "transition_rate_hz": rate_hz})
+    return float(sum(run_filterbank(t, f, w, zv, cfg).log_likelihood for t, f, w, zv in sequences))
 
 
 def learn_transition(sequences: Sequence[tuple[ArrayLike, ArrayLike, ArrayLike, ArrayLike]],
-                     config: FilterBankConfig | None = None, rate_hz: float = 100.0, iterations: int = 8,
+                     config: FilterBankConfig | None = None, rate_hz: float = 100.0, max_evaluations: int = 60,
                      initial: ArrayLike | None = None) -> TransitionLearning:
-    """Learn ``Pi`` by maximising the likelihood of training data (seed 002 eq. 11).
+    """Maximum-likelihood ``Pi`` of training data, ``argmax_Pi p(y_{1:k}; Pi)`` (seed 002 eq. 11a).
 
-    An expectation-maximisation iteration: run the filter bank with the current ``Pi`` over every training
-    sequence, collect the expected mode-transition counts of its (filtered, pruned) mode posterior, and set
-    ``Pi`` to their maximum-likelihood normalisation (:func:`transition_ml`). Structural zeros of the initial
-    matrix stay zero. The iterate with the largest likelihood (eq. 11b, evaluated by the filter bank, eq. 11c)
-    is returned.
+    The objective is the log of eq. 11b, ``sum_n log p(y_n | y_{1:n-1})`` with the one-step predictive
+    likelihood of eq. 11c given by the pruned filter bank (:func:`transition_log_likelihood`). It is maximised
+    directly over the free entries of ``Pi``: the transitions of the variant's diagram (seed Fig. 1, the
+    non-zero pattern of :data:`PI_INIT`; the others stay zero), each column parametrised by the log-odds of its
+    free entries against one of them (a softmax, so every column stays stochastic), bounded by
+    :data:`LOGIT_BOUND`. The likelihood of a pruned bank is not smooth in ``Pi`` (pruning decisions jump), so
+    the search is derivative-free: bounded Nelder-Mead from ``initial`` with a simplex of side
+    :data:`SIMPLEX_STEP`, stopped after ``max_evaluations`` likelihood evaluations (each one filter-bank run
+    over all sequences). ``Pi`` is per sample at ``rate_hz``.
 
     Parameters
     ----------
     sequences
-        ``(t_s, acc_b, gyro_b, zero_velocity)`` per training recording, all at about ``rate_hz``.
+        ``(t_s, acc_b, gyro_b, zero_velocity)`` per training recording, each starting at rest.
     config
         Model settings (its transition matrix is replaced).
     rate_hz
-        Sampling rate of the training data, Hz.
-    iterations
-        EM iterations.
+        Sampling rate the learned ``Pi`` belongs to, Hz (that of the training data).
+    max_evaluations
+        Likelihood evaluations allowed, the initial one included.
     initial
-        (3, 3) starting matrix; default the initial matrix of Sec. V for the variant.
+        (3, 3) starting matrix, zero on the structural zeros and positive elsewhere; default :data:`PI_INIT`.
     """
+    from scipy.optimize import minimize
+
     base = config or FilterBankConfig()
     if not sequences:
         raise InputError("no training sequences", field="sequences")
-    pi = check_transition(PI_INIT[base.variant] if initial is None else initial, "initial")
+    if max_evaluations < 1:
+        raise InputError(f"must be at least 1, got {max_evaluations}", field="max_evaluations")
+    mask = np.asarray(PI_INIT[base.variant]) > 0
+    pi0 = check_transition(PI_INIT[base.variant] if initial is None else initial, "initial")
+    if np.any(pi0[~mask] > 0) or np.any(pi0[mask] <= 0):
+        raise InputError(f"the initial matrix must have the transitions of the '{base.variant}' diagram (seed "
+                         f"Fig. 1), non-zero exactly where {PI_INIT[base.variant]} is", field="initial")
+    coords = _transition_coords(mask)
+    x0 = np.clip([math.log(pi0[j, i] / pi0[r, i]) for j, i, r in coords], -LOGIT_BOUND, LOGIT_BOUND)
     history: list[float] = []
-    best_pi, best_ll = pi, -np.inf
-    for it in range(iterations + 1):
-        cfg = FilterBankConfig(**{**base.__dict__, "transition": tuple(map(tuple, pi.tolist())),
-                                  "transition_rate_hz": rate_hz})
-        counts = np.zeros((3, 3))
-        ll = 0.0
-        for t, f, w, zv in sequences:
-            tr = run_filterbank(t, f, w, zv, cfg)
-            counts += tr.transition_counts
-            ll += tr.log_likelihood
+    best: list[Array] = [pi0]
+    t0 = time.perf_counter()
+
+    def neg_ll(theta: Array) -> float:
+        if len(history) >= max_evaluations:
+            raise _Budget
+        pi = _transition_of(theta, mask, coords)
+        ll = transition_log_likelihood(sequences, base, pi, rate_hz)
+        if not math.isfinite(ll):
+            ll = -math.inf
+        if not history or ll > max(history):
+            best[0] = pi
         history.append(ll)
-        if ll > best_ll:
-            best_pi, best_ll = pi, ll
-        if it == iterations:
-            break
-        pi = transition_ml(counts * (pi > 0))
-    return TransitionLearning(best_pi, rate_hz, np.asarray(history))
+        return -ll if math.isfinite(ll) else math.inf
+
+    if x0.size == 0:
+        neg_ll(x0)
+    else:
+        simplex = np.vstack([x0] + [x0 + np.where(np.arange(x0.size) == d,
+                                                  -SIMPLEX_STEP if x0[d] > SIMPLEX_STEP - LOGIT_BOUND
+                                                  else SIMPLEX_STEP, 0.0) for d in range(x0.size)])
+        try:
+            minimize(neg_ll, x0, method="Nelder-Mead", bounds=[(-LOGIT_BOUND, LOGIT_BOUND)] * x0.size,
+                     options={"initial_simplex": simplex, "maxfev": max_evaluations, "xatol": 0.05,
+                              "fatol": 0.5})
+        except _Budget:
+            pass
+    return TransitionLearning(best[0], rate_hz, np.asarray(history), time.perf_counter() - t0)
 
 
 @dataclass(frozen=True)

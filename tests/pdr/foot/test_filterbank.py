@@ -7,6 +7,8 @@ from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.foot.detectors import detect
 from pdr.foot.filterbank import (
+    PI_DEFAULT,
+    PI_INIT,
     FilterBankConfig,
     check_transition,
     learn_swing_noise,
@@ -14,9 +16,10 @@ from pdr.foot.filterbank import (
     polar_rotation,
     run_filterbank,
     transition_at_rate,
-    transition_ml,
+    transition_log_likelihood,
 )
 from pdr.foot.zupt import run_zupt
+from pdr.frames import GRAVITY_MPS2
 from tests.pdr.foot.gait import simulate_gait
 
 
@@ -34,21 +37,6 @@ def test_polar_decomposition_gives_the_chordal_mean_rotation() -> None:
     np.testing.assert_allclose(same, quat.to_rotmat(base), atol=1e-12)
     # A reflection-like input still gives a proper rotation.
     assert np.linalg.det(polar_rotation(np.diag([1.0, 1.0, -1.0]))) == pytest.approx(1.0)
-
-
-def test_transition_ml_recovers_a_known_markov_chain() -> None:
-    pi = np.array([[0.9, 0.2, 0.0], [0.1, 0.7, 0.05], [0.0, 0.1, 0.95]])
-    rng = np.random.default_rng(1)
-    n = 40_000
-    s = np.zeros(n, dtype=int)
-    for k in range(1, n):
-        s[k] = rng.choice(3, p=pi[:, s[k - 1]])
-    counts = np.zeros((3, 3))
-    np.add.at(counts, (s[1:], s[:-1]), 1.0)
-    est = transition_ml(counts)
-    np.testing.assert_allclose(est, pi, atol=0.02)
-    np.testing.assert_allclose(est.sum(axis=0), 1.0)
-    assert np.all(est[pi == 0] == 0)
 
 
 def test_transition_at_rate_keeps_dwell_times() -> None:
@@ -86,15 +74,56 @@ def test_filter_bank_recovers_a_simulated_walk(variant: str) -> None:
         assert abs(tr.pos_n[-1, 2] - g.pos_n[-1, 2]) < 0.02
 
 
-def test_learning_raises_the_likelihood_and_gives_a_low_pass_chain() -> None:
-    g = simulate_gait(n_strides=4, sigma_acc=0.05, sigma_gyro=0.005, seed=4)
-    zv = detect(g.acc_b, g.gyro_b, 200.0)
-    res = learn_transition([(g.t_s, g.acc_b, g.gyro_b, zv)], rate_hz=200.0, iterations=2)
-    assert res.log_likelihood.max() > res.log_likelihood[0]
-    assert res.transition[0, 0] > 0.9 and res.transition[2, 2] > 0.9
+def _jump_markov_rotation(pi: np.ndarray, n: int, rate_hz: float, seed: int) -> tuple[np.ndarray, ...]:
+    """IMU at rest on a turntable whose yaw rate follows a Markov chain of the speed variant's modes (eq. 3e):
+    5 rad/s (unconstrained), 0.6 rad/s (almost stationary: within sigma_omega = 0.5 of eq. 12e, far outside the
+    stationary 0.05), 0 (stationary); 1 s stationary first for the initialisation. Gravity stays along the body
+    z axis, so the kinematics are exact; returns t, acc, gyro, stationary flags and the mode sequence."""
+    rng = np.random.default_rng(seed)
+    m = np.full(n, 2)
+    for k in range(int(rate_hz), n):
+        m[k] = rng.choice(3, p=pi[:, m[k - 1]])
+    gyro = rng.normal(0.0, 0.01, (n, 3))
+    gyro[:, 2] += np.array([5.0, 0.6, 0.0])[m]
+    acc = rng.normal(0.0, 0.05, (n, 3)) + [0.0, 0.0, GRAVITY_MPS2]
+    return np.arange(n) / rate_hz, acc, gyro, m == 2, m
+
+
+def test_learning_recovers_the_transition_matrix_of_a_simulated_jump_markov_model() -> None:
+    # Simulate-then-recover for eq. 11a: Pi of the simulated chain (per sample at 50 Hz), learned from the seed's
+    # initial matrix (PI_INIT) by the bounded likelihood search.
+    truth = np.array([[0.98, 0.05, 0.0], [0.02, 0.85, 0.04], [0.0, 0.10, 0.96]])
+    t, acc, gyro, zv, m = _jump_markov_rotation(truth, 900, 50.0, seed=1)
+    cfg = FilterBankConfig(max_leaves=3)
+    seqs = [(t, acc, gyro, zv)]
+    res = learn_transition(seqs, cfg, rate_hz=50.0, max_evaluations=36)
+    assert res.log_likelihood.size == 36
+    assert res.log_likelihood[0] == pytest.approx(transition_log_likelihood(seqs, cfg, PI_INIT["speed"], 50.0))
+    best = res.best_so_far
+    assert np.all(np.diff(best) >= 0) and best[-1] > best[0] + 500.0
+    assert transition_log_likelihood(seqs, cfg, res.transition, 50.0) == pytest.approx(best[-1])
+    # Close to the chain's own transition frequencies (their ML estimate) and to the truth, far closer than the
+    # initial matrix; within a few nats of the truth's likelihood.
+    counts = np.zeros((3, 3))
+    np.add.at(counts, (m[1:], m[:-1]), 1.0)
+    assert np.abs(res.transition - counts / counts.sum(axis=0)).max() < 0.06
+    assert np.abs(res.transition - truth).max() < 0.1 < 0.5 < np.abs(np.array(PI_INIT["speed"]) - truth).max()
+    assert best[-1] > transition_log_likelihood(seqs, cfg, truth, 50.0) - 10.0
+    # Stochastic columns, Fig. 1a's structural zeros (no direct 1 <-> 3 jump) kept.
     np.testing.assert_allclose(res.transition.sum(axis=0), 1.0)
-    # Structural zeros of the initial matrix (no direct 1 <-> 3 jump) stay zero.
     assert res.transition[2, 0] == 0.0 and res.transition[0, 2] == 0.0
+
+
+def test_learning_keeps_the_height_diagram_and_checks_the_initial_matrix() -> None:
+    t, acc, gyro, zv, _ = _jump_markov_rotation(np.array(PI_DEFAULT["speed"][0]), 200, 50.0, seed=2)
+    res = learn_transition([(t, acc, gyro, zv)], FilterBankConfig(variant="height", max_leaves=3), rate_hz=50.0,
+                           max_evaluations=6)
+    assert res.log_likelihood.size == 6 and res.best_so_far[-1] >= res.log_likelihood[0]
+    # Fig. 1b: mode 2 (stationary at a new height) always goes on to mode 3; mode 3 never returns to mode 2.
+    np.testing.assert_array_equal(res.transition[:, 1], [0.0, 0.0, 1.0])
+    assert res.transition[1, 2] == 0.0 and np.all(res.transition[:, 0] > 0)
+    with pytest.raises(InputError, match="diagram"):
+        learn_transition([(t, acc, gyro, zv)], FilterBankConfig(), rate_hz=50.0, initial=np.full((3, 3), 1 / 3))
 
 
 def test_bad_configuration() -> None:
