@@ -20,7 +20,8 @@ error is a 3-vector rotation, ``q_true = exp(dtheta) q``).
   linearised measurement update) and a potential that is a Gaussian mixture in a linear function of the
   state, the integrals of eqs. 14-15 are exact and closed-form: the product is a mixture of Gaussians, each a
   Kalman update of ``pi^+`` by the "measurement" ``P x = mu_i`` with noise ``Sigma_i``, weighted by
-  ``alpha_i N(mu_i; P mu, P Sigma P^T + Sigma_i)``; its moments are those of eqs. 14-15.
+  ``alpha_i N(mu_i; P mu, P Sigma P^T + Sigma_i)``; its moments are those of eqs. 14-15. The broadest
+  component (the swing) is weighted so but pulls nothing (:attr:`BCConfig.background`).
 
 Deviation from the text: the angular rate is kept in the body frame (the gyroscope's, so that eq. 6 holds as
 written); the context's Gaussian components are isotropic per quantity, so the frame does not change them.
@@ -47,7 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.foot.drift import drift_predict, drift_update, initial_state, rotate_yaw
-from pdr.foot.saturation import clip_variance
+from pdr.foot.saturation import CLIP_EXCESS_FRACTION, clip_variance, clip_variance_peak
 from pdr.foot.zupt import ZuptConfig, _quat_exp, _quat_mul, _rotmat, check_imu, first_stationary_run
 from pdr.frames import GRAVITY_MPS2
 from pdr.strapdown import initial_attitude_from_gravity
@@ -101,6 +102,11 @@ class ContextModel:
         stance = np.repeat([0.05, 0.3, 0.2], 3)
         swing = np.repeat([2.5, 7.5, 2.0], 3)
         return cls(np.array([alpha, 1.0 - alpha]), np.zeros((2, N_CTX)), np.stack([stance, swing]))
+
+
+#: Values of :attr:`BCConfig.background` and :attr:`BCConfig.clip_model`.
+BACKGROUNDS: tuple[str, ...] = ("scored", "divided", "applied")
+CLIP_MODELS: tuple[str, ...] = ("peak", "constant", "off")
 
 
 @dataclass(frozen=True)
@@ -159,17 +165,30 @@ class BCConfig:
         m/s^2.
     init_window_s
         Stationary period used for the coarse alignment, s.
-    divide_by_prior
-        Eq. 7: ``f(c | x) ~ f(Px | c) / f(Px)`` with ``f(Px)`` the broadest component (the swing) instead of
-        a constant. Applied at every sample, a constant ``f(Px)`` makes the swing component a zero-velocity
-        pull of 2.5 m/s at the IMU rate, which shortens every stride (measured: half the distance on a
-        noise-free simulated walk); dividing by it leaves the swing unconstrained.
-    clip_excess
-        Clipped gyroscope samples (:mod:`pdr.foot.saturation`) add attitude process noise for an unknown excess
-        rate with the standard deviation ``clip_excess * |w|`` (rad/s), constant over a run; 0 (default): off.
-        Measured for issue #5 with 0.5 (pdr.foot.saturation's fraction): foot_stride_gcp walk 35 no longer runs
-        away (3029 -> 10.6 % of the distance) and PyShoe median ARMSE 0.076 -> 0.073 m, but PyShoe
-        2017-11-27-11-13-41 diverges instead (0.33 -> 46.8 m) and gcp walk 34 doubles (0.42 -> 0.90 %).
+    background
+        How the broadest context component (the swing of the expert model) enters. ``"scored"`` (default): every
+        component is the seed's Gaussian (eq. 17, ``f(Px)`` constant as eq. 7 allows) and is weighted by its
+        eq. 14 normaliser over the belief, ``alpha_i N(mu_i; P mu, P Sigma P^T + Sigma_i)``; the broadest one
+        applies no pull on the moments (its spread is the "no constraint" of the swing). ``"divided"``: eq. 7
+        with ``f(Px)`` the broadest component, which then becomes the constant 1 (variance ``inf``) and the
+        narrower ones ``phi_i / phi_b`` (:func:`potential_factors`). ``"applied"``: eq. 17 as written, every
+        component a Kalman update of the belief. Why not ``"applied"``: at the IMU rate the swing component's
+        pull to zero velocity with 2.5 m/s shortens every stride (half the distance on a noise-free simulated
+        walk). Why not ``"divided"``: the constant does not widen with the belief, while the stance weight
+        falls with the determinant of ``P Sigma P^T`` (a ratio ``sqrt(|Sigma_b| / |P Sigma P^T + Sigma_i'|)``),
+        so once the belief is as uncertain as the swing itself the stance can no longer win -- the mode collapse
+        of the filter bank's eq. 12d constant (issue #5); with ``"scored"`` the ratio tends to 1 instead.
+    clip_model, clip_excess
+        Attitude process noise of clipped gyroscope samples (:mod:`pdr.foot.saturation`): ``"peak"`` (default,
+        :func:`~pdr.foot.saturation.clip_variance_peak`: the excess of a smooth peak cut at full scale, sized by
+        the run's length and its edge slopes), ``"constant"`` (:func:`~pdr.foot.saturation.clip_variance`, an
+        excess with the standard deviation ``clip_excess * |w|`` over the whole run) or ``"off"``. Measured
+        for issue #5 (pdr eval foot /work/shared/data --method bc --hde on; PyShoe median ARMSE / largest, gcp
+        walk 35 final error): off 0.076 / 2.03 m, 3029 %; scored + off 0.076 / 1.99 m, 3030 %; scored +
+        constant 0.5: 0.073 / 47.3 m (2017-11-27-11-13-41: the attitude spread of 4 deg after a 3-sample run,
+        10-15 deg later, let the stance's 0.3 m/s^2 acceleration constraint put the running stance's
+        accelerations into the tilt, 15-40 deg off the ZUPT filter's), 3.2 %; divided + peak 0.072 / 0.76 m,
+        1173 %; scored + peak (the defaults) 0.072 / 0.73 m, 5.9 %.
     hde
         Heuristic drift elimination of the heading (:mod:`pdr.foot.drift`): its ``hde_*``, ``sigma_drift*`` and
         ``sigma_heading_rw`` settings, the same as the ZUPT INS's (``ZuptConfig(hde_directions=0)``: off). It
@@ -192,8 +211,9 @@ class BCConfig:
     context: ContextModel | None = None
     gravity: float = GRAVITY_MPS2
     init_window_s: float = 0.5
-    divide_by_prior: bool = True
-    clip_excess: float = 0.0
+    background: str = "scored"
+    clip_model: str = "peak"
+    clip_excess: float = CLIP_EXCESS_FRACTION
     hde: ZuptConfig = field(default_factory=ZuptConfig)
 
     def __post_init__(self) -> None:
@@ -206,6 +226,10 @@ class BCConfig:
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise InputError(f"must be a non-negative number, got {v}", field=name)
+        if self.background not in BACKGROUNDS:
+            raise InputError(f"expected one of {BACKGROUNDS}, got {self.background!r}", field="background")
+        if self.clip_model not in CLIP_MODELS:
+            raise InputError(f"expected one of {CLIP_MODELS}, got {self.clip_model!r}", field="clip_model")
 
     @classmethod
     def table_i(cls, **changes: object) -> BCConfig:
@@ -278,7 +302,8 @@ def _bc_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Arr
                alpha: Array, mu: Array, var: Array, logc: Array, stance: int,
                pos: Array, vel: Array, acc: Array, qs: Array, om: Array, bias: Array,
                pvar: Array, vvar: Array, avar: Array, sprob: Array,
-               exact: bool, hde_par: Array, hde: Array, sat_var: Array) -> None:  # pragma: no cover - compiled
+               exact: bool, hde_par: Array, hde: Array, sat_var: Array,
+               scored: int) -> None:  # pragma: no cover - compiled
     n = t.size
     hde_on = hde_par[0] > 0
     was_stance = True                                   # aligned at rest
@@ -396,9 +421,15 @@ def _bc_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Arr
                 Sc[i, i] += var[c_i, i]
             Sc_inv = np.linalg.inv(Sc)
             r = mu[c_i] - ctx
-            Kc = PcX.T @ Sc_inv
-            means[c_i] = dx + Kc @ r
-            covs[c_i] = P - Kc @ PcX
+            if c_i == scored:
+                # Scored background (BCConfig.background): eq. 14's normaliser of this component over the
+                # belief, alpha N(mu; P mu_pi, P Sigma_pi P^T + Sigma_i), without its pull on the moments.
+                means[c_i] = dx
+                covs[c_i] = P
+            else:
+                Kc = PcX.T @ Sc_inv
+                means[c_i] = dx + Kc @ r
+                covs[c_i] = P - Kc @ PcX
             sign, logdet = np.linalg.slogdet(Sc)
             logb[c_i] = (math.log(max(alpha[c_i], 1e-300)) + logc[c_i]
                          - 0.5 * (N_CTX * log2pi + logdet + r @ Sc_inv @ r))
@@ -485,7 +516,12 @@ def run_bc(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity: A
     P0[TH, TH] = P0[TH + 1, TH + 1] = cfg.init_sigma_tilt**2
     P0[TH + 2, TH + 2] = cfg.init_sigma_yaw**2
     stance = int(np.argmin(ctx.sds[:, 0] + 1e3 * (ctx.weights == 0)))
-    var, logc = potential_factors(ctx, cfg.divide_by_prior)
+    var, logc = potential_factors(ctx, cfg.background == "divided")
+    scored = int(np.argmax(np.sum(np.log(var), axis=1))) if cfg.background == "scored" and var.shape[0] > 1 else -1
+    if cfg.clip_model == "peak":
+        sat_var = clip_variance_peak(w_b)
+    else:
+        sat_var = clip_variance(w_b, cfg.clip_excess if cfg.clip_model == "constant" else 0.0)
     pos = np.zeros((n, 3))
     vel = np.zeros((n, 3))
     acc = np.zeros((n, 3))
@@ -503,7 +539,7 @@ def run_bc(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity: A
                np.ascontiguousarray(ctx.weights), np.ascontiguousarray(ctx.means),
                var, logc, stance, pos, vel, acc, qs, om, bias, pvar, vvar, avar, sprob, cfg.exact_jerk,
                cfg.hde.hde_params(), initial_state(cfg.hde.sigma_drift0),
-               clip_variance(w_b, cfg.clip_excess))
+               sat_var, scored)
     return BCTrack(t, pos, vel, acc, quat.normalize(qs), om, bias, pvar, vvar, avar, sprob, a0)
 
 

@@ -12,6 +12,9 @@ vanishes and the unconstrained mode wins every later sample (the divergence of f
 :func:`clipped_samples` finds the clipped samples of a recording (a pile-up of samples at the largest absolute
 value of an axis), :func:`clip_variance` gives the attitude process noise that the unknown excess rate adds:
 the clipped value is the rate's lower bound, the excess stays (one sign) for the whole run of clipped samples.
+:func:`clip_variance_peak` sizes that excess from the run itself instead of a fixed fraction of full scale: a
+smooth rate peak that enters the clipped range with slope ``s`` and leaves it ``T`` later exceeds full scale by
+about ``s t (1 - t / T)`` (a parabola), so short runs add little and long flat runs a lot.
 """
 
 from __future__ import annotations
@@ -56,6 +59,18 @@ def clipped_samples(values: ArrayLike, tolerance: float = CLIP_TOLERANCE,
     return np.asarray(near & clipped[None, :])
 
 
+def _run_positions(flags: BoolArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Position of each flagged sample within its run (1, 2, ...; 0 where not flagged) and its run's length."""
+    idx = np.arange(flags.size)
+    run_start = np.maximum.accumulate(np.where(~flags, idx + 1, 0))
+    pos = np.where(flags, idx - run_start + 1, 0)
+    d = np.diff(flags.astype(np.int8), prepend=0, append=0)
+    length = np.zeros(flags.size, dtype=np.int64)
+    for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1), strict=True):
+        length[a:b] = b - a
+    return pos, length
+
+
 def clip_variance(gyro_b: ArrayLike, fraction: float = CLIP_EXCESS_FRACTION) -> Array:
     """(N, 3) attitude process-noise rate of clipped samples, (rad/s)^2 per body axis; 0 where not clipped.
 
@@ -75,9 +90,38 @@ def clip_variance(gyro_b: ArrayLike, fraction: float = CLIP_EXCESS_FRACTION) -> 
         f = flags[:, axis]
         if not f.any():
             continue
-        # Position of each sample within its run of clipped samples (1, 2, ...).
-        idx = np.arange(f.size)
-        run_start = np.maximum.accumulate(np.where(~f, idx + 1, 0))
-        n = np.where(f, idx - run_start + 1, 0)
+        n, _ = _run_positions(f)
         out[:, axis] = np.where(f, (2.0 * n - 1.0) * (fraction * np.abs(w[:, axis])) ** 2, 0.0)
+    return np.ascontiguousarray(out)
+
+
+def clip_variance_peak(gyro_b: ArrayLike) -> Array:
+    """(N, 3) attitude process-noise rate of clipped samples from the shape of each clipped peak, (rad/s)^2.
+
+    A run of ``m`` clipped samples is taken as a smooth peak cut at full scale: entering with the slope ``s``
+    (rad/s per sample; the larger of the slopes over the two unclipped samples before the run and the two after
+    it, so that the soft compression at the run's edges does not lower it) and crossing full scale again at
+    ``M = m + 1`` samples, its excess at the ``u``-th sample is ``e(u) = s u (1 - u / M)`` (peak ``s M / 4``).
+    The attitude error after ``j`` samples, ``A_j = dt sum_{u<=j} e(u)``, is taken as the standard deviation
+    of that sample's accumulated error (the sign is known, the size only roughly); the returned ``(A_j^2 -
+    A_{j-1}^2) / dt^2`` is to be multiplied by ``dt^2``, as :func:`clip_variance`'s. A run summed gives ``(dt s
+    m (m + 2) / 6)^2``.
+    """
+    w = np.asarray(gyro_b, dtype=np.float64)
+    flags = clipped_samples(w)
+    out = np.zeros(w.shape)
+    n_s = w.shape[0]
+    for axis in range(w.shape[1]):
+        f = flags[:, axis]
+        if not f.any():
+            continue
+        d = np.diff(f.astype(np.int8), prepend=0, append=0)
+        for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1), strict=True):
+            s_in = abs(w[a - 1, axis] - w[a - 3, axis]) / 2.0 if a >= 3 else 0.0
+            s_out = abs(w[b, axis] - w[b + 2, axis]) / 2.0 if b + 2 < n_s else 0.0
+            slope = max(s_in, s_out)
+            u = np.arange(1, b - a + 1, dtype=np.float64)
+            big_m = b - a + 1.0
+            cum = np.cumsum(slope * u * (1.0 - u / big_m))           # A_j / dt, rad/s * samples
+            out[a:b, axis] = np.diff(cum**2, prepend=0.0)
     return np.ascontiguousarray(out)

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
 from pdr.errors import InputError
-from pdr.foot.saturation import clip_variance, clipped_samples
+from pdr.foot.saturation import clip_variance, clip_variance_peak, clipped_samples
 
 
 def _pulse_train(amplitudes: np.ndarray, rate_hz: float = 200.0, pulse_s: float = 0.3,
@@ -52,6 +54,30 @@ def test_clip_variance_grows_like_a_constant_unknown_excess() -> None:
         assert np.isclose(v[s:e, 1].sum(), np.sum((2 * np.arange(1, n + 1) - 1) * excess_sd**2))
         assert np.isclose(v[s:e, 1].sum(), (n * fraction * limit) ** 2, rtol=0.04)
     assert np.all(clip_variance(w, 0.0) == 0.0)
+
+
+def test_peak_clip_variance_matches_the_lost_rotation() -> None:
+    # Half-sine pitch-rate pulses cut at 500 deg/s: the rotation lost in each clipped run (the area of the pulse
+    # above full scale) is what the peak model's standard deviation should be of the size of; a barely clipped
+    # peak gets up to the area of the 2 % tolerance band the flags include (about 0.01 rad here) on top.
+    limit = np.radians(500.0)
+    amps = np.array([9.0, 12.0, 15.0, 6.0, 10.0, 18.0])
+    free = _pulse_train(amps)
+    w = free.copy()
+    w[:, 1] = np.clip(w[:, 1], -limit, limit)
+    v = clip_variance_peak(w)
+    assert np.all(v[:, [0, 2]] == 0.0) and np.all(v >= 0.0)
+    runs = np.flatnonzero(np.diff(np.concatenate([[0], (v[:, 1] > 0).astype(int), [0]])))
+    starts, ends = runs[::2], runs[1::2]
+    assert starts.size == 5                              # the 6 rad/s pulse is not clipped
+    dt = 1.0 / 200.0
+    sds = []
+    for s, e in zip(starts, ends, strict=True):
+        lost = float(np.sum(np.clip(np.abs(free[s - 3:e + 3, 1]) - limit, 0.0, None))) * dt     # rad
+        sd = math.sqrt(v[s:e, 1].sum()) * dt             # rad
+        assert 0.8 * lost < sd < 1.3 * lost + 0.025
+        sds.append(sd)
+    assert np.all(np.diff(np.array(sds)[np.argsort(amps[amps > 7.0])]) > 0)    # a larger peak loses more
 
 
 def test_bad_input() -> None:
