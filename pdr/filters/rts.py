@@ -78,6 +78,23 @@ def _cholesky_solve(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def _matmul_sparse_left(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
+    """``A B`` for an (n, k) ``A`` and a (k, m) ``B`` in plain loops, skipping the zero entries of ``A`` (a filter's
+    transition matrix is mostly zeros).
+    """
+    n = A.shape[0]
+    m = B.shape[1]
+    out = np.zeros((n, m))
+    for i in range(n):
+        for k in range(A.shape[1]):
+            a = A[i, k]
+            if a != 0.0:
+                for j in range(m):
+                    out[i, j] += a * B[k, j]
+    return out
+
+
+@njit(cache=True)
 def rts_step(x_f: Array, P_f: Array, F_next: Array, x_p_next: Array, P_p_next: Array, x_s_next: Array,
              P_s_next: Array, x_s: Array, P_s: Array) -> None:  # pragma: no cover - compiled
     """One backward RTS step from sample ``k + 1`` to ``k``, results written into ``x_s`` and ``P_s``.
@@ -96,24 +113,10 @@ def rts_step(x_f: Array, P_f: Array, F_next: Array, x_p_next: Array, P_p_next: A
         (n,), (n, n) outputs: smoothed mean and covariance at ``k`` (may alias ``x_f``/``P_f``).
     """
     n = x_f.shape[0]
-    FP = np.zeros((n, n))
-    for i in range(n):
-        for k in range(n):
-            f = F_next[i, k]
-            if f != 0.0:
-                for j in range(n):
-                    FP[i, j] += f * P_f[k, j]
     # C^T = P_p^-1 F P_f (P_p, P_f symmetric).
-    ct = _cholesky_solve(P_p_next, FP)
+    ct = _cholesky_solve(P_p_next, _matmul_sparse_left(F_next, P_f))
     d = x_s_next - x_p_next
-    D = P_s_next - P_p_next
-    DC = np.zeros((n, n))  # D C^T
-    for i in range(n):
-        for k in range(n):
-            dik = D[i, k]
-            if dik != 0.0:
-                for j in range(n):
-                    DC[i, j] += dik * ct[k, j]
+    DC = _matmul_sparse_left(P_s_next - P_p_next, ct)  # D C^T
     for i in range(n):
         acc = x_f[i]
         for k in range(n):
