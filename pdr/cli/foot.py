@@ -58,7 +58,9 @@ def _add_options(p: argparse.ArgumentParser, evaluation: bool = False) -> None:
                                                   f"{DetectorConfig().run_gain:g})")
     p.add_argument("--gyro-bias", choices=("on", "off"), default="off",
                    help="OFFLINE ONLY, method zupt only: remove the gyroscope bias measured over the still samples of "
-                        "the whole recording (default off: PyShoe and foot_stride_gcp gain, xio_gait_loop loses)")
+                        "the whole recording (default off: PyShoe gains on median but 5 of 18 trials lose, "
+                        "foot_stride_gcp walks without a long rest lose, xio_gait_loop loses; see "
+                        "pdr.foot.detectors.stationary_gyro_bias)")
     smoother = ("on", "off", "both") if evaluation else ("on", "off")
     p.add_argument("--smoother", choices=smoother, default="on",
                    help="OFFLINE ONLY, method zupt only: Rauch-Tung-Striebel fixed-interval smoother over the whole "
