@@ -147,6 +147,9 @@ def register_eval(targets: argparse._SubParsersAction) -> None:
                            help="also score each log after recalibrating the step-length scale K (pdr calibrate) "
                                 "on OTHER logs of the same phone: cross = its other routes, cross-rep = the other "
                                 "repetitions of its route (never the log itself)")
+            p.add_argument("--trim-start", type=float, default=0.0, metavar="S",
+                           help="drop each log's first S seconds (refused if that reaches its first landmark): "
+                                "shows how much the figures depend on the start conditions")
         p.set_defaults(func=func)
 
 
@@ -216,6 +219,18 @@ def _ipin_summary_line(label: str, m: dict[str, Any]) -> str:
             f"{m['same_floor_abs_ratio_minus_1_max']:.3f}, {m['same_floor_outside_3pct']} outside 3 %")
 
 
+def _trim_start(rec: Recording, trim_s: float, first_landmark_s: float) -> Recording:
+    """``rec`` without its first ``trim_s`` seconds; refused when that would reach the first landmark."""
+    if trim_s == 0:
+        return rec
+    start, end = rec.time_span_s()
+    if not (0 < trim_s and start + trim_s < first_landmark_s):
+        raise InputError(f"--trim-start {trim_s} s must be positive and end before the first landmark "
+                         f"({first_landmark_s - start:.1f} s into the log)", source=rec.source or None,
+                         field="trim_start")
+    return rec.slice_time(start + trim_s, end + 1.0)
+
+
 def eval_ipin(args: argparse.Namespace) -> int:
     """Per-file and overall IPIN figures; with ``--calibrate`` also after a per-phone step-length calibration.
 
@@ -239,6 +254,7 @@ def eval_ipin(args: argparse.Namespace) -> int:
         if pt is None or len(pt) < 2:
             continue
         t_truth = rec.origin_ns / 1e9 + pt.t_s
+        rec = _trim_start(rec, args.trim_start, float(t_truth[0]))
         floor0 = float(pt.floor[0]) if pt.floor is not None and np.isfinite(pt.floor[0]) else 0.0
         cfg = config_from_args(args, floor0)
         rows, notices = run_pipeline(rec, cfg, site)
@@ -270,6 +286,7 @@ def eval_ipin(args: argparse.Namespace) -> int:
             rec = read_recording(d["path"])
             truth = rec.truth.positions
             assert truth is not None   # scored in the first pass
+            rec = _trim_start(rec, args.trim_start, rec.origin_ns / 1e9 + float(truth.t_s[0]))
             rows, _ = run_pipeline(rec, replace(d["cfg"], step_length=model), site)
             c = {"k": model.k, "calibrated_on": [o["path"].name for o in partners],
                  **_ipin_scores(rows, rec.origin_ns / 1e9 + truth.t_s, truth)}

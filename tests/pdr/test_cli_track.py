@@ -89,6 +89,28 @@ def test_ipin_eval_agrees_with_the_reference_scorer(tmp_path, capsys):
 
 
 @pytest.mark.data
+def test_ipin_eval_trim_start_drops_samples_before_the_first_landmark(tmp_path, capsys):
+    logdir = data_path("ipin2023_t3", "logfiles")
+    one = tmp_path / "logs"
+    one.mkdir()
+    src = logdir / "IPIN2023_T3_TrainingTrial23_repetition01.txt"
+    (one / src.name).symlink_to(src)
+    tracks = tmp_path / "tracks"
+    assert main(["eval", "ipin", str(one), "--placement", "hand", "--json"]) == 0
+    full = json.loads(capsys.readouterr().out)["files"][0]
+    assert main(["eval", "ipin", str(one), "--placement", "hand", "--json", "--trim-start", "3",
+                 "--tracks", str(tracks)]) == 0
+    trimmed = json.loads(capsys.readouterr().out)["files"][0]
+    rows = read_rows(tracks / (src.stem + ".csv"))
+    assert float(rows[0]["t_s"]) >= 3.0          # the log's clock starts near 0 s
+    assert trimmed["landmarks"] == full["landmarks"]
+    assert trimmed["steps"] <= full["steps"]
+    # Reaching the first landmark is refused with a message naming the option.
+    assert main(["eval", "ipin", str(one), "--trim-start", "10000"]) == 2
+    assert "trim_start" in capsys.readouterr().err
+
+
+@pytest.mark.data
 def test_steps_eval_on_two_oxford_walks(capsys):
     root = data_path("oxford_step_counter", "optimisation", "data")
     walks = [root / "Samsung_Dario_Hard_FrontPocket_2", root / "Samsung_Carmelo_Hard_InHand_2"]
