@@ -83,8 +83,9 @@ def armse(trial: Trial, t_s: Array, pos_n: Array) -> float:
 
 @dataclass(frozen=True)
 class Learned:
-    """What one training half gave."""
+    """What one training half gave: per variant the learned noise with the default ``Pi`` and with the learned one."""
 
+    filterbank_noise: dict[str, FilterBankConfig]
     filterbank: dict[str, FilterBankConfig]
     bc: BCConfig
     notes: dict[str, Any]
@@ -107,10 +108,12 @@ def learn(train: Sequence[Trial], variants: Sequence[str] = ("speed", "height"),
         seqs.append((t.imu.t_s[:n], t.imu.acc_b[:n], t.imu.gyro_b[:n], t.zero_velocity[:n]))
     notes["train_seconds"] = float(sum(s[0][-1] - s[0][0] for s in seqs))
     fb: dict[str, FilterBankConfig] = {}
+    fb_noise: dict[str, FilterBankConfig] = {}
     for variant in variants:
         base = FilterBankConfig(variant=variant, acc_psd=swing.acc_psd, sigma_nc=swing.sigma_nc)
         res = learn_transition(seqs, base, rate_hz=rate, max_evaluations=evaluations,
                                initial=FilterBankConfig(variant=variant).transition_matrix(rate))
+        fb_noise[variant] = base
         fb[variant] = replace(base, transition=tuple(map(tuple, res.transition.tolist())),
                               transition_rate_hz=rate)
         notes[f"transition_{variant}"] = np.round(res.transition, 4).tolist()
@@ -124,12 +127,14 @@ def learn(train: Sequence[Trial], variants: Sequence[str] = ("speed", "height"),
     ctx = learn_context(samples, m=m)
     notes["context_weights"] = np.round(ctx.weights, 3).tolist()
     notes["context_sds"] = np.round(ctx.sds[:, [0, 2, 3, 5, 6]], 3).tolist()
-    return Learned(fb, BCConfig(context=ctx), notes)
+    return Learned(fb_noise, fb, BCConfig(context=ctx), notes)
 
 
 def evaluate(test: Sequence[Trial], learned: Learned | None,
              variants: Sequence[str] = ("speed", "height")) -> list[dict[str, float | str]]:
-    """ARMSE per test trial of ZUPT, the default and learned filter banks, expert and learned BC."""
+    """ARMSE per test trial of ZUPT, the filter banks (default; learned noise with the default ``Pi``, ``_noise``;
+    learned noise and ``Pi``, ``_learned``), expert and learned BC.
+    """
     rows: list[dict[str, float | str]] = []
     for tr in test:
         t, f, w, zv = tr.imu.t_s, tr.imu.acc_b, tr.imu.gyro_b, tr.zero_velocity
@@ -138,6 +143,8 @@ def evaluate(test: Sequence[Trial], learned: Learned | None,
             fbt = run_filterbank(t, f, w, zv, FilterBankConfig(variant=variant))
             row[f"fb_{variant}"] = armse(tr, fbt.t_s, fbt.pos_n)
             if learned is not None:
+                fbt = run_filterbank(t, f, w, zv, learned.filterbank_noise[variant])
+                row[f"fb_{variant}_noise"] = armse(tr, fbt.t_s, fbt.pos_n)
                 fbt = run_filterbank(t, f, w, zv, learned.filterbank[variant])
                 row[f"fb_{variant}_learned"] = armse(tr, fbt.t_s, fbt.pos_n)
         bct = run_bc(t, f, w, zv, BCConfig())
