@@ -47,9 +47,10 @@ Magnetometer rows (eq. 13, adapted to disturbed buildings): the reference magnit
 measured field with time constant ``mag_ref_tau_s`` (so the gates reject abrupt disturbances, not a
 building whose field differs from the first sample's), rows are not used while the user stands (one spot
 gives one, possibly disturbed, measurement of north however many samples it has), and at the end of the
-first stationary period the yaw variance is reopened to ``init_yaw_sigma_deg``: the yaw propagated
-through the calibration motion with a still unknown gyro bias is not trusted, and the walk's
-magnetometer rows, averaged by a large ``sigma_m``, set it.
+first stationary period that gives gyro-bias rows (at least one complete ``bias_hold_s`` block; a shorter
+stand would make the reopening depend on where the recording starts) the yaw variance is reopened to
+``init_yaw_sigma_deg``: the yaw propagated through the calibration motion with a still unknown gyro bias is
+not trusted, and the walk's magnetometer rows, averaged by a large ``sigma_m``, set it.
 
 The :class:`AttitudeFilter` ``method="ekf"`` runs the same models with a linearised update
 (finite-difference Jacobian of ``phi(q)``), the attitude filter of the original RMPCA (seed 003 ref. [14]),
@@ -550,16 +551,8 @@ def _run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: bo
             aux[_AUX_STATIC_S] = 0.0
         stationary = aux[_AUX_STATIC_S] >= static_min_s
         period_start = stationary and aux[_AUX_WAS_STILL] == 0
-        if stationary:
-            aux[_AUX_WAS_STILL] = 1.0
-        elif aux[_AUX_WAS_STILL] > 0:
-            aux[_AUX_WAS_STILL] = 0.0
-            if aux[_AUX_BIAS_READY] == 0 and has_gyro and has_mag:
-                # End of the first stationary period: the gyro bias is now known, but the yaw propagated
-                # before it (with an unknown bias, through the calibration motion) is not; reopen it so the
-                # magnetometer rows of the walk determine it.
-                _set_yaw_covariance(q, p, init_yaw_sigma)
-            aux[_AUX_BIAS_READY] = 1.0
+        period_end = not stationary and aux[_AUX_WAS_STILL] > 0
+        aux[_AUX_WAS_STILL] = 1.0 if stationary else 0.0
         if has_gyro:
             # Gyro bias by least squares over stationary samples. Gravity is fixed in the navigation frame while
             # the user stands (also in a moving elevator cabin: its acceleration is vertical); the local magnetic
@@ -616,6 +609,13 @@ def _run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: bo
                 for i in range(3):
                     aux[_AUX_FBAD + i] = 0.0
                 aux[_AUX_BLOCK_S] = 0.0
+            if period_end and aux[_AUX_BIAS_READY] == 0 and aux[_AUX_BN] + aux[_AUX_BN + 4] + aux[_AUX_BN + 8] > 0:
+                # End of the first stationary period that gave the gyro bias rows (a stand too short to complete
+                # a block gives none): the bias is now known, but the yaw propagated before it (with an unknown
+                # bias, through the calibration motion) is not; reopen it so the walk's magnetometer rows set it.
+                if has_mag:
+                    _set_yaw_covariance(q, p, init_yaw_sigma)
+                aux[_AUX_BIAS_READY] = 1.0
             # Time update (eqs. 6-9, 34).
             for i in range(3):
                 w[i] = gyro[k, i] - bias[i]

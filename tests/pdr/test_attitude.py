@@ -203,3 +203,38 @@ def test_generic_ukf_matches_filterpy():
         ref.predict()
         ref.update(z)
         assert np.allclose(ours.x, ref.x, atol=1e-9) and np.allclose(ours.P, ref.P, atol=1e-9)
+
+
+def test_yaw_reopens_after_the_first_stand_that_gives_the_bias_not_after_a_short_blip():
+    """The yaw variance is reopened once, when the first stand long enough to estimate the gyro bias ends.
+
+    A stand shorter than one bias block (here 0.6 s past the 1 s stillness test) gives no bias rows; if it
+    counted, the reopening (and so the walk's heading) would depend on where the recording happens to start.
+    """
+    from pdr.heading import yaw_variance
+
+    rng = np.random.default_rng(3)
+    q_true = quat.from_euler(0.1, -0.2, 1.0)
+    bias = np.array([0.01, -0.02, 0.015])
+    f = AttitudeFilter(FS)
+
+    def stand(seconds):
+        n = int(seconds * FS)
+        acc, mag = body_measurements(q_true, n, rng, 0.02)
+        f.run(acc, bias + rng.normal(0, 0.002, (n, 3)), mag)
+
+    def move(seconds):  # the phone shaken: |a| far from g, so no stillness and no gravity rows
+        n = int(seconds * FS)
+        acc, mag = body_measurements(q_true, n)
+        f.run(acc + rng.normal(0, 3.0, acc.shape), np.tile(bias, (n, 1)), mag)
+        return yaw_variance(f.state.q, f.state.P)
+
+    sigma_reopen = math.radians(AttitudeConfig().init_yaw_sigma_deg)
+    stand(1.6)
+    assert move(2.0) < 0.02 * sigma_reopen**2      # a blip: not reopened
+    stand(6.0)
+    assert move(0.1) > 0.1 * sigma_reopen**2       # the first real stand: reopened (field rows shrink it)
+    assert np.allclose(f.state.bias, bias, atol=3e-3)
+    stand(6.0)
+    var_before = yaw_variance(f.state.q, f.state.P)
+    assert move(0.1) < max(2 * var_before, 0.02 * sigma_reopen**2)   # only once
