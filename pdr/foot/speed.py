@@ -2,7 +2,8 @@
 
 A real foot recording is repeated end to end (continuous time axis) to the requested length and each navigator
 is run once over it after a short JIT warm-up; the figure is CPU time (``time.process_time``), so that other
-processes on the machine change it little. The filters are the causal ones (ZUPT INS without smoother).
+processes on the machine change it little. The filters are the causal ones, plus the ZUPT INS with its offline RTS
+smoother (``zupt-smoothed``, the default of ``pdr foot``).
 
 Run ``python -m pdr.foot.speed /work/shared/data/foot_stride_gcp/own/SensorConnectData_32.csv --minutes 10``.
 """
@@ -36,6 +37,7 @@ def cpu_costs(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray) 
     """CPU seconds of each navigator over ``(t, acc, gyro)`` with detector flags ``zv``."""
     runs: dict[str, Callable[[slice], object]] = {
         "zupt": lambda s: run_zupt(t[s], acc[s], gyro[s], zv[s]),
+        "zupt-smoothed": lambda s: run_zupt(t[s], acc[s], gyro[s], zv[s], smooth=True),
         "filterbank": lambda s: run_filterbank(t[s], acc[s], gyro[s], zv[s]),
         "filterbank-height": lambda s: run_filterbank(t[s], acc[s], gyro[s], zv[s],
                                                       FilterBankConfig(variant="height")),
