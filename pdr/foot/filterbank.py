@@ -282,8 +282,6 @@ class FilterBankTrack:
         (N,) most probable mode (0, 1, 2 = the paper's modes 1, 2, 3).
     log_likelihood
         ``sum_k log p(y_k | y_{1:k-1})`` (eq. 11b-c).
-    transition_counts
-        (3, 3) filtered expected transition counts ``sum_k p(delta_k = j, delta_{k-1} = i | y_{1:k})``.
     start_index
         First navigated sample.
     variant
@@ -302,7 +300,6 @@ class FilterBankTrack:
     mode_prob: Array
     mode: IntArray
     log_likelihood: float
-    transition_counts: Array
     start_index: int
     variant: str
     warnings: tuple[str, ...] = ()
@@ -395,7 +392,7 @@ def _constraint_rows(v: Array, w_k: Array, f_n: Array, g_n: Array,
 def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Array, qa: float, qg: float,
                  P0: Array, log_pi: Array, sv: Array, sw: Array, ss: Array, snc: float, sh: float, height: bool,
                  max_leaves: int, pos: Array, vel: Array, qs: Array, pvar: Array, vvar: Array, avar: Array,
-                 mprob: Array, counts: Array, hde_par: Array, hde: Array,
+                 mprob: Array, hde_par: Array, hde: Array,
                  sat_var: Array, nu: float, nc_state: bool) -> float:  # pragma: no cover - compiled
     n = t.size
     hde_on = hde_par[0] > 0
@@ -423,7 +420,6 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
     cP = np.zeros((C, N_ERR, N_ERR))
     cw = np.zeros(C)
     cm = np.zeros(C, dtype=np.int64)
-    cparent = np.zeros(C, dtype=np.int64)
     loglik = 0.0
     for k in range(start + 1, n):
         dt = t[k] - t[k - 1]
@@ -479,7 +475,6 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
                 cq[nc] = q
                 cxi[nc] = lxi[i]
                 cm[nc] = j
-                cparent[nc] = i
                 if j == 0:
                     cP[nc] = P
                     ll = ll_nc
@@ -535,7 +530,6 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
         loglik += lse
         for c in range(nc):
             cw[c] -= lse
-            counts[cm[c], lm[cparent[c]]] += math.exp(cw[c])
         # Pruning: keep the max_leaves most probable branches.
         order = np.argsort(-cw[:nc])
         n_leaves = min(L, nc)
@@ -647,17 +641,16 @@ def run_filterbank(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_vel
     avar = np.zeros((n, 3))
     mprob = np.zeros((n, 3))
     mprob[: a + 1, 2] = 1.0
-    counts = np.zeros((3, 3))
     loglik = _bank_kernel(t, np.ascontiguousarray(f_b), np.ascontiguousarray(w_b), a, q0,
                           np.array([0.0, 0.0, -z.gravity]), cfg.acc_noise_var(rate), z.sigma_gyro**2, P0, log_pi,
                           np.asarray(cfg.sigma_v, dtype=np.float64), np.asarray(cfg.sigma_omega, dtype=np.float64),
                           np.asarray(cfg.sigma_s, dtype=np.float64), cfg.unconstrained_sigma(), cfg.sigma_h,
-                          cfg.variant == "height", cfg.max_leaves, pos, vel, qs, pvar, vvar, avar, mprob, counts,
+                          cfg.variant == "height", cfg.max_leaves, pos, vel, qs, pvar, vvar, avar, mprob,
                           z.hde_params(), initial_state(z.sigma_drift0),
                           clip_variance(w_b, cfg.clip_excess),
                           cfg.student_nu if cfg.student_nu is not None else 0.0, cfg.nc_state_spread)
     return FilterBankTrack(t, pos, vel, quat.normalize(qs), pvar, vvar, avar, mprob,
-                           np.argmax(mprob, axis=1).astype(np.int64), float(loglik), counts, a, cfg.variant)
+                           np.argmax(mprob, axis=1).astype(np.int64), float(loglik), a, cfg.variant)
 
 
 #: Bound of the column log-odds that parametrise ``Pi`` in :func:`learn_transition` (``|log(Pi[j, i] / Pi[r, i])|``
