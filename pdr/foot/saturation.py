@@ -59,16 +59,17 @@ def clipped_samples(values: ArrayLike, tolerance: float = CLIP_TOLERANCE,
     return np.asarray(near & clipped[None, :])
 
 
-def _run_positions(flags: BoolArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Position of each flagged sample within its run (1, 2, ...; 0 where not flagged) and its run's length."""
+def _runs(flags: BoolArray) -> zip[tuple[int, int]]:
+    """``(start, end)`` sample indices (end exclusive) of each run of flagged samples."""
+    d = np.diff(flags.astype(np.int8), prepend=0, append=0)
+    return zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist(), strict=True)
+
+
+def _run_positions(flags: BoolArray) -> NDArray[np.int64]:
+    """Position of each flagged sample within its run (1, 2, ...; 0 where not flagged)."""
     idx = np.arange(flags.size)
     run_start = np.maximum.accumulate(np.where(~flags, idx + 1, 0))
-    pos = np.where(flags, idx - run_start + 1, 0)
-    d = np.diff(flags.astype(np.int8), prepend=0, append=0)
-    length = np.zeros(flags.size, dtype=np.int64)
-    for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1), strict=True):
-        length[a:b] = b - a
-    return pos, length
+    return np.where(flags, idx - run_start + 1, 0)
 
 
 def clip_variance(gyro_b: ArrayLike, fraction: float = CLIP_EXCESS_FRACTION) -> Array:
@@ -90,7 +91,7 @@ def clip_variance(gyro_b: ArrayLike, fraction: float = CLIP_EXCESS_FRACTION) -> 
         f = flags[:, axis]
         if not f.any():
             continue
-        n, _ = _run_positions(f)
+        n = _run_positions(f)
         out[:, axis] = np.where(f, (2.0 * n - 1.0) * (fraction * np.abs(w[:, axis])) ** 2, 0.0)
     return np.ascontiguousarray(out)
 
@@ -115,8 +116,7 @@ def clip_variance_peak(gyro_b: ArrayLike) -> Array:
         f = flags[:, axis]
         if not f.any():
             continue
-        d = np.diff(f.astype(np.int8), prepend=0, append=0)
-        for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1), strict=True):
+        for a, b in _runs(f):
             s_in = abs(w[a - 1, axis] - w[a - 3, axis]) / 2.0 if a >= 3 else 0.0
             s_out = abs(w[b, axis] - w[b + 2, axis]) / 2.0 if b + 2 < n_s else 0.0
             slope = max(s_in, s_out)
