@@ -7,6 +7,7 @@ import json
 import math
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -61,6 +62,10 @@ def _add_options(p: argparse.ArgumentParser, evaluation: bool = False) -> None:
                         "the whole recording (default off: PyShoe gains on median but 5 of 18 trials lose, "
                         "foot_stride_gcp walks without a long rest lose, xio_gait_loop loses; see "
                         "pdr.foot.detectors.stationary_gyro_bias)")
+    p.add_argument("--zaru", choices=("on", "off"), default="off",
+                   help="methods zupt and stepwise: zero angular-rate updates of a gyroscope-bias filter while the "
+                        "foot is still (pdr.foot.zupt, ZuptConfig.zaru; causal, as online processing does it; "
+                        "default off)")
     smoother = ("on", "off", "both") if evaluation else ("on", "off")
     p.add_argument("--smoother", choices=smoother, default="on",
                    help="OFFLINE ONLY, method zupt only: Rauch-Tung-Striebel fixed-interval smoother over the whole "
@@ -193,8 +198,8 @@ def run_foot(args: argparse.Namespace) -> int:
     if not args.log:
         raise InputError("give a foot IMU LOG (or --left and --right for dual-foot fusion)", field="log")
     rec = read_recording(args.log)
-    imu, track = navigate(rec, args.method, _detector_config(args), smooth=args.smoother == "on",
-                          gyro_bias=args.gyro_bias == "on")
+    imu, track = navigate(rec, args.method, _detector_config(args), zupt=ZuptConfig(zaru=args.zaru == "on"),
+                          smooth=args.smoother == "on", gyro_bias=args.gyro_bias == "on")
     for w in track.warnings:
         print(f"warning: {w}", file=sys.stderr)
     if args.per_step:
@@ -260,7 +265,9 @@ def _navigate_variant(rec: Any, variant: str, args: argparse.Namespace) -> tuple
     name = variant.removesuffix(NO_HDE)
     method = name.removesuffix(NO_SMOOTHER)
     smooth = args.smoother != "off" and not name.endswith(NO_SMOOTHER)
-    zupt = ZuptConfig(hde_directions=0) if variant.endswith(NO_HDE) else None
+    zupt = ZuptConfig(zaru=args.zaru == "on")
+    if variant.endswith(NO_HDE):
+        zupt = replace(zupt, hde_directions=0)
     return navigate(rec, method, _detector_config(args), zupt=zupt, smooth=smooth, gyro_bias=args.gyro_bias == "on")
 
 

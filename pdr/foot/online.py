@@ -41,6 +41,7 @@ from pdr.foot.zupt import (
     kernel_setup,
     late_start_warning,
     run_kernel,
+    still_samples,
 )
 from pdr.recording import Recording
 from pdr.strapdown import initial_attitude_from_gravity
@@ -241,6 +242,7 @@ class OnlineFootNavigator:
         # Flags of [z0, z1): every window inside the buffer, or at a true end of the recording.
         stat = statistic(self.buf_acc, self.buf_gyro, rate, self.detector)
         flags = (stat < adaptive_threshold(stat, rate, self.detector))[z0 - self.buf_start: z1 - self.buf_start]
+        still = still_samples(self.buf_acc, self.buf_gyro, rate, self.zupt) if self.zupt.zaru else None
         setup = kernel_setup(rate, self.zupt, self.segmentation)
         steps: list[FootStep] = []
         if self.start_index < 0:
@@ -249,9 +251,9 @@ class OnlineFootNavigator:
                 known_from = self.start_index
                 zv = np.concatenate([np.ones(max(0, z0 - known_from), dtype=bool), flags])[
                     max(0, known_from - z0):]
-                steps = self._navigate(zv, z1, setup)
+                steps = self._navigate(zv, z1, setup, still)
         else:
-            steps = self._navigate(np.concatenate([[False], flags]), z1, setup)
+            steps = self._navigate(np.concatenate([[False], flags]), z1, setup, still)
         self.flags_done = z1
         # Context for the next flags: the statistic at z1 - (threshold reach) needs raw samples from z1 - before.
         keep = z1 - before
@@ -301,8 +303,11 @@ class OnlineFootNavigator:
             return
         self.run_start = g0 + int(starts[-1]) if starts.size and stops[-1] == known.size else -1
 
-    def _navigate(self, zv: NDArray[np.bool_], z1: int, setup: KernelSetup) -> list[FootStep]:
-        """Run the filter over samples [nav_next, z1); ``zv`` holds the flags of [nav_next - 1, z1)."""
+    def _navigate(self, zv: NDArray[np.bool_], z1: int, setup: KernelSetup,
+                  still: NDArray[np.bool_] | None) -> list[FootStep]:
+        """Run the filter over samples [nav_next, z1); ``zv`` holds the flags of [nav_next - 1, z1), ``still``
+        the zero angular-rate candidates of the whole buffer (``None`` without the update).
+        """
         assert self.filter is not None and self.origin_ns is not None
         k0 = self.nav_next - 1
         rows = slice(k0 - self.buf_start, z1 - self.buf_start)
@@ -310,7 +315,8 @@ class OnlineFootNavigator:
         if t.size < 2:
             return []
         out = run_kernel(t, np.ascontiguousarray(self.buf_acc[rows]), np.ascontiguousarray(self.buf_gyro[rows]),
-                         np.ascontiguousarray(zv), 1, self.filter, self.zupt, setup)
+                         np.ascontiguousarray(zv), 1, self.filter, self.zupt, setup,
+                         still=None if still is None else np.ascontiguousarray(still[rows]))
         self.nav_next = z1
         offset = self.origin_ns / 1e9
         yaw = quat.to_euler(quat.normalize(out.qs[out.step_idx]))[2] if out.step_idx.size else np.zeros(0)

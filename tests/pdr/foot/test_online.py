@@ -11,6 +11,7 @@ from pdr.errors import InputError
 from pdr.foot.detectors import DetectorConfig
 from pdr.foot.navigate import navigate
 from pdr.foot.online import FootStep, OnlineFootNavigator
+from pdr.foot.zupt import ZuptConfig
 from pdr.frames import yaw_to_heading_deg
 from pdr.recording import DeviceInfo, Recording, SensorStream
 from tests.conftest import data_path
@@ -29,9 +30,10 @@ def gait_recording(gyro_shift_ns: int = 0, start_s: float = 0.0, n_strides: int 
                      DeviceInfo(platform="imu", role=role, placement="foot"), t0_ns=T0_NS)
 
 
-def batch_steps(rec: Recording) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[str, ...]]:
+def batch_steps(rec: Recording, zupt: ZuptConfig | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                                        tuple[str, ...]]:
     """Times (log clock), positions and compass headings of the resets of ``navigate(..., 'stepwise')``."""
-    imu, track = navigate(rec, "stepwise")
+    imu, track = navigate(rec, "stepwise", zupt=zupt)
     idx = np.array([s.index for s in track.steps], dtype=np.int64)
     return (track.t_s[idx] + imu.clock_offset_s, track.pos_n[idx], yaw_to_heading_deg(track.yaw[idx]),
             track.warnings)
@@ -50,8 +52,9 @@ def chunks(rec: Recording, rng: np.random.Generator, min_s: float, max_s: float)
     return out
 
 
-def run_online(parts: list[Recording], restore: bool) -> tuple[list[FootStep], list[str], OnlineFootNavigator]:
-    nav = OnlineFootNavigator()
+def run_online(parts: list[Recording], restore: bool,
+               zupt: ZuptConfig | None = None) -> tuple[list[FootStep], list[str], OnlineFootNavigator]:
+    nav = OnlineFootNavigator(zupt=zupt)
     steps, warnings = [], []
     for part in parts:
         steps += nav.update(part)
@@ -82,6 +85,17 @@ def test_random_chunks_with_state_round_trips_equal_the_whole_log(seed: int) -> 
     assert np.all(np.diff([s.increment.index for s in steps]) > 0)
     # The carried buffer is the detector's context, not the session: cost proportional to the batch.
     assert nav.buf_t_ns.size < 2 * 200
+
+
+def test_zero_angular_rate_update_in_random_chunks_equals_the_whole_log() -> None:
+    # 0.2 s of stillness suffices here, so that the 0.5 s stances of the simulated walk update the bias.
+    rec = gait_recording()
+    cfg = ZuptConfig(zaru=True, zaru_min_still_s=0.2)
+    ref = batch_steps(rec, cfg)
+    steps, _, nav = run_online(chunks(rec, np.random.default_rng(4), 0.01, 2.5), restore=True, zupt=cfg)
+    assert_same_track(steps, ref)
+    assert nav.filter is not None and np.any(nav.filter.bias != 0.0)
+    assert not np.allclose(ref[1], batch_steps(rec)[1], rtol=0, atol=1e-9)
 
 
 def test_gyroscope_on_other_instants_is_interpolated_like_the_batch_reader() -> None:
