@@ -5,7 +5,8 @@ Two inputs, one per session role (not mixed):
 * raw foot IMU batches: :class:`pdr.foot.online.OnlineFootNavigator` (the step-wise ZUPT-aided INS of
   ``pdr foot --method stepwise``); one track row and one ``step`` event per reset (stride of this foot); the
   provisional tail (:meth:`FootProcessor.tail`) is what the end of the recording would add, so the track equals
-  ``pdr foot --method stepwise --per-step`` on the same data at any time;
+  ``pdr foot --method stepwise --per-step`` on the same data at any time (with ``--zaru on`` when the session's
+  processing options, :mod:`server.processing_options`, ask for it);
 * step-wise dead-reckoning summaries (:mod:`pdr.foot.summaries`, uploaded to ``POST .../steps``): composed with
   eq. 7 by :class:`pdr.foot.stepwise.StepwiseDeadReckoning`; a row per summary.
 
@@ -27,10 +28,11 @@ from pdr.errors import InputError
 from pdr.foot.online import FootStep, OnlineFootNavigator
 from pdr.foot.stepwise import StepwiseDeadReckoning
 from pdr.foot.summaries import StepSummaryBatch
-from pdr.foot.zupt import StepIncrement
+from pdr.foot.zupt import StepIncrement, ZuptConfig
 from pdr.frames import yaw_to_heading_deg
 from pdr.recording import Recording
 from server.processing import ProcessorOutput, SessionContext
+from server.processing_options import session_options
 from server.store import EventRow, TrackRow
 
 MODE = "walking"
@@ -76,6 +78,7 @@ class FootProcessor:
 
     def __init__(self, ctx: SessionContext, state: bytes | None) -> None:
         self.role = ctx.role
+        self.zupt = ZuptConfig(zaru=session_options(ctx.meta).foot_zaru)
         self.navigator: OnlineFootNavigator | None = None
         self.dr: StepwiseDeadReckoning | None = None
         self.last_t_s: float | None = None
@@ -94,7 +97,7 @@ class FootProcessor:
             raise InputError(f"the {self.role} of this session sends step summaries; raw IMU batches cannot be "
                              "mixed in", source=recording.source or None)
         if self.navigator is None:
-            self.navigator = OnlineFootNavigator()
+            self.navigator = OnlineFootNavigator(zupt=self.zupt)
         steps = self.navigator.update(recording)
         return _output(steps, self.navigator.take_warnings())
 

@@ -93,6 +93,10 @@ def openapi_document() -> dict[str, Any]:
                                                                        "file": {"type": "string", "format": "binary"},
                                                                        "format": {"type": "string"},
                                                                        "placement": {"type": "string"},
+                                                                       "processing": {
+                                                                           "type": "string",
+                                                                           "description": "JSON of the "
+                                                                           "CreateSession 'processing' object"},
                                                                        "session_id": {"type": "string"}}}}}}),
             },
             "/api/v1/sessions/{session_id}": {

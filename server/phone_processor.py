@@ -7,11 +7,13 @@ Pipeline events become result rows: each ``step`` a track row (the columns of ``
 once the pipeline has found the phone in a trouser pocket (the model's training placement); for other
 placements, or when the recording lacks a sensor the model needs, from the pipeline's per-step modes.
 The provisional tail (:meth:`PhoneProcessor.tail`) is what :meth:`PdrPipeline.finish` would add if the
-session ended now, so a session's track equals ``pdr track`` on the same data at any time.
+session ended now, so a session's track equals ``pdr track`` on the same data at any time -- with the session's
+processing options (:mod:`server.processing_options`) as ``--site`` and ``--calibration``.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 from classifiers.streaming import StreamingClassifier
@@ -20,6 +22,7 @@ from pdr.errors import InputError
 from pdr.pipeline import PdrPipeline, PipelineConfig
 from pdr.recording import Recording
 from server.processing import ProcessorOutput, SessionContext
+from server.processing_options import session_options
 from server.store import EventRow, TrackRow
 
 #: Session placements (pdr.recording.PLACEMENTS) -> pipeline placement groups.
@@ -49,7 +52,11 @@ class PhoneProcessor:
                 self.classifier = StreamingClassifier.from_state(d["classifier"])
         else:
             placement = PLACEMENT_GROUPS.get(ctx.placement or "", "auto")
-            self.pipeline = PdrPipeline(PipelineConfig(placement=placement))
+            options = session_options(ctx.meta)
+            config = PipelineConfig(placement=placement)
+            if options.step_length is not None:
+                config = replace(config, step_length=options.step_length)
+            self.pipeline = PdrPipeline(config, options.site)
             self.last_mode = ""
             self.classifier_status = "pending"
 

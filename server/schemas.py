@@ -36,6 +36,16 @@ CREATE_SESSION = {
             "properties": {"lat_deg": {"type": "number", "minimum": -90, "maximum": 90},
                            "lon_deg": {"type": "number", "minimum": -180, "maximum": 180}},
         },
+        "processing": {
+            "type": "object", "additionalProperties": False,
+            "description": "processing options, fixed at creation (server.processing_options)",
+            "properties": {
+                "site": {"type": "object", "description": "site description, as `pdr track --site`"},
+                "calibration": {"type": "object", "description": "step-length calibration `pdr calibrate` wrote"},
+                "foot": {"type": "object", "additionalProperties": False,
+                         "properties": {"zaru": {"type": "boolean"}}},
+            },
+        },
     },
 }
 

@@ -14,6 +14,7 @@ from server import plausibility
 from server.api import current_user, json_body, services, uploaded_log
 from server.errors import APIError
 from server.processing import FILE_PREFIX, NATIVE_JSON, read_uploaded_file
+from server.processing_options import META_KEY, ProcessingOptions
 from server.schemas import CREATE_SESSION, PAIR_DEVICE, validate
 
 bp = Blueprint("sessions", __name__, url_prefix="/api/v1/sessions")
@@ -45,6 +46,7 @@ def session_json(row: Any, detail: bool = False) -> dict[str, Any]:
                      "placement": d.placement} for d in svc.store.devices(row.id)],
         "origin": ({"lat_deg": row.origin_lat_deg, "lon_deg": row.origin_lon_deg}
                    if row.origin_lat_deg is not None else None),
+        "processing": json.loads(row.meta or "{}").get(META_KEY, {}),
     }
     if detail:
         out["batch_list"] = [{"id": b.id, "batch_id": b.client_batch_id, "device_role": b.device_role,
@@ -70,8 +72,10 @@ def create_session() -> tuple[Response, int]:
     body = json_body()
     validate(body, CREATE_SESSION, "session")
     device = body.get("device") or {}
+    options = ProcessingOptions.from_json(body.get("processing"))
     sid, created = svc.store.create_session(user.id, source="native", client_session_id=body.get("session_id"),
-                                            name=body.get("name", ""), placement=body.get("placement"))
+                                            name=body.get("name", ""), placement=body.get("placement"),
+                                            meta=_meta(options))
     if device:
         svc.store.upsert_device(sid, device.get("role", "phone"), device_id=device.get("device_id", ""),
                                 platform=device.get("platform", "unknown"), model=device.get("model", ""),
@@ -81,16 +85,23 @@ def create_session() -> tuple[Response, int]:
     return jsonify(session_json(svc.store.session_row(sid, user.id))), 201 if created else 200
 
 
+def _meta(options: ProcessingOptions) -> dict[str, Any] | None:
+    """Session ``meta`` holding the processing options (``None`` when there are none)."""
+    d = options.to_json()
+    return {META_KEY: d} if d else None
+
+
 def _create_from_file(user_id: int) -> tuple[Response, int]:
     svc = services()
     upload = uploaded_log()
     payload, filename, descriptor = upload.payload, upload.filename, upload.descriptor
     recording = read_uploaded_file(payload, descriptor)  # validate before accepting
+    options = ProcessingOptions.from_text(request.form.get("processing"))
     placement = request.form.get("placement") or recording.device.placement
     digest = hashlib.sha256(payload).hexdigest()
     sid, created = svc.store.create_session(user_id, source="upload",
                                             client_session_id=request.form.get("session_id") or f"file-{digest[:24]}",
-                                            name=filename, placement=placement)
+                                            name=filename, placement=placement, meta=_meta(options))
     dev = recording.device
     svc.store.upsert_device(sid, dev.role, device_id=dev.device_id, platform=dev.platform, model=dev.model,
                             placement=placement)

@@ -1,4 +1,5 @@
-"""Fixtures: an app on a temporary SQLite database with a deterministic test processor, and two users."""
+"""Fixtures: an app on a temporary SQLite database with a deterministic test processor, and two users; an app
+with the real processors (``real_app``) and its user's ``token``."""
 
 from __future__ import annotations
 
@@ -55,6 +56,19 @@ def client(app: Flask) -> FlaskClient:
 def tokens(app: Flask) -> dict[str, str]:
     with app.extensions["pdr"].store.engine.begin() as conn:
         return {"alice": auth.add_user(conn, "alice"), "bob": auth.add_user(conn, "bob")}
+
+
+@pytest.fixture
+def real_app(tmp_path: Any) -> Iterator[Flask]:
+    app = create_app({"data_dir": str(tmp_path), "settle_s": 0.0})   # the real processor factory
+    yield app
+    app.extensions["pdr"].worker.stop()
+
+
+@pytest.fixture
+def token(real_app: Flask) -> str:
+    with real_app.extensions["pdr"].store.engine.begin() as conn:
+        return auth.add_user(conn, "walker")
 
 
 def bearer(token: str) -> dict[str, str]:

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import io
 import json
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
+from pdr.errors import InputError
 from pdr.io.native import batch_to_json
-from pdr.recording import DeviceInfo, Recording, SensorStream
+from pdr.recording import DeviceInfo, GroundTruth, Recording, SensorStream
 
 
 def phone_batch(batch_id: str, start_s: float, duration_s: float = 1.0, rate_hz: float = 50.0,
@@ -21,6 +23,19 @@ def phone_batch(batch_id: str, start_s: float, duration_s: float = 1.0, rate_hz:
                      "gyro": SensorStream("gyro", t_ns, np.zeros((n, 3)))},
                     DeviceInfo(platform="android", model="test", role=role), t0_ns=1_700_000_000_000_000_000)
     return batch_to_json(rec, session_id="s1", batch_id=batch_id)
+
+
+def one_second_batches(rec: Recording, session_id: str) -> list[dict[str, Any]]:
+    """``rec`` cut into native batches of 1 s, samples only (no reference truth): what a device sends."""
+    t0, t1 = rec.time_span_s()
+    out = []
+    for i, a in enumerate(np.arange(t0, t1 + 1.0, 1.0)):
+        try:
+            part = rec.slice_time(float(a), float(a) + 1.0)
+        except InputError:  # no sample in this second
+            continue
+        out.append(batch_to_json(replace(part, truth=GroundTruth()), session_id=session_id, batch_id=f"b{i:04d}"))
+    return out
 
 
 def as_bytes(obj: Any) -> bytes:

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import csv
 import json
-from collections.abc import Iterator
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -19,42 +17,14 @@ from pdr.foot.stepwise import dead_reckon
 from pdr.foot.summaries import steps_to_json
 from pdr.frames import yaw_to_heading_deg
 from pdr.io.native import batch_to_json
-from pdr.recording import GroundTruth, Recording
-from server import auth
-from server.app import create_app
 from tests.conftest import data_path
 from tests.pdr.foot.test_online import gait_recording
 from tests.server.conftest import bearer
-
-
-@pytest.fixture
-def real_app(tmp_path: Path) -> Iterator[Flask]:
-    app = create_app({"data_dir": str(tmp_path), "settle_s": 0.0})   # the real processor factory
-    yield app
-    app.extensions["pdr"].worker.stop()
-
-
-@pytest.fixture
-def token(real_app: Flask) -> str:
-    with real_app.extensions["pdr"].store.engine.begin() as conn:
-        return auth.add_user(conn, "walker")
+from tests.server.helpers import one_second_batches
 
 
 def _session(client: FlaskClient, token: str, name: str) -> str:
     return client.post("/api/v1/sessions", json={"session_id": name}, headers=bearer(token)).get_json()["id"]
-
-
-def _one_second_batches(rec: Recording) -> list[dict]:
-    t0, t1 = rec.time_span_s()
-    out = []
-    for i, a in enumerate(np.arange(t0, t1 + 1.0, 1.0)):
-        try:
-            part = rec.slice_time(float(a), float(a) + 1.0)
-        except Exception:
-            continue
-        # What a shoe unit sends: samples only (no reference truth).
-        out.append(batch_to_json(replace(part, truth=GroundTruth()), session_id="foot", batch_id=f"b{i:04d}"))
-    return out
 
 
 def _upload(app: Flask, client: FlaskClient, token: str, sid: str, batches: list[dict]) -> None:
@@ -75,7 +45,7 @@ def test_raw_foot_batches_give_the_stepwise_track(real_app: Flask, token: str) -
     client = real_app.test_client()
     rec = gait_recording()
     sid = _session(client, token, "shoe")
-    _upload(real_app, client, token, sid, _one_second_batches(rec))
+    _upload(real_app, client, token, sid, one_second_batches(rec, "foot"))
     points = _track(client, token, sid, "left_foot")
 
     imu, track = navigate(rec, "stepwise")
@@ -158,7 +128,7 @@ def test_real_foot_log_in_one_second_batches_equals_pdr_foot(real_app: Flask, to
     rec = read_recording(log)
     client = real_app.test_client()
     sid = _session(client, token, "vicon")
-    _upload(real_app, client, token, sid, _one_second_batches(rec))
+    _upload(real_app, client, token, sid, one_second_batches(rec, "foot"))
     points = _track(client, token, sid, rec.device.role)
 
     out = tmp_path / "steps.csv"

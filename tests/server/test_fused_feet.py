@@ -2,13 +2,10 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from dataclasses import replace
 from functools import cache
-from pathlib import Path
 
 import numpy as np
-import pytest
 from flask import Flask
 from flask.testing import FlaskClient
 
@@ -17,8 +14,6 @@ from pdr.frames import yaw_to_heading_deg
 from pdr.io.native import batch_to_json
 from pdr.recording import GroundTruth, Recording
 from pdr.sim import parse_scenario, simulate
-from server import auth
-from server.app import create_app
 from server.foot_processor import increment_from_json
 from tests.server.conftest import bearer
 
@@ -42,19 +37,6 @@ def _batches(rec: Recording, prefix: str) -> list[dict]:
     return [batch_to_json(replace(rec.slice_time(float(a), float(a) + 1.0), truth=GroundTruth()),
                           session_id=f"walk-{prefix}", batch_id=f"{prefix}{i:03d}")
             for i, a in enumerate(np.arange(t0, t1, 1.0))]
-
-
-@pytest.fixture
-def real_app(tmp_path: Path) -> Iterator[Flask]:
-    app = create_app({"data_dir": str(tmp_path), "settle_s": 0.0})
-    yield app
-    app.extensions["pdr"].worker.stop()
-
-
-@pytest.fixture
-def token(real_app: Flask) -> str:
-    with real_app.extensions["pdr"].store.engine.begin() as conn:
-        return auth.add_user(conn, "walker")
 
 
 def _walk_session(app: Flask, client: FlaskClient, token: str, name: str, order: list[tuple[str, int]],
