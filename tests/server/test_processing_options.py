@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 
 import numpy as np
@@ -12,6 +13,7 @@ from flask.testing import FlaskClient
 from pdr.errors import InputError
 from pdr.foot.navigate import navigate
 from pdr.foot.zupt import ZuptConfig
+from pdr.io.native import batch_to_json
 from pdr.landmarks import Site
 from pdr.pipeline import PdrPipeline, PipelineConfig
 from pdr.recording import DeviceInfo, Recording, SensorStream
@@ -20,7 +22,7 @@ from pdr.step_length import StepLengthModel
 from server.processing_options import ProcessingOptions
 from tests.pdr.foot.gait import simulate_gait
 from tests.server.conftest import bearer
-from tests.server.helpers import one_second_batches
+from tests.server.helpers import multipart, one_second_batches
 
 T0_NS = 1_717_000_000_000_000_000
 SITE = {"name": "hall", "floor_height_m": 3.5, "declination_deg": 12.0,
@@ -117,3 +119,18 @@ def test_foot_session_with_zaru_gives_the_zaru_track(real_app: Flask, token: str
     got = np.array([[p["east_m"], p["north_m"]] for p in points])
     np.testing.assert_allclose(got, track.pos_n[idx, :2], rtol=0, atol=1e-9)
     assert np.abs(got - plain.pos_n[idx, :2]).max() > 0.05
+
+
+def test_uploaded_file_takes_its_options_from_a_form_field(real_app: Flask, token: str) -> None:
+    client = real_app.test_client()
+    walk = [{"type": "stand", "duration_s": 2}, {"type": "walk", "duration_s": 8}]
+    rec = simulate(parse_scenario({"placement": "hand", "start_time_ns": T0_NS, "segments": walk}), seed=3)
+    payload = json.dumps(batch_to_json(rec, session_id="up", batch_id="all")).encode()
+    body, ctype = multipart({"file": (payload, "walk.json"), "processing": "{\"calibration\": {\"k\": 1}}"})
+    resp = client.post("/api/v1/sessions", data=body, headers=bearer(token), content_type=ctype)
+    assert resp.status_code == 422 and "processing.calibration" in resp.get_json()["error"]["message"]
+    assert client.get("/api/v1/sessions", headers=bearer(token)).get_json()["sessions"] == []
+    body, ctype = multipart({"file": (payload, "walk.json"), "processing": json.dumps({"calibration": CALIBRATION})})
+    resp = client.post("/api/v1/sessions", data=body, headers=bearer(token), content_type=ctype)
+    assert resp.status_code == 201, resp.get_json()
+    assert resp.get_json()["processing"] == {"calibration": CALIBRATION}
