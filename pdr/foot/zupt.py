@@ -580,17 +580,19 @@ def zupt_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, g_n
 
 @njit(cache=True)
 def zupt_smooth_kernel(t: Array, first: int, qa: float, qg: float, sm_P: Array, sm_fn: Array, sm_dx: Array,
-                       pos: Array, vel: Array, qs: Array, pvar: Array, vvar: Array,
-                       avar: Array) -> None:  # pragma: no cover - compiled
+                       pos: Array, vel: Array, qs: Array, pvar: Array, vvar: Array, avar: Array,
+                       e_next: Array) -> None:  # pragma: no cover - compiled
     """RTS backward pass of the error-state filter (:mod:`pdr.filters.rts`) over samples ``first - 1..N-1``.
 
     ``F`` and the predicted covariance ``P_k+1|k = F P_k|k F^T + Q`` are rebuilt from the stored specific
     force instead of being stored. The smoothed errors correct ``pos, vel, qs`` in place as eq. 5 does
     (``q := exp(dtheta) q``); ``sm_P`` is overwritten by the smoothed covariances and ``pvar, vvar, avar`` by
     their diagonals. Without segmentation only (a reset of Algorithm 1 makes ``P_k+1|k`` singular).
+    The last sample is taken as smoothed already: its smoothed error is ``e_next`` (zeros at the end of a
+    recording) and its smoothed covariance ``sm_P[N-1]``; on return ``e_next`` holds the smoothed error of
+    sample ``first - 1``, so that a recording can be smoothed segment by segment, last segment first.
     """
     n = t.size
-    e_next = np.zeros(9)
     e = np.zeros(9)
     zero = np.zeros(9)
     for k in range(n - 2, first - 2, -1):
@@ -695,6 +697,11 @@ class FilterState:
                    np.zeros(3, dtype=np.int64), initial_state(config.sigma_drift0), np.zeros(3),
                    np.full(3, config.sigma_bias0**2))
 
+    def copy(self) -> FilterState:
+        """An independent copy (the kernel updates a state in place)."""
+        return FilterState(self.p.copy(), self.v.copy(), self.q.copy(), self.P.copy(), self.dr.copy(),
+                           self.counters.copy(), self.hde.copy(), self.bias.copy(), self.pbias.copy())
+
     def to_dict(self) -> dict[str, list]:
         """JSON-serialisable form (floats round-trip exactly)."""
         return {"p": self.p.tolist(), "v": self.v.tolist(), "q": self.q.tolist(), "P": self.P.tolist(),
@@ -736,46 +743,98 @@ class KernelOutput:
     step_cov: Array
 
 
+#: Samples per segment of the checkpointed RTS smoother (:func:`run_kernel`): about 80 s at 200 Hz, 11 MB of
+#: stored covariances whatever the recording's length.
+SMOOTHER_SEGMENT = 1 << 14
+
+
+def _filter(t: Array, f_b: Array, w_b: Array, zv: BoolArray, flags: BoolArray, rows: slice, first: int,
+            state: FilterState, config: ZuptConfig, setup: KernelSetup, out: KernelOutput,
+            store: tuple[Array, Array, Array]) -> int:
+    """:func:`zupt_kernel` over the samples ``first..`` of ``rows`` (row ``first - 1`` the last sample already
+    processed), outputs written to the same rows of ``out`` (reset indices count from the first row);
+    ``store`` receives what the smoother needs (arrays of 0 rows: nothing).
+    """
+    still = flags[rows] if flags.size else flags
+    return int(zupt_kernel(t[rows], f_b[rows], w_b[rows], zv[rows], first, np.array([0.0, 0.0, -config.gravity]),
+                           config.sigma_acc**2, config.sigma_gyro**2, config.sigma_zupt**2, setup.seg_on,
+                           setup.gamma_p, setup.c_min, setup.c_max, state.p, state.v, state.q, state.P, state.dr,
+                           state.counters, out.pos[rows], out.vel[rows], out.qs[rows], out.pvar[rows],
+                           out.vvar[rows], out.avar[rows], out.step_idx, out.step_dp, out.step_dpsi, out.step_cov,
+                           config.hde_params(), state.hde, *store, config.zaru_params(setup.rate_hz), still,
+                           state.bias, state.pbias))
+
+
 def run_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, state: FilterState,
                config: ZuptConfig, setup: KernelSetup, smooth: bool = False,
-               still: BoolArray | None = None) -> KernelOutput:
+               still: BoolArray | None = None, segment: int = SMOOTHER_SEGMENT) -> KernelOutput:
     """Run the filter loop over samples ``first..N-1`` of contiguous arrays, updating ``state`` in place.
 
     ``still`` (N,) flags the samples whose SHOE statistic is below ``config.zaru_threshold`` (needed with
     ``config.zaru``; :func:`still_samples`).
 
     With ``smooth`` (offline, without segmentation) the RTS backward pass then replaces the per-sample outputs
-    from ``first - 1`` on by the smoothed ones; ``state`` stays the causal filter's.
+    from ``first - 1`` on by the smoothed ones; ``state`` stays the causal filter's. The smoother is
+    checkpointed: the filter runs once, keeping its state at the start of every ``segment`` samples; then,
+    last segment first, each segment is filtered again from its checkpoint, storing what the backward pass needs,
+    and smoothed. The result is the same to the bit as one pass over stored covariances, at the cost of a second
+    filter pass and with memory for one segment instead of the recording.
     """
     if smooth and setup.seg_on:
         raise InputError("the RTS smoother works without step segmentation only", field="smoother")
+    if segment < 2:
+        raise InputError(f"must be at least 2, got {segment}", field="segment")
     n = t.size
-    m = n if smooth else 0
-    sm_P, sm_fn, sm_dx = np.zeros((m, 9, 9)), np.zeros((m, 3)), np.zeros((m, 9))
     max_steps = n // max(1, setup.c_min) + 2 if setup.seg_on else 1
     out = KernelOutput(np.zeros((n, 3)), np.zeros((n, 3)), np.tile(state.q, (n, 1)), np.zeros((n, 3)),
                        np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(max_steps, dtype=np.int64),
                        np.zeros((max_steps, 3)), np.zeros(max_steps), np.zeros((max_steps, 4, 4)))
-    g_n = np.array([0.0, 0.0, -config.gravity])
     if config.zaru and (still is None or still.shape != t.shape):
         raise InputError("the zero angular-rate update needs the still flags of every sample", field="still")
     flags = np.ascontiguousarray(still if config.zaru and still is not None else np.zeros(0, dtype=bool))
-    n_steps = zupt_kernel(t, f_b, w_b, zv, first, g_n, config.sigma_acc**2, config.sigma_gyro**2,
-                          config.sigma_zupt**2, setup.seg_on, setup.gamma_p, setup.c_min, setup.c_max, state.p,
-                          state.v, state.q, state.P, state.dr, state.counters, out.pos, out.vel, out.qs, out.pvar,
-                          out.vvar, out.avar, out.step_idx, out.step_dp, out.step_dpsi, out.step_cov,
-                          config.hde_params(), state.hde, sm_P, sm_fn, sm_dx, config.zaru_params(setup.rate_hz),
-                          flags, state.bias, state.pbias)
-    if smooth:
-        zupt_smooth_kernel(t, first, config.sigma_acc**2, config.sigma_gyro**2, sm_P, sm_fn, sm_dx, out.pos,
-                           out.vel, out.qs, out.pvar, out.vvar, out.avar)
-    return replace(out, step_idx=out.step_idx[:n_steps], step_dp=out.step_dp[:n_steps],
-                   step_dpsi=out.step_dpsi[:n_steps], step_cov=out.step_cov[:n_steps])
+    nothing = (np.zeros((0, 9, 9)), np.zeros((0, 3)), np.zeros((0, 9)))
+    if not smooth:
+        n_steps = _filter(t, f_b, w_b, zv, flags, slice(0, n), first, state, config, setup, out, nothing)
+        return replace(out, step_idx=out.step_idx[:n_steps], step_dp=out.step_dp[:n_steps],
+                       step_dpsi=out.step_dpsi[:n_steps], step_cov=out.step_cov[:n_steps])
+    starts = list(range(first, n, segment))
+    checkpoints = []
+    for a in starts:
+        checkpoints.append(state.copy())
+        _filter(t, f_b, w_b, zv, flags, slice(a - 1, min(a + segment, n)), 1, state, config, setup, out, nothing)
+    _smooth_segments(t, f_b, w_b, zv, flags, starts, checkpoints, segment, config, setup, out)
+    return replace(out, step_idx=out.step_idx[:0], step_dp=out.step_dp[:0], step_dpsi=out.step_dpsi[:0],
+                   step_cov=out.step_cov[:0])
+
+
+def _smooth_segments(t: Array, f_b: Array, w_b: Array, zv: BoolArray, flags: BoolArray, starts: list[int],
+                     checkpoints: list[FilterState], segment: int, config: ZuptConfig, setup: KernelSetup,
+                     out: KernelOutput) -> None:
+    """Backward pass of :func:`run_kernel`, segment by segment from the last; ``out`` holds the filtered track."""
+    n = t.size
+    e_next = np.zeros(9)
+    p_end: Array | None = None
+    per_sample = (out.pos, out.vel, out.qs, out.pvar, out.vvar, out.avar)
+    for a, checkpoint in zip(reversed(starts), reversed(checkpoints), strict=True):
+        b = min(a + segment, n)
+        rows = slice(a - 1, b)
+        m = b - a + 1
+        store = (np.zeros((m, 9, 9)), np.zeros((m, 3)), np.zeros((m, 9)))
+        # The segment's last sample was smoothed with the next segment: filtering again must not overwrite it.
+        kept = [arr[b - 1].copy() for arr in per_sample]
+        _filter(t, f_b, w_b, zv, flags, rows, 1, checkpoint.copy(), config, setup, out, store)
+        for arr, row in zip(per_sample, kept, strict=True):
+            arr[b - 1] = row
+        if p_end is not None:
+            store[0][m - 1] = p_end
+        zupt_smooth_kernel(t[rows], 1, config.sigma_acc**2, config.sigma_gyro**2, *store, out.pos[rows],
+                           out.vel[rows], out.qs[rows], out.pvar[rows], out.vvar[rows], out.avar[rows], e_next)
+        p_end = store[0][0].copy()
 
 
 def run_zupt(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity: ArrayLike,
              config: ZuptConfig | None = None, segmentation: Segmentation | None = None,
-             rate_hz: float | None = None, smooth: bool = False) -> ZuptTrack:
+             rate_hz: float | None = None, smooth: bool = False, segment: int = SMOOTHER_SEGMENT) -> ZuptTrack:
     """Run the ZUPT-aided INS over a recording (seed 001 eqs. 1-5; Algorithm 1 with ``segmentation``).
 
     Parameters
@@ -797,7 +856,8 @@ def run_zupt(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity:
         the median sample interval).
     smooth
         Offline only: replace the filtered track by the RTS-smoothed one (:func:`zupt_smooth_kernel`, the
-        error-state form of :mod:`pdr.filters.rts`); not with ``segmentation``. Memory: about 0.8 kB per sample.
+        error-state form of :mod:`pdr.filters.rts`); not with ``segmentation``. Checkpointed in segments of
+        ``segment`` samples (:func:`run_kernel`): the stored covariances take the memory of one segment.
 
     Returns
     -------
@@ -824,7 +884,7 @@ def run_zupt(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity:
 
     state = FilterState.initial(q0, cfg)
     still = still_samples(f_b, w_b, rate, cfg) if cfg.zaru else None
-    out = run_kernel(t, f_b, w_b, zv, a + 1, state, cfg, setup, smooth=smooth, still=still)
+    out = run_kernel(t, f_b, w_b, zv, a + 1, state, cfg, setup, smooth=smooth, still=still, segment=segment)
     if smooth:
         # Samples before navigation starts take the smoothed state of its first sample.
         for arr in (out.pos, out.vel, out.qs, out.pvar, out.vvar, out.avar):
