@@ -109,7 +109,8 @@ class LiveService:
         self.foot_steps = len(short.t_s)
         self.foot_id = seed_session(store, self.tokens["alice"], "shoes-5min",
                                     {"fused": short.rows(), "left_foot": short.rows(-0.12),
-                                     "right_foot": short.rows(0.12)}, placement="foot")
+                                     "right_foot": short.rows(0.12)}, placement="foot",
+                                    meta={"processing": {"foot": {"zaru": True}}})
         self.bob_id = seed_session(store, self.tokens["bob"], "bob-secret-walk", {"phone": short.rows()})
         alice = Client(self.url, self.tokens["alice"])
         payload = json.dumps(truth_log()).encode()
@@ -277,6 +278,8 @@ def test_foot_session_shows_both_feet_and_the_fused_track(page: Any, live: LiveS
     assert page.locator("#map polyline.foot").count() >= 2  # the single feet are drawn dashed
     assert page.input_value("#colour-by") == "device"
     assert set(page.locator("#legend .item").all_inner_texts()) >= {"fused", "left_foot", "right_foot"}
+    assert page.inner_text("#session-summary [data-role=processing]") == (
+        "Processing: gyro bias by zero angular-rate updates")
     shot(page, "04-session-feet")
 
 

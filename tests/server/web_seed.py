@@ -94,10 +94,10 @@ def user_id(store: Store, token: str) -> int:
 
 def seed_session(store: Store, token: str, name: str, tracks: dict[str, list[TrackRow]], *,
                  placement: str | None = "pocket", model: str = "Pixel 7", warnings: tuple[str, ...] = (),
-                 landmarks: tuple[tuple[float, str], ...] = ()) -> str:
+                 landmarks: tuple[tuple[float, str], ...] = (), meta: dict[str, Any] | None = None) -> str:
     """A processed session of the token's user with the given track per device role; returns its id."""
     sid, _ = store.create_session(user_id(store, token), source="native", client_session_id=name, name=name,
-                                  placement=placement)
+                                  placement=placement, meta=meta)
     for role, rows in tracks.items():
         store.upsert_device(sid, role, device_id=f"{role}-1", platform="android" if role == "phone" else "imu",
                             model=model if role == "phone" else "shoe IMU", placement=placement)

@@ -405,6 +405,16 @@
     }
   }
 
+  /** The session's processing options in a few words ("" when there are none). */
+  function processingText(p) {
+    if (!p) return "";
+    const out = [];
+    if (p.site) out.push(`site ${p.site.name ? `"${p.site.name}" ` : ""}(${p.site.landmarks.length} landmarks)`);
+    if (p.calibration) out.push("step-length calibration");
+    if (p.foot && p.foot.zaru) out.push("gyro bias by zero angular-rate updates");
+    return out.join(", ");
+  }
+
   function renderSessionHeader() {
     const d = current.detail;
     $("session-title").textContent = d.name || d.session_id || d.id;
@@ -422,6 +432,8 @@
     summary.appendChild(st);
     part("Device", deviceText(d.devices));
     part("Placement", d.placement || "–");
+    const processing = processingText(d.processing);
+    if (processing) part("Processing", processing, "processing");
     part("Start", d.created_at ? new Date(d.created_at).toLocaleString() : "–");
     part("Duration", fmtDuration(d.duration_s));
     part("Distance", `${fmt(d.distance_m, 1)} m`);
