@@ -61,7 +61,7 @@ def _add_options(p: argparse.ArgumentParser, evaluation: bool = False) -> None:
                    help="OFFLINE ONLY, method zupt only: remove the gyroscope bias measured over the still samples of "
                         "the whole recording (default off: PyShoe gains on median but 5 of 18 trials lose, "
                         "foot_stride_gcp walks without a long rest lose, xio_gait_loop loses; see "
-                        "pdr.foot.detectors.stationary_gyro_bias)")
+                        "pdr.foot.detectors.stationary_gyro_bias; --zaru is the causal form)")
     p.add_argument("--zaru", choices=("on", "off"), default="off",
                    help="methods zupt and stepwise: zero angular-rate updates of a gyroscope-bias filter while the "
                         "foot is still (pdr.foot.zupt, ZuptConfig.zaru; causal, as online processing does it; "
