@@ -22,7 +22,10 @@ One trial per ``.mat`` file (``scipy.io.loadmat``; also ``.mat.gz``):
     ``truth.extra['zero_velocity_<detector>']`` (N,) bool; ``truth.extra['zero_velocity']`` is the label of
     ``best_detector`` (what PyShoe trained on) and ``truth.extra['zero_velocity_t_s']`` their times.
 ``trial_error``, ``best_detector``, ``best_error``, ``G_<detector>_opt``
-    reference ZUPT-INS RMSE (m) per detector and optimal thresholds -> ``meta``.
+    reference ZUPT-INS RMSE (m) per detector and optimal thresholds -> ``meta``. The third slot of
+    ``trial_error``, documented as amvd's, holds ared's error again: PyShoe's ``run_threshold_optimization.py``
+    builds the array as ``[shoe, ared, ared, mbgtd, vicon]`` (it equals the second slot in all 28 shared files), so
+    ``meta['trial_error_m']`` has no amvd entry.
 
 The files do not say which foot carried the IMU: the device role is ``right_foot`` with
 ``meta['foot_side'] = 'unknown'``.
@@ -42,8 +45,10 @@ from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, Sen
 FORMAT = "pyshoe"
 DESCRIPTION = "PyShoe VICON trial .mat (foot IMU 200 Hz: imu, ts, gt VICON positions, zero-velocity labels)"
 
-#: Zero-velocity detectors of the PyShoe files, in the order of ``trial_error``.
+#: Zero-velocity detectors of the PyShoe files (labels ``zv_<detector>_opt``, thresholds ``G_<detector>_opt``).
 DETECTORS: tuple[str, ...] = ("shoe", "ared", "amvd", "mbgtd", "vicon")
+#: What each slot of ``trial_error`` really holds (module doc: the amvd slot repeats ared).
+TRIAL_ERROR_SLOTS: tuple[str | None, ...] = ("shoe", "ared", None, "mbgtd", "vicon")
 IMU_MODEL = "LORD MicroStrain 3DM-GX3-25"
 #: Axis signs taking the stored (left-handed) VICON positions to a right-handed z-up frame.
 VICON_TO_RIGHT_HANDED = np.array([1.0, -1.0, 1.0])
@@ -105,8 +110,8 @@ def read(path: str | Path) -> Recording:
     meta: dict[str, object] = {"foot_side": "unknown", "imu_model": IMU_MODEL}
     if "trial_error" in mat:
         err = matfile.array(mat, "trial_error", source, vector=True, finite=False)
-        if err.size == len(DETECTORS):
-            meta["trial_error_m"] = {d: float(e) for d, e in zip(DETECTORS, err, strict=True)}
+        if err.size == len(TRIAL_ERROR_SLOTS):
+            meta["trial_error_m"] = {d: float(e) for d, e in zip(TRIAL_ERROR_SLOTS, err, strict=True) if d}
     if best is not None:
         meta["best_detector"] = best
     best_error = matfile.scalar(mat, "best_error")

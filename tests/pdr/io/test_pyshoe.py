@@ -42,6 +42,8 @@ def test_synthetic_trial(tmp_path):
     assert zv.dtype == bool and zv.shape == (400,)
     np.testing.assert_array_equal(zv, rec.truth.extra["zero_velocity_vicon"])  # best detector
     assert rec.meta["trial_error_m"]["mbgtd"] == 0.09 and rec.meta["best_error_m"] == 0.05
+    # The amvd slot of trial_error repeats ared's error (PyShoe's script): not reported as amvd's.
+    assert set(rec.meta["trial_error_m"]) == {"shoe", "ared", "mbgtd", "vicon"}
     assert rec.meta["zv_thresholds"] == {"shoe": 2.5e6}
 
 
