@@ -72,7 +72,8 @@ def openapi_document() -> dict[str, Any]:
         "components": {
             "securitySchemes": {"bearer": {"type": "http", "scheme": "bearer"},
                                 "queryToken": {"type": "apiKey", "in": "query", "name": "token"}},
-            "schemas": {"Error": ERROR, "CreateSession": schemas.CREATE_SESSION, "Device": schemas.PAIR_DEVICE,
+            "schemas": {"Error": ERROR, "CreateSession": schemas.CREATE_SESSION, "Processing": schemas.PROCESSING,
+                        "Device": schemas.PAIR_DEVICE,
                         "NativeBatch": batch_schema, "SensorLoggerMessage": schemas.SENSOR_LOGGER_MESSAGE,
                         "ClassifyWindow": schemas.CLASSIFY_WINDOW, "CreateGroup": groups.CREATE_GROUP,
                         "JoinGroup": groups.JOIN_GROUP, "GroupUpload": groups.UPLOAD,
@@ -110,6 +111,9 @@ def openapi_document() -> dict[str, Any]:
                             {"201": _ok("stored"), "200": _ok("duplicate ignored")} | common | _errors(400, 409),
                             parameters=[SESSION_ID, TOKEN_QUERY], requestBody=_json_body("NativeBatch"),
                             security=[{"bearer": []}, {"queryToken": []}])},
+            "/api/v1/sessions/{session_id}/processing": {
+                "put": _op("replace the processing options and rebuild all results", {"202": _ok("queued")} | common,
+                           parameters=[SESSION_ID], requestBody=_json_body("Processing"))},
             "/api/v1/sessions/{session_id}/reprocess": {
                 "post": _op("rebuild all results from the raw batches", {"202": _ok("queued")} | _errors(401, 404),
                             parameters=[SESSION_ID])},

@@ -1,8 +1,9 @@
 """Per-session processing options: what ``pdr track --site/--calibration`` and ``pdr foot --zaru`` set offline.
 
-A client gives them once, when it creates the session (``processing`` in the JSON body, or a ``processing``
-form field holding that JSON next to an uploaded file); they are checked then -- a bad site or calibration is
-refused with the field it names, before anything is stored -- and kept in the session's ``meta``. Every
+A client gives them when it creates the session (``processing`` in the JSON body, or a ``processing`` form
+field holding that JSON next to an uploaded file), or replaces them later with ``PUT .../processing``, which
+rebuilds the session's results; they are checked first -- a bad site or calibration is refused with the field
+it names, before anything is stored -- and kept in the session's ``meta``. Every
 processor of the session reads them from its :class:`~server.processing.SessionContext`:
 
 * ``site``: the site description of ``pdr track --site`` (landmarks in the track's local east/north frame,

@@ -23,6 +23,17 @@ DEVICE = {
     },
 }
 
+#: Processing options of a session (server.processing_options), at creation or replaced later.
+PROCESSING = {
+    "type": "object", "additionalProperties": False,
+    "description": "processing options (server.processing_options)",
+    "properties": {
+        "site": {"type": "object", "description": "site description, as `pdr track --site`"},
+        "calibration": {"type": "object", "description": "step-length calibration `pdr calibrate` wrote"},
+        "foot": {"type": "object", "additionalProperties": False, "properties": {"zaru": {"type": "boolean"}}},
+    },
+}
+
 CREATE_SESSION = {
     "type": "object",
     "additionalProperties": False,
@@ -36,16 +47,7 @@ CREATE_SESSION = {
             "properties": {"lat_deg": {"type": "number", "minimum": -90, "maximum": 90},
                            "lon_deg": {"type": "number", "minimum": -180, "maximum": 180}},
         },
-        "processing": {
-            "type": "object", "additionalProperties": False,
-            "description": "processing options, fixed at creation (server.processing_options)",
-            "properties": {
-                "site": {"type": "object", "description": "site description, as `pdr track --site`"},
-                "calibration": {"type": "object", "description": "step-length calibration `pdr calibrate` wrote"},
-                "foot": {"type": "object", "additionalProperties": False,
-                         "properties": {"zaru": {"type": "boolean"}}},
-            },
-        },
+        "processing": PROCESSING,
     },
 }
 

@@ -15,7 +15,7 @@ from server.api import current_user, json_body, services, uploaded_log
 from server.errors import APIError
 from server.processing import FILE_PREFIX, NATIVE_JSON, read_uploaded_file
 from server.processing_options import META_KEY, ProcessingOptions
-from server.schemas import CREATE_SESSION, PAIR_DEVICE, validate
+from server.schemas import CREATE_SESSION, PAIR_DEVICE, PROCESSING, validate
 
 bp = Blueprint("sessions", __name__, url_prefix="/api/v1/sessions")
 
@@ -183,3 +183,19 @@ def reprocess(session_id: str) -> tuple[Response, int]:
     svc.processing.clear(session_id)
     svc.worker.submit(session_id)
     return jsonify({"id": session_id, "status": "pending"}), 202
+
+
+@bp.put("/<session_id>/processing")
+def set_processing(session_id: str) -> tuple[Response, int]:
+    """Replace the session's processing options (e.g. a calibration made after the walk) and rebuild its results."""
+    user = current_user()
+    svc = services()
+    row = svc.store.session_row(session_id, user.id)
+    body = json_body()
+    validate(body, PROCESSING, "processing")
+    options = ProcessingOptions.from_json(body)
+    meta = {k: v for k, v in json.loads(row.meta or "{}").items() if k != META_KEY} | (_meta(options) or {})
+    svc.store.set_session(session_id, meta=json.dumps(meta))
+    svc.processing.clear(session_id)
+    svc.worker.submit(session_id)
+    return jsonify({"id": session_id, "status": "pending", "processing": options.to_json()}), 202

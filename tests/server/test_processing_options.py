@@ -19,6 +19,7 @@ from pdr.pipeline import PdrPipeline, PipelineConfig
 from pdr.recording import DeviceInfo, Recording, SensorStream
 from pdr.sim import parse_scenario, simulate
 from pdr.step_length import StepLengthModel
+from server import auth
 from server.processing_options import ProcessingOptions
 from tests.pdr.foot.gait import simulate_gait
 from tests.server.conftest import bearer
@@ -134,3 +135,34 @@ def test_uploaded_file_takes_its_options_from_a_form_field(real_app: Flask, toke
     resp = client.post("/api/v1/sessions", data=body, headers=bearer(token), content_type=ctype)
     assert resp.status_code == 201, resp.get_json()
     assert resp.get_json()["processing"] == {"calibration": CALIBRATION}
+
+
+@pytest.mark.timeout(300)
+def test_options_set_after_the_walk_rebuild_the_session(real_app: Flask, token: str) -> None:
+    # The walker calibrates after recording: PUT .../processing replaces the options and rebuilds the results.
+    client = real_app.test_client()
+    walk = [{"type": "stand", "duration_s": 3}, {"type": "walk", "duration_s": 15}]
+    rec = simulate(parse_scenario({"placement": "hand", "start_time_ns": T0_NS, "segments": walk}), seed=5)
+    session, before = _session_track(real_app, client, token, {"session_id": "later", "placement": "hand"}, rec,
+                                     "phone")
+    assert session["processing"] == {}
+    sid = session["id"]
+    bad = client.put(f"/api/v1/sessions/{sid}/processing", json={"calibration": {"k": 1}}, headers=bearer(token))
+    assert bad.status_code == 422 and "processing.calibration" in bad.get_json()["error"]["message"]
+    resp = client.put(f"/api/v1/sessions/{sid}/processing", json={"calibration": CALIBRATION}, headers=bearer(token))
+    assert resp.status_code == 202 and resp.get_json()["processing"] == {"calibration": CALIBRATION}
+    assert real_app.extensions["pdr"].worker.wait_idle(240)
+    after = client.get(f"/api/v1/sessions/{sid}/track?device=phone", headers=bearer(token)).get_json()["points"]
+    assert len(after) == len(before) > 10
+    ratio = np.array([p["step_length_m"] for p in after]) / np.array([p["step_length_m"] for p in before])
+    np.testing.assert_allclose(ratio, 1.2, rtol=1e-9)
+    assert client.get(f"/api/v1/sessions/{sid}", headers=bearer(token)).get_json()["processing"] == {
+        "calibration": CALIBRATION}
+    # Clearing the options restores the plain track; another user's session is not reachable.
+    assert client.put(f"/api/v1/sessions/{sid}/processing", json={}, headers=bearer(token)).status_code == 202
+    assert real_app.extensions["pdr"].worker.wait_idle(240)
+    again = client.get(f"/api/v1/sessions/{sid}/track?device=phone", headers=bearer(token)).get_json()["points"]
+    assert again == before
+    with real_app.extensions["pdr"].store.engine.begin() as conn:
+        other = auth.add_user(conn, "someone")
+    assert client.put(f"/api/v1/sessions/{sid}/processing", json={}, headers=bearer(other)).status_code == 404
