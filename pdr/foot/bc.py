@@ -48,7 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.foot.drift import drift_predict, drift_update, initial_state, rotate_yaw
-from pdr.foot.saturation import CLIP_EXCESS_FRACTION, clip_variance, clip_variance_peak
+from pdr.foot.saturation import CLIP_EXCESS_FRACTION, add_clip_attitude_noise, clip_variance, clip_variance_peak
 from pdr.foot.zupt import ZuptConfig, _quat_exp, _quat_mul, _rotmat, check_imu, first_stationary_run
 from pdr.frames import GRAVITY_MPS2
 from pdr.strapdown import initial_attitude_from_gravity
@@ -353,14 +353,8 @@ def _bc_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Arr
             P[BF + i, BF + i] += sbias * dt
             P[BW + i, BW + i] += sbias_w * dt
         if sat_var[k].max() > 0.0:
-            # Clipped gyroscope axes (pdr.foot.saturation): the unknown excess rate turns the attitude,
-            # C diag(extra) C^T dt^2 on the attitude error.
-            for i in range(3):
-                for j in range(3):
-                    acc_ = 0.0
-                    for c_ in range(3):
-                        acc_ += c_old[i, c_] * sat_var[k, c_] * c_old[j, c_]
-                    P[TH + i, TH + j] += acc_ * dt * dt
+            # Clipped gyroscope axes (pdr.foot.saturation): the unknown excess rate turns the attitude.
+            add_clip_attitude_noise(P, TH, c_old, sat_var[k], dt)
         # --- measurement update f(y_k | x_k), linearised (eqs. 5-6) ---
         c = _rotmat(q)
         s_n = a - g_n                                   # specific force in the navigation frame

@@ -48,7 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.foot.drift import drift_predict, drift_update, initial_state, rotate_yaw
-from pdr.foot.saturation import CLIP_EXCESS_FRACTION, clip_variance
+from pdr.foot.saturation import CLIP_EXCESS_FRACTION, add_clip_attitude_noise, clip_variance
 from pdr.foot.zupt import (
     ZuptConfig,
     _quat_exp,
@@ -442,14 +442,7 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
                 P[3 + a, 3 + a] += qa * dt * dt
                 P[6 + a, 6 + a] += qg * dt * dt
             if sat_any:
-                # Clipped gyroscope axes (pdr.foot.saturation): C diag(extra) C^T dt^2 on the attitude error.
-                cq_ = _rotmat(q)
-                for a in range(3):
-                    for b in range(3):
-                        acc_ = 0.0
-                        for c in range(3):
-                            acc_ += cq_[a, c] * sat_k[c] * cq_[b, c]
-                        P[6 + a, 6 + b] += acc_ * dt * dt
+                add_clip_attitude_noise(P, 6, _rotmat(q), sat_k, dt)    # clipped gyroscope axes
             # Specific force of the predicted attitude, for the acceleration constraint C(q) s + g.
             f_n = _rotmat(q) @ f_k
             H_all, e_all = _constraint_rows(v, w_k, f_n, g_n, p[2] - lxi[i])

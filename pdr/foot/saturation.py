@@ -20,6 +20,7 @@ about ``s t (1 - t / T)`` (a parabola), so short runs add little and long flat r
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from pdr.errors import InputError
@@ -70,6 +71,22 @@ def _run_positions(flags: BoolArray) -> NDArray[np.int64]:
     idx = np.arange(flags.size)
     run_start = np.maximum.accumulate(np.where(~flags, idx + 1, 0))
     return np.where(flags, idx - run_start + 1, 0)
+
+
+@njit(cache=True)
+def add_clip_attitude_noise(P: Array, att: int, c_bn: Array, var_b: Array,
+                            dt: float) -> None:  # pragma: no cover - compiled
+    """``P[att:att+3, att:att+3] += C diag(var_b) C^T dt^2`` in place: the attitude process noise of one step
+    whose clipped axes have the rate variances ``var_b`` ((rad/s)^2, body axes; :func:`clip_variance`), turned
+    into the navigation frame by the body-to-navigation rotation ``c_bn`` (3, 3); ``att`` is the first attitude
+    row of ``P``.
+    """
+    for i in range(3):
+        for j in range(3):
+            acc = 0.0
+            for c in range(3):
+                acc += c_bn[i, c] * var_b[c] * c_bn[j, c]
+            P[att + i, att + j] += acc * dt * dt
 
 
 def clip_variance(gyro_b: ArrayLike, fraction: float = CLIP_EXCESS_FRACTION) -> Array:
