@@ -230,15 +230,25 @@ def detect(acc_b: ArrayLike, gyro_b: ArrayLike, rate_hz: float,
 STILL_THRESHOLD = 300.0
 
 
+def still_samples(acc_b: ArrayLike, gyro_b: ArrayLike, rate_hz: float, threshold: float = STILL_THRESHOLD,
+                  config: DetectorConfig | None = None) -> BoolArray:
+    """(N,) flags of the samples where the foot is still enough for its gyroscope to read only its bias.
+
+    The SHOE statistic (:func:`statistic` with ``config``, default noise levels) below ``threshold``: a far
+    stricter test than the zero-velocity threshold, so the foot's small rotations during stance stay out. Used by
+    :func:`stationary_gyro_bias` and by the zero angular-rate update of :mod:`pdr.foot.zupt`.
+    """
+    f, w = _check(acc_b, gyro_b)
+    return np.asarray(statistic(f, w, rate_hz, config or DetectorConfig()) < threshold)
+
+
 def stationary_gyro_bias(acc_b: ArrayLike, gyro_b: ArrayLike, rate_hz: float, threshold: float = STILL_THRESHOLD,
                          min_s: float = 1.0, config: DetectorConfig | None = None) -> Array:
     """Gyroscope bias (rad/s, sensor frame) as the mean angular rate over the samples where the foot is still.
 
-    The batch form of a zero angular-rate update: wherever the SHOE statistic (:func:`statistic` with
-    ``config``, default noise levels) is below ``threshold`` -- a far stricter test than the zero-velocity
-    threshold, so the foot's small rotations during stance stay out -- the gyroscope measures only its bias.
-    Uses the whole recording, so it is for offline processing. Returns zeros when fewer than ``min_s`` seconds
-    of still samples exist.
+    The batch form of a zero angular-rate update: on the :func:`still_samples` (threshold ``threshold``,
+    statistic of ``config``) the gyroscope measures only its bias. Uses the whole recording, so it is for offline
+    processing. Returns zeros when fewer than ``min_s`` seconds of still samples exist.
 
     Why it is off by default (issue #5; pdr eval foot /work/shared/data --method zupt --hde on --smoother on
     --gyro-bias on|off). The threshold 300 still admits a root-mean-square rate of ``sqrt(300) * 0.1 deg/s =
@@ -276,7 +286,7 @@ def stationary_gyro_bias(acc_b: ArrayLike, gyro_b: ArrayLike, rate_hz: float, th
     f, w = _check(acc_b, gyro_b)
     if not (np.isfinite(rate_hz) and rate_hz > 0):
         raise InputError(f"sampling rate must be positive, got {rate_hz}", field="rate_hz")
-    still = statistic(f, w, rate_hz, config or DetectorConfig()) < threshold
+    still = still_samples(f, w, rate_hz, threshold, config)
     if still.sum() < max(1, int(round(min_s * rate_hz))):
         return np.zeros(3)
     return np.asarray(np.mean(w[still], axis=0))

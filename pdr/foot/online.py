@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
-from pdr.foot.detectors import DetectorConfig, adaptive_threshold, detector_reach, statistic
+from pdr.foot.detectors import DetectorConfig, adaptive_threshold, detector_reach, statistic, still_samples
 from pdr.foot.navigate import RATE_WINDOW_S, check_foot_recording, sampling_rate_hz
 from pdr.foot.zupt import (
     FilterState,
@@ -41,7 +41,6 @@ from pdr.foot.zupt import (
     kernel_setup,
     late_start_warning,
     run_kernel,
-    still_samples,
 )
 from pdr.recording import Recording
 from pdr.strapdown import initial_attitude_from_gravity
@@ -242,7 +241,7 @@ class OnlineFootNavigator:
         # Flags of [z0, z1): every window inside the buffer, or at a true end of the recording.
         stat = statistic(self.buf_acc, self.buf_gyro, rate, self.detector)
         flags = (stat < adaptive_threshold(stat, rate, self.detector))[z0 - self.buf_start: z1 - self.buf_start]
-        still = still_samples(self.buf_acc, self.buf_gyro, rate, self.zupt) if self.zupt.zaru else None
+        still = still_samples(self.buf_acc, self.buf_gyro, rate, self.zupt.zaru_threshold) if self.zupt.zaru else None
         setup = kernel_setup(rate, self.zupt, self.segmentation)
         steps: list[FootStep] = []
         if self.start_index < 0:

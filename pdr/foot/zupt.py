@@ -51,7 +51,7 @@ from numpy.typing import ArrayLike, NDArray
 from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.filters.rts import rts_step
-from pdr.foot.detectors import DetectorConfig, statistic
+from pdr.foot.detectors import STILL_THRESHOLD, still_samples
 from pdr.foot.drift import HDE_SIZE, drift_predict, drift_update, initial_state, rotate_yaw
 from pdr.frames import GRAVITY_MPS2
 from pdr.strapdown import initial_attitude_from_gravity
@@ -113,7 +113,8 @@ class ZuptConfig:
     zaru
         Estimate the gyroscope bias by zero angular-rate updates while the foot is still (module doc).
     zaru_threshold
-        Largest SHOE statistic (default detector noise levels, dimensionless) of a still sample.
+        Largest SHOE statistic (default detector noise levels, dimensionless) of a still sample
+        (:func:`pdr.foot.detectors.still_samples`).
     zaru_min_still_s
         Time the foot must have been still before its samples measure the bias, s.
     sigma_zaru
@@ -143,7 +144,7 @@ class ZuptConfig:
     sigma_drift_rw: float = float(np.radians(0.005))
     sigma_heading_rw: float = float(np.radians(0.05))
     zaru: bool = False
-    zaru_threshold: float = 300.0
+    zaru_threshold: float = STILL_THRESHOLD
     zaru_min_still_s: float = 0.5
     sigma_zaru: float = float(np.radians(0.5))
     sigma_bias0: float = float(np.radians(0.5))
@@ -493,13 +494,16 @@ def zupt_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, g_n
     if store:
         sm_P[first - 1] = P
     zaru_on = zaru_par[0] > 0
+    w0 = np.empty(3)                               # angular rates without the bias (zero without ZARU), rad/s
+    w1 = np.empty(3)
     for k in range(first, n):
+        for i in range(3):
+            w0[i] = w_b[k - 1, i] - bias[i]
         if zaru_on:
-            w_prev = w_b[k - 1] - bias
             zaru_update(bias, pbias, counters, w_b[k], still[k], t[k] - t[k - 1], zaru_par)
-            f_n = zupt_predict(p, v, q, P, f_b[k - 1], w_prev, f_b[k], w_b[k] - bias, t[k] - t[k - 1], g_n, qa, qg)
-        else:
-            f_n = zupt_predict(p, v, q, P, f_b[k - 1], w_b[k - 1], f_b[k], w_b[k], t[k] - t[k - 1], g_n, qa, qg)
+        for i in range(3):
+            w1[i] = w_b[k, i] - bias[i]
+        f_n = zupt_predict(p, v, q, P, f_b[k - 1], w0, f_b[k], w1, t[k] - t[k - 1], g_n, qa, qg)
         if hde_on:
             rotate_yaw(q, drift_predict(hde, t[k] - t[k - 1], hde_par))
         if store:
@@ -771,7 +775,7 @@ def run_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, stat
     """Run the filter loop over samples ``first..N-1`` of contiguous arrays, updating ``state`` in place.
 
     ``still`` (N,) flags the samples whose SHOE statistic is below ``config.zaru_threshold`` (needed with
-    ``config.zaru``; :func:`still_samples`).
+    ``config.zaru``; :func:`pdr.foot.detectors.still_samples`).
 
     With ``smooth`` (offline, without segmentation) the RTS backward pass then replaces the per-sample outputs
     from ``first - 1`` on by the smoothed ones; ``state`` stays the causal filter's. The smoother is
@@ -883,7 +887,7 @@ def run_zupt(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity:
     q0 = initial_attitude_from_gravity(np.mean(f_b[a:b], axis=0), yaw=cfg.yaw0)
 
     state = FilterState.initial(q0, cfg)
-    still = still_samples(f_b, w_b, rate, cfg) if cfg.zaru else None
+    still = still_samples(f_b, w_b, rate, cfg.zaru_threshold) if cfg.zaru else None
     out = run_kernel(t, f_b, w_b, zv, a + 1, state, cfg, setup, smooth=smooth, still=still, segment=segment)
     if smooth:
         # Samples before navigation starts take the smoothed state of its first sample.
@@ -896,13 +900,6 @@ def run_zupt(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity:
                   for k, dp, dpsi, cov in zip(out.step_idx, out.step_dp, out.step_dpsi, out.step_cov, strict=True))
     return ZuptTrack(t, out.pos, out.vel, quat.normalize(out.qs), zv, out.pvar, out.vvar, out.avar, steps, a,
                      tuple(warnings), state.bias.copy())
-
-
-def still_samples(acc_b: Array, gyro_b: Array, rate_hz: float, config: ZuptConfig) -> BoolArray:
-    """(N,) flags of the samples whose SHOE statistic (default detector noise levels) is below
-    ``config.zaru_threshold``: candidates of the zero angular-rate update (module doc).
-    """
-    return np.asarray(statistic(acc_b, gyro_b, rate_hz, DetectorConfig()) < config.zaru_threshold)
 
 
 def late_start_warning(start_index: int, start_s: float, rate_hz: float) -> str:
