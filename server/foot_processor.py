@@ -78,7 +78,7 @@ class FootProcessor:
 
     def __init__(self, ctx: SessionContext, state: bytes | None) -> None:
         self.role = ctx.role
-        self.zupt = ZuptConfig(zaru=session_options(ctx.meta).foot_zaru)
+        self.meta = ctx.meta
         self.navigator: OnlineFootNavigator | None = None
         self.dr: StepwiseDeadReckoning | None = None
         self.last_t_s: float | None = None
@@ -97,7 +97,8 @@ class FootProcessor:
             raise InputError(f"the {self.role} of this session sends step summaries; raw IMU batches cannot be "
                              "mixed in", source=recording.source or None)
         if self.navigator is None:
-            self.navigator = OnlineFootNavigator(zupt=self.zupt)
+            # The session's options are read once, when the navigator starts; its saved state keeps them.
+            self.navigator = OnlineFootNavigator(zupt=ZuptConfig(zaru=session_options(self.meta).foot_zaru))
         steps = self.navigator.update(recording)
         return _output(steps, self.navigator.take_warnings())
 
