@@ -27,7 +27,15 @@ Deviation from eq. 12d (issue #5, :data:`NC_STATE_SPREAD_DEFAULT`): the unconstr
 residuals of ``h_0`` with the spread ``H P H^T + sigma_nc^2 I`` (still no state update), and clipped gyroscope
 samples add attitude process noise (:mod:`pdr.foot.saturation`); with the constant density of eq. 12d an uncertain
 leaf can never re-enter a stance and the bank runs away on sprint and running recordings. A second deviation
-(:data:`LOST_STANCE_DEFAULTS`): a merged swing longer than any foot's swing reopens the leaves' velocity variance.
+(:mod:`pdr.foot.lost_stance`): a merged swing longer than any foot's swing reopens the leaves' velocity variance.
+Measured on the PyShoe trials (``pdr eval foot /work/shared/data/pyshoe_vicon --method filterbank --hde on``),
+off (``max_swing_s=0``) -> on: the three trials that run away, 2017-11-27-11-18-11 13.3 -> 4.2 m,
+2017-11-27-11-24-07 13.1 -> 0.47 m, 2018-02-22-10-08-52 3.8 -> 2.6 m; the other 15 trials, the median (0.062 m),
+xio and foot_stride_gcp unchanged. Height variant: 0.72 -> 0.68 m and 1.63 -> 1.58 m on its two worst trials, the
+rest unchanged. 1 s or 2 s instead of 1.5 s, and 0.5 or 2 m/s instead of 1 m/s, give the same picture (1 s also
+changes a healthy stair trial, 0.068 -> 0.089 m). What remains on 2018-02-22-10-08-52 is the opposite failure: in
+its slow swings the almost-stationary mode (sigma_v 0.1 m/s) wins and holds the velocity near zero while the foot
+moves.
 
 Heading drift: as in the ZUPT INS, heuristic drift elimination (:mod:`pdr.foot.drift`, settings
 ``zupt.hde_*``, off with ``hde_directions=0``) turns every leaf's attitude by the estimated drift at every
@@ -49,6 +57,7 @@ from numpy.typing import ArrayLike, NDArray
 from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.foot.drift import drift_predict, drift_update, initial_state, rotate_yaw
+from pdr.foot.lost_stance import LOST_STANCE_DEFAULTS, check_lost_stance, reopen_velocity, swing_lasts
 from pdr.foot.saturation import CLIP_EXCESS_FRACTION, add_clip_attitude_noise, clip_variance
 from pdr.foot.zupt import (
     ZuptConfig,
@@ -128,22 +137,6 @@ SIGMA_NC_DEFAULT: dict[str, float] = {"speed": 2.73, "height": 2.73}
 #: noise leaves 7 speed trials over 1 m.
 NC_STATE_SPREAD_DEFAULT = True
 
-#: Defaults of :attr:`FilterBankConfig.max_swing_s` (s) and :attr:`FilterBankConfig.lost_sigma_v` (m/s), issue #5.
-#: Why: the Markov chain of eq. 3e has no memory, so nothing in the model says that a foot's swing lasts well under a
-#: second (0.35-0.6 s walking, less running). When the leaves' velocity drifts beyond what their covariance covers,
-#: the stance modes' residuals become improbable at every later foot-down and the unconstrained mode keeps winning:
-#: the bank integrates freely for many seconds and runs away. A merged swing longer than 1.5 s (about three walking
-#: swings) is taken as that state; raising every leaf's velocity variance to (1 m/s)^2, the size of a swing's
-#: velocity, lets the next stance's residuals be explained again. Measured on the PyShoe trials
-#: (``pdr eval foot /work/shared/data/pyshoe_vicon --method filterbank --hde on``), off -> on: the three trials that
-#: run away, 2017-11-27-11-18-11 13.3 -> 4.2 m, 2017-11-27-11-24-07 13.1 -> 0.47 m, 2018-02-22-10-08-52
-#: 3.8 -> 2.6 m; the other 15 trials, the median (0.062 m), xio and foot_stride_gcp unchanged (no other swing is that
-#: long). Height variant: 0.72 -> 0.68 m and 1.63 -> 1.58 m on its two worst trials, the rest unchanged. 1 s or
-#: 2 s instead of 1.5 s, and 0.5 or 2 m/s instead of 1 m/s, give the same picture (1 s also changes a healthy
-#: stair trial, 0.068 -> 0.089 m). What remains on 2018-02-22-10-08-52 is the opposite failure: in its slow swings
-#: the almost-stationary mode (sigma_v 0.1 m/s) wins and holds the velocity near zero while the foot moves.
-LOST_STANCE_DEFAULTS = (1.5, 1.0)
-
 
 def check_transition(pi: ArrayLike, field_name: str = "transition") -> Array:
     """A (3, 3) column-stochastic matrix of probabilities, or InputError."""
@@ -220,7 +213,7 @@ class FilterBankConfig:
         A swing of the merged mode posterior (unconstrained probability at least 0.5) longer than
         ``max_swing_s`` (s) means the bank has lost its stances: every leaf's velocity variance is raised to at
         least ``lost_sigma_v^2`` ((m/s)^2) on each axis at every further sample of that swing, so the next stance
-        can win again (see :data:`LOST_STANCE_DEFAULTS`). ``max_swing_s = 0`` turns this off (the seed's model).
+        can win again (:mod:`pdr.foot.lost_stance`). ``max_swing_s = 0`` turns this off (the seed's model).
     zupt
         Process noise and initialisation shared with the ZUPT-aided INS.
     """
@@ -264,10 +257,7 @@ class FilterBankConfig:
             raise InputError(f"must be a non-negative number, got {self.clip_excess}", field="clip_excess")
         if self.student_nu is not None and not (math.isfinite(self.student_nu) and self.student_nu > 0):
             raise InputError(f"must be a positive number, got {self.student_nu}", field="student_nu")
-        if not (math.isfinite(self.max_swing_s) and self.max_swing_s >= 0):
-            raise InputError(f"must be a non-negative number of seconds, got {self.max_swing_s}", field="max_swing_s")
-        if not (math.isfinite(self.lost_sigma_v) and self.lost_sigma_v > 0):
-            raise InputError(f"must be a positive number, got {self.lost_sigma_v}", field="lost_sigma_v")
+        check_lost_stance(self.max_swing_s, self.lost_sigma_v)
         if not 1 <= self.max_leaves <= 243:
             raise InputError("max_leaves must be between 1 and 243", field="max_leaves")
 
@@ -618,13 +608,9 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
                     rotate_yaw(lq[r], turn)
                 rotate_yaw(qs[k], turn)
         was_stance = in_stance
-        swing_s = 0.0 if in_stance else swing_s + dt
-        if max_swing > 0.0 and swing_s > max_swing:
-            # A swing too long for a foot: the stances are lost (LOST_STANCE_DEFAULTS); reopen the velocities.
-            for r in range(n_leaves):
-                for a in range(3):
-                    if lP[r, 3 + a, 3 + a] < lost_var:
-                        lP[r, 3 + a, 3 + a] = lost_var
+        swing_s = swing_lasts(swing_s, in_stance, dt)
+        for r in range(n_leaves):
+            reopen_velocity(lP[r], 3, swing_s, max_swing, lost_var)    # a swing too long: stances lost
     return loglik
 
 
