@@ -357,6 +357,35 @@ def eval_gcp(d: Path, args: argparse.Namespace, tracks: Path | None, method: str
             if ok else math.nan, "per_walk": rows}
 
 
+def paired_against_zupt(results: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Each navigator against each ZUPT-INS row of the same drift-elimination setting, trial by trial (PyShoe).
+
+    ``results`` maps a run name of :func:`eval_variants` to its :func:`eval_pyshoe` result. For every run that is
+    not a ZUPT row and every ZUPT row (``zupt`` smoothed, ``zupt/filtered`` causal) with the same ``/no-hde``
+    suffix: on how many trials the run's ARMSE is lower, the median of the per-trial differences (run minus
+    ZUPT, m) and the two-sided Wilcoxon signed-rank p-value of those differences (``nan`` with fewer than six
+    trials or no nonzero difference). Keys ``"RUN vs ZUPT_ROW"``.
+    """
+    from scipy.stats import wilcoxon
+
+    out: dict[str, dict[str, Any]] = {}
+    for run, r in results.items():
+        if run.startswith("zupt"):
+            continue
+        for base, b in results.items():
+            if not base.startswith("zupt") or base.endswith(NO_HDE) != run.endswith(NO_HDE):
+                continue
+            a_err = {row["file"]: row["armse_m"] for row in r["per_trial"]}
+            b_err = {row["file"]: row["armse_m"] for row in b["per_trial"]}
+            files = sorted(set(a_err) & set(b_err))
+            d = np.array([a_err[f] - b_err[f] for f in files])
+            p = float(wilcoxon(d).pvalue) if d.size >= 6 and np.any(d != 0) else math.nan
+            out[f"{run} vs {base}"] = {"trials": int(d.size), "better": int(np.sum(d < 0)),
+                                      "median_difference_m": float(np.median(d)) if d.size else math.nan,
+                                      "wilcoxon_p": p}
+    return out
+
+
 def _print_eval(out: dict[str, Any]) -> None:
     for method in out["methods"]:
         if "pyshoe_vicon" in out:
@@ -383,6 +412,9 @@ def _print_eval(out: dict[str, Any]) -> None:
                       f"{row['mean_stride_error_m']:.2f} m, final {row['final_error_m']:.2f} m = "
                       f"{row['final_error_pct']:.2f} % of {row['distance_m']:.1f} m")
             print(f"[{method}] gcp ALL ({r['walks']} walks): median final error {r['median_final_error_pct']:.2f} %")
+    for pair, c in out.get("pyshoe_vicon_paired", {}).items():
+        print(f"[{pair}] pyshoe: lower ARMSE on {c['better']} of {c['trials']} trials, median difference "
+              f"{c['median_difference_m'] * 1000:+.1f} mm, Wilcoxon p = {c['wilcoxon_p']:.3f}")
 
 
 #: Methods that ``pdr eval foot --method all`` compares.
@@ -404,6 +436,8 @@ def run_eval(args: argparse.Namespace) -> int:
             if sub is not None:
                 sub.mkdir(parents=True, exist_ok=True)
             out[name][method] = evaluators[name](d, args, sub, method)
+    if "pyshoe_vicon" in out:
+        out["pyshoe_vicon_paired"] = paired_against_zupt(out["pyshoe_vicon"])
     if args.json:
         print(json.dumps(out, indent=2))
     else:
