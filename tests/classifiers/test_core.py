@@ -186,13 +186,13 @@ _XGB_EXPECTED_FAILURES = {
 }
 
 
-def _expected_failures(est):  # type: ignore[no-untyped-def]
+def _expected_failures(est):
     return _XGB_EXPECTED_FAILURES if isinstance(est, BoostedTreeClassifier) else {}
 
 
 @parametrize_with_checks([GaussianBayesClassifier(), BoostedTreeClassifier(n_estimators=5, max_depth=2)],
                          expected_failed_checks=_expected_failures)
-def test_sklearn_conformance(estimator, check) -> None:  # type: ignore[no-untyped-def]
+def test_sklearn_conformance(estimator, check) -> None:
     check(estimator)
 
 
@@ -212,7 +212,7 @@ def test_bayes_matches_analytic_posterior() -> None:
         m.predict_proba(np.array([[np.nan, 0.0]]))
 
 
-def test_bayes_and_booster_round_trip(tmp_path) -> None:  # type: ignore[no-untyped-def]
+def test_bayes_and_booster_round_trip(tmp_path) -> None:
     rng = np.random.default_rng(2)
     X = rng.normal(size=(200, 4))
     y = np.where(X[:, 0] + X[:, 1] > 0, "up", "down")
@@ -277,7 +277,7 @@ def test_forward_backward_matches_brute_force_and_filter() -> None:
 
 # ------------------------------------------------------------------ model, artifacts, streaming
 @pytest.fixture(scope="module")
-def trained():  # type: ignore[no-untyped-def]
+def trained():
     recs = [_rec([("still", 20.0), ("walk", 30.0), ("run", 20.0)], seed=s, subject=s) for s in range(3)]
     task = get_task("motion_mode")
     cfg = WindowConfig()
@@ -292,7 +292,7 @@ def test_window_labels_need_coverage() -> None:
     assert out == ["a", None, "b", None]
 
 
-def test_grouped_cv_and_model_round_trip(trained, tmp_path) -> None:  # type: ignore[no-untyped-def]
+def test_grouped_cv_and_model_round_trip(trained, tmp_path) -> None:
     recs, task, cfg, groups, data = trained
     res, classes = cross_validate(data, task, cfg, groups, "bayes")
     assert classes == ["running", "stationary", "walking"]
@@ -319,7 +319,7 @@ def test_grouped_cv_and_model_round_trip(trained, tmp_path) -> None:  # type: ig
         load_model(tmp_path / "m2")
 
 
-def test_missing_sensor_is_an_error_and_gap_is_unknown(trained) -> None:  # type: ignore[no-untyped-def]
+def test_missing_sensor_is_an_error_and_gap_is_unknown(trained) -> None:
     recs, task, cfg, groups, data = trained
     model = fit_model(data, task, cfg, groups, "bayes")
     no_gyro = Recording({"acc": recs[0].stream("acc")}, t0_ns=recs[0].t0_ns, source="nogyro.csv")
@@ -333,7 +333,7 @@ def test_missing_sensor_is_an_error_and_gap_is_unknown(trained) -> None:  # type
     assert mid.any() and all(res.label[i] == "unknown" for i in np.flatnonzero(mid))
 
 
-def test_streaming_equals_offline_and_resumes(trained) -> None:  # type: ignore[no-untyped-def]
+def test_streaming_equals_offline_and_resumes(trained) -> None:
     recs, task, cfg, groups, data = trained
     model = fit_model(data, task, cfg, groups, "bayes")
     rec = recs[1]

@@ -49,7 +49,7 @@ def test_shipped_motion_model_on_real_stand_and_jog() -> None:
         assert np.mean(np.asarray(res.label) == mode) > 0.9
 
 
-def test_classify_cli_writes_log_clock_rows(tmp_path) -> None:  # type: ignore[no-untyped-def]
+def test_classify_cli_writes_log_clock_rows(tmp_path) -> None:
     log = REPO_ROOT / "mobile_logs" / "sim" / "pocket_office.zip"
     out = tmp_path / "modes.csv"
     assert main(["classify", str(log), "--out", str(out)]) == 0
@@ -63,7 +63,7 @@ def test_classify_cli_writes_log_clock_rows(tmp_path) -> None:  # type: ignore[n
     assert main(["classify", str(log), "--model", "no_such_model", "--out", str(out)]) == 2
 
 
-def test_eval_cli_on_simulated_data(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+def test_eval_cli_on_simulated_data(tmp_path, capsys) -> None:
     assert main(["train", "landmark", "--sim", "4", "--out", str(tmp_path / "lm")]) == 0
     assert main(["eval", "classifier", str(tmp_path / "lm"), "--sim", "2", "--json",
                  "--out-dir", str(tmp_path / "ev")]) == 0

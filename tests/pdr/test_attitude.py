@@ -168,7 +168,7 @@ def test_chunked_run_equals_one_batch():
 
 def test_yaw_of_axis_convention():
     q = quat.from_euler(0.0, 0.0, math.radians(30))
-    assert math.isclose(float(yaw_of_axis(q[None], [0, 1, 0])[0]), math.radians(120), abs_tol=1e-12)
+    assert math.isclose(float(yaw_of_axis(q[None], np.array([0.0, 1.0, 0.0]))[0]), math.radians(120), abs_tol=1e-12)
 
 
 def test_sigma_point_weights_sum_to_one():

@@ -45,6 +45,7 @@ def test_track_bad_input_is_a_clean_error(tmp_path, capsys):
 def test_calibrate_scales_to_the_known_distance(tmp_path):
     from pdr.io import read_recording
     rec = read_recording(SIM / "hand_escalator.zip")
+    assert rec.truth.step_lengths_m is not None
     walked = float(np.sum(rec.truth.step_lengths_m))
     cal = tmp_path / "cal.json"
     assert main(["calibrate", str(SIM / "hand_escalator.zip"), "--distance", f"{walked}", "--out", str(cal)]) == 0
@@ -59,6 +60,7 @@ def _ipin_ref():
     if not path.exists():
         pytest.skip("reference scorer not available")
     spec = importlib.util.spec_from_file_location("ipin_ref", path)
+    assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
@@ -122,6 +124,7 @@ def test_steps_eval_on_two_oxford_walks(capsys):
     for w in walks:
         rec = read_recording(w)
         n = len(track_rows(PdrPipeline().run(rec)))
+        assert rec.truth.step_count is not None
         assert abs(n - rec.truth.step_count) / rec.truth.step_count < 0.02
 
 

@@ -163,6 +163,7 @@ def test_gyro_bias_from_a_short_opening_stand_of_a_pocket_walk(seed):
           "segments": [{"type": "stand", "duration_s": 3}, {"type": "walk", "distance_m": 12, "speed_mps": 1.2}]}
     rec = simulate(sc, seed)
     g = rec.streams["gyro"]
+    assert rec.t0_ns is not None
     tg = (g.t_ns - rec.t0_ns) / 1e9
     assert rec.truth is not None
     tt, q_true = rec.truth.extra["trajectory_t_s"], rec.truth.extra["q_nb"]
@@ -203,7 +204,8 @@ def leg_direction_errors_deg(rec, rows):
     ahrs = np.interp(tm, rec.origin_ns / 1e9 + o.t_s(rec.origin_ns), np.unwrap(np.arctan2(fwd[:, 1], fwd[:, 0])))
     pt = rec.truth.positions
     tt, gt = rec.origin_ns / 1e9 + pt.t_s, pt.pos_m[:, :2]
-    ours, phone = [], []
+    ours: list[float] = []
+    phone: list[float] = []
     for k in range(tt.size - 1):
         sel = (tm >= tt[k]) & (tm < tt[k + 1])
         d = gt[k + 1] - gt[k]

@@ -17,7 +17,7 @@ def test_stream_arrays_are_readonly_and_typed():
 
 
 def test_single_column_stream_accepts_1d_values():
-    s = SensorStream("baro", [1, 2, 3], [1000.0, 1000.1, 1000.2])
+    s = SensorStream("baro", np.array([1, 2, 3]), np.array([1000.0, 1000.1, 1000.2]))
     assert s.values.shape == (3, 1)
 
 
@@ -40,7 +40,7 @@ def test_invalid_stream_names_stream_and_sample(t, v, match):
 
 def test_unknown_kind_and_metadata_rejected():
     with pytest.raises(InputError, match="unknown stream kind"):
-        SensorStream("accel", [1], [[0, 0, 0]])
+        SensorStream("accel", np.array([1]), np.array([[0.0, 0.0, 0.0]]))
     with pytest.raises(InputError, match="device role"):
         DeviceInfo(role="pocket")
     with pytest.raises(InputError, match="placement"):
@@ -70,14 +70,14 @@ def test_recording_rejects_mismatched_key_and_empty():
 
 
 def test_ground_truth_validation():
-    pos = PositionTruth([0.0, 1.0], [[0, 0, 0], [1, 0, 0]], floor=[0, 0])
-    gt = GroundTruth(positions=pos, step_times_s=[0.5, 1.0])
+    pos = PositionTruth(np.array([0.0, 1.0]), np.array([[0.0, 0, 0], [1, 0, 0]]), floor=np.array([0.0, 0.0]))
+    gt = GroundTruth(positions=pos, step_times_s=np.array([0.5, 1.0]))
     assert gt.step_count == 2 and "positions" in gt.kinds()
     with pytest.raises(InputError, match="pos_m must have shape"):
-        PositionTruth([0.0, 1.0], [[0, 0, 0]])
+        PositionTruth(np.array([0.0, 1.0]), np.array([[0.0, 0, 0]]))
     with pytest.raises(InputError, match="goes back"):
-        GroundTruth(step_times_s=[1.0, 0.5])
+        GroundTruth(step_times_s=np.array([1.0, 0.5]))
     with pytest.raises(InputError, match="ends"):
-        Labels([0.0], [-1.0], ["walking"])
-    labels = Labels([0.0, 2.0], [2.0, 3.0], ["walking", "stairs_up"])
+        Labels(np.array([0.0]), np.array([-1.0]), ("walking",))
+    labels = Labels(np.array([0.0, 2.0]), np.array([2.0, 3.0]), ("walking", "stairs_up"))
     assert list(labels.at(np.array([1.0, 2.5, 4.0]), default="?")) == ["walking", "stairs_up", "?"]

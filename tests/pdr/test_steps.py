@@ -155,6 +155,7 @@ def _oxford_walk_steps(walk: str) -> tuple[np.ndarray, Steps, np.ndarray]:
     grid.push(rec)
     t1, v1 = grid.pull()
     t2, v2 = grid.flush()
+    assert rec.t0_ns is not None and rec.truth.step_times_s is not None
     t = np.concatenate([t1, t2]) - rec.t0_ns / 1e9
     return t, detect_steps(np.concatenate([v1["acc"], v2["acc"]]), FS), rec.truth.step_times_s
 
@@ -171,7 +172,7 @@ def test_real_walk_with_handling_before_it(walk):
 
 def test_bounce_free_step_count():
     from pdr.scoring import bounce_free_step_count
-    left = np.arange(20) * 1.1
+    left = np.arange(20.0) * 1.1
     right = left + 0.55
     bouncy = np.sort(np.concatenate([right, right[[3, 9, 15]] + 0.2]))   # three bounces 0.2 s after contacts
     assert bounce_free_step_count([left, right]) == 40

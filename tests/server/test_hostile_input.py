@@ -273,6 +273,7 @@ def test_fuzzed_sensor_logger_messages_get_200_or_499(env):
 def test_openapi_operations_never_answer_5xx(tmp_path):
     import schemathesis
     from schemathesis.checks import not_a_server_error
+    from schemathesis.core.result import Err
 
     app = make_app(tmp_path)
     with app.extensions["pdr"].store.engine.begin() as conn:
@@ -284,6 +285,8 @@ def test_openapi_operations_never_answer_5xx(tmp_path):
     failures: list[str] = []
     try:
         for result in schema.get_all_operations():
+            if isinstance(result, Err):
+                raise result.err()
             operation = result.ok()
 
             @settings(max_examples=15, deadline=None, database=None, suppress_health_check=list(HealthCheck))

@@ -233,7 +233,9 @@ def test_enqueue_is_deduplicated_per_session_until_the_job_starts(redis_namespac
     q = SessionQueue(redis_client(url), ns)
     assert q.enqueue("s1") and not q.enqueue("s1") and q.enqueue("s2")
     assert q.queue.count == 2
-    job_id = q.redis.get(q.flag_key("s1")).decode()
+    flag = q.redis.get(q.flag_key("s1"))
+    assert isinstance(flag, bytes)
+    job_id = flag.decode()
     q.started("s1", "some-other-job")
     assert not q.enqueue("s1")
     q.started("s1", job_id)

@@ -17,7 +17,7 @@ import pytest
 
 from server.bench import simulated_phone, split_batches
 from server.client import add_user, running_server
-from server.cluster import fetch_tracks, replay_phones, running_cluster, wait_drained
+from server.cluster import ReplayResult, fetch_tracks, replay_phones, running_cluster, wait_drained
 from server.config import REPO_ROOT
 from tests.server.realservers import pg_database, redis_namespace  # noqa: F401  (fixtures)
 
@@ -50,7 +50,7 @@ def test_two_web_processes_and_two_workers_match_the_embedded_default(tmp_path, 
             running_cluster(tmp_path / "cluster", pg_database, redis_url, ns, webs=2, workers=2, extra_env=ENV,
                             worker_args=["--lease-s", "5", "--reconcile-s", "2", "-v"]) as cluster:
         ref_token, token = add_user(env, "ref"), add_user(cluster.env, "scale")
-        replays = {}
+        replays: dict[str, ReplayResult] = {}
         threads = [threading.Thread(target=lambda k, u, t: replays.__setitem__(k, replay_phones(u, t, uploads)),
                                     args=args) for args in (("ref", [url], ref_token), ("got", cluster.urls, token))]
         for t in threads:

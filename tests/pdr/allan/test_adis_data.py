@@ -26,13 +26,17 @@ def test_one_adis_unit_matches_its_datasheet_order_of_magnitude():
     assert gyro.quality is not None and gyro.quality.flags == () and gyro.n_samples == 1_000_000
     for ax in gyro.axes.values():
         # datasheet: ARW about 2 deg/sqrt(h), in-run bias stability about 0.007 deg/s = 25 deg/h
-        arw = ax.fit.value["N"] * RAD2DEG * 60
-        bi = ax.fit.value["B"] * RAD2DEG * 3600
+        n, b = ax.fit.value["N"], ax.fit.value["B"]
+        assert n is not None and b is not None
+        arw = n * RAD2DEG * 60
+        bi = b * RAD2DEG * 3600
         assert 0.5 < arw < 8.0 and 25 / 5 < bi < 25 * 5
         # the fit and the classic -1/2 reading agree on white noise
         assert ax.fit.value["N"] == pytest.approx(ax.slopes.N, rel=0.15)
     for ax in acc.axes.values():
-        ug_rthz = ax.fit.value["N"] / 9.80665e-6
+        n = ax.fit.value["N"]
+        assert n is not None
+        ug_rthz = n / 9.80665e-6
         assert 100 < ug_rthz < 2000  # datasheet noise density about 0.5 mg/sqrt(Hz)
     assert gyro.grade == "consumer"
     assert all(v[0] > 0 for v in gyro.bias_used.values())

@@ -44,14 +44,14 @@ def test_simulate_then_recover_n_b_k(bias_model):
 @pytest.mark.slow
 def test_recovery_holds_over_many_seeds():
     fs, n = 10.0, 2_000_000
-    errs = []
+    rel_errs: list[list[float]] = []
     for seed in range(8):
         rng = np.random.default_rng(seed)
         y = (sy.white_noise(n, fs, 0.01, rng) + sy.random_walk(n, fs, 0.002, rng)
              + sy.flicker_noise(n, fs, 0.01, rng))
         _, fit = _fit(y, fs)
-        errs.append([fit.estimate["N"] / 0.01 - 1, fit.estimate["B"] / 0.01 - 1, fit.estimate["K"] / 0.002 - 1])
-    errs = np.abs(np.array(errs))
+        rel_errs.append([fit.estimate["N"] / 0.01 - 1, fit.estimate["B"] / 0.01 - 1, fit.estimate["K"] / 0.002 - 1])
+    errs = np.abs(np.array(rel_errs))
     assert np.all(errs[:, 0] < 0.05) and np.all(errs[:, 1] < 0.15) and np.all(errs[:, 2] < 0.05), errs
 
 

@@ -83,6 +83,8 @@ def test_eval_ipin_cross_calibration_fixes_the_other_walker(tmp_path, capsys):
     assert t21["distance_ratio_same_floor"] < 0.88
     assert abs(t21["calibrated"]["distance_ratio_same_floor"] - 1) < 0.10
     for f in out["files"]:
-        route = re.search(r"Trial\d+", f["file"]).group(0)
+        m = re.search(r"Trial\d+", f["file"])
+        assert m is not None
+        route = m.group(0)
         assert all(route not in c for c in f["calibrated"]["calibrated_on"])
     assert out["overall"]["calibrated"]["files"] == 3

@@ -145,8 +145,10 @@ def test_convert_excerpt_cuts_streams_and_truth(capsys, tmp_path, native_log):
     assert rec.origin_ns == T0_NS + 5_000_000_000
     assert rec.t_s("acc")[0] == pytest.approx(0.0) and rec.t_s("acc")[-1] == pytest.approx(9.99)
     assert len(rec.stream("acc")) == 1000
+    assert rec.truth.step_times_s is not None
     np.testing.assert_allclose(rec.truth.step_times_s, np.arange(0.0, 10.0, 0.5))
     assert rec.truth.step_count == 20
+    assert rec.truth.positions is not None and rec.truth.modes is not None
     np.testing.assert_allclose(rec.truth.positions.t_s, [5.0])
     np.testing.assert_allclose(rec.truth.modes.t_start_s, [0.0, 7.0])
     np.testing.assert_allclose(rec.truth.modes.t_end_s, [7.0, 10.0])

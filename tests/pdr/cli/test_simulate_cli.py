@@ -29,7 +29,7 @@ def test_simulate_output_containers(tmp_path, scenario_file, name):
     out = tmp_path / name
     assert main(["simulate", str(scenario_file), "--out", str(out), "--placement", "foot", "--side", "left"]) == 0
     rec = native.read(out)
-    assert rec.device.role == "left_foot" and rec.truth.step_count > 0
+    assert rec.device.role == "left_foot" and rec.truth.step_count is not None and rec.truth.step_count > 0
 
 
 def test_simulate_bad_input_is_a_clean_error(tmp_path, scenario_file, capsys):

@@ -3,6 +3,7 @@
 import csv
 import math
 from functools import cache
+from typing import Any
 
 import numpy as np
 import pytest
@@ -20,8 +21,8 @@ SEGMENTS = [{"type": "stand", "duration_s": 2}, {"type": "walk", "duration_s": 3
             {"type": "walk", "duration_s": 15, "speed_mps": 1.4}, {"type": "stand", "duration_s": 2}]
 
 
-def _scenario(side: str, mount_yaw_deg: float = 0.0) -> dict:
-    doc = {"name": "dual", "placement": "foot", "side": side, "rates_hz": {"acc": 200, "gyro": 200},
+def _scenario(side: str, mount_yaw_deg: float = 0.0) -> dict[str, Any]:
+    doc: dict[str, Any] = {"name": "dual", "placement": "foot", "side": side, "rates_hz": {"acc": 200, "gyro": 200},
            "sensors": {"grade": "consumer"}, "segments": SEGMENTS}
     if mount_yaw_deg:
         doc["mount_rpy_deg"] = [0.0, 0.0, mount_yaw_deg]
@@ -116,6 +117,7 @@ def test_cli_dual_foot(tmp_path, capsys) -> None:
     assert set(rows[0]) >= {"t_s", "east_m", "north_m", "up_m", "heading_deg", "zero_velocity", "left_east_m",
                             "right_east_m"}
     end = np.array([float(rows[-1]["east_m"]), float(rows[-1]["north_m"])])
+    assert left.truth.positions is not None and right.truth.positions is not None
     truth = 0.5 * (left.truth.positions.pos_m[-1, :2] + right.truth.positions.pos_m[-1, :2])
     assert np.linalg.norm(end - truth) < 5.0
     assert main(["foot", "--left", str(tmp_path / "left"), "--out", str(out)]) == 2

@@ -1,5 +1,7 @@
 """Filter bank (seed 002): analytic checks, simulate-then-recover, transition learning."""
 
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -20,7 +22,7 @@ from pdr.foot.filterbank import (
 )
 from pdr.foot.zupt import run_zupt
 from pdr.frames import GRAVITY_MPS2
-from tests.pdr.foot.gait import simulate_gait
+from tests.pdr.foot.gait import Gait, simulate_gait
 
 
 def test_polar_decomposition_gives_the_chordal_mean_rotation() -> None:
@@ -150,7 +152,7 @@ def test_height_variant_regains_stance_after_a_swing_velocity_error() -> None:
     assert tr.zero_velocity[core].mean() > 0.9
     assert np.max(np.linalg.norm(tr.vel_n, axis=1)) < 6.0             # true swing peak: 4.4 m/s
     # The lost-stance recovery (max_swing_s) off: this is about the likelihoods alone.
-    small_q = {"variant": "height", "acc_psd": 0.5**2 / 200.0, "sigma_nc": 1.0, "max_swing_s": 0.0}
+    small_q: dict[str, Any] = {"variant": "height", "acc_psd": 0.5**2 / 200.0, "sigma_nc": 1.0, "max_swing_s": 0.0}
     old = run_filterbank(g.t_s, acc, g.gyro_b, zv, FilterBankConfig(**small_q, nc_state_spread=False))
     assert old.zero_velocity[core].mean() < 0.5
     # Scoring the unconstrained mode with the leaf's spread (nc_state_spread, the default) keeps them even so.
@@ -160,7 +162,7 @@ def test_height_variant_regains_stance_after_a_swing_velocity_error() -> None:
         FilterBankConfig(acc_psd=0.0)
 
 
-def _running_gait(disturbance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, object]:
+def _running_gait(disturbance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Gait]:
     # Short stances, 2.5 m strides and a swing-time accelerometer disturbance (m/s^2, 0.2 s per swing).
     g = simulate_gait(n_strides=12, stride_m=2.5, stance_s=0.15, swing_s=0.4, sigma_acc=0.02, sigma_gyro=0.002,
                       seed=5)

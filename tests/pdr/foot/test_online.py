@@ -18,6 +18,8 @@ from tests.conftest import data_path
 from tests.pdr.foot.gait import simulate_gait
 
 T0_NS = 1_700_000_000_123_456_789
+# Times (log clock), positions and compass headings of the batch navigator's resets, and its warnings.
+BatchSteps = tuple[np.ndarray, np.ndarray, np.ndarray, tuple[str, ...]]
 
 
 def gait_recording(gyro_shift_ns: int = 0, start_s: float = 0.0, n_strides: int = 12,
@@ -30,8 +32,7 @@ def gait_recording(gyro_shift_ns: int = 0, start_s: float = 0.0, n_strides: int 
                      DeviceInfo(platform="imu", role=role, placement="foot"), t0_ns=T0_NS)
 
 
-def batch_steps(rec: Recording, zupt: ZuptConfig | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray,
-                                                                        tuple[str, ...]]:
+def batch_steps(rec: Recording, zupt: ZuptConfig | None = None) -> BatchSteps:
     """Times (log clock), positions and compass headings of the resets of ``navigate(..., 'stepwise')``."""
     imu, track = navigate(rec, "stepwise", zupt=zupt)
     idx = np.array([s.index for s in track.steps], dtype=np.int64)
@@ -65,7 +66,7 @@ def run_online(parts: list[Recording], restore: bool,
     return steps, warnings + nav.take_warnings(), nav
 
 
-def assert_same_track(steps: list[FootStep], ref: tuple[np.ndarray, ...]) -> None:
+def assert_same_track(steps: list[FootStep], ref: BatchSteps) -> None:
     t, pos, heading = ref[:3]
     assert len(steps) == t.size > 5
     np.testing.assert_allclose([s.t_s for s in steps], t, rtol=0, atol=1e-9)

@@ -8,7 +8,7 @@ from pdr.foot.detectors import detect
 from pdr.foot.stepwise import dead_reckon
 from pdr.foot.zupt import Segmentation, ZuptConfig, run_zupt
 from pdr.frames import wrap_angle
-from tests.pdr.foot.gait import gyro_drift_walk, simulate_gait
+from tests.pdr.foot.gait import Gait, gyro_drift_walk, simulate_gait
 
 
 def _horizontal(a: np.ndarray) -> np.ndarray:
@@ -135,7 +135,7 @@ def test_drift_elimination_settings_are_checked() -> None:
         ZuptConfig(hde_sigma_dir=0.0)
 
 
-def _stop_and_go(bias_deg_s: tuple[float, float, float]) -> tuple[object, np.ndarray, np.ndarray]:
+def _stop_and_go(bias_deg_s: tuple[float, float, float]) -> tuple[Gait, np.ndarray, np.ndarray]:
     # A walk that stops for 3 s at every step (a long rest is what the zero angular-rate update needs), with a
     # constant gyroscope bias (deg/s, sensor frame) on top of light white noise.
     g = simulate_gait(n_strides=12, stride_m=1.2, stance_s=3.0, sigma_acc=0.02, sigma_gyro=0.002, seed=5)

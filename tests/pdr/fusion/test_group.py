@@ -5,7 +5,7 @@ import pytest
 
 from pdr.errors import InputError
 from pdr.fusion.group import Group
-from pdr.fusion.measurements import InterAgentRange, StepSummary, event_to_dict, parse_event
+from pdr.fusion.measurements import HeightDifference, InterAgentRange, StepSummary, event_to_dict, parse_event
 from pdr.fusion.simulation import SimulationConfig, StepEvent, march_scenario, run_scenario
 from pdr.fusion.state import FootKey
 
@@ -21,7 +21,7 @@ def setup(n=3, duration=40, seed=5):
 
 
 def as_events(sc, ranging=True):
-    out = []
+    out: list[StepSummary | InterAgentRange] = []
     for e in sc.events(ranging):
         if isinstance(e, StepEvent):
             out.append(StepSummary(e.agent, e.foot, e.increment))
@@ -126,4 +126,5 @@ def test_event_json_round_trip():
         assert event_to_dict(parse_event(obj)) == obj
     p = parse_event({"type": "height_difference", "agent_a": "a", "t_s": 1.0, "pressure_hpa": 999.6,
                      "reference_pressure_hpa": 1000.0, "gamma_m": 0.5, "sigma_m": 0.5})
+    assert isinstance(p, HeightDifference)
     assert 3.0 < p.dh_m < 3.6

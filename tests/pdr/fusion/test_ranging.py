@@ -38,7 +38,9 @@ def test_flat_likelihood_returns_the_prior():
     a = rng.normal(size=(3, 3))
     p = a @ a.T
     m = rng.normal(size=3)
-    mean, cov = sampled_moments(m, p, lambda s: np.ones(len(s)), square_lattice(3))
+    moments = sampled_moments(m, p, lambda s: np.ones(len(s)), square_lattice(3))
+    assert moments is not None
+    mean, cov = moments
     np.testing.assert_allclose(mean, m, atol=1e-12)
     np.testing.assert_allclose(cov, p, atol=1e-12)
 

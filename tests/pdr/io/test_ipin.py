@@ -121,7 +121,7 @@ def test_sm_g930f_logfile_has_50_hz_gyro_and_floor_changes():
     assert rec.stream("gyro").median_rate_hz() == pytest.approx(50.0, rel=0.02)
     assert rec.stream("baro").median_rate_hz() == pytest.approx(10.0, rel=0.05)
     pos = rec.truth.positions
-    assert pos is not None and set(np.unique(pos.floor)) >= {0.0, -2.0}
+    assert pos is not None and pos.floor is not None and set(np.unique(pos.floor)) >= {0.0, -2.0}
 
 
 @pytest.mark.data
@@ -133,7 +133,7 @@ def test_mat_export_elevator_trial():
     p = rec.values("baro")[:, 0]
     assert 975.5 < p.min() and p.max() < 977.5  # SOURCE.md: 976.09-976.87 hPa
     pos = rec.truth.positions
-    assert pos is not None and len(pos) == 16
+    assert pos is not None and len(pos) == 16 and pos.floor is not None
     change = np.flatnonzero(np.diff(pos.floor) != 0)
     assert pos.floor[0] == 0.0 and -2.0 in pos.floor
     i = int(change[0])  # elevator: same place on both floors
@@ -246,7 +246,8 @@ def test_mat_roundtrip_and_bad_mat(tmp_path):
     assert ipin.sniff(p)
     rec = ipin.read(p)
     np.testing.assert_allclose(rec.t_s("gyro"), [0.05, 0.07], atol=1e-9)
-    assert rec.truth.positions is not None and rec.truth.positions.floor[0] == -1.0
+    assert rec.truth.positions is not None and rec.truth.positions.floor is not None
+    assert rec.truth.positions.floor[0] == -1.0
 
     bad = acce.copy()
     bad[1, 3] = np.nan

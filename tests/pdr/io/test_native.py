@@ -2,6 +2,7 @@ import gzip
 import json
 import time
 import zipfile
+from typing import Any
 
 import numpy as np
 import pytest
@@ -51,7 +52,7 @@ def _sorted_floats(draw, n):
 
 @st.composite
 def truths(draw):
-    kw = {}
+    kw: dict[str, Any] = {}
     if draw(st.booleans()):
         n = draw(st.integers(0, 6))
         floor = np.array(draw(st.lists(st.one_of(st.just(float("nan")), finite), min_size=n, max_size=n)))
@@ -74,7 +75,7 @@ def truths(draw):
             a = _sorted_floats(draw, n)
             kw[name] = Labels(a, a + np.array(draw(st.lists(st.floats(0, 100), min_size=n, max_size=n))),
                               tuple(draw(st.lists(text, min_size=n, max_size=n))))
-    extra = {}
+    extra: dict[str, np.ndarray] = {}
     for name in draw(st.lists(text.filter(bool), max_size=3, unique=True)):
         n = draw(st.integers(0, 5))
         extra[name] = draw(st.sampled_from([
@@ -140,9 +141,9 @@ def test_batch_round_trip_is_exact(rec):
 def _simple(n=5) -> Recording:
     t = T_BASE + np.arange(n) * 10_000_000
     return Recording({"acc": SensorStream("acc", t, np.tile([0.1, -0.2, 9.81], (n, 1))),
-                      "baro": SensorStream("baro", t[:2], [1013.25, 1013.2])},
+                      "baro": SensorStream("baro", t[:2], np.array([1013.25, 1013.2]))},
                      device=DeviceInfo("android", "Pixel", "phone", "hand", "dev1"),
-                     truth=GroundTruth(step_times_s=[0.1, 0.2]))
+                     truth=GroundTruth(step_times_s=np.array([0.1, 0.2])))
 
 
 def test_folder_layout_is_human_readable(tmp_path):
@@ -229,8 +230,8 @@ def test_large_batch_validates_fast():
     n = 100_000
     t = (T_BASE + np.arange(n) * 5_000_000).tolist()
     v = np.random.default_rng(0).normal(size=(n, 3)).tolist()
-    b = {"format": "pdr-batch/1", "device": {}, "streams": {"acc": {"t_ns": t, "values": v},
-                                                            "gyro": {"t_ns": t, "values": v}}}
+    b: dict[str, Any] = {"format": "pdr-batch/1", "device": {},
+                         "streams": {"acc": {"t_ns": t, "values": v}, "gyro": {"t_ns": t, "values": v}}}
     start = time.perf_counter()
     rec = native.batch_from_json(b)
     assert time.perf_counter() - start < 3.0
@@ -338,5 +339,6 @@ def test_meta_json_structure_is_checked_by_the_folder_schema(tmp_path, edit, fie
 
 def test_recording_rejects_a_non_integer_time_origin():
     rec = _simple()
+    not_an_int: Any = float("nan")   # deliberately ill-typed: the runtime check is what is tested
     with pytest.raises(InputError, match="t0_ns must be an integer"):
-        Recording(dict(rec.streams), t0_ns=float("nan"))
+        Recording(dict(rec.streams), t0_ns=not_an_int)

@@ -106,6 +106,7 @@ def test_step_truth_is_rising_edges_of_both_channels(tmp_path, gz):
     assert rec.device.placement == "trouser_pocket_back"
     np.testing.assert_allclose(rec.truth.extra["step_times_chan1_s"], [0.1, 0.5])
     np.testing.assert_allclose(rec.truth.extra["step_times_chan2_s"], [0.3])
+    assert rec.truth.step_times_s is not None
     np.testing.assert_allclose(rec.truth.step_times_s, [0.1, 0.3, 0.5])
     assert rec.stream("acc").median_rate_hz() == pytest.approx(200.0)
 
@@ -156,6 +157,7 @@ def test_validation_file_steps_are_count_increments(tmp_path):
     assert oxford.sniff(p)
     rec = oxford.read(p)
     assert rec.device.placement == "trouser_pocket_front"
+    assert rec.truth.step_times_s is not None
     np.testing.assert_allclose(rec.truth.step_times_s, [0.02, 0.04, 0.04, 0.06])
     assert rec.truth.step_count == 4
     assert rec.stream("acc").median_rate_hz() == pytest.approx(100.0)

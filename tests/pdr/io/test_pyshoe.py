@@ -127,4 +127,5 @@ def test_vicon_positions_are_mirrored_into_a_right_handed_frame(tmp_path):
     n = d["gt"].shape[0]
     d["gt"] = np.column_stack([np.full(n, 1.0), np.full(n, 2.0), np.full(n, 3.0)])
     rec = pyshoe.read(_write(tmp_path, d))
+    assert rec.truth.positions is not None
     np.testing.assert_array_equal(rec.truth.positions.pos_m[0], [1.0, -2.0, 3.0])

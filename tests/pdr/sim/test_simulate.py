@@ -38,6 +38,7 @@ def test_same_seed_same_recording_other_seed_other_noise(tour, placement):
     for kind in a.streams:
         assert not np.array_equal(a.values(kind), c.values(kind)), kind
     # the walk itself does not depend on the seed
+    assert a.truth.positions is not None and c.truth.positions is not None
     np.testing.assert_array_equal(a.truth.positions.pos_m, c.truth.positions.pos_m)
     np.testing.assert_array_equal(a.truth.step_times_s, c.truth.step_times_s)
 
@@ -48,6 +49,8 @@ def test_recording_metadata_and_truth_layout(tour):
     assert rec.meta["seed"] == 1 and rec.meta["scenario"]["name"] == "tour"
     tr = rec.truth
     k = tr.extra["trajectory_t_s"].size
+    assert tr.positions is not None and tr.step_times_s is not None
+    assert tr.modes is not None and tr.landmarks is not None
     assert tr.positions.kind == "dense" and tr.positions.frame == "enu" and len(tr.positions) == k
     assert tr.extra["q_nb"].shape == (k, 4) and tr.extra["vel_n"].shape == (k, 3)
     assert tr.extra["zero_velocity"].dtype == bool and tr.extra["step_foot"].shape == tr.step_times_s.shape
@@ -68,11 +71,13 @@ def test_gait_statistics_match_the_scenario():
                      {"type": "stand", "duration_s": 3}], sensors=IDEAL)
     rec = simulate(doc, 0)
     st, sl = rec.truth.step_times_s, rec.truth.step_lengths_m
+    assert st is not None and sl is not None
     steady = (st > 5.0) & (st < 21.0)
     assert np.diff(st[steady]).mean() == pytest.approx(1 / 1.9, rel=1e-3)
     assert sl[steady].mean() == pytest.approx(1.4 / 1.9, rel=1e-3)
     assert st.size == round(20 * 1.9)                     # phase advances f * T: one step per unit
     assert sl.sum() == pytest.approx(1.4 * 20, abs=1.4 / 1.9)
+    assert rec.truth.positions is not None
     pos = rec.truth.positions.pos_m
     assert np.linalg.norm(pos[-1] - pos[0]) == pytest.approx(1.4 * 20, abs=1e-6)
     assert np.all(np.abs(rec.truth.extra["walking_heading_rad"]) < 1e-12)   # heading 90 deg = east
@@ -110,6 +115,7 @@ def test_turn_angle_and_floor_change(placement):
         assert wrap_angle(yaw[1] - yaw[0]) == pytest.approx(math.radians(-135), abs=1e-9)
     assert quat.angle_between(ex["q_nb"][0], ex["q_nb"][-1]) == pytest.approx(math.radians(135), abs=1e-9)
     assert ex["floor"][0] == 2 and ex["floor"][-1] == 3
+    assert rec.truth.positions is not None
     pos = rec.truth.positions.pos_m
     assert pos[-1, 2] - pos[0, 2] == pytest.approx(3.0, abs=1e-9)
 
@@ -141,6 +147,7 @@ def _strapdown_errors(placement, rate):
                     truth_rate_hz=rate)
     rec = simulate(doc, 4)
     tr = rec.truth
+    assert tr.positions is not None
     q, v, p = tr.extra["q_nb"], tr.extra["vel_n"], tr.positions.pos_m
     pos, vel, qq = strapdown.integrate(q[0], v[0], p[0], rec.t_s("acc"), rec.values("acc"), rec.values("gyro"))
     return (np.abs(pos - p).max(), np.abs(vel - v).max(), np.degrees(quat.angle_between(qq, q).max()))
@@ -193,6 +200,7 @@ def test_shoe_is_still_during_stance_and_hits_the_ground():
     still = ex["zero_velocity"]
     np.testing.assert_allclose(ex["vel_n"][still], 0.0, atol=1e-12)
     assert 0.3 < still[(ex["trajectory_t_s"] > 3) & (ex["trajectory_t_s"] < 7)].mean() < 0.7
+    assert rec.truth.step_times_s is not None
     right = rec.truth.step_times_s[ex["step_foot"] == 1]
     acc = rec.values("acc")
     ta = rec.t_s("acc")
@@ -243,6 +251,7 @@ def test_escalator_carries_a_still_standing_rider_and_shakes_the_field():
     doc = _scenario([{"type": "stand", "duration_s": 2}, {"type": "escalator", "direction": "down"},
                      {"type": "stand", "duration_s": 2}], placement="hand", sensors=IDEAL)
     rec = simulate(doc, 0)
+    assert rec.truth.positions is not None
     pos = rec.truth.positions.pos_m
     assert pos[-1, 2] - pos[0, 2] == pytest.approx(-3.0, abs=1e-9)
     assert pos[-1, 0] - pos[0, 0] == pytest.approx(3.0 / math.tan(math.radians(30)), abs=1e-6)
