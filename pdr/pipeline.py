@@ -19,8 +19,10 @@ big batch):
 5. elevator rides from the vertical specific force (:class:`pdr.landmarks.ElevatorDetector`).
 
 Events are plain dicts: ``{"type": "step", "t_s", "east_m", "north_m", "up_m", "floor", "heading_deg",
-"step_length_m", "mode", ...}``, ``{"type": "elevator", ...}``, ``{"type": "floor_change", ...}`` and
-``{"type": "notice", "message"}`` (degraded inputs). ``t_s`` is on the log's own clock (seconds).
+"step_length_m", "turn_deg", "mode", ...}`` (``turn_deg``: the change of the step heading since the previous step
+of the walk, which shortens a turning step, :func:`pdr.step_length.turn_factor`), ``{"type": "elevator", ...}``,
+``{"type": "floor_change", ...}`` and ``{"type": "notice", "message"}`` (degraded inputs). ``t_s`` is on the
+log's own clock (seconds).
 
 Placement (``pocket``, ``hand``, ``torso``) comes from the configuration, else from an injected
 ``placement_provider(recording) -> str | None`` (e.g. the placement classifier; pdr/ never imports it),
@@ -281,6 +283,7 @@ class PdrPipeline:
         self.prev_step_start: int | None = None
         self.direction_vote = DirectionVote()
         self.prev_mode = ""
+        self.last_step: tuple[float, float] | None = None   # (raw yaw rad, end time s) of the last emitted step
         self.stairs_landmark: str | None = None
         self.landmark_updates = 0
         self.landmark_attitude_updates = 0
@@ -340,6 +343,7 @@ class PdrPipeline:
             "hde": self.hde.to_dict(), "history": self.history.to_dict(), "placement": self.placement,
             "t0_ns": self.t0_ns,
             "prev_yaw": self.prev_yaw, "prev_q": self.prev_q, "prev_mode": self.prev_mode,
+            "last_step": None if self.last_step is None else list(self.last_step),
             "stairs_landmark": self.stairs_landmark, "landmark_updates": self.landmark_updates,
             "landmark_attitude_updates": self.landmark_attitude_updates,
             "prev_step_start": self.prev_step_start, "direction_score": self.direction_vote.score,
@@ -368,6 +372,8 @@ class PdrPipeline:
             p.history = _History.from_dict(d["history"])
             p.placement, p.t0_ns = d["placement"], int(d["t0_ns"])
             p.prev_yaw, p.prev_q, p.prev_mode = d["prev_yaw"], d["prev_q"], str(d["prev_mode"])
+            last = d.get("last_step")             # absent in states saved before the turn factor
+            p.last_step = None if last is None else (float(last[0]), float(last[1]))
             # Absent in states saved before per-step stairs landmarks.
             p.stairs_landmark = d.get("stairs_landmark")
             p.landmark_updates = int(d.get("landmark_updates", 0))
@@ -591,7 +597,12 @@ class PdrPipeline:
         if nxt is not None and self.prev_mode and nxt["t_start"] - rec["t_end"] < max_gap:
             mode = neighbour_correction(self.prev_mode, mode, nxt["mode"])
         on_stairs = mode in ("stairs_up", "stairs_down")
-        length = float(self.config.step_length.length(np.array(rec["pats"]), on_stairs))
+        # The walking direction's change since the previous step of the same walk (pdr.step_length turn factor).
+        last = self.last_step
+        turn = (abs(float(wrap_angle(rec["yaw"] - last[0])))
+                if last is not None and rec["t_start"] - last[1] < max_gap and not on_stairs else 0.0)
+        self.last_step = (float(rec["yaw"]), float(rec["t_end"]))
+        length = float(self.config.step_length.length(np.array(rec["pats"]), on_stairs, turn))
         est = HeadingEstimate(rec["yaw"], rec["var"])
         events: list[Event] = []
         if self.site is not None and on_stairs:
@@ -640,7 +651,8 @@ class PdrPipeline:
         events.append({
             "type": "step", "t_s": self._clock(rec["t_end"]), "t_start_s": self._clock(rec["t_start"]),
             "east_m": self.track.east_m, "north_m": self.track.north_m, "up_m": rec["up"], "floor": rec["floor"],
-            "heading_deg": float(yaw_to_heading_deg(est.yaw)), "step_length_m": length, "mode": mode,
+            "heading_deg": float(yaw_to_heading_deg(est.yaw)), "step_length_m": length,
+            "turn_deg": math.degrees(turn), "mode": mode,
             "placement": self.placement, "heading_sigma_deg": math.degrees(math.sqrt(est.var)),
             "pos_sigma_m": math.sqrt(max(float(np.trace(self.track.P)), 0.0)),
             "patterns": rec["pats"],

@@ -8,11 +8,26 @@ Signal patterns of step ``k`` over ``t_s(k) <= t < t_e(k)`` (``a_n`` the low-pas
 * ``p4 = integral |a_n - g| dt`` area (eq. 16), m/s;
 * ``p5 = max a_n - min a_n`` (eq. 17); ``p6 = max a_v - min a_v`` (eq. 18), m/s^2.
 
-Model (eq. 19): ``Delta s_k = K p_j(k)^q + b``. :func:`fit_model` fits ``K`` and ``b`` by linear least
-squares on walked distances of known length (segments between landmarks: the sum over the segment's
-steps of ``K p^q + b`` must equal the segment length), for each pattern ``j`` and exponent ``q``;
-:func:`calibrate_k` rescales ``K`` for one user from one walk of known length (``pdr calibrate``).
+Model (eq. 19): ``Delta s_k = K p_j(k)^q + b``, times the turn factor ``f(Delta psi_k)`` (below).
+:func:`fit_model` fits ``K`` and ``b`` by linear least squares on walked distances of known length (segments
+between landmarks: the sum over the segment's steps of ``(K p^q + b) f`` must equal the segment length), for each
+pattern ``j`` and exponent ``q``; :func:`calibrate_k` rescales ``K`` for one user from one walk of known length
+(``pdr calibrate``).
 On stairs the step is shorter: one tread, ``stairs_m``, whoever walks.
+
+Turns (not in seed 004): a step that turns the walking direction covers less ground. With ``Delta psi_k`` the change
+of the step heading from the previous step of the same walk (the track rows' ``turn_deg``), the length is multiplied
+by ``f = max(cos Delta psi, 0)^2`` (:func:`turn_factor`; 0.94 at 14 deg, 0.75 at 30 deg, 0.5 at 45 deg, 0 for a turn
+of 90 deg or more on the spot). Why: at the same cadence the IPIN 2023 hand-held walker of the SM-A520F logs covers
+less ground per step on turn-heavy routes; eq. 19 alone reads 1.02-1.07 of the true distance on routes with 11-16 %
+of steps turning by more than 20 deg and 0.97-1.01 on routes with 1-4 % (correlation 0.67 over its 20 logs). Turning
+steps are not detected twice (their cadence is 0.62-0.67 s against 0.60 s straight): the walker pivots. ``pdr
+calibrate ../shared/data/ipin2023_t3/logfiles --fit --placement hand``, each route left out of the fit, p1^0.5:
+median distance error 3.5 -> 3.2 % (14 -> 13 of 25 logs outside 3 %); with ``K`` recalibrated on the phone's other
+routes 2.7 -> 1.2 % (11 -> 5 outside); in that column every pattern and exponent has a lower median error. In an
+offline study on the tracks' headings, a linear ``1 - c |Delta psi| / 90 deg`` chose ``c`` = 1.0-1.1 on every
+held-out route and did as well as ``cos^2``; plain ``cos`` did worse. ``turn="none"`` turns the factor off (and is
+what a model saved before it existed loads with).
 """
 
 from __future__ import annotations
@@ -33,6 +48,19 @@ FloatArray = NDArray[np.float64]
 PATTERNS: tuple[str, ...] = ("p1", "p2", "p3", "p4", "p5", "p6")
 #: Exponents tried when fitting (raw, square, cube and fourth root; seed 004 Table 2).
 EXPONENTS: tuple[float, ...] = (1.0, 0.5, 1.0 / 3.0, 0.25)
+#: Turn factors (module doc): ``cos2`` or ``none``.
+TURN_MODELS: tuple[str, ...] = ("cos2", "none")
+
+
+def turn_factor(turn_rad: float | FloatArray, model: str = "cos2") -> FloatArray:
+    """Fraction of the eq. 19 length a step covers when it turns the walking direction by ``turn_rad`` (rad).
+
+    ``cos2``: ``max(cos turn, 0)^2``; ``none``: 1.
+    """
+    t = np.asarray(turn_rad, dtype=np.float64)
+    if model == "none":
+        return np.ones_like(t)
+    return np.asarray(np.maximum(np.cos(t), 0.0) ** 2)
 
 
 def step_patterns(a_n: FloatArray, a_v: FloatArray, rate_hz: float) -> FloatArray:
@@ -67,20 +95,23 @@ def step_patterns(a_n: FloatArray, a_v: FloatArray, rate_hz: float) -> FloatArra
 class StepLengthModel:
     """``Delta s = K p^q + b`` (eq. 19) on one pattern; on stairs a fixed, shorter horizontal step.
 
-    Default ``K = 0.4575 * p1^0.5`` (step length proportional to the square root of the step frequency): ``K``
-    is the least-squares fit (relative error) over the landmark intervals on one floor of the 25 IPIN 2023
-    hand-held development logs (``pdr calibrate DIR --fit --placement hand``). Leaving each log's route out of
-    the fit, p1^0.5 gives a median distance error of 3.2 % (13 of 25 logs outside 3 %, worst 18 %); p1^(1/3)
-    2.8 % (12, 17 %) wins that table narrowly but lengthens the MS indoor hand-held traces' 75th percentile
-    error (``pdr eval ms``: 4.66 -> 4.83 m; this model: 4.57 m), so p1^0.5 stays. p2-p6 and fits with an
-    offset ``b`` do worse (offset fits turn ``K`` negative: a constant step).
+    Default ``K = 0.4742 * p1^0.5`` (step length proportional to the square root of the step frequency), with the
+    ``cos2`` turn factor: ``K`` is the least-squares fit (relative error) over the landmark intervals on one floor
+    of the 25 IPIN 2023 hand-held development logs (``pdr calibrate DIR --fit --placement hand``). Leaving each
+    log's route out of the fit, p1^0.5 gives a median distance error of 3.2 % (13 of 25 logs outside 3 %, worst
+    16 %; without the turn factor 3.5 %, 14, 18 %), and with ``K`` recalibrated on the phone's other routes 1.2 %
+    (5 outside; without the turn factor 2.7 %, 11). p1^(1/3), p1^0.25 and p5^0.25 win the first column narrowly
+    (10-11 outside) but not the second; p1^(1/3) also lengthened the MS indoor hand-held traces' 75th percentile
+    error before (``pdr eval ms``: 4.66 -> 4.83 m), so p1^0.5 stays. p2-p6 and fits with an offset ``b`` do worse
+    (offset fits turn ``K`` negative: a constant step). The turn factor took ``pdr eval ms DIR --placement hand``,
+    whose traces took no part in any fit, from 2.78 / 4.57 m to 2.57 / 4.07 m (median / 75th percentile).
 
     It is a population default. The logs come from two phones, which stand for two actors: the SM-G930F
     logs (trials 21, 26, 52) need 0.64-0.69 m per detected step on the flat where the SM-A520F logs need
     0.52-0.63 m, at the same cadence, and no pattern separates them. Per-user calibration (:func:`calibrate_k`,
-    ``pdr calibrate``) on the same phone's other routes moves those logs from 0.81-0.88 to 0.93-1.07
-    (``pdr eval ipin DIR --calibrate cross``). The same walker's stride also differs between routes and
-    between repetitions of one route by up to 5-9 % at the same cadence, which no pattern here explains.
+    ``pdr calibrate``) on the same phone's other routes moves those logs from 0.84-0.94 to 0.95-1.08
+    (``pdr eval ipin DIR --calibrate cross``). The same walker's stride also differs between routes by a few
+    percent at the same cadence, half of it explained by how much the route turns (turn factor, module doc).
 
     Stairs: seed 004 only says the step is "forced to be shorter". A step on stairs covers one tread, a
     property of the staircase rather than the walker, so its horizontal length is ``stairs_m`` (not scaled
@@ -98,29 +129,37 @@ class StepLengthModel:
     stairs_m
         Horizontal length of a step on stairs (m).
     min_m, max_m
-        Clamp of a single step length on the flat (m).
+        Clamp of a single step length on the flat (m), before the turn factor.
+    turn
+        Turn factor, one of :data:`TURN_MODELS` (module doc).
     """
 
     pattern: str = "p1"
-    k: float = 0.4575
+    k: float = 0.4742
     q: float = 0.5
     b: float = 0.0
     stairs_m: float = 0.33
     min_m: float = 0.2
     max_m: float = 1.4
+    turn: str = "cos2"
 
     def __post_init__(self) -> None:
         if self.pattern not in PATTERNS:
             raise InputError(f"pattern must be one of {PATTERNS}", field="pattern", source="step length model")
+        if self.turn not in TURN_MODELS:
+            raise InputError(f"turn must be one of {TURN_MODELS}", field="turn", source="step length model")
         for name in ("k", "q", "b", "stairs_m", "min_m", "max_m"):
             if not np.isfinite(getattr(self, name)):
                 raise InputError("must be finite", field=name, source="step length model")
 
-    def length(self, patterns: FloatArray, on_stairs: bool | FloatArray = False) -> FloatArray:
-        """Horizontal step length(s) in m from (6,) or (K, 6) patterns; ``stairs_m`` where ``on_stairs``."""
+    def length(self, patterns: FloatArray, on_stairs: bool | FloatArray = False,
+               turn_rad: float | FloatArray = 0.0) -> FloatArray:
+        """Horizontal step length(s) in m from (6,) or (K, 6) patterns and the steps' turns (rad, module doc);
+        ``stairs_m`` where ``on_stairs``.
+        """
         p = np.asarray(patterns, dtype=np.float64)[..., PATTERNS.index(self.pattern)]
         s = np.clip(self.k * np.maximum(p, 0.0) ** self.q + self.b, self.min_m, self.max_m)
-        return np.where(on_stairs, self.stairs_m, s)
+        return np.where(on_stairs, self.stairs_m, s * turn_factor(turn_rad, self.turn))
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -128,8 +167,10 @@ class StepLengthModel:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> StepLengthModel:
         try:
-            kw: dict[str, Any] = {k: (str(v) if k == "pattern" else float(v)) for k, v in d.items()
+            kw: dict[str, Any] = {k: (str(v) if k in ("pattern", "turn") else float(v)) for k, v in d.items()
                                   if k in cls.__dataclass_fields__}
+            # A model saved before the turn factor existed was calibrated without it.
+            kw.setdefault("turn", "none")
             return cls(**kw)
         except (TypeError, ValueError) as exc:
             raise InputError(f"bad step-length model ({exc})", source="calibration") from None
@@ -160,8 +201,18 @@ class FitResult:
         return float(np.sqrt(np.mean(self.rel_errors**2)))
 
 
-def fit_model(segments: list[tuple[FloatArray, float]], pattern: str, q: float, fit_offset: bool = True
-              ) -> FitResult:
+def step_sums(patterns: FloatArray, pattern: str, q: float, factors: FloatArray | None = None) -> tuple[float, float]:
+    """``(sum f p^q, sum f)`` over steps: a walk's eq. 19 length is ``K`` times the first plus ``b`` times the second.
+
+    ``patterns`` (K, 6); ``factors`` (K,) the steps' turn factors (:func:`turn_factor`; None: all 1).
+    """
+    p = np.maximum(np.asarray(patterns, dtype=np.float64)[:, PATTERNS.index(pattern)], 0.0) ** q
+    f = np.ones(p.shape[0]) if factors is None else np.asarray(factors, dtype=np.float64)
+    return float(f @ p), float(np.sum(f))
+
+
+def fit_model(segments: list[tuple[FloatArray, float]], pattern: str, q: float, fit_offset: bool = True,
+              factors: list[FloatArray] | None = None) -> FitResult:
     """Least-squares ``K`` (and ``b``) of eq. 19 from segments of known length.
 
     Parameters
@@ -172,18 +223,19 @@ def fit_model(segments: list[tuple[FloatArray, float]], pattern: str, q: float, 
         Pattern name and exponent.
     fit_offset
         Also fit ``b`` (else ``b = 0``).
+    factors
+        (K_i,) turn factors of each segment's steps (:func:`turn_factor`); None: no turn factor.
 
     The residual of each segment is weighted by 1 / length so the fit minimises relative error.
     """
     if not segments:
         raise InputError("no segments to fit", source="step length fit")
-    j = PATTERNS.index(pattern)
     rows, rhs = [], []
-    for pats, length in segments:
+    for i, (pats, length) in enumerate(segments):
         if length <= 0 or pats.shape[0] == 0:
             continue
-        sp = float(np.sum(np.maximum(pats[:, j], 0.0) ** q))
-        rows.append([sp / length, pats.shape[0] / length] if fit_offset else [sp / length])
+        sp, n = step_sums(pats, pattern, q, None if factors is None else factors[i])
+        rows.append([sp / length, n / length] if fit_offset else [sp / length])
         rhs.append(1.0)
     if not rows:
         raise InputError("no usable segments (need steps and a positive length)", source="step length fit")
@@ -197,11 +249,12 @@ def fit_model(segments: list[tuple[FloatArray, float]], pattern: str, q: float, 
 
 
 def calibrate_k(model: StepLengthModel, patterns: FloatArray, walked_m: float,
-                on_stairs: FloatArray | None = None) -> StepLengthModel:
+                on_stairs: FloatArray | None = None, turn_rad: FloatArray | None = None) -> StepLengthModel:
     """Per-user calibration: rescale ``K`` so the walk's steps add up to ``walked_m`` (``b``, ``stairs_m`` kept).
 
     ``on_stairs`` (K,) bool marks steps on stairs: they count ``stairs_m`` each and do not inform ``K``.
-    The clamp ``min_m``/``max_m`` is not applied while solving.
+    ``turn_rad`` (K,) the steps' turns (the ``turn_deg`` of the track rows, in rad; None: straight), weighted
+    by the model's turn factor. The clamp ``min_m``/``max_m`` is not applied while solving.
     """
     if not walked_m > 0:
         raise InputError(f"walked distance must be positive, got {walked_m}", field="distance_m")
@@ -211,8 +264,12 @@ def calibrate_k(model: StepLengthModel, patterns: FloatArray, walked_m: float,
     if flat.ndim != 2 or flat.shape[0] < 5:
         raise InputError(f"need at least 5 detected steps off stairs to calibrate, got "
                          f"{flat.shape[0] if flat.ndim else 0}", source="calibration")
-    sp = float(np.sum(np.maximum(flat[:, PATTERNS.index(model.pattern)], 0.0) ** model.q))
-    k = (walked_m - model.stairs_m * float(np.sum(stairs)) - model.b * flat.shape[0]) / sp
+    turns = np.zeros(stairs.size) if turn_rad is None else np.asarray(turn_rad, dtype=np.float64)
+    if turns.shape != stairs.shape:
+        raise InputError(f"turn_rad has shape {turns.shape}, the steps {stairs.shape}", field="turn_rad",
+                         source="calibration")
+    sp, n = step_sums(flat, model.pattern, model.q, turn_factor(turns[~stairs], model.turn))
+    k = (walked_m - model.stairs_m * float(np.sum(stairs)) - model.b * n) / sp
     if not k > 0:
         raise InputError("calibration gives a non-positive scale; check the distance", field="distance_m")
     return StepLengthModel(**{**asdict(model), "k": k})

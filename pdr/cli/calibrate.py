@@ -17,7 +17,7 @@ import numpy as np
 from pdr.errors import InputError
 from pdr.io import read_recording
 from pdr.pipeline import PdrPipeline, PipelineConfig, track_rows
-from pdr.step_length import EXPONENTS, PATTERNS, StepLengthModel, calibrate_k, fit_model
+from pdr.step_length import EXPONENTS, PATTERNS, StepLengthModel, calibrate_k, fit_model, step_sums, turn_factor
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -44,7 +44,8 @@ def run(args: argparse.Namespace) -> int:
     if not rows:
         raise InputError("no steps detected in the calibration walk", source=str(args.log))
     if args.distance is not None:
-        walk = CalibrationWalk(np.array([r["patterns"] for r in rows]), stairs_flags(rows), float(args.distance))
+        walk = CalibrationWalk(np.array([r["patterns"] for r in rows]), stairs_flags(rows), float(args.distance),
+                               turns_rad(rows))
         what = f"{args.distance:.1f} m"
     else:
         pt = rec.truth.positions
@@ -64,11 +65,23 @@ def run(args: argparse.Namespace) -> int:
 
 @dataclass(frozen=True)
 class CalibrationWalk:
-    """A walk of known length: the patterns (K, 6) of its steps, which were on stairs (K,), its length in m."""
+    """A walk of known length: the patterns (K, 6) of its steps, which were on stairs (K,), its length in m, and
+    the steps' turns (K,) in rad (None: straight; :func:`pdr.step_length.turn_factor`).
+    """
 
     patterns: np.ndarray
     on_stairs: np.ndarray
     length_m: float
+    turn_rad: np.ndarray | None = None
+
+    def turns(self) -> np.ndarray:
+        """(K,) turns in rad (zeros for a walk without them)."""
+        return np.zeros(self.on_stairs.size) if self.turn_rad is None else self.turn_rad
+
+
+def turns_rad(rows: list[dict[str, Any]]) -> np.ndarray:
+    """(K,) the step rows' turns in rad (``turn_deg``; 0 for rows written before it existed)."""
+    return np.radians([float(r.get("turn_deg", 0.0)) for r in rows])
 
 
 def stairs_flags(rows: list[dict[str, Any]]) -> np.ndarray:
@@ -95,7 +108,8 @@ def landmark_walk(rows: list[dict[str, Any]], t_truth: np.ndarray, pos: np.ndarr
             length += float(np.linalg.norm(pos[k + 1, :2] - pos[k, :2]))
     if sel.sum() < 5 or length <= 5.0:
         return None
-    return CalibrationWalk(np.array([r["patterns"] for r in rows])[sel], stairs_flags(rows)[sel], length)
+    return CalibrationWalk(np.array([r["patterns"] for r in rows])[sel], stairs_flags(rows)[sel], length,
+                           turns_rad(rows)[sel])
 
 
 def calibrate_on_walks(base: StepLengthModel, walks: list[CalibrationWalk]) -> StepLengthModel:
@@ -103,7 +117,7 @@ def calibrate_on_walks(base: StepLengthModel, walks: list[CalibrationWalk]) -> S
     if not walks:
         raise InputError("no calibration walk", source="calibration")
     return calibrate_k(base, np.vstack([w.patterns for w in walks]), sum(w.length_m for w in walks),
-                       np.concatenate([w.on_stairs for w in walks]))
+                       np.concatenate([w.on_stairs for w in walks]), np.concatenate([w.turns() for w in walks]))
 
 
 def trial_key(path: str | Path) -> str:
@@ -130,13 +144,13 @@ def _fit_rel_errors(walks: list[CalibrationWalk], groups: list[str], phones: lis
     First: ``K`` (and ``b``) of eq. 19 fitted on the walks of the other routes (:func:`fit_model`). Second: that
     model with ``K`` recalibrated (:func:`calibrate_on_walks`) on the other routes walked with the same phone.
     """
-    j = PATTERNS.index(pattern)
+    turn = StepLengthModel().turn
     pooled, per_phone = [], []
     for i, w in enumerate(walks):
         train = [k for k in range(len(walks)) if groups[k] != groups[i]]
-        m = fit_model([(walks[k].patterns, walks[k].length_m) for k in train], pattern, q, fit_offset).model
-        sp = float(np.sum(np.maximum(w.patterns[:, j], 0.0) ** q))
-        n = w.patterns.shape[0]
+        m = fit_model([(walks[k].patterns, walks[k].length_m) for k in train], pattern, q, fit_offset,
+                      [turn_factor(walks[k].turns(), turn) for k in train]).model
+        sp, n = step_sums(w.patterns, pattern, q, turn_factor(w.turns(), turn))
         pooled.append((m.k * sp + m.b * n) / w.length_m - 1.0)
         # Like fit_model, every step counts as a step on the flat here.
         same = [replace(walks[k], on_stairs=np.zeros_like(walks[k].on_stairs)) for k in train
@@ -181,7 +195,8 @@ def run_fit(args: argparse.Namespace) -> int:
     for pat in PATTERNS:
         for q in EXPONENTS:
             for off in (False, True):
-                full = fit_model([(w.patterns, w.length_m) for w in walks], pat, q, off).model
+                full = fit_model([(w.patterns, w.length_m) for w in walks], pat, q, off,
+                                 [turn_factor(w.turns(), StepLengthModel().turn) for w in walks]).model
                 e_pool, e_phone = (np.abs(e) for e in _fit_rel_errors(walks, groups, phones, pat, q, off))
                 table.append((int(np.sum(e_pool > 0.03)), float(np.median(e_pool)), full))
                 bad = ~(e_phone <= 0.03)   # NaN: recalibration failed (non-positive K)

@@ -237,3 +237,19 @@ def test_hand_heading_on_ipin_legs_beats_the_phone_and_drift_elimination_helps()
     with_hde, without, ph = (np.abs(np.concatenate(x)).mean() for x in (res[True], res[False], phone))
     assert with_hde < without - 0.5
     assert with_hde < ph - 2.0
+
+
+def test_turning_steps_are_shortened_by_the_turn_factor(hand_walk):
+    from pdr.step_length import StepLengthModel, turn_factor
+    rows = track_rows(PdrPipeline(PipelineConfig()).run(hand_walk))
+    plain = track_rows(PdrPipeline(PipelineConfig(step_length=StepLengthModel(turn="none"))).run(hand_walk))
+    assert [r["t_s"] for r in rows] == [r["t_s"] for r in plain]
+    turn = np.radians([r["turn_deg"] for r in rows])
+    assert np.allclose(turn, np.radians([r["turn_deg"] for r in plain]))
+    assert turn[0] == 0.0 and np.max(turn) > np.radians(20.0)         # the walk turns at its corners
+    flat = np.array([r["mode"] not in ("stairs_up", "stairs_down") for r in rows])
+    ratio = np.array([a["step_length_m"] / b["step_length_m"] for a, b in zip(rows, plain, strict=True)])
+    assert np.allclose(ratio[flat], turn_factor(turn[flat]))
+    # The turn is the change of the step heading: large where the walking direction changes, not on the straights.
+    straight = turn < np.radians(5.0)
+    assert straight.mean() > 0.6

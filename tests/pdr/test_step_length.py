@@ -71,3 +71,44 @@ def test_calibration_recovers_k_from_a_walk_with_stairs():
     got = calibrate_k(StepLengthModel(k=0.45, q=0.5, stairs_m=0.30), pats, walked, stairs)
     assert got.k == pytest.approx(0.52, rel=1e-9)
     assert got.stairs_m == 0.30 and got.b == 0.0
+
+
+def test_turn_factor_shortens_turning_steps_only():
+    from pdr.step_length import turn_factor
+    t = np.radians([0.0, 30.0, 45.0, 90.0, 135.0])
+    assert np.allclose(turn_factor(t), [1.0, 0.75, 0.5, 0.0, 0.0])
+    assert np.allclose(turn_factor(t, "none"), 1.0)
+    p = np.full(6, 1.8)
+    m = StepLengthModel()
+    assert m.length(p, False, np.radians(30.0)) == pytest.approx(0.75 * m.length(p))
+    assert m.length(p, True, np.radians(30.0)) == pytest.approx(m.stairs_m)        # a tread stays a tread
+    assert StepLengthModel(turn="none").length(p, False, 1.0) == pytest.approx(m.length(p))
+    with pytest.raises(InputError, match="turn"):
+        StepLengthModel(turn="sharp")
+
+
+def test_calibration_and_fit_recover_k_from_a_turning_walk():
+    """Simulate a walk whose turning steps cover less ground (eq. 19 times the turn factor), recover K."""
+    rng = np.random.default_rng(4)
+    pats = rng.uniform(1.4, 2.2, (80, 6))
+    turns = np.where(rng.uniform(size=80) < 0.2, rng.uniform(0.2, 1.8, 80), rng.normal(0.0, 0.03, 80))
+    truth = StepLengthModel(k=0.52, q=0.5)
+    walked = float(np.sum(truth.length(pats, False, turns)))
+    got = calibrate_k(StepLengthModel(k=0.45, q=0.5), pats, walked, None, turns)
+    assert got.k == pytest.approx(0.52, rel=1e-9)
+    # Ignoring the turns would give a K too small by the turning steps' share.
+    assert calibrate_k(StepLengthModel(k=0.45, q=0.5), pats, walked).k < 0.97 * 0.52
+    from pdr.step_length import turn_factor
+    segs = [(pats[i:i + 20], float(np.sum(truth.length(pats[i:i + 20], False, turns[i:i + 20]))))
+            for i in range(0, 80, 20)]
+    fit = fit_model(segs, "p1", 0.5, False, [turn_factor(turns[i:i + 20]) for i in range(0, 80, 20)])
+    assert fit.model.k == pytest.approx(0.52, rel=1e-9)
+    with pytest.raises(InputError, match="turn_rad"):
+        calibrate_k(truth, pats, walked, None, turns[:10])
+
+
+def test_a_model_saved_before_the_turn_factor_loads_without_it(tmp_path):
+    (tmp_path / "old.json").write_text(json.dumps({"step_length": {"pattern": "p1", "k": 0.5, "q": 0.5, "b": 0.0}}))
+    assert StepLengthModel.load(tmp_path / "old.json").turn == "none"
+    StepLengthModel(k=0.5).save(tmp_path / "new.json")
+    assert StepLengthModel.load(tmp_path / "new.json") == StepLengthModel(k=0.5)

@@ -47,6 +47,16 @@ def test_calibrating_on_other_walks_recovers_the_walkers_k():
         walks.append(CalibrationWalk(pats, stairs, float(np.sum(walker.length(pats, stairs)))))
     got = calibrate_on_walks(StepLengthModel(), walks)
     assert got.k == pytest.approx(0.55, rel=1e-9)
+    # A walk that turns covers less ground per step (pdr.step_length turn factor): its rows' turn_deg count.
+    t_end = np.arange(0.5, 30.01, 0.5)
+    rows = _rows(t_end, rng.uniform(1.4, 2.0, t_end.size))
+    for i, r in enumerate(rows):
+        r["turn_deg"] = 40.0 if i % 5 == 0 else 0.0
+    turns = np.radians([r["turn_deg"] for r in rows])
+    walked = float(np.sum(walker.length(np.array([r["patterns"] for r in rows]), False, turns)))
+    turning = landmark_walk(rows, np.array([0.0, 30.0]), np.array([[0.0, 0.0], [walked, 0.0]]))
+    assert turning is not None and np.allclose(turning.turns(), turns)
+    assert calibrate_on_walks(StepLengthModel(), [turning]).k == pytest.approx(0.55, rel=1e-9)
     with pytest.raises(InputError, match="no calibration walk"):
         calibrate_on_walks(StepLengthModel(), [])
 
