@@ -27,7 +27,9 @@ median distance error 3.5 -> 3.2 % (14 -> 13 of 25 logs outside 3 %); with ``K``
 routes 2.7 -> 1.2 % (11 -> 5 outside); in that column every pattern and exponent has a lower median error. In an
 offline study on the tracks' headings, a linear ``1 - c |Delta psi| / 90 deg`` chose ``c`` = 1.0-1.1 on every
 held-out route and did as well as ``cos^2``; plain ``cos`` did worse. ``turn="none"`` turns the factor off (and is
-what a model saved before it existed loads with).
+what a model saved before it existed loads with). The pipeline measures turns for hand-held and torso phones only
+(:mod:`pdr.pipeline`): a pocket phone's per-step heading jitters with the thigh, and no data set here has the
+distance of a pocket walk to check the factor on.
 """
 
 from __future__ import annotations

@@ -253,3 +253,6 @@ def test_turning_steps_are_shortened_by_the_turn_factor(hand_walk):
     # The turn is the change of the step heading: large where the walking direction changes, not on the straights.
     straight = turn < np.radians(5.0)
     assert straight.mean() > 0.6
+    # A pocket phone's per-step heading jitters with the thigh: no turn factor there.
+    pocket = track_rows(PdrPipeline(PipelineConfig(placement="pocket")).run(hand_walk))
+    assert pocket and all(r["turn_deg"] == 0.0 for r in pocket)
