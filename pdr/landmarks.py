@@ -139,16 +139,20 @@ class SiteLandmark:
 
 @dataclass(frozen=True)
 class Site:
-    """A site description: named landmarks, the floor height and optionally the magnetic declination.
+    """A site description: named landmarks, the floor height and optionally the magnetic declination and grid.
 
     ``declination_deg`` (deg, east positive; JSON key of the same name, optional): when given, the pipeline's
     attitude filter uses it instead of ``AttitudeConfig.mag_declination_deg``.
+    ``grid_deg`` (deg, compass bearing clockwise from north of one of the building's main axes, optional): when
+    given, the heuristic drift elimination of hand-held and torso headings snaps to this grid instead of learning
+    the walk's dominant directions (:class:`pdr.heading.StepDriftElimination`).
     """
 
     name: str
     landmarks: tuple[SiteLandmark, ...]
     floor_height_m: float = 4.0
     declination_deg: float | None = None
+    grid_deg: float | None = None
 
     @classmethod
     def from_dict(cls, d: Any, source: str = "site") -> Site:
@@ -175,16 +179,8 @@ class Site:
             fh = float(d.get("floor_height_m", 4.0))
         except (TypeError, ValueError):
             raise InputError("floor_height_m must be a number", source=source, field="floor_height_m") from None
-        decl = d.get("declination_deg")
-        if decl is not None:
-            try:
-                decl = float(decl)
-            except (TypeError, ValueError):
-                decl = math.nan
-            if not -180.0 <= decl <= 180.0:
-                raise InputError("declination_deg must be a number of degrees in [-180, 180]", source=source,
-                                 field="declination_deg")
-        return cls(str(d.get("name", "")), tuple(out), fh, decl)
+        decl, grid = (_site_angle(d, name, source) for name in ("declination_deg", "grid_deg"))
+        return cls(str(d.get("name", "")), tuple(out), fh, decl, grid)
 
     @classmethod
     def load(cls, path: str | Path) -> Site:
@@ -195,7 +191,8 @@ class Site:
         return cls.from_dict(d, source=str(path))
 
     def to_dict(self) -> dict[str, Any]:
-        extra = {} if self.declination_deg is None else {"declination_deg": self.declination_deg}
+        extra = {k: v for k, v in (("declination_deg", self.declination_deg), ("grid_deg", self.grid_deg))
+                 if v is not None}
         return {"name": self.name, "floor_height_m": self.floor_height_m, **extra,
                 "landmarks": [{"id": lm.id, "type": lm.type, "east_m": lm.east_m, "north_m": lm.north_m,
                                "floor": lm.floor, "heading_deg": list(lm.heading_deg), "radius_m": lm.radius_m}
@@ -217,6 +214,20 @@ class Site:
             if d <= lm.radius_m and d < best_d:
                 best, best_d = lm, d
         return best
+
+
+def _site_angle(d: dict[str, Any], name: str, source: str) -> float | None:
+    """The optional angle ``d[name]`` in degrees, checked to lie in [-180, 180] (None when absent)."""
+    v = d.get(name)
+    if v is None:
+        return None
+    try:
+        a = float(v)
+    except (TypeError, ValueError):
+        a = math.nan
+    if not -180.0 <= a <= 180.0:
+        raise InputError(f"{name} must be a number of degrees in [-180, 180]", source=source, field=name)
+    return a
 
 
 class ElevatorDetector:

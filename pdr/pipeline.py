@@ -46,7 +46,7 @@ from pdr.attitude import AttitudeConfig, AttitudeFilter, AttitudeState
 from pdr.errors import InputError
 from pdr.filters.ukf import SigmaPoints
 from pdr.floors import FloorConfig, FloorTracker
-from pdr.frames import GRAVITY_MPS2, wrap_angle, yaw_to_heading_deg
+from pdr.frames import GRAVITY_MPS2, heading_deg_to_yaw, wrap_angle, yaw_to_heading_deg
 from pdr.grid import OnlineGrid
 from pdr.heading import (
     DirectionVote,
@@ -274,7 +274,7 @@ class PdrPipeline:
         self.elevator = ElevatorDetector(c.rate_hz, c.landmarks)
         self.track = TrackState(float(start_en_m[0]), float(start_en_m[1]))
         self.offset = OffsetEstimator()
-        self.hde = StepDriftElimination(c.hde)
+        self.hde = StepDriftElimination(c.hde, self._grid_yaw())
         self.history = _History(int(c.history_s * c.rate_hz))
         self.placement: str | None = None if c.placement == "auto" else c.placement
         self.t0_ns = 0
@@ -368,7 +368,7 @@ class PdrPipeline:
             p.track = TrackState.from_dict(d["track"])
             p.offset = OffsetEstimator.from_dict(d["offset"])
             if d.get("hde") is not None:      # absent in states saved before the drift elimination
-                p.hde = StepDriftElimination.from_dict(d["hde"], p.config.hde)
+                p.hde = StepDriftElimination.from_dict(d["hde"], p.config.hde, p._grid_yaw())
             p.history = _History.from_dict(d["history"])
             p.placement, p.t0_ns = d["placement"], int(d["t0_ns"])
             p.prev_yaw, p.prev_q, p.prev_mode = d["prev_yaw"], d["prev_q"], str(d["prev_mode"])
@@ -661,6 +661,12 @@ class PdrPipeline:
             "patterns": rec["pats"],
         })
         return events
+
+    def _grid_yaw(self) -> float | None:
+        """Yaw (rad, ENU) of the site's building grid for the drift elimination, or None."""
+        if self.site is None or self.site.grid_deg is None:
+            return None
+        return float(heading_deg_to_yaw(self.site.grid_deg))
 
     def _ut_points(self) -> SigmaPoints:
         """Sigma points of the unscented transforms on ``q(t1)`` (eqs. 35-37), with the attitude UKF's parameters."""

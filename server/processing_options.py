@@ -7,7 +7,7 @@ it names, before anything is stored -- and kept in the session's ``meta``. Every
 processor of the session reads them from its :class:`~server.processing.SessionContext`:
 
 * ``site``: the site description of ``pdr track --site`` (landmarks in the track's local east/north frame,
-  floor height, optional declination); detected landmarks then correct heading and position;
+  floor height, optional declination and building grid); detected landmarks then correct heading and position;
 * ``calibration``: the file ``pdr calibrate`` writes (``{"step_length": {...}}``), the walker's step-length
   model;
 * ``foot``: ``{"zaru": true}`` turns on the zero angular-rate update of the shoe IMUs' gyroscope bias

@@ -45,7 +45,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _common_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--placement", default="auto", choices=("auto", "pocket", "torso", "hand"),
                    help="where the phone is carried (auto: from the log's metadata or a rule)")
-    p.add_argument("--site", help="site description JSON (landmarks that correct heading and position)")
+    p.add_argument("--site", help="site description JSON (landmarks that correct heading and position; optional "
+                                  "declination_deg and grid_deg, the compass bearing of a main axis of the building)")
     p.add_argument("--calibration", help="step-length calibration JSON from `pdr calibrate`")
     p.add_argument("--method", default="ukf", choices=("ukf", "ekf"), help="attitude filter")
     p.add_argument("--floor-height", type=float, default=None, help="floor height in m (default 4)")

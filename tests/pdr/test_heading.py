@@ -199,3 +199,33 @@ def test_drift_elimination_state_round_trip():
     again = StepDriftElimination.from_dict(json.loads(json.dumps(first.to_dict())))
     _, b = run_hde(steps[150:], again)
     np.testing.assert_array_equal(np.concatenate([a, b]), whole)
+
+
+def test_a_site_grid_removes_the_offset_a_learnt_grid_keeps():
+    # The walk's headings are deflected by a constant 7 deg: learnt dominant directions absorb it (nothing to
+    # correct, test above), the building's grid from a site description does not.
+    steps = grid_walk(np.random.default_rng(4), error_deg=lambda t: 7.0)
+    true = np.array([s[3] for s in steps])
+    hde, out = run_hde(steps, StepDriftElimination(grid_yaw=math.radians(30.0 + 180.0)))   # any main axis
+    half = slice(len(steps) // 2, None)
+    err = np.degrees(wrap_angle(out - true))[half]
+    stride = err[: err.size // 2 * 2].reshape(-1, 2).mean(axis=1)
+    assert hde.updates > 20
+    assert np.abs(stride).mean() < 2.0                                   # raw: 7 deg
+    again = StepDriftElimination.from_dict(json.loads(json.dumps(hde.to_dict())), grid_yaw=hde.grid_yaw)
+    assert again.grid_yaw == hde.grid_yaw
+
+
+def test_site_grid_is_read_checked_and_reaches_the_pipeline():
+    from pdr.errors import InputError
+    from pdr.landmarks import Site
+    from pdr.pipeline import PdrPipeline, PipelineConfig
+    site = Site.from_dict({"landmarks": [], "grid_deg": 69.5})
+    assert site.grid_deg == 69.5 and Site.from_dict(site.to_dict()) == site
+    assert "grid_deg" not in Site.from_dict({"landmarks": []}).to_dict()
+    with pytest.raises(InputError, match="grid_deg"):
+        Site.from_dict({"landmarks": [], "grid_deg": "north"})
+    p = PdrPipeline(PipelineConfig(placement="hand"), site)
+    assert p.hde.grid_yaw == pytest.approx(math.radians(90.0 - 69.5))  # ENU yaw of a compass bearing
+    from pdr import state_codec
+    assert PdrPipeline.from_dict(state_codec.loads(state_codec.dumps(p.to_dict()))).hde.grid_yaw == p.hde.grid_yaw
