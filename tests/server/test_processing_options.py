@@ -70,6 +70,9 @@ def test_bad_options_are_refused_and_nothing_is_created(real_app: Flask, token: 
     resp = client.post("/api/v1/sessions", json={"session_id": "s", "processing": {"foot": {"zupt": True}}},
                        headers=bearer(token))
     assert resp.status_code == 422 and "processing.foot" in resp.get_json()["error"]["message"]
+    resp = client.post("/api/v1/sessions", json={"session_id": "s", "processing": {"site": {
+        "landmarks": [], "grid_deg": 400}}}, headers=bearer(token))
+    assert resp.status_code == 422 and "grid_deg" in resp.get_json()["error"]["message"]
     assert client.get("/api/v1/sessions", headers=bearer(token)).get_json()["sessions"] == []
 
 
