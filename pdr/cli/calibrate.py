@@ -78,6 +78,10 @@ class CalibrationWalk:
         """(K,) turns in rad (zeros for a walk without them)."""
         return np.zeros(self.on_stairs.size) if self.turn_rad is None else self.turn_rad
 
+    def factors(self, turn: str = StepLengthModel().turn) -> np.ndarray:
+        """(K,) the steps' turn factors under the turn model ``turn`` (default: the default model's)."""
+        return turn_factor(self.turns(), turn)
+
 
 def turns_rad(rows: list[dict[str, Any]]) -> np.ndarray:
     """(K,) the step rows' turns in rad (``turn_deg``; 0 for rows written before it existed)."""
@@ -144,13 +148,12 @@ def _fit_rel_errors(walks: list[CalibrationWalk], groups: list[str], phones: lis
     First: ``K`` (and ``b``) of eq. 19 fitted on the walks of the other routes (:func:`fit_model`). Second: that
     model with ``K`` recalibrated (:func:`calibrate_on_walks`) on the other routes walked with the same phone.
     """
-    turn = StepLengthModel().turn
     pooled, per_phone = [], []
     for i, w in enumerate(walks):
         train = [k for k in range(len(walks)) if groups[k] != groups[i]]
         m = fit_model([(walks[k].patterns, walks[k].length_m) for k in train], pattern, q, fit_offset,
-                      [turn_factor(walks[k].turns(), turn) for k in train]).model
-        sp, n = step_sums(w.patterns, pattern, q, turn_factor(w.turns(), turn))
+                      [walks[k].factors() for k in train]).model
+        sp, n = step_sums(w.patterns, pattern, q, w.factors())
         pooled.append((m.k * sp + m.b * n) / w.length_m - 1.0)
         # Like fit_model, every step counts as a step on the flat here.
         same = [replace(walks[k], on_stairs=np.zeros_like(walks[k].on_stairs)) for k in train
@@ -196,7 +199,7 @@ def run_fit(args: argparse.Namespace) -> int:
         for q in EXPONENTS:
             for off in (False, True):
                 full = fit_model([(w.patterns, w.length_m) for w in walks], pat, q, off,
-                                 [turn_factor(w.turns(), StepLengthModel().turn) for w in walks]).model
+                                 [w.factors() for w in walks]).model
                 e_pool, e_phone = (np.abs(e) for e in _fit_rel_errors(walks, groups, phones, pat, q, off))
                 table.append((int(np.sum(e_pool > 0.03)), float(np.median(e_pool)), full))
                 bad = ~(e_phone <= 0.03)   # NaN: recalibration failed (non-positive K)
