@@ -245,15 +245,25 @@ NO_HDE = "/no-hde"
 NO_SMOOTHER = "/filtered"
 #: Methods that have an offline smoother.
 SMOOTHED_METHODS: tuple[str, ...] = ("zupt",)
+#: Suffix of the plain ZUPT-EKF baseline row: the causal filter with one fixed SHOE threshold (no gait adaptation,
+#: no smoother), the detector that seeds 002 and 000 compare their navigators against.
+PLAIN = "/plain"
+#: Fixed SHOE threshold of the plain baseline: the best single threshold for these PyShoe trials. Each threshold of
+#: 1e4, 3e4, 1e5, 2e5, 3e5, 5e5, 1e6, 3e6, 1e7 run as ``pdr eval foot DIR/pyshoe_vicon --method zupt
+#: --fixed-threshold --threshold T --smoother off --hde on`` gives a median ARMSE of 0.185, 0.114, 0.105, 0.112,
+#: 0.084, 0.088, 0.138, 0.507, 0.727 m. Choosing it on the evaluated trials favours the baseline.
+PLAIN_THRESHOLD = 3.0e5
 
 
-def eval_variants(methods: tuple[str, ...], hde: str, smoother: str = "off") -> tuple[str, ...]:
+def eval_variants(methods: tuple[str, ...], hde: str, smoother: str = "off", plain: bool = False) -> tuple[str, ...]:
     """Names of the evaluated runs: each method with (its own name) and/or without (``+ NO_HDE``) drift
-    elimination; with ``smoother == 'both'`` a smoothable method also without its smoother (``+ NO_SMOOTHER``).
+    elimination; with ``smoother == 'both'`` a smoothable method also without its smoother (``+ NO_SMOOTHER``);
+    with ``plain`` the ZUPT-INS also as the plain baseline (``zupt + PLAIN``, :data:`PLAIN_THRESHOLD`).
     """
     out: list[str] = []
     for method in methods:
         forms = [method, method + NO_SMOOTHER] if smoother == "both" and method in SMOOTHED_METHODS else [method]
+        forms += [method + PLAIN] if plain and method == "zupt" else []
         for form in forms:
             out += [form] if hde != "off" else []
             out += [form + NO_HDE] if hde != "on" else []
@@ -263,12 +273,16 @@ def eval_variants(methods: tuple[str, ...], hde: str, smoother: str = "off") -> 
 def _navigate_variant(rec: Any, variant: str, args: argparse.Namespace) -> tuple[FootImu, Any]:
     """Navigate ``rec`` by an evaluated run name of :func:`eval_variants`."""
     name = variant.removesuffix(NO_HDE)
-    method = name.removesuffix(NO_SMOOTHER)
-    smooth = args.smoother != "off" and not name.endswith(NO_SMOOTHER)
+    method = name.removesuffix(NO_SMOOTHER).removesuffix(PLAIN)
+    plain = name.endswith(PLAIN)
+    smooth = args.smoother != "off" and not name.endswith(NO_SMOOTHER) and not plain
+    detector = _detector_config(args)
+    if plain:
+        detector = replace(detector, adaptive=False, threshold=args.plain_threshold)
     zupt = ZuptConfig(zaru=args.zaru == "on")
     if variant.endswith(NO_HDE):
         zupt = replace(zupt, hde_directions=0)
-    return navigate(rec, method, _detector_config(args), zupt=zupt, smooth=smooth, gyro_bias=args.gyro_bias == "on")
+    return navigate(rec, method, detector, zupt=zupt, smooth=smooth, gyro_bias=args.gyro_bias == "on")
 
 
 def eval_pyshoe(d: Path, args: argparse.Namespace, tracks: Path | None, method: str) -> dict[str, Any]:
@@ -361,10 +375,10 @@ def paired_against_zupt(results: dict[str, dict[str, Any]]) -> dict[str, dict[st
     """Each navigator against each ZUPT-INS row of the same drift-elimination setting, trial by trial (PyShoe).
 
     ``results`` maps a run name of :func:`eval_variants` to its :func:`eval_pyshoe` result. For every run that is
-    not a ZUPT row and every ZUPT row (``zupt`` smoothed, ``zupt/filtered`` causal) with the same ``/no-hde``
-    suffix: on how many trials the run's ARMSE is lower, the median of the per-trial differences (run minus
-    ZUPT, m) and the two-sided Wilcoxon signed-rank p-value of those differences (``nan`` with fewer than six
-    trials or no nonzero difference). Keys ``"RUN vs ZUPT_ROW"``.
+    not a ZUPT row and every ZUPT row (``zupt`` smoothed, ``zupt/filtered`` causal, ``zupt/plain`` the plain
+    fixed-threshold baseline) with the same ``/no-hde`` suffix: on how many trials the run's ARMSE is lower, the
+    median of the per-trial differences (run minus ZUPT, m) and the two-sided Wilcoxon signed-rank p-value of those
+    differences (``nan`` with fewer than six trials or no nonzero difference). Keys ``"RUN vs ZUPT_ROW"``.
     """
     from scipy.stats import wilcoxon
 
@@ -426,7 +440,8 @@ def run_eval(args: argparse.Namespace) -> int:
     if not root.exists():
         raise InputError("no such folder", source=str(root))
     tracks = Path(args.tracks) if args.tracks else None
-    methods = eval_variants(EVAL_METHODS if args.method == "all" else (args.method,), args.hde, args.smoother)
+    methods = eval_variants(EVAL_METHODS if args.method == "all" else (args.method,), args.hde, args.smoother,
+                            plain=args.method == "all")
     out: dict[str, Any] = {"methods": list(methods), "detector": args.detector, "smoother": args.smoother}
     evaluators = {"pyshoe_vicon": eval_pyshoe, "xio_gait_loop": eval_xio, "foot_stride_gcp": eval_gcp}
     for name, d in _dataset_dirs(root).items():
@@ -457,4 +472,8 @@ def register_eval(targets: argparse._SubParsersAction) -> None:
                    help="heuristic heading drift elimination (pdr.foot.drift, the same for every method): with it "
                         "(rows named by the method), without it (rows named METHOD/no-hde), or both (default)")
     _add_options(p, evaluation=True)
+    p.add_argument("--plain-threshold", type=float, default=PLAIN_THRESHOLD,
+                   help="with --method all, the fixed SHOE threshold of the plain ZUPT-EKF baseline (rows "
+                        f"zupt{PLAIN}: causal, no gait adaptation; default {PLAIN_THRESHOLD:g}, the best single "
+                        "threshold on the PyShoe trials)")
     p.set_defaults(func=run_eval)

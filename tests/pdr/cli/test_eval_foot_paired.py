@@ -35,3 +35,30 @@ def test_paired_comparison_uses_only_the_trials_both_runs_have() -> None:
     out = paired_against_zupt({"zupt": _result([0.05] * 7), "bc": _result([0.04] * 3)})
     c = out["bc vs zupt"]
     assert c["trials"] == 3 and c["better"] == 3 and math.isnan(c["wilcoxon_p"])   # too few for the test
+
+
+def test_plain_baseline_row_is_the_causal_filter_with_one_fixed_threshold(monkeypatch: pytest.MonkeyPatch) -> None:
+    import argparse
+
+    import pdr.cli.foot as foot
+
+    assert foot.eval_variants(("zupt", "bc"), "on", "both", plain=True) == ("zupt", "zupt/filtered", "zupt/plain", "bc")
+    assert foot.eval_variants(("zupt",), "both", "on", plain=True) == ("zupt", "zupt/no-hde", "zupt/plain",
+                                                                      "zupt/plain/no-hde")
+    assert "zupt/plain" not in foot.eval_variants(("zupt",), "on", "both")
+    calls: list[tuple[str, object, object, bool]] = []
+
+    def fake_navigate(rec: object, method: str, detector: object, zupt: object, smooth: bool,
+                      gyro_bias: bool) -> tuple[None, None]:
+        calls.append((method, detector, zupt, smooth))
+        return None, None
+
+    monkeypatch.setattr(foot, "navigate", fake_navigate)
+    args = argparse.Namespace(smoother="both", zaru="off", gyro_bias="off", detector="shoe", fixed_threshold=False,
+                              threshold=None, run_gain=None, plain_threshold=2.5e5)
+    for variant in ("zupt/plain/no-hde", "zupt/filtered", "zupt"):
+        foot._navigate_variant(None, variant, args)
+    (m0, det0, z0, s0), (m1, det1, _, s1), (_, _, _, s2) = calls
+    assert m0 == m1 == "zupt" and not s0 and not s1 and s2
+    assert not det0.adaptive and det0.threshold == 2.5e5 and z0.hde_directions == 0   # type: ignore[attr-defined]
+    assert det1.adaptive and det1.threshold == foot.DetectorConfig().threshold        # type: ignore[attr-defined]
