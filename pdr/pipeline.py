@@ -298,7 +298,16 @@ class PdrPipeline:
 
     # -- public API --------------------------------------------------------------------------------
     def update(self, batch: Recording) -> list[Event]:
-        """Process the next batch of the session; returns the events it produced."""
+        """Process the next batch of the session; returns the events it produced.
+
+        A batch from a shoe IMU (:attr:`~pdr.recording.DeviceInfo.is_foot`) is refused with an :class:`InputError`
+        and leaves the state as it was: phone PDR would count its strides as steps of a phone.
+        """
+        if batch.device.is_foot:
+            d = batch.device
+            raise InputError(f"this is a foot-mounted IMU recording (device role '{d.role}', placement "
+                             f"'{d.placement}'); phone PDR needs a phone: use 'pdr foot' for shoe IMU logs",
+                             source=batch.source or None, field="device")
         events: list[Event] = []
         if self.grid is None:
             events += self._start(batch)

@@ -59,6 +59,8 @@ STREAM_KINDS: Mapping[str, StreamKind] = MappingProxyType({
 
 DeviceRole = Literal["phone", "left_foot", "right_foot"]
 DEVICE_ROLES: tuple[str, ...] = ("phone", "left_foot", "right_foot")
+#: Roles of shoe IMUs: their recordings go to foot-mounted navigation (:mod:`pdr.foot`), not to phone PDR.
+FOOT_ROLES: tuple[str, ...] = ("left_foot", "right_foot")
 
 #: Known carriage placements; ``None`` on a :class:`DeviceInfo` means unknown.
 PLACEMENTS: tuple[str, ...] = (
@@ -199,6 +201,11 @@ class DeviceInfo:
         if self.placement is not None and self.placement not in PLACEMENTS:
             raise InputError(f"unknown placement; expected one of {PLACEMENTS} or none", field="placement",
                              source=str(self.placement))
+
+    @property
+    def is_foot(self) -> bool:
+        """A shoe IMU: a foot role, or a device placed on the foot whatever its role."""
+        return self.role in FOOT_ROLES or self.placement == "foot"
 
 
 def _checked_times(t: Any, name: str, strictly: bool = False) -> FloatArray:

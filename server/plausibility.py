@@ -1,10 +1,13 @@
-"""Plausibility checks of an uploaded batch before it is stored: units and time axis.
+"""Plausibility checks of an uploaded batch before it is stored: device, units and time axis.
 
 A batch that parses can still be wrong in ways that would silently corrupt its session: sensor values in
 the wrong unit (an accelerometer in g, a barometer in Pa, a magnetometer in Gauss, where the batch format
 promises SI), or timestamps from another clock (a batch days away from the rest of its session, or
 spanning days by itself). Those are refused with 422 and a message naming the stream and what to fix;
 the session is left as it was.
+
+The device's role picks the processing (phone PDR or foot navigation); a placement that contradicts it (a
+``phone`` placed on the ``foot``, a shoe IMU placed in the ``hand``) is refused rather than sent to the wrong one.
 
 Units are judged by the physics of :mod:`pdr.units` (median norm of specific force ~1 g, geomagnetic
 field 25-65 uT, air pressure 300-1100 hPa); only a *confident* detection of another unit is refused, an
@@ -21,7 +24,7 @@ import numpy as np
 from sqlalchemy import Engine, func, select
 
 from pdr import units
-from pdr.recording import Recording
+from pdr.recording import FOOT_ROLES, Recording
 from server import db
 from server.errors import APIError
 
@@ -44,6 +47,20 @@ _FAMILY = {"acc": "acc", "acc_uncal": "acc", "gravity": "acc", "mag": "mag", "ma
 #: (high-g accelerometers: 200 g; gyros: 2000 deg/s = 35 rad/s), so only corrupt or mis-scaled data hits it.
 MAX_ABS = {"acc": 1e4, "gyro": 1e4, "mag": 1e6, "pressure": 1e4}
 _RANGE_FAMILY = {**_FAMILY, "gyro": "gyro", "gyro_uncal": "gyro"}
+
+
+def check_device(recording: Recording) -> None:
+    """422 if the device's placement contradicts its role (phone PDR and foot navigation need their own sensor)."""
+    d = recording.device
+    foot_role = d.role in FOOT_ROLES
+    if d.is_foot and not foot_role:
+        raise APIError(422, f"device role '{d.role}' with placement 'foot': a shoe IMU's batches need role "
+                            f"{' or '.join(FOOT_ROLES)} (foot navigation), phone PDR cannot use them; batch not stored",
+                       details={"field": "device.role"})
+    if foot_role and d.placement not in (None, "foot"):
+        raise APIError(422, f"device role '{d.role}' with placement '{d.placement}': a phone's batches need role "
+                            f"'phone' (phone PDR), foot navigation cannot use them; batch not stored",
+                       details={"field": "device.placement"})
 
 
 def check_units(recording: Recording) -> None:
@@ -91,6 +108,7 @@ def check_time(engine: Engine, session_id: str, role: str, payload_format: str, 
 def check_batch(engine: Engine, session_id: str, payload_format: str, recording: Recording, t_first_ns: int,
                 t_last_ns: int) -> None:
     """Every plausibility check of a batch about to be stored in ``session_id``."""
+    check_device(recording)
     check_units(recording)
     check_time(engine, session_id, recording.device.role, payload_format, t_first_ns, t_last_ns)
 

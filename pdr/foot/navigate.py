@@ -94,7 +94,7 @@ def sampling_rate_hz(t_s: Array) -> float:
 def check_foot_recording(recording: Recording) -> None:
     """Refuse recordings that cannot be foot IMU data (a phone, or no accelerometer and gyroscope)."""
     src = recording.source or None
-    if recording.device.role == "phone" and recording.device.placement != "foot":
+    if not recording.device.is_foot:
         raise InputError("this is a phone recording (device role 'phone'); foot navigation needs a foot-mounted "
                          "IMU: use 'pdr track' for phone logs", source=src)
     for kind in ("acc", "gyro"):

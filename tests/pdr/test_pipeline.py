@@ -95,6 +95,30 @@ def test_standing_gives_empty_track_and_message():
     assert track_rows(PdrPipeline().run(tiny)) == []
 
 
+@pytest.mark.parametrize("role, placement", [("left_foot", "foot"), ("right_foot", None), ("phone", "foot")])
+def test_a_shoe_imu_batch_is_refused_and_changes_nothing(hand_walk, role, placement, tmp_path):
+    from dataclasses import replace
+
+    from pdr.cli import main
+    from pdr.errors import InputError
+    from pdr.io import native
+
+    first, rest = hand_walk.slice_time(0.0, 5.0), hand_walk.slice_time(5.0, 1e9)
+    shoe = replace(rest, device=replace(hand_walk.device, role=role, placement=placement))
+    pipeline = PdrPipeline(PipelineConfig())
+    events = pipeline.update(first)
+    state = state_codec.dumps(pipeline.to_dict())
+    with pytest.raises(InputError, match="foot-mounted IMU.*'pdr foot'"):
+        pipeline.update(shoe)
+    assert state_codec.dumps(pipeline.to_dict()) == state
+    # The session goes on with the phone's batches as if the shoe's had never come.
+    events += pipeline.update(rest) + pipeline.finish()
+    assert track_rows(events) == track_rows(PdrPipeline(PipelineConfig()).run(hand_walk))
+    log = native.write(shoe, tmp_path / "shoe.json")
+    assert main(["track", str(log), "--out", str(tmp_path / "t.csv")]) == 2
+    assert not (tmp_path / "t.csv").exists()
+
+
 def test_placement_provider_is_injected(hand_walk):
     calls = []
 

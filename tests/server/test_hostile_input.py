@@ -117,6 +117,10 @@ CASES: dict[str, tuple[Any, int, str]] = {
     "path injection in batch id": (_batch(batch_id="../../../etc/passwd"), 422, "batch_id"),
     "SQL injection in device model": (_batch(device={"platform": "android", "model": "x'; DROP TABLE users;--" * 20,
                                                      "role": "phone"}), 422, "model"),
+    "phone role placed on the foot": (_batch(device={"platform": "imu", "model": "shoe", "role": "phone",
+                                                     "placement": "foot"}), 422, "role 'phone' with placement 'foot'"),
+    "shoe IMU placed in the hand": (_batch(device={"platform": "imu", "model": "shoe", "role": "left_foot",
+                                                   "placement": "hand"}), 422, "placement 'hand'"),
 }
 
 
