@@ -34,6 +34,12 @@ process noise let accelerometer and context residuals re-fit the attitude at eve
 bias learnt the foot's rolling in stance. The defaults apply the seed's own rules to these IMUs (jerk at half
 the measured maximum, the exactly discretised white-jerk model, gyroscope noise from the data sheet, no
 gyroscope bias state as in seed 001); :meth:`BCConfig.table_i` keeps Table I.
+
+Against the ZUPT-aided INS (``pdr eval foot /work/shared/data --method all --hde on --smoother both``): the
+seed compares with a conventional ZUPT filter, whose detector has one fixed threshold (row ``zupt/plain``, the
+best single threshold for the PyShoe trials). Belief condensation ties with it on PyShoe (median ARMSE 0.072
+against 0.084 m, lower on 9 of 18 trials, Wilcoxon p 0.52) and beats it on foot_stride_gcp (median final error
+0.64 against 3.38 %); the gait-adaptive detector of :mod:`pdr.foot.detectors` beats both (0.058 m causal).
 """
 
 from __future__ import annotations

@@ -37,6 +37,14 @@ changes a healthy stair trial, 0.068 -> 0.089 m). What remains on 2018-02-22-10-
 its slow swings the almost-stationary mode (sigma_v 0.1 m/s) wins and holds the velocity near zero while the foot
 moves.
 
+Against the ZUPT-aided INS (``pdr eval foot /work/shared/data --method all --hde on --smoother both``): seed 002
+compares with a ZUPT filter whose detector has one fixed threshold (row ``zupt/plain``, the best single threshold
+for the PyShoe trials). The ``speed`` bank has the lower PyShoe median ARMSE (0.062 against 0.084 m) and is lower
+on 13 of 18 trials, but its runaways keep the paired test inconclusive (Wilcoxon p 0.47); foot_stride_gcp median
+final error 0.89 against 3.38 %. The gait-adaptive detector of :mod:`pdr.foot.detectors` beats both (0.058 m
+causal). Scaling the constrained modes' angular-rate and acceleration variances by that detector's threshold
+factor (stiller stances needed in walking than in running) made the bank worse (median 0.062 -> 0.075 m).
+
 Heading drift: as in the ZUPT INS, heuristic drift elimination (:mod:`pdr.foot.drift`, settings
 ``zupt.hde_*``, off with ``hde_directions=0``) turns every leaf's attitude by the estimated drift at every
 sample, and at the end of each stance of the merged mode posterior (unconstrained probability rising above 0.5)
