@@ -24,7 +24,7 @@ import numpy as np
 from sqlalchemy import Engine, func, select
 
 from pdr import units
-from pdr.recording import FOOT_ROLES, Recording
+from pdr.recording import FOOT_ROLES, DeviceInfo, Recording
 from server import db
 from server.errors import APIError
 
@@ -49,9 +49,8 @@ MAX_ABS = {"acc": 1e4, "gyro": 1e4, "mag": 1e6, "pressure": 1e4}
 _RANGE_FAMILY = {**_FAMILY, "gyro": "gyro", "gyro_uncal": "gyro"}
 
 
-def check_device(recording: Recording) -> None:
+def check_device(d: DeviceInfo) -> None:
     """422 if the device's placement contradicts its role (phone PDR and foot navigation need their own sensor)."""
-    d = recording.device
     foot_role = d.role in FOOT_ROLES
     if d.is_foot and not foot_role:
         raise APIError(422, f"device role '{d.role}' with placement 'foot': a shoe IMU's batches need role "
@@ -108,7 +107,7 @@ def check_time(engine: Engine, session_id: str, role: str, payload_format: str, 
 def check_batch(engine: Engine, session_id: str, payload_format: str, recording: Recording, t_first_ns: int,
                 t_last_ns: int) -> None:
     """Every plausibility check of a batch about to be stored in ``session_id``."""
-    check_device(recording)
+    check_device(recording.device)
     check_units(recording)
     check_time(engine, session_id, recording.device.role, payload_format, t_first_ns, t_last_ns)
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+from dataclasses import replace
 from typing import Any
 
 from flask import Blueprint, Response, jsonify, request
@@ -98,6 +99,7 @@ def _create_from_file(user_id: int) -> tuple[Response, int]:
     recording = read_uploaded_file(payload, descriptor)  # validate before accepting
     options = ProcessingOptions.from_text(request.form.get("processing"))
     placement = request.form.get("placement") or recording.device.placement
+    plausibility.check_device(replace(recording.device, placement=placement))
     digest = hashlib.sha256(payload).hexdigest()
     sid, created = svc.store.create_session(user_id, source="upload",
                                             client_session_id=request.form.get("session_id") or f"file-{digest[:24]}",

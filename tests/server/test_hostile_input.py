@@ -346,3 +346,25 @@ def test_gzip_bomb_upload_is_a_422_within_the_memory_limit(tmp_path, monkeypatch
     message = r.get_json()["error"]["message"]
     assert "memory" in message or "limits" in message
     assert c.get("/api/v1/sessions", headers=h).status_code == 200
+
+
+@pytest.mark.parametrize("placement, role, words", [("foot", "phone", "role 'phone' with placement 'foot'"),
+                                                     ("hand", "left_foot", "placement 'hand'")])
+def test_uploaded_log_whose_placement_contradicts_its_role_is_a_422_and_creates_nothing(env, tmp_path, placement,
+                                                                                       role, words):
+    import numpy as np
+
+    from pdr.io import native
+    from pdr.recording import DeviceInfo, Recording, SensorStream
+
+    app, c, h, sid = env
+    t_ns = 1_700_000_000_000_000_000 + np.arange(200, dtype=np.int64) * 10_000_000
+    rec = Recording({"acc": SensorStream("acc", t_ns, np.tile([0.0, 0.0, 9.81], (200, 1))),
+                     "gyro": SensorStream("gyro", t_ns, np.zeros((200, 3)))}, DeviceInfo(platform="imu", role=role),
+                    t0_ns=int(t_ns[0]))
+    log = native.write(rec, tmp_path / "walk.zip")
+    before = c.get("/api/v1/sessions", headers=h).get_json()
+    r = c.post("/api/v1/sessions", data={"file": (io.BytesIO(log.read_bytes()), "walk.zip"), "placement": placement},
+               headers=h, content_type="multipart/form-data")
+    assert r.status_code == 422 and words in r.get_json()["error"]["message"], r.get_data()[:300]
+    assert c.get("/api/v1/sessions", headers=h).get_json() == before
