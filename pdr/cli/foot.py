@@ -270,8 +270,11 @@ def eval_variants(methods: tuple[str, ...], hde: str, smoother: str = "off", pla
     return tuple(out)
 
 
-def _navigate_variant(rec: Any, variant: str, args: argparse.Namespace) -> tuple[FootImu, Any]:
-    """Navigate ``rec`` by an evaluated run name of :func:`eval_variants`."""
+def _navigate_variant(rec: Any, variant: str, args: argparse.Namespace,
+                      zero_velocity: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[FootImu, Any]:
+    """Navigate ``rec`` by an evaluated run name of :func:`eval_variants` (``zero_velocity``: labels
+    ``(t_s, flags)`` in place of the detector's, see :func:`~pdr.foot.navigate.navigate`).
+    """
     name = variant.removesuffix(NO_HDE)
     method = name.removesuffix(NO_SMOOTHER).removesuffix(PLAIN)
     plain = name.endswith(PLAIN)
@@ -282,7 +285,25 @@ def _navigate_variant(rec: Any, variant: str, args: argparse.Namespace) -> tuple
     zupt = ZuptConfig(zaru=args.zaru == "on")
     if variant.endswith(NO_HDE):
         zupt = replace(zupt, hde_directions=0)
-    return navigate(rec, method, detector, zupt=zupt, smooth=smooth, gyro_bias=args.gyro_bias == "on")
+    return navigate(rec, method, detector, zupt=zupt, smooth=smooth, gyro_bias=args.gyro_bias == "on",
+                    zero_velocity=zero_velocity)
+
+
+#: ``pdr eval foot --zv-labels``: the detector's flags, or the PyShoe files' reference labels ``zv_<name>_opt``
+#: (each detector with the threshold grid-searched per trial against the VICON truth; ``vicon``: from the truth).
+ZV_LABELS: tuple[str, ...] = ("detector", "shoe", "ared", "amvd", "mbgtd", "vicon")
+
+
+def _reference_labels(rec: Any, name: str) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(t_s, flags)`` of a PyShoe recording's reference zero-velocity labels ``name`` (None for ``detector``)."""
+    if name == "detector":
+        return None
+    ex = rec.truth.extra
+    key = f"zero_velocity_{name}"
+    if key not in ex or "zero_velocity_t_s" not in ex:
+        raise InputError(f"the recording has no '{name}' zero-velocity labels", source=rec.source or None,
+                         field="zv_labels")
+    return np.asarray(ex["zero_velocity_t_s"]), np.asarray(ex[key])
 
 
 def eval_pyshoe(d: Path, args: argparse.Namespace, tracks: Path | None, method: str) -> dict[str, Any]:
@@ -304,7 +325,7 @@ def eval_pyshoe(d: Path, args: argparse.Namespace, tracks: Path | None, method: 
             continue
         rec = read_recording(f)
         t0 = time.perf_counter()
-        imu, track = _navigate_variant(rec, method, args)
+        imu, track = _navigate_variant(rec, method, args, _reference_labels(rec, args.zv_labels))
         cpu = time.perf_counter() - t0
         truth = rec.truth.positions
         if truth is None:
@@ -401,6 +422,9 @@ def paired_against_zupt(results: dict[str, dict[str, Any]]) -> dict[str, dict[st
 
 
 def _print_eval(out: dict[str, Any]) -> None:
+    if out.get("zv_labels", "detector") != "detector":
+        print(f"pyshoe trials navigated with the files' reference zero-velocity labels zv_{out['zv_labels']}_opt "
+              "(an oracle), not the detector's")
     for method in out["methods"]:
         if "pyshoe_vicon" in out:
             r = out["pyshoe_vicon"][method]
@@ -442,7 +466,8 @@ def run_eval(args: argparse.Namespace) -> int:
     tracks = Path(args.tracks) if args.tracks else None
     methods = eval_variants(EVAL_METHODS if args.method == "all" else (args.method,), args.hde, args.smoother,
                             plain=args.method == "all")
-    out: dict[str, Any] = {"methods": list(methods), "detector": args.detector, "smoother": args.smoother}
+    out: dict[str, Any] = {"methods": list(methods), "detector": args.detector, "smoother": args.smoother,
+                           "zv_labels": args.zv_labels}
     evaluators = {"pyshoe_vicon": eval_pyshoe, "xio_gait_loop": eval_xio, "foot_stride_gcp": eval_gcp}
     for name, d in _dataset_dirs(root).items():
         out[name] = {}
@@ -472,6 +497,10 @@ def register_eval(targets: argparse._SubParsersAction) -> None:
                    help="heuristic heading drift elimination (pdr.foot.drift, the same for every method): with it "
                         "(rows named by the method), without it (rows named METHOD/no-hde), or both (default)")
     _add_options(p, evaluation=True)
+    p.add_argument("--zv-labels", choices=ZV_LABELS, default="detector",
+                   help="PyShoe only: navigate with the files' reference zero-velocity labels zv_NAME_opt (each "
+                        "detector's threshold grid-searched per trial against the VICON truth, an oracle) instead "
+                        "of the detector's, to see how much of the error is the detector's (default: detector)")
     p.add_argument("--plain-threshold", type=float, default=PLAIN_THRESHOLD,
                    help="with --method all, the fixed SHOE threshold of the plain ZUPT-EKF baseline (rows "
                         f"zupt{PLAIN}: causal, no gait adaptation; default {PLAIN_THRESHOLD:g}, the best single "

@@ -11,7 +11,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from pdr.errors import InputError
 from pdr.foot.bc import BCConfig, run_bc
@@ -144,10 +144,24 @@ def foot_imu(recording: Recording) -> FootImu:
     return FootImu(t, acc, gyro, rate, recording.origin_ns / 1e9, tuple(warnings))
 
 
+def labels_at(t_s: Array, label_t_s: ArrayLike, flags: ArrayLike) -> NDArray[np.bool_]:
+    """(N,) boolean labels at times ``t_s`` (s): each the label nearest in time among ``(label_t_s, flags)``."""
+    lt = np.asarray(label_t_s, dtype=np.float64)
+    f = np.asarray(flags, dtype=bool)
+    if lt.ndim != 1 or lt.shape != f.shape or lt.size == 0 or np.any(np.diff(lt) <= 0):
+        raise InputError("zero-velocity labels need one flag per time, times strictly increasing",
+                         field="zero_velocity")
+    i = np.clip(np.searchsorted(lt, t_s), 1, lt.size - 1) if lt.size > 1 else np.zeros(t_s.size, dtype=np.int64)
+    if lt.size > 1:
+        i = np.where(np.abs(lt[i - 1] - t_s) <= np.abs(lt[i] - t_s), i - 1, i)
+    return np.asarray(f[i])
+
+
 def navigate(recording: Recording, method: str = "zupt", detector: DetectorConfig | None = None,
              zupt: ZuptConfig | None = None, segmentation: Segmentation | None = None,
              filterbank: FilterBankConfig | None = None, smooth: bool = True,
-             gyro_bias: bool = False) -> tuple[FootImu, Any]:
+             gyro_bias: bool = False,
+             zero_velocity: tuple[ArrayLike, ArrayLike] | None = None) -> tuple[FootImu, Any]:
     """Foot-mounted navigation of a recording.
 
     Parameters
@@ -168,6 +182,10 @@ def navigate(recording: Recording, method: str = "zupt", detector: DetectorConfi
     gyro_bias
         ``zupt`` only, offline: remove the gyroscope bias measured over the still samples of the whole recording
         (:func:`pdr.foot.detectors.stationary_gyro_bias`) before navigating; other methods ignore it.
+    zero_velocity
+        ``(t_s, flags)``: zero-velocity labels to use instead of the detector's (e.g. a data set's reference
+        labels, to separate the detector's share of an error from the filter's), taken at each IMU sample from
+        the label nearest in time (s, the recording's clock).
 
     Returns
     -------
@@ -178,7 +196,8 @@ def navigate(recording: Recording, method: str = "zupt", detector: DetectorConfi
     if method not in METHODS:
         raise InputError(f"unknown foot navigation method '{method}'; expected one of {METHODS}", field="method")
     imu = foot_imu(recording)
-    zv = detect(imu.acc_b, imu.gyro_b, imu.rate_hz, detector)
+    zv = (detect(imu.acc_b, imu.gyro_b, imu.rate_hz, detector) if zero_velocity is None
+          else labels_at(imu.t_s, *zero_velocity))
     if method == "bc":
         bc = BCConfig(hde=zupt or ZuptConfig())
         return imu, replace(run_bc(imu.t_s, imu.acc_b, imu.gyro_b, zv, bc), warnings=imu.warnings)

@@ -49,7 +49,7 @@ def test_plain_baseline_row_is_the_causal_filter_with_one_fixed_threshold(monkey
     calls: list[tuple[str, object, object, bool]] = []
 
     def fake_navigate(rec: object, method: str, detector: object, zupt: object, smooth: bool,
-                      gyro_bias: bool) -> tuple[None, None]:
+                      gyro_bias: bool, zero_velocity: object) -> tuple[None, None]:
         calls.append((method, detector, zupt, smooth))
         return None, None
 
@@ -81,3 +81,19 @@ def test_on_pyshoe_the_bank_and_bc_beat_the_plain_zupt_ekf_and_the_adaptive_dete
     assert median["filterbank"] < median["bc"] < median["zupt/plain"]
     assert median["zupt"] < median["filterbank"]
     assert out["pyshoe_vicon_paired"]["filterbank vs zupt/plain"]["better"] > 9
+
+
+def test_reference_labels_come_from_the_recording_and_their_absence_is_named() -> None:
+    from types import SimpleNamespace
+
+    from pdr.cli.foot import _reference_labels
+    from pdr.errors import InputError
+
+    t, zv = np.arange(4) * 0.005, np.array([True, True, False, True])
+    rec = SimpleNamespace(source="trial.mat", truth=SimpleNamespace(extra={"zero_velocity_t_s": t,
+                                                                           "zero_velocity_shoe": zv}))
+    assert _reference_labels(rec, "detector") is None
+    lt, flags = _reference_labels(rec, "shoe")  # type: ignore[misc]
+    assert np.array_equal(lt, t) and np.array_equal(flags, zv)
+    with pytest.raises(InputError, match="no 'vicon' zero-velocity labels"):
+        _reference_labels(rec, "vicon")
