@@ -151,9 +151,10 @@ def labels_at(t_s: Array, label_t_s: ArrayLike, flags: ArrayLike) -> NDArray[np.
     if lt.ndim != 1 or lt.shape != f.shape or lt.size == 0 or np.any(np.diff(lt) <= 0):
         raise InputError("zero-velocity labels need one flag per time, times strictly increasing",
                          field="zero_velocity")
-    i = np.clip(np.searchsorted(lt, t_s), 1, lt.size - 1) if lt.size > 1 else np.zeros(t_s.size, dtype=np.int64)
-    if lt.size > 1:
-        i = np.where(np.abs(lt[i - 1] - t_s) <= np.abs(lt[i] - t_s), i - 1, i)
+    if lt.size == 1:
+        return np.full(np.shape(t_s), bool(f[0]))
+    i = np.clip(np.searchsorted(lt, t_s), 1, lt.size - 1)        # lt[i - 1] < t <= lt[i] inside the span
+    i = np.where(np.abs(lt[i - 1] - t_s) <= np.abs(lt[i] - t_s), i - 1, i)
     return np.asarray(f[i])
 
 
