@@ -45,6 +45,11 @@ def _detector_config(args: argparse.Namespace) -> DetectorConfig:
     return DetectorConfig(**kw)
 
 
+def _zupt_config(args: argparse.Namespace) -> ZuptConfig:
+    """The ZUPT-INS settings of ``--zaru`` and ``--imu-samples``."""
+    return ZuptConfig(zaru=args.zaru == "on", interval_samples=args.imu_samples == "interval")
+
+
 def _add_options(p: argparse.ArgumentParser, evaluation: bool = False) -> None:
     p.add_argument("--method", choices=METHODS + (("all",) if evaluation else ()),
                    default="all" if evaluation else "zupt",
@@ -66,6 +71,10 @@ def _add_options(p: argparse.ArgumentParser, evaluation: bool = False) -> None:
                    help="methods zupt and stepwise: zero angular-rate updates of a gyroscope-bias filter while the "
                         "foot is still (pdr.foot.zupt, ZuptConfig.zaru; causal, as online processing does it; "
                         "default off)")
+    p.add_argument("--imu-samples", choices=("instant", "interval"), default="instant",
+                   help="methods zupt and stepwise: each IMU sample is the value at its instant (default: "
+                        "second-order mechanization between samples) or the mean over the interval that ends at it "
+                        "(ZuptConfig.interval_samples, for IMUs that average or integrate between outputs)")
     smoother = ("on", "off", "both") if evaluation else ("on", "off")
     p.add_argument("--smoother", choices=smoother, default="on",
                    help="OFFLINE ONLY, method zupt only: Rauch-Tung-Striebel fixed-interval smoother over the whole "
@@ -198,7 +207,7 @@ def run_foot(args: argparse.Namespace) -> int:
     if not args.log:
         raise InputError("give a foot IMU LOG (or --left and --right for dual-foot fusion)", field="log")
     rec = read_recording(args.log)
-    imu, track = navigate(rec, args.method, _detector_config(args), zupt=ZuptConfig(zaru=args.zaru == "on"),
+    imu, track = navigate(rec, args.method, _detector_config(args), zupt=_zupt_config(args),
                           smooth=args.smoother == "on", gyro_bias=args.gyro_bias == "on")
     for w in track.warnings:
         print(f"warning: {w}", file=sys.stderr)
@@ -282,7 +291,7 @@ def _navigate_variant(rec: Any, variant: str, args: argparse.Namespace,
     detector = _detector_config(args)
     if plain:
         detector = replace(detector, adaptive=False, threshold=args.plain_threshold)
-    zupt = ZuptConfig(zaru=args.zaru == "on")
+    zupt = _zupt_config(args)
     if variant.endswith(NO_HDE):
         zupt = replace(zupt, hde_directions=0)
     return navigate(rec, method, detector, zupt=zupt, smooth=smooth, gyro_bias=args.gyro_bias == "on",
@@ -291,6 +300,7 @@ def _navigate_variant(rec: Any, variant: str, args: argparse.Namespace,
 
 #: ``pdr eval foot --zv-labels``: the detector's flags, or the PyShoe files' reference labels ``zv_<name>_opt``
 #: (each detector with the threshold grid-searched per trial against the VICON truth; ``vicon``: from the truth).
+#: The search ran PyShoe's first-order INS, so the labels favour ``--imu-samples interval`` (pdr.foot.zupt doc).
 ZV_LABELS: tuple[str, ...] = ("detector", "shoe", "ared", "amvd", "mbgtd", "vicon")
 
 

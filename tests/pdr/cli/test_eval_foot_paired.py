@@ -55,12 +55,13 @@ def test_plain_baseline_row_is_the_causal_filter_with_one_fixed_threshold(monkey
 
     monkeypatch.setattr(foot, "navigate", fake_navigate)
     args = argparse.Namespace(smoother="both", zaru="off", gyro_bias="off", detector="shoe", fixed_threshold=False,
-                              threshold=None, run_gain=None, plain_threshold=2.5e5)
+                              threshold=None, run_gain=None, plain_threshold=2.5e5, imu_samples="interval")
     for variant in ("zupt/plain/no-hde", "zupt/filtered", "zupt"):
         foot._navigate_variant(None, variant, args)
     (m0, det0, z0, s0), (m1, det1, _, s1), (_, _, _, s2) = calls
     assert m0 == m1 == "zupt" and not s0 and not s1 and s2
     assert not det0.adaptive and det0.threshold == 2.5e5 and z0.hde_directions == 0   # type: ignore[attr-defined]
+    assert z0.interval_samples                                                         # type: ignore[attr-defined]
     assert det1.adaptive and det1.threshold == foot.DetectorConfig().threshold        # type: ignore[attr-defined]
 
 

@@ -167,3 +167,27 @@ def test_zero_angular_rate_update_leaves_an_unbiased_gyro_and_a_walk_without_res
     a = run_zupt(w.t_s, w.acc_b, w.gyro_b, w.stance, ZuptConfig(zaru=True))
     b = run_zupt(w.t_s, w.acc_b, w.gyro_b, w.stance)
     np.testing.assert_array_equal(a.pos_n, b.pos_n)
+
+
+@pytest.mark.parametrize("interval", [False, True])
+def test_sample_timing_of_an_acceleration_pulse(interval: bool) -> None:
+    """An acceleration ``a`` held over exactly one sample interval ``(t_{m-1}, t_m]`` of a level, resting IMU.
+
+    As interval means (``interval_samples``) the samples are that pulse exactly: the velocity reaches ``a dt`` at
+    ``t_m`` and the position at the end is ``a dt (t_end - t_m) + a dt^2 / 2``. As instants the mechanization
+    interpolates the samples linearly: half the velocity change at ``t_m``, the rest by ``t_{m+1}``, the same
+    final velocity and a position short by the pulse's half-interval lead, ``a dt^2 / 2``.
+    """
+    rate, a, m = 100.0, 3.0, 80
+    dt = 1.0 / rate
+    t = np.arange(200) * dt
+    acc = np.tile([0.0, 0.0, 9.80665], (t.size, 1))
+    acc[m, 0] = a
+    still = t < 0.5
+    tr = run_zupt(t, acc, np.zeros_like(acc), still, ZuptConfig(interval_samples=interval, hde_directions=0))
+    lead = a * dt * (t[-1] - t[m])
+    np.testing.assert_allclose(tr.vel_n[m - 1], 0.0, atol=1e-12)
+    assert tr.vel_n[m, 0] == pytest.approx(a * dt * (1.0 if interval else 0.5), rel=1e-9)
+    assert tr.vel_n[m + 1, 0] == pytest.approx(a * dt, rel=1e-9)
+    assert tr.pos_n[-1, 0] == pytest.approx(lead + (0.5 * a * dt**2 if interval else 0.0), rel=1e-9)
+    np.testing.assert_allclose(tr.pos_n[-1, 1:], 0.0, atol=1e-12)
