@@ -55,9 +55,8 @@ from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.foot.drift import drift_predict, drift_update, initial_state, rotate_yaw
 from pdr.foot.saturation import CLIP_EXCESS_FRACTION, add_clip_attitude_noise, clip_variance, clip_variance_peak
-from pdr.foot.zupt import ZuptConfig, _quat_exp, _quat_mul, _rotmat, check_imu, first_stationary_run
+from pdr.foot.zupt import ZuptConfig, _quat_exp, _quat_mul, _rotmat, check_imu, coarse_start
 from pdr.frames import GRAVITY_MPS2
-from pdr.strapdown import initial_attitude_from_gravity
 
 Array = NDArray[np.float64]
 
@@ -501,10 +500,7 @@ def run_bc(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity: A
         raise InputError(f"expected shape {t.shape}, got {zv.shape}", field="zero_velocity")
     n = t.size
     rate = 1.0 / float(np.median(np.diff(t)))
-    min_len = max(3, int(round(0.1 * rate)))
-    a0, b0 = first_stationary_run(zv, min_len)
-    b0 = min(b0, a0 + max(min_len, int(round(cfg.init_window_s * rate))))
-    q0 = initial_attitude_from_gravity(np.mean(f_b[a0:b0], axis=0))
+    a0, q0, warning = coarse_start(t, f_b, zv, rate, cfg.init_window_s)
     ctx = cfg.context or ContextModel.expert()
     P0 = np.zeros((N_ERR, N_ERR))
     for i in range(3):
@@ -540,7 +536,8 @@ def run_bc(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity: A
                var, logc, stance, pos, vel, acc, qs, om, bias, pvar, vvar, avar, sprob, cfg.exact_jerk,
                cfg.hde.hde_params(), initial_state(cfg.hde.sigma_drift0),
                sat_var, scored)
-    return BCTrack(t, pos, vel, acc, quat.normalize(qs), om, bias, pvar, vvar, avar, sprob, a0)
+    return BCTrack(t, pos, vel, acc, quat.normalize(qs), om, bias, pvar, vvar, avar, sprob, a0,
+                   (warning,) if warning else ())
 
 
 def potential_factors(context: ContextModel, divide_by_prior: bool) -> tuple[Array, Array]:

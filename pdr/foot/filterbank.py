@@ -73,12 +73,11 @@ from pdr.foot.zupt import (
     _quat_mul,
     _rotmat,
     check_imu,
+    coarse_start,
     error_transition,
-    first_stationary_run,
     mechanize,
 )
 from pdr.frames import GRAVITY_MPS2
-from pdr.strapdown import initial_attitude_from_gravity
 
 Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -646,10 +645,7 @@ def run_filterbank(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_vel
     n = t.size
     rate = 1.0 / float(np.median(np.diff(t)))
     z = cfg.zupt
-    min_len = max(3, int(round(0.1 * rate)))
-    a, b = first_stationary_run(zv, min_len)
-    b = min(b, a + max(min_len, int(round(z.init_window_s * rate))))
-    q0 = initial_attitude_from_gravity(np.mean(f_b[a:b], axis=0), yaw=z.yaw0)
+    a, q0, warning = coarse_start(t, f_b, zv, rate, z.init_window_s, z.yaw0)
     P0 = np.zeros((N_ERR, N_ERR))
     P0[3:6, 3:6] = np.eye(3) * z.init_sigma_vel**2
     P0[6, 6] = P0[7, 7] = z.init_sigma_tilt**2
@@ -675,7 +671,8 @@ def run_filterbank(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_vel
                           cfg.student_nu if cfg.student_nu is not None else 0.0, cfg.nc_state_spread,
                           cfg.max_swing_s, cfg.lost_sigma_v**2)
     return FilterBankTrack(t, pos, vel, quat.normalize(qs), pvar, vvar, avar, mprob,
-                           np.argmax(mprob, axis=1).astype(np.int64), float(loglik), a, cfg.variant)
+                           np.argmax(mprob, axis=1).astype(np.int64), float(loglik), a, cfg.variant,
+                           (warning,) if warning else ())
 
 
 #: Bound of the column log-odds that parametrise ``Pi`` in :func:`learn_transition` (``|log(Pi[j, i] / Pi[r, i])|``

@@ -201,13 +201,15 @@ def navigate(recording: Recording, method: str = "zupt", detector: DetectorConfi
           else labels_at(imu.t_s, *zero_velocity))
     if method == "bc":
         bc = BCConfig(hde=zupt or ZuptConfig())
-        return imu, replace(run_bc(imu.t_s, imu.acc_b, imu.gyro_b, zv, bc), warnings=imu.warnings)
+        bc_track = run_bc(imu.t_s, imu.acc_b, imu.gyro_b, zv, bc)
+        return imu, replace(bc_track, warnings=imu.warnings + bc_track.warnings)
     if method.startswith("filterbank"):
         variant = "height" if method == "filterbank-height" else "speed"
         fb = filterbank or FilterBankConfig(variant=variant, zupt=zupt or ZuptConfig())
         if fb.variant != variant:
             fb = replace(fb, variant=variant)
-        return imu, replace(run_filterbank(imu.t_s, imu.acc_b, imu.gyro_b, zv, fb), warnings=imu.warnings)
+        fb_track = run_filterbank(imu.t_s, imu.acc_b, imu.gyro_b, zv, fb)
+        return imu, replace(fb_track, warnings=imu.warnings + fb_track.warnings)
     seg = (segmentation or Segmentation()) if method == "stepwise" else None
     gyro = imu.gyro_b
     if gyro_bias and method == "zupt":

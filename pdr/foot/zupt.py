@@ -323,6 +323,26 @@ def first_stationary_run(zero_velocity: BoolArray, min_len: int) -> tuple[int, i
     return int(starts[i]), int(stops[i])
 
 
+def init_lengths(rate_hz: float, init_window_s: float) -> tuple[int, int]:
+    """Samples of the shortest stationary run that may initialise (0.1 s, at least 3) and of the window averaged."""
+    min_len = max(3, int(round(0.1 * rate_hz)))
+    return min_len, max(min_len, int(round(init_window_s * rate_hz)))
+
+
+def coarse_start(t: Array, f_b: Array, zero_velocity: BoolArray, rate_hz: float, init_window_s: float,
+                 yaw: float = 0.0) -> tuple[int, Array, str]:
+    """Coarse self-initialisation of roll and pitch from gravity (Algorithm 1 line 3) on the first stationary run.
+
+    Returns the run's first sample (where navigation starts), the attitude ``q_nb`` with heading ``yaw`` (rad)
+    and the start-in-motion warning ('' when the recording starts at rest, :func:`late_start_warning`).
+    """
+    min_len, init_len = init_lengths(rate_hz, init_window_s)
+    a, b = first_stationary_run(zero_velocity, min_len)
+    b = min(b, a + init_len)
+    q0 = initial_attitude_from_gravity(np.mean(f_b[a:b], axis=0), yaw=yaw)
+    return a, q0, late_start_warning(a, float(t[a] - t[0]), rate_hz)
+
+
 @njit(cache=True)
 def _quat_mul(a: Array, b: Array) -> Array:  # pragma: no cover - compiled
     return np.array([
@@ -669,8 +689,7 @@ class KernelSetup:
 
 def kernel_setup(rate_hz: float, config: ZuptConfig, segmentation: Segmentation | None) -> KernelSetup:
     """Sample counts of the initialisation and of Algorithm 1 at ``rate_hz``."""
-    min_len = max(3, int(round(0.1 * rate_hz)))
-    init_len = max(min_len, int(round(config.init_window_s * rate_hz)))
+    min_len, init_len = init_lengths(rate_hz, config.init_window_s)
     c_min = c_max = 0
     if segmentation is not None:
         c_min = int(round(segmentation.c_min_s * rate_hz))
@@ -900,13 +919,9 @@ def run_zupt(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity:
     setup = kernel_setup(rate, cfg, segmentation)
     warnings: list[str] = []
 
-    # Coarse self-initialisation of roll and pitch (Algorithm 1 line 3) on the first stationary period.
-    a, b = first_stationary_run(zv, setup.min_len)
-    b = min(b, a + setup.init_len)
-    warning = late_start_warning(a, float(t[a] - t[0]), rate)
+    a, q0, warning = coarse_start(t, f_b, zv, rate, cfg.init_window_s, cfg.yaw0)
     if warning:
         warnings.append(warning)
-    q0 = initial_attitude_from_gravity(np.mean(f_b[a:b], axis=0), yaw=cfg.yaw0)
 
     state = FilterState.initial(q0, cfg)
     still = still_samples(f_b, w_b, rate, cfg.zaru_threshold) if cfg.zaru else None
@@ -924,9 +939,13 @@ def run_zupt(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity:
                      tuple(warnings), state.bias.copy())
 
 
+#: A first stationary period later than this into the recording (s) is reported: the motion before it is lost.
+LATE_START_S = 0.1
+
+
 def late_start_warning(start_index: int, start_s: float, rate_hz: float) -> str:
-    """The warning for a first stationary period more than 1 s into the recording ('' otherwise)."""
-    if start_index > int(round(1.0 * rate_hz)):
+    """The warning for a first stationary period more than :data:`LATE_START_S` into the recording ('' otherwise)."""
+    if start_index > int(round(LATE_START_S * rate_hz)):
         return (f"recording starts in motion: first stationary period at {start_s:.2f} s; "
-                "navigation starts there")
+                "navigation starts there and the motion before it is not tracked")
     return ""

@@ -4,7 +4,9 @@ from scipy.stats import chi2
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
+from pdr.foot.bc import run_bc
 from pdr.foot.detectors import detect
+from pdr.foot.filterbank import run_filterbank
 from pdr.foot.stepwise import dead_reckon
 from pdr.foot.zupt import Segmentation, ZuptConfig, run_zupt
 from pdr.frames import wrap_angle
@@ -95,6 +97,19 @@ def test_start_in_motion_is_reported() -> None:
     zv[:100] = False   # detector misses the initial stance: first rest found later
     tr = run_zupt(g.t_s, g.acc_b, g.gyro_b, zv)
     assert any("starts in motion" in w for w in tr.warnings)
+
+
+@pytest.mark.parametrize("run", [run_zupt, run_filterbank, run_bc])
+def test_every_navigator_reports_a_start_in_motion_even_a_short_one(run) -> None:
+    g = simulate_gait(n_strides=3, stance_s=0.5)
+    assert not any("starts in motion" in w for w in run(g.t_s, g.acc_b, g.gyro_b, g.stance).warnings)
+    zv = g.stance.copy()
+    zv[:60] = False   # the first 0.3 s (60 samples at 200 Hz) not flagged at rest: navigation starts there
+    tr = run(g.t_s, g.acc_b, g.gyro_b, zv)
+    assert tr.start_index == 60
+    assert [w for w in tr.warnings if "starts in motion" in w] == [
+        "recording starts in motion: first stationary period at 0.30 s; navigation starts there and the motion "
+        "before it is not tracked"]
 
 
 def test_heading_drift_of_a_gyro_bias_is_removed_on_a_straight_walk() -> None:
