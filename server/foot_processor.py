@@ -5,8 +5,8 @@ Two inputs, one per session role (not mixed):
 * raw foot IMU batches: :class:`pdr.foot.online.OnlineFootNavigator` (the step-wise ZUPT-aided INS of
   ``pdr foot --method stepwise``); one track row and one ``step`` event per reset (stride of this foot); the
   provisional tail (:meth:`FootProcessor.tail`) is what the end of the recording would add, so the track equals
-  ``pdr foot --method stepwise --per-step`` on the same data at any time (with ``--zaru on`` when the session's
-  processing options, :mod:`server.processing_options`, ask for it);
+  ``pdr foot --method stepwise --per-step`` on the same data at any time (with ``--zaru on`` or ``--imu-samples
+  interval`` when the session's processing options, :mod:`server.processing_options`, ask for it);
 * step-wise dead-reckoning summaries (:mod:`pdr.foot.summaries`, uploaded to ``POST .../steps``): composed with
   eq. 7 by :class:`pdr.foot.stepwise.StepwiseDeadReckoning`; a row per summary.
 
@@ -28,7 +28,7 @@ from pdr.errors import InputError
 from pdr.foot.online import FootStep, OnlineFootNavigator
 from pdr.foot.stepwise import StepwiseDeadReckoning
 from pdr.foot.summaries import StepSummaryBatch
-from pdr.foot.zupt import StepIncrement, ZuptConfig
+from pdr.foot.zupt import StepIncrement
 from pdr.frames import yaw_to_heading_deg
 from pdr.recording import Recording
 from server.processing import ProcessorOutput, SessionContext
@@ -98,7 +98,7 @@ class FootProcessor:
                              "mixed in", source=recording.source or None)
         if self.navigator is None:
             # The session's options are read once, when the navigator starts; its saved state keeps them.
-            self.navigator = OnlineFootNavigator(zupt=ZuptConfig(zaru=session_options(self.meta).foot_zaru))
+            self.navigator = OnlineFootNavigator(zupt=session_options(self.meta).zupt_config())
         steps = self.navigator.update(recording)
         return _output(steps, self.navigator.take_warnings())
 

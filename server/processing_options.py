@@ -1,4 +1,5 @@
-"""Per-session processing options: what ``pdr track --site/--calibration`` and ``pdr foot --zaru`` set offline.
+"""Per-session processing options: what ``pdr track --site/--calibration`` and ``pdr foot --zaru/--imu-samples``
+set offline.
 
 A client gives them when it creates the session (``processing`` in the JSON body, or a ``processing`` form
 field holding that JSON next to an uploaded file), or replaces them later with ``PUT .../processing``, which
@@ -10,8 +11,9 @@ processor of the session reads them from its :class:`~server.processing.SessionC
   floor height, optional declination and building grid); detected landmarks then correct heading and position;
 * ``calibration``: the file ``pdr calibrate`` writes (``{"step_length": {...}}``), the walker's step-length
   model;
-* ``foot``: ``{"zaru": true}`` turns on the zero angular-rate update of the shoe IMUs' gyroscope bias
-  (:mod:`pdr.foot.zupt`).
+* ``foot``: ``{"zaru": true}`` turns on the zero angular-rate update of the shoe IMUs' gyroscope bias,
+  ``{"imu_samples": "interval"}`` takes their samples as means over the interval ending at each
+  (``pdr foot --imu-samples``; default ``"instant"``; :class:`pdr.foot.zupt.ZuptConfig`).
 """
 
 from __future__ import annotations
@@ -21,11 +23,14 @@ from dataclasses import dataclass
 from typing import Any
 
 from pdr.errors import InputError
+from pdr.foot.zupt import ZuptConfig
 from pdr.landmarks import Site
 from pdr.step_length import StepLengthModel
 
 #: Key of the options in the session's ``meta``.
 META_KEY = "processing"
+#: Values of ``foot.imu_samples`` (``pdr foot --imu-samples``).
+IMU_SAMPLES = ("instant", "interval")
 
 
 @dataclass(frozen=True)
@@ -35,6 +40,7 @@ class ProcessingOptions:
     site: Site | None = None
     step_length: StepLengthModel | None = None
     foot_zaru: bool = False
+    foot_interval_samples: bool = False
 
     @classmethod
     def from_json(cls, d: Any) -> ProcessingOptions:
@@ -55,9 +61,12 @@ class ProcessingOptions:
                                  field="processing.calibration")
             model = StepLengthModel.from_dict(cal["step_length"])
         foot = d.get("foot") or {}
-        if not isinstance(foot, dict) or set(foot) - {"zaru"} or not isinstance(foot.get("zaru", False), bool):
-            raise InputError("expected {\"zaru\": true|false}", field="processing.foot")
-        return cls(site, model, bool(foot.get("zaru", False)))
+        if (not isinstance(foot, dict) or set(foot) - {"zaru", "imu_samples"}
+                or not isinstance(foot.get("zaru", False), bool)
+                or foot.get("imu_samples", "instant") not in IMU_SAMPLES):
+            raise InputError("expected {\"zaru\": true|false, \"imu_samples\": \"instant\"|\"interval\"}",
+                             field="processing.foot")
+        return cls(site, model, bool(foot.get("zaru", False)), foot.get("imu_samples") == "interval")
 
     @classmethod
     def from_text(cls, text: str | None) -> ProcessingOptions:
@@ -76,9 +85,18 @@ class ProcessingOptions:
             out["site"] = self.site.to_dict()
         if self.step_length is not None:
             out["calibration"] = {"step_length": self.step_length.to_dict()}
+        foot: dict[str, Any] = {}
         if self.foot_zaru:
-            out["foot"] = {"zaru": True}
+            foot["zaru"] = True
+        if self.foot_interval_samples:
+            foot["imu_samples"] = "interval"
+        if foot:
+            out["foot"] = foot
         return out
+
+    def zupt_config(self) -> ZuptConfig:
+        """The shoe IMUs' ZUPT-INS settings these options ask for."""
+        return ZuptConfig(zaru=self.foot_zaru, interval_samples=self.foot_interval_samples)
 
 
 def session_options(meta: dict[str, Any]) -> ProcessingOptions:

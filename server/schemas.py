@@ -30,7 +30,8 @@ PROCESSING = {
     "properties": {
         "site": {"type": "object", "description": "site description, as `pdr track --site`"},
         "calibration": {"type": "object", "description": "step-length calibration `pdr calibrate` wrote"},
-        "foot": {"type": "object", "additionalProperties": False, "properties": {"zaru": {"type": "boolean"}}},
+        "foot": {"type": "object", "additionalProperties": False, "properties": {
+            "zaru": {"type": "boolean"}, "imu_samples": {"enum": ["instant", "interval"]}}},
     },
 }
 

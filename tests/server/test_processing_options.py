@@ -35,12 +35,18 @@ CALIBRATION = {"step_length": replace(MODEL, k=1.2 * MODEL.k, b=1.2 * MODEL.b).t
 
 def test_options_are_checked_and_round_trip() -> None:
     opts = ProcessingOptions.from_json({"site": SITE, "calibration": CALIBRATION, "foot": {"zaru": True}})
-    assert opts.site == Site.from_dict(SITE) and opts.foot_zaru
+    assert opts.site == Site.from_dict(SITE) and opts.foot_zaru and not opts.foot_interval_samples
+    assert opts.zupt_config() == ZuptConfig(zaru=True)
+    interval = ProcessingOptions.from_json({"foot": {"imu_samples": "interval"}})
+    assert interval.zupt_config() == ZuptConfig(interval_samples=True)
+    assert interval.to_json() == {"foot": {"imu_samples": "interval"}}
+    assert ProcessingOptions.from_json({"foot": {"imu_samples": "instant"}}) == ProcessingOptions()
     assert opts.step_length == StepLengthModel.from_dict(CALIBRATION["step_length"])
     assert ProcessingOptions.from_json(opts.to_json()) == opts
     assert ProcessingOptions.from_json(None) == ProcessingOptions() and ProcessingOptions().to_json() == {}
     for bad, where in (({"site": {"name": "x"}}, "landmarks"), ({"calibration": {"k": 1}}, "step_length"),
                        ({"foot": {"zaru": "yes"}}, "processing.foot"), ({"map": {}}, "unknown option"),
+                       ({"foot": {"imu_samples": "mean"}}, "processing.foot"),
                        ({"calibration": {"step_length": {"k": "big"}}}, "step-length")):
         with pytest.raises(InputError, match=where):
             ProcessingOptions.from_json(bad)

@@ -99,6 +99,15 @@ def test_zero_angular_rate_update_in_random_chunks_equals_the_whole_log() -> Non
     assert not np.allclose(ref[1], batch_steps(rec)[1], rtol=0, atol=1e-9)
 
 
+def test_interval_samples_in_random_chunks_equal_the_whole_log() -> None:
+    rec = gait_recording()
+    cfg = ZuptConfig(interval_samples=True)
+    ref = batch_steps(rec, cfg)
+    steps, _, _ = run_online(chunks(rec, np.random.default_rng(6), 0.01, 2.5), restore=True, zupt=cfg)
+    assert_same_track(steps, ref)
+    assert not np.allclose(ref[1], batch_steps(rec)[1], rtol=0, atol=1e-9)
+
+
 def test_gyroscope_on_other_instants_is_interpolated_like_the_batch_reader() -> None:
     rec = gait_recording(gyro_shift_ns=2_000_000)
     ref = batch_steps(rec)
