@@ -26,6 +26,7 @@ from types import MappingProxyType
 from typing import Any
 
 from pdr.errors import InputError
+from pdr.io import format_names
 from pdr.recording import Recording
 
 #: Address space a reader may use, MB (``PDR_READER_MEMORY_MB``; a 64 MB upload of any format needs far less).
@@ -44,7 +45,10 @@ def read_isolated(payload: bytes, filename: str, fmt: str | None = None,
     InputError
         The reader's own error, or the file crashed the reader or exceeded the limits.
     """
-    safe_name = Path(filename).name or "upload"
+    safe_name = Path(filename.replace("\x00", "")).name or "upload"
+    if fmt and fmt not in format_names():
+        raise InputError(f"unknown format {fmt!r} (supported: {', '.join(format_names())})", source=safe_name,
+                         field="format")
     with tempfile.TemporaryDirectory(prefix="pdr-upload-") as tmp:
         path = Path(tmp) / safe_name
         path.write_bytes(payload)

@@ -174,6 +174,17 @@ def test_uploaded_file_name_cannot_escape_the_temporary_folder(env, tmp_path):
     assert not target.exists()
 
 
+def test_unknown_format_or_a_nul_byte_in_the_upload_fields_is_a_422_naming_it(env):
+    app, c, h, sid = env
+    for fmt, name in (("ipin\x00x", "walk.txt"), ("no_such_format", "walk.txt"), ("ipin", "walk\x00.txt")):
+        data = {"file": (io.BytesIO(b"not a log"), name), "format": fmt}
+        r = c.post("/api/v1/sessions", data=data, headers=h, content_type="multipart/form-data")
+        assert r.status_code == 422, (fmt, name, r.get_json())
+        message = r.get_json()["error"]["message"]
+        assert ("unknown format" in message) == (fmt != "ipin"), message
+    assert c.get(f"/api/v1/sessions/{sid}", headers=h).status_code == 200
+
+
 def test_sensor_logger_hostile_messages_get_the_apps_499_with_a_message(env):
     app, c, h, _ = env
     good = json.loads(json.dumps({"messageId": 1, "sessionId": "sl", "deviceId": "d", "payload": [
