@@ -540,11 +540,10 @@ def zupt_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, g_n
             zaru_update(bias, pbias, counters, w_b[k], still[k], t[k] - t[k - 1], zaru_par)
         for i in range(3):
             w1[i] = w_b[k, i] - bias[i]
-        j = k - 1
         if interval:                               # sample k alone: the mean over the step
-            j = k
-            w0[:] = w1
-        f_n = zupt_predict(p, v, q, P, f_b[j], w0, f_b[k], w1, t[k] - t[k - 1], g_n, qa, qg)
+            f_n = zupt_predict(p, v, q, P, f_b[k], w1, f_b[k], w1, t[k] - t[k - 1], g_n, qa, qg)
+        else:
+            f_n = zupt_predict(p, v, q, P, f_b[k - 1], w0, f_b[k], w1, t[k] - t[k - 1], g_n, qa, qg)
         if hde_on:
             rotate_yaw(q, drift_predict(hde, t[k] - t[k - 1], hde_par))
         if store:
