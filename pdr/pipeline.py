@@ -163,7 +163,7 @@ class PipelineConfig:
 
 
 _FIELD_WIDTHS = (("t", 0), ("acc", 3), ("q", 4), ("f_n", 3), ("yaw_y", 0), ("yaw_z", 0), ("y_up", 0), ("an", 0),
-                 ("mag_n", 0), ("up", 0), ("floor", 0))
+                 ("mag_n", 0), ("up", 0), ("floor", 0), ("gyro_yaw", 0))
 _FIELDS = tuple(n for n, _ in _FIELD_WIDTHS)
 
 
@@ -181,7 +181,8 @@ def _derived(q: FloatArray, acc: FloatArray) -> tuple[FloatArray, FloatArray, Fl
 
 class _History:
     """Grid samples of the last ``size`` indices: t, acc_b, q_nb, f_n (specific force in ENU), yaw of the
-    device y and z axes, up-component of the device y axis, a_n, |m|, up (m), floor.
+    device y and z axes, up-component of the device y axis, a_n, |m|, up (m), floor, and the gyro yaw (rad: the
+    angular rate about the vertical integrated since the start, no magnetometer, no bias removed).
     """
 
     def __init__(self, size: int) -> None:
@@ -198,6 +199,7 @@ class _History:
         self.mag_n = np.zeros(0)
         self.up = np.zeros(0)
         self.floor = np.zeros(0)
+        self.gyro_yaw = np.zeros(0)
 
     def append(self, start: int, t: FloatArray, acc: FloatArray, an: FloatArray, mag_n: FloatArray,
                up: FloatArray, floor: FloatArray) -> None:
@@ -214,6 +216,7 @@ class _History:
         self.mag_n = np.concatenate([self.mag_n, mag_n])
         self.up = np.concatenate([self.up, up])
         self.floor = np.concatenate([self.floor, floor])
+        self.gyro_yaw = np.concatenate([self.gyro_yaw, np.full(t.size, np.nan)])
 
     def trim(self) -> None:
         extra = self.t.size - self.size
@@ -234,7 +237,8 @@ class _History:
         h = cls(int(d["size"]))
         h.start = int(d["start"])
         for n, w in _FIELD_WIDTHS:
-            a = np.array(d[n], dtype=np.float64)
+            # The gyro yaw is absent in states saved before the heading smoother.
+            a = np.array(d[n] if n in d else np.full(len(d["t"]), np.nan), dtype=np.float64)
             setattr(h, n, a.reshape(-1, w) if w else a.reshape(-1))
         return h
 
@@ -295,6 +299,7 @@ class PdrPipeline:
         b, a = signal.butter(1, 0.5 / (0.5 * c.rate_hz))
         self._av_ba = (b, a)
         self.n_input_samples = 0
+        self.gyro_yaw = 0.0      # integral of the gyro's rate about the vertical since the start (rad)
 
     # -- public API --------------------------------------------------------------------------------
     def update(self, batch: Recording) -> list[Event]:
@@ -360,6 +365,7 @@ class PdrPipeline:
             "pending": _jsonable(self.pending),
             "pitch_baseline": self.pitch_baseline, "last_floor": self.last_floor, "notices": self.notices,
             "av_zi": None if self._av_zi is None else self._av_zi.tolist(), "n_input_samples": self.n_input_samples,
+            "gyro_yaw": self.gyro_yaw,
         }
 
     @classmethod
@@ -395,6 +401,7 @@ class PdrPipeline:
             p.notices = list(d["notices"])
             p._av_zi = None if d["av_zi"] is None else np.array(d["av_zi"], dtype=np.float64)
             p.n_input_samples = int(d["n_input_samples"])
+            p.gyro_yaw = float(d.get("gyro_yaw", 0.0))      # absent in states saved before the heading smoother
             if p.pending is not None or p.track.n_steps:      # a step was processed (see _placement_known)
                 p._placement_known()
         except (KeyError, TypeError, ValueError) as exc:
@@ -466,6 +473,8 @@ class PdrPipeline:
                 f_n, yy, yz, yu = _derived(qs, acc[a:b])
                 self.history.f_n[hs], self.history.yaw_y[hs], self.history.yaw_z[hs] = f_n, yy, yz
                 self.history.y_up[hs] = yu
+                if gyro is not None:
+                    self.history.gyro_yaw[hs] = self._integrate_gyro_yaw(qs, gyro[a:b])
                 pos = cut + 1
             for j in by_confirm.get(cut, []):
                     events += self._step(int(steps.start_idx[j]), int(steps.end_idx[j]), float(steps.peak[j]))
@@ -473,6 +482,19 @@ class PdrPipeline:
             events += self._elevator(t, g0)
         self.history.trim()
         return events
+
+    def _integrate_gyro_yaw(self, q_nb: FloatArray, gyro_b: FloatArray) -> FloatArray:
+        """Gyro yaw (rad, CCW) after each sample: the body rate rotated to ENU with the attitude, its vertical
+        component integrated over the grid interval. Neither the magnetometer's deflections nor the stationary
+        bias estimate enter it (the latter changes at block commits, which would make the yaw depend on how the
+        session was split into batches); the gyro bias does, and :mod:`pdr.heading_smoother` estimates it.
+        """
+        rate_up = quat.rotate(q_nb, gyro_b)[:, 2]
+        # Sample by sample from the running value: the same sums however the session was split into batches.
+        yaw = np.cumsum(np.concatenate([[self.gyro_yaw], rate_up / self.config.rate_hz]))[1:]
+        if yaw.size:
+            self.gyro_yaw = float(yaw[-1])
+        return np.asarray(yaw)
 
     def _elevator(self, t: FloatArray, g0: int) -> list[Event]:
         av = self.history.f_n[self.history.sl(g0, g0 + t.size), 2] - GRAVITY_MPS2
@@ -592,7 +614,7 @@ class PdrPipeline:
         rec = {"s": s, "e": e, "t_start": float(h.t[sl][0]), "t_end": float(h.t[sl][-1]) + 1.0 / c.rate_hz,
                "pats": pats.tolist(), "yaw": est.yaw, "var": est.var, "psi0": psi0, "axis": axis,
                "mode": mode, "up": float(h.up[sl][-1]), "floor": float(h.floor[sl][-1]), "m1": m1.tolist(),
-               "q1": st.q.tolist(), "peak": peak}
+               "q1": st.q.tolist(), "peak": peak, "gyro_yaw": _mean_finite(h.gyro_yaw[sl])}
         events: list[Event] = []
         if self.pending is not None:
             events += self._emit_step(self.pending, rec)
@@ -617,6 +639,7 @@ class PdrPipeline:
         length = float(self.config.step_length.length(np.array(rec["pats"]), on_stairs, turn))
         est = HeadingEstimate(rec["yaw"], rec["var"])
         events: list[Event] = []
+        fixed = landmark_heading = False
         if self.site is not None and on_stairs:
             # Every step of a flight of stairs observes the landmark (seed 003 Sec. 5: a landmark is available
             # while the decision tree labels the steps stairs). The flight is matched at its first step, which
@@ -642,8 +665,10 @@ class PdrPipeline:
                                                                    self._ut_points())
                     attitude_updated = True
                 est = fuse_landmark(est, yaw_lm, var_lm)                 # second UKF (eq. 42)
+                landmark_heading = True
                 if entering:
                     self.track.fix(lm.east_m, lm.north_m, 1.0)
+                    fixed = True
                     events.append({"type": "landmark", "t_s": self._clock(rec["t_start"]), "landmark": lm.id,
                                    "mode": mode})
                 self.landmark_updates += 1
@@ -655,6 +680,7 @@ class PdrPipeline:
             # moved by the correction a landmark made here (replacing it by this step's would make every
             # other step resolve against a heading two steps old).
             self.prev_yaw = float(wrap_angle(self.prev_yaw + (est.yaw - rec["yaw"])))
+        raw_yaw = est.yaw
         if c.drift_elimination and self.placement in ("hand", "torso"):
             # Heuristic drift elimination towards the walk's dominant directions (pdr.heading module doc).
             est = HeadingEstimate(self.hde.step(est.yaw, length, rec["t_end"]), est.var)
@@ -668,6 +694,10 @@ class PdrPipeline:
             "placement": self.placement, "heading_sigma_deg": math.degrees(math.sqrt(est.var)),
             "pos_sigma_m": math.sqrt(max(float(np.trace(self.track.P)), 0.0)),
             "patterns": rec["pats"],
+            # Inputs of the offline heading smoother (pdr.heading_smoother).
+            "heading_raw_deg": float(yaw_to_heading_deg(raw_yaw)),
+            "gyro_heading_deg": None if rec.get("gyro_yaw") is None else float(yaw_to_heading_deg(rec["gyro_yaw"])),
+            "position_fix": fixed, "landmark_heading": landmark_heading,
         })
         return events
 
@@ -684,6 +714,11 @@ class PdrPipeline:
 
     def _clock(self, t_s: float) -> float:
         return t_s
+
+
+def _mean_finite(x: FloatArray) -> float | None:
+    """Mean of ``x``, or None where any value is missing (no gyro)."""
+    return float(np.mean(x)) if x.size and np.all(np.isfinite(x)) else None
 
 
 def _placement_group(name: str | None) -> str | None:

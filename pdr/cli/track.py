@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from pdr.errors import InputError
+from pdr.heading_smoother import smooth_track
 from pdr.io import read_recording
 from pdr.landmarks import Site
 from pdr.pipeline import PdrPipeline, PipelineConfig, track_rows
@@ -39,6 +40,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                                "step_length_m,mode) on the log's clock")
     p.add_argument("--geojson", help="also write the track as GeoJSON (local metres unless the log has an origin)")
     p.add_argument("--plot", help="also write a PNG plot of the track")
+    p.add_argument("--smoother", default="on", choices=("on", "off"),
+                   help="OFFLINE: smooth the hand-held/torso step headings over the whole walk (gyro yaw with its "
+                        "bias learnt from the magnetometer, pdr.heading_smoother); off: the causal track the "
+                        "server streams")
     p.set_defaults(func=run_track)
 
 
@@ -68,6 +73,14 @@ def run_pipeline(rec: Recording, cfg: PipelineConfig, site: Site | None = None) 
     events = PdrPipeline(cfg, site).run(rec)
     notices = [str(e["message"]) for e in events if e.get("type") == "notice"]
     return track_rows(events), notices
+
+
+def smoothed_rows(rows: list[dict[str, Any]], notices: list[str]) -> list[dict[str, Any]]:
+    """The offline-smoothed track (:func:`pdr.heading_smoother.smooth_track`); its summary joins ``notices``."""
+    out, summary = smooth_track(rows)
+    if summary:
+        notices.append(summary)
+    return out
 
 
 def write_csv(rows: list[dict[str, Any]], path: str | Path) -> None:
@@ -118,6 +131,8 @@ def run_track(args: argparse.Namespace) -> int:
     floor0 = 0.0
     cfg = config_from_args(args, floor0)
     rows, notices = run_pipeline(rec, cfg, site)
+    if args.smoother == "on":
+        rows = smoothed_rows(rows, notices)
     for n in notices:
         print(f"note: {n}", file=sys.stderr)
     write_csv(rows, args.out)
@@ -148,6 +163,9 @@ def register_eval(targets: argparse._SubParsersAction) -> None:
                            help="also score each log after recalibrating the step-length scale K (pdr calibrate) "
                                 "on OTHER logs of the same phone: cross = its other routes, cross-rep = the other "
                                 "repetitions of its route (never the log itself)")
+            p.add_argument("--smoother", default="both", choices=("both", "off"),
+                           help="both: also score the offline-smoothed tracks (pdr track's default; "
+                                "pdr.heading_smoother) next to the causal ones")
             p.add_argument("--trim-start", type=float, default=0.0, metavar="S",
                            help="drop each log's first S seconds (refused if that reaches its first landmark): "
                                 "shows how much the figures depend on the start conditions")
@@ -260,9 +278,12 @@ def eval_ipin(args: argparse.Namespace) -> int:
         cfg = config_from_args(args, floor0)
         rows, notices = run_pipeline(rec, cfg, site)
         name = f.name[:-4] if f.name.endswith(".txt") else f.name
+        smoothed = smoothed_rows(rows, notices) if args.smoother == "both" else None
         if args.tracks:
             Path(args.tracks).mkdir(parents=True, exist_ok=True)
             write_csv(rows, Path(args.tracks) / (name.removesuffix(".txt") + ".csv"))
+            if smoothed is not None:
+                write_csv(smoothed, Path(args.tracks) / (name.removesuffix(".txt") + ".smoothed.csv"))
         if len(rows) < 2:
             per.append({"file": f.name, "steps": len(rows), "error": "empty track", "notices": notices})
             continue
@@ -270,10 +291,14 @@ def eval_ipin(args: argparse.Namespace) -> int:
         # Metres per detected step the truth implies on one floor (the walker's stride, if no step is missed).
         p = {"file": f.name, "phone": rec.device.model, **_ipin_scores(rows, t_truth, pt),
              "truth_m_per_step": walk.length_m / walk.patterns.shape[0] if walk is not None else math.nan}
+        if smoothed is not None:
+            p["smoothed"] = _ipin_scores(smoothed, t_truth, pt)
         per.append(p)
         done.append({"path": f, "per": p, "cfg": cfg, "route": trial_key(f), "phone": rec.device.model,
                      "walk": walk})
     summary = _ipin_summary([d["per"] for d in done])
+    if args.smoother == "both":
+        summary["smoothed"] = _ipin_summary([d["per"]["smoothed"] for d in done])
     calibrated: list[dict[str, Any]] = []
     if args.calibrate != "none":
         routes, phones = [d["route"] for d in done], [d["phone"] for d in done]
@@ -305,6 +330,9 @@ def eval_ipin(args: argparse.Namespace) -> int:
                     f"ratio {p['distance_ratio']:.3f} (same floor {p['distance_ratio_same_floor']:.3f}), "
                     f"{p['steps']} steps ({p['truth_m_per_step']:.3f} m/step on one floor by truth, "
                     f"{p['phone'] or 'phone ?'})")
+            sm = p.get("smoothed")
+            if sm is not None:
+                line += (f" | smoothed p75 {sm['p75_abs_m']:.2f} m absolute, {sm['p75_aligned_m']:.2f} m aligned")
             c = p.get("calibrated")
             if c is not None:
                 line += (f" | {c['error']}" if "error" in c else
@@ -313,6 +341,8 @@ def eval_ipin(args: argparse.Namespace) -> int:
                          f"p75 {c['p75_abs_m']:.2f} m absolute")
             yield line
         yield _ipin_summary_line("ALL", summary)
+        if "smoothed" in summary:
+            yield _ipin_summary_line("SMOOTHED (offline, pdr track's default)", summary["smoothed"])
         if "calibrated" in summary:
             m = summary["calibrated"]
             yield _ipin_summary_line(f"CALIBRATED --calibrate {m['mode']}", m) + (
@@ -320,8 +350,9 @@ def eval_ipin(args: argparse.Namespace) -> int:
                 if m["without_calibration_walk"] else "")
     out = [{k: v for k, v in p.items() if not k.startswith("_")} for p in per]
     for p in out:
-        if isinstance(p.get("calibrated"), dict):
-            p["calibrated"] = {k: v for k, v in p["calibrated"].items() if not k.startswith("_")}
+        for key in ("calibrated", "smoothed"):
+            if isinstance(p.get(key), dict):
+                p[key] = {k: v for k, v in p[key].items() if not k.startswith("_")}
     _emit(summary, out, args.json, lines())
     return 0
 

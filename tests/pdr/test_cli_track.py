@@ -33,6 +33,18 @@ def test_track_writes_csv_and_geojson(tmp_path, capsys):
     assert "steps" in capsys.readouterr().out
 
 
+def test_track_smooths_offline_unless_told_not_to(tmp_path, capsys):
+    smoothed, causal = tmp_path / "s.csv", tmp_path / "c.csv"
+    assert main(["track", str(SIM / "hand_escalator.zip"), "--out", str(smoothed)]) == 0
+    assert "heading smoothed over" in capsys.readouterr().err
+    assert main(["track", str(SIM / "hand_escalator.zip"), "--out", str(causal), "--smoother", "off"]) == 0
+    assert "heading smoothed" not in capsys.readouterr().err
+    a, b = read_rows(smoothed), read_rows(causal)
+    assert [r["t_s"] for r in a] == [r["t_s"] for r in b]
+    assert [r["step_length_m"] for r in a] == [r["step_length_m"] for r in b]
+    assert [r["heading_deg"] for r in a] != [r["heading_deg"] for r in b]
+
+
 def test_track_bad_input_is_a_clean_error(tmp_path, capsys):
     assert main(["track", str(tmp_path / "missing.txt"), "--out", str(tmp_path / "x.csv")]) == 2
     assert "no such file" in capsys.readouterr().err
@@ -85,6 +97,13 @@ def test_ipin_eval_agrees_with_the_reference_scorer(tmp_path, capsys):
     tt, gt, _ = ref.truth(log)
     assert np.allclose(landmark_errors(t, en, tt, gt, "none"), e_ref, atol=1e-9)
     assert res["files"][0]["p75_abs_m"] == pytest.approx(float(np.percentile(e_ref, 75)), abs=0.01)
+    # The smoothed track is scored too (and written next to the causal one).
+    smoothed = read_rows(tracks / (src.stem + ".smoothed.csv"))
+    ts = np.array([float(r["t_s"]) for r in smoothed])
+    ens = np.array([[float(r["east_m"]), float(r["north_m"])] for r in smoothed])
+    assert res["files"][0]["smoothed"]["p75_abs_m"] == pytest.approx(
+        float(np.percentile(ref.score(ts, ens, log, "none")[0], 75)), abs=0.01)
+    assert res["overall"]["smoothed"]["files"] == 1
     # Regression guard for this route (hand-held, floor -2): measured 3.6 m p75, ratio 0.99.
     assert res["files"][0]["p75_abs_m"] < 6.0
     assert abs(res["files"][0]["distance_ratio"] - 1) < 0.05

@@ -280,3 +280,17 @@ def test_turning_steps_are_shortened_by_the_turn_factor(hand_walk):
     # A pocket phone's per-step heading jitters with the thigh: no turn factor there.
     pocket = track_rows(PdrPipeline(PipelineConfig(placement="pocket")).run(hand_walk))
     assert pocket and all(r["turn_deg"] == 0.0 for r in pocket)
+
+
+def test_gyro_heading_follows_the_turns_of_the_walk(hand_walk):
+    # The gyro heading (input of the offline smoother) is the rotation about the vertical, with no magnetometer:
+    # its change along the walk is the walking heading's change (the phone is held facing forward).
+    rows = track_rows(PdrPipeline(PipelineConfig()).run(hand_walk))
+    ex = hand_walk.truth.extra
+    tm = np.array([(r["t_start_s"] + r["t_s"]) / 2 for r in rows]) - hand_walk.origin_ns / 1e9
+    wy = np.interp(tm, ex["trajectory_t_s"], np.unwrap(ex["walking_heading_rad"]))
+    gy = np.unwrap(heading_deg_to_yaw(np.array([r["gyro_heading_deg"] for r in rows])))
+    drift = np.degrees((gy - gy[0]) - (wy - wy[0]))
+    assert np.abs(drift).max() < 10.0
+    raw = heading_deg_to_yaw(np.array([r["heading_raw_deg"] for r in rows]))
+    assert np.all(np.isfinite(raw)) and not any(r["position_fix"] for r in rows)
