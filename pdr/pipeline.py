@@ -167,8 +167,11 @@ _FIELD_WIDTHS = (("t", 0), ("acc", 3), ("q", 4), ("f_n", 3), ("yaw_y", 0), ("yaw
 _FIELDS = tuple(n for n, _ in _FIELD_WIDTHS)
 
 
-def _derived(q: FloatArray, acc: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """Per sample from ``C_nb(q)``: specific force in ENU, yaw of the device y and z axes, up-part of y."""
+def _derived(q: FloatArray, acc: FloatArray, gyro: FloatArray | None
+             ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray | None]:
+    """Per sample from ``C_nb(q)``: specific force in ENU, yaw of the device y and z axes, up-part of y, and the
+    gyro's rate about the vertical (rad/s; None without a gyro).
+    """
     w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
     c00, c01, c02 = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)
     c10, c11, c12 = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)
@@ -176,7 +179,8 @@ def _derived(q: FloatArray, acc: FloatArray) -> tuple[FloatArray, FloatArray, Fl
     ax, ay, az = acc[:, 0], acc[:, 1], acc[:, 2]
     f_n = np.column_stack([c00 * ax + c01 * ay + c02 * az, c10 * ax + c11 * ay + c12 * az,
                            c20 * ax + c21 * ay + c22 * az])
-    return f_n, np.arctan2(c11, c01), np.arctan2(c12, c02), c21
+    rate_up = None if gyro is None else c20 * gyro[:, 0] + c21 * gyro[:, 1] + c22 * gyro[:, 2]
+    return f_n, np.arctan2(c11, c01), np.arctan2(c12, c02), c21, rate_up
 
 
 class _History:
@@ -470,11 +474,11 @@ class PdrPipeline:
                                           None if mag is None else mag[a:b])
                 hs = self.history.sl(pos, cut + 1)
                 self.history.q[hs] = qs
-                f_n, yy, yz, yu = _derived(qs, acc[a:b])
+                f_n, yy, yz, yu, rate_up = _derived(qs, acc[a:b], None if gyro is None else gyro[a:b])
                 self.history.f_n[hs], self.history.yaw_y[hs], self.history.yaw_z[hs] = f_n, yy, yz
                 self.history.y_up[hs] = yu
-                if gyro is not None:
-                    self.history.gyro_yaw[hs] = self._integrate_gyro_yaw(qs, gyro[a:b])
+                if rate_up is not None:
+                    self.history.gyro_yaw[hs] = self._integrate_gyro_yaw(rate_up)
                 pos = cut + 1
             for j in by_confirm.get(cut, []):
                     events += self._step(int(steps.start_idx[j]), int(steps.end_idx[j]), float(steps.peak[j]))
@@ -483,13 +487,13 @@ class PdrPipeline:
         self.history.trim()
         return events
 
-    def _integrate_gyro_yaw(self, q_nb: FloatArray, gyro_b: FloatArray) -> FloatArray:
-        """Gyro yaw (rad, CCW) after each sample: the body rate rotated to ENU with the attitude, its vertical
-        component integrated over the grid interval. Neither the magnetometer's deflections nor the stationary
-        bias estimate enter it (the latter changes at block commits, which would make the yaw depend on how the
-        session was split into batches); the gyro bias does, and :mod:`pdr.heading_smoother` estimates it.
+    def _integrate_gyro_yaw(self, rate_up: FloatArray) -> FloatArray:
+        """Gyro yaw (rad, CCW) after each sample: the body rate's vertical component in ENU (rad/s, from the
+        attitude, :func:`_derived`) integrated over the grid interval. Neither the magnetometer's deflections nor
+        the stationary bias estimate enter it (the latter changes at block commits, which would make the yaw
+        depend on how the session was split into batches); the gyro bias does, and :mod:`pdr.heading_smoother`
+        estimates it.
         """
-        rate_up = quat.rotate(q_nb, gyro_b)[:, 2]
         # Sample by sample from the running value: the same sums however the session was split into batches.
         yaw = np.cumsum(np.concatenate([[self.gyro_yaw], rate_up / self.config.rate_hz]))[1:]
         if yaw.size:
