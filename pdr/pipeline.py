@@ -20,7 +20,10 @@ big batch):
 
 Events are plain dicts: ``{"type": "step", "t_s", "east_m", "north_m", "up_m", "floor", "heading_deg",
 "step_length_m", "turn_deg", "mode", ...}`` (``turn_deg``: the change of the step heading since the previous step
-of the walk, which shortens a turning step, :func:`pdr.step_length.turn_factor`), ``{"type": "elevator", ...}``,
+of the walk, which shortens a turning step, :func:`pdr.step_length.turn_factor`; ``heading_raw_deg``, the heading
+before the drift elimination, ``gyro_heading_deg``, the gyro's rotation about the vertical integrated since the start
+with an arbitrary origin, ``position_fix`` and ``landmark_heading``: the inputs of the offline
+:mod:`pdr.heading_smoother`), ``{"type": "elevator", ...}``,
 ``{"type": "floor_change", ...}`` and ``{"type": "notice", "message"}`` (degraded inputs). ``t_s`` is on the
 log's own clock (seconds).
 
