@@ -54,6 +54,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
+from pdr.filters.rts import rts_smooth
 from pdr.frames import heading_deg_to_yaw, wrap_angle, yaw_to_heading_deg
 
 FloatArray = NDArray[np.float64]
@@ -138,34 +139,29 @@ def smooth_offsets(t_s: FloatArray, gyro_yaw: FloatArray, meas_yaw: FloatArray, 
 
 def _rts(t: FloatArray, z: FloatArray, r: FloatArray, jump: NDArray[np.bool_], c: HeadingSmootherConfig
          ) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """One forward Kalman filter and backward RTS pass of the module's model."""
+    """One forward Kalman filter and the backward pass (:func:`pdr.filters.rts.rts_smooth`) of the module's model."""
     n = t.size
     q_d, q_b = math.radians(c.heading_rw_deg) ** 2, math.radians(c.bias_rw_deg) ** 2
     xf, pf = np.zeros((n, 2)), np.zeros((n, 2, 2))      # filtered
     xp, pp = np.zeros((n, 2)), np.zeros((n, 2, 2))      # predicted
+    fs = np.tile(np.eye(2), (n, 1, 1))                  # fs[k]: transition from step k - 1 to k
     x = np.array([z[0], 0.0])
     p = np.diag([r[0], math.radians(c.bias_sigma_deg) ** 2])
     for k in range(n):
         if k:
             dt = t[k] - t[k - 1]
-            f = np.array([[1.0, dt], [0.0, 1.0]])
+            fs[k, 0, 1] = dt
             q = q_b * np.array([[dt ** 3 / 3, dt ** 2 / 2], [dt ** 2 / 2, dt]]) + np.diag([q_d * dt, 0.0])
             if jump[k]:
                 q[0, 0] += math.pi ** 2          # the offset starts afresh
-            x, p = f @ x, f @ p @ f.T + q
+            x, p = fs[k] @ x, fs[k] @ p @ fs[k].T + q
         xp[k], pp[k] = x, p
         innov = float(wrap_angle(z[k] - x[0]))
         gain = p[:, 0] / (p[0, 0] + r[k])
         x = x + gain * innov
         p = p - np.outer(gain, p[0])
         xf[k], pf[k] = x, p
-    xs, ps = xf.copy(), pf.copy()
-    for k in range(n - 2, -1, -1):
-        dt = t[k + 1] - t[k]
-        f = np.array([[1.0, dt], [0.0, 1.0]])
-        gain = pf[k] @ f.T @ np.linalg.inv(pp[k + 1])
-        xs[k] = xf[k] + gain @ (xs[k + 1] - xp[k + 1])
-        ps[k] = pf[k] + gain @ (ps[k + 1] - pp[k + 1]) @ gain.T
+    xs, ps = rts_smooth(xf, pf, xp, pp, fs)
     return xs[:, 0], np.sqrt(np.maximum(ps[:, 0, 0], 0.0)), xs[:, 1]
 
 
