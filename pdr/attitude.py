@@ -809,6 +809,11 @@ class AttitudeFilter:
         self.state = AttitudeState()
         self._params = self.config.params()
 
+    @property
+    def bias_known(self) -> bool:
+        """Whether a stationary period has given the gyro bias estimate (``state.bias``) its first rows."""
+        return bool(self.state.aux[_AUX_BIAS_READY] > 0)
+
     def set_config(self, config: AttitudeConfig) -> None:
         """Use new noise and gating parameters from the next sample on (the state is kept)."""
         self.config = config

@@ -22,7 +22,10 @@ Events are plain dicts: ``{"type": "step", "t_s", "east_m", "north_m", "up_m", "
 "step_length_m", "turn_deg", "mode", ...}`` (``turn_deg``: the change of the step heading since the previous step
 of the walk, which shortens a turning step, :func:`pdr.step_length.turn_factor`; ``heading_raw_deg``, the heading
 before the drift elimination, ``gyro_heading_deg``, the gyro's rotation about the vertical integrated since the start
-with an arbitrary origin, ``position_fix`` and ``landmark_heading``: the inputs of the offline
+with an arbitrary origin, ``up_time_s``, the device-frame up direction integrated over the same time (s, so that
+``up_time_s . b`` is what a constant gyro bias ``b`` added to it), ``gyro_bias_dps``, the attitude filter's stationary
+gyro bias estimate (deg/s, device frame; None before the first stationary period), ``position_fix`` and
+``landmark_heading``: the inputs of the offline
 :mod:`pdr.heading_smoother`), ``{"type": "elevator", ...}``,
 ``{"type": "floor_change", ...}`` and ``{"type": "notice", "message"}`` (degraded inputs). ``t_s`` is on the
 log's own clock (seconds).
@@ -166,14 +169,15 @@ class PipelineConfig:
 
 
 _FIELD_WIDTHS = (("t", 0), ("acc", 3), ("q", 4), ("f_n", 3), ("yaw_y", 0), ("yaw_z", 0), ("y_up", 0), ("an", 0),
-                 ("mag_n", 0), ("up", 0), ("floor", 0), ("gyro_yaw", 0))
+                 ("mag_n", 0), ("up", 0), ("floor", 0), ("gyro_yaw", 0), ("up_time", 3))
 _FIELDS = tuple(n for n, _ in _FIELD_WIDTHS)
 
 
 def _derived(q: FloatArray, acc: FloatArray, gyro: FloatArray | None
-             ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray | None]:
-    """Per sample from ``C_nb(q)``: specific force in ENU, yaw of the device y and z axes, up-part of y, and the
-    gyro's rate about the vertical (rad/s; None without a gyro).
+             ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray | None]:
+    """Per sample from ``C_nb(q)``: specific force in ENU, yaw of the device y and z axes, up-part of y, the up
+    direction in the device frame (N, 3: the last row of ``C_nb``), and the gyro's rate about the vertical (rad/s;
+    None without a gyro).
     """
     w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
     c00, c01, c02 = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)
@@ -183,13 +187,14 @@ def _derived(q: FloatArray, acc: FloatArray, gyro: FloatArray | None
     f_n = np.column_stack([c00 * ax + c01 * ay + c02 * az, c10 * ax + c11 * ay + c12 * az,
                            c20 * ax + c21 * ay + c22 * az])
     rate_up = None if gyro is None else c20 * gyro[:, 0] + c21 * gyro[:, 1] + c22 * gyro[:, 2]
-    return f_n, np.arctan2(c11, c01), np.arctan2(c12, c02), c21, rate_up
+    return f_n, np.arctan2(c11, c01), np.arctan2(c12, c02), c21, np.column_stack([c20, c21, c22]), rate_up
 
 
 class _History:
     """Grid samples of the last ``size`` indices: t, acc_b, q_nb, f_n (specific force in ENU), yaw of the
-    device y and z axes, up-component of the device y axis, a_n, |m|, up (m), floor, and the gyro yaw (rad: the
-    angular rate about the vertical integrated since the start, no magnetometer, no bias removed).
+    device y and z axes, up-component of the device y axis, a_n, |m|, up (m), floor, the gyro yaw (rad: the
+    angular rate about the vertical integrated since the start, no magnetometer, no bias removed) and the
+    device-frame up direction integrated since the start (s).
     """
 
     def __init__(self, size: int) -> None:
@@ -207,6 +212,7 @@ class _History:
         self.up = np.zeros(0)
         self.floor = np.zeros(0)
         self.gyro_yaw = np.zeros(0)
+        self.up_time = np.zeros((0, 3))
 
     def append(self, start: int, t: FloatArray, acc: FloatArray, an: FloatArray, mag_n: FloatArray,
                up: FloatArray, floor: FloatArray) -> None:
@@ -224,6 +230,7 @@ class _History:
         self.up = np.concatenate([self.up, up])
         self.floor = np.concatenate([self.floor, floor])
         self.gyro_yaw = np.concatenate([self.gyro_yaw, np.full(t.size, np.nan)])
+        self.up_time = np.concatenate([self.up_time, np.full((t.size, 3), np.nan)])
 
     def trim(self) -> None:
         extra = self.t.size - self.size
@@ -244,8 +251,9 @@ class _History:
         h = cls(int(d["size"]))
         h.start = int(d["start"])
         for n, w in _FIELD_WIDTHS:
-            # The gyro yaw is absent in states saved before the heading smoother.
-            a = np.array(d[n] if n in d else np.full(len(d["t"]), np.nan), dtype=np.float64)
+            # The gyro yaw and up time are absent in states saved before the heading smoother.
+            a = np.array(d[n] if n in d else np.full((len(d["t"]), w) if w else len(d["t"]), np.nan),
+                         dtype=np.float64)
             setattr(h, n, a.reshape(-1, w) if w else a.reshape(-1))
         return h
 
@@ -307,6 +315,7 @@ class PdrPipeline:
         self._av_ba = (b, a)
         self.n_input_samples = 0
         self.gyro_yaw = 0.0      # integral of the gyro's rate about the vertical since the start (rad)
+        self.up_time = np.zeros(3)  # integral of the device-frame up direction since the start (s)
 
     # -- public API --------------------------------------------------------------------------------
     def update(self, batch: Recording) -> list[Event]:
@@ -372,7 +381,7 @@ class PdrPipeline:
             "pending": _jsonable(self.pending),
             "pitch_baseline": self.pitch_baseline, "last_floor": self.last_floor, "notices": self.notices,
             "av_zi": None if self._av_zi is None else self._av_zi.tolist(), "n_input_samples": self.n_input_samples,
-            "gyro_yaw": self.gyro_yaw,
+            "gyro_yaw": self.gyro_yaw, "up_time": self.up_time.tolist(),
         }
 
     @classmethod
@@ -409,6 +418,7 @@ class PdrPipeline:
             p._av_zi = None if d["av_zi"] is None else np.array(d["av_zi"], dtype=np.float64)
             p.n_input_samples = int(d["n_input_samples"])
             p.gyro_yaw = float(d.get("gyro_yaw", 0.0))      # absent in states saved before the heading smoother
+            p.up_time = np.array(d.get("up_time", [0.0, 0.0, 0.0]), dtype=np.float64)
             if p.pending is not None or p.track.n_steps:      # a step was processed (see _placement_known)
                 p._placement_known()
         except (KeyError, TypeError, ValueError) as exc:
@@ -477,11 +487,12 @@ class PdrPipeline:
                                           None if mag is None else mag[a:b])
                 hs = self.history.sl(pos, cut + 1)
                 self.history.q[hs] = qs
-                f_n, yy, yz, yu, rate_up = _derived(qs, acc[a:b], None if gyro is None else gyro[a:b])
+                f_n, yy, yz, yu, up_b, rate_up = _derived(qs, acc[a:b], None if gyro is None else gyro[a:b])
                 self.history.f_n[hs], self.history.yaw_y[hs], self.history.yaw_z[hs] = f_n, yy, yz
                 self.history.y_up[hs] = yu
                 if rate_up is not None:
-                    self.history.gyro_yaw[hs] = self._integrate_gyro_yaw(rate_up)
+                    self.history.gyro_yaw[hs], self.history.up_time[hs] = self._integrate_about_vertical(rate_up,
+                                                                                                      up_b)
                 pos = cut + 1
             for j in by_confirm.get(cut, []):
                     events += self._step(int(steps.start_idx[j]), int(steps.end_idx[j]), float(steps.peak[j]))
@@ -490,18 +501,24 @@ class PdrPipeline:
         self.history.trim()
         return events
 
-    def _integrate_gyro_yaw(self, rate_up: FloatArray) -> FloatArray:
-        """Gyro yaw (rad, CCW) after each sample: the body rate's vertical component in ENU (rad/s, from the
-        attitude, :func:`_derived`) integrated over the grid interval. Neither the magnetometer's deflections nor
-        the stationary bias estimate enter it (the latter changes at block commits, which would make the yaw
-        depend on how the session was split into batches); the gyro bias does, and :mod:`pdr.heading_smoother`
-        estimates it.
+    def _integrate_about_vertical(self, rate_up: FloatArray, up_b: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Gyro yaw (rad, CCW) and up time (s, device frame) after each sample.
+
+        The gyro yaw is the body rate's vertical component in ENU (rad/s, from the attitude, :func:`_derived`)
+        integrated over the grid interval. Neither the magnetometer's deflections nor the stationary bias estimate
+        enter it (the latter changes at block commits, which would make the yaw depend on how the session was split
+        into batches); the gyro bias ``b`` (device frame) does, as ``up_time . b`` with ``up_time`` the integral of
+        the device-frame up direction ``up_b`` (N, 3), so :mod:`pdr.heading_smoother` can remove the walk's
+        stationary bias estimate afterwards.
         """
-        # Sample by sample from the running value: the same sums however the session was split into batches.
-        yaw = np.cumsum(np.concatenate([[self.gyro_yaw], rate_up / self.config.rate_hz]))[1:]
+        # Sample by sample from the running values: the same sums however the session was split into batches.
+        dt = 1.0 / self.config.rate_hz
+        yaw = np.cumsum(np.concatenate([[self.gyro_yaw], rate_up * dt]))[1:]
+        up_time = np.cumsum(np.vstack([self.up_time[None, :], up_b * dt]), axis=0)[1:]
         if yaw.size:
             self.gyro_yaw = float(yaw[-1])
-        return np.asarray(yaw)
+            self.up_time = up_time[-1].copy()
+        return np.asarray(yaw), up_time
 
     def _elevator(self, t: FloatArray, g0: int) -> list[Event]:
         av = self.history.f_n[self.history.sl(g0, g0 + t.size), 2] - GRAVITY_MPS2
@@ -621,7 +638,9 @@ class PdrPipeline:
         rec = {"s": s, "e": e, "t_start": float(h.t[sl][0]), "t_end": float(h.t[sl][-1]) + 1.0 / c.rate_hz,
                "pats": pats.tolist(), "yaw": est.yaw, "var": est.var, "psi0": psi0, "axis": axis,
                "mode": mode, "up": float(h.up[sl][-1]), "floor": float(h.floor[sl][-1]), "m1": m1.tolist(),
-               "q1": st.q.tolist(), "peak": peak, "gyro_yaw": _mean_finite(h.gyro_yaw[sl])}
+               "q1": st.q.tolist(), "peak": peak, "gyro_yaw": _mean_finite(h.gyro_yaw[sl]),
+               "up_time": _mean_finite_rows(h.up_time[sl]),
+               "gyro_bias": st.bias.tolist() if self.attitude.bias_known else None}
         events: list[Event] = []
         if self.pending is not None:
             events += self._emit_step(self.pending, rec)
@@ -704,6 +723,8 @@ class PdrPipeline:
             # Inputs of the offline heading smoother (pdr.heading_smoother).
             "heading_raw_deg": float(yaw_to_heading_deg(raw_yaw)),
             "gyro_heading_deg": None if rec.get("gyro_yaw") is None else float(yaw_to_heading_deg(rec["gyro_yaw"])),
+            "up_time_s": rec.get("up_time"),
+            "gyro_bias_dps": None if rec.get("gyro_bias") is None else np.degrees(rec["gyro_bias"]).tolist(),
             "position_fix": fixed, "landmark_heading": landmark_heading,
         })
         return events
@@ -726,6 +747,11 @@ class PdrPipeline:
 def _mean_finite(x: FloatArray) -> float | None:
     """Mean of ``x``, or None where any value is missing (no gyro)."""
     return float(np.mean(x)) if x.size and np.all(np.isfinite(x)) else None
+
+
+def _mean_finite_rows(x: FloatArray) -> list[float] | None:
+    """Column means of ``x`` (N, k), or None where any value is missing (no gyro)."""
+    return np.mean(x, axis=0).tolist() if x.size and np.all(np.isfinite(x)) else None
 
 
 def _placement_group(name: str | None) -> str | None:
