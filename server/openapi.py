@@ -123,7 +123,10 @@ def openapi_document() -> dict[str, Any]:
                     "application/geo+json": {"schema": {"type": "object"}}}}} | _errors(400, 401, 404),
                     parameters=[SESSION_ID, SINCE,
                                 {"name": "format", "in": "query", "schema": {"enum": ["json", "csv", "geojson"]}},
-                                {"name": "device", "in": "query", "schema": {"type": "string"}}])},
+                                {"name": "device", "in": "query", "schema": {"type": "string"}},
+                                {"name": "heading", "in": "query", "schema": {"enum": ["causal", "smoothed"]},
+                                 "description": "smoothed: hand-held/torso phone headings smoothed offline over "
+                                                "the session so far (pdr track's default)"}])},
             "/api/v1/sessions/{session_id}/steps": _results_path("steps") | {
                 "post": _op("ingest a shoe unit's step-wise dead-reckoning summaries (idempotent by batch_id)",
                             {"201": _ok("stored"), "200": _ok("duplicate ignored")} | common | _errors(400, 409),

@@ -1,14 +1,17 @@
 """The phone PDR pipeline (:class:`pdr.pipeline.PdrPipeline`) and motion-mode classifier as a session processor.
 
 Pipeline events become result rows: each ``step`` a track row (the columns of ``pdr track``) and a
-``step`` event; ``elevator`` and site ``landmark`` events ``landmark`` events; ``floor_change`` a
-``floor`` event; ``notice`` a session warning. Motion modes come from the shipped streaming classifier
-(:class:`classifiers.streaming.StreamingClassifier`, one ``mode`` event per window with its confidence)
-once the pipeline has found the phone in a trouser pocket (the model's training placement); for other
-placements, or when the recording lacks a sensor the model needs, from the pipeline's per-step modes.
+``step`` event (whose ``smoother`` data keeps the step's inputs of the offline heading smoother,
+:mod:`pdr.heading_smoother`, for ``GET .../track?heading=smoothed``); ``elevator`` and site ``landmark``
+events ``landmark`` events; ``floor_change`` a ``floor`` event; ``notice`` a session warning. Motion modes
+come from the shipped streaming classifier (:class:`classifiers.streaming.StreamingClassifier`, one ``mode``
+event per window with its confidence) once the pipeline has found the phone in a trouser pocket (the model's
+training placement); for other placements, or when the recording lacks a sensor the model needs, from the
+pipeline's per-step modes.
 The provisional tail (:meth:`PhoneProcessor.tail`) is what :meth:`PdrPipeline.finish` would add if the
-session ended now, so a session's track equals ``pdr track`` on the same data at any time -- with the session's
-processing options (:mod:`server.processing_options`) as ``--site`` and ``--calibration``.
+session ended now, so a session's track equals ``pdr track --smoother off`` on the same data at any time, and
+``?heading=smoothed`` equals ``pdr track`` -- with the session's processing options
+(:mod:`server.processing_options`) as ``--site`` and ``--calibration``.
 """
 
 from __future__ import annotations
@@ -32,6 +35,11 @@ PLACEMENT_GROUPS = {"trouser_pocket_front": "pocket", "trouser_pocket_back": "po
 
 #: Placement (pipeline group) the shipped motion-mode model was trained for (MobiFall: trouser pocket).
 MODEL_PLACEMENT = "pocket"
+
+
+#: Step event fields the offline heading smoother needs besides the track row (pdr.heading_smoother.smooth_track).
+SMOOTHER_INPUTS = ("placement", "heading_sigma_deg", "heading_raw_deg", "gyro_heading_deg", "up_time_s",
+                   "gyro_bias_dps", "position_fix", "landmark_heading")
 
 
 def _num(x: Any) -> float | None:
@@ -115,7 +123,8 @@ def convert_events(events: list[dict[str, Any]], last_mode: str,
             out.events.append(EventRow("step", float(e["t_s"]), t_end_s=None, label=e.get("mode"),
                                        value=_num(e.get("step_length_m")),
                                        data={"t_start_s": e.get("t_start_s"), "heading_deg": e.get("heading_deg"),
-                                             "floor": e.get("floor")}))
+                                             "floor": e.get("floor"),
+                                             "smoother": {k: e.get(k) for k in SMOOTHER_INPUTS}}))
             mode = str(e.get("mode") or "")
             if mode and mode != last_mode:
                 if step_modes:

@@ -1,4 +1,10 @@
-"""Results of a session: track (JSON, CSV, GeoJSON), steps, motion modes, landmarks, floors; ``?since=`` polling."""
+"""Results of a session: track (JSON, CSV, GeoJSON), steps, motion modes, landmarks, floors; ``?since=`` polling.
+
+``GET .../track?heading=smoothed`` gives the track ``pdr track`` writes by default: the hand-held and torso phone
+steps' headings smoothed over the whole session so far (:mod:`pdr.heading_smoother`) and the positions
+re-integrated. Smoothing moves earlier rows too, so a poller asking with ``since`` gets the rows after it of the
+track smoothed over everything received. ``heading=causal`` (the default) is the track as it was streamed.
+"""
 
 from __future__ import annotations
 
@@ -11,6 +17,7 @@ from typing import Any
 from flask import Blueprint, Response, jsonify, request
 
 from pdr.frames import local_enu_to_geodetic
+from pdr.heading_smoother import smooth_track
 from server.api import current_user, services
 from server.errors import APIError
 
@@ -41,16 +48,28 @@ def _clean(v: Any) -> Any:
 
 @bp.get("/<session_id>/track")
 def track(session_id: str) -> Response:
-    """The track, one row per step: ``?format=json|csv|geojson``, ``?device=ROLE``, ``?since=T_S``."""
+    """The track, one row per step: ``?format=json|csv|geojson``, ``?device=ROLE``, ``?since=T_S``,
+    ``?heading=causal|smoothed`` (module doc).
+    """
     user = current_user()
     svc = services()
     row = svc.store.session_row(session_id, user.id)
     fmt = request.args.get("format", "json")
     if fmt not in ("json", "csv", "geojson"):
         raise APIError(400, f"unknown format '{fmt[:20]}'; use json, csv or geojson")
-    points = svc.store.track(session_id, request.args.get("device"), parse_since())
+    heading = request.args.get("heading", "causal")
+    if heading not in ("causal", "smoothed"):
+        raise APIError(400, f"unknown heading '{heading[:20]}'; use causal or smoothed")
+    since = parse_since()
+    device = request.args.get("device")
+    points = svc.store.track(session_id, device, None if heading == "smoothed" else since)
     rows = [{c: _clean(getattr(p, c)) for c in TRACK_COLUMNS} | {"device": p.device_role, "provisional": p.provisional}
             for p in points]
+    notes: list[str] = []
+    if heading == "smoothed":
+        rows, notes = _smoothed(rows, svc.store.events(session_id, "step"))
+        if since is not None:
+            rows = [r for r in rows if r["t_s"] > since]
     if fmt == "csv":
         buf = io.StringIO()
         writer = csv.writer(buf, lineterminator="\n")
@@ -62,9 +81,32 @@ def track(session_id: str) -> Response:
                         headers={"Content-Disposition": f'attachment; filename="{session_id}.csv"'})
     if fmt == "geojson":
         return Response(json.dumps(_geojson(rows, row)), mimetype="application/geo+json")
-    next_since = max(r["t_s"] for r in rows) if rows else parse_since()
-    return jsonify({"session": session_id, "columns": list(TRACK_COLUMNS), "points": rows, "count": len(rows),
-                    "next_since": next_since})
+    next_since = max(r["t_s"] for r in rows) if rows else since
+    body: dict[str, Any] = {"session": session_id, "columns": list(TRACK_COLUMNS), "points": rows,
+                            "count": len(rows), "next_since": next_since, "heading": heading}
+    if notes:
+        body["heading_notes"] = notes
+    return jsonify(body)
+
+
+def _smoothed(rows: list[dict[str, Any]], step_events: list[Any]) -> tuple[list[dict[str, Any]], list[str]]:
+    """``rows`` (one device or several) with each device's steps smoothed, and the smoother's note per device.
+
+    The smoother's inputs come from the stored ``step`` events (:mod:`server.phone_processor`); a device whose
+    steps lack them (foot sensors, sessions processed before they were stored, pocket phones) keeps its track.
+    """
+    inputs = {(e.device_role, e.t_s): json.loads(e.data or "{}").get("smoother") or {} for e in step_events}
+    out: list[dict[str, Any]] = []
+    notes: list[str] = []
+    for device in dict.fromkeys(r["device"] for r in rows):
+        mine = [r for r in rows if r["device"] == device]
+        steps = [inputs.get((device, r["t_s"]), {}) | r for r in mine]
+        smoothed, note = smooth_track(steps)
+        if note:
+            notes.append(f"{device}: {note}")
+        out += [r | {k: s[k] for k in ("east_m", "north_m", "heading_deg")}
+                for r, s in zip(mine, smoothed, strict=True)]
+    return out, notes
 
 
 def _geojson(rows: list[dict[str, Any]], session: Any) -> dict[str, Any]:

@@ -1,5 +1,6 @@
 """End to end: the real ``pdr serve`` process fed Sensor Logger push messages in 1 s batches (one sent twice,
-two swapped) gives exactly the track of ``pdr track`` on the same log.
+two swapped) gives exactly the track of ``pdr track`` on the same log (the IPIN log the streamed causal track,
+the Sensor Logger walk the offline-smoothed one, ``?heading=smoothed``).
 
 Logs: a real IPIN logfile (hand-held, AppTimestamp clock) and a Sensor Logger recording (a JSON file of push
 messages of a simulated hand-held walk on the epoch clock, as the app's HTTP push would send it).
@@ -34,14 +35,15 @@ def _replay_order(n: int) -> list[int]:
     return order
 
 
-def _pdr_track(log: Path, out: Path) -> list[dict[str, str]]:
-    # The service streams the causal track: compare with `pdr track` without its offline heading smoother.
-    assert pdr_main(["track", str(log), "--out", str(out), "--smoother", "off"]) == 0
+def _pdr_track(log: Path, out: Path, smoother: str = "off") -> list[dict[str, str]]:
+    # The service streams the causal track (`pdr track --smoother off`); ?heading=smoothed is pdr track's default.
+    assert pdr_main(["track", str(log), "--out", str(out), "--smoother", smoother]) == 0
     with out.open() as f:
         return list(csv.DictReader(f))
 
 
-def _server_track(messages: list[dict], data_dir: Path) -> tuple[list[dict[str, str]], dict]:
+def _server_track(messages: list[dict], data_dir: Path, heading: str = "causal"
+                  ) -> tuple[list[dict[str, str]], dict]:
     with running_server(data_dir) as (url, env, _):
         token = add_user(env, "e2e")
         c = Client(url, token)
@@ -56,7 +58,7 @@ def _server_track(messages: list[dict], data_dir: Path) -> tuple[list[dict[str, 
                 break
             assert time.monotonic() < deadline, s
             time.sleep(0.5)
-        text = c.request("GET", f"/api/v1/sessions/{s['id']}/track?format=csv").body.decode()
+        text = c.request("GET", f"/api/v1/sessions/{s['id']}/track?format=csv&heading={heading}").body.decode()
         c.close()
     return list(csv.DictReader(text.splitlines())), s
 
@@ -86,5 +88,5 @@ def test_sensor_logger_recording_replayed(tmp_path):
     log = tmp_path / "sensor_logger_push.json"
     log.write_text(json.dumps(messages))
     assert read_recording(log).format == "sensor_logger"
-    server, _ = _server_track(messages, tmp_path / "srv")
-    _assert_same(_pdr_track(log, tmp_path / "track.csv"), server)
+    server, _ = _server_track(messages, tmp_path / "srv", heading="smoothed")
+    _assert_same(_pdr_track(log, tmp_path / "track.csv", smoother="on"), server)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections import Counter
 
+import numpy as np
 import pytest
 
 from tests.conftest import data_path
@@ -55,3 +56,35 @@ def test_hand_held_walk_uses_step_modes_and_says_so(real_app):
     session = _upload(app, token, log)
     assert session["status"] == "done" and session["steps"] > 100
     assert any("trained for a phone in a trouser pocket" in w for w in session["warnings"])
+
+
+def test_smoothed_track_equals_pdr_tracks_default(real_app):
+    # ?heading=smoothed is pdr track's default output: the causal steps (stored as streamed) with the offline
+    # heading smoother run over the inputs kept in the step events.
+    from pdr.cli.track import run_pipeline
+    from pdr.heading_smoother import smooth_track
+    from pdr.io import read_recording
+    from pdr.pipeline import PipelineConfig
+
+    app, token = real_app
+    log = data_path("ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial22_repetition01.txt")
+    session = _upload(app, token, log, placement="hand")
+    c = app.test_client()
+    url = f"/api/v1/sessions/{session['id']}/track"
+    causal = c.get(url, headers=bearer(token)).get_json()
+    smoothed = c.get(url + "?heading=smoothed", headers=bearer(token)).get_json()
+    assert causal["heading"] == "causal" and smoothed["heading"] == "smoothed"
+    rows, _ = run_pipeline(read_recording(log), PipelineConfig(placement="hand"))
+    ours, _ = smooth_track(rows)
+    assert smoothed["count"] == causal["count"] == len(ours) > 100
+    for key in ("east_m", "north_m", "heading_deg"):
+        np.testing.assert_allclose([p[key] for p in smoothed["points"]], [r[key] for r in ours], atol=1e-9)
+    moved = np.hypot(*(np.array([[p["east_m"], p["north_m"]] for p in smoothed["points"]])
+                       - np.array([[p["east_m"], p["north_m"]] for p in causal["points"]])).T)
+    assert moved.max() > 1.0                                       # the smoother changed the track
+    # since: the rows after it of the whole smoothed track.
+    t_mid = smoothed["points"][50]["t_s"]
+    later = c.get(url + f"?heading=smoothed&since={t_mid}", headers=bearer(token)).get_json()
+    assert later["points"] == smoothed["points"][51:]
+    bad = c.get(url + "?heading=magic", headers=bearer(token))
+    assert bad.status_code == 400 and "heading" in bad.get_json()["error"]["message"]
