@@ -257,6 +257,7 @@ def eval_ipin(args: argparse.Namespace) -> int:
     :func:`pdr.cli.calibrate.calibrate_on_walks`) on the same phone's logs of OTHER routes, over their
     landmark intervals on one floor; ``cross-rep``: on the other repetitions of the same route with the same
     phone. The evaluated log never takes part in its own calibration. The phone model stands for the walker.
+    With ``--smoother both`` (the default) the calibrated tracks are also scored after the offline heading smoother.
     """
     from dataclasses import replace
 
@@ -300,6 +301,7 @@ def eval_ipin(args: argparse.Namespace) -> int:
     if args.smoother == "both":
         summary["smoothed"] = _ipin_summary([d["per"]["smoothed"] for d in done])
     calibrated: list[dict[str, Any]] = []
+    calibrated_smoothed: list[dict[str, Any]] = []
     if args.calibrate != "none":
         routes, phones = [d["route"] for d in done], [d["phone"] for d in done]
         usable = [d["walk"] is not None for d in done]
@@ -314,11 +316,17 @@ def eval_ipin(args: argparse.Namespace) -> int:
             assert truth is not None   # scored in the first pass
             rec = _trim_start(rec, args.trim_start, rec.origin_ns / 1e9 + float(truth.t_s[0]))
             rows, _ = run_pipeline(rec, replace(d["cfg"], step_length=model), site)
+            t_truth = rec.origin_ns / 1e9 + truth.t_s
             c = {"k": model.k, "calibrated_on": [o["path"].name for o in partners],
-                 **_ipin_scores(rows, rec.origin_ns / 1e9 + truth.t_s, truth)}
+                 **_ipin_scores(rows, t_truth, truth)}
+            if args.smoother == "both":
+                c["smoothed"] = _ipin_scores(smoothed_rows(rows, []), t_truth, truth)
+                calibrated_smoothed.append(c["smoothed"])
             d["per"]["calibrated"] = c
             calibrated.append(c)
         summary["calibrated"] = {"mode": args.calibrate, **_ipin_summary(calibrated)}
+        if calibrated_smoothed:
+            summary["calibrated"]["smoothed"] = _ipin_summary(calibrated_smoothed)
         summary["calibrated"]["without_calibration_walk"] = len(done) - len(calibrated)
 
     def lines() -> Iterator[str]:
@@ -338,7 +346,8 @@ def eval_ipin(args: argparse.Namespace) -> int:
                 line += (f" | {c['error']}" if "error" in c else
                          f" | calibrated K {c['k']:.4f} on {len(c['calibrated_on'])} logs: ratio "
                          f"{c['distance_ratio']:.3f} (same floor {c['distance_ratio_same_floor']:.3f}), "
-                         f"p75 {c['p75_abs_m']:.2f} m absolute")
+                         f"p75 {c['p75_abs_m']:.2f} m absolute" + (
+                             f" (smoothed {c['smoothed']['p75_abs_m']:.2f} m)" if "smoothed" in c else ""))
             yield line
         yield _ipin_summary_line("ALL", summary)
         if "smoothed" in summary:
@@ -348,13 +357,16 @@ def eval_ipin(args: argparse.Namespace) -> int:
             yield _ipin_summary_line(f"CALIBRATED --calibrate {m['mode']}", m) + (
                 f"; {m['without_calibration_walk']} files without a calibration walk (default model)"
                 if m["without_calibration_walk"] else "")
-    out = [{k: v for k, v in p.items() if not k.startswith("_")} for p in per]
-    for p in out:
-        for key in ("calibrated", "smoothed"):
-            if isinstance(p.get(key), dict):
-                p[key] = {k: v for k, v in p[key].items() if not k.startswith("_")}
+            if "smoothed" in m:
+                yield _ipin_summary_line(f"CALIBRATED --calibrate {m['mode']} and SMOOTHED", m["smoothed"])
+    out = [_public(p) for p in per]
     _emit(summary, out, args.json, lines())
     return 0
+
+
+def _public(d: dict[str, Any]) -> dict[str, Any]:
+    """``d`` and its nested dicts without the private (``_``-prefixed) arrays, for JSON output."""
+    return {k: _public(v) if isinstance(v, dict) else v for k, v in d.items() if not k.startswith("_")}
 
 
 def eval_ms(args: argparse.Namespace) -> int:

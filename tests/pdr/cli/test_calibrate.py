@@ -98,3 +98,8 @@ def test_eval_ipin_cross_calibration_fixes_the_other_walker(tmp_path, capsys):
         route = m.group(0)
         assert all(route not in c for c in f["calibrated"]["calibrated_on"])
     assert out["overall"]["calibrated"]["files"] == 3
+    # The calibrated tracks are also scored after the offline heading smoother (pdr track's default); the
+    # smoother leaves the step lengths, so the distance ratio is the calibrated one.
+    sm = t21["calibrated"]["smoothed"]
+    assert sm["distance_ratio_same_floor"] == pytest.approx(t21["calibrated"]["distance_ratio_same_floor"], rel=0.02)
+    assert out["overall"]["calibrated"]["smoothed"]["files"] == 3 and "_abs" not in sm
