@@ -126,9 +126,9 @@ def test_a_stationary_bias_estimate_fixes_the_drift_a_short_walk_cannot_teach():
                 r["gyro_bias_dps"] = np.degrees(b).tolist() if known else None
             yaw = heading_deg_to_yaw(np.array([r["heading_deg"] for r in smooth_track(rows)[0]]))
             err[known].append(np.degrees(np.abs(wrap_angle(yaw - truth))))
-    known, unknown = np.concatenate(err[True]), np.concatenate(err[False])
-    assert known.mean() < 0.75 * unknown.mean()
-    assert np.percentile(known, 95) < np.percentile(unknown, 95)
+    with_bias, without_bias = np.concatenate(err[True]), np.concatenate(err[False])
+    assert with_bias.mean() < 0.75 * without_bias.mean()
+    assert np.percentile(with_bias, 95) < np.percentile(without_bias, 95)
 
 
 def test_the_stationary_bias_is_removed_from_the_gyro_yaw_before_smoothing():
