@@ -19,7 +19,7 @@ from pdr.foot.detectors import DETECTORS, DetectorConfig
 from pdr.foot.dual import DualFootConfig, DualFootTrack, navigate_feet
 from pdr.foot.filterbank import FilterBankTrack
 from pdr.foot.metrics import loop_closure_error, path_length, pyshoe_armse, stride_errors
-from pdr.foot.navigate import METHODS, FootImu, navigate
+from pdr.foot.navigate import METHODS, FootImu, navigate, unsupported_options
 from pdr.foot.zupt import ZuptConfig, ZuptTrack
 from pdr.frames import yaw_to_heading_deg
 from pdr.fusion.constraints import SeparationConfig
@@ -50,6 +50,29 @@ def _zupt_config(args: argparse.Namespace) -> ZuptConfig:
     return ZuptConfig(zaru=args.zaru == "on", interval_samples=args.imu_samples == "interval")
 
 
+#: The command-line flag of each setting of :data:`pdr.foot.navigate.METHOD_OPTIONS`.
+OPTION_FLAGS = {"zaru": "--zaru on", "interval_samples": "--imu-samples interval", "gyro_bias": "--gyro-bias on",
+                "smooth": "--smoother on"}
+
+
+def _refuse_unsupported(method: str, args: argparse.Namespace) -> None:
+    """InputError naming the flags that ``method`` does not have (instead of ignoring them)."""
+    bad = unsupported_options(method, _zupt_config(args), gyro_bias=args.gyro_bias == "on")
+    if bad:
+        flags = ", ".join(OPTION_FLAGS[b] for b in bad)
+        raise InputError(f"--method {method} does not have {flags}; leave {'them' if len(bad) > 1 else 'it'} out "
+                         "or use a method that has it (pdr foot --help)", field=OPTION_FLAGS[bad[0]].split()[0])
+
+
+def _method_zupt_config(method: str, args: argparse.Namespace) -> tuple[ZuptConfig, list[str]]:
+    """For the evaluation of several methods: ``--zaru``/``--imu-samples`` where ``method`` has them, and the
+    flags it runs without.
+    """
+    zupt = _zupt_config(args)
+    bad = [b for b in unsupported_options(method, zupt) if b in ("zaru", "interval_samples")]
+    return replace(zupt, **{b: False for b in bad}), [OPTION_FLAGS[b] for b in bad]
+
+
 def _add_options(p: argparse.ArgumentParser, evaluation: bool = False) -> None:
     p.add_argument("--method", choices=METHODS + (("all",) if evaluation else ()),
                    default="all" if evaluation else "zupt",
@@ -72,7 +95,7 @@ def _add_options(p: argparse.ArgumentParser, evaluation: bool = False) -> None:
                         "foot is still (pdr.foot.zupt, ZuptConfig.zaru; causal, as online processing does it; "
                         "default off)")
     p.add_argument("--imu-samples", choices=("instant", "interval"), default="instant",
-                   help="methods zupt and stepwise: each IMU sample is the value at its instant (default: "
+                   help="methods zupt, stepwise and filterbank: each IMU sample is the value at its instant (default: "
                         "second-order mechanization between samples) or the mean over the interval that ends at it "
                         "(ZuptConfig.interval_samples, for IMUs that average or integrate between outputs)")
     smoother = ("on", "off", "both") if evaluation else ("on", "off")
@@ -170,9 +193,10 @@ def run_dual(args: argparse.Namespace) -> int:
     if args.method not in ("zupt", "stepwise"):
         raise InputError(f"dual-foot fusion uses the step-wise navigation; --method {args.method} is not "
                          "available with --left/--right", field="--method")
+    _refuse_unsupported("stepwise", args)
     cfg = DualFootConfig(separation=SeparationConfig(gamma_xy=args.gamma_xy, gamma_z=args.gamma_z))
     imu_l, imu_r, track = navigate_feet(read_recording(args.left), read_recording(args.right),
-                                        _detector_config(args), config=cfg)
+                                        _detector_config(args), zupt=_zupt_config(args), config=cfg)
     for side, imu in (("left", imu_l), ("right", imu_r)):
         for w in imu.warnings:
             print(f"warning ({side}): {w}", file=sys.stderr)
@@ -206,6 +230,7 @@ def run_foot(args: argparse.Namespace) -> int:
         return run_dual(args)
     if not args.log:
         raise InputError("give a foot IMU LOG (or --left and --right for dual-foot fusion)", field="log")
+    _refuse_unsupported(args.method, args)
     rec = read_recording(args.log)
     imu, track = navigate(rec, args.method, _detector_config(args), zupt=_zupt_config(args),
                           smooth=args.smoother == "on", gyro_bias=args.gyro_bias == "on")
@@ -291,7 +316,7 @@ def _navigate_variant(rec: Any, variant: str, args: argparse.Namespace,
     detector = _detector_config(args)
     if plain:
         detector = replace(detector, adaptive=False, threshold=args.plain_threshold)
-    zupt = _zupt_config(args)
+    zupt, _ = _method_zupt_config(method, args)
     if variant.endswith(NO_HDE):
         zupt = replace(zupt, hde_directions=0)
     return navigate(rec, method, detector, zupt=zupt, smooth=smooth, gyro_bias=args.gyro_bias == "on",
@@ -435,6 +460,8 @@ def _print_eval(out: dict[str, Any]) -> None:
     if out.get("zv_labels", "detector") != "detector":
         print(f"pyshoe trials navigated with the files' reference zero-velocity labels zv_{out['zv_labels']}_opt "
               "(an oracle), not the detector's")
+    for method, flags in out.get("not_applied", {}).items():
+        print(f"{method} runs without {', '.join(flags)} (it has no such setting)")
     for method in out["methods"]:
         if "pyshoe_vicon" in out:
             r = out["pyshoe_vicon"][method]
@@ -474,10 +501,13 @@ def run_eval(args: argparse.Namespace) -> int:
     if not root.exists():
         raise InputError("no such folder", source=str(root))
     tracks = Path(args.tracks) if args.tracks else None
-    methods = eval_variants(EVAL_METHODS if args.method == "all" else (args.method,), args.hde, args.smoother,
-                            plain=args.method == "all")
+    evaluated = EVAL_METHODS if args.method == "all" else (args.method,)
+    methods = eval_variants(evaluated, args.hde, args.smoother, plain=args.method == "all")
     out: dict[str, Any] = {"methods": list(methods), "detector": args.detector, "smoother": args.smoother,
                            "zv_labels": args.zv_labels}
+    # --zaru / --imu-samples on a method without them: it runs without (each pdr foot run would refuse them).
+    not_applied = {m: _method_zupt_config(m, args)[1] for m in evaluated}
+    out["not_applied"] = {m: flags for m, flags in not_applied.items() if flags}
     evaluators = {"pyshoe_vicon": eval_pyshoe, "xio_gait_loop": eval_xio, "foot_stride_gcp": eval_gcp}
     for name, d in _dataset_dirs(root).items():
         out[name] = {}

@@ -198,7 +198,8 @@ class BCConfig:
         Heuristic drift elimination of the heading (:mod:`pdr.foot.drift`): its ``hde_*``, ``sigma_drift*`` and
         ``sigma_heading_rw`` settings, the same as the ZUPT INS's (``ZuptConfig(hde_directions=0)``: off). It
         measures the heading error on the condensed position's strides, a stride ending when the stance
-        component's weight falls below 0.5.
+        component's weight falls below 0.5. Its ZUPT-INS settings ``zaru`` and ``interval_samples`` have no
+        counterpart here (the IMU samples are measurements of the state, not integrated) and are refused.
     """
 
     jerk_psd: float = 1.25e5
@@ -235,6 +236,10 @@ class BCConfig:
             raise InputError(f"expected one of {BACKGROUNDS}, got {self.background!r}", field="background")
         if self.clip_model not in CLIP_MODELS:
             raise InputError(f"expected one of {CLIP_MODELS}, got {self.clip_model!r}", field="clip_model")
+        for name in ("zaru", "interval_samples"):
+            if getattr(self.hde, name):
+                raise InputError(f"belief condensation has no '{name}' setting (a ZUPT-INS setting): the IMU samples "
+                                 "are measurements of its state", field=name)
 
     @classmethod
     def table_i(cls, **changes: object) -> BCConfig:

@@ -222,7 +222,8 @@ class FilterBankConfig:
         least ``lost_sigma_v^2`` ((m/s)^2) on each axis at every further sample of that swing, so the next stance
         can win again (:mod:`pdr.foot.lost_stance`). ``max_swing_s = 0`` turns this off (the seed's model).
     zupt
-        Process noise and initialisation shared with the ZUPT-aided INS.
+        Process noise, initialisation, drift elimination and sample timing (``interval_samples``) shared with the
+        ZUPT-aided INS. The bank has no zero angular-rate update: ``zupt.zaru`` is refused.
     """
 
     variant: str = "speed"
@@ -267,6 +268,9 @@ class FilterBankConfig:
         check_lost_stance(self.max_swing_s, self.lost_sigma_v)
         if not 1 <= self.max_leaves <= 243:
             raise InputError("max_leaves must be between 1 and 243", field="max_leaves")
+        if self.zupt.zaru:
+            raise InputError("the filter bank has no zero angular-rate update (ZARU); it is a ZUPT-INS setting",
+                             field="zaru")
 
     def acc_noise_var(self, rate_hz: float) -> float:
         """Accelerometer process noise ``qa`` of the kernel (velocity variance ``qa dt^2`` per sample), (m/s^2)^2."""
@@ -419,7 +423,7 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
                  max_leaves: int, pos: Array, vel: Array, qs: Array, pvar: Array, vvar: Array, avar: Array,
                  mprob: Array, hde_par: Array, hde: Array,
                  sat_var: Array, nu: float, nc_state: bool, max_swing: float,
-                 lost_var: float) -> float:  # pragma: no cover - compiled
+                 lost_var: float, interval: bool) -> float:  # pragma: no cover - compiled
     n = t.size
     swing_s = 0.0
     hde_on = hde_par[0] > 0
@@ -460,7 +464,10 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
             q = lq[i].copy()
             p = lp[i].copy()
             v = lv[i].copy()
-            f_n = mechanize(p, v, q, f_b[k - 1], w_b[k - 1], f_k, w_k, dt, g_n)
+            if interval:                           # sample k alone: the mean over the step (ZuptConfig)
+                f_n = mechanize(p, v, q, f_k, w_k, f_k, w_k, dt, g_n)
+            else:
+                f_n = mechanize(p, v, q, f_b[k - 1], w_b[k - 1], f_k, w_k, dt, g_n)
             q /= math.sqrt(q[0] ** 2 + q[1] ** 2 + q[2] ** 2 + q[3] ** 2)
             F = np.eye(N_ERR)
             F[:9, :9] = error_transition(f_n, dt)
@@ -669,7 +676,7 @@ def run_filterbank(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_vel
                           z.hde_params(), initial_state(z.sigma_drift0),
                           clip_variance(w_b, cfg.clip_excess),
                           cfg.student_nu if cfg.student_nu is not None else 0.0, cfg.nc_state_spread,
-                          cfg.max_swing_s, cfg.lost_sigma_v**2)
+                          cfg.max_swing_s, cfg.lost_sigma_v**2, z.interval_samples)
     return FilterBankTrack(t, pos, vel, quat.normalize(qs), pvar, vvar, avar, mprob,
                            np.argmax(mprob, axis=1).astype(np.int64), float(loglik), a, cfg.variant,
                            (warning,) if warning else ())

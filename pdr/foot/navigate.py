@@ -27,6 +27,26 @@ Array = NDArray[np.float64]
 #: eq. 12 and the return-to-same-height model of eq. 13), belief condensation (seed 000).
 METHODS: tuple[str, ...] = ("zupt", "stepwise", "filterbank", "filterbank-height", "bc")
 
+#: ZUPT-INS settings (``ZuptConfig`` fields, ``pdr foot --zaru/--imu-samples``) and offline options
+#: (``smooth``, ``gyro_bias`` of :func:`navigate`) each method has; other methods refuse them.
+METHOD_OPTIONS: dict[str, frozenset[str]] = {
+    "zupt": frozenset({"zaru", "interval_samples", "smooth", "gyro_bias"}),
+    "stepwise": frozenset({"zaru", "interval_samples"}),
+    "filterbank": frozenset({"interval_samples"}),
+    "filterbank-height": frozenset({"interval_samples"}),
+    "bc": frozenset(),
+}
+
+
+def unsupported_options(method: str, zupt: ZuptConfig | None = None, smooth: bool = False,
+                        gyro_bias: bool = False) -> list[str]:
+    """The settings turned on in ``zupt`` (``zaru``, ``interval_samples``) or by ``smooth``/``gyro_bias`` that
+    ``method`` does not have (:data:`METHOD_OPTIONS`), in that order.
+    """
+    z = zupt or ZuptConfig()
+    wanted = {"zaru": z.zaru, "interval_samples": z.interval_samples, "smooth": smooth, "gyro_bias": gyro_bias}
+    return [name for name, on in wanted.items() if on and name not in METHOD_OPTIONS[method]]
+
 
 @dataclass(frozen=True)
 class FootImu:

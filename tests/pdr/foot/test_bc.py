@@ -10,7 +10,7 @@ from pdr.foot.bc import BCConfig, ContextModel, learn_context, potential_factors
 from pdr.foot.detectors import detect
 from pdr.foot.metrics import stride_errors
 from pdr.foot.navigate import foot_imu
-from pdr.foot.zupt import run_zupt
+from pdr.foot.zupt import ZuptConfig, run_zupt
 from pdr.io import read_recording
 from tests.conftest import data_path
 from tests.pdr.foot.gait import simulate_gait
@@ -73,6 +73,10 @@ def test_bad_input() -> None:
         BCConfig(background="flat")
     with pytest.raises(InputError, match="clip_model"):
         BCConfig(clip_model="x")
+    for name in ("zaru", "interval_samples"):
+        with pytest.raises(InputError, match=f"no '{name}' setting") as err:
+            BCConfig(hde=ZuptConfig(**{name: True}))
+        assert err.value.field == name
 
 
 REAL_EXCERPT = Path(__file__).resolve().parents[3] / "mobile_logs" / "real" / "foot_stride_gcp_31_0-15s.zip"

@@ -12,6 +12,7 @@ from pdr.cli import main
 from pdr.errors import InputError
 from pdr.foot.dual import DualFootConfig, fuse_feet, navigate_feet
 from pdr.foot.navigate import navigate
+from pdr.foot.zupt import ZuptConfig
 from pdr.fusion.constraints import SeparationConfig
 from pdr.recording import Recording
 from pdr.sim import parse_scenario, simulate
@@ -122,3 +123,13 @@ def test_cli_dual_foot(tmp_path, capsys) -> None:
     assert np.linalg.norm(end - truth) < 5.0
     assert main(["foot", "--left", str(tmp_path / "left"), "--out", str(out)]) == 2
     assert "both --left and --right" in capsys.readouterr().err
+    # The ZUPT-INS settings reach both feet (each foot's step-wise navigation), an offline-only one is refused.
+    feet = ["foot", "--left", str(tmp_path / "left"), "--right", str(tmp_path / "right"), "--out"]
+    assert main([*feet, str(tmp_path / "interval.csv"), "--imu-samples", "interval"]) == 0
+    with open(tmp_path / "interval.csv", encoding="utf-8") as fh:
+        interval_rows = list(csv.DictReader(fh))
+    _, _, expected = navigate_feet(left, right, zupt=ZuptConfig(interval_samples=True))
+    assert float(interval_rows[-1]["left_east_m"]) == pytest.approx(expected.left.pos_n[-1, 0], abs=1e-6)
+    assert interval_rows[-1]["left_east_m"] != rows[-1]["left_east_m"]
+    assert main([*feet, str(out), "--gyro-bias", "on"]) == 2
+    assert "--method stepwise does not have --gyro-bias on" in capsys.readouterr().err

@@ -20,7 +20,7 @@ from pdr.foot.filterbank import (
     transition_at_rate,
     transition_log_likelihood,
 )
-from pdr.foot.zupt import run_zupt
+from pdr.foot.zupt import ZuptConfig, run_zupt
 from pdr.frames import GRAVITY_MPS2
 from tests.pdr.foot.gait import Gait, simulate_gait
 
@@ -135,6 +135,32 @@ def test_bad_configuration() -> None:
         FilterBankConfig(sigma_v=(0.0, -1.0, 0.1))
     with pytest.raises(InputError, match="max_leaves"):
         FilterBankConfig(max_leaves=0)
+    with pytest.raises(InputError, match="zero angular-rate") as err:
+        FilterBankConfig(zupt=ZuptConfig(zaru=True))
+    assert err.value.field == "zaru"
+
+
+@pytest.mark.parametrize("interval", [False, True])
+def test_sample_timing_of_an_acceleration_pulse(interval: bool) -> None:
+    """The ZUPT-INS's sample timing (``ZuptConfig.interval_samples``, see its pulse test) in the bank's prediction.
+
+    A pulse of 300 m/s^2 over one interval of a level IMU that rested before: the unconstrained mode takes over
+    at once, and the bank integrates the samples as the ZUPT-INS does: as interval means the velocity is complete
+    at the pulse's sample and the position is ahead by ``a dt^2 / 2``; as instants half the velocity comes a
+    sample later.
+    """
+    rate, a, m = 100.0, 300.0, 80
+    dt = 1.0 / rate
+    t = np.arange(200) * dt
+    acc = np.tile([0.0, 0.0, GRAVITY_MPS2], (t.size, 1))
+    acc[m, 0] = a
+    cfg = FilterBankConfig(zupt=ZuptConfig(interval_samples=interval, hde_directions=0))
+    tr = run_filterbank(t, acc, np.zeros_like(acc), t < 0.5, cfg)
+    assert np.all(tr.mode[m:] == 0)
+    assert tr.vel_n[m, 0] == pytest.approx(a * dt * (1.0 if interval else 0.5), rel=1e-9)
+    assert tr.vel_n[m + 1, 0] == pytest.approx(a * dt, rel=1e-9)
+    lead = a * dt * (t[-1] - t[m])
+    assert tr.pos_n[-1, 0] == pytest.approx(lead + (0.5 * a * dt**2 if interval else 0.0), rel=1e-9)
 
 
 def test_height_variant_regains_stance_after_a_swing_velocity_error() -> None:
