@@ -39,7 +39,7 @@ Model (per step ``k`` at time ``t_k``, yaw in rad counter-clockwise from east)
 Track
     Positions are re-integrated with the causal step lengths,
     ``p_k = p_k^causal + sum_j L_j (u(psi_j) - u(psi_j^causal))`` over the steps since the last position fix (a site
-    landmark), so fixes and floors stay as they were.
+    landmark), so fixes and floors stay as they were (:func:`pdr.track.redo_steps`).
 
 Measured (``pdr eval ipin DIR --placement hand``, which scores the causal and the smoothed tracks). Parameters
 chosen on the repetition-01 files, where the landmark p75 stays within 3.78-3.89 m over sigma_mag 15-45 deg, either
@@ -65,7 +65,8 @@ from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.filters.rts import rts_smooth
-from pdr.frames import heading_deg_to_yaw, wrap_angle, yaw_to_heading_deg
+from pdr.frames import heading_deg_to_yaw, wrap_angle
+from pdr.track import redo_steps
 
 FloatArray = NDArray[np.float64]
 
@@ -221,20 +222,8 @@ def smooth_track(steps: list[dict[str, Any]], config: HeadingSmootherConfig | No
             bias_sigma = c.stationary_bias_sigma_deg
     d, d_sigma, beta = smooth_offsets(t, gyro, raw, sigma, c, bias_sigma)
     yaw = np.asarray(wrap_angle(gyro + d), dtype=np.float64)
-    causal = np.asarray(heading_deg_to_yaw(np.array([s["heading_deg"] for s in out])), dtype=np.float64)
-    length = np.array([s["step_length_m"] for s in out], dtype=np.float64)
-    shift = length[:, None] * np.column_stack([np.cos(yaw) - np.cos(causal), np.sin(yaw) - np.sin(causal)])
-    fixed = np.array([bool(s.get("position_fix")) for s in out])
-    # Cumulative sum of the shifts, restarted at every position fix (that step's own shift included).
-    cum = np.cumsum(shift, axis=0)
-    base = np.zeros_like(cum)
-    for i in np.flatnonzero(fixed).tolist():
-        base[i:] = cum[i - 1] if i else 0.0
-    moved = cum - base
+    out = redo_steps(out, yaw)
     for k, s in enumerate(out):
-        s["east_m"] = float(s["east_m"] + moved[k, 0])
-        s["north_m"] = float(s["north_m"] + moved[k, 1])
-        s["heading_deg"] = float(yaw_to_heading_deg(yaw[k]))
         s["heading_sigma_deg"] = math.degrees(float(d_sigma[k]))
         s["smoothed"] = True
     return out, (f"heading smoothed over {len(out)} steps: residual gyro bias about the vertical "

@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
+from pdr.frames import heading_deg_to_yaw, yaw_to_heading_deg
 
 FloatArray = NDArray[np.float64]
 
@@ -70,3 +71,35 @@ def dead_reckon(length_m: FloatArray, yaw_rad: FloatArray, start_en_m: tuple[flo
                          source="track")
     d = np.stack([s * np.cos(y), s * np.sin(y)], axis=1)
     return np.asarray(start_en_m, dtype=np.float64) + np.cumsum(d, axis=0)
+
+
+def redo_steps(steps: list[dict[str, Any]], yaw_rad: FloatArray, length_m: FloatArray | None = None
+               ) -> list[dict[str, Any]]:
+    """Copies of a finished track's step rows walked again (eq. 22) with other yaws and step lengths.
+
+    ``steps`` carry ``east_m``, ``north_m``, ``heading_deg`` (clockwise from north), ``step_length_m`` and
+    optionally ``position_fix``; ``yaw_rad`` (K,) is counter-clockwise from east, ``length_m`` (K,) in m (default:
+    the rows' own). Each position moves by the sum, since the last position fix, of how much each step's
+    displacement changed: a fix (a site landmark, :mod:`pdr.pipeline`) is set before its step's displacement, so
+    the fix's row moves by its own step's change only, and floors are kept. The copies get the new
+    ``heading_deg`` and ``step_length_m``.
+    """
+    yaw = np.asarray(yaw_rad, dtype=np.float64)
+    old_len = np.array([s["step_length_m"] for s in steps], dtype=np.float64)
+    new_len = old_len if length_m is None else np.asarray(length_m, dtype=np.float64)
+    if yaw.shape != (len(steps),) or new_len.shape != yaw.shape:
+        raise InputError(f"need one yaw and one length per step ({len(steps)}), got {yaw.shape} and "
+                         f"{new_len.shape}", source="track")
+    old = np.asarray(heading_deg_to_yaw(np.array([s["heading_deg"] for s in steps], dtype=np.float64)))
+    shift = (new_len[:, None] * np.column_stack([np.cos(yaw), np.sin(yaw)])
+             - old_len[:, None] * np.column_stack([np.cos(old), np.sin(old)]))
+    cum = np.cumsum(shift, axis=0)
+    base = np.zeros_like(cum)
+    for i in np.flatnonzero([bool(s.get("position_fix")) for s in steps]).tolist():
+        base[i:] = cum[i - 1] if i else 0.0     # restarted at a fix, that step's own shift included
+    moved = cum - base
+    out = []
+    for k, s in enumerate(steps):
+        out.append({**s, "east_m": float(s["east_m"] + moved[k, 0]), "north_m": float(s["north_m"] + moved[k, 1]),
+                    "heading_deg": float(yaw_to_heading_deg(yaw[k])), "step_length_m": float(new_len[k])})
+    return out

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from pdr.error_budget import BUDGET_TRACKS, budget_tracks
 from pdr.errors import InputError
 from pdr.heading_smoother import smooth_track
 from pdr.io import read_recording
@@ -166,6 +167,10 @@ def register_eval(targets: argparse._SubParsersAction) -> None:
             p.add_argument("--smoother", default="both", choices=("both", "off"),
                            help="both: also score the offline-smoothed tracks (pdr track's default; "
                                 "pdr.heading_smoother) next to the causal ones")
+            p.add_argument("--budget", action="store_true",
+                           help="also score the track (smoothed when --smoother both) re-walked with the true "
+                                "heading of each straight leg, with its length scaled to the truth, and both "
+                                "(pdr.error_budget): how much of the error heading and step-length scale explain")
             p.add_argument("--trim-start", type=float, default=0.0, metavar="S",
                            help="drop each log's first S seconds (refused if that reaches its first landmark): "
                                 "shows how much the figures depend on the start conditions")
@@ -294,12 +299,19 @@ def eval_ipin(args: argparse.Namespace) -> int:
              "truth_m_per_step": walk.length_m / walk.patterns.shape[0] if walk is not None else math.nan}
         if smoothed is not None:
             p["smoothed"] = _ipin_scores(smoothed, t_truth, pt)
+        if args.budget:
+            p["budget"] = {name: _ipin_scores(track, t_truth, pt) for name, track in
+                           budget_tracks(smoothed or rows, t_truth, pt.pos_m, pt.floor).items()}
         per.append(p)
         done.append({"path": f, "per": p, "cfg": cfg, "route": trial_key(f), "phone": rec.device.model,
                      "walk": walk})
     summary = _ipin_summary([d["per"] for d in done])
     if args.smoother == "both":
         summary["smoothed"] = _ipin_summary([d["per"]["smoothed"] for d in done])
+    if args.budget:
+        summary["budget"] = {"of": "smoothed" if args.smoother == "both" else "causal",
+                             **{name: _ipin_summary([d["per"]["budget"][name] for d in done])
+                                for name in BUDGET_TRACKS}}
     calibrated: list[dict[str, Any]] = []
     calibrated_smoothed: list[dict[str, Any]] = []
     if args.calibrate != "none":
@@ -359,6 +371,10 @@ def eval_ipin(args: argparse.Namespace) -> int:
                 if m["without_calibration_walk"] else "")
             if "smoothed" in m:
                 yield _ipin_summary_line(f"CALIBRATED --calibrate {m['mode']} and SMOOTHED", m["smoothed"])
+        if "budget" in summary:
+            b = summary["budget"]
+            for name in BUDGET_TRACKS:
+                yield _ipin_summary_line(f"BUDGET {b['of']} track with {name.replace('_', ' ')}", b[name])
     out = [_public(p) for p in per]
     _emit(summary, out, args.json, lines())
     return 0

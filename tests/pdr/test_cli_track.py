@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from pdr.cli import main
+from pdr.error_budget import BUDGET_TRACKS
 from pdr.scoring import landmark_errors
 from tests.conftest import SHARED_DATA, data_path
 
@@ -117,8 +118,15 @@ def test_ipin_eval_trim_start_drops_samples_before_the_first_landmark(tmp_path, 
     src = logdir / "IPIN2023_T3_TrainingTrial23_repetition01.txt"
     (one / src.name).symlink_to(src)
     tracks = tmp_path / "tracks"
-    assert main(["eval", "ipin", str(one), "--placement", "hand", "--json"]) == 0
-    full = json.loads(capsys.readouterr().out)["files"][0]
+    assert main(["eval", "ipin", str(one), "--placement", "hand", "--json", "--budget"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    full = result["files"][0]
+    # --budget: the smoothed track re-walked with the truth put in scores better on what the truth fixed.
+    budget, overall = full["budget"], result["overall"]["budget"]
+    assert overall["of"] == "smoothed" and set(budget) == set(BUDGET_TRACKS)
+    assert budget["truth_scale"]["distance_ratio_same_floor"] == pytest.approx(1.0, abs=1e-9)
+    assert budget["truth_heading_and_scale"]["p75_abs_m"] < full["smoothed"]["p75_abs_m"]
+    assert overall["truth_heading"]["files"] == 1
     assert main(["eval", "ipin", str(one), "--placement", "hand", "--json", "--trim-start", "3",
                  "--tracks", str(tracks)]) == 0
     trimmed = json.loads(capsys.readouterr().out)["files"][0]
