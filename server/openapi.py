@@ -53,6 +53,12 @@ def _op(summary: str, responses: dict[str, Any], **extra: Any) -> dict[str, Any]
     return {"summary": summary, "responses": responses, **extra}
 
 
+DEVICE = {"name": "device", "in": "query", "schema": {"type": "string"}, "description": "only this device role"}
+HEADING = {"name": "heading", "in": "query", "schema": {"enum": ["causal", "smoothed"]},
+           "description": "smoothed: hand-held/torso phone headings smoothed offline over the session so far "
+                          "(pdr track's default); causal (default): the track as streamed"}
+
+
 def _results_path(what: str) -> dict[str, Any]:
     return {"get": _op(f"{what} of a session", {"200": _ok(what)} | _errors(400, 401, 404),
                        parameters=[SESSION_ID, SINCE])}
@@ -123,10 +129,7 @@ def openapi_document() -> dict[str, Any]:
                     "application/geo+json": {"schema": {"type": "object"}}}}} | _errors(400, 401, 404),
                     parameters=[SESSION_ID, SINCE,
                                 {"name": "format", "in": "query", "schema": {"enum": ["json", "csv", "geojson"]}},
-                                {"name": "device", "in": "query", "schema": {"type": "string"}},
-                                {"name": "heading", "in": "query", "schema": {"enum": ["causal", "smoothed"]},
-                                 "description": "smoothed: hand-held/torso phone headings smoothed offline over "
-                                                "the session so far (pdr track's default)"}])},
+                                DEVICE, HEADING])},
             "/api/v1/sessions/{session_id}/steps": _results_path("steps") | {
                 "post": _op("ingest a shoe unit's step-wise dead-reckoning summaries (idempotent by batch_id)",
                             {"201": _ok("stored"), "200": _ok("duplicate ignored")} | common | _errors(400, 409),
@@ -135,7 +138,9 @@ def openapi_document() -> dict[str, Any]:
             "/api/v1/sessions/{session_id}/modes": _results_path("motion modes"),
             "/api/v1/sessions/{session_id}/landmarks": _results_path("landmarks"),
             "/api/v1/sessions/{session_id}/floors": _results_path("floors"),
-            "/api/v1/sessions/{session_id}/track/columns": _results_path("track as one array per column"),
+            "/api/v1/sessions/{session_id}/track/columns": {"get": _op(
+                "track as one array per column", {"200": _ok("track columns")} | _errors(400, 401, 404),
+                parameters=[SESSION_ID, SINCE, DEVICE, HEADING])},
             "/api/v1/sessions/{session_id}/truth": {
                 "get": _op("ground truth positions of uploaded logs", {"200": _ok("truth")} | _errors(401, 404),
                            parameters=[SESSION_ID])},

@@ -42,6 +42,23 @@ def parse_since() -> float | None:
     return value
 
 
+def parse_heading() -> str:
+    """The ``?heading=`` query parameter, ``causal`` (default) or ``smoothed`` (module doc)."""
+    heading = request.args.get("heading", "causal")
+    if heading not in ("causal", "smoothed"):
+        raise APIError(400, f"unknown heading '{heading[:20]}'; use causal or smoothed")
+    return heading
+
+
+def smoothed_points(session_id: str, rows: list[dict[str, Any]], since: float | None
+                    ) -> tuple[list[dict[str, Any]], list[str]]:
+    """The whole stored track ``rows`` (dicts with the track columns and ``device``) smoothed, the rows after
+    ``since`` of it, and the smoother's notes.
+    """
+    out, notes = _smoothed(rows, services().store.events(session_id, "step"))
+    return ([r for r in out if r["t_s"] > since] if since is not None else out), notes
+
+
 def _clean(v: Any) -> Any:
     return None if isinstance(v, float) and not math.isfinite(v) else v
 
@@ -57,9 +74,7 @@ def track(session_id: str) -> Response:
     fmt = request.args.get("format", "json")
     if fmt not in ("json", "csv", "geojson"):
         raise APIError(400, f"unknown format '{fmt[:20]}'; use json, csv or geojson")
-    heading = request.args.get("heading", "causal")
-    if heading not in ("causal", "smoothed"):
-        raise APIError(400, f"unknown heading '{heading[:20]}'; use causal or smoothed")
+    heading = parse_heading()
     since = parse_since()
     device = request.args.get("device")
     points = svc.store.track(session_id, device, None if heading == "smoothed" else since)
@@ -67,9 +82,7 @@ def track(session_id: str) -> Response:
             for p in points]
     notes: list[str] = []
     if heading == "smoothed":
-        rows, notes = _smoothed(rows, svc.store.events(session_id, "step"))
-        if since is not None:
-            rows = [r for r in rows if r["t_s"] > since]
+        rows, notes = smoothed_points(session_id, rows, since)
     if fmt == "csv":
         buf = io.StringIO()
         writer = csv.writer(buf, lineterminator="\n")

@@ -1,6 +1,7 @@
 """The track as columns: ``GET /api/v1/sessions/{id}/track/columns`` (compact and fast, for the web page).
 
-The same rows as ``/track`` (``?device=ROLE``, ``?since=T_S``), laid out as one array per column instead of
+The same rows as ``/track`` (``?device=ROLE``, ``?since=T_S``, ``?heading=causal|smoothed``), laid out as one
+array per column instead of
 one object per row: for a 2-hour walk (10 000+ steps) that halves the body and the server's time, which is
 most of the page's first render.
 """
@@ -14,7 +15,7 @@ from typing import Any
 from flask import Blueprint, Response, request
 
 from server.api import current_user, services
-from server.api.results import parse_since
+from server.api.results import parse_heading, parse_since, smoothed_points
 
 bp = Blueprint("track_columns", __name__, url_prefix="/api/v1/sessions")
 
@@ -38,18 +39,28 @@ def track_columns(session_id: str) -> Response:
     user = current_user()
     svc = services()
     svc.store.session_row(session_id, user.id)
+    heading = parse_heading()
     since = parse_since()
-    rows = svc.store.track(session_id, request.args.get("device"), since)
-    if rows:
+    rows = svc.store.track(session_id, request.args.get("device"), None if heading == "smoothed" else since)
+    notes: list[str] = []
+    if heading == "smoothed":
+        points, notes = smoothed_points(session_id, [r._asdict() | {"device": r.device_role} for r in rows], since)
+        columns = {name: [p[name] for p in points] for name in COLUMNS}
+        count = len(points)
+    elif rows:
         fields = list(rows[0]._fields)
         transposed = list(zip(*rows, strict=True))
         columns = {name: list(transposed[fields.index(name)]) for name in COLUMNS}
-        columns["provisional"] = [bool(v) for v in columns["provisional"]]
+        count = len(rows)
     else:
         columns = {name: [] for name in COLUMNS}
+        count = 0
+    columns["provisional"] = [bool(v) for v in columns["provisional"]]
     columns["device"] = columns.pop("device_role")
-    body: dict[str, Any] = {"session": session_id, "count": len(rows), "columns": columns,
-                            "next_since": max(columns["t_s"]) if rows else since}
+    body: dict[str, Any] = {"session": session_id, "count": count, "columns": columns,
+                            "next_since": max(columns["t_s"]) if count else since, "heading": heading}
+    if notes:
+        body["heading_notes"] = notes
     try:
         text = json.dumps(body, allow_nan=False)
     except ValueError:  # a non-finite value stored: null, as in /track

@@ -88,3 +88,11 @@ def test_smoothed_track_equals_pdr_tracks_default(real_app):
     assert later["points"] == smoothed["points"][51:]
     bad = c.get(url + "?heading=magic", headers=bearer(token))
     assert bad.status_code == 400 and "heading" in bad.get_json()["error"]["message"]
+    # The columnar form (the web page's) gives the same smoothed rows, with since.
+    columns = c.get(url + f"/columns?heading=smoothed&since={t_mid}", headers=bearer(token)).get_json()
+    assert columns["heading"] == "smoothed" and columns["count"] == len(later["points"])
+    for key in ("t_s", "east_m", "north_m", "heading_deg"):
+        assert columns["columns"][key] == [p[key] for p in later["points"]]
+    assert columns["columns"]["device"] == [p["device"] for p in later["points"]]
+    assert c.get(url + "/columns", headers=bearer(token)).get_json()["heading"] == "causal"
+    assert c.get(url + "/columns?heading=magic", headers=bearer(token)).status_code == 400
