@@ -60,17 +60,19 @@ def _refuse_unsupported(method: str, args: argparse.Namespace) -> None:
     bad = unsupported_options(method, _zupt_config(args), gyro_bias=args.gyro_bias == "on")
     if bad:
         flags = ", ".join(OPTION_FLAGS[b] for b in bad)
-        raise InputError(f"--method {method} does not have {flags}; leave {'them' if len(bad) > 1 else 'it'} out "
-                         "or use a method that has it (pdr foot --help)", field=OPTION_FLAGS[bad[0]].split()[0])
+        them = "them" if len(bad) > 1 else "it"
+        raise InputError(f"--method {method} does not have {flags}; leave {them} out or choose a method that has "
+                         f"{them} (pdr foot --help)", field=OPTION_FLAGS[bad[0]].split()[0])
 
 
 def _method_zupt_config(method: str, args: argparse.Namespace) -> tuple[ZuptConfig, list[str]]:
     """For the evaluation of several methods: ``--zaru``/``--imu-samples`` where ``method`` has them, and the
-    flags it runs without.
+    flags it runs without (``--gyro-bias on`` too, which :func:`~pdr.foot.navigate.navigate` applies to zupt only).
     """
     zupt = _zupt_config(args)
-    bad = [b for b in unsupported_options(method, zupt) if b in ("zaru", "interval_samples")]
-    return replace(zupt, **{b: False for b in bad}), [OPTION_FLAGS[b] for b in bad]
+    bad = unsupported_options(method, zupt, gyro_bias=args.gyro_bias == "on")
+    settings = {b: False for b in bad if b in ("zaru", "interval_samples")}
+    return replace(zupt, **settings), [OPTION_FLAGS[b] for b in bad]
 
 
 def _add_options(p: argparse.ArgumentParser, evaluation: bool = False) -> None:
@@ -505,7 +507,7 @@ def run_eval(args: argparse.Namespace) -> int:
     methods = eval_variants(evaluated, args.hde, args.smoother, plain=args.method == "all")
     out: dict[str, Any] = {"methods": list(methods), "detector": args.detector, "smoother": args.smoother,
                            "zv_labels": args.zv_labels}
-    # --zaru / --imu-samples on a method without them: it runs without (each pdr foot run would refuse them).
+    # --zaru / --imu-samples / --gyro-bias on a method without them: it runs without (pdr foot refuses them).
     not_applied = {m: _method_zupt_config(m, args)[1] for m in evaluated}
     out["not_applied"] = {m: flags for m, flags in not_applied.items() if flags}
     evaluators = {"pyshoe_vicon": eval_pyshoe, "xio_gait_loop": eval_xio, "foot_stride_gcp": eval_gcp}

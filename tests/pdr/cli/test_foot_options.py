@@ -66,3 +66,6 @@ def test_evaluation_runs_each_method_with_the_settings_it_has(monkeypatch: pytes
     assert calls["bc"] == ZuptConfig()
     assert foot._method_zupt_config("bc", args)[1] == ["--zaru on", "--imu-samples interval"]
     assert foot._method_zupt_config("zupt", args)[1] == []
+    with_bias = argparse.Namespace(**{**vars(args), "gyro_bias": "on"})
+    assert foot._method_zupt_config("filterbank", with_bias) == (ZuptConfig(interval_samples=True),
+                                                                  ["--zaru on", "--gyro-bias on"])
