@@ -639,7 +639,7 @@ class PdrPipeline:
                "pats": pats.tolist(), "yaw": est.yaw, "var": est.var, "psi0": psi0, "axis": axis,
                "mode": mode, "up": float(h.up[sl][-1]), "floor": float(h.floor[sl][-1]), "m1": m1.tolist(),
                "q1": st.q.tolist(), "peak": peak, "gyro_yaw": _mean_finite(h.gyro_yaw[sl]),
-               "up_time": _mean_finite_rows(h.up_time[sl]),
+               "up_time": _mean_finite(h.up_time[sl]),
                "gyro_bias": st.bias.tolist() if self.attitude.bias_known else None}
         events: list[Event] = []
         if self.pending is not None:
@@ -744,13 +744,10 @@ class PdrPipeline:
         return t_s
 
 
-def _mean_finite(x: FloatArray) -> float | None:
-    """Mean of ``x``, or None where any value is missing (no gyro)."""
-    return float(np.mean(x)) if x.size and np.all(np.isfinite(x)) else None
-
-
-def _mean_finite_rows(x: FloatArray) -> list[float] | None:
-    """Column means of ``x`` (N, k), or None where any value is missing (no gyro)."""
+def _mean_finite(x: FloatArray) -> Any:
+    """Mean over the first axis of ``x`` ((N,): a float; (N, k): a list of k floats), or None where any value
+    is missing (no gyro).
+    """
     return np.mean(x, axis=0).tolist() if x.size and np.all(np.isfinite(x)) else None
 
 

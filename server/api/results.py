@@ -50,13 +50,20 @@ def parse_heading() -> str:
     return heading
 
 
-def smoothed_points(session_id: str, rows: list[dict[str, Any]], since: float | None
-                    ) -> tuple[list[dict[str, Any]], list[str]]:
-    """The whole stored track ``rows`` (dicts with the track columns and ``device``) smoothed, the rows after
-    ``since`` of it, and the smoother's notes.
+def track_points(session_id: str, device: str | None, since: float | None, heading: str
+                 ) -> tuple[list[dict[str, Any]], list[str]]:
+    """The stored track rows after ``since`` as dicts (the track columns, ``device``, ``provisional``; non-finite
+    values as None) and the smoother's notes. ``heading="smoothed"`` smooths the whole stored track before
+    taking the rows after ``since`` (module doc).
     """
-    out, notes = _smoothed(rows, services().store.events(session_id, "step"))
-    return ([r for r in out if r["t_s"] > since] if since is not None else out), notes
+    store = services().store
+    points = store.track(session_id, device, None if heading == "smoothed" else since)
+    rows = [{c: _clean(getattr(p, c)) for c in TRACK_COLUMNS} | {"device": p.device_role, "provisional": p.provisional}
+            for p in points]
+    if heading != "smoothed":
+        return rows, []
+    rows, notes = _smoothed(rows, store.events(session_id, "step"))
+    return ([r for r in rows if r["t_s"] > since] if since is not None else rows), notes
 
 
 def _clean(v: Any) -> Any:
@@ -76,13 +83,7 @@ def track(session_id: str) -> Response:
         raise APIError(400, f"unknown format '{fmt[:20]}'; use json, csv or geojson")
     heading = parse_heading()
     since = parse_since()
-    device = request.args.get("device")
-    points = svc.store.track(session_id, device, None if heading == "smoothed" else since)
-    rows = [{c: _clean(getattr(p, c)) for c in TRACK_COLUMNS} | {"device": p.device_role, "provisional": p.provisional}
-            for p in points]
-    notes: list[str] = []
-    if heading == "smoothed":
-        rows, notes = smoothed_points(session_id, rows, since)
+    rows, notes = track_points(session_id, request.args.get("device"), since, heading)
     if fmt == "csv":
         buf = io.StringIO()
         writer = csv.writer(buf, lineterminator="\n")

@@ -15,7 +15,7 @@ from typing import Any
 from flask import Blueprint, Response, request
 
 from server.api import current_user, services
-from server.api.results import parse_heading, parse_since, smoothed_points
+from server.api.results import parse_heading, parse_since, track_points
 
 bp = Blueprint("track_columns", __name__, url_prefix="/api/v1/sessions")
 
@@ -41,13 +41,12 @@ def track_columns(session_id: str) -> Response:
     svc.store.session_row(session_id, user.id)
     heading = parse_heading()
     since = parse_since()
-    rows = svc.store.track(session_id, request.args.get("device"), None if heading == "smoothed" else since)
     notes: list[str] = []
     if heading == "smoothed":
-        points, notes = smoothed_points(session_id, [r._asdict() | {"device": r.device_role} for r in rows], since)
-        columns = {name: [p[name] for p in points] for name in COLUMNS}
+        points, notes = track_points(session_id, request.args.get("device"), since, heading)
+        columns = {name: [p["device" if name == "device_role" else name] for p in points] for name in COLUMNS}
         count = len(points)
-    elif rows:
+    elif rows := svc.store.track(session_id, request.args.get("device"), since):
         fields = list(rows[0]._fields)
         transposed = list(zip(*rows, strict=True))
         columns = {name: list(transposed[fields.index(name)]) for name in COLUMNS}
