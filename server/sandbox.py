@@ -8,8 +8,10 @@ the service down. Here the reader runs in a child Python process with an address
 limit; a crash, a limit or a timeout becomes an :class:`~pdr.errors.InputError` (422 for an upload, a
 ``failed`` batch in processing) and the service keeps running.
 
-The child is started per file (about a second of interpreter start-up): uploads of whole files are
-rare and large, batches (the frequent path) are parsed in-process from JSON.
+The child is started per file: uploads of whole files are rare and large, batches (the frequent path) are
+parsed in-process from JSON. The child loads only the readers (``server/__init__`` imports the application
+lazily): reading a 0.9 MB PyShoe ``.mat`` takes 1.1 s end to end, 2.5-3.2 s when the child loaded the whole
+service.
 """
 
 from __future__ import annotations

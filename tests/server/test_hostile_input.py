@@ -8,11 +8,9 @@ fuzzing of the native batch and Sensor Logger endpoints, and schemathesis agains
 from __future__ import annotations
 
 import copy
-import gc
 import io
 import json
 import math
-import warnings
 from typing import Any
 
 import pytest
@@ -22,7 +20,7 @@ from sqlalchemy import inspect as sa_inspect
 
 from server import auth
 from tests.server.conftest import bearer, make_app
-from tests.server.helpers import phone_batch
+from tests.server.helpers import multipart, phone_batch
 
 
 @pytest.fixture
@@ -347,11 +345,8 @@ def test_gzip_bomb_upload_is_a_422_within_the_memory_limit(tmp_path, monkeypatch
     comp = zlib.compressobj(9, zlib.DEFLATED, 31)  # gzip container
     chunk = bytes(2**20)
     bomb = b"".join(comp.compress(chunk) for _ in range(2048)) + comp.flush()  # 2 GB of zeros in ~2 MB
-    with warnings.catch_warnings():  # werkzeug spools a 2 MB upload to a temporary file that only GC closes
-        warnings.simplefilter("ignore", ResourceWarning)
-        r = c.post("/api/v1/sessions", data={"file": (io.BytesIO(bomb), "walk.txt.gz"), "format": "ms_indoor"},
-                   headers=h, content_type="multipart/form-data")
-        gc.collect()
+    body, content_type = multipart({"file": (bomb, "walk.txt.gz"), "format": "ms_indoor"})
+    r = c.post("/api/v1/sessions", data=body, headers=h, content_type=content_type)
     app.extensions["pdr"].worker.stop()
     assert r.status_code == 422, r.get_data()[:300]
     message = r.get_json()["error"]["message"]

@@ -6,7 +6,7 @@ tokens, SQL and path injection strings, dropped, duplicated and swapped lines, t
 a destroyed header, an empty member. The file is then read with the reader forced and with format
 detection. Anything but a :class:`Recording` or an :class:`InputError` (with a message) is a bug.
 MATLAB files go through the service's sandbox (see ``ISOLATED``). ``PDR_FUZZ_EXAMPLES`` raises the number
-of examples per seed (default 12); ``PDR_FUZZ_SLOW_EXAMPLES`` those of the slow run (default 600).
+of examples per seed (default 12); ``PDR_FUZZ_SLOW_EXAMPLES`` those of the slow run (default 300).
 """
 
 from __future__ import annotations
@@ -33,12 +33,12 @@ from pdr.recording import Recording
 from tests.conftest import REPO_ROOT, data_path
 
 EXAMPLES = int(os.environ.get("PDR_FUZZ_EXAMPLES", "12"))
-SLOW_EXAMPLES = int(os.environ.get("PDR_FUZZ_SLOW_EXAMPLES", "600"))
+SLOW_EXAMPLES = int(os.environ.get("PDR_FUZZ_SLOW_EXAMPLES", "300"))
 #: Formats read with ``scipy.io.loadmat``, which can crash the interpreter on corrupt files (a native
 #: segmentation fault, not an exception): fuzzed through the service's sandbox (server/sandbox.py), which
 #: must turn every crash into an InputError, with fewer examples (a child process per example).
 ISOLATED = {"pyshoe"}
-ISOLATED_EXAMPLES = 15
+ISOLATED_EXAMPLES = 8
 NASTY = ["NaN", "nan", "inf", "-Infinity", "1e309", "-1e309", "", " ", "abc", "0x1F", "9" * 60, "-0", "1e-320",
          "null", "true", "[]", "{}", '"', "'; DROP TABLE batches;--", "../../../../etc/passwd", "\x00", "\u00e9",
          "\ufeff", "-9223372036854775809", "1.5.3", "1,5"]
