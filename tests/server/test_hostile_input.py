@@ -374,3 +374,15 @@ def test_uploaded_log_whose_placement_contradicts_its_role_is_a_422_and_creates_
                headers=h, content_type="multipart/form-data")
     assert r.status_code == 422 and words in r.get_json()["error"]["message"], r.get_data()[:300]
     assert c.get("/api/v1/sessions", headers=h).get_json() == before
+
+
+def test_the_reader_sandbox_child_loads_the_readers_but_not_the_service():
+    """The child of server.sandbox starts per uploaded file: it must not import Flask, the database layer or
+    the pipelines (that tripled the time to read a small upload)."""
+    import subprocess
+    import sys
+
+    probe = ("import sys, server.sandbox, pdr.io; "
+             "print(sorted(m for m in ('flask', 'sqlalchemy', 'server.app', 'pdr.pipeline') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
