@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 from typing import Any
 
 import numpy as np
@@ -37,11 +38,13 @@ def evaluate(args: argparse.Namespace) -> dict[str, Any]:
     counts = _int_list(args.agents)
     if args.runs < 2 or args.duration <= 0 or args.static_duration <= 0:
         raise InputError("needs --runs >= 2 and positive durations", field="--runs")
-    march = march_experiment(counts, args.duration, args.runs, args.seed)
-    kalman = march_experiment((2,), args.duration, args.runs, args.seed, fusion=kalman_config())
+    if args.workers < 1:
+        raise InputError(f"--workers must be >= 1, got {args.workers}", field="--workers")
+    march = march_experiment(counts, args.duration, args.runs, args.seed, workers=args.workers)
+    kalman = march_experiment((2,), args.duration, args.runs, args.seed, fusion=kalman_config(), workers=args.workers)
     robust_rel = float(march.rel_rmse_m[list(march.agent_counts).index(2), -1]) if 2 in counts else None
     marks = [d for d in (10.0, 50.0, 100.0, 200.0, 500.0) if d <= march.distance_m[-1]] + [float(march.distance_m[-1])]
-    static = static_experiment(args.static_duration, args.runs, args.seed)
+    static = static_experiment(args.static_duration, args.runs, args.seed, workers=args.workers)
     third = static.t_s.size // 3
     infl = influence_function(np.array([-5.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0, 5.0, 10.0, 50.0]))
     out: dict[str, Any] = {
@@ -135,6 +138,8 @@ def register_eval(targets: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=float, default=200.0, help="march duration, s (1 m steps at 1 Hz)")
     p.add_argument("--static-duration", type=float, default=300.0, help="static scenario duration, s")
     p.add_argument("--seed", type=int, default=0, help="random seed")
+    p.add_argument("--workers", type=int, default=os.cpu_count() or 1,
+                   help="processes for the Monte Carlo runs (default: one per CPU; the figures do not depend on it)")
     p.add_argument("--cost-agents", default="2,8,32", help="group sizes timed for the cost figures")
     p.add_argument("--cost-duration", type=float, default=30.0, help="simulated seconds timed per group size")
     p.add_argument("--no-cost", action="store_true", help="skip the timing")

@@ -13,8 +13,12 @@
 from __future__ import annotations
 
 import math
+import multiprocessing
 import time
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -88,10 +92,48 @@ def _group_errors(result_error: dict[FootKey, Array], agents: tuple[str, ...], n
     return np.stack([np.stack([result_error[FootKey(a, f)][:n_rows] for f in FEET]) for a in agents])
 
 
+def _map_runs(fn: Callable[..., Any], args: list[tuple[Any, ...]], workers: int) -> list[Any]:
+    """``[fn(*a) for a in args]``, in order, over ``workers`` forked processes (1: in this process).
+
+    Every Monte Carlo run draws from its own seeded generator, so the results do not depend on ``workers``.
+    """
+    if workers < 1:
+        raise InputError(f"workers must be >= 1, got {workers}", field="workers")
+    if workers == 1 or len(args) < 2:
+        return [fn(*a) for a in args]
+    with ProcessPoolExecutor(min(workers, len(args)), mp_context=multiprocessing.get_context("fork")) as pool:
+        return list(pool.map(fn, *zip(*args, strict=True)))
+
+
+def _march_run(n: int, run: int, seed: int, duration_s: float, sim: SimulationConfig, fusion: FusionConfig | None,
+               n_rows: int) -> tuple[Array, Array, Array | None, Array | None]:
+    """One march run of ``n`` agents: squared absolute and relative errors per row, and for ``n == 2`` the left
+    feet's errors (2, L+1, 3) and the filter's correlation coefficients of their positions (L+1, 3).
+    """
+    rng = np.random.default_rng([seed, n, run])
+    scenario = march_scenario(n, duration_s, sim, rng)
+    snaps = (np.arange(n_rows, dtype=np.float64) + 0.25) / sim.step_rate_hz if n == 2 else None
+    res = run_scenario(scenario, fusion, ranging=n > 1, snapshot_times=snaps)
+    e = _group_errors(res.error, scenario.agents, n_rows)      # (N, 2, L+1, 3)
+    sq_abs = np.mean(np.sum(e**2, axis=-1), axis=(0, 1))
+    rel = e - np.mean(e, axis=(0, 1), keepdims=True)
+    sq_rel = np.mean(np.sum(rel**2, axis=-1), axis=(0, 1))
+    if n != 2:
+        return sq_abs, sq_rel, None, None
+    ia = res.centre.state.position_indices(FootKey("a0", "left"))
+    ib = res.centre.state.position_indices(FootKey("a1", "left"))
+    c = res.snapshots_cov
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = c[:, ia, ib] / np.sqrt(c[:, ia, ia] * c[:, ib, ib])
+    return sq_abs, sq_rel, e[:, 0], corr
+
+
 def march_experiment(agent_counts: tuple[int, ...] = (1, 2, 4, 8), duration_s: float = 200.0, runs: int = 20,
                      seed: int = 0, sim: SimulationConfig | None = None,
-                     fusion: FusionConfig | None = None) -> MarchResult:
-    """Monte Carlo runs of the straight-line march (Sec. 5.1.1) for each number of agents."""
+                     fusion: FusionConfig | None = None, workers: int = 1) -> MarchResult:
+    """Monte Carlo runs of the straight-line march (Sec. 5.1.1) for each number of agents, over ``workers``
+    processes.
+    """
     sim = sim or SimulationConfig()
     if runs < 2 or not agent_counts:
         raise InputError("the march needs >= 2 runs and at least one group size", field="runs")
@@ -99,30 +141,20 @@ def march_experiment(agent_counts: tuple[int, ...] = (1, 2, 4, 8), duration_s: f
     abs_rmse, rel_rmse = [], []
     corr_mc = np.full((n_rows, 3), np.nan)
     corr_filter = np.full((n_rows, 3), np.nan)
+    jobs = [(n, run, seed, duration_s, sim, fusion, n_rows) for n in agent_counts for run in range(runs)]
+    results = iter(_map_runs(_march_run, jobs, workers))
     for n in agent_counts:
         sq_abs = np.zeros(n_rows)
         sq_rel = np.zeros(n_rows)
         pair_errors = []
         filter_corr = []
-        for run in range(runs):
-            rng = np.random.default_rng([seed, n, run])
-            scenario = march_scenario(n, duration_s, sim, rng)
-            snaps = (np.arange(n_rows, dtype=np.float64) + 0.25) / sim.step_rate_hz if n == 2 else None
-            res = run_scenario(scenario, fusion, ranging=n > 1, snapshot_times=snaps)
-            e = _group_errors(res.error, scenario.agents, n_rows)      # (N, 2, L+1, 3)
-            sq_abs += np.mean(np.sum(e**2, axis=-1), axis=(0, 1))
-            rel = e - np.mean(e, axis=(0, 1), keepdims=True)
-            sq_rel += np.mean(np.sum(rel**2, axis=-1), axis=(0, 1))
+        for _ in range(runs):
+            run_abs, run_rel, left_errors, corr = next(results)
+            sq_abs += run_abs
+            sq_rel += run_rel
             if n == 2:
-                pair_errors.append(e[:, 0])                              # left feet: (2, L+1, 3)
-                ia = res.centre.state.position_indices(FootKey("a0", "left"))
-                ib = res.centre.state.position_indices(FootKey("a1", "left"))
-                c = res.snapshots_cov
-                var_a = c[:, ia, ia]
-                var_b = c[:, ib, ib]
-                cross = c[:, ia, ib]
-                with np.errstate(invalid="ignore", divide="ignore"):
-                    filter_corr.append(cross / np.sqrt(var_a * var_b))
+                pair_errors.append(left_errors)
+                filter_corr.append(corr)
         abs_rmse.append(np.sqrt(sq_abs / runs))
         rel_rmse.append(np.sqrt(sq_rel / runs))
         if n == 2:
@@ -164,9 +196,29 @@ class StaticResult:
     runs: int
 
 
+def _static_run(run: int, seed: int, duration_s: float, sim: SimulationConfig, fusion: FusionConfig | None,
+                n_rows: int) -> tuple[Array, Array, Array, float]:
+    """One run of the static scenario: the walker's reset times, its squared errors per row with and without
+    ranging, and the static agents' mean squared error with ranging.
+    """
+    scenario = static_circle_scenario(duration_s, sim, np.random.default_rng([seed, run]))
+    out: dict[bool, Array] = {}
+    sq_static = 0.0
+    for ranging in (True, False):
+        res = run_scenario(scenario, fusion, ranging=ranging)
+        e = np.stack([res.error[FootKey("mobile", f)][:n_rows] for f in FEET])
+        out[ranging] = np.mean(np.sum(e**2, axis=-1), axis=0)
+        if ranging:
+            es = np.concatenate([res.error[FootKey(a, f)] for a in scenario.agents if a != "mobile" for f in FEET])
+            sq_static = float(np.mean(np.sum(es**2, axis=-1)))
+    return scenario.truth[FootKey("mobile", "left")].t_s, out[True], out[False], sq_static
+
+
 def static_experiment(duration_s: float = 300.0, runs: int = 20, seed: int = 0, sim: SimulationConfig | None = None,
-                      fusion: FusionConfig | None = None) -> StaticResult:
-    """Monte Carlo runs of the three-static-agents scenario, with and without ranging."""
+                      fusion: FusionConfig | None = None, workers: int = 1) -> StaticResult:
+    """Monte Carlo runs of the three-static-agents scenario, with and without ranging, over ``workers``
+    processes.
+    """
     sim = sim or SimulationConfig()
     if runs < 1:
         raise InputError("needs at least one run", field="runs")
@@ -175,18 +227,12 @@ def static_experiment(duration_s: float = 300.0, runs: int = 20, seed: int = 0, 
     sq_dr = np.zeros(n_rows)
     sq_static = 0.0
     t = np.zeros(n_rows)
-    for run in range(runs):
-        scenario = static_circle_scenario(duration_s, sim, np.random.default_rng([seed, run]))
-        t = scenario.truth[FootKey("mobile", "left")].t_s
-        for ranging in (True, False):
-            res = run_scenario(scenario, fusion, ranging=ranging)
-            e = np.stack([res.error[FootKey("mobile", f)][:n_rows] for f in FEET])
-            if ranging:
-                sq += np.mean(np.sum(e**2, axis=-1), axis=0)
-                es = np.concatenate([res.error[FootKey(a, f)] for a in scenario.agents if a != "mobile" for f in FEET])
-                sq_static += float(np.mean(np.sum(es**2, axis=-1)))
-            else:
-                sq_dr += np.mean(np.sum(e**2, axis=-1), axis=0)
+    for run_t, run_sq, run_sq_dr, run_static in _map_runs(
+            _static_run, [(run, seed, duration_s, sim, fusion, n_rows) for run in range(runs)], workers):
+        t = run_t
+        sq += run_sq
+        sq_dr += run_sq_dr
+        sq_static += run_static
     return StaticResult(t, np.sqrt(sq / runs), np.sqrt(sq_dr / runs), math.sqrt(sq_static / runs), runs)
 
 

@@ -18,3 +18,8 @@ def test_eval_coop_json_has_the_issue_keys(capsys):
 def test_eval_coop_rejects_bad_group_sizes(capsys):
     assert main(["eval", "coop", "--agents", "0,2", "--no-cost"]) == 2
     assert "--agents" in capsys.readouterr().err
+
+
+def test_eval_coop_rejects_no_workers(capsys):
+    assert main(["eval", "coop", "--workers", "0", "--no-cost"]) == 2
+    assert "--workers" in capsys.readouterr().err

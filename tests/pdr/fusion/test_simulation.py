@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 
+from pdr.errors import InputError
 from pdr.fusion.centre import FusionConfig
 from pdr.fusion.evaluation import (
     cost_experiment,
@@ -100,16 +101,28 @@ def test_cost_counts_the_seed_message_sizes_and_keeps_up():
     assert np.all(c.realtime_factor < 0.5)
 
 
+def test_monte_carlo_runs_give_the_same_figures_in_parallel():
+    serial = march_experiment((1, 2), duration_s=20, runs=3, seed=4)
+    forked = march_experiment((1, 2), duration_s=20, runs=3, seed=4, workers=2)
+    for name in ("abs_rmse_m", "rel_rmse_m", "correlation_mc", "correlation_filter"):
+        assert np.array_equal(getattr(serial, name), getattr(forked, name), equal_nan=True), name
+    s1, s2 = (static_experiment(duration_s=20, runs=2, seed=5, workers=w) for w in (1, 2))
+    assert np.array_equal(s1.rmse_m, s2.rmse_m) and np.array_equal(s1.rmse_dead_reckoning_m, s2.rmse_dead_reckoning_m)
+    assert s1.static_rmse_m == s2.static_rmse_m and np.array_equal(s1.t_s, s2.t_s)
+    with pytest.raises(InputError, match="workers"):
+        static_experiment(duration_s=20, runs=2, workers=0)
+
+
 @pytest.mark.slow
 def test_full_march_exponent_is_one_half():
-    r = march_experiment((1, 2, 4, 8), duration_s=200, runs=12, seed=0)  # 0.51 (0.44 with 10 runs)
+    r = march_experiment((1, 2, 4, 8), duration_s=200, runs=12, seed=0, workers=2)  # 0.51 (0.44 with 10 runs)
     assert 0.35 <= r.exponent <= 0.65
     assert np.max(r.rel_rmse_m[1:]) < 1.5
 
 
 @pytest.mark.slow
 def test_full_static_scenario_is_bounded():
-    r = static_experiment(duration_s=600, runs=20, seed=0)
+    r = static_experiment(duration_s=600, runs=20, seed=0, workers=2)
     third = r.t_s.size // 3
     assert np.max(r.rmse_m) < 2.5
     assert np.mean(r.rmse_m[2 * third:]) < 1.3 * np.mean(r.rmse_m[third:2 * third])
