@@ -107,8 +107,9 @@ def _map_runs(fn: Callable[..., Any], args: list[tuple[Any, ...]], workers: int)
 
 def _march_run(n: int, run: int, seed: int, duration_s: float, sim: SimulationConfig, fusion: FusionConfig | None,
                n_rows: int) -> tuple[Array, Array, Array | None, Array | None]:
-    """One march run of ``n`` agents: squared absolute and relative errors per row, and for ``n == 2`` the left
-    feet's errors (2, L+1, 3) and the filter's correlation coefficients of their positions (L+1, 3).
+    """One march run of ``n`` agents: the mean squared absolute and relative position errors over the agents'
+    feet per row (L+1,), m^2; for ``n == 2`` also the left feet's position errors (2, L+1, 3), m, navigation frame,
+    and the filter's correlation coefficients of their positions per axis (L+1, 3); else None for both.
     """
     rng = np.random.default_rng([seed, n, run])
     scenario = march_scenario(n, duration_s, sim, rng)
@@ -198,8 +199,9 @@ class StaticResult:
 
 def _static_run(run: int, seed: int, duration_s: float, sim: SimulationConfig, fusion: FusionConfig | None,
                 n_rows: int) -> tuple[Array, Array, Array, float]:
-    """One run of the static scenario: the walker's reset times, its squared errors per row with and without
-    ranging, and the static agents' mean squared error with ranging.
+    """One run of the static scenario: the walker's left-foot reset times (L+1,), s; its feet's mean squared
+    position errors per row (L+1,) with and without ranging, m^2; the static agents' mean squared position error
+    with ranging, m^2.
     """
     scenario = static_circle_scenario(duration_s, sim, np.random.default_rng([seed, run]))
     out: dict[bool, Array] = {}
@@ -223,13 +225,12 @@ def static_experiment(duration_s: float = 300.0, runs: int = 20, seed: int = 0, 
     if runs < 1:
         raise InputError("needs at least one run", field="runs")
     n_rows = int(math.floor(duration_s * sim.step_rate_hz + 1e-9)) + 1
+    results = _map_runs(_static_run, [(run, seed, duration_s, sim, fusion, n_rows) for run in range(runs)], workers)
+    t = results[0][0]                                            # the same reset times in every run
     sq = np.zeros(n_rows)
     sq_dr = np.zeros(n_rows)
     sq_static = 0.0
-    t = np.zeros(n_rows)
-    for run_t, run_sq, run_sq_dr, run_static in _map_runs(
-            _static_run, [(run, seed, duration_s, sim, fusion, n_rows) for run in range(runs)], workers):
-        t = run_t
+    for _, run_sq, run_sq_dr, run_static in results:
         sq += run_sq
         sq_dr += run_sq_dr
         sq_static += run_static
