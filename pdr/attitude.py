@@ -72,6 +72,7 @@ from numpy.typing import NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
+from pdr.filters.small_linalg import cholesky_lower, cholesky_solve, congruence
 from pdr.frames import GRAVITY_MPS2
 
 FloatArray = NDArray[np.float64]
@@ -253,8 +254,14 @@ def _process_noise(q: FloatArray, ts: float, sigma_gyro: float) -> FloatArray:
     xi[1, 0], xi[1, 1], xi[1, 2] = q0, -e3, e2
     xi[2, 0], xi[2, 1], xi[2, 2] = e3, q0, -e1
     xi[3, 0], xi[3, 1], xi[3, 2] = -e2, e1, q0
-    xi *= 0.5 * ts
-    return (xi @ xi.T) * sigma_gyro * sigma_gyro
+    s2 = (0.5 * ts * sigma_gyro) ** 2
+    out = np.empty((4, 4))
+    for i in range(4):
+        for j in range(i + 1):
+            v = s2 * (xi[i, 0] * xi[j, 0] + xi[i, 1] * xi[j, 1] + xi[i, 2] * xi[j, 2])
+            out[i, j] = v
+            out[j, i] = v
+    return out
 
 
 @numba.njit(cache=True)
@@ -268,16 +275,14 @@ def _normalise(q: FloatArray) -> None:
 @numba.njit(cache=True)
 def _sqrt_psd(p: FloatArray) -> FloatArray:
     """Lower Cholesky factor; falls back to an eigen-decomposition with clipped eigenvalues."""
-    sym = 0.5 * (p + p.T)
-    ok = True
-    for i in range(sym.shape[0]):
-        if not sym[i, i] > 0:
-            ok = False
-    if ok:
-        try:
-            return np.asarray(np.linalg.cholesky(sym))
-        except Exception:  # noqa: BLE001 - numba raises a generic error for non-PD input
-            pass
+    n = p.shape[0]
+    sym = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            sym[i, j] = 0.5 * (p[i, j] + p[j, i])
+    low = np.empty((n, n))
+    if cholesky_lower(sym, low):
+        return low
     vals, vecs = np.linalg.eigh(sym)
     for i in range(vals.size):
         vals[i] = math.sqrt(max(vals[i], 1e-18))
@@ -313,20 +318,35 @@ def _ukf_update(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatArray,
         zm += wi * (zs[i] - zs[0])
     pzz = np.zeros((m, m))
     pqz = np.zeros((n, m))
+    dz = np.empty(m)
     for i in range(2 * n + 1):
         w = wc0 if i == 0 else wi
-        dz = zs[i] - zm
-        dq = sig[i] - sig[0]                      # eq. 39 uses xi_i - xi_0
-        pzz += w * np.outer(dz, dz)
-        pqz += w * np.outer(dq, dz)
-    for i in range(m):
-        pzz[i, i] += r_diag[i]
-    k = np.linalg.solve(pzz.T, pqz.T).T            # K = P_qz P_zz^-1 (eq. 39)
-    dqz = k @ (z - zm)                             # eq. 40
-    for j in range(n):
-        q[j] += dqz[j]
-    pn = p - k @ pzz @ k.T
-    p[:, :] = 0.5 * (pn + pn.T)
+        for a in range(m):
+            dz[a] = zs[i, a] - zm[a]
+        for a in range(m):
+            for b in range(a + 1):
+                pzz[a, b] += w * dz[a] * dz[b]
+        if i > 0:                                  # eq. 39 uses xi_i - xi_0, zero for the centre point
+            for j in range(n):
+                dq = sig[i, j] - sig[0, j]
+                for b in range(m):
+                    pqz[j, b] += w * dq * dz[b]
+    for a in range(m):
+        pzz[a, a] += r_diag[a]
+        for b in range(a):
+            pzz[b, a] = pzz[a, b]
+    kt = cholesky_solve(pzz, pqz.T)                # K^T = P_zz^-1 P_qz^T (eq. 39)
+    for j in range(n):                             # eq. 40
+        for b in range(m):
+            q[j] += kt[b, j] * (z[b] - zm[b])
+    for i in range(n):                             # P - K P_zz K^T = P - P_qz K^T
+        for j in range(i + 1):
+            acc = 0.0
+            for b in range(m):
+                acc += 0.5 * (pqz[i, b] * kt[b, j] + pqz[j, b] * kt[b, i])
+            v = 0.5 * (p[i, j] + p[j, i]) - acc
+            p[i, j] = v
+            p[j, i] = v
     _normalise(q)
 
 
@@ -344,20 +364,30 @@ def _ekf_update(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatArray,
         qm[j] -= eps
         h[:, j] = (_phi(qp, g_ref, h_ref, use_a, use_m, m) - _phi(qm, g_ref, h_ref, use_a, use_m, m)) / (2 * eps)
     zm = _phi(q, g_ref, h_ref, use_a, use_m, m)
-    s = h @ p @ h.T
+    s = congruence(h, p)
     for i in range(m):
         s[i, i] += r_diag[i]
-    k = np.linalg.solve(s.T, (p @ h.T).T).T
-    dq = k @ (z - zm)
+    ph = np.zeros((4, m))                          # P H^T
+    for i in range(4):
+        for b in range(m):
+            for j in range(4):
+                ph[i, b] += p[i, j] * h[b, j]
+    k = cholesky_solve(s, ph.T).T                  # K = P H^T S^-1
     for j in range(4):
-        q[j] += dq[j]
-    ikh = np.eye(4) - k @ h
+        for b in range(m):
+            q[j] += k[j, b] * (z[b] - zm[b])
+    ikh = np.eye(4)
+    for i in range(4):
+        for j in range(4):
+            for b in range(m):
+                ikh[i, j] -= k[i, b] * h[b, j]
     # Joseph form keeps P symmetric positive semi-definite under rounding.
-    rr = np.zeros((m, m))
-    for i in range(m):
-        rr[i, i] = r_diag[i]
-    pn = ikh @ p @ ikh.T + k @ rr @ k.T
-    p[:, :] = 0.5 * (pn + pn.T)
+    pn = congruence(ikh, p)
+    for i in range(4):
+        for j in range(4):
+            for b in range(m):
+                pn[i, j] += k[i, b] * r_diag[b] * k[j, b]
+    p[:, :] = pn
     _normalise(q)
 
 
@@ -620,9 +650,13 @@ def _run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: bo
             for i in range(3):
                 w[i] = gyro[k, i] - bias[i]
             f = _transition(w, ts)
-            qn = f @ q
             wq = _process_noise(q, ts, sigma_gyro)
-            pn = f @ p @ f.T + wq
+            pn = congruence(f, p)
+            qn = np.zeros(4)
+            for i in range(4):
+                for j in range(4):
+                    qn[i] += f[i, j] * q[j]
+                    pn[i, j] += wq[i, j]
             for i in range(4):
                 q[i] = qn[i]
             p[:, :] = pn

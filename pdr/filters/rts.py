@@ -31,50 +31,14 @@ own backward loop.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from pdr.errors import InputError
+from pdr.filters.small_linalg import cholesky_solve
 
 Array = NDArray[np.float64]
-
-
-@njit(cache=True)
-def _cholesky_solve(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
-    """``A^-1 B`` for a symmetric positive-definite (n, n) ``A`` and (n, m) ``B`` by Cholesky, in plain loops.
-
-    For the small matrices of a navigation filter, loops beat a LAPACK call's overhead.
-    """
-    n = A.shape[0]
-    m = B.shape[1]
-    L = np.zeros((n, n))
-    for i in range(n):
-        for j in range(i + 1):
-            acc = A[i, j]
-            for k in range(j):
-                acc -= L[i, k] * L[j, k]
-            if i == j:
-                if acc <= 0.0:
-                    raise np.linalg.LinAlgError("predicted covariance is not positive definite")
-                L[i, i] = math.sqrt(acc)
-            else:
-                L[i, j] = acc / L[j, j]
-    X = B.copy()
-    for c in range(m):
-        for i in range(n):  # L y = b
-            acc = X[i, c]
-            for k in range(i):
-                acc -= L[i, k] * X[k, c]
-            X[i, c] = acc / L[i, i]
-        for i in range(n - 1, -1, -1):  # L^T x = y
-            acc = X[i, c]
-            for k in range(i + 1, n):
-                acc -= L[k, i] * X[k, c]
-            X[i, c] = acc / L[i, i]
-    return X
 
 
 @njit(cache=True)
@@ -114,7 +78,7 @@ def rts_step(x_f: Array, P_f: Array, F_next: Array, x_p_next: Array, P_p_next: A
     """
     n = x_f.shape[0]
     # C^T = P_p^-1 F P_f (P_p, P_f symmetric).
-    ct = _cholesky_solve(P_p_next, _matmul_sparse_left(F_next, P_f))
+    ct = cholesky_solve(P_p_next, _matmul_sparse_left(F_next, P_f))
     d = x_s_next - x_p_next
     DC = _matmul_sparse_left(P_s_next - P_p_next, ct)  # D C^T
     for i in range(n):

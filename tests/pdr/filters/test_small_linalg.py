@@ -1,0 +1,48 @@
+"""The compiled small-matrix routines agree with numpy's LAPACK/BLAS results on random and singular input."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from pdr.filters.small_linalg import cholesky_lower, cholesky_solve, congruence
+
+
+def _spd(rng: np.random.Generator, n: int) -> np.ndarray:
+    a = rng.normal(size=(n, n))
+    return a @ a.T + n * 1e-3 * np.eye(n)
+
+
+@settings(max_examples=60, deadline=None)
+@given(n=st.integers(1, 8), m=st.integers(1, 5), seed=st.integers(0, 2**31 - 1))
+def test_cholesky_solve_and_factor_match_numpy(n: int, m: int, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    a = _spd(rng, n)
+    b = rng.normal(size=(n, m))
+    low = np.full((n, n), np.nan)
+    assert cholesky_lower(a, low)
+    np.testing.assert_allclose(low, np.linalg.cholesky(a), rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(cholesky_solve(a, b), np.linalg.solve(a, b), rtol=1e-8, atol=1e-10)
+
+
+@settings(max_examples=60, deadline=None)
+@given(n=st.integers(1, 6), k=st.integers(1, 6), seed=st.integers(0, 2**31 - 1))
+def test_congruence_matches_numpy_and_is_symmetric(n: int, k: int, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    f = rng.normal(size=(n, k))
+    f[rng.random(size=(n, k)) < 0.3] = 0.0          # the sparse transition matrices it is used with
+    p = _spd(rng, k)
+    out = congruence(f, p)
+    np.testing.assert_allclose(out, f @ p @ f.T, rtol=1e-10, atol=1e-12)
+    assert np.array_equal(out, out.T)
+
+
+def test_not_positive_definite_is_reported() -> None:
+    singular = np.array([[1.0, 1.0], [1.0, 1.0]])
+    indefinite = np.array([[1.0, 2.0], [2.0, 1.0]])
+    low = np.empty((2, 2))
+    assert not cholesky_lower(indefinite, low)
+    assert not cholesky_lower(np.array([[np.nan]]), np.empty((1, 1)))
+    for a in (singular, indefinite):
+        with pytest.raises(np.linalg.LinAlgError, match="not positive definite"):
+            cholesky_solve(a, np.ones((2, 1)))
