@@ -72,7 +72,7 @@ from numpy.typing import NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
-from pdr.filters.small_linalg import cholesky_lower, cholesky_solve, congruence
+from pdr.filters.small_linalg import cholesky_lower, congruence, solve_symmetric
 from pdr.frames import GRAVITY_MPS2
 
 FloatArray = NDArray[np.float64]
@@ -335,7 +335,7 @@ def _ukf_update(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatArray,
         pzz[a, a] += r_diag[a]
         for b in range(a):
             pzz[b, a] = pzz[a, b]
-    kt = cholesky_solve(pzz, pqz.T)                # K^T = P_zz^-1 P_qz^T (eq. 39)
+    kt = solve_symmetric(pzz, pqz.T)                # K^T = P_zz^-1 P_qz^T (eq. 39)
     for j in range(n):                             # eq. 40
         for b in range(m):
             q[j] += kt[b, j] * (z[b] - zm[b])
@@ -372,7 +372,7 @@ def _ekf_update(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatArray,
         for b in range(m):
             for j in range(4):
                 ph[i, b] += p[i, j] * h[b, j]
-    k = cholesky_solve(s, ph.T).T                  # K = P H^T S^-1
+    k = solve_symmetric(s, ph.T).T                  # K = P H^T S^-1
     for j in range(4):
         for b in range(m):
             q[j] += k[j, b] * (z[b] - zm[b])

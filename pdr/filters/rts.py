@@ -36,26 +36,9 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from pdr.errors import InputError
-from pdr.filters.small_linalg import cholesky_solve
+from pdr.filters.small_linalg import cholesky_solve, matmul
 
 Array = NDArray[np.float64]
-
-
-@njit(cache=True)
-def _matmul_sparse_left(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
-    """``A B`` for an (n, k) ``A`` and a (k, m) ``B`` in plain loops, skipping the zero entries of ``A`` (a filter's
-    transition matrix is mostly zeros).
-    """
-    n = A.shape[0]
-    m = B.shape[1]
-    out = np.zeros((n, m))
-    for i in range(n):
-        for k in range(A.shape[1]):
-            a = A[i, k]
-            if a != 0.0:
-                for j in range(m):
-                    out[i, j] += a * B[k, j]
-    return out
 
 
 @njit(cache=True)
@@ -78,9 +61,9 @@ def rts_step(x_f: Array, P_f: Array, F_next: Array, x_p_next: Array, P_p_next: A
     """
     n = x_f.shape[0]
     # C^T = P_p^-1 F P_f (P_p, P_f symmetric).
-    ct = cholesky_solve(P_p_next, _matmul_sparse_left(F_next, P_f))
+    ct = cholesky_solve(P_p_next, matmul(F_next, P_f))
     d = x_s_next - x_p_next
-    DC = _matmul_sparse_left(P_s_next - P_p_next, ct)  # D C^T
+    DC = matmul(P_s_next - P_p_next, ct)  # D C^T
     for i in range(n):
         acc = x_f[i]
         for k in range(n):

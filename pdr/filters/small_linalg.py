@@ -2,7 +2,9 @@
 
 For a 4x4 attitude covariance or a 6x6 innovation covariance, a LAPACK or BLAS call through numba costs more in
 argument checks, copies and allocation than the arithmetic itself; these plain loops do the same work in place
-of ``np.linalg.cholesky``, ``np.linalg.solve`` on a symmetric positive-definite matrix, and ``A @ B @ A.T``.
+of ``np.linalg.cholesky``, ``np.linalg.solve`` and ``np.linalg.inv`` on a symmetric (normally positive-definite)
+matrix, and of ``@``. The ``solve_symmetric`` and ``symmetric_inverse`` variants fall back to LAPACK's LU when the
+Cholesky factorisation fails, so they accept what ``np.linalg.solve`` and ``np.linalg.inv`` accepted.
 """
 
 from __future__ import annotations
@@ -40,18 +42,11 @@ def cholesky_lower(A: Array, L: Array) -> bool:  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def cholesky_solve(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
-    """``A^-1 B`` for a symmetric positive-definite (n, n) ``A`` and (n, m) ``B``.
-
-    Raises ``np.linalg.LinAlgError`` when ``A`` is not positive definite.
-    """
-    n = A.shape[0]
-    m = B.shape[1]
-    L = np.empty((n, n))
-    if not cholesky_lower(A, L):
-        raise np.linalg.LinAlgError("matrix is not positive definite")
+def _solve_factored(L: Array, B: Array) -> Array:  # pragma: no cover - compiled
+    """``(L L^T)^-1 B`` for a lower Cholesky factor ``L`` (n, n) and (n, m) ``B``."""
+    n = L.shape[0]
     X = B.copy()
-    for c in range(m):
+    for c in range(B.shape[1]):
         for i in range(n):  # L y = b
             acc = X[i, c]
             for k in range(i):
@@ -66,16 +61,35 @@ def cholesky_solve(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def cholesky_solve(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
+    """``A^-1 B`` for a symmetric positive-definite (n, n) ``A`` and (n, m) ``B``.
+
+    Raises ``np.linalg.LinAlgError`` when ``A`` is not positive definite.
+    """
+    n = A.shape[0]
+    L = np.empty((n, n))
+    if not cholesky_lower(A, L):
+        raise np.linalg.LinAlgError("matrix is not positive definite")
+    return _solve_factored(L, B)
+
+
+@njit(cache=True)
+def solve_symmetric(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
+    """``A^-1 B`` for a symmetric (n, n) ``A`` that is positive definite in all but corner cases (an innovation
+    covariance): by Cholesky, or by LU (``np.linalg.solve``) when the factorisation fails.
+    """
+    n = A.shape[0]
+    L = np.empty((n, n))
+    if cholesky_lower(A, L):
+        return _solve_factored(L, B)
+    return np.linalg.solve(A, B)  # type: ignore[return-value]  # float64 in, float64 out
+
+
+@njit(cache=True)
 def congruence(F: Array, P: Array) -> Array:  # pragma: no cover - compiled
     """``F P F^T`` for an (n, k) ``F`` and a symmetric (k, k) ``P``; the result is exactly symmetric."""
     n, k = F.shape
-    FP = np.zeros((n, k))
-    for i in range(n):
-        for a in range(k):
-            f = F[i, a]
-            if f != 0.0:
-                for b in range(k):
-                    FP[i, b] += f * P[a, b]
+    FP = matmul(F, P)
     out = np.empty((n, n))
     for i in range(n):
         for j in range(i + 1):
@@ -85,3 +99,89 @@ def congruence(F: Array, P: Array) -> Array:  # pragma: no cover - compiled
             out[i, j] = acc
             out[j, i] = acc
     return out
+
+
+@njit(cache=True)
+def symmetric_inverse(A: Array) -> tuple[Array, float]:  # pragma: no cover - compiled
+    """Inverse and log-determinant (of ``|A|``) of a symmetric (n, n) ``A`` that is positive definite in all but
+    corner cases: from one Cholesky factor, or by LU (``np.linalg.inv``, ``np.linalg.slogdet``) when it fails.
+    """
+    n = A.shape[0]
+    L = np.empty((n, n))
+    if not cholesky_lower(A, L):
+        return np.linalg.inv(A), np.linalg.slogdet(A)[1]  # type: ignore[return-value]  # float64 in and out
+    logdet = 0.0
+    Linv = np.zeros((n, n))                         # L^-1, lower triangular
+    for i in range(n):
+        logdet += 2.0 * math.log(L[i, i])
+        Linv[i, i] = 1.0 / L[i, i]
+        for j in range(i):
+            acc = 0.0
+            for k in range(j, i):
+                acc -= L[i, k] * Linv[k, j]
+            Linv[i, j] = acc / L[i, i]
+    inv = np.empty((n, n))                          # A^-1 = L^-T L^-1
+    for i in range(n):
+        for j in range(i + 1):
+            acc = 0.0
+            for k in range(i, n):
+                acc += Linv[k, i] * Linv[k, j]
+            inv[i, j] = acc
+            inv[j, i] = acc
+    return inv, logdet
+
+
+@njit(cache=True)
+def matmul(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
+    """``A B`` for an (n, k) ``A`` and a (k, m) ``B``, skipping the zero entries of ``A``."""
+    n, k = A.shape
+    m = B.shape[1]
+    out = np.zeros((n, m))
+    for i in range(n):
+        for a in range(k):
+            x = A[i, a]
+            if x != 0.0:
+                for j in range(m):
+                    out[i, j] += x * B[a, j]
+    return out
+
+
+@njit(cache=True)
+def matmul_bt(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
+    """``A B^T`` for an (n, k) ``A`` and an (m, k) ``B``."""
+    n, k = A.shape
+    m = B.shape[0]
+    out = np.empty((n, m))
+    for i in range(n):
+        for j in range(m):
+            acc = 0.0
+            for a in range(k):
+                acc += A[i, a] * B[j, a]
+            out[i, j] = acc
+    return out
+
+
+@njit(cache=True)
+def matvec(A: Array, x: Array) -> Array:  # pragma: no cover - compiled
+    """``A x`` for an (n, k) ``A`` and a (k,) ``x``."""
+    n, k = A.shape
+    out = np.zeros(n)
+    for i in range(n):
+        acc = 0.0
+        for a in range(k):
+            acc += A[i, a] * x[a]
+        out[i] = acc
+    return out
+
+
+@njit(cache=True)
+def quadratic_form(x: Array, A: Array) -> float:  # pragma: no cover - compiled
+    """``x^T A x`` for an (n,) ``x`` and an (n, n) ``A``."""
+    n = x.size
+    acc = 0.0
+    for i in range(n):
+        row = 0.0
+        for j in range(n):
+            row += A[i, j] * x[j]
+        acc += x[i] * row
+    return acc

@@ -53,6 +53,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
+from pdr.filters.small_linalg import congruence, matmul, matmul_bt, matvec, quadratic_form, symmetric_inverse
 from pdr.foot.drift import drift_predict, drift_update, initial_state, rotate_yaw
 from pdr.foot.saturation import CLIP_EXCESS_FRACTION, add_clip_attitude_noise, clip_variance, clip_variance_peak
 from pdr.foot.zupt import ZuptConfig, _quat_exp, _quat_mul, _rotmat, check_imu, coarse_start
@@ -343,7 +344,7 @@ def _bc_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Arr
             F[V_ + i, A_ + i] = dt
             for j in range(3):
                 F[TH + i, W_ + j] = c_old[i, j] * dt        # body-rate error turns the attitude
-        P = F @ P @ F.T
+        P = congruence(F, P)
         for i in range(3):
             if exact:                                   # white jerk, exactly discretised (BCConfig.exact_jerk)
                 P[P_ + i, P_ + i] += jerk * dt ** 5 / 20.0
@@ -384,14 +385,14 @@ def _bc_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Arr
             H[i, BF + i] = 1.0
             H[3 + i, W_ + i] = 1.0
             H[3 + i, BW + i] = 1.0
-        S = H @ P @ H.T
+        S = congruence(H, P)
         for i in range(3):
             S[i, i] += r_f
             S[3 + i, 3 + i] += r_w
-        K = P @ H.T @ np.linalg.inv(S)
-        dx = K @ e
-        ikh = np.eye(N_ERR) - K @ H
-        P = ikh @ P @ ikh.T
+        K = matmul(matmul_bt(P, H), symmetric_inverse(S)[0])
+        dx = matvec(K, e)
+        ikh = np.eye(N_ERR) - matmul(K, H)
+        P = congruence(ikh, P)
         for i in range(3):
             for j in range(N_ERR):
                 for jj in range(N_ERR):
@@ -423,7 +424,7 @@ def _bc_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Arr
             Sc = Pc.copy()
             for i in range(N_CTX):
                 Sc[i, i] += var[c_i, i]
-            Sc_inv = np.linalg.inv(Sc)
+            Sc_inv, logdet = symmetric_inverse(Sc)
             r = mu[c_i] - ctx
             if c_i == scored:
                 # Scored background (BCConfig.background): eq. 14's normaliser of this component over the
@@ -431,12 +432,11 @@ def _bc_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Arr
                 means[c_i] = dx
                 covs[c_i] = P
             else:
-                Kc = PcX.T @ Sc_inv
-                means[c_i] = dx + Kc @ r
-                covs[c_i] = P - Kc @ PcX
-            sign, logdet = np.linalg.slogdet(Sc)
+                Kc = matmul(PcX.T, Sc_inv)
+                means[c_i] = dx + matvec(Kc, r)
+                covs[c_i] = P - matmul(Kc, PcX)
             logb[c_i] = (math.log(max(alpha[c_i], 1e-300)) + logc[c_i]
-                         - 0.5 * (N_CTX * log2pi + logdet + r @ Sc_inv @ r))
+                         - 0.5 * (N_CTX * log2pi + logdet + quadratic_form(r, Sc_inv)))
         mx = logb.max()
         beta = np.exp(logb - mx)
         beta /= beta.sum()
@@ -446,7 +446,9 @@ def _bc_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Arr
         Pn = np.zeros((N_ERR, N_ERR))
         for c_i in range(m):
             d = means[c_i] - dmean
-            Pn += beta[c_i] * (covs[c_i] + np.outer(d, d))
+            for i in range(N_ERR):
+                for j in range(N_ERR):
+                    Pn[i, j] += beta[c_i] * (covs[c_i, i, j] + d[i] * d[j])
         P = 0.5 * (Pn + Pn.T)
         sprob[k] = beta[stance]
         # Feedback of the condensed error mean into the nominal state.

@@ -64,6 +64,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
+from pdr.filters.small_linalg import (
+    congruence,
+    matmul,
+    matmul_bt,
+    matvec,
+    quadratic_form,
+    symmetric_inverse,
+)
 from pdr.foot.drift import drift_predict, drift_update, initial_state, rotate_yaw
 from pdr.foot.lost_stance import LOST_STANCE_DEFAULTS, check_lost_stance, reopen_velocity, swing_lasts
 from pdr.foot.saturation import CLIP_EXCESS_FRACTION, add_clip_attitude_noise, clip_variance
@@ -471,17 +479,17 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
             q /= math.sqrt(q[0] ** 2 + q[1] ** 2 + q[2] ** 2 + q[3] ** 2)
             F = np.eye(N_ERR)
             F[:9, :9] = error_transition(f_n, dt)
-            P = F @ lP[i] @ F.T
+            P = congruence(F, lP[i])
             for a in range(3):
                 P[3 + a, 3 + a] += qa * dt * dt
                 P[6 + a, 6 + a] += qg * dt * dt
             if sat_any:
                 add_clip_attitude_noise(P, 6, _rotmat(q), sat_k, dt)    # clipped gyroscope axes
             # Specific force of the predicted attitude, for the acceleration constraint C(q) s + g.
-            f_n = _rotmat(q) @ f_k
+            f_n = matvec(_rotmat(q), f_k)
             H_all, e_all = _constraint_rows(v, w_k, f_n, g_n, p[2] - lxi[i])
-            PHt = P @ H_all.T                      # shared by the modes' innovation covariances and gains
-            HPHt = H_all @ PHt
+            PHt = matmul_bt(P, H_all)              # shared by the modes' innovation covariances and gains
+            HPHt = matmul(H_all, PHt)
             m_dim = 10 if height else 9
             if nc_state:
                 # Unconstrained mode scored on the same residuals with the spread sigma_nc (FilterBankConfig.
@@ -489,8 +497,8 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
                 S1 = HPHt[:m_dim, :m_dim].copy()
                 for a in range(m_dim):
                     S1[a, a] += snc * snc
-                sign1, logdet1 = np.linalg.slogdet(S1)
-                ll_nc = _log_density(m_dim, logdet1, float(e_all[:m_dim] @ np.linalg.solve(S1, e_all[:m_dim])), nu)
+                S1_inv, logdet1 = symmetric_inverse(S1)
+                ll_nc = _log_density(m_dim, logdet1, quadratic_form(e_all[:m_dim], S1_inv), nu)
             else:
                 ll_nc = _log_density(m_dim, 2.0 * m_dim * math.log(snc), 0.0, nu)
             for j in range(3):
@@ -520,11 +528,11 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
                     S = HPHt[:dim, :dim].copy()
                     for a in range(dim):
                         S[a, a] += R[a]
-                    S_inv = np.linalg.inv(S)
-                    K = np.ascontiguousarray(PHt[:, :dim]) @ S_inv
-                    dx = K @ e
-                    ikh = np.eye(N_ERR) - K @ H
-                    Pn = ikh @ P @ ikh.T
+                    S_inv, logdet = symmetric_inverse(S)
+                    K = matmul(PHt[:, :dim], S_inv)
+                    dx = matvec(K, e)
+                    ikh = np.eye(N_ERR) - matmul(K, H)
+                    Pn = congruence(ikh, P)
                     for a in range(dim):
                         for b in range(N_ERR):
                             for c in range(N_ERR):
@@ -536,8 +544,7 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
                     qq = _quat_mul(_quat_exp(dx[6:9]), q)
                     cq[nc] = qq / math.sqrt(qq[0] ** 2 + qq[1] ** 2 + qq[2] ** 2 + qq[3] ** 2)
                     cxi[nc] += dx[XI]
-                    sign, logdet = np.linalg.slogdet(S)
-                    ll = _log_density(dim, logdet, float(e @ S_inv @ e), nu)
+                    ll = _log_density(dim, logdet, quadratic_form(e, S_inv), nu)
                     if height and dim == 9:
                         # The height row unconstrained, scored as in the unconstrained mode.
                         s9 = snc * snc

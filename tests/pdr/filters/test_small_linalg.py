@@ -5,7 +5,17 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pdr.filters.small_linalg import cholesky_lower, cholesky_solve, congruence
+from pdr.filters.small_linalg import (
+    cholesky_lower,
+    cholesky_solve,
+    congruence,
+    matmul,
+    matmul_bt,
+    matvec,
+    quadratic_form,
+    solve_symmetric,
+    symmetric_inverse,
+)
 
 
 def _spd(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -23,6 +33,10 @@ def test_cholesky_solve_and_factor_match_numpy(n: int, m: int, seed: int) -> Non
     assert cholesky_lower(a, low)
     np.testing.assert_allclose(low, np.linalg.cholesky(a), rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(cholesky_solve(a, b), np.linalg.solve(a, b), rtol=1e-8, atol=1e-10)
+    np.testing.assert_allclose(solve_symmetric(a, b), np.linalg.solve(a, b), rtol=1e-8, atol=1e-10)
+    inv, logdet = symmetric_inverse(a)
+    np.testing.assert_allclose(inv, np.linalg.inv(a), rtol=1e-8, atol=1e-10)
+    assert logdet == pytest.approx(np.linalg.slogdet(a)[1], rel=1e-10, abs=1e-10)
 
 
 @settings(max_examples=60, deadline=None)
@@ -46,3 +60,28 @@ def test_not_positive_definite_is_reported() -> None:
     for a in (singular, indefinite):
         with pytest.raises(np.linalg.LinAlgError, match="not positive definite"):
             cholesky_solve(a, np.ones((2, 1)))
+
+
+def test_symmetric_variants_fall_back_to_lu_on_indefinite_input() -> None:
+    a = np.array([[1.0, 2.0, 0.0], [2.0, 1.0, 0.5], [0.0, 0.5, -3.0]])
+    b = np.arange(6.0).reshape(3, 2)
+    np.testing.assert_allclose(solve_symmetric(a, b), np.linalg.solve(a, b), rtol=1e-12)
+    inv, logdet = symmetric_inverse(a)
+    np.testing.assert_allclose(inv, np.linalg.inv(a), rtol=1e-12)
+    assert logdet == pytest.approx(np.linalg.slogdet(a)[1])
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(1, 7), k=st.integers(1, 7), m=st.integers(1, 7), seed=st.integers(0, 2**31 - 1))
+def test_products_match_numpy(n: int, k: int, m: int, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=(n, k))
+    a[rng.random(size=(n, k)) < 0.3] = 0.0
+    b = rng.normal(size=(k, m))
+    c = rng.normal(size=(m, k))
+    x = rng.normal(size=k)
+    sq = rng.normal(size=(k, k))
+    np.testing.assert_allclose(matmul(a, b), a @ b, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(matmul_bt(a, c), a @ c.T, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(matvec(a, x), a @ x, rtol=1e-12, atol=1e-12)
+    assert quadratic_form(x, sq) == pytest.approx(float(x @ sq @ x), rel=1e-10, abs=1e-12)
