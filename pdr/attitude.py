@@ -72,7 +72,7 @@ from numpy.typing import NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
-from pdr.filters.small_linalg import cholesky_lower, congruence, solve_symmetric
+from pdr.filters.small_linalg import cholesky_lower, congruence, matmul, matmul_bt, matvec, solve_symmetric
 from pdr.frames import GRAVITY_MPS2
 
 FloatArray = NDArray[np.float64]
@@ -335,7 +335,7 @@ def _ukf_update(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatArray,
         pzz[a, a] += r_diag[a]
         for b in range(a):
             pzz[b, a] = pzz[a, b]
-    kt = solve_symmetric(pzz, pqz.T)                # K^T = P_zz^-1 P_qz^T (eq. 39)
+    kt = solve_symmetric(pzz, pqz.T)               # K^T = P_zz^-1 P_qz^T (eq. 39)
     for j in range(n):                             # eq. 40
         for b in range(m):
             q[j] += kt[b, j] * (z[b] - zm[b])
@@ -367,20 +367,11 @@ def _ekf_update(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatArray,
     s = congruence(h, p)
     for i in range(m):
         s[i, i] += r_diag[i]
-    ph = np.zeros((4, m))                          # P H^T
-    for i in range(4):
-        for b in range(m):
-            for j in range(4):
-                ph[i, b] += p[i, j] * h[b, j]
-    k = solve_symmetric(s, ph.T).T                  # K = P H^T S^-1
+    k = solve_symmetric(s, matmul_bt(h, p)).T      # K = P H^T S^-1
+    dq = matvec(k, z - zm)
     for j in range(4):
-        for b in range(m):
-            q[j] += k[j, b] * (z[b] - zm[b])
-    ikh = np.eye(4)
-    for i in range(4):
-        for j in range(4):
-            for b in range(m):
-                ikh[i, j] -= k[i, b] * h[b, j]
+        q[j] += dq[j]
+    ikh = np.eye(4) - matmul(k, h)
     # Joseph form keeps P symmetric positive semi-definite under rounding.
     pn = congruence(ikh, p)
     for i in range(4):
