@@ -641,16 +641,9 @@ def _run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: bo
             for i in range(3):
                 w[i] = gyro[k, i] - bias[i]
             f = _transition(w, ts)
-            wq = _process_noise(q, ts, sigma_gyro)
-            pn = congruence(f, p)
-            qn = np.zeros(4)
-            for i in range(4):
-                for j in range(4):
-                    qn[i] += f[i, j] * q[j]
-                    pn[i, j] += wq[i, j]
-            for i in range(4):
-                q[i] = qn[i]
-            p[:, :] = pn
+            wq = _process_noise(q, ts, sigma_gyro)         # from the prior q (eq. 9)
+            p[:, :] = congruence(f, p) + wq
+            q[:] = matvec(f, q)
         else:
             # Without a gyro the attitude is a random walk driven by a large rate noise.
             p += _process_noise(q, ts, 1.0)
