@@ -21,9 +21,10 @@ big batch):
 Events are plain dicts: ``{"type": "step", "t_s", "east_m", "north_m", "up_m", "floor", "heading_deg",
 "step_length_m", "turn_deg", "mode", ...}`` (``turn_deg``: the change of the step heading since the previous step
 of the walk, which shortens a turning step, :func:`pdr.step_length.turn_factor`; ``heading_raw_deg``, the heading
-before the drift elimination, ``gyro_heading_deg``, the gyro's rotation about the vertical integrated since the start
-with an arbitrary origin, ``up_time_s``, the device-frame up direction integrated over the same time (s, so that
-``up_time_s . b`` is what a constant gyro bias ``b`` added to it), ``gyro_bias_dps``, the attitude filter's stationary
+before the drift elimination, ``gyro_heading_deg``, the gyro's rotation about the vertical since the start with an
+arbitrary origin (:mod:`pdr.gyro_yaw`: no magnetometer, no landmark, no geometric phase of a swinging phone),
+``up_time_s``, the device-frame up direction integrated over the same time (s, so that ``up_time_s . b`` is what a
+constant gyro bias ``b`` added to it), ``gyro_bias_dps``, the attitude filter's stationary
 gyro bias estimate (deg/s, device frame; None before the first stationary period), ``position_fix`` and
 ``landmark_heading``: the inputs of the offline
 :mod:`pdr.heading_smoother`), ``{"type": "elevator", ...}``,
@@ -54,6 +55,7 @@ from pdr.filters.ukf import SigmaPoints
 from pdr.floors import FloorConfig, FloorTracker
 from pdr.frames import GRAVITY_MPS2, heading_deg_to_yaw, wrap_angle, yaw_to_heading_deg
 from pdr.grid import OnlineGrid
+from pdr.gyro_yaw import GyroYaw
 from pdr.heading import (
     DirectionVote,
     DriftEliminationConfig,
@@ -173,12 +175,8 @@ _FIELD_WIDTHS = (("t", 0), ("acc", 3), ("q", 4), ("f_n", 3), ("yaw_y", 0), ("yaw
 _FIELDS = tuple(n for n, _ in _FIELD_WIDTHS)
 
 
-def _derived(q: FloatArray, acc: FloatArray, gyro: FloatArray | None
-             ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray | None]:
-    """Per sample from ``C_nb(q)``: specific force in ENU, yaw of the device y and z axes, up-part of y, the up
-    direction in the device frame (N, 3: the last row of ``C_nb``), and the gyro's rate about the vertical (rad/s;
-    None without a gyro).
-    """
+def _derived(q: FloatArray, acc: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Per sample from ``C_nb(q)``: specific force in ENU, yaw of the device y and z axes and up-part of y."""
     w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
     c00, c01, c02 = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)
     c10, c11, c12 = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)
@@ -186,8 +184,7 @@ def _derived(q: FloatArray, acc: FloatArray, gyro: FloatArray | None
     ax, ay, az = acc[:, 0], acc[:, 1], acc[:, 2]
     f_n = np.column_stack([c00 * ax + c01 * ay + c02 * az, c10 * ax + c11 * ay + c12 * az,
                            c20 * ax + c21 * ay + c22 * az])
-    rate_up = None if gyro is None else c20 * gyro[:, 0] + c21 * gyro[:, 1] + c22 * gyro[:, 2]
-    return f_n, np.arctan2(c11, c01), np.arctan2(c12, c02), c21, np.column_stack([c20, c21, c22]), rate_up
+    return f_n, np.arctan2(c11, c01), np.arctan2(c12, c02), c21
 
 
 class _History:
@@ -314,8 +311,7 @@ class PdrPipeline:
         b, a = signal.butter(1, 0.5 / (0.5 * c.rate_hz))
         self._av_ba = (b, a)
         self.n_input_samples = 0
-        self.gyro_yaw = 0.0      # integral of the gyro's rate about the vertical since the start (rad)
-        self.up_time = np.zeros(3)  # integral of the device-frame up direction since the start (s)
+        self.gyro_yaw = GyroYaw(c.rate_hz)      # the gyro's rotation about the vertical since the start
 
     # -- public API --------------------------------------------------------------------------------
     def update(self, batch: Recording) -> list[Event]:
@@ -381,7 +377,7 @@ class PdrPipeline:
             "pending": _jsonable(self.pending),
             "pitch_baseline": self.pitch_baseline, "last_floor": self.last_floor, "notices": self.notices,
             "av_zi": None if self._av_zi is None else self._av_zi.tolist(), "n_input_samples": self.n_input_samples,
-            "gyro_yaw": self.gyro_yaw, "up_time": self.up_time.tolist(),
+            "gyro_yaw": self.gyro_yaw.state_dict(),
         }
 
     @classmethod
@@ -417,8 +413,8 @@ class PdrPipeline:
             p.notices = list(d["notices"])
             p._av_zi = None if d["av_zi"] is None else np.array(d["av_zi"], dtype=np.float64)
             p.n_input_samples = int(d["n_input_samples"])
-            p.gyro_yaw = float(d.get("gyro_yaw", 0.0))      # absent in states saved before the heading smoother
-            p.up_time = np.array(d.get("up_time", [0.0, 0.0, 0.0]), dtype=np.float64)
+            if isinstance(d.get("gyro_yaw"), dict):      # older states kept a plain integral (restarted here)
+                p.gyro_yaw = GyroYaw.from_state_dict(d["gyro_yaw"], p.config.rate_hz)
             if p.pending is not None or p.track.n_steps:      # a step was processed (see _placement_known)
                 p._placement_known()
         except (KeyError, TypeError, ValueError) as exc:
@@ -487,12 +483,11 @@ class PdrPipeline:
                                           None if mag is None else mag[a:b])
                 hs = self.history.sl(pos, cut + 1)
                 self.history.q[hs] = qs
-                f_n, yy, yz, yu, up_b, rate_up = _derived(qs, acc[a:b], None if gyro is None else gyro[a:b])
+                f_n, yy, yz, yu = _derived(qs, acc[a:b])
                 self.history.f_n[hs], self.history.yaw_y[hs], self.history.yaw_z[hs] = f_n, yy, yz
                 self.history.y_up[hs] = yu
-                if rate_up is not None:
-                    self.history.gyro_yaw[hs], self.history.up_time[hs] = self._integrate_about_vertical(rate_up,
-                                                                                                      up_b)
+                if gyro is not None:
+                    self.history.gyro_yaw[hs], self.history.up_time[hs] = self.gyro_yaw.update(qs, gyro[a:b])
                 pos = cut + 1
             for j in by_confirm.get(cut, []):
                     events += self._step(int(steps.start_idx[j]), int(steps.end_idx[j]), float(steps.peak[j]))
@@ -500,25 +495,6 @@ class PdrPipeline:
             events += self._elevator(t, g0)
         self.history.trim()
         return events
-
-    def _integrate_about_vertical(self, rate_up: FloatArray, up_b: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Gyro yaw (rad, CCW) and up time (s, device frame) after each sample.
-
-        The gyro yaw is the body rate's vertical component in ENU (rad/s, from the attitude, :func:`_derived`)
-        integrated over the grid interval. Neither the magnetometer's deflections nor the stationary bias estimate
-        enter it (the latter changes at block commits, which would make the yaw depend on how the session was split
-        into batches); the gyro bias ``b`` (device frame) does, as ``up_time . b`` with ``up_time`` the integral of
-        the device-frame up direction ``up_b`` (N, 3), so :mod:`pdr.heading_smoother` can remove the walk's
-        stationary bias estimate afterwards.
-        """
-        # Sample by sample from the running values: the same sums however the session was split into batches.
-        dt = 1.0 / self.config.rate_hz
-        yaw = np.cumsum(np.concatenate([[self.gyro_yaw], rate_up * dt]))[1:]
-        up_time = np.cumsum(np.vstack([self.up_time[None, :], up_b * dt]), axis=0)[1:]
-        if yaw.size:
-            self.gyro_yaw = float(yaw[-1])
-            self.up_time = up_time[-1].copy()
-        return np.asarray(yaw), up_time
 
     def _elevator(self, t: FloatArray, g0: int) -> list[Event]:
         av = self.history.f_n[self.history.sl(g0, g0 + t.size), 2] - GRAVITY_MPS2

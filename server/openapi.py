@@ -55,8 +55,8 @@ def _op(summary: str, responses: dict[str, Any], **extra: Any) -> dict[str, Any]
 
 DEVICE = {"name": "device", "in": "query", "schema": {"type": "string"}, "description": "only this device role"}
 HEADING = {"name": "heading", "in": "query", "schema": {"enum": ["causal", "smoothed"]},
-           "description": "smoothed: hand-held/torso phone headings smoothed offline over the session so far "
-                          "(pdr track's default); causal (default): the track as streamed"}
+           "description": "smoothed: phone headings (hand-held, torso, trouser pocket) smoothed offline over the "
+                          "session so far (pdr track's default); causal (default): the track as streamed"}
 
 
 def _results_path(what: str) -> dict[str, Any]:

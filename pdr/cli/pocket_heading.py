@@ -16,10 +16,11 @@ corrections of seed 003 (attitude row eqs. 14-32, second UKF eqs. 41-42) are mea
 
 Usage: ``pdr eval pocket-heading [--sim-seeds N] [--data DIR] [--no-real] [--no-sim] [--method ukf|ekf]
 [--json]``. JSON keys: ``method``; ``sim`` (the flat walks: ``walks``, ``steps``, ``mean_abs_err_deg``,
-``median_abs_err_deg``, ``within_10_deg``, ``share_over_90_deg``, ``walks_mean_over_90_deg``);
-``sim_landmarks`` (``without`` and ``with``: the same figures; ``staircases``, ``staircases_matched``,
-``landmark_heading_updates``, ``landmark_attitude_updates``); ``mobifall`` and ``oxford`` (steps, flips,
-turn-check counts).
+``median_abs_err_deg``, ``within_10_deg``, ``share_over_90_deg``, ``walks_mean_over_90_deg``; ``smoothed``: the
+figures of the offline-smoothed tracks, :mod:`pdr.heading_smoother`); ``sim_landmarks`` (``without`` and ``with``:
+the same figures, ``without_smoothed`` and ``with_smoothed`` those of the smoothed tracks; ``staircases``,
+``staircases_matched``, ``landmark_heading_updates``, ``landmark_attitude_updates``); ``mobifall`` and ``oxford``
+(steps, flips, turn-check counts).
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ import numpy as np
 
 from pdr import quaternion as quat
 from pdr.frames import heading_deg_to_yaw, wrap_angle
+from pdr.heading_smoother import smooth_track
 from pdr.io.registry import read_recording
 from pdr.landmarks import Site
 from pdr.pipeline import PdrPipeline, PipelineConfig, track_rows
@@ -141,9 +143,10 @@ def landmark_scenarios(side: str) -> list[dict[str, Any]]:
 
 
 def walk_errors(scenario: dict[str, Any], seed: int, site: Site | None = None, method: str = "ukf"
-                ) -> tuple[np.ndarray, list[dict[str, Any]], PdrPipeline]:
-    """Absolute heading errors (deg) of the steps of one simulated walk (truth at mid-step), its events and
-    the pipeline that processed it (landmark counters).
+                ) -> tuple[np.ndarray, np.ndarray, list[dict[str, Any]], PdrPipeline]:
+    """Absolute heading errors (deg) of the steps of one simulated walk (truth at mid-step), causal and after the
+    offline smoother (:mod:`pdr.heading_smoother`), its events and the pipeline that processed it (landmark
+    counters).
     """
     rec = simulate(scenario, seed)
     pipe = PdrPipeline(PipelineConfig(attitude_method=method), site=site)
@@ -152,13 +155,21 @@ def walk_errors(scenario: dict[str, Any], seed: int, site: Site | None = None, m
     assert rec.truth is not None
     tt, wh = rec.truth.extra["trajectory_t_s"], np.unwrap(rec.truth.extra["walking_heading_rad"])
     t = np.array([0.5 * (r["t_start_s"] + r["t_s"]) for r in rows])
-    yaw = heading_deg_to_yaw(np.array([r["heading_deg"] for r in rows]))
-    return np.degrees(np.abs(wrap_angle(yaw - np.interp(t, tt, wh)))), events, pipe
+    truth = np.interp(t, tt, wh)
+
+    def errors(rr: list[dict[str, Any]]) -> np.ndarray:
+        yaw = heading_deg_to_yaw(np.array([r["heading_deg"] for r in rr]))
+        return np.degrees(np.abs(wrap_angle(yaw - truth)))
+
+    return errors(rows), errors(smooth_track(rows)[0]), events, pipe
 
 
-def sim_walk(side: str, seed: int, method: str = "ukf") -> np.ndarray:
-    """Absolute heading errors (deg) of the steps of one simulated flat pocket walk (:func:`sim_scenario`)."""
-    return walk_errors(sim_scenario(side), seed, method=method)[0]
+def sim_walk(side: str, seed: int, method: str = "ukf") -> tuple[np.ndarray, np.ndarray]:
+    """Absolute heading errors (deg) of the steps of one simulated flat pocket walk (:func:`sim_scenario`),
+    causal and smoothed.
+    """
+    causal, smoothed, _, _ = walk_errors(sim_scenario(side), seed, method=method)
+    return causal, smoothed
 
 
 def _summary(errs: list[np.ndarray]) -> dict[str, float]:
@@ -186,20 +197,23 @@ def run(a: argparse.Namespace) -> int:
     out: dict[str, Any] = {"method": a.method}
     say = (lambda *_: None) if a.json else print
     if not a.no_sim:
-        errs = []
+        errs, errs_smoothed = [], []
         for side in ("left", "right"):
             for seed in range(a.sim_seeds):
-                e = sim_walk(side, seed, a.method)
+                e, es = sim_walk(side, seed, a.method)
                 errs.append(e)
+                errs_smoothed.append(es)
                 say(f"sim {side:5s} seed {seed}: {e.size} steps, mean |err| {e.mean():5.1f} deg, "
-                    f">90 deg {np.mean(e > 90):.2f}")
-        allerr = np.concatenate(errs)
+                    f">90 deg {np.mean(e > 90):.2f}; smoothed {es.mean():5.1f} deg")
+        allerr, allsm = np.concatenate(errs), np.concatenate(errs_smoothed)
         say(f"SIM pocket ({len(errs)} walks, {allerr.size} steps): mean |err| {allerr.mean():.1f} deg, "
             f"median {np.median(allerr):.1f}, share >90 deg {np.mean(allerr > 90):.3f}, "
-            f"walks with mean >90 deg {sum(float(e.mean()) > 90 for e in errs)}")
-        out["sim"] = {**_summary(errs), "walks_mean_over_90_deg": float(sum(float(e.mean()) > 90 for e in errs))}
+            f"walks with mean >90 deg {sum(float(e.mean()) > 90 for e in errs)}; smoothed offline: mean |err| "
+            f"{allsm.mean():.1f} deg, median {np.median(allsm):.1f}")
+        out["sim"] = {**_summary(errs), "walks_mean_over_90_deg": float(sum(float(e.mean()) > 90 for e in errs)),
+                      "smoothed": _summary(errs_smoothed)}
         # Walks through landmarks, each processed without and with the site description of its scenario.
-        without, with_site = [], []
+        without, with_site, without_sm, with_sm = [], [], [], []
         n_fix = n_heading = n_att = n_lm = 0
         for side in ("left", "right"):
             for sc in landmark_scenarios(side):
@@ -207,10 +221,12 @@ def run(a: argparse.Namespace) -> int:
                 site = Site.from_dict(doc)
                 n_lm_sc = sum(1 for lm in doc["landmarks"] if lm["type"].startswith("stairs"))
                 for seed in range(a.sim_seeds):
-                    e0, _, _ = walk_errors(sc, seed, None, a.method)
-                    e1, ev, pipe = walk_errors(sc, seed, site, a.method)
+                    e0, e0s, _, _ = walk_errors(sc, seed, None, a.method)
+                    e1, e1s, ev, pipe = walk_errors(sc, seed, site, a.method)
                     without.append(e0)
                     with_site.append(e1)
+                    without_sm.append(e0s)
+                    with_sm.append(e1s)
                     fixes = [x for x in ev if x.get("type") == "landmark"]
                     n_fix += len(fixes)
                     n_heading += pipe.landmark_updates
@@ -218,13 +234,16 @@ def run(a: argparse.Namespace) -> int:
                     n_lm += n_lm_sc
                     say(f"sim {sc['name']:28s} seed {seed}: {e1.size} steps, mean |err| {e0.mean():5.1f} deg "
                         f"without landmarks, {e1.mean():5.1f} with ({len(fixes)} of {n_lm_sc} staircases matched)")
-        s0, s1 = _summary(without), _summary(with_site)
+        s0, s1, s0s, s1s = _summary(without), _summary(with_site), _summary(without_sm), _summary(with_sm)
         say(f"SIM pocket landmark walks ({len(with_site)} walks, {s1['steps']:.0f} steps): mean |err| "
             f"{s0['mean_abs_err_deg']:.2f} deg without landmarks, {s1['mean_abs_err_deg']:.2f} deg with landmarks "
             f"(median {s0['median_abs_err_deg']:.1f} / {s1['median_abs_err_deg']:.1f}, within 10 deg "
             f"{s0['within_10_deg']:.3f} / {s1['within_10_deg']:.3f}); staircases matched {n_fix}/{n_lm}, landmark "
-            f"heading updates {n_heading} (attitude {n_att})")
-        out["sim_landmarks"] = {"without": s0, "with": s1, "staircases": float(n_lm),
+            f"heading updates {n_heading} (attitude {n_att}); smoothed offline: {s0s['mean_abs_err_deg']:.2f} deg "
+            f"without landmarks, {s1s['mean_abs_err_deg']:.2f} deg with (median {s0s['median_abs_err_deg']:.1f} / "
+            f"{s1s['median_abs_err_deg']:.1f})")
+        out["sim_landmarks"] = {"without": s0, "with": s1, "without_smoothed": s0s, "with_smoothed": s1s,
+                                "staircases": float(n_lm),
                                 "staircases_matched": float(n_fix), "landmark_heading_updates": float(n_heading),
                                 "landmark_attitude_updates": float(n_att)}
     if a.no_real:

@@ -42,7 +42,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--geojson", help="also write the track as GeoJSON (local metres unless the log has an origin)")
     p.add_argument("--plot", help="also write a PNG plot of the track")
     p.add_argument("--smoother", default="on", choices=("on", "off"),
-                   help="OFFLINE: smooth the hand-held/torso step headings over the whole walk (gyro yaw with its "
+                   help="OFFLINE: smooth the step headings over the whole walk (gyro yaw with its "
                         "bias learnt from the magnetometer, pdr.heading_smoother); off: the causal track the "
                         "server streams")
     p.set_defaults(func=run_track)

@@ -107,7 +107,7 @@ def _smoothed(rows: list[dict[str, Any]], step_events: list[Any]) -> tuple[list[
     """``rows`` (one device or several) with each device's steps smoothed, and the smoother's note per device.
 
     The smoother's inputs come from the stored ``step`` events (:mod:`server.phone_processor`); a device whose
-    steps lack them (foot sensors, sessions processed before they were stored, pocket phones) keeps its track.
+    steps lack them (foot sensors, sessions processed before they were stored) keeps its track.
     """
     inputs = {(e.device_role, e.t_s): json.loads(e.data or "{}").get("smoother") or {} for e in step_events}
     out: list[dict[str, Any]] = []

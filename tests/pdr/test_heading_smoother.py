@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 
+from pdr.cli.pocket_heading import sim_walk
 from pdr.errors import InputError
 from pdr.frames import heading_deg_to_yaw, wrap_angle, yaw_to_heading_deg
 from pdr.heading_smoother import HeadingSmootherConfig, smooth_offsets, smooth_track
@@ -146,9 +147,9 @@ def test_the_stationary_bias_is_removed_from_the_gyro_yaw_before_smoothing():
 
 def test_steps_the_smoother_cannot_use_are_returned_unchanged():
     z = np.zeros(5)
-    rows = _steps(z, z, z, placement="pocket")
+    rows = _steps(z, z, z, placement=None)
     out, summary = smooth_track(rows)
-    assert out == rows and summary is not None and "hand-held or torso" in summary
+    assert out == rows and summary is not None and "hand-held, torso or trouser-pocket" in summary
     rows = _steps(z, z, z)
     rows[2]["gyro_heading_deg"] = None                  # no gyroscope
     out, summary = smooth_track(rows)
@@ -156,11 +157,36 @@ def test_steps_the_smoother_cannot_use_are_returned_unchanged():
     assert smooth_track([]) == ([], None)
 
 
+def test_pocket_steps_restart_the_offset_only_at_a_larger_jump():
+    # A 40-degree jump of (measured - gyro) restarts the hand-held offset (jump_deg 20), which then follows the
+    # measurement exactly, but not the pocket one (pocket_jump_deg 90), which bends through it.
+    n = 40
+    gyro = np.zeros(n)
+    meas = np.where(np.arange(n) < 20, 0.0, math.radians(40.0))
+    c = HeadingSmootherConfig(iterations=1)
+    hand = heading_deg_to_yaw(np.array([r["heading_deg"] for r in smooth_track(_steps(meas, meas, gyro), c)[0]]))
+    pocket = heading_deg_to_yaw(np.array([r["heading_deg"] for r in
+                                          smooth_track(_steps(meas, meas, gyro, placement="pocket"), c)[0]]))
+    np.testing.assert_allclose(hand, meas, atol=math.radians(0.5))
+    assert np.max(np.abs(wrap_angle(pocket - meas))) > math.radians(5.0)
+    with pytest.raises(InputError, match="pocket_jump_deg"):
+        HeadingSmootherConfig(pocket_jump_deg=0.0)
+
+
+def test_smoothing_removes_the_rmpca_lag_of_simulated_pocket_walks():
+    # Trouser pocket: the measurement is the RMPCA walking direction, which lags through turns; the gyro yaw of a
+    # device axis (pdr.gyro_yaw) carries the turns. Measured on seeds 0-4: 7.64 -> 5.62 deg mean over 40 walks.
+    causal, smoothed = zip(*(sim_walk(side, seed) for side in ("left", "right") for seed in (0, 1)), strict=True)
+    for c, s in zip(causal, smoothed, strict=True):
+        assert s.mean() < c.mean()
+    assert np.concatenate(smoothed).mean() < 0.8 * np.concatenate(causal).mean()
+
+
 @pytest.mark.data
 @pytest.mark.slow
 def test_smoothing_improves_the_ipin_hand_held_tracks():
     # IPIN 2023 track 3, repetition-02 files (the parameters were chosen on repetition 01), all landmarks:
-    # measured p75 3.51 -> 3.10 m absolute and 3.49 -> 2.15 m with the first segment aligned.
+    # measured p75 3.51 -> 2.90 m absolute and 3.49 -> 2.07 m with the first segment aligned.
     files = sorted(data_path("ipin2023_t3", "logfiles").glob("*repetition02.txt"))
     assert files
     errs: dict[str, list[np.ndarray]] = {"causal": [], "smoothed": []}
