@@ -12,8 +12,9 @@ running integral is analytic too (distance from speed, gait phase from step freq
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -203,29 +204,59 @@ class StepProfile:
         x = (t[:, None] - self.starts[None, :]) / d[None, :]
         return x, d
 
+    @cached_property
+    def _by_end(self) -> tuple[Array, Array, Array, Array]:
+        """Transition ends in increasing order with prefix sums (a leading 0) of ``delta`` and of ``delta m`` (``m``
+        the transition's midpoint), and the constant ``delta (b - a) R(-a / (b - a))`` of every transition.
+        """
+        order = np.argsort(self.ends, kind="stable")
+        a, b, delta = self.starts[order], self.ends[order], self.deltas[order]
+        offset = self.deltas * (self.ends - self.starts) * smoothstep_integral(-self.starts / (self.ends - self.starts))
+        return (b, np.concatenate([[0.0], np.cumsum(delta)]), np.concatenate([[0.0], np.cumsum(delta * 0.5 * (a + b))]),
+                offset)
+
+    def _under_way(self, t: Array) -> Iterator[tuple[float, float, float, NDArray[np.intp]]]:
+        """``(start, end, delta, index)`` of each transition with samples of ``t`` strictly inside it.
+
+        On increasing ``t`` (the usual case) the samples are found by bisection, so evaluating a whole recording
+        costs O(N + K log N) rather than K passes over it.
+        """
+        if t.size == 0:
+            return
+        ordered = t.ndim == 1 and bool(np.all(t[1:] >= t[:-1]))
+        lo, hi = t.min(), t.max()
+        cand = np.flatnonzero((self.ends > lo) & (self.starts < hi))
+        for a, b, delta in zip(self.starts[cand], self.ends[cand], self.deltas[cand], strict=True):
+            if ordered:
+                idx = np.arange(np.searchsorted(t, a, side="right"), np.searchsorted(t, b, side="left"))
+            else:
+                idx = np.flatnonzero((t > a) & (t < b))
+            if idx.size:
+                yield float(a), float(b), float(delta), idx
+
     def value(self, t_s: ArrayLike) -> Jet:
         """The level and its derivatives at times ``t_s`` (N,)."""
         t = np.asarray(t_s, dtype=np.float64)
-        v = np.full(t.shape, self.initial)
+        ends, cum_delta, _, _ = self._by_end
+        v = self.initial + cum_delta[np.searchsorted(ends, t, side="right")]      # transitions over at t
         d1 = np.zeros(t.shape)
         d2 = np.zeros(t.shape)
-        for a, b, delta in zip(self.starts, self.ends, self.deltas, strict=True):
-            done = t >= b
-            v[done] += delta
-            act = (t > a) & ~done
-            if act.any():
-                s, ds, dds = smoothstep((t[act] - a) / (b - a))
-                v[act] += delta * s
-                d1[act] += delta * ds / (b - a)
-                d2[act] += delta * dds / (b - a) ** 2
+        for a, b, delta, i in self._under_way(t):
+            s, ds, dds = smoothstep((t[i] - a) / (b - a))
+            v[i] += delta * s
+            d1[i] += delta * ds / (b - a)
+            d2[i] += delta * dds / (b - a) ** 2
         return Jet(v, d1, d2)
 
     def integral(self, t_s: ArrayLike) -> Jet:
         """``integral_0^t`` of the level, with derivatives (the level and its slope)."""
         t = np.asarray(t_s, dtype=np.float64)
         lv = self.value(t)
-        total = self.initial * t
-        for a, b, delta in zip(self.starts, self.ends, self.deltas, strict=True):
-            total = total + delta * (b - a) * (smoothstep_integral((t - a) / (b - a))
-                                               - smoothstep_integral(-a / (b - a)))
+        ends, cum_delta, cum_delta_mid, offset = self._by_end
+        # Per transition delta (b - a) (R((t - a) / (b - a)) - R(-a / (b - a))), R(x) = x - 1/2 past its end and 0
+        # before its start: a transition that is over adds delta (t - m), one not begun nothing but the constant.
+        n_over = np.searchsorted(ends, t, side="right")
+        total = (self.initial + cum_delta[n_over]) * t - cum_delta_mid[n_over] - float(np.sum(offset))
+        for a, b, delta, i in self._under_way(t):
+            total[i] += delta * (b - a) * smoothstep_integral((t[i] - a) / (b - a))
         return Jet(total, lv.value, lv.d1)

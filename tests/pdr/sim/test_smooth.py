@@ -1,5 +1,7 @@
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from pdr.sim.smooth import Jet, StepProfile, bump, ringing, smoothstep, smoothstep_integral
 
@@ -58,3 +60,28 @@ def test_ringing_is_c2_and_vanishes_outside():
     for part in ends:
         np.testing.assert_allclose(part, 0.0, atol=1e-12)
     assert 0.5 < np.abs(f).max() <= 1.0
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000), n=st.integers(1, 300))
+def test_step_profile_is_the_same_on_any_samples_in_any_order(seed, n):
+    # Overlapping transitions, some starting before t = 0; samples sorted, shuffled, or one at a time agree, and the
+    # integral is the quadrature of the level.
+    rng = np.random.default_rng(seed)
+    starts = rng.uniform(-2.0, 50.0, 12)
+    p = StepProfile.build(rng.normal(), [(a, a + rng.uniform(0.1, 5.0), rng.normal()) for a in starts])
+    t = np.sort(rng.uniform(-1.0, 60.0, n))
+    perm = rng.permutation(n)
+    for f in (p.value, p.integral):
+        whole = f(t)
+        shuffled = f(t[perm])
+        single = [f(t[i:i + 1]) for i in range(n)]
+        for part in ("value", "d1", "d2"):
+            np.testing.assert_allclose(getattr(shuffled, part), getattr(whole, part)[perm], rtol=1e-12, atol=1e-12)
+            np.testing.assert_allclose(np.concatenate([getattr(j, part) for j in single]), getattr(whole, part),
+                                       rtol=1e-12, atol=1e-12)
+    grid = np.linspace(-1.0, 60.0, 610_001)
+    v = p.value(grid).value
+    quad = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(grid))])
+    quad -= np.interp(0.0, grid, quad)                  # the integral runs from t = 0
+    np.testing.assert_allclose(p.integral(t).value, np.interp(t, grid, quad), atol=1e-6)
