@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from pdr.attitude import AttitudeFilter
+from pdr.machine import environment
 from pdr.pipeline import PdrPipeline, PipelineConfig, track_rows
 from pdr.recording import Recording
 
@@ -128,7 +129,8 @@ def run(duration_s: float = 3600.0, rate_hz: float = 100.0, batch_s: float = 0.0
     t0 = time.perf_counter()
     rec = simulated_recording(duration_s, rate_hz)
     sim_s = time.perf_counter() - t0
-    res = {"recording": {"duration_s": rec.duration_s, "rate_hz": rate_hz, "simulate_s": sim_s},
+    res = {"environment": environment(),
+           "recording": {"duration_s": rec.duration_s, "rate_hz": rate_hz, "simulate_s": sim_s},
            "pipeline": bench_pipeline(rec, PipelineConfig(), batch_s)}
     n = min(len(rec.stream("acc")), len(rec.stream("gyro")), len(rec.stream("mag")))
     res["attitude"] = bench_attitude(rec.values("acc")[:n], rec.values("gyro")[:n], rec.values("mag")[:n], rate_hz)

@@ -504,11 +504,13 @@ def register_bench(targets: argparse._SubParsersAction) -> None:
 
 def run_bench(args: argparse.Namespace) -> int:
     from pdr import bench
+    from pdr.machine import environment_line
     res = bench.run(args.duration, args.rate, args.batch)
     if args.json:
         print(json.dumps(res, indent=2))
         return 0
     pl, at = res["pipeline"], res["attitude"]
+    print(f"environment: {environment_line(res['environment'])}")
     print(f"recording: {res['recording']['duration_s']:.0f} s at {args.rate:g} Hz "
           f"(simulated in {res['recording']['simulate_s']:.1f} s)")
     print(f"pipeline: {pl['samples']} time steps in {pl['wall_s']:.2f} s = {pl['samples_per_s']:.0f} steps/s "

@@ -26,6 +26,7 @@ from pdr.foot.detectors import detect
 from pdr.foot.filterbank import FilterBankConfig, run_filterbank
 from pdr.foot.navigate import foot_imu
 from pdr.foot.zupt import run_zupt
+from pdr.machine import environment_line
 
 
 def tiled(t_s: np.ndarray, acc_b: np.ndarray, gyro_b: np.ndarray, rate_hz: float,
@@ -84,6 +85,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     zv = detect(acc, gyro, imu.rate_hz)
     costs = cpu_costs(t, acc, gyro, zv)
     span = float(t[-1] - t[0])
+    print(f"environment: {environment_line()}")
     for name, (c, mb) in costs.items():
         print(f"{name}: {span:.0f} s at {imu.rate_hz:.0f} Hz in {c:.2f} s CPU = {span / c:.0f}x real time, "
               f"{c / costs['zupt'][0]:.1f}x the ZUPT filter's cost; peak memory +{mb:.0f} MB")
