@@ -205,15 +205,15 @@ class StepProfile:
         return x, d
 
     @cached_property
-    def _by_end(self) -> tuple[Array, Array, Array, Array]:
+    def _by_end(self) -> tuple[Array, Array, Array, float]:
         """Transition ends in increasing order with prefix sums (a leading 0) of ``delta`` and of ``delta m`` (``m``
-        the transition's midpoint), and the constant ``delta (b - a) R(-a / (b - a))`` of every transition.
+        the transition's midpoint), and the sum over all transitions of ``delta (b - a) R(-a / (b - a))``.
         """
         order = np.argsort(self.ends, kind="stable")
         a, b, delta = self.starts[order], self.ends[order], self.deltas[order]
         offset = self.deltas * (self.ends - self.starts) * smoothstep_integral(-self.starts / (self.ends - self.starts))
         return (b, np.concatenate([[0.0], np.cumsum(delta)]), np.concatenate([[0.0], np.cumsum(delta * 0.5 * (a + b))]),
-                offset)
+                float(np.sum(offset)))
 
     def _under_way(self, t: Array) -> Iterator[tuple[float, float, float, NDArray[np.intp]]]:
         """``(start, end, delta, index)`` of each transition with samples of ``t`` strictly inside it.
@@ -256,7 +256,7 @@ class StepProfile:
         # Per transition delta (b - a) (R((t - a) / (b - a)) - R(-a / (b - a))), R(x) = x - 1/2 past its end and 0
         # before its start: a transition that is over adds delta (t - m), one not begun nothing but the constant.
         n_over = np.searchsorted(ends, t, side="right")
-        total = (self.initial + cum_delta[n_over]) * t - cum_delta_mid[n_over] - float(np.sum(offset))
+        total = (self.initial + cum_delta[n_over]) * t - cum_delta_mid[n_over] - offset
         for a, b, delta, i in self._under_way(t):
             total[i] += delta * (b - a) * smoothstep_integral((t[i] - a) / (b - a))
         return Jet(total, lv.value, lv.d1)
