@@ -29,7 +29,6 @@ from types import MappingProxyType
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import signal
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
@@ -213,6 +212,8 @@ def slerp(t_s: ArrayLike, q: ArrayLike, t_new_s: ArrayLike) -> FloatArray:
 
 def lowpass_sos(rate_hz: float, cutoff_hz: float, order: int = 6) -> FloatArray:
     """Butterworth low-pass in second-order sections for data sampled at ``rate_hz`` (Hz)."""
+    from scipy import signal  # 2 s of imports: only where a signal is filtered (`pdr inspect` never does)
+
     return np.asarray(signal.butter(order, cutoff_hz, btype="low", fs=rate_hz, output="sos"))
 
 
@@ -232,6 +233,8 @@ def _resample_signal(t: FloatArray, v: FloatArray, fs: float, grid: FloatArray, 
         sos = lowpass_sos(fs, cutoff, order)
         # Default pad length is 3 * (2 * sections + 1); shorter runs pad with what they have.
         padlen = min(3 * (2 * sos.shape[0] + 1), n - 1)
+        from scipy import signal
+
         x = signal.sosfiltfilt(sos, x, axis=0, padtype="odd" if padlen else None, padlen=padlen)
     return np.column_stack([np.interp(grid, native, x[:, c]) for c in range(v.shape[1])])
 

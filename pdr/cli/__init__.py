@@ -4,6 +4,11 @@ Subcommands are declared as entry points in the ``pdr.commands`` group of ``pypr
 points at a ``register(subparsers)`` function that adds its parser and sets ``func`` (a callable
 taking the parsed ``argparse.Namespace`` and returning an exit code). Targets of ``pdr eval`` come
 from the ``pdr.eval`` group in the same way. pdr/ never imports server/ or classifiers/ directly.
+
+Only the entry point a command line names is imported (``pdr inspect LOG`` loads neither scikit-learn nor Flask
+nor the Allan-variance fits): each plugin module imports what its command runs, several seconds of imports in
+all. An entry point's name is the (sub)command it adds. A command line that names none (``pdr --help``, a typo)
+loads them all, so that help and "invalid choice" list every command.
 """
 
 from __future__ import annotations
@@ -26,9 +31,22 @@ def _unavailable(name: str, error: Exception):  # noqa: ANN202
     return run
 
 
-def register_group(subparsers: argparse._SubParsersAction, group: str) -> None:
-    """Add every entry point of ``group`` to ``subparsers``; a broken plugin becomes an error command."""
-    for ep in sorted(entry_points(group=group), key=lambda e: e.name):
+#: The positional words of the command line being parsed (``("eval", "ipin", ...)``): the word at position
+#: ``level`` picks the entry point :func:`register_group` loads at that level. Set by :func:`build_parser` only
+#: while it runs.
+_requested: tuple[str, ...] = ()
+
+
+def register_group(subparsers: argparse._SubParsersAction, group: str, level: int = 0) -> None:
+    """Add the entry points of ``group`` to ``subparsers``; a broken plugin becomes an error command.
+
+    ``level`` is the position of this group's (sub)command among the command line's positional words (0 for
+    ``pdr COMMAND``, 1 for ``pdr eval TARGET``): when that word names an entry point of the group, only that one
+    is loaded (module doc).
+    """
+    eps = sorted(entry_points(group=group), key=lambda e: e.name)
+    wanted = _requested[level] if level < len(_requested) else None
+    for ep in [ep for ep in eps if ep.name == wanted] or eps:
         try:
             ep.load()(subparsers)
         except (ImportError, AttributeError) as exc:
@@ -36,20 +54,30 @@ def register_group(subparsers: argparse._SubParsersAction, group: str) -> None:
             p.set_defaults(func=_unavailable(ep.name, exc))
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(argv: Sequence[str] = ()) -> argparse.ArgumentParser:
+    """The ``pdr`` parser for the command line ``argv`` (only the entry points it names; all when it names none).
+
+    The top-level options take no values, so the positional words are the arguments that do not start with '-'.
+    """
+    global _requested
     parser = argparse.ArgumentParser(
         prog="pdr", description="Pedestrian navigation backend: read logs, simulate, track, classify, serve.")
     parser.add_argument("-v", "--verbose", action="store_true", help="log progress to stderr")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    register_group(sub, "pdr.commands")
+    _requested = tuple(a for a in argv if not a.startswith("-"))
+    try:
+        register_group(sub, "pdr.commands")
+    finally:
+        _requested = ()
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``pdr`` command line; returns the process exit code."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    words = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(words)
+    args = parser.parse_args(words)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
     try:

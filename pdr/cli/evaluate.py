@@ -11,7 +11,7 @@ def _target_command(subparsers: argparse._SubParsersAction, name: str, help_: st
     p = subparsers.add_parser(name, help=help_)
     targets = p.add_subparsers(dest="target", metavar="TARGET")
     targets.required = True
-    register_group(targets, group)
+    register_group(targets, group, level=1)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -7,7 +7,7 @@ import csv
 import json
 import math
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -147,34 +147,45 @@ def run_track(args: argparse.Namespace) -> int:
 
 
 # -- evaluation ------------------------------------------------------------------------------------
-def register_eval(targets: argparse._SubParsersAction) -> None:
-    for name, helptext, func in (
-            ("ipin", "IPIN logfiles: landmark error (absolute and first-segment aligned), distance ratio", eval_ipin),
-            ("ms", "MS indoor traces: waypoint error after start and rotation alignment", eval_ms),
-            ("steps", "step-count error per walk and placement (Oxford step counter)", eval_steps)):
-        p = targets.add_parser(name, help=helptext)
-        p.add_argument("dir", help="dataset folder")
-        p.add_argument("--json", action="store_true", help="print figures as JSON")
-        p.add_argument("--tracks", help="also write each track CSV into this folder (for tools/score_tracks.py)")
-        p.add_argument("--limit", type=int, default=0, help="only the first N files (0: all)")
-        if name != "steps":
-            _common_options(p)
-        if name == "ipin":
-            p.add_argument("--calibrate", default="none", choices=("none", "cross", "cross-rep"),
-                           help="also score each log after recalibrating the step-length scale K (pdr calibrate) "
-                                "on OTHER logs of the same phone: cross = its other routes, cross-rep = the other "
-                                "repetitions of its route (never the log itself)")
-            p.add_argument("--smoother", default="both", choices=("both", "off"),
-                           help="both: also score the offline-smoothed tracks (pdr track's default; "
-                                "pdr.heading_smoother) next to the causal ones")
-            p.add_argument("--budget", action="store_true",
-                           help="also score the track (smoothed when --smoother both) re-walked with the true "
-                                "heading of each straight leg, with its length scaled to the truth, and both "
-                                "(pdr.error_budget): how much of the error heading and step-length scale explain")
-            p.add_argument("--trim-start", type=float, default=0.0, metavar="S",
-                           help="drop each log's first S seconds (refused if that reaches its first landmark): "
-                                "shows how much the figures depend on the start conditions")
-        p.set_defaults(func=func)
+def register_eval_ipin(targets: argparse._SubParsersAction) -> None:
+    _register_eval(targets, "ipin",
+                   "IPIN logfiles: landmark error (absolute and first-segment aligned), distance ratio", eval_ipin)
+
+
+def register_eval_ms(targets: argparse._SubParsersAction) -> None:
+    _register_eval(targets, "ms", "MS indoor traces: waypoint error after start and rotation alignment", eval_ms)
+
+
+def register_eval_steps(targets: argparse._SubParsersAction) -> None:
+    _register_eval(targets, "steps", "step-count error per walk and placement (Oxford step counter)", eval_steps)
+
+
+def _register_eval(targets: argparse._SubParsersAction, name: str, helptext: str,
+                   func: Callable[[argparse.Namespace], int]) -> None:
+    """``pdr eval NAME`` (ipin, ms, steps): the options these phone evaluations share, and NAME's own."""
+    p = targets.add_parser(name, help=helptext)
+    p.add_argument("dir", help="dataset folder")
+    p.add_argument("--json", action="store_true", help="print figures as JSON")
+    p.add_argument("--tracks", help="also write each track CSV into this folder (for tools/score_tracks.py)")
+    p.add_argument("--limit", type=int, default=0, help="only the first N files (0: all)")
+    if name != "steps":
+        _common_options(p)
+    if name == "ipin":
+        p.add_argument("--calibrate", default="none", choices=("none", "cross", "cross-rep"),
+                       help="also score each log after recalibrating the step-length scale K (pdr calibrate) "
+                            "on OTHER logs of the same phone: cross = its other routes, cross-rep = the other "
+                            "repetitions of its route (never the log itself)")
+        p.add_argument("--smoother", default="both", choices=("both", "off"),
+                       help="both: also score the offline-smoothed tracks (pdr track's default; "
+                            "pdr.heading_smoother) next to the causal ones")
+        p.add_argument("--budget", action="store_true",
+                       help="also score the track (smoothed when --smoother both) re-walked with the true "
+                            "heading of each straight leg, with its length scaled to the truth, and both "
+                            "(pdr.error_budget): how much of the error heading and step-length scale explain")
+        p.add_argument("--trim-start", type=float, default=0.0, metavar="S",
+                       help="drop each log's first S seconds (refused if that reaches its first landmark): "
+                            "shows how much the figures depend on the start conditions")
+    p.set_defaults(func=func)
 
 
 def _files(d: str, patterns: tuple[str, ...]) -> list[Path]:

@@ -1,0 +1,58 @@
+"""The ``pdr`` command imports only the plugin a command line names (pdr.cli module doc)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+
+import pytest
+
+from pdr.cli import build_parser, main
+
+COMMANDS = {"allan", "bench", "calibrate", "classify", "convert", "eval", "foot", "inspect", "serve", "simulate",
+            "track", "train", "users", "worker"}
+EVAL_TARGETS = {"classifier", "coop", "foot", "ipin", "ms", "pocket-heading", "steps"}
+BENCH_TARGETS = {"faults", "load", "phone", "processor", "server"}
+
+
+def _choices(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return dict(sub.choices)
+
+
+def test_a_command_line_without_a_known_command_registers_every_command_and_target() -> None:
+    for argv in ([], ["--help"], ["inspec", "x"], ["-v"]):
+        commands = _choices(build_parser(argv))
+        assert set(commands) == COMMANDS, argv
+    commands = _choices(build_parser([]))
+    assert set(_choices(commands["eval"])) == EVAL_TARGETS
+    assert set(_choices(commands["bench"])) == BENCH_TARGETS
+
+
+def test_a_named_command_registers_only_itself_and_its_named_target() -> None:
+    assert set(_choices(build_parser(["-v", "inspect", "--formats"]))) == {"inspect"}
+    commands = _choices(build_parser(["eval", "ipin", "DIR", "--json"]))
+    assert set(commands) == {"eval"}
+    assert set(_choices(commands["eval"])) == {"ipin"}
+    # An unknown target keeps every target, so that argparse's error lists them.
+    assert set(_choices(_choices(build_parser(["eval", "nope"]))["eval"])) == EVAL_TARGETS
+
+
+def test_unknown_command_error_lists_every_command(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["inspec", "x"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "invalid choice: 'inspec'" in err
+    assert "'inspect'" in err and "'serve'" in err
+
+
+def test_inspect_does_not_import_the_heavy_plugins() -> None:
+    heavy = ("sklearn", "xgboost", "flask", "sqlalchemy", "matplotlib", "scipy.signal", "scipy.optimize",
+             "classifiers", "server")
+    code = ("import json, sys; from pdr.cli import build_parser; build_parser(['inspect', 'LOG']); "
+            f"print(json.dumps([m for m in {heavy!r} if m in sys.modules]))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120)
+    assert json.loads(out.stdout) == []
