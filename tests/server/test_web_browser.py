@@ -18,6 +18,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 import os
 import shutil
 import statistics
@@ -40,6 +41,7 @@ from tests.server.web_seed import (
     WebTestProcessor,
     allan_report,
     corridor_walk,
+    drifting_compass_walk,
     expected_truth_error_m,
     seed_session,
     truth_log,
@@ -111,6 +113,9 @@ class LiveService:
                                     {"fused": short.rows(), "left_foot": short.rows(-0.12),
                                      "right_foot": short.rows(0.12)}, placement="foot",
                                     meta={"processing": {"foot": {"zaru": True}}})
+        compass_rows, compass_steps = drifting_compass_walk()
+        self.compass_id = seed_session(store, self.tokens["alice"], "compass-walk", {"phone": compass_rows},
+                                       placement="hand", step_events=tuple(compass_steps))
         self.bob_id = seed_session(store, self.tokens["bob"], "bob-secret-walk", {"phone": short.rows()})
         alice = Client(self.url, self.tokens["alice"])
         payload = json.dumps(truth_log()).encode()
@@ -183,7 +188,7 @@ def test_sign_in_list_sessions_and_open_a_long_session(page: Any, live: LiveServ
     sign_in(page, live)
     rows = page.locator("#sessions-table tbody tr")
     names = rows.locator("td:first-child").all_inner_texts()
-    assert set(names) == {"corridor-2h", "shoes-5min", "truth-walk.json"}
+    assert set(names) == {"corridor-2h", "shoes-5min", "truth-walk.json", "compass-walk"}
     long_row = page.locator(f"#sessions-table tr[data-session='{live.long_id}']")
     assert long_row.locator("[data-role=steps]").inner_text() == str(live.long_steps)
     assert "1 h 59 min" in long_row.inner_text() and "pocket" in long_row.inner_text()
@@ -265,6 +270,42 @@ def test_csv_and_geojson_downloads(page: Any, live: LiveService) -> None:
     geo = json.loads(Path(info.value.path()).read_text())
     assert geo["type"] == "FeatureCollection"
     assert sorted(f["properties"]["device"] for f in geo["features"]) == ["fused", "left_foot", "right_foot"]
+
+
+def test_a_finished_session_shows_the_smoothed_track_and_can_show_it_as_streamed(page: Any, live: LiveService
+                                                                                  ) -> None:
+    alice = Client(live.url, live.tokens["alice"])
+    url = f"/api/v1/sessions/{live.compass_id}/track"
+    smoothed = alice.request("GET", url + "?heading=smoothed").json()["points"]
+    causal = alice.request("GET", url).json()["points"]
+    alice.close()
+    end = {name: [rows[-1]["east_m"], rows[-1]["north_m"]] for name, rows in (("smoothed", smoothed),
+                                                                              ("causal", causal))}
+    assert math.dist(end["smoothed"], end["causal"]) > 2.0  # the seeded compass disturbance, smoothed out
+    sign_in(page, live)
+    page.goto(f"{live.url}/#/session/{live.compass_id}")
+    # By default the page ends on the track `pdr track` writes: headings smoothed over the walk.
+    page.wait_for_function("() => window.pdrPage.track && window.pdrPage.track.heading === 'smoothed'")
+    assert page.evaluate("window.pdrPage.track.last") == pytest.approx(end["smoothed"], abs=1e-9)
+    assert page.input_value("#heading-mode") == "smoothed"
+    assert "heading smoothed over" in page.inner_text("#session-summary [data-role=heading]")
+    assert track_point_counts(page)["total"] == len(smoothed)
+    with page.expect_download() as info:
+        page.click("#dl-csv")
+    table = list(csv.reader(io.StringIO(Path(info.value.path()).read_text())))
+    assert [float(v) for v in table[-1][1:3]] == pytest.approx(end["smoothed"], abs=1e-9)
+    shot(page, "06-session-smoothed")
+    # As streamed: the rows the service computed step by step, and the download follows.
+    page.select_option("#heading-mode", "causal")
+    page.wait_for_function("() => window.pdrPage.track.heading === 'causal'")
+    assert page.evaluate("window.pdrPage.track.last") == pytest.approx(end["causal"], abs=1e-9)
+    assert page.inner_text("#session-summary [data-role=heading]") == "Heading: as streamed"
+    with page.expect_download() as info:
+        page.click("#dl-csv")
+    table = list(csv.reader(io.StringIO(Path(info.value.path()).read_text())))
+    assert [float(v) for v in table[-1][1:3]] == pytest.approx(end["causal"], abs=1e-9)
+    page.select_option("#heading-mode", "smoothed")
+    page.wait_for_function("() => window.pdrPage.track.heading === 'smoothed'")
 
 
 @pytest.mark.slow

@@ -85,6 +85,38 @@ def corridor_walk(duration_s: float, cadence_hz: float = 1.6, seed: int = 0) -> 
     return Walk(t, east, north, floor, heading, length, mode)
 
 
+def drifting_compass_walk(duration_s: float = 240.0, cadence_hz: float = 1.8,
+                          seed: int = 2) -> tuple[list[TrackRow], list[EventRow]]:
+    """A hand-held walk as the phone pipeline streams it, with the step events' smoother inputs
+    (:data:`server.phone_processor.SMOOTHER_INPUTS`), so that ``?heading=smoothed`` moves it.
+
+    The walk goes around the corridor loop of :func:`corridor_walk`; the streamed heading follows a compass
+    with noise and a 20 deg disturbance over the second minute that builds up and fades over 15 s (a
+    corridor with steel in its walls), while the gyro heading is the true heading plus a constant 40 deg
+    (the gyro yaw's arbitrary origin). Smoothing the heading over the walk (gyro yaw plus an offset learnt
+    from the compass) takes the disturbance out: the streamed track ends 18 m from the true loop's end, the
+    smoothed one 2.3 m.
+    """
+    rng = np.random.default_rng(seed)
+    walk = corridor_walk(duration_s, cadence_hz, seed)
+    compass = walk.heading_deg + 4.0 * rng.standard_normal(walk.t_s.size)
+    compass = compass + 20.0 * np.clip(np.minimum(walk.t_s - 60.0, 120.0 - walk.t_s) / 15.0, 0.0, 1.0)
+    yaw = np.radians(90.0 - compass)
+    east = np.cumsum(walk.step_length_m * np.cos(yaw))
+    north = np.cumsum(walk.step_length_m * np.sin(yaw))
+    rows, events = [], []
+    for k, t in enumerate(walk.t_s):
+        heading = float(compass[k] % 360.0)
+        rows.append(TrackRow(float(t), float(east[k]), float(north[k]), 0.0, 0.0, heading,
+                             float(walk.step_length_m[k]), "walking"))
+        smoother = {"placement": "hand", "heading_sigma_deg": 10.0, "heading_raw_deg": heading,
+                    "gyro_heading_deg": float((walk.heading_deg[k] + 40.0) % 360.0), "up_time_s": None,
+                    "gyro_bias_dps": None, "position_fix": False, "landmark_heading": False}
+        events.append(EventRow("step", float(t), label="walking", value=float(walk.step_length_m[k]),
+                               data={"heading_deg": heading, "floor": 0.0, "smoother": smoother}))
+    return rows, events
+
+
 def user_id(store: Store, token: str) -> int:
     with store.engine.connect() as conn:
         user = auth.lookup(conn, token)
@@ -94,8 +126,12 @@ def user_id(store: Store, token: str) -> int:
 
 def seed_session(store: Store, token: str, name: str, tracks: dict[str, list[TrackRow]], *,
                  placement: str | None = "pocket", model: str = "Pixel 7", warnings: tuple[str, ...] = (),
-                 landmarks: tuple[tuple[float, str], ...] = (), meta: dict[str, Any] | None = None) -> str:
-    """A processed session of the token's user with the given track per device role; returns its id."""
+                 landmarks: tuple[tuple[float, str], ...] = (), meta: dict[str, Any] | None = None,
+                 step_events: tuple[EventRow, ...] = ()) -> str:
+    """A processed session of the token's user with the given track per device role; returns its id.
+
+    ``step_events`` are stored with the first device's results (e.g. :func:`drifting_compass_walk`'s).
+    """
     sid, _ = store.create_session(user_id(store, token), source="native", client_session_id=name, name=name,
                                   placement=placement, meta=meta)
     for role, rows in tracks.items():
@@ -105,7 +141,8 @@ def seed_session(store: Store, token: str, name: str, tracks: dict[str, list[Tra
         bid, _ = store.add_batch(sid, device_role=role, client_batch_id=f"seed-{role}", payload_format=NATIVE_JSON,
                                  payload=json.dumps({"seed": name, "role": role}).encode(), t_first_ns=0,
                                  t_last_ns=t_last_ns)
-        events = [EventRow("landmark", t, label=label) for t, label in landmarks] if role == next(iter(tracks)) else []
+        events = ([EventRow("landmark", t, label=label) for t, label in landmarks] + list(step_events)
+                  if role == next(iter(tracks)) else [])
         store.commit_results(sid, role, bid, b"{}", t_last_ns, rows, events)
     store.add_session_warnings(sid, list(warnings))
     store.set_session(sid, status="done")

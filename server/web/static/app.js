@@ -15,8 +15,9 @@
   const enc = encodeURIComponent;
   const { fmt, fmtDuration } = Plot;
 
-  /** Exposed for the browser tests: render timings (ms) of the last session view. */
-  const page = { timings: {} };
+  /** Exposed for the browser tests: render timings (ms) of the last session view, and which track it shows
+   * (``track.heading``: "smoothed" or "causal"; ``track.last``: [east_m, north_m] of its last row). */
+  const page = { timings: {}, track: null };
   window.pdrPage = page;
 
   let generation = 0; // bumped on every navigation: late answers of an old view are dropped
@@ -328,8 +329,9 @@
     }
     if (gen !== generation) return;
     page.timings.fetched = performance.now() - t0;
-    current = { id, detail: null, rows: rowsOfColumns(track), landmarks: [], truth: null };
-    current.byDevice = groupByDevice(current.rows);
+    current = { id, detail: null, causal: rowsOfColumns(track), smoothed: null, headingNotes: [], version: 0,
+      landmarks: [], truth: null };
+    showRows();
     $("colour-by").value = current.byDevice.size > 1 ? "device" : "mode";
     setupFloorFilter();
     renderSessionData(false);
@@ -357,14 +359,67 @@
 
   async function loadExtras(gen) {
     const id = current.id;
-    const [landmarks, truth] = await Promise.allSettled([apiJson(`${API}/sessions/${enc(id)}/landmarks`),
-      apiJson(`${API}/sessions/${enc(id)}/truth`)]);
+    const [landmarks, truth, smoothed] = await Promise.allSettled([apiJson(`${API}/sessions/${enc(id)}/landmarks`),
+      apiJson(`${API}/sessions/${enc(id)}/truth`), loadSmoothed()]);
     if (gen !== generation) return;
     if (landmarks.status === "fulfilled") current.landmarks = landmarks.value.landmarks || [];
     if (truth.status === "fulfilled") current.truth = truth.value;
     else current.truthError = truth.reason;
+    if (smoothed.status === "rejected") reportError(smoothed.reason, "Could not load the smoothed track");
+    showRows();
+    setupFloorFilter();
+    renderSessionHeader();
     renderSessionData(true);
     page.timings.complete = performance.now() - page.timings.start;
+  }
+
+  const wantSmoothed = () => $("heading-mode").value === "smoothed";
+  const isLive = () => !current.detail || LIVE_STATUSES.has(current.detail.status);
+
+  /** Fetch the track with its headings smoothed over the whole session (``?heading=smoothed``) into
+   * ``current.smoothed``, when it is wanted and the session is not processing (smoothing revises every row,
+   * so a live session shows its rows as streamed). An answer older than the rows it would replace is dropped. */
+  async function loadSmoothed() {
+    if (!current || !wantSmoothed() || current.smoothed || isLive()) return;
+    const { id, version } = current;
+    const body = await apiJson(`${API}/sessions/${enc(id)}/track/columns?heading=smoothed`);
+    if (!current || current.id !== id || current.version !== version) return;
+    current.smoothed = rowsOfColumns(body);
+    current.headingNotes = body.heading_notes || [];
+  }
+
+  /** The rows to draw: the smoothed track when it is wanted and loaded, else the rows as streamed. */
+  function showRows() {
+    const smoothed = wantSmoothed() && current.smoothed !== null;
+    current.rows = smoothed ? current.smoothed : current.causal;
+    current.heading = smoothed ? "smoothed" : "causal";
+    current.byDevice = groupByDevice(current.rows);
+    const last = current.rows[current.rows.length - 1];
+    page.track = { heading: current.heading, last: last ? [last.east_m, last.north_m] : null };
+  }
+
+  /** What the Heading part of the summary says about the track drawn. */
+  function headingText() {
+    if (current.heading === "smoothed") {
+      return current.headingNotes.length ? current.headingNotes.join("; ") : "smoothed over the walk";
+    }
+    if (wantSmoothed() && isLive()) return "as streamed (smoothed once processing ends)";
+    return "as streamed";
+  }
+
+  async function changeHeading() {
+    if (!current) return;
+    const gen = generation;
+    try {
+      await loadSmoothed();
+    } catch (err) {
+      if (gen === generation) reportError(err, "Could not load the smoothed track");
+    }
+    if (gen !== generation || !current) return;
+    showRows();
+    setupFloorFilter();
+    if (current.detail) renderSessionHeader();
+    renderSessionData(true);
   }
 
   /** Poll while uploading: each device's new rows with ?device=&since= (its last time), and the status. */
@@ -376,7 +431,7 @@
       const roles = new Set([...(detail.devices || []).map((d) => d.role), ...current.byDevice.keys()]);
       // Provisional rows (the processor's tail) are replaced by the next batch: ask from each device's last
       // final row and swap the tail; redraw only when something differs.
-      const finals = current.rows.filter((r) => !r.provisional);
+      const finals = current.causal.filter((r) => !r.provisional);
       const finalsBy = groupByDevice(finals);
       const fresh = [];
       for (const role of roles) {
@@ -387,14 +442,19 @@
         for (const r of rowsOfColumns(body)) fresh.push(r);
       }
       const key = (rows) => JSON.stringify(rows.map((r) => [r.device, r.t_s, r.east_m, r.north_m, r.provisional]));
-      const changed = key(fresh) !== key(current.rows.filter((r) => r.provisional));
-      if (changed) current.rows = finals.concat(fresh);
+      const changed = key(fresh) !== key(current.causal.filter((r) => r.provisional));
+      if (changed) {
+        // New rows change the whole smoothed track: it is fetched again once processing ends (loadExtras).
+        current.causal = finals.concat(fresh);
+        current.smoothed = null;
+        current.version += 1;
+      }
       const added = changed ? 1 : 0;
       if (gen !== generation) return;
       current.detail = detail;
       renderSessionHeader();
       if (added !== 0) {
-        current.byDevice = groupByDevice(current.rows);
+        showRows();
         setupFloorFilter();
         renderSessionData(true);
       }
@@ -438,6 +498,7 @@
     part("Duration", fmtDuration(d.duration_s));
     part("Distance", `${fmt(d.distance_m, 1)} m`);
     part("Steps", String(d.steps), "steps");
+    part("Heading", headingText(), "heading");
     const warn = $("session-warnings");
     clearNode(warn);
     if (d.warnings && d.warnings.length) {
@@ -937,13 +998,15 @@
     $("sign-out").addEventListener("click", () => { signOut(); location.hash = "#/sessions"; });
     $("floor-filter").addEventListener("change", redrawSession);
     $("colour-by").addEventListener("change", () => { if (current) renderSessionData(true); });
+    $("heading-mode").addEventListener("change", changeHeading);
     $("zoom-in").addEventListener("click", () => map && map.box && map.zoom(1 / 1.5));
     $("zoom-out").addEventListener("click", () => map && map.box && map.zoom(1.5));
     $("zoom-reset").addEventListener("click", () => map && map.fit());
     const dl = (format, ext) => async () => {
       if (!current) return;
       try {
-        await download(`${API}/sessions/${enc(current.id)}/track?format=${format}`, `${current.id}.${ext}`);
+        await download(`${API}/sessions/${enc(current.id)}/track?format=${format}&heading=${current.heading}`,
+          `${current.id}.${ext}`);
       } catch (err) {
         reportError(err, `The ${ext.toUpperCase()} download failed`);
       }
