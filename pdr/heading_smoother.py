@@ -70,10 +70,12 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.filters.rts import rts_smooth
+from pdr.foot.drift import _wrap
 from pdr.frames import heading_deg_to_yaw, wrap_angle
 from pdr.track import redo_steps
 
@@ -179,32 +181,54 @@ def smooth_offsets(t_s: FloatArray, gyro_yaw: FloatArray, meas_yaw: FloatArray, 
 
 def _rts(t: FloatArray, z: FloatArray, r: FloatArray, jump: NDArray[np.bool_], bias_sigma: float,
          c: HeadingSmootherConfig) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """One forward Kalman filter and the backward pass (:func:`pdr.filters.rts.rts_smooth`) of the module's model
-    (``bias_sigma``: prior standard deviation of the bias, rad/s).
+    """One forward Kalman filter (:func:`_forward`) and the backward pass (:func:`pdr.filters.rts.rts_smooth`)
+    of the module's model (``bias_sigma``: prior standard deviation of the bias, rad/s).
     """
     n = t.size
-    q_d, q_b = math.radians(c.heading_rw_deg) ** 2, math.radians(c.bias_rw_deg) ** 2
     xf, pf = np.zeros((n, 2)), np.zeros((n, 2, 2))      # filtered
     xp, pp = np.zeros((n, 2)), np.zeros((n, 2, 2))      # predicted
     fs = np.tile(np.eye(2), (n, 1, 1))                  # fs[k]: transition from step k - 1 to k
-    x = np.array([z[0], 0.0])
-    p = np.diag([r[0], bias_sigma ** 2])
-    for k in range(n):
-        if k:
-            dt = t[k] - t[k - 1]
-            fs[k, 0, 1] = dt
-            q = q_b * np.array([[dt ** 3 / 3, dt ** 2 / 2], [dt ** 2 / 2, dt]]) + np.diag([q_d * dt, 0.0])
-            if jump[k]:
-                q[0, 0] += math.pi ** 2          # the offset starts afresh
-            x, p = fs[k] @ x, fs[k] @ p @ fs[k].T + q
-        xp[k], pp[k] = x, p
-        innov = float(wrap_angle(z[k] - x[0]))
-        gain = p[:, 0] / (p[0, 0] + r[k])
-        x = x + gain * innov
-        p = p - np.outer(gain, p[0])
-        xf[k], pf[k] = x, p
+    fs[1:, 0, 1] = np.diff(t)
+    _forward(t, z, r, jump, bias_sigma ** 2, math.radians(c.heading_rw_deg) ** 2, math.radians(c.bias_rw_deg) ** 2,
+             xf, pf, xp, pp)
     xs, ps = rts_smooth(xf, pf, xp, pp, fs)
     return xs[:, 0], np.sqrt(np.maximum(ps[:, 0, 0], 0.0)), xs[:, 1]
+
+
+@njit(cache=True)
+def _forward(t: FloatArray, z: FloatArray, r: FloatArray, jump: NDArray[np.bool_], bias_var: float, q_d: float,
+             q_b: float, xf: FloatArray, pf: FloatArray, xp: FloatArray,
+             pp: FloatArray) -> None:  # pragma: no cover - compiled
+    """The forward filter of the offset ``d`` (rad) and bias ``beta`` (rad/s) over the steps, in place.
+
+    Transition ``d_k = d_k-1 + dt beta_k-1`` with the integrated random walks ``q_b`` (bias, rad^2/s^3) and
+    ``q_d`` (offset, rad^2/s), the offset's variance raised by pi^2 at a ``jump``; measurement ``z_k = d_k``
+    (wrapped innovation) with variance ``r_k`` (rad^2). Writes the predicted ``xp, pp`` and filtered ``xf, pf``
+    means (K, 2) and covariances (K, 2, 2) that :func:`pdr.filters.rts.rts_smooth` takes. A compiled loop: the
+    smoothed track of a 2-hour session (13 000 steps, four passes) is served on request.
+    """
+    x0, x1 = z[0], 0.0
+    p00, p01, p10, p11 = r[0], 0.0, 0.0, bias_var
+    for k in range(t.size):
+        if k:
+            dt = t[k] - t[k - 1]
+            q00 = q_b * dt ** 3 / 3.0 + q_d * dt + (math.pi ** 2 if jump[k] else 0.0)
+            q01 = q_b * dt ** 2 / 2.0
+            x0 = x0 + dt * x1
+            # F P F^T + Q with F = [[1, dt], [0, 1]].
+            a00 = p00 + dt * p10
+            a01 = p01 + dt * p11
+            p00, p01, p10, p11 = a00 + dt * a01 + q00, a01 + q01, p10 + dt * p11 + q01, p11 + q_b * dt
+        xp[k, 0], xp[k, 1] = x0, x1
+        pp[k, 0, 0], pp[k, 0, 1], pp[k, 1, 0], pp[k, 1, 1] = p00, p01, p10, p11
+        innov = _wrap(z[k] - x0)
+        g0 = p00 / (p00 + r[k])
+        g1 = p10 / (p00 + r[k])
+        x0 += g0 * innov
+        x1 += g1 * innov
+        p00, p01, p10, p11 = p00 - g0 * p00, p01 - g0 * p01, p10 - g1 * p00, p11 - g1 * p01
+        xf[k, 0], xf[k, 1] = x0, x1
+        pf[k, 0, 0], pf[k, 0, 1], pf[k, 1, 0], pf[k, 1, 1] = p00, p01, p10, p11
 
 
 def smooth_track(steps: list[dict[str, Any]], config: HeadingSmootherConfig | None = None

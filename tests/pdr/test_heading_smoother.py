@@ -8,7 +8,7 @@ import pytest
 from pdr.cli.pocket_heading import sim_walk
 from pdr.errors import InputError
 from pdr.frames import heading_deg_to_yaw, wrap_angle, yaw_to_heading_deg
-from pdr.heading_smoother import HeadingSmootherConfig, smooth_offsets, smooth_track
+from pdr.heading_smoother import HeadingSmootherConfig, _forward, smooth_offsets, smooth_track
 from pdr.io.registry import read_recording
 from pdr.pipeline import PdrPipeline, PipelineConfig, track_rows
 from pdr.scoring import landmark_errors
@@ -65,6 +65,36 @@ def test_handling_the_phone_does_not_bend_the_rest_of_the_walk():
     keep = np.ones(t.size, dtype=bool)
     keep[junk] = False
     assert err[keep].mean() < 5.0
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_compiled_forward_filter_is_the_textbook_kalman_filter(seed):
+    # Predict x = F x, P = F P F^T + Q; update with H = [1, 0], the innovation wrapped; at random step times,
+    # measurements, variances and offset restarts.
+    rng = np.random.default_rng(seed)
+    n, q_d, q_b, bias_var = 60, 3e-6, 1e-8, 1e-3
+    t = np.cumsum(rng.uniform(0.3, 2.0, n))
+    z = rng.uniform(-math.pi, math.pi, n)
+    r = rng.uniform(0.01, 0.5, n)
+    jump = rng.random(n) < 0.1
+    out = [np.zeros((n, 2)), np.zeros((n, 2, 2)), np.zeros((n, 2)), np.zeros((n, 2, 2))]
+    _forward(t, z, r, jump, bias_var, q_d, q_b, *out)
+    x, p = np.array([z[0], 0.0]), np.diag([r[0], bias_var])
+    for k in range(n):
+        if k:
+            dt = t[k] - t[k - 1]
+            f = np.array([[1.0, dt], [0.0, 1.0]])
+            q = q_b * np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
+            q += np.diag([q_d * dt + jump[k] * math.pi**2, 0.0])
+            x, p = f @ x, f @ p @ f.T + q
+        np.testing.assert_allclose(out[2][k], x, rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(out[3][k], p, rtol=1e-12, atol=1e-15)
+        h = np.array([1.0, 0.0])
+        gain = p @ h / (h @ p @ h + r[k])
+        x = x + gain * float(wrap_angle(z[k] - x[0]))
+        p = (np.eye(2) - np.outer(gain, h)) @ p
+        np.testing.assert_allclose(out[0][k], x, rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(out[1][k], p, rtol=1e-12, atol=1e-15)
 
 
 def test_bad_input_is_named():
