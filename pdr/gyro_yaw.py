@@ -39,8 +39,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from pdr.foot.drift import _wrap
-from pdr.foot.zupt import _quat_exp
+from pdr.filters.rotation_kernels import quat_exp, wrap_pi
 
 FloatArray = NDArray[np.float64]
 
@@ -59,7 +58,7 @@ def _vertical_angle(w: float, vx: float, vy: float, vz: float) -> float:  # prag
     return 2.0 * math.atan2(vn, w) * vz / vn
 
 
-# The two functions below give single rows/columns of C_nb as scalars. pdr.foot.zupt._rotmat gives the whole matrix,
+# The two functions below give single rows/columns of C_nb as scalars. pdr.foot.zupt.rotmat gives the whole matrix,
 # but as a new array per call, which doubles this kernel's cost (0.17 against 0.085 s per hour at 100 Hz).
 @njit(cache=True)
 def _axis_column(q: FloatArray, axis: int) -> tuple[float, float, float]:  # pragma: no cover - compiled
@@ -104,7 +103,7 @@ def _gyro_yaw_kernel(q: FloatArray, gyro: FloatArray, ts: float, q_prev: FloatAr
         up = _up_row(qk)
         if has_prev or k > 0:
             # Gyro-only prediction q_{k-1} exp(w ts), then the filter's correction q_k (q^-)^*, about the vertical.
-            e = _quat_exp(gyro[k] * ts)
+            e = quat_exp(gyro[k] * ts)
             p0 = prev[0] * e[0] - prev[1] * e[1] - prev[2] * e[2] - prev[3] * e[3]
             p1 = prev[0] * e[1] + prev[1] * e[0] + prev[2] * e[3] - prev[3] * e[2]
             p2 = prev[0] * e[2] - prev[1] * e[3] + prev[2] * e[0] + prev[3] * e[1]
@@ -115,7 +114,7 @@ def _gyro_yaw_kernel(q: FloatArray, gyro: FloatArray, ts: float, q_prev: FloatAr
             d3 = -qk[0] * p3 - qk[1] * p2 + qk[2] * p1 + qk[3] * p0
             a1 = _axis_column(qk, axis)
             a0 = _axis_column(prev, axis)
-            d_psi = _wrap(math.atan2(a1[1], a1[0]) - math.atan2(a0[1], a0[0]))
+            d_psi = wrap_pi(math.atan2(a1[1], a1[0]) - math.atan2(a0[1], a0[0]))
             y += d_psi - _vertical_angle(d0, d1, d2, d3)
             u0, u1, u2 = u0 + up[0] * ts, u1 + up[1] * ts, u2 + up[2] * ts
         yaw[k] = y

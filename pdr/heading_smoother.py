@@ -74,8 +74,8 @@ from numba import njit
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
+from pdr.filters.rotation_kernels import wrap_pi
 from pdr.filters.rts import rts_smooth
-from pdr.foot.drift import _wrap
 from pdr.frames import heading_deg_to_yaw, wrap_angle
 from pdr.track import redo_steps
 
@@ -221,7 +221,7 @@ def _forward(t: FloatArray, z: FloatArray, r: FloatArray, jump: NDArray[np.bool_
             p00, p01, p10, p11 = a00 + dt * a01 + q00, a01 + q01, p10 + dt * p11 + q01, p11 + q_b * dt
         xp[k, 0], xp[k, 1] = x0, x1
         pp[k, 0, 0], pp[k, 0, 1], pp[k, 1, 0], pp[k, 1, 1] = p00, p01, p10, p11
-        innov = _wrap(z[k] - x0)
+        innov = wrap_pi(z[k] - x0)
         g0 = p00 / (p00 + r[k])
         g1 = p10 / (p00 + r[k])
         x0 += g0 * innov

@@ -53,10 +53,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
+from pdr.filters.rotation_kernels import quat_exp, quat_mul, rotmat
 from pdr.filters.small_linalg import congruence, matmul, matmul_bt, matvec, quadratic_form, symmetric_inverse
 from pdr.foot.drift import drift_predict, drift_update, initial_state, rotate_yaw
 from pdr.foot.saturation import CLIP_EXCESS_FRACTION, add_clip_attitude_noise, clip_variance, clip_variance_peak
-from pdr.foot.zupt import ZuptConfig, _quat_exp, _quat_mul, _rotmat, check_imu, coarse_start
+from pdr.foot.zupt import ZuptConfig, check_imu, coarse_start
 from pdr.frames import GRAVITY_MPS2
 
 Array = NDArray[np.float64]
@@ -334,8 +335,8 @@ def _bc_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Arr
         for i in range(3):
             p[i] += v[i] * dt + 0.5 * a[i] * dt * dt
             v[i] += a[i] * dt
-        c_old = _rotmat(q)
-        q = _quat_mul(q, _quat_exp(w * dt))
+        c_old = rotmat(q)
+        q = quat_mul(q, quat_exp(w * dt))
         q /= math.sqrt(q[0] ** 2 + q[1] ** 2 + q[2] ** 2 + q[3] ** 2)
         F = np.eye(N_ERR)
         for i in range(3):
@@ -367,7 +368,7 @@ def _bc_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Arr
             # Clipped gyroscope axes (pdr.foot.saturation): the unknown excess rate turns the attitude.
             add_clip_attitude_noise(P, TH, c_old, sat_var[k], dt)
         # --- measurement update f(y_k | x_k), linearised (eqs. 5-6) ---
-        c = _rotmat(q)
+        c = rotmat(q)
         s_n = a - g_n                                   # specific force in the navigation frame
         e = np.zeros(6)
         H = np.zeros((6, N_ERR))
@@ -459,7 +460,7 @@ def _bc_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Arr
             w[i] += dmean[W_ + i]
             bf[i] += dmean[BF + i]
             bw[i] += dmean[BW + i]
-        q = _quat_mul(_quat_exp(dmean[TH:TH + 3]), q)
+        q = quat_mul(quat_exp(dmean[TH:TH + 3]), q)
         q /= math.sqrt(q[0] ** 2 + q[1] ** 2 + q[2] ** 2 + q[3] ** 2)
         if hde_on:
             # Heuristic drift elimination (pdr.foot.drift) on the condensed estimate; a stance ends when the

@@ -31,6 +31,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from pdr.filters.rotation_kernels import wrap_pi
+
 Array = NDArray[np.float64]
 
 #: Layout of the drift-elimination state array.
@@ -55,11 +57,6 @@ def rotate_yaw(q: Array, angle: float) -> None:  # pragma: no cover - compiled
     q[1] = c * q1 - s * q2
     q[2] = c * q2 + s * q1
     q[3] = c * q3 + s * q0
-
-
-@njit(cache=True)
-def _wrap(a: float) -> float:  # pragma: no cover - compiled
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 @njit(cache=True)
@@ -94,7 +91,7 @@ def drift_update(hde: Array, x: float, y: float, par: Array) -> float:  # pragma
         return 0.0
     hde[HDE_LAST_X], hde[HDE_LAST_Y] = x, y
     psi = math.atan2(dy, dx)
-    straight = hde[HDE_COUNT] > 0 and abs(_wrap(psi - hde[HDE_PREV])) <= par[3]
+    straight = hde[HDE_COUNT] > 0 and abs(wrap_pi(psi - hde[HDE_PREV])) <= par[3]
     hde[HDE_COUNT] = hde[HDE_COUNT] + 1.0 if straight else 1.0
     hde[HDE_PREV] = psi
     if hde[HDE_COUNT] < par[4]:
@@ -103,7 +100,7 @@ def drift_update(hde: Array, x: float, y: float, par: Array) -> float:  # pragma
         # The first straight stretch sets the dominant directions.
         hde[HDE_REF], hde[HDE_HAVE_REF] = psi, 1.0
     n_dir = par[0]
-    e = _wrap(n_dir * (psi - hde[HDE_REF])) / n_dir
+    e = wrap_pi(n_dir * (psi - hde[HDE_REF])) / n_dir
     if abs(e) > par[2]:
         return 0.0
     p00, p01, p11 = hde[HDE_P00], hde[HDE_P01], hde[HDE_P11]

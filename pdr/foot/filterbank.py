@@ -64,6 +64,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
+from pdr.filters.rotation_kernels import quat_exp, quat_mul, rotmat
 from pdr.filters.small_linalg import (
     congruence,
     matmul,
@@ -75,16 +76,7 @@ from pdr.filters.small_linalg import (
 from pdr.foot.drift import drift_predict, drift_update, initial_state, rotate_yaw
 from pdr.foot.lost_stance import LOST_STANCE_DEFAULTS, check_lost_stance, reopen_velocity, swing_lasts
 from pdr.foot.saturation import CLIP_EXCESS_FRACTION, add_clip_attitude_noise, clip_variance
-from pdr.foot.zupt import (
-    ZuptConfig,
-    _quat_exp,
-    _quat_mul,
-    _rotmat,
-    check_imu,
-    coarse_start,
-    error_transition,
-    mechanize,
-)
+from pdr.foot.zupt import ZuptConfig, check_imu, coarse_start, error_transition, mechanize
 from pdr.frames import GRAVITY_MPS2
 
 Array = NDArray[np.float64]
@@ -388,7 +380,7 @@ def _rotvec_of(c: Array) -> Array:  # pragma: no cover - compiled
 @njit(cache=True)
 def _quat_of(c: Array) -> Array:  # pragma: no cover - compiled
     phi = _rotvec_of(c)
-    return _quat_exp(phi)
+    return quat_exp(phi)
 
 
 @njit(cache=True)
@@ -484,9 +476,9 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
                 P[3 + a, 3 + a] += qa * dt * dt
                 P[6 + a, 6 + a] += qg * dt * dt
             if sat_any:
-                add_clip_attitude_noise(P, 6, _rotmat(q), sat_k, dt)    # clipped gyroscope axes
+                add_clip_attitude_noise(P, 6, rotmat(q), sat_k, dt)    # clipped gyroscope axes
             # Specific force of the predicted attitude, for the acceleration constraint C(q) s + g.
-            f_n = matvec(_rotmat(q), f_k)
+            f_n = matvec(rotmat(q), f_k)
             H_all, e_all = _constraint_rows(v, w_k, f_n, g_n, p[2] - lxi[i])
             PHt = matmul_bt(P, H_all)              # shared by the modes' innovation covariances and gains
             HPHt = matmul(H_all, PHt)
@@ -541,7 +533,7 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
                     for a in range(3):
                         cp[nc, a] += dx[a]
                         cv[nc, a] += dx[3 + a]
-                    qq = _quat_mul(_quat_exp(dx[6:9]), q)
+                    qq = quat_mul(quat_exp(dx[6:9]), q)
                     cq[nc] = qq / math.sqrt(qq[0] ** 2 + qq[1] ** 2 + qq[2] ** 2 + qq[3] ** 2)
                     cxi[nc] += dx[XI]
                     ll = _log_density(dim, logdet, quadratic_form(e, S_inv), nu)
@@ -605,12 +597,12 @@ def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: A
             mprob[k, lm[r]] += w
             mean_p += w * lp[r]
             mean_v += w * lv[r]
-            M += w * _rotmat(lq[r])
+            M += w * rotmat(lq[r])
         c_mv = _polar(M)
         qs[k] = _quat_of(c_mv)
         for r in range(n_leaves):
             w = math.exp(lw[r])
-            dphi = _rotvec_of(c_mv @ _rotmat(lq[r]).T)
+            dphi = _rotvec_of(c_mv @ rotmat(lq[r]).T)
             for a in range(3):
                 dp_ = lp[r, a] - mean_p[a]
                 dv_ = lv[r, a] - mean_v[a]

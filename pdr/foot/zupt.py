@@ -60,6 +60,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
+from pdr.filters.rotation_kernels import quat_exp, quat_mul, rotmat, yaw_of
 from pdr.filters.rts import rts_step
 from pdr.foot.detectors import STILL_THRESHOLD, still_samples
 from pdr.foot.drift import HDE_SIZE, drift_predict, drift_update, initial_state, rotate_yaw
@@ -344,35 +345,6 @@ def coarse_start(t: Array, f_b: Array, zero_velocity: BoolArray, rate_hz: float,
 
 
 @njit(cache=True)
-def _quat_mul(a: Array, b: Array) -> Array:  # pragma: no cover - compiled
-    return np.array([
-        a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
-        a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
-        a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
-        a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0]])
-
-
-@njit(cache=True)
-def _quat_exp(phi: Array) -> Array:  # pragma: no cover - compiled
-    angle = math.sqrt(phi[0] ** 2 + phi[1] ** 2 + phi[2] ** 2)
-    k = 0.5 - angle * angle / 48.0 if angle < 1e-8 else math.sin(0.5 * angle) / angle
-    return np.array([math.cos(0.5 * angle), k * phi[0], k * phi[1], k * phi[2]])
-
-
-@njit(cache=True)
-def _rotmat(q: Array) -> Array:  # pragma: no cover - compiled
-    w, x, y, z = q[0], q[1], q[2], q[3]
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
-
-
-@njit(cache=True)
-def _yaw(q: Array) -> float:  # pragma: no cover - compiled
-    return math.atan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] * q[2] + q[3] * q[3]))
-
-
-@njit(cache=True)
 def mechanize(p: Array, v: Array, q: Array, f0_b: Array, w0_b: Array, f_b: Array, w_b: Array, dt: float,
               g_n: Array) -> Array:  # pragma: no cover - compiled
     """Second-order strapdown step (eq. 1 as :mod:`pdr.strapdown`) in place; returns the mean specific force f_n.
@@ -384,9 +356,9 @@ def mechanize(p: Array, v: Array, q: Array, f0_b: Array, w0_b: Array, f_b: Array
     theta[0] = 0.5 * (w0_b[0] + w_b[0]) * dt + (w0_b[1] * w_b[2] - w0_b[2] * w_b[1]) * dt * dt / 12.0
     theta[1] = 0.5 * (w0_b[1] + w_b[1]) * dt + (w0_b[2] * w_b[0] - w0_b[0] * w_b[2]) * dt * dt / 12.0
     theta[2] = 0.5 * (w0_b[2] + w_b[2]) * dt + (w0_b[0] * w_b[1] - w0_b[1] * w_b[0]) * dt * dt / 12.0
-    c0 = _rotmat(q)
-    q1 = _quat_mul(q, _quat_exp(theta))
-    c1 = _rotmat(q1)
+    c0 = rotmat(q)
+    q1 = quat_mul(q, quat_exp(theta))
+    c1 = rotmat(q1)
     f_n = np.empty(3)
     for i in range(3):
         f0 = c0[i, 0] * f0_b[0] + c0[i, 1] * f0_b[1] + c0[i, 2] * f0_b[2]
@@ -488,7 +460,7 @@ def zupt_update(p: Array, v: Array, q: Array, P: Array, r_var: float,
     for i in range(3):
         p[i] += dx[i]
         v[i] += dx[3 + i]
-    q[:] = _quat_mul(_quat_exp(dx[6:9]), q)
+    q[:] = quat_mul(quat_exp(dx[6:9]), q)
     q /= math.sqrt(q[0] ** 2 + q[1] ** 2 + q[2] ** 2 + q[3] ** 2)
     return float(innov @ S_inv @ innov)
 
@@ -560,7 +532,7 @@ def zupt_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, g_n
             if P[3, 3] < gamma_p and c_p > c_min:
                 c_d += 1
                 if (not zv[k]) or c_d > c_max:
-                    psi = _yaw(q)
+                    psi = yaw_of(q)
                     step_idx[n_steps] = k
                     step_dp[n_steps] = p
                     step_dpsi[n_steps] = psi
@@ -575,7 +547,7 @@ def zupt_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, g_n
                     chi_l += psi
                     # Line 16: position and heading to zero (velocity turns with the local frame).
                     q_yaw = np.array([math.cos(-0.5 * psi), 0.0, 0.0, math.sin(-0.5 * psi)])
-                    q[:] = _quat_mul(q_yaw, q)
+                    q[:] = quat_mul(q_yaw, q)
                     c, s = math.cos(psi), math.sin(psi)
                     v0, v1 = v[0], v[1]
                     v[0] = c * v0 + s * v1
@@ -605,7 +577,7 @@ def zupt_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, g_n
             vel[k, 0] = c * v[0] - s * v[1]
             vel[k, 1] = s * v[0] + c * v[1]
             vel[k, 2] = v[2]
-            qs[k] = _quat_mul(np.array([math.cos(0.5 * chi_l), 0.0, 0.0, math.sin(0.5 * chi_l)]), q)
+            qs[k] = quat_mul(np.array([math.cos(0.5 * chi_l), 0.0, 0.0, math.sin(0.5 * chi_l)]), q)
         else:
             pos[k] = p
             vel[k] = v
@@ -648,7 +620,7 @@ def zupt_smooth_kernel(t: Array, first: int, qa: float, qg: float, sm_P: Array, 
         for i in range(3):
             pos[k, i] += e[i]
             vel[k, i] += e[3 + i]
-        qk = _quat_mul(_quat_exp(e[6:9]), qs[k])
+        qk = quat_mul(quat_exp(e[6:9]), qs[k])
         qs[k] = qk / math.sqrt(qk[0] ** 2 + qk[1] ** 2 + qk[2] ** 2 + qk[3] ** 2)
         for i in range(3):
             pvar[k, i] = sm_P[k, i, i]

@@ -1,0 +1,57 @@
+"""Compiled (numba) rotation helpers for the per-sample filter loops: quaternion product, exponential, rotation
+matrix, yaw and angle wrap on scalars and small arrays.
+
+The conventions of :mod:`pdr.frames`: Hamilton quaternions, scalar first, ``q_nb`` rotates body vectors into the
+ENU navigation frame; yaw counter-clockwise from east. :mod:`pdr.quaternion` is the vectorised counterpart for
+whole arrays; these are for the ``@njit`` loops (:mod:`pdr.foot.zupt`, :mod:`pdr.foot.filterbank`,
+:mod:`pdr.foot.bc`, :mod:`pdr.gyro_yaw`, :mod:`pdr.heading_smoother`) and tested against it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+Array = NDArray[np.float64]
+
+
+@njit(cache=True)
+def quat_mul(a: Array, b: Array) -> Array:  # pragma: no cover - compiled
+    """Hamilton product ``a b`` of two (4,) quaternions."""
+    return np.array([
+        a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+        a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+        a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+        a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0]])
+
+
+@njit(cache=True)
+def quat_exp(phi: Array) -> Array:  # pragma: no cover - compiled
+    """Unit quaternion of the rotation vector ``phi`` (3,), rad (series near zero)."""
+    angle = math.sqrt(phi[0] ** 2 + phi[1] ** 2 + phi[2] ** 2)
+    k = 0.5 - angle * angle / 48.0 if angle < 1e-8 else math.sin(0.5 * angle) / angle
+    return np.array([math.cos(0.5 * angle), k * phi[0], k * phi[1], k * phi[2]])
+
+
+@njit(cache=True)
+def rotmat(q: Array) -> Array:  # pragma: no cover - compiled
+    """(3, 3) rotation matrix ``C_nb`` of a unit quaternion ``q_nb`` (4,)."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+@njit(cache=True)
+def yaw_of(q: Array) -> float:  # pragma: no cover - compiled
+    """Yaw (rad, counter-clockwise from east) of the ZYX Euler angles of ``q_nb`` (4,)."""
+    return math.atan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] * q[2] + q[3] * q[3]))
+
+
+@njit(cache=True)
+def wrap_pi(a: float) -> float:  # pragma: no cover - compiled
+    """Angle ``a`` (rad) wrapped to [-pi, pi), as :func:`pdr.frames.wrap_angle`."""
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
