@@ -1,1 +1,3 @@
-"""Generic recursive estimators (unscented transform and Kalman filter) used by the attitude and heading filters."""
+"""Generic pieces of the recursive estimators: unscented transform and Kalman filter (attitude and heading filters),
+Rauch-Tung-Striebel smoother, compiled small linear algebra and rotation kernels for the per-sample loops.
+"""
