@@ -321,6 +321,10 @@ def test_foot_session_shows_both_feet_and_the_fused_track(page: Any, live: LiveS
     assert set(page.locator("#legend .item").all_inner_texts()) >= {"fused", "left_foot", "right_foot"}
     assert page.inner_text("#session-summary [data-role=processing]") == (
         "Processing: gyro bias by zero angular-rate updates")
+    page.wait_for_function("() => window.pdrPage.timings.complete !== undefined")
+    assert page.inner_text("#session-summary [data-role=heading]") == (
+        "Heading: from the shoe IMUs (smoothing applies to phone tracks)")
+    assert page.is_disabled("#heading-mode")
     shot(page, "04-session-feet")
 
 
@@ -336,6 +340,9 @@ def test_truth_and_error_are_shown_for_an_uploaded_log(page: Any, live: LiveServ
     assert page.locator("#map polyline[data-role=truth]").count() == 1
     assert page.locator("#map circle[data-role=truth-point]").count() == live.truth_points
     assert page.locator("#error-plot polyline").count() == 1
+    # The test processor's rows carry none of the smoother's inputs: the page says so and draws them as streamed.
+    heading = page.inner_text("#session-summary [data-role=heading]")
+    assert heading.startswith("Heading: as streamed (phone: heading not smoothed: the smoother needs")
     shot(page, "05-session-truth")
 
 

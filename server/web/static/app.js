@@ -329,7 +329,7 @@
     }
     if (gen !== generation) return;
     page.timings.fetched = performance.now() - t0;
-    current = { id, detail: null, causal: rowsOfColumns(track), smoothed: null, headingNotes: [], version: 0,
+    current = { id, detail: null, causal: rowsOfColumns(track), smoothed: null, unsmoothed: "", version: 0,
       landmarks: [], truth: null };
     showRows();
     $("colour-by").value = current.byDevice.size > 1 ? "device" : "mode";
@@ -376,16 +376,26 @@
   const wantSmoothed = () => $("heading-mode").value === "smoothed";
   const isLive = () => !current.detail || LIVE_STATUSES.has(current.detail.status);
 
+  const hasPhone = () => current.causal.some((r) => r.device === "phone");
+
   /** Fetch the track with its headings smoothed over the whole session (``?heading=smoothed``) into
-   * ``current.smoothed``, when it is wanted and the session is not processing (smoothing revises every row,
-   * so a live session shows its rows as streamed). An answer older than the rows it would replace is dropped. */
+   * ``current.smoothed``, when it is wanted, the session has phone steps (the smoother's subject) and is not
+   * processing (smoothing revises every row, so a live session shows its rows as streamed). When the server
+   * could not smooth (its note says why), ``current.unsmoothed`` keeps the reason instead. An answer older than
+   * the rows it would replace is dropped. */
   async function loadSmoothed() {
-    if (!current || !wantSmoothed() || current.smoothed || isLive()) return;
+    if (!current || !wantSmoothed() || current.smoothed || current.unsmoothed || !hasPhone() || isLive()) return;
     const { id, version } = current;
     const body = await apiJson(`${API}/sessions/${enc(id)}/track/columns?heading=smoothed`);
     if (!current || current.id !== id || current.version !== version) return;
-    current.smoothed = rowsOfColumns(body);
-    current.headingNotes = body.heading_notes || [];
+    const notes = body.heading_notes || [];
+    const done = notes.filter((n) => n.includes("heading smoothed over"));
+    if (done.length) {
+      current.smoothed = rowsOfColumns(body);
+      current.smoothedNote = done.join("; ");
+    } else {
+      current.unsmoothed = notes.join("; ") || "the server did not smooth it";
+    }
   }
 
   /** The rows to draw: the smoothed track when it is wanted and loaded, else the rows as streamed. */
@@ -394,16 +404,17 @@
     current.rows = smoothed ? current.smoothed : current.causal;
     current.heading = smoothed ? "smoothed" : "causal";
     current.byDevice = groupByDevice(current.rows);
+    $("heading-mode").disabled = !hasPhone();
     const last = current.rows[current.rows.length - 1];
     page.track = { heading: current.heading, last: last ? [last.east_m, last.north_m] : null };
   }
 
   /** What the Heading part of the summary says about the track drawn. */
   function headingText() {
-    if (current.heading === "smoothed") {
-      return current.headingNotes.length ? current.headingNotes.join("; ") : "smoothed over the walk";
-    }
+    if (current.heading === "smoothed") return current.smoothedNote;
+    if (!hasPhone()) return "from the shoe IMUs (smoothing applies to phone tracks)";
     if (wantSmoothed() && isLive()) return "as streamed (smoothed once processing ends)";
+    if (wantSmoothed() && current.unsmoothed) return `as streamed (${current.unsmoothed})`;
     return "as streamed";
   }
 
@@ -447,6 +458,7 @@
         // New rows change the whole smoothed track: it is fetched again once processing ends (loadExtras).
         current.causal = finals.concat(fresh);
         current.smoothed = null;
+        current.unsmoothed = "";
         current.version += 1;
       }
       const added = changed ? 1 : 0;
