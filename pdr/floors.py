@@ -14,6 +14,7 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
@@ -55,19 +56,8 @@ class FloorTracker:
         kd = 1.0 / (1.0 + c.drift_tau_s * self.rate_hz)
         up = np.empty(h.size)
         fl = np.empty(h.size)
-        for i in range(h.size):
-            if math.isnan(self.alt):
-                self.alt = self.ref = float(h[i])
-            self.alt += ks * (h[i] - self.alt)
-            rel = self.alt - self.ref - self.n * c.floor_height_m
-            if rel > c.hysteresis * c.floor_height_m:
-                self.n += 1
-            elif rel < -c.hysteresis * c.floor_height_m:
-                self.n -= 1
-            elif flat[i]:
-                self.ref += kd * rel
-            up[i] = self.alt - self.ref
-            fl[i] = self.floor0 + self.n
+        self.alt, self.ref, self.n = _track_floors(h, np.asarray(flat, dtype=np.bool_), ks, kd, c.floor_height_m,
+                                                   c.hysteresis, self.floor0, self.alt, self.ref, self.n, up, fl)
         return up, fl
 
     def to_dict(self) -> dict[str, Any]:
@@ -82,3 +72,26 @@ class FloorTracker:
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"bad floor state ({exc})", source="floor state") from None
         return t
+
+
+@njit(cache=True)
+def _track_floors(h: FloatArray, flat: NDArray[np.bool_], ks: float, kd: float, height: float, hysteresis: float,
+                  floor0: float, alt: float, ref: float, n: int, up: FloatArray,
+                  fl: FloatArray) -> tuple[float, float, int]:  # pragma: no cover - compiled
+    """The per-sample loop of :meth:`FloorTracker.update` (module doc): altitudes ``h`` (m) in, the smoothed
+    altitude above the reference ``up`` (m) and the floor ``fl`` out; returns the state ``(alt, ref, n)``.
+    """
+    for i in range(h.size):
+        if math.isnan(alt):
+            alt = ref = h[i]
+        alt += ks * (h[i] - alt)
+        rel = alt - ref - n * height
+        if rel > hysteresis * height:
+            n += 1
+        elif rel < -hysteresis * height:
+            n -= 1
+        elif flat[i]:
+            ref += kd * rel
+        up[i] = alt - ref
+        fl[i] = floor0 + n
+    return alt, ref, n

@@ -96,6 +96,8 @@ recording in chunks gives the same steps as one batch (:class:`StepDetector` kee
 from __future__ import annotations
 
 import math
+import statistics
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -259,6 +261,18 @@ _CANDIDATE_HISTORY = 12
 #: Recent starts whose strides give the bout's rhythm, and recent peaks that give its strength.
 _STRIDE_HISTORY = 8
 _PEAK_HISTORY = 10
+
+
+def _median(values: Sequence[float]) -> float:
+    """Median of a short list of finite numbers, as ``np.median`` (the mean of the middle two for an even count)
+    without its per-call overhead: the rhythm rules take several per candidate step (40 us each with numpy).
+    """
+    return float(statistics.median(values))
+
+
+def _strides(starts: Sequence[int]) -> list[int]:
+    """Stride lengths (samples) of consecutive step starts: ``starts[i + 2] - starts[i]`` (the same leg)."""
+    return [starts[i + 2] - starts[i] for i in range(len(starts) - 2)]
 #: Short regular runs kept, waiting for a bout to confirm after them.
 _SHORT_HISTORY = 4
 #: A start of a walking bout: (start index, peak, decided at, running energy and unit gravity (x, y, z) there).
@@ -399,13 +413,12 @@ class StepDetector:
         c = self.config
         if len(self._bout) < 3:
             return False
-        recent = np.array([b[0] for b in self._bout[-_STRIDE_HISTORY:]], dtype=np.float64)
-        ref = float(np.median(recent[2:] - recent[:-2]))
+        ref = _median(_strides([b[0] for b in self._bout[-_STRIDE_HISTORY:]]))
         stride = s - self._bout[-2][0]
         off_rhythm = not c.min_stride_ratio * ref <= stride <= c.max_stride_ratio * ref
         if not self._bout_confirmed:
             return off_rhythm
-        weak = p < c.weak_peak_ratio * float(np.median([b[1] for b in self._bout[-_PEAK_HISTORY:]]))
+        weak = p < c.weak_peak_ratio * _median([b[1] for b in self._bout[-_PEAK_HISTORY:]])
         return off_rhythm and weak
 
     def _rhythm_tail(self, s: int) -> int:
@@ -433,11 +446,10 @@ class StepDetector:
         gap = s - last
         if gap > int(round(c.max_step_s * self.rate_hz)):
             return None
-        recent = np.array([b[0] for b in self._bout[-_STRIDE_HISTORY:]], dtype=np.float64)
-        ref = float(np.median(recent[2:] - recent[:-2]))
+        ref = _median(_strides([b[0] for b in self._bout[-_STRIDE_HISTORY:]]))
         if not c.min_missed_ratio * ref <= gap <= c.max_missed_ratio * ref:
             return None
-        if p < c.weak_peak_ratio * float(np.median([b[1] for b in self._bout[-_PEAK_HISTORY:]])):
+        if p < c.weak_peak_ratio * _median([b[1] for b in self._bout[-_PEAK_HISTORY:]]):
             return None
         # The missed start follows the last one as that one followed its predecessor (the two legs
         # alternate), unless that leaves less than the minimum interval on a side: then the midpoint.
@@ -655,7 +667,7 @@ class StepDetector:
                 self._steady_rms = [x for x in seed if math.isfinite(x)]
             for i in range(lo, len(self._bout) - 1):
                 rms, turn = self._stride(i)
-                ref_rms = float(np.median(self._steady_rms)) if self._steady_rms else math.nan
+                ref_rms = _median(self._steady_rms) if self._steady_rms else math.nan
                 weak = rms < c.weak_energy_ratio * ref_rms
                 turned = turn > c.handling_angle_deg
                 if math.isfinite(rms) and not (weak or turned):
