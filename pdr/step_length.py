@@ -87,9 +87,9 @@ def step_patterns(a_n: FloatArray, a_v: FloatArray, rate_hz: float) -> FloatArra
         1.0 / dur,                                            # eq. 13
         float(dn @ dn) / m,                                   # eq. 14
         float(dv @ dv) / m,                                   # eq. 15
-        float(np.sum(np.abs(a_n - GRAVITY_MPS2)) / rate_hz),  # eq. 16
-        float(np.max(a_n) - np.min(a_n)),                     # eq. 17
-        float(np.max(a_v) - np.min(a_v)),                     # eq. 18
+        float(np.abs(a_n - GRAVITY_MPS2).sum() / rate_hz),    # eq. 16
+        float(a_n.max() - a_n.min()),                         # eq. 17
+        float(a_v.max() - a_v.min()),                         # eq. 18
     ])
 
 
