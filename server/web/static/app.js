@@ -329,8 +329,8 @@
     }
     if (gen !== generation) return;
     page.timings.fetched = performance.now() - t0;
-    current = { id, detail: null, causal: rowsOfColumns(track), smoothed: null, unsmoothed: "", version: 0,
-      landmarks: [], truth: null };
+    current = { id, detail: null, causal: rowsOfColumns(track), smoothed: null, smoothedNote: "", unsmoothed: "",
+      version: 0, landmarks: [], truth: null };
     showRows();
     $("colour-by").value = current.byDevice.size > 1 ? "device" : "mode";
     setupFloorFilter();
