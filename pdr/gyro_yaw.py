@@ -58,8 +58,8 @@ def _vertical_angle(w: float, vx: float, vy: float, vz: float) -> float:  # prag
     return 2.0 * math.atan2(vn, w) * vz / vn
 
 
-# The two functions below give single rows/columns of C_nb as scalars. pdr.foot.zupt.rotmat gives the whole matrix,
-# but as a new array per call, which doubles this kernel's cost (0.17 against 0.085 s per hour at 100 Hz).
+# The two functions below give single rows/columns of C_nb as scalars. pdr.filters.rotation_kernels.rotmat gives the
+# whole matrix, but as a new array per call, which doubles this kernel's cost (0.17 against 0.085 s per hour at 100 Hz).
 @njit(cache=True)
 def _axis_column(q: FloatArray, axis: int) -> tuple[float, float, float]:  # pragma: no cover - compiled
     """Column ``axis`` of ``C_nb(q)``: the device axis in ENU."""

@@ -261,6 +261,12 @@ _CANDIDATE_HISTORY = 12
 #: Recent starts whose strides give the bout's rhythm, and recent peaks that give its strength.
 _STRIDE_HISTORY = 8
 _PEAK_HISTORY = 10
+#: Short regular runs kept, waiting for a bout to confirm after them.
+_SHORT_HISTORY = 4
+#: A start of a walking bout: (start index, peak, decided at, running energy and unit gravity (x, y, z) there).
+_Start = tuple[int, float, int, float, float, float, float]
+#: A doubtful step held back: (start index, end index, peak, phone turned, stride RMS).
+_Held = tuple[int, int, float, bool, float]
 
 
 def _median(values: Sequence[float]) -> float:
@@ -273,12 +279,6 @@ def _median(values: Sequence[float]) -> float:
 def _strides(starts: Sequence[int]) -> list[int]:
     """Stride lengths (samples) of consecutive step starts: ``starts[i + 2] - starts[i]`` (the same leg)."""
     return [starts[i + 2] - starts[i] for i in range(len(starts) - 2)]
-#: Short regular runs kept, waiting for a bout to confirm after them.
-_SHORT_HISTORY = 4
-#: A start of a walking bout: (start index, peak, decided at, running energy and unit gravity (x, y, z) there).
-_Start = tuple[int, float, int, float, float, float, float]
-#: A doubtful step held back: (start index, end index, peak, phone turned, stride RMS).
-_Held = tuple[int, int, float, bool, float]
 
 
 @numba.njit(cache=True)
@@ -408,17 +408,25 @@ class StepDetector:
         return det
 
     # -- walking bouts -----------------------------------------------------------------------------
+    def _rhythm_stride(self) -> float:
+        """The open bout's stride (samples): the median over its last :data:`_STRIDE_HISTORY` starts."""
+        return _median(_strides([b[0] for b in self._bout[-_STRIDE_HISTORY:]]))
+
+    def _rhythm_peak(self) -> float:
+        """The open bout's step strength (m/s^2): the median peak of its last :data:`_PEAK_HISTORY` starts."""
+        return _median([b[1] for b in self._bout[-_PEAK_HISTORY:]])
+
     def _ends_bout(self, s: int, p: float) -> bool:
         """True if start ``s`` (peak ``p``) breaks the rhythm of the open bout (module docstring)."""
         c = self.config
         if len(self._bout) < 3:
             return False
-        ref = _median(_strides([b[0] for b in self._bout[-_STRIDE_HISTORY:]]))
+        ref = self._rhythm_stride()
         stride = s - self._bout[-2][0]
         off_rhythm = not c.min_stride_ratio * ref <= stride <= c.max_stride_ratio * ref
         if not self._bout_confirmed:
             return off_rhythm
-        weak = p < c.weak_peak_ratio * _median([b[1] for b in self._bout[-_PEAK_HISTORY:]])
+        weak = p < c.weak_peak_ratio * self._rhythm_peak()
         return off_rhythm and weak
 
     def _rhythm_tail(self, s: int) -> int:
@@ -446,10 +454,10 @@ class StepDetector:
         gap = s - last
         if gap > int(round(c.max_step_s * self.rate_hz)):
             return None
-        ref = _median(_strides([b[0] for b in self._bout[-_STRIDE_HISTORY:]]))
+        ref = self._rhythm_stride()
         if not c.min_missed_ratio * ref <= gap <= c.max_missed_ratio * ref:
             return None
-        if p < c.weak_peak_ratio * _median([b[1] for b in self._bout[-_PEAK_HISTORY:]]):
+        if p < c.weak_peak_ratio * self._rhythm_peak():
             return None
         # The missed start follows the last one as that one followed its predecessor (the two legs
         # alternate), unless that leaves less than the minimum interval on a side: then the midpoint.
