@@ -56,7 +56,9 @@ def _op(summary: str, responses: dict[str, Any], **extra: Any) -> dict[str, Any]
 DEVICE = {"name": "device", "in": "query", "schema": {"type": "string"}, "description": "only this device role"}
 HEADING = {"name": "heading", "in": "query", "schema": {"enum": ["causal", "smoothed"]},
            "description": "smoothed: phone headings (hand-held, torso, trouser pocket) smoothed offline over the "
-                          "session so far (pdr track's default); causal (default): the track as streamed"}
+                          "session so far (pdr track's default; the answer lists the smoothed devices in "
+                          "smoothed_devices and the smoother's notes in heading_notes); causal (default): the "
+                          "track as streamed"}
 
 
 def _results_path(what: str) -> dict[str, Any]:

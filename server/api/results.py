@@ -4,6 +4,8 @@
 steps' headings smoothed over the whole session so far (:mod:`pdr.heading_smoother`) and the positions
 re-integrated. Smoothing moves earlier rows too, so a poller asking with ``since`` gets the rows after it of the
 track smoothed over everything received. ``heading=causal`` (the default) is the track as it was streamed.
+A smoothed answer names the devices whose headings the smoother changed (``smoothed_devices``; foot sensors and
+phones without its inputs keep their tracks) and gives its note per device (``heading_notes``).
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ import csv
 import io
 import json
 import math
+from dataclasses import dataclass
 from typing import Any
 
 from flask import Blueprint, Response, jsonify, request
@@ -50,20 +53,32 @@ def parse_heading() -> str:
     return heading
 
 
+@dataclass(frozen=True)
+class Smoothing:
+    """What ``?heading=smoothed`` did: the smoother's note per device and the devices whose headings it smoothed."""
+
+    notes: tuple[str, ...] = ()
+    devices: tuple[str, ...] = ()
+
+    def fields(self) -> dict[str, Any]:
+        """The response fields (module doc): ``smoothed_devices`` always, ``heading_notes`` when there are notes."""
+        return {"smoothed_devices": list(self.devices)} | ({"heading_notes": list(self.notes)} if self.notes else {})
+
+
 def track_points(session_id: str, device: str | None, since: float | None, heading: str
-                 ) -> tuple[list[dict[str, Any]], list[str]]:
+                 ) -> tuple[list[dict[str, Any]], Smoothing | None]:
     """The stored track rows after ``since`` as dicts (the track columns, ``device``, ``provisional``; non-finite
-    values as None) and the smoother's notes. ``heading="smoothed"`` smooths the whole stored track before
-    taking the rows after ``since`` (module doc).
+    values as None) and, for ``heading="smoothed"``, what the smoother did (None for the causal track).
+    ``heading="smoothed"`` smooths the whole stored track before taking the rows after ``since`` (module doc).
     """
     store = services().store
     points = store.track(session_id, device, None if heading == "smoothed" else since)
     rows = [{c: _clean(getattr(p, c)) for c in TRACK_COLUMNS} | {"device": p.device_role, "provisional": p.provisional}
             for p in points]
     if heading != "smoothed":
-        return rows, []
-    rows, notes = _smoothed(rows, store.events(session_id, "step"))
-    return ([r for r in rows if r["t_s"] > since] if since is not None else rows), notes
+        return rows, None
+    rows, smoothing = _smoothed(rows, store.events(session_id, "step"))
+    return ([r for r in rows if r["t_s"] > since] if since is not None else rows), smoothing
 
 
 def _clean(v: Any) -> Any:
@@ -83,7 +98,7 @@ def track(session_id: str) -> Response:
         raise APIError(400, f"unknown format '{fmt[:20]}'; use json, csv or geojson")
     heading = parse_heading()
     since = parse_since()
-    rows, notes = track_points(session_id, request.args.get("device"), since, heading)
+    rows, smoothing = track_points(session_id, request.args.get("device"), since, heading)
     if fmt == "csv":
         buf = io.StringIO()
         writer = csv.writer(buf, lineterminator="\n")
@@ -98,13 +113,11 @@ def track(session_id: str) -> Response:
     next_since = max(r["t_s"] for r in rows) if rows else since
     body: dict[str, Any] = {"session": session_id, "columns": list(TRACK_COLUMNS), "points": rows,
                             "count": len(rows), "next_since": next_since, "heading": heading}
-    if notes:
-        body["heading_notes"] = notes
-    return jsonify(body)
+    return jsonify(body | (smoothing.fields() if smoothing else {}))
 
 
-def _smoothed(rows: list[dict[str, Any]], step_events: list[Any]) -> tuple[list[dict[str, Any]], list[str]]:
-    """``rows`` (one device or several) with each device's steps smoothed, and the smoother's note per device.
+def _smoothed(rows: list[dict[str, Any]], step_events: list[Any]) -> tuple[list[dict[str, Any]], Smoothing]:
+    """``rows`` (one device or several) with each device's steps smoothed, and what the smoother did.
 
     The smoother's inputs come from the stored ``step`` events (:mod:`server.phone_processor`); a device whose
     steps lack them (foot sensors, sessions processed before they were stored) keeps its track.
@@ -112,15 +125,18 @@ def _smoothed(rows: list[dict[str, Any]], step_events: list[Any]) -> tuple[list[
     inputs = {(e.device_role, e.t_s): json.loads(e.data or "{}").get("smoother") or {} for e in step_events}
     out: list[dict[str, Any]] = []
     notes: list[str] = []
+    devices: list[str] = []
     for device in dict.fromkeys(r["device"] for r in rows):
         mine = [r for r in rows if r["device"] == device]
         steps = [inputs.get((device, r["t_s"]), {}) | r for r in mine]
         smoothed, note = smooth_track(steps)
         if note:
             notes.append(f"{device}: {note}")
+        if smoothed and all(s.get("smoothed") for s in smoothed):
+            devices.append(device)
         out += [r | {k: s[k] for k in ("east_m", "north_m", "heading_deg")}
                 for r, s in zip(mine, smoothed, strict=True)]
-    return out, notes
+    return out, Smoothing(tuple(notes), tuple(devices))
 
 
 def _geojson(rows: list[dict[str, Any]], session: Any) -> dict[str, Any]:

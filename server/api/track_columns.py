@@ -1,6 +1,7 @@
 """The track as columns: ``GET /api/v1/sessions/{id}/track/columns`` (compact and fast, for the web page).
 
-The same rows as ``/track`` (``?device=ROLE``, ``?since=T_S``, ``?heading=causal|smoothed``), laid out as one
+The same rows as ``/track`` (``?device=ROLE``, ``?since=T_S``, ``?heading=causal|smoothed``, with its
+``smoothed_devices`` and ``heading_notes``), laid out as one
 array per column instead of
 one object per row: for a 2-hour walk (10 000+ steps) that halves the body and the server's time, which is
 most of the page's first render.
@@ -41,9 +42,9 @@ def track_columns(session_id: str) -> Response:
     svc.store.session_row(session_id, user.id)
     heading = parse_heading()
     since = parse_since()
-    notes: list[str] = []
+    smoothing = None
     if heading == "smoothed":
-        points, notes = track_points(session_id, request.args.get("device"), since, heading)
+        points, smoothing = track_points(session_id, request.args.get("device"), since, heading)
         columns = {name: [p["device" if name == "device_role" else name] for p in points] for name in COLUMNS}
         count = len(points)
     elif rows := svc.store.track(session_id, request.args.get("device"), since):
@@ -58,8 +59,8 @@ def track_columns(session_id: str) -> Response:
     columns["device"] = columns.pop("device_role")
     body: dict[str, Any] = {"session": session_id, "count": count, "columns": columns,
                             "next_since": max(columns["t_s"]) if count else since, "heading": heading}
-    if notes:
-        body["heading_notes"] = notes
+    if smoothing:
+        body |= smoothing.fields()
     try:
         text = json.dumps(body, allow_nan=False)
     except ValueError:  # a non-finite value stored: null, as in /track

@@ -74,6 +74,7 @@ def test_smoothed_track_equals_pdr_tracks_default(real_app):
     causal = c.get(url, headers=bearer(token)).get_json()
     smoothed = c.get(url + "?heading=smoothed", headers=bearer(token)).get_json()
     assert causal["heading"] == "causal" and smoothed["heading"] == "smoothed"
+    assert smoothed["smoothed_devices"] == ["phone"] and "smoothed_devices" not in causal
     rows, _ = run_pipeline(read_recording(log), PipelineConfig(placement="hand"))
     ours, _ = smooth_track(rows)
     assert smoothed["count"] == causal["count"] == len(ours) > 100
@@ -91,6 +92,7 @@ def test_smoothed_track_equals_pdr_tracks_default(real_app):
     # The columnar form (the web page's) gives the same smoothed rows, with since.
     columns = c.get(url + f"/columns?heading=smoothed&since={t_mid}", headers=bearer(token)).get_json()
     assert columns["heading"] == "smoothed" and columns["count"] == len(later["points"])
+    assert columns["smoothed_devices"] == ["phone"] and columns["heading_notes"] == smoothed["heading_notes"]
     for key in ("t_s", "east_m", "north_m", "heading_deg"):
         assert columns["columns"][key] == [p[key] for p in later["points"]]
     assert columns["columns"]["device"] == [p["device"] for p in later["points"]]

@@ -381,7 +381,7 @@
   /** Fetch the track with its headings smoothed over the whole session (``?heading=smoothed``) into
    * ``current.smoothed``, when it is wanted, the session has phone steps (the smoother's subject) and is not
    * processing (smoothing revises every row, so a live session shows its rows as streamed). When the server
-   * could not smooth (its note says why), ``current.unsmoothed`` keeps the reason instead. An answer older than
+   * smoothed no device (``smoothed_devices`` empty; its notes say why), ``current.unsmoothed`` keeps the reason. An answer older than
    * the rows it would replace is dropped. */
   async function loadSmoothed() {
     if (!current || !wantSmoothed() || current.smoothed || current.unsmoothed || !hasPhone() || isLive()) return;
@@ -389,10 +389,10 @@
     const body = await apiJson(`${API}/sessions/${enc(id)}/track/columns?heading=smoothed`);
     if (!current || current.id !== id || current.version !== version) return;
     const notes = body.heading_notes || [];
-    const done = notes.filter((n) => n.includes("heading smoothed over"));
-    if (done.length) {
+    const smoothedNotes = (body.smoothed_devices || []).map((d) => notes.find((n) => n.startsWith(`${d}: `)) || d);
+    if (smoothedNotes.length) {
       current.smoothed = rowsOfColumns(body);
-      current.smoothedNote = done.join("; ");
+      current.smoothedNote = smoothedNotes.join("; ");
     } else {
       current.unsmoothed = notes.join("; ") || "the server did not smooth it";
     }
