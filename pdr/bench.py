@@ -15,9 +15,9 @@ from typing import Any
 
 import numpy as np
 
-from pdr.attitude import AttitudeFilter
 from pdr.machine import environment
-from pdr.pipeline import PdrPipeline, PipelineConfig, track_rows
+from pdr.phone.attitude import AttitudeFilter
+from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
 from pdr.recording import Recording
 
 

@@ -1,7 +1,7 @@
 """Error budget of a phone track against landmark truth: how much of its landmark error heading and walk-level step
 length explain (``pdr eval ipin --budget``).
 
-The track's steps are walked again (:func:`pdr.track.redo_steps`) with part of the truth put in, and scored like
+The track's steps are walked again (:func:`pdr.phone.track.redo_steps`) with part of the truth put in, and scored like
 the track itself:
 
 * ``truth_heading``: each step between two consecutive landmarks on one floor at least ``min_leg_m`` apart takes
@@ -20,7 +20,7 @@ Measured on the 25 IPIN 2023 hand-held logs (``pdr eval ipin DIR --placement han
 median / 75th percentile with absolute heading: smoothed track 1.97 / 3.13 m; with the true leg headings
 1.75 / 2.84 m; scaled to the true length 1.65 / 2.84 m; both 1.80 / 2.61 m. The straight legs' length varies
 about the walk's own scale by 9.5 % (standard deviation over the legs of at least 5 m), and no step pattern of
-:mod:`pdr.step_length` follows that variation much better than a constant step (7.9 % at best against 8.6 %,
+:mod:`pdr.phone.step_length` follows that variation much better than a constant step (7.9 % at best against 8.6 %,
 measured ad hoc over the same legs).
 """
 
@@ -32,8 +32,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.frames import heading_deg_to_yaw
+from pdr.phone.track import redo_steps
 from pdr.scoring import distance_ratio, distance_ratio_same_floor
-from pdr.track import redo_steps
 
 FloatArray = NDArray[np.float64]
 

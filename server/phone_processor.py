@@ -1,8 +1,8 @@
-"""The phone PDR pipeline (:class:`pdr.pipeline.PdrPipeline`) and motion-mode classifier as a session processor.
+"""The phone PDR pipeline (:class:`pdr.phone.pipeline.PdrPipeline`) and motion-mode classifier as a session processor.
 
 Pipeline events become result rows: each ``step`` a track row (the columns of ``pdr track``) and a
 ``step`` event (whose ``smoother`` data keeps the step's inputs of the offline heading smoother,
-:mod:`pdr.heading_smoother`, for ``GET .../track?heading=smoothed``); ``elevator`` and site ``landmark``
+:mod:`pdr.phone.heading_smoother`, for ``GET .../track?heading=smoothed``); ``elevator`` and site ``landmark``
 events ``landmark`` events; ``floor_change`` a ``floor`` event; ``notice`` a session warning. Motion modes
 come from the shipped streaming classifier (:class:`classifiers.streaming.StreamingClassifier`, one ``mode``
 event per window with its confidence) once the pipeline has found the phone in a trouser pocket (the model's
@@ -22,7 +22,7 @@ from typing import Any
 from classifiers.streaming import StreamingClassifier
 from pdr import state_codec
 from pdr.errors import InputError
-from pdr.pipeline import PdrPipeline, PipelineConfig
+from pdr.phone.pipeline import PdrPipeline, PipelineConfig
 from pdr.recording import Recording
 from server.processing import ProcessorOutput, SessionContext
 from server.processing_options import session_options
@@ -37,7 +37,7 @@ PLACEMENT_GROUPS = {"trouser_pocket_front": "pocket", "trouser_pocket_back": "po
 MODEL_PLACEMENT = "pocket"
 
 
-#: Step event fields the offline heading smoother needs besides the track row (pdr.heading_smoother.smooth_track).
+#: Step event fields the offline heading smoother needs besides the track row (pdr.phone.heading_smoother.smooth_track).
 SMOOTHER_INPUTS = ("placement", "heading_sigma_deg", "heading_raw_deg", "gyro_heading_deg", "up_time_s",
                    "gyro_bias_dps", "position_fix", "landmark_heading")
 

@@ -16,8 +16,8 @@ import numpy as np
 
 from pdr.errors import InputError
 from pdr.io import read_recording
-from pdr.pipeline import PdrPipeline, PipelineConfig, track_rows
-from pdr.step_length import EXPONENTS, PATTERNS, StepLengthModel, calibrate_k, fit_model, step_sums, turn_factor
+from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
+from pdr.phone.step_length import EXPONENTS, PATTERNS, StepLengthModel, calibrate_k, fit_model, step_sums, turn_factor
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -66,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
 @dataclass(frozen=True)
 class CalibrationWalk:
     """A walk of known length: the patterns (K, 6) of its steps, which were on stairs (K,), its length in m, and
-    the steps' turns (K,) in rad (None: straight; :func:`pdr.step_length.turn_factor`).
+    the steps' turns (K,) in rad (None: straight; :func:`pdr.phone.step_length.turn_factor`).
     """
 
     patterns: np.ndarray
@@ -117,7 +117,9 @@ def landmark_walk(rows: list[dict[str, Any]], t_truth: np.ndarray, pos: np.ndarr
 
 
 def calibrate_on_walks(base: StepLengthModel, walks: list[CalibrationWalk]) -> StepLengthModel:
-    """``base`` with ``K`` rescaled (:func:`pdr.step_length.calibrate_k`) so the walks' steps add up to their length."""
+    """``base`` with ``K`` rescaled (:func:`pdr.phone.step_length.calibrate_k`) so the walks' steps add up to their
+    length.
+    """
     if not walks:
         raise InputError("no calibration walk", source="calibration")
     return calibrate_k(base, np.vstack([w.patterns for w in walks]), sum(w.length_m for w in walks),

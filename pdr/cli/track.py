@@ -15,10 +15,11 @@ import numpy as np
 
 from pdr.error_budget import BUDGET_TRACKS, budget_tracks
 from pdr.errors import InputError
-from pdr.heading_smoother import smooth_track
 from pdr.io import read_recording
-from pdr.landmarks import Site
-from pdr.pipeline import PdrPipeline, PipelineConfig, track_rows
+from pdr.phone.heading_smoother import smooth_track
+from pdr.phone.landmarks import Site
+from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
+from pdr.phone.step_length import StepLengthModel
 from pdr.recording import Recording
 from pdr.scoring import (
     bounce_free_step_count,
@@ -28,7 +29,6 @@ from pdr.scoring import (
     step_count_error_pct,
     waypoint_errors,
 )
-from pdr.step_length import StepLengthModel
 
 CSV_COLUMNS = ("t_s", "east_m", "north_m", "up_m", "floor", "heading_deg", "step_length_m", "mode")
 
@@ -43,7 +43,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--plot", help="also write a PNG plot of the track")
     p.add_argument("--smoother", default="on", choices=("on", "off"),
                    help="OFFLINE: smooth the step headings over the whole walk (gyro yaw with its "
-                        "bias learnt from the magnetometer, pdr.heading_smoother); off: the causal track the "
+                        "bias learnt from the magnetometer, pdr.phone.heading_smoother); off: the causal track the "
                         "server streams")
     p.set_defaults(func=run_track)
 
@@ -77,7 +77,7 @@ def run_pipeline(rec: Recording, cfg: PipelineConfig, site: Site | None = None) 
 
 
 def smoothed_rows(rows: list[dict[str, Any]], notices: list[str]) -> list[dict[str, Any]]:
-    """The offline-smoothed track (:func:`pdr.heading_smoother.smooth_track`); its summary joins ``notices``."""
+    """The offline-smoothed track (:func:`pdr.phone.heading_smoother.smooth_track`); its summary joins ``notices``."""
     out, summary = smooth_track(rows)
     if summary:
         notices.append(summary)
@@ -177,7 +177,7 @@ def _register_eval(targets: argparse._SubParsersAction, name: str, helptext: str
                             "repetitions of its route (never the log itself)")
         p.add_argument("--smoother", default="both", choices=("both", "off"),
                        help="both: also score the offline-smoothed tracks (pdr track's default; "
-                            "pdr.heading_smoother) next to the causal ones")
+                            "pdr.phone.heading_smoother) next to the causal ones")
         p.add_argument("--budget", action="store_true",
                        help="also score the track (smoothed when --smoother both) re-walked with the true "
                             "heading of each straight leg, with its length scaled to the truth, and both "

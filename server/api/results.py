@@ -1,7 +1,7 @@
 """Results of a session: track (JSON, CSV, GeoJSON), steps, motion modes, landmarks, floors; ``?since=`` polling.
 
 ``GET .../track?heading=smoothed`` gives the track ``pdr track`` writes by default: the hand-held and torso phone
-steps' headings smoothed over the whole session so far (:mod:`pdr.heading_smoother`) and the positions
+steps' headings smoothed over the whole session so far (:mod:`pdr.phone.heading_smoother`) and the positions
 re-integrated. Smoothing moves earlier rows too, so a poller asking with ``since`` gets the rows after it of the
 track smoothed over everything received. ``heading=causal`` (the default) is the track as it was streamed.
 A smoothed answer names the devices whose headings the smoother changed (``smoothed_devices``; foot sensors and
@@ -20,7 +20,7 @@ from typing import Any
 from flask import Blueprint, Response, jsonify, request
 
 from pdr.frames import local_enu_to_geodetic
-from pdr.heading_smoother import smooth_track
+from pdr.phone.heading_smoother import smooth_track
 from server.api import current_user, services
 from server.errors import APIError
 

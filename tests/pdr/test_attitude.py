@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from pdr import quaternion as quat
-from pdr.attitude import AttitudeConfig, AttitudeFilter, AttitudeState, yaw_of_axis
 from pdr.errors import InputError
 from pdr.filters.ukf import SigmaPoints, UnscentedKalmanFilter, unscented_transform
 from pdr.frames import GRAVITY_MPS2
+from pdr.phone.attitude import AttitudeConfig, AttitudeFilter, AttitudeState, yaw_of_axis
 
 FS = 50.0
 H_ENU = np.array([0.0, 20.0, -44.0])  # magnetic field (uT), north and down
@@ -211,7 +211,7 @@ def test_yaw_reopens_after_the_first_stand_that_gives_the_bias_not_after_a_short
     A stand shorter than one bias block (here 0.6 s past the 1 s stillness test) gives no bias rows; if it
     counted, the reopening (and so the walk's heading) would depend on where the recording happens to start.
     """
-    from pdr.heading import yaw_variance
+    from pdr.phone.heading import yaw_variance
 
     rng = np.random.default_rng(3)
     q_true = quat.from_euler(0.1, -0.2, 1.0)

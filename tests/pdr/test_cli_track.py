@@ -147,7 +147,7 @@ def test_steps_eval_on_two_oxford_walks(capsys):
         if not w.exists():
             pytest.skip(f"missing {w}")
     from pdr.io import read_recording
-    from pdr.pipeline import PdrPipeline, track_rows
+    from pdr.phone.pipeline import PdrPipeline, track_rows
     for w in walks:
         rec = read_recording(w)
         n = len(track_rows(PdrPipeline().run(rec)))
@@ -162,7 +162,7 @@ def test_full_oxford_step_count(capsys):
     res = json.loads(capsys.readouterr().out)["overall"]
     # Measured 1.09 % mean absolute error over pocket/hand/bag/armband walks, 0.58 % against the truth without
     # contact-switch bounces (1.14 % / 0.63 % before the walk-end rule; target 1 %, not reached: switch bounces
-    # in the contact-switch truth alone account for 0.88 %, see pdr.steps).
+    # in the contact-switch truth alone account for 0.88 %, see pdr.phone.steps).
     assert res["mean_abs_error_pct_pocket_hand_bag_armband"] < 1.2
     assert res["mean_abs_error_pct_pocket_hand_bag_armband_bounce_free"] < 0.62
 

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from pdr.errors import InputError
-from pdr.floors import FloorConfig, FloorTracker
 from pdr.frames import altitude_to_pressure_hpa
+from pdr.phone.floors import FloorConfig, FloorTracker
 
 RATE_HZ = 10.0
 

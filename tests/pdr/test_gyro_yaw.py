@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pdr import quaternion as quat
-from pdr.gyro_yaw import GyroYaw
+from pdr.phone.gyro_yaw import GyroYaw
 
 RATE_HZ = 100.0
 TS = 1.0 / RATE_HZ

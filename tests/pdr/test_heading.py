@@ -9,7 +9,7 @@ import pytest
 from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.frames import wrap_angle
-from pdr.heading import (
+from pdr.phone.heading import (
     DirectionVote,
     HeadingEstimate,
     StepDriftElimination,
@@ -218,8 +218,8 @@ def test_a_site_grid_removes_the_offset_a_learnt_grid_keeps():
 
 def test_site_grid_is_read_checked_and_reaches_the_pipeline():
     from pdr.errors import InputError
-    from pdr.landmarks import Site
-    from pdr.pipeline import PdrPipeline, PipelineConfig
+    from pdr.phone.landmarks import Site
+    from pdr.phone.pipeline import PdrPipeline, PipelineConfig
     site = Site.from_dict({"landmarks": [], "grid_deg": 69.5})
     assert site.grid_deg == 69.5 and Site.from_dict(site.to_dict()) == site
     assert "grid_deg" not in Site.from_dict({"landmarks": []}).to_dict()

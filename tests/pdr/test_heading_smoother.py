@@ -8,9 +8,9 @@ import pytest
 from pdr.cli.pocket_heading import sim_walk
 from pdr.errors import InputError
 from pdr.frames import heading_deg_to_yaw, wrap_angle, yaw_to_heading_deg
-from pdr.heading_smoother import HeadingSmootherConfig, _forward, smooth_offsets, smooth_track
 from pdr.io.registry import read_recording
-from pdr.pipeline import PdrPipeline, PipelineConfig, track_rows
+from pdr.phone.heading_smoother import HeadingSmootherConfig, _forward, smooth_offsets, smooth_track
+from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
 from pdr.scoring import landmark_errors
 from tests.conftest import data_path
 
@@ -142,7 +142,7 @@ def test_a_stationary_bias_estimate_fixes_the_drift_a_short_walk_cannot_teach():
     # 44-s walks with a 0.5 deg/s gyro bias about the vertical: too short for the magnetometer's deflections to
     # reveal the bias, which the attitude filter measured while the user stood (step events' gyro_bias_dps).
     # The phone is held tilted, so the bias about the vertical is up_time . b with the device-frame up
-    # direction u (pdr.pipeline).
+    # direction u (pdr.phone.pipeline).
     u = np.array([0.0, 0.6, 0.8])
     b = np.radians([0.4, 0.3, 0.4])                       # u . b = 0.5 deg/s
     err: dict[bool, list[np.ndarray]] = {False: [], True: []}
@@ -205,7 +205,7 @@ def test_pocket_steps_restart_the_offset_only_at_a_larger_jump():
 
 def test_smoothing_removes_the_rmpca_lag_of_simulated_pocket_walks():
     # Trouser pocket: the measurement is the RMPCA walking direction, which lags through turns; the gyro yaw of a
-    # device axis (pdr.gyro_yaw) carries the turns. Measured on seeds 0-4: 7.64 -> 5.62 deg mean over 40 walks.
+    # device axis (pdr.phone.gyro_yaw) carries the turns. Measured on seeds 0-4: 7.64 -> 5.62 deg mean over 40 walks.
     causal, smoothed = zip(*(sim_walk(side, seed) for side in ("left", "right") for seed in (0, 1)), strict=True)
     for c, s in zip(causal, smoothed, strict=True):
         assert s.mean() < c.mean()

@@ -1,12 +1,12 @@
-"""Online hard-iron offset (pdr.magcal): simulate a pocket walk, add a known offset, recover it."""
+"""Online hard-iron offset (pdr.phone.magcal): simulate a pocket walk, add a known offset, recover it."""
 
 import numpy as np
 import pytest
 
 from pdr.errors import InputError
-from pdr.grid import OnlineGrid
-from pdr.magcal import HardIronEstimator, MagCalConfig
-from pdr.pipeline import PdrPipeline
+from pdr.phone.grid import OnlineGrid
+from pdr.phone.magcal import HardIronEstimator, MagCalConfig
+from pdr.phone.pipeline import PdrPipeline
 from pdr.sim import simulate
 
 RATE = 50.0

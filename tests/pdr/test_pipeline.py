@@ -10,7 +10,7 @@ from pdr import quaternion as quat
 from pdr import state_codec
 from pdr.frames import heading_deg_to_yaw, wrap_angle
 from pdr.io.registry import read_recording
-from pdr.pipeline import PdrPipeline, PipelineConfig, track_rows
+from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
 from pdr.recording import Recording, SensorStream
 from pdr.sim import load_scenario, simulate
 from tests.conftest import data_path
@@ -150,7 +150,7 @@ def _pocket_walk(side: str) -> dict:
 
 @pytest.mark.parametrize(("side", "seed"), [("left", 3), ("right", 4)])
 def test_pocket_heading_points_forward_on_either_thigh_and_any_mount(side, seed):
-    # 180-degree rule of pdr.heading: the thigh's fast swing; no step may point backwards, from the first on.
+    # 180-degree rule of pdr.phone.heading: the thigh's fast swing; no step may point backwards, from the first on.
     rec = simulate(_pocket_walk(side), seed)
     rows = track_rows(PdrPipeline(PipelineConfig()).run(rec))
     tt, wh = rec.truth.extra["trajectory_t_s"], np.unwrap(rec.truth.extra["walking_heading_rad"])
@@ -264,7 +264,7 @@ def test_hand_heading_on_ipin_legs_beats_the_phone_and_drift_elimination_helps()
 
 
 def test_turning_steps_are_shortened_by_the_turn_factor(hand_walk):
-    from pdr.step_length import StepLengthModel, turn_factor
+    from pdr.phone.step_length import StepLengthModel, turn_factor
     rows = track_rows(PdrPipeline(PipelineConfig()).run(hand_walk))
     plain = track_rows(PdrPipeline(PipelineConfig(step_length=StepLengthModel(turn="none"))).run(hand_walk))
     assert [r["t_s"] for r in rows] == [r["t_s"] for r in plain]

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pdr.errors import InputError
-from pdr.step_length import StepLengthModel, calibrate_k, fit_model, step_patterns
+from pdr.phone.step_length import StepLengthModel, calibrate_k, fit_model, step_patterns
 
 
 def test_patterns_of_a_known_signal():
@@ -74,7 +74,7 @@ def test_calibration_recovers_k_from_a_walk_with_stairs():
 
 
 def test_turn_factor_shortens_turning_steps_only():
-    from pdr.step_length import turn_factor
+    from pdr.phone.step_length import turn_factor
     t = np.radians([0.0, 30.0, 45.0, 90.0, 135.0])
     assert np.allclose(turn_factor(t), [1.0, 0.75, 0.5, 0.0, 0.0])
     assert np.allclose(turn_factor(t, "none"), 1.0)
@@ -98,7 +98,7 @@ def test_calibration_and_fit_recover_k_from_a_turning_walk():
     assert got.k == pytest.approx(0.52, rel=1e-9)
     # Ignoring the turns would give a K too small by the turning steps' share.
     assert calibrate_k(StepLengthModel(k=0.45, q=0.5), pats, walked).k < 0.97 * 0.52
-    from pdr.step_length import turn_factor
+    from pdr.phone.step_length import turn_factor
     segs = [(pats[i:i + 20], float(np.sum(truth.length(pats[i:i + 20], False, turns[i:i + 20]))))
             for i in range(0, 80, 20)]
     fit = fit_model(segs, "p1", 0.5, False, [turn_factor(turns[i:i + 20]) for i in range(0, 80, 20)])

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pdr.errors import InputError
-from pdr.steps import StepConfig, StepDetector, Steps, detect_steps
+from pdr.phone.steps import StepConfig, StepDetector, Steps, detect_steps
 from tests.conftest import data_path
 
 FS = 50.0
@@ -148,8 +148,8 @@ def test_soft_steps_inside_a_walk_are_inferred_from_the_rhythm():
 
 def _oxford_walk_steps(walk: str) -> tuple[np.ndarray, Steps, np.ndarray]:
     """Grid times (s), detected steps and contact-switch step times (s) of an Oxford optimisation walk."""
-    from pdr.grid import OnlineGrid
     from pdr.io import read_recording
+    from pdr.phone.grid import OnlineGrid
     rec = read_recording(data_path("oxford_step_counter", "optimisation", "data", walk))
     grid = OnlineGrid(FS, ("acc",))
     grid.push(rec)
@@ -279,8 +279,8 @@ def test_real_short_walks_between_landmarks_are_counted():
     # IPIN 2023 trial 21 repetition 1 (hand-held): the walker passes landmarks at 61.1, 66.0 and 70.5 s
     # (7.0 m) in two runs of 4 steps with a slow turn between them, then walks on. Before short walks were
     # kept no step was counted in 61-70.5 s; now the 8 are.
-    from pdr.grid import OnlineGrid
     from pdr.io import read_recording
+    from pdr.phone.grid import OnlineGrid
     path = data_path("ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial21_repetition01.txt")
     rec = read_recording(path)
     grid = OnlineGrid(FS, ("acc",))

@@ -49,14 +49,14 @@ from numpy.typing import NDArray
 from scipy import signal
 
 from pdr import quaternion as quat
-from pdr.attitude import AttitudeConfig, AttitudeFilter, AttitudeState
 from pdr.errors import InputError
 from pdr.filters.ukf import SigmaPoints
-from pdr.floors import FloorConfig, FloorTracker
 from pdr.frames import GRAVITY_MPS2, heading_deg_to_yaw, wrap_angle, yaw_to_heading_deg
-from pdr.grid import OnlineGrid
-from pdr.gyro_yaw import GyroYaw
-from pdr.heading import (
+from pdr.phone.attitude import AttitudeConfig, AttitudeFilter, AttitudeState
+from pdr.phone.floors import FloorConfig, FloorTracker
+from pdr.phone.grid import OnlineGrid
+from pdr.phone.gyro_yaw import GyroYaw
+from pdr.phone.heading import (
     DirectionVote,
     DriftEliminationConfig,
     HeadingEstimate,
@@ -73,12 +73,12 @@ from pdr.heading import (
     thigh_swing_evidence,
     yaw_variance,
 )
-from pdr.landmarks import ElevatorDetector, LandmarkConfig, Site, classify_step, neighbour_correction
-from pdr.magcal import HardIronEstimator, MagCalConfig
+from pdr.phone.landmarks import ElevatorDetector, LandmarkConfig, Site, classify_step, neighbour_correction
+from pdr.phone.magcal import HardIronEstimator, MagCalConfig
+from pdr.phone.step_length import StepLengthModel, step_patterns
+from pdr.phone.steps import StepConfig, StepDetector
+from pdr.phone.track import TrackState
 from pdr.recording import Recording
-from pdr.step_length import StepLengthModel, step_patterns
-from pdr.steps import StepConfig, StepDetector
-from pdr.track import TrackState
 
 FloatArray = NDArray[np.float64]
 Event = dict[str, Any]

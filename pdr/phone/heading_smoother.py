@@ -77,7 +77,7 @@ from pdr.errors import InputError
 from pdr.filters.rotation_kernels import wrap_pi
 from pdr.filters.rts import rts_smooth
 from pdr.frames import heading_deg_to_yaw, wrap_angle
-from pdr.track import redo_steps
+from pdr.phone.track import redo_steps
 
 FloatArray = NDArray[np.float64]
 
