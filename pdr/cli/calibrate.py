@@ -97,7 +97,7 @@ def landmark_walk(rows: list[dict[str, Any]], t_truth: np.ndarray, pos: np.ndarr
                   floor: np.ndarray | None = None) -> CalibrationWalk | None:
     """The walk between landmarks on one floor: steps ending inside those intervals, straight-line length.
 
-    The intervals are those :func:`pdr.scoring.distance_ratio_same_floor` scores: across a floor change the
+    The intervals are those :func:`pdr.evaluation.scoring.distance_ratio_same_floor` scores: across a floor change the
     straight line between two landmarks is not the walked path (winding stairs). ``floor`` (N,) is the
     landmarks' floor (None: all on one floor); ``t_truth`` (N,) s on the rows' clock; ``pos`` (N, >=2) m.
     None if fewer than 5 steps or 5 m remain.

@@ -13,15 +13,9 @@ from typing import Any
 
 import numpy as np
 
-from pdr.error_budget import BUDGET_TRACKS, budget_tracks
 from pdr.errors import InputError
-from pdr.io import read_recording
-from pdr.phone.heading_smoother import smooth_track
-from pdr.phone.landmarks import Site
-from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
-from pdr.phone.step_length import StepLengthModel
-from pdr.recording import Recording
-from pdr.scoring import (
+from pdr.evaluation.error_budget import BUDGET_TRACKS, budget_tracks
+from pdr.evaluation.scoring import (
     bounce_free_step_count,
     distance_ratio,
     distance_ratio_same_floor,
@@ -29,6 +23,12 @@ from pdr.scoring import (
     step_count_error_pct,
     waypoint_errors,
 )
+from pdr.io import read_recording
+from pdr.phone.heading_smoother import smooth_track
+from pdr.phone.landmarks import Site
+from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
+from pdr.phone.step_length import StepLengthModel
+from pdr.recording import Recording
 
 CSV_COLUMNS = ("t_s", "east_m", "north_m", "up_m", "floor", "heading_deg", "step_length_m", "mode")
 
@@ -181,7 +181,8 @@ def _register_eval(targets: argparse._SubParsersAction, name: str, helptext: str
         p.add_argument("--budget", action="store_true",
                        help="also score the track (smoothed when --smoother both) re-walked with the true "
                             "heading of each straight leg, with its length scaled to the truth, and both "
-                            "(pdr.error_budget): how much of the error heading and step-length scale explain")
+                            "(pdr.evaluation.error_budget): how much of the error heading and step-length "
+                            "scale explain")
         p.add_argument("--trim-start", type=float, default=0.0, metavar="S",
                        help="drop each log's first S seconds (refused if that reaches its first landmark): "
                             "shows how much the figures depend on the start conditions")
@@ -211,7 +212,7 @@ def _emit(summary: dict[str, Any], per_file: list[dict[str, Any]], as_json: bool
 
 
 def _ipin_scores(rows: list[dict[str, Any]], t_truth: np.ndarray, pt: Any) -> dict[str, Any]:
-    """Landmark errors, distance ratios and floor agreement of one track (see :mod:`pdr.scoring`)."""
+    """Landmark errors, distance ratios and floor agreement of one track (see :mod:`pdr.evaluation.scoring`)."""
     t = np.array([r["t_s"] for r in rows])
     en = np.array([[r["east_m"], r["north_m"]] for r in rows])
     e_abs = landmark_errors(t, en, t_truth, pt.pos_m, "none")
@@ -463,7 +464,7 @@ def eval_steps(args: argparse.Namespace) -> int:
         row: dict[str, Any] = {"walk": d.name, "placement": place, "true": int(true), "detected": n, "error_pct": err}
         feet = [rec.truth.extra.get(k) for k in ("step_times_chan1_s", "step_times_chan2_s")]
         if all(f is not None for f in feet):
-            # Secondary figure: the same truth with contact-switch bounces removed (pdr.scoring).
+            # Secondary figure: the same truth with contact-switch bounces removed (pdr.evaluation.scoring).
             row["true_bounce_free"] = bounce_free_step_count(feet)  # type: ignore[arg-type]
             row["error_pct_bounce_free"] = step_count_error_pct(n, row["true_bounce_free"])
             by_place_bf.setdefault(place, []).append(row["error_pct_bounce_free"])
@@ -514,9 +515,9 @@ def register_bench(targets: argparse._SubParsersAction) -> None:
 
 
 def run_bench(args: argparse.Namespace) -> int:
-    from pdr import bench
+    from pdr.evaluation import phone_bench
     from pdr.machine import environment_line
-    res = bench.run(args.duration, args.rate, args.batch)
+    res = phone_bench.run(args.duration, args.rate, args.batch)
     if args.json:
         print(json.dumps(res, indent=2))
         return 0

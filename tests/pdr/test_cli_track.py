@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from pdr.cli import main
-from pdr.error_budget import BUDGET_TRACKS
-from pdr.scoring import landmark_errors
+from pdr.evaluation.error_budget import BUDGET_TRACKS
+from pdr.evaluation.scoring import landmark_errors
 from tests.conftest import SHARED_DATA, data_path
 
 SIM = Path(__file__).resolve().parents[2] / "mobile_logs" / "sim"
@@ -168,7 +168,7 @@ def test_full_oxford_step_count(capsys):
 
 
 def test_distance_ratio_same_floor_leaves_out_floor_changes():
-    from pdr.scoring import distance_ratio, distance_ratio_same_floor
+    from pdr.evaluation.scoring import distance_ratio, distance_ratio_same_floor
     # Landmarks: 10 m east on floor 0, then a winding stair (walked 12 m, ends 2 m apart) to floor -1.
     truth_t = np.array([0.0, 10.0, 22.0])
     truth_en = np.array([[0.0, 0.0], [10.0, 0.0], [12.0, 0.0]])

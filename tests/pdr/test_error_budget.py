@@ -1,4 +1,6 @@
-"""Error budget (pdr.error_budget, ``pdr eval ipin --budget``) and re-walking a track (pdr.phone.track.redo_steps)."""
+"""Error budget (pdr.evaluation.error_budget, ``pdr eval ipin --budget``) and re-walking a track
+(pdr.phone.track.redo_steps).
+"""
 
 from __future__ import annotations
 
@@ -8,10 +10,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from pdr.error_budget import BUDGET_TRACKS, budget_tracks, leg_headings
 from pdr.errors import InputError
+from pdr.evaluation.error_budget import BUDGET_TRACKS, budget_tracks, leg_headings
+from pdr.evaluation.scoring import landmark_errors
 from pdr.phone.track import dead_reckon, redo_steps
-from pdr.scoring import landmark_errors
 
 # An L-shaped route: 10 m east, then 10 m north, one 1-m step per second; landmarks at the corners.
 T_TRUTH = np.array([0.0, 10.0, 20.0])

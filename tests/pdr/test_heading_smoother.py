@@ -7,11 +7,11 @@ import pytest
 
 from pdr.cli.pocket_heading import sim_walk
 from pdr.errors import InputError
+from pdr.evaluation.scoring import landmark_errors
 from pdr.frames import heading_deg_to_yaw, wrap_angle, yaw_to_heading_deg
 from pdr.io.registry import read_recording
 from pdr.phone.heading_smoother import HeadingSmootherConfig, _forward, smooth_offsets, smooth_track
 from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
-from pdr.scoring import landmark_errors
 from tests.conftest import data_path
 
 

@@ -171,7 +171,7 @@ def test_real_walk_with_handling_before_it(walk):
 
 
 def test_bounce_free_step_count():
-    from pdr.scoring import bounce_free_step_count
+    from pdr.evaluation.scoring import bounce_free_step_count
     left = np.arange(20.0) * 1.1
     right = left + 0.55
     bouncy = np.sort(np.concatenate([right, right[[3, 9, 15]] + 0.2]))   # three bounces 0.2 s after contacts

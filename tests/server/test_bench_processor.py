@@ -2,7 +2,7 @@
 
 import json
 
-from server.bench_processor import STAGES
+from server.bench.processor import STAGES
 
 
 def test_command_measures_every_stage_of_the_live_batches_after_the_warm_up(capsys):

@@ -1,8 +1,8 @@
-"""Two-fold cross-validation summary of the foot filters (pdr.foot.crossval)."""
+"""Two-fold cross-validation summary of the foot filters (pdr.evaluation.foot_crossval)."""
 
 from __future__ import annotations
 
-from pdr.foot.crossval import summary
+from pdr.evaluation.foot_crossval import summary
 
 
 def test_summary_counts_wins_over_zupt_and_runaways() -> None:
@@ -21,7 +21,7 @@ def test_summary_counts_wins_over_zupt_and_runaways() -> None:
 def test_learn_searches_pi_on_the_first_seconds_of_each_training_trial() -> None:
     import numpy as np
 
-    from pdr.foot.crossval import Trial, learn
+    from pdr.evaluation.foot_crossval import Trial, learn
     from pdr.foot.detectors import detect
     from pdr.foot.navigate import FootImu
     from pdr.foot.zupt import run_zupt

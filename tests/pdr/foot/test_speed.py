@@ -1,10 +1,10 @@
-"""Foot navigator cost measurement (pdr.foot.speed)."""
+"""Foot navigator cost measurement (pdr.evaluation.foot_speed)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from pdr.foot.speed import tiled
+from pdr.evaluation.foot_speed import tiled
 
 
 def test_tiled_recording_has_a_continuous_time_axis() -> None:

@@ -8,7 +8,7 @@ the track itself:
   the direction of the straight line between them (the walker is taken to walk straight from landmark to
   landmark); the other steps (turns at a landmark, short legs, stairs) keep the track's heading.
 * ``truth_scale``: every step length divided by the track's distance ratio over the landmark intervals on one
-  floor (:func:`pdr.scoring.distance_ratio_same_floor`; between floors the truth has no path), so the walk's
+  floor (:func:`pdr.evaluation.scoring.distance_ratio_same_floor`; between floors the truth has no path), so the walk's
   length on the flat is the true one.
 * ``truth_heading_and_scale``: both.
 
@@ -31,9 +31,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pdr.evaluation.scoring import distance_ratio, distance_ratio_same_floor
 from pdr.frames import heading_deg_to_yaw
 from pdr.phone.track import redo_steps
-from pdr.scoring import distance_ratio, distance_ratio_same_floor
 
 FloatArray = NDArray[np.float64]
 

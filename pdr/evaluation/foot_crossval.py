@@ -14,7 +14,7 @@ Learned on the training half:
 * belief condensation: the m-component context mixture by EM from the states of a ZUPT-EKF run
   (Sec. V.C, :func:`pdr.foot.bc.learn_context`).
 
-Run ``python -m pdr.foot.crossval /work/shared/data/pyshoe_vicon``.
+Run ``python -m pdr.evaluation.foot_crossval /work/shared/data/pyshoe_vicon``.
 
 Measured (issue #5, defaults: 40 evaluations over 15 s of each training trial, ~110-260 s per search on the
 shared machine), held-out median ARMSE (m), learn odd/test even | learn even/test odd: ZUPT 0.056 | 0.060;
@@ -36,10 +36,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pdr.evaluation.foot_metrics import PYSHOE_EXCLUDED, pyshoe_armse
 from pdr.foot.bc import BCConfig, context_samples, learn_context, run_bc
 from pdr.foot.detectors import detect
 from pdr.foot.filterbank import FilterBankConfig, learn_swing_noise, learn_transition, run_filterbank
-from pdr.foot.metrics import pyshoe_armse
 from pdr.foot.navigate import FootImu, foot_imu
 from pdr.foot.zupt import ZuptTrack, run_zupt
 
@@ -175,9 +175,7 @@ def summary(rows: Sequence[dict[str, float | str]]) -> dict[str, dict[str, float
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from pdr.cli.foot import PYSHOE_EXCLUDED
-
-    p = argparse.ArgumentParser(prog="python -m pdr.foot.crossval", description=__doc__.split("\n")[0])
+    p = argparse.ArgumentParser(prog="python -m pdr.evaluation.foot_crossval", description=__doc__.split("\n")[0])
     p.add_argument("dir", help="pyshoe_vicon folder")
     p.add_argument("--evaluations", type=int, default=40, help="likelihood evaluations of the eq. 11a search")
     p.add_argument("--train-seconds", type=float, default=15.0,

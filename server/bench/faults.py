@@ -37,9 +37,7 @@ from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
 
-from server.bench_load import add_deployment_options, check_sessions, simulated_uploads
-from server.client import Client, add_user, running_server
-from server.cluster import (
+from server.bench.cluster import (
     Cluster,
     ReplayResult,
     ensure_services,
@@ -50,6 +48,8 @@ from server.cluster import (
     temporary_postgres,
     wait_drained,
 )
+from server.bench.load import add_deployment_options, check_sessions, simulated_uploads
+from server.client import Client, add_user, running_server
 
 PG_RESTART = "sh -c 'pg_ctlcluster --skip-systemctl-redirect $(ls /etc/postgresql) main restart'"
 REDIS_STOP = "redis-cli shutdown nosave"

@@ -22,7 +22,7 @@ STAGES = ("decode", "restore", "update", "tail", "save")
 def measure(minutes: float, warmup_s: float, batch_s: float, placement: str, seed: int) -> dict[str, Any]:
     """Mean ms per batch of each stage after ``warmup_s`` seconds of the session, and the state size."""
     from pdr.io.native import batch_from_json
-    from server.bench import simulated_phone, split_batches
+    from server.bench.server import simulated_phone, split_batches
     from server.phone_processor import PhoneProcessor
     from server.processing import SessionContext
 

@@ -1,6 +1,6 @@
 """``pdr bench load``: many phones pushing 1 s batches in real time against web processes + workers.
 
-Starts a scale-out deployment on this machine (:mod:`server.cluster`: ``--webs`` web processes and
+Starts a scale-out deployment on this machine (:mod:`server.bench.cluster`: ``--webs`` web processes and
 ``--workers`` workers on a fresh temporary PostgreSQL database and a private Redis namespace, both
 removed afterwards), replays ``--phones`` simulated phones, each sending one batch per ``--batch-s``
 seconds for ``--minutes``, then waits until the processing backlog is drained and checks, per session:
@@ -32,7 +32,7 @@ from server.client import Client, add_user
 def simulated_uploads(phones: int, minutes: float, batch_s: float,
                       recordings: int) -> dict[str, list[tuple[str, bytes]]]:
     """``phones`` sessions of ``(batch_id, body)`` native batches from ``recordings`` distinct simulated walks."""
-    from server.bench import simulated_phone, split_batches
+    from server.bench.server import simulated_phone, split_batches
 
     walks = [[(b["batch_id"], json.dumps(b).encode()) for b in split_batches(simulated_phone(minutes, seed=k), batch_s)]
              for k in range(max(1, min(recordings, phones)))]
@@ -74,7 +74,7 @@ def percentiles_ms(latencies_s: list[float]) -> dict[str, float]:
 
 def run_load(args: argparse.Namespace) -> dict[str, Any]:
     """Run the load check with the parsed command-line options; returns the figures."""
-    from server.cluster import ensure_services, replay_phones, running_cluster, temporary_postgres, wait_drained
+    from server.bench.cluster import ensure_services, replay_phones, running_cluster, temporary_postgres, wait_drained
     from server.queue import purge_namespace, redis_client
 
     t_sim = time.perf_counter()

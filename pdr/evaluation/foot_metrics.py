@@ -22,6 +22,16 @@ ALIGN_DISTANCE_M = 0.8
 #: Fallback alignment sample when the estimate never leaves the 0.8 m circle (as the reference scorer).
 ALIGN_FALLBACK_SAMPLE = 300
 
+#: PyShoe VICON trials that the source repository's ``training_data_tag`` marks 0 (non-bipedal / crawling;
+#: see ``pyshoe_vicon/SOURCE.md``), mapped to names through the upstream file order.
+PYSHOE_EXCLUDED: frozenset[str] = frozenset({
+    "2017-11-22-11-22-46", "2017-11-22-11-23-25", "2017-11-22-11-25-20", "2017-11-22-11-26-05",
+    "2017-11-22-11-26-46", "2017-11-22-11-27-30", "2017-11-22-11-28-03", "2017-11-22-11-28-39",
+    "2017-11-22-11-30-14", "2017-11-22-11-37-47", "2017-11-27-11-12-44", "2017-11-27-11-19-16",
+    "2017-11-27-11-22-22", "2017-11-27-11-23-18", "2018-02-09-11-18-04", "2018-02-09-11-19-39",
+    "2018-02-09-11-22-01", "2018-02-09-11-29-43", "2018-02-22-10-09-36", "2018-02-22-10-10-29",
+    "2018-02-22-10-10-56"})
+
 
 def _rot2(a: float) -> Array:
     return np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])

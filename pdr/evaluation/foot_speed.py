@@ -7,7 +7,7 @@ smoother (``zupt-smoothed``, the default of ``pdr foot``). Each navigator runs i
 its memory can be told apart: the figure is the growth of the child's peak resident set size over the run (the
 input arrays, shared with the parent, are not counted). ``tracemalloc`` would slow the compiled loops tenfold.
 
-Run ``python -m pdr.foot.speed /work/shared/data/foot_stride_gcp/own/SensorConnectData_32.csv --minutes 10``.
+Run ``python -m pdr.evaluation.foot_speed /work/shared/data/foot_stride_gcp/own/SensorConnectData_32.csv --minutes 10``.
 """
 
 from __future__ import annotations
@@ -76,7 +76,7 @@ def _measure(run: Callable[[slice], object], send: Any) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     from pdr.io import read_recording
 
-    p = argparse.ArgumentParser(prog="python -m pdr.foot.speed", description=__doc__.split("\n")[0])
+    p = argparse.ArgumentParser(prog="python -m pdr.evaluation.foot_speed", description=__doc__.split("\n")[0])
     p.add_argument("recording", help="a foot IMU recording")
     p.add_argument("--minutes", type=float, default=10.0, help="length of the repeated recording")
     args = p.parse_args(argv)
