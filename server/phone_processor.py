@@ -16,22 +16,17 @@ session ended now, so a session's track equals ``pdr track --smoother off`` on t
 
 from __future__ import annotations
 
-from dataclasses import replace
 from typing import Any
 
 from classifiers.streaming import StreamingClassifier
 from pdr import state_codec
 from pdr.errors import InputError
-from pdr.phone.pipeline import PdrPipeline, PipelineConfig
+from pdr.phone.configure import pipeline_config, placement_group
+from pdr.phone.pipeline import PdrPipeline
 from pdr.recording import Recording
 from server.processing import ProcessorOutput, SessionContext
 from server.processing_options import session_options
 from server.store import EventRow, TrackRow
-
-#: Session placements (pdr.recording.PLACEMENTS) -> pipeline placement groups.
-PLACEMENT_GROUPS = {"trouser_pocket_front": "pocket", "trouser_pocket_back": "pocket", "trouser_pocket": "pocket",
-                    "hand": "hand", "torso": "torso", "neck": "torso"}
-
 
 #: Placement (pipeline group) the shipped motion-mode model was trained for (MobiFall: trouser pocket).
 MODEL_PLACEMENT = "pocket"
@@ -59,11 +54,8 @@ class PhoneProcessor:
             if d.get("classifier") is not None:
                 self.classifier = StreamingClassifier.from_state(d["classifier"])
         else:
-            placement = PLACEMENT_GROUPS.get(ctx.placement or "", "auto")
             options = session_options(ctx.meta)
-            config = PipelineConfig(placement=placement)
-            if options.step_length is not None:
-                config = replace(config, step_length=options.step_length)
+            config = pipeline_config(placement_group(ctx.placement), step_length=options.step_length)
             self.pipeline = PdrPipeline(config, options.site)
             self.last_mode = ""
             self.classifier_status = "pending"

@@ -24,13 +24,13 @@ from pdr.evaluation.scoring import (
     waypoint_errors,
 )
 from pdr.io import read_recording
+from pdr.phone.configure import pipeline_config
 from pdr.phone.heading_smoother import smooth_track
 from pdr.phone.landmarks import Site
 from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
 from pdr.phone.step_length import StepLengthModel
+from pdr.phone.track_schema import TRACK_COLUMNS, csv_fields
 from pdr.recording import Recording
-
-CSV_COLUMNS = ("t_s", "east_m", "north_m", "up_m", "floor", "heading_deg", "step_length_m", "mode")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -59,13 +59,10 @@ def _common_options(p: argparse.ArgumentParser) -> None:
 
 
 def config_from_args(args: argparse.Namespace, initial_floor: float = 0.0) -> PipelineConfig:
-    cfg = PipelineConfig(placement=args.placement, attitude_method=args.method, initial_floor=initial_floor)
-    if getattr(args, "calibration", None):
-        cfg = PipelineConfig(**{**cfg.__dict__, "step_length": StepLengthModel.load(args.calibration)})
-    if getattr(args, "floor_height", None):
-        from dataclasses import replace
-        cfg = replace(cfg, floors=replace(cfg.floors, floor_height_m=float(args.floor_height)))
-    return cfg
+    calibration = getattr(args, "calibration", None)
+    return pipeline_config(args.placement, attitude_method=args.method, initial_floor=initial_floor,
+                           step_length=StepLengthModel.load(calibration) if calibration else None,
+                           floor_height_m=getattr(args, "floor_height", None) or None)
 
 
 def run_pipeline(rec: Recording, cfg: PipelineConfig, site: Site | None = None) -> tuple[list[dict[str, Any]],
@@ -87,10 +84,9 @@ def smoothed_rows(rows: list[dict[str, Any]], notices: list[str]) -> list[dict[s
 def write_csv(rows: list[dict[str, Any]], path: str | Path) -> None:
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(CSV_COLUMNS)
+        w.writerow(TRACK_COLUMNS)
         for r in rows:
-            w.writerow([f"{r['t_s']:.3f}", f"{r['east_m']:.3f}", f"{r['north_m']:.3f}", f"{r['up_m']:.2f}",
-                        f"{r['floor']:g}", f"{r['heading_deg']:.1f}", f"{r['step_length_m']:.3f}", r["mode"]])
+            w.writerow(csv_fields(r))
 
 
 def write_geojson(rows: list[dict[str, Any]], path: str | Path, origin: tuple[float, float] | None) -> None:

@@ -21,13 +21,12 @@ from flask import Blueprint, Response, jsonify, request
 
 from pdr.frames import local_enu_to_geodetic
 from pdr.phone.heading_smoother import smooth_track
+from pdr.phone.track_schema import TRACK_COLUMNS
 from server.api import current_user, services
 from server.errors import APIError
 
 bp = Blueprint("results", __name__, url_prefix="/api/v1/sessions")
 
-#: Columns of the track, identical to ``pdr track`` CSV output.
-TRACK_COLUMNS = ("t_s", "east_m", "north_m", "up_m", "floor", "heading_deg", "step_length_m", "mode")
 EVENT_KINDS = {"steps": "step", "modes": "mode", "landmarks": "landmark", "floors": "floor"}
 
 
