@@ -63,7 +63,7 @@ The recursion is a numba-compiled kernel; :class:`AttitudeFilter` holds the conf
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from typing import Any
 
 import numba
@@ -870,16 +870,7 @@ class AttitudeFilter:
         return _run_kernel(acc, gyro, mag, gyro_b is not None, mag_b is not None, 1.0 / self.rate_hz, s.q, s.P,
                            s.bias, s.aux, self._params, self.method == "ukf", decl)
 
-    def config_dict(self) -> dict[str, Any]:
-        return {"rate_hz": self.rate_hz, "method": self.method, "config": asdict(self.config)}
-
-
 def yaw_of_axis(q_nb: FloatArray, axis_b: FloatArray) -> FloatArray:
     """Yaw (rad, CCW from east) of the horizontal projection of a body axis, per attitude (N,)."""
     v = quat.rotate(q_nb, np.broadcast_to(np.asarray(axis_b, dtype=np.float64), q_nb.shape[:-1] + (3,)))
     return np.arctan2(v[..., 1], v[..., 0])
-
-
-def gravity_of(q_nb: FloatArray) -> FloatArray:
-    """Standard gravity's specific force in the body frame for each attitude: ``C_nb^T [0, 0, g]`` (N, 3)."""
-    return quat.rotate(quat.conjugate(q_nb), np.array([0.0, 0.0, GRAVITY_MPS2]))

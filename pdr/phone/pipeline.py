@@ -86,10 +86,6 @@ PlacementProvider = Callable[[Recording], "str | None"]
 
 PLACEMENT_GROUPS = {"trouser_pocket_front": "pocket", "trouser_pocket_back": "pocket", "trouser_pocket": "pocket",
                     "hand": "hand", "torso": "torso", "neck": "torso", "bag": "torso", "armband": "hand"}
-#: Device forward axis (body frame) per placement for the device-heading method: hand-held in reading
-#: position the top of the phone (+y) points ahead; on the torso the phone is upright with the screen
-#: facing forward (+z).  Other mounts need `heading_offset="pca"` (which corrects up to +/-90 degrees).
-FORWARD_AXIS = {"hand": np.array([0.0, 1.0, 0.0]), "torso": np.array([0.0, 0.0, 1.0])}
 
 
 @dataclass(frozen=True)

@@ -3,7 +3,6 @@
 import csv
 import importlib.util
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,9 +10,9 @@ import pytest
 from pdr.cli import main
 from pdr.evaluation.error_budget import BUDGET_TRACKS
 from pdr.evaluation.scoring import landmark_errors
-from tests.conftest import SHARED_DATA, data_path
+from tests.conftest import REPO_ROOT, SHARED_DATA, data_path
 
-SIM = Path(__file__).resolve().parents[2] / "mobile_logs" / "sim"
+SIM = REPO_ROOT / "mobile_logs" / "sim"
 
 
 def read_rows(path):

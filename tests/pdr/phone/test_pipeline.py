@@ -1,7 +1,6 @@
 """Online pipeline: simulated walks with truth, random chunking == one batch, state round trip, bad input."""
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,9 +12,9 @@ from pdr.io.registry import read_recording
 from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
 from pdr.recording import Recording, SensorStream
 from pdr.sim import load_scenario, simulate
-from tests.conftest import data_path
+from tests.conftest import REPO_ROOT, data_path
 
-SIM = Path(__file__).resolve().parents[2] / "mobile_logs" / "sim"
+SIM = REPO_ROOT / "mobile_logs" / "sim"
 
 
 @pytest.fixture(scope="module")
