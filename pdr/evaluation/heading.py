@@ -34,6 +34,7 @@ disturbed against clean, and over all.
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -44,7 +45,7 @@ from numpy.typing import NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
-from pdr.frames import heading_deg_to_yaw, wrap_angle
+from pdr.frames import heading_deg_to_yaw, wrap_angle, yaw_to_heading_deg
 from pdr.io.registry import read_recording
 from pdr.pipeline import PLACEMENT_GROUPS, PdrPipeline, PipelineConfig, track_rows
 from pdr.recording import Recording
@@ -95,11 +96,18 @@ class RecordingScore:
     steps: int
     errors: dict[str, ErrorSet]
     notices: list[str]
+    #: Per step (columns of equal length): ``t_start_s``, ``t_s`` (log clock, s), ``placement``, and the compass
+    #: headings (deg, magnetic north) ``true_heading_deg``, ``heading_deg`` (causal), ``smoothed_heading_deg``,
+    #: ``rv_y_heading_deg``; NaN where undefined.
+    step_table: dict[str, Any] = field(default_factory=dict)
+    #: Azimuth (deg) of magnetic north from the mocap Y axis (:func:`pdr.io.tyrex.field_azimuth_deg`), if known.
+    field_azimuth_deg: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return {"recording": self.name, "walker": self.walker, "carriage": self.carriage,
                 "disturbed": self.disturbed, "placement": self.placement, "steps": self.steps,
-                **{k: self.errors[k].summary() for k in ERROR_SETS}, "notices": self.notices}
+                **{k: self.errors[k].summary() for k in ERROR_SETS},
+                "field_azimuth_mocap_deg": self.field_azimuth_deg, "notices": self.notices}
 
 
 # -- truth ------------------------------------------------------------------------------------------------
@@ -129,16 +137,28 @@ def true_step_yaw(rec: Recording, t_start_s: FloatArray, t_end_s: FloatArray,
     return yaw
 
 
+def _step_times(rows: list[dict[str, Any]]) -> tuple[FloatArray, FloatArray]:
+    """(N,) start and end times (log clock, s) of a track's steps."""
+    return (np.array([r["t_start_s"] for r in rows], dtype=np.float64),
+            np.array([r["t_s"] for r in rows], dtype=np.float64))
+
+
+def track_yaw(rows: list[dict[str, Any]], declination_deg: float = 0.0) -> FloatArray:
+    """(N,) ENU yaw (rad) of a track's steps, referenced to magnetic north (``declination_deg`` removed)."""
+    return heading_deg_to_yaw(np.array([r["heading_deg"] for r in rows], dtype=np.float64) - declination_deg)
+
+
+def abs_errors(est_yaw: FloatArray, true_yaw: FloatArray) -> ErrorSet:
+    """Absolute angle errors (deg) where both yaws (rad) are defined."""
+    e = np.degrees(np.abs(wrap_angle(est_yaw - true_yaw)))
+    return ErrorSet(e[np.isfinite(e)])
+
+
 def step_errors(rows: list[dict[str, Any]], rec: Recording, declination_deg: float = 0.0) -> ErrorSet:
     """Absolute walking-direction errors (deg) of a track's steps against the walking path."""
     if not rows:
         return ErrorSet()
-    t0 = np.array([r["t_start_s"] for r in rows])
-    t1 = np.array([r["t_s"] for r in rows])
-    truth = true_step_yaw(rec, t0, t1)
-    est = heading_deg_to_yaw(np.array([r["heading_deg"] for r in rows]) - declination_deg)
-    e = np.degrees(np.abs(wrap_angle(est - truth)))
-    return ErrorSet(e[np.isfinite(e)])
+    return abs_errors(track_yaw(rows, declination_deg), true_step_yaw(rec, *_step_times(rows)))
 
 
 def attitude_errors(t_est_s: FloatArray, q_est: FloatArray, rec: Recording, declination_deg: float = 0.0,
@@ -184,23 +204,28 @@ def yaw_tilt_error(q_est: FloatArray, q_true: FloatArray) -> tuple[FloatArray, F
     return yaw, tilt
 
 
-def device_y_step_errors(rows: list[dict[str, Any]], rec: Recording) -> ErrorSet:
-    """Walking-direction errors (deg) of the rotation vector's device +y axis (mean horizontal direction over
-    each step of ``rows``): the phone's own heading of a phone held in reading position.
+def device_y_yaw(rows: list[dict[str, Any]], rec: Recording) -> FloatArray:
+    """(N,) ENU yaw (rad) of the rotation vector's device +y axis, its mean horizontal direction over each step of
+    ``rows`` (NaN without an orientation sample in the step): the phone's own heading of a phone held in reading
+    position.
     """
+    t0, t1 = _step_times(rows)
     if not rows or not rec.has("orientation"):
-        return ErrorSet()
+        return np.full(t0.size, np.nan)
     t = rec.origin_ns / 1e9 + rec.t_s("orientation")
     y_n = quat.rotate(rec.values("orientation"), np.broadcast_to([0.0, 1.0, 0.0], (t.size, 3)))[:, :2]
-    c = np.concatenate([np.zeros((1, 2)), np.cumsum(y_n / np.maximum(np.linalg.norm(y_n, axis=1), 1e-9)[:, None],
-                                                    axis=0)])
-    t0 = np.array([r["t_start_s"] for r in rows])
-    t1 = np.array([r["t_s"] for r in rows])
+    unit = y_n / np.maximum(np.linalg.norm(y_n, axis=1), 1e-9)[:, None]
+    c = np.concatenate([np.zeros((1, 2)), np.cumsum(unit, axis=0)])
     a, b = np.searchsorted(t, t0), np.searchsorted(t, t1)
     s = c[b] - c[a]
-    est = np.where(b > a, np.arctan2(s[:, 1], s[:, 0]), np.nan)
-    e = np.degrees(np.abs(wrap_angle(est - true_step_yaw(rec, t0, t1))))
-    return ErrorSet(e[np.isfinite(e)])
+    return np.where(b > a, np.arctan2(s[:, 1], s[:, 0]), np.nan)
+
+
+def device_y_step_errors(rows: list[dict[str, Any]], rec: Recording) -> ErrorSet:
+    """Walking-direction errors (deg) of the rotation vector's device +y axis (:func:`device_y_yaw`)."""
+    if not rows:
+        return ErrorSet()
+    return abs_errors(device_y_yaw(rows, rec), true_step_yaw(rec, *_step_times(rows)))
 
 
 # -- running the product ------------------------------------------------------------------------------------
@@ -253,40 +278,52 @@ def placement_for(rec: Recording, placement: str) -> str:
 
 def score_recording(rec: Recording, cfg: PipelineConfig,
                     smooth: Callable[[list[dict[str, Any]], list[str]], list[dict[str, Any]]]) -> RecordingScore:
-    """Every figure of one recording (module doc); ``smooth`` makes the offline-smoothed track."""
+    """Every figure of one recording (module doc); ``smooth`` makes the offline-smoothed track (the same steps)."""
     decl = float(cfg.attitude.mag_declination_deg)
     rows, notices, t_att, q_att = run_with_attitude(rec, cfg)
     smoothed = smooth(rows, notices)
-    errors = {"walk_causal": step_errors(rows, rec, decl), "walk_smoothed": step_errors(smoothed, rec, decl),
-              "walk_rv_y": device_y_step_errors(rows, rec)}
+    t0, t1 = _step_times(rows)
+    truth = true_step_yaw(rec, t0, t1)
+    causal, smooth_yaw, rv_y = track_yaw(rows, decl), track_yaw(smoothed, decl), device_y_yaw(rows, rec)
+    errors = {"walk_causal": abs_errors(causal, truth), "walk_smoothed": abs_errors(smooth_yaw, truth),
+              "walk_rv_y": abs_errors(rv_y, truth)}
     errors["att_yaw"], errors["att_tilt"] = attitude_errors(t_att, q_att, rec, decl)
     if rec.has("orientation"):
         errors["rv_yaw"], errors["rv_tilt"] = attitude_errors(rec.origin_ns / 1e9 + rec.t_s("orientation"),
                                                               rec.values("orientation"), rec)
     else:
         errors["rv_yaw"], errors["rv_tilt"] = ErrorSet(), ErrorSet()
-    placements = [str(r.get("placement")) for r in rows]
-    used = max(set(placements), key=placements.count) if placements else str(cfg.placement)
+    placements = Counter(str(r.get("placement")) for r in rows)
+    used = placements.most_common(1)[0][0] if placements else str(cfg.placement)
+    table = {"t_start_s": t0, "t_s": t1, "placement": [str(r.get("placement")) for r in rows],
+             "true_heading_deg": yaw_to_heading_deg(truth), "heading_deg": yaw_to_heading_deg(causal),
+             "smoothed_heading_deg": yaw_to_heading_deg(smooth_yaw), "rv_y_heading_deg": yaw_to_heading_deg(rv_y)}
     m = rec.meta
-    return RecordingScore(name=Path(rec.source).name, walker=str(m.get("walker", "")),
+    return RecordingScore(name=Path(rec.source).name.removesuffix(".zip"), walker=str(m.get("walker", "")),
                           carriage=str(m.get("carriage", "")), disturbed=bool(m.get("disturbed", False)),
-                          placement=used, steps=len(rows), errors=errors, notices=notices)
+                          placement=used, steps=len(rows), errors=errors, notices=notices, step_table=table,
+                          field_azimuth_deg=m.get("field_azimuth_mocap_deg"))
 
 
 def recordings_in(root: str | Path) -> list[Path]:
-    """Recording folders of the benchmark under ``root`` (a dataset root, its ``android`` folder, or one recording)."""
-    from pdr.io import tyrex
+    """Recordings under ``root``: Tyrex logger folders (a dataset root, its ``android`` folder, or one recording),
+    and native recordings (zip or folder, :mod:`pdr.io.native`) converted from them, which keep the truth and the
+    ``meta`` (walker, carriage, field) the evaluation needs.
+    """
+    from pdr.io import native, tyrex
 
     p = Path(root)
     if not p.exists():
-        raise InputError("no such folder", source=str(p))
-    if tyrex.sniff(p):
+        raise InputError("no such file or folder", source=str(p))
+    if tyrex.sniff(p) or native.sniff(p):
         return [p]
-    found = sorted({f.parent for f in p.rglob("record.properties") if tyrex.sniff(f.parent)})
+    found = {f.parent for f in p.rglob("record.properties") if tyrex.sniff(f.parent)}
+    found |= {f for f in p.rglob("*.zip") if native.sniff(f)}
+    found |= {f.parent for f in p.rglob("meta.json") if native.sniff(f.parent)}
     if not found:
-        raise InputError("no Tyrex logger recording (folder with record.properties and accelerometer.txt) here",
-                         source=str(p))
-    return found
+        raise InputError("no Tyrex logger recording (folder with record.properties and accelerometer.txt) or native "
+                         "recording here", source=str(p))
+    return sorted(found)
 
 
 def aggregate(scores: Iterable[RecordingScore]) -> dict[str, Any]:
@@ -377,9 +414,9 @@ def evaluate(root: str | Path, cfg_for: Callable[[Recording], PipelineConfig],
     scores = []
     for f in folders:
         rec = read_recording(f)
-        if rec.truth.positions is None:
+        if not {"walk_pos_m", "trajectory_t_s", "q_nb"} <= set(rec.truth.extra):
             if progress:
-                progress(f"{f.name}: no motion-capture truth, skipped")
+                progress(f"{f.name}: no motion-capture truth (walking path and attitude), skipped")
             continue
         scores.append(score_recording(rec, cfg_for(rec), smooth))
         if progress:

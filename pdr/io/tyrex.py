@@ -37,7 +37,8 @@ degrees), Z up: a magnetic ENU frame, the frame of the rotation vector and of th
 declination. Mocap frame ``k`` (0-based) is at mocap time ``k / FrameRate``, i.e. phone time
 ``k / FrameRate - alignment``. ``alignment`` is ``timeAlignment.txt`` refined by :func:`refine_alignment`
 (the lag, within +/- :data:`ALIGN_SEARCH_S`, that best matches the mocap body rate to the gyroscope;
-``meta['time_alignment_file_s']`` and ``meta['time_alignment_s']`` hold both). Frames with hidden markers
+``meta['time_alignment_file_s']`` and ``meta['time_alignment_s']`` hold both). ``meta['field_azimuth_mocap_deg']``
+(:func:`field_azimuth_deg`) says how far magnetic north is from the mocap Y axis. Frames with hidden markers
 (NaN) and frames inside a rotation glitch (:func:`rotation_glitches`: the rigid body briefly fitted the wrong
 way round) are invalid. Truth, on the recording's ``t_s`` axis:
 
@@ -317,6 +318,25 @@ def refine_alignment(t_frame_s: FloatArray, q_nb: FloatArray, gyro_t_s: FloatArr
     return float(lags[int(np.argmin(cost))])
 
 
+def field_azimuth_deg(t_frame_s: FloatArray, q_nb: FloatArray, mag_t_s: FloatArray, mag_b: FloatArray,
+                      max_dt_s: float) -> float | None:
+    """Compass azimuth (deg, clockwise from the mocap Y axis) of the median horizontal magnetic field rotated into
+    the mocap frame by the mocap attitude (frames within ``max_dt_s`` of a magnetometer sample); None without any.
+
+    Near 0 in an undisturbed field: how far the mocap Y axis is from magnetic north.
+    """
+    ok = np.flatnonzero(np.all(np.isfinite(q_nb), axis=1))
+    if ok.size == 0:
+        return None
+    j = np.clip(np.searchsorted(t_frame_s[ok], mag_t_s), 1, ok.size - 1)
+    j = np.where(np.abs(t_frame_s[ok][j - 1] - mag_t_s) < np.abs(t_frame_s[ok][j] - mag_t_s), j - 1, j)
+    near = np.abs(t_frame_s[ok][j] - mag_t_s) <= max_dt_s
+    if not near.any():
+        return None
+    m_n = quat.rotate(q_nb[ok][j[near]], mag_b[near])
+    return float(np.degrees(np.arctan2(np.median(m_n[:, 0]), np.median(m_n[:, 1]))))
+
+
 def walking_path(t_s: FloatArray, pos_m: FloatArray, window_s: float = WALK_SMOOTHING_S,
                  max_gap_s: float = MAX_GAP_S) -> FloatArray:
     """(K, 2) horizontal walking path: ``pos_m`` (K, >=2, NaN rows where hidden) averaged over ``window_s``.
@@ -404,11 +424,15 @@ def _mocap_truth(path: Path, rec: Recording, alignment_s: float, align_source: s
     if pos_ok.sum() < 2:
         raise InputError("fewer than two motion-capture frames with a position", source=str(path),
                          field="RigidBodies.Positions")
+    if rec.has("mag"):
+        meta_azimuth = field_azimuth_deg(t_frame, q, rec.t_s("mag"), rec.values("mag"), 0.5 / rate)
+    else:
+        meta_azimuth = None
     walk = walking_path(t_frame, pos)
     positions = PositionTruth(t_frame[pos_ok], pos[pos_ok], kind="dense", frame="enu")
     extra = {"trajectory_t_s": t_frame, "q_nb": q, "walk_pos_m": walk,
              "walking_heading_rad": walking_heading(t_frame, walk)}
     meta = {"mocap_file": path.name, "mocap_rate_hz": rate, "mocap_frames": k, "mocap_hidden_frames": hidden,
             "mocap_glitch_frames": int(glitch.sum()), "time_alignment_file_s": alignment_s,
-            "time_alignment_s": alignment_s - refined}
+            "time_alignment_s": alignment_s - refined, "field_azimuth_mocap_deg": meta_azimuth}
     return GroundTruth(positions=positions, extra=extra), meta, warnings

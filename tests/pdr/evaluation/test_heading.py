@@ -97,7 +97,7 @@ def test_placement_label_and_bad_folders(synthetic, tmp_path):
     assert ev.placement_for(synthetic, "auto") == "auto"
     with pytest.raises(InputError, match="no Tyrex logger recording"):
         ev.recordings_in(tmp_path)
-    with pytest.raises(InputError, match="no such folder"):
+    with pytest.raises(InputError, match="no such file or folder"):
         ev.recordings_in(tmp_path / "missing")
 
 
@@ -126,3 +126,20 @@ def test_eval_heading_on_a_real_texting_walk(capsys):
     assert rec["walk_rv_y"]["median_deg"] < 20.0
     for key in ("walk_causal", "walk_smoothed", "att_yaw", "att_tilt"):
         assert np.isfinite(rec[key]["mean_deg"])
+
+
+def test_native_conversions_are_scored_like_the_folder(synthetic, tmp_path, capsys):
+    from pdr.io import native
+
+    native.write(synthetic, tmp_path / "conv" / f"{synthetic.meta['walker']}_walk.zip")
+    (tmp_path / "conv" / "notes.zip").write_bytes(b"not a zip")
+    assert ev.recordings_in(tmp_path / "conv") == [tmp_path / "conv" / "Alice_walk.zip"]
+    steps = tmp_path / "steps"
+    assert main(["eval", "heading", str(tmp_path / "conv"), "--json", "--placement", "pocket",
+                 "--steps", str(steps)]) == 0
+    (rec,) = json.loads(capsys.readouterr().out)["recordings"]
+    assert rec["recording"] == "Alice_walk" and rec["carriage"] == "FrontPocket" and rec["walker"] == "Alice"
+    lines = (steps / "Alice_walk.csv").read_text().splitlines()
+    assert lines[0] == ("t_start_s,t_s,placement,true_heading_deg,heading_deg,smoothed_heading_deg,"
+                        "rv_y_heading_deg")
+    assert len(lines) == rec["steps"] + 1
