@@ -1,7 +1,7 @@
 """Tyrex attitude benchmark (Michel et al. 2017/2018): Android logger folders with Qualisys motion-capture truth.
 
-One recording is a folder of space-separated text files (each plain or ``.gz``), no header, first column the
-phone's time ``t`` in seconds since boot (all files share that clock):
+One recording is a folder (or a zip of it) of space-separated text files (each plain or ``.gz``), no header, first
+column the phone's time ``t`` in seconds since boot (all files share that clock):
 
 ``accelerometer.txt``
     ``t ax ay az``: m/s^2, gravity included, Android device frame -> ``acc`` (required).
@@ -65,7 +65,8 @@ from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.io import matfile
 from pdr.io.android import rotation_vector_to_q_nb
-from pdr.io.text import check_increasing_rows, find_member, head, parse_float_rows, read_text, timestamps_ns
+from pdr.io.bundle import Bundle, is_zip
+from pdr.io.text import check_increasing_rows, parse_float_rows, timestamps_ns
 from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, SensorStream
 
 FORMAT = "tyrex"
@@ -86,6 +87,8 @@ FILES: dict[str, tuple[str, tuple[str, ...]]] = {
     "linear-acceleration.txt": ("lin_acc", _XYZ),
     "rotation-vector.txt": ("orientation", ("t", "x", "y", "z", "w", "accuracy")),
 }
+PROPERTIES = "record.properties"
+ALIGNMENT = "timeAlignment.txt"
 #: Carriage (the folder name's motion) -> placement label of :data:`pdr.recording.PLACEMENTS`.
 PLACEMENT_OF_CARRIAGE: dict[str, str] = {
     "FrontPocket": "trouser_pocket_front", "BackPocket": "trouser_pocket_back", "RunningPocket": "trouser_pocket",
@@ -114,37 +117,45 @@ _NAME = re.compile(r"^(?P<walker>[A-Za-z]+)_(?P<device>[A-Za-z0-9]+)_(?P<dist>Di
 _NUMERIC_LINE = re.compile(rb"^\s*-?\d+(\.\d+)?([eE][-+]?\d+)?(\s+[-+0-9.eE]+){3,}\s*$")
 
 
+def _is_archive(p: Path) -> bool:
+    return p.is_file() and (p.name.lower().endswith(".zip") or is_zip(p))
+
+
 def sniff(path: str | Path) -> bool:
-    """A folder with ``record.properties`` (a ``[Device]`` section) and a numeric ``accelerometer.txt[.gz]``."""
-    p = Path(path)
+    """A folder (or a zip of it) with ``record.properties`` (a ``[Device]`` section) and a numeric
+    ``accelerometer.txt[.gz]``.
+    """
     try:
-        if not p.is_dir():
+        p = Path(path)
+        if not (p.is_dir() or _is_archive(p)):
             return False
-        props, acc = find_member(p, "record.properties"), find_member(p, "accelerometer.txt")
-    except OSError:
+        bundle = Bundle(p, anchor=PROPERTIES)
+        props, acc = bundle.get(PROPERTIES), bundle.get("accelerometer.txt")
+    except Exception:  # noqa: BLE001 - sniffing must never raise on foreign input
         return False
-    if props is None or acc is None or b"[Device]" not in head(props, 1024):
+    if props is None or acc is None or b"[Device]" not in props[:1024]:
         return False
-    first = head(acc, 512).split(b"\n", 1)[0]
-    return _NUMERIC_LINE.match(first) is not None
+    return _NUMERIC_LINE.match(acc[:512].split(b"\n", 1)[0]) is not None
 
 
 def read(path: str | Path) -> Recording:
-    """Read one recording folder (and its Qualisys truth when present); see the module docstring."""
-    folder = Path(path)
-    if not folder.is_dir():
-        raise InputError("a Tyrex logger recording is a folder (record.properties, accelerometer.txt, ...)",
-                         source=str(folder))
-    if find_member(folder, "accelerometer.txt") is None:
-        raise InputError("no accelerometer.txt[.gz] in the recording folder", source=str(folder))
+    """Read one recording folder or a zip of it (and, for a folder, its Qualisys truth when present); see the
+    module docstring.
+    """
+    p = Path(path)
+    if not (p.is_dir() or _is_archive(p)):
+        raise InputError("a Tyrex logger recording is a folder (record.properties, accelerometer.txt, ...) or a "
+                         "zip of it", source=str(p))
+    bundle = Bundle(p, anchor=PROPERTIES)
+    if bundle.get("accelerometer.txt") is None:
+        raise InputError("no accelerometer.txt[.gz] in the recording", source=str(p))
     streams: dict[str, SensorStream] = {}
     meta: dict[str, Any] = {"files": []}
     for name, (kind, columns) in FILES.items():
-        member = find_member(folder, name)
-        if member is None:
+        if bundle.get(name) is None:
             continue
-        arr = _table(member, columns)
-        t_ns = timestamps_ns(arr[:, 0], str(member), "t", scale=1e9)
+        arr = _table(bundle.text(name), bundle.name(name), columns)
+        t_ns = timestamps_ns(arr[:, 0], bundle.name(name), "t", scale=1e9)
         meta["files"].append(name)
         if kind == "orientation":
             streams[kind] = SensorStream(kind, t_ns, rotation_vector_to_q_nb(arr[:, 1:4], arr[:, 4]))
@@ -153,38 +164,48 @@ def read(path: str | Path) -> Recording:
             streams[kind] = SensorStream(kind, t_ns, arr[:, 1:4])
         if len(columns) == 7:
             meta[f"{kind.removesuffix('_uncal')}_os_bias"] = _bias_changes(arr)
-    props_path = find_member(folder, "record.properties")
-    props = _properties(props_path) if props_path is not None else {}
+    props = _properties(bundle.text(PROPERTIES), bundle.name(PROPERTIES)) if bundle.get(PROPERTIES) else {}
     device = DeviceInfo(platform="android", model=props.get("Device.Model", ""), role="phone", placement=None,
                         device_id=props.get("Device.ID", ""))
     meta["properties"] = props
-    m = _NAME.match(folder.name)
+    name = _recording_name(p, bundle)
+    m = _NAME.match(name)
     if m:
         meta.update(walker=m["walker"], device_name=m["device"], disturbed=m["dist"] == "Dist",
                     carriage=m["motion"], placement_label=PLACEMENT_OF_CARRIAGE.get(m["motion"]))
-    rec = Recording(streams, device=device, source=str(folder), format=FORMAT, meta=meta)
-    mat = _qualisys_file(folder)
+    rec = Recording(streams, device=device, source=str(p), format=FORMAT, meta=meta)
+    mat = _qualisys_file(p) if p.is_dir() else None
     if mat is None:
-        return Recording(streams, device=device, t0_ns=rec.origin_ns, source=str(folder), format=FORMAT, meta=meta,
-                         warnings=("no motion-capture file ../../qualisys/<name>.mat beside the folder: no truth",))
-    align_path = find_member(folder, "timeAlignment.txt")
-    if align_path is None:
+        why = ("no motion-capture file ../../qualisys/<name>.mat beside the folder" if p.is_dir() else
+               "motion capture is read only beside a folder (../../qualisys/<name>.mat), not from a zip")
+        return Recording(streams, device=device, t0_ns=rec.origin_ns, source=str(p), format=FORMAT, meta=meta,
+                         warnings=(f"{why}: no truth",))
+    if bundle.get(ALIGNMENT) is None:
         raise InputError("motion capture present but no timeAlignment.txt to put it on the phone's clock",
-                         source=str(folder))
-    alignment = _alignment(align_path)
-    truth, truth_meta, warnings = _mocap_truth(mat, rec, alignment, str(align_path))
+                         source=str(p))
+    alignment = _alignment(bundle.text(ALIGNMENT), bundle.name(ALIGNMENT))
+    truth, truth_meta, warnings = _mocap_truth(mat, rec, alignment, bundle.name(ALIGNMENT))
     meta.update(truth_meta)
-    return Recording(streams, device=device, t0_ns=rec.origin_ns, truth=truth, source=str(folder), format=FORMAT,
+    return Recording(streams, device=device, t0_ns=rec.origin_ns, truth=truth, source=str(p), format=FORMAT,
                      meta=meta, warnings=tuple(warnings))
 
 
+def _recording_name(p: Path, bundle: Bundle) -> str:
+    """The recording's name: the folder's, or inside a zip the folder holding ``record.properties``, else the
+    zip's name without ``.zip``.
+    """
+    if p.is_dir():
+        return p.name
+    inner = bundle.name(PROPERTIES).rsplit(":", 1)[-1].split("/")
+    return inner[-2] if len(inner) > 1 else p.name.removesuffix(".zip")
+
+
 # -- phone files -------------------------------------------------------------------------------------------
-def _table(path: Path, columns: tuple[str, ...]) -> FloatArray:
+def _table(text: str, source: str, columns: tuple[str, ...]) -> FloatArray:
     """The numeric rows of one space-separated file; InputError naming file, line and field on bad input."""
-    source = str(path)
     rows: list[list[str]] = []
     numbers: list[int] = []
-    for number, line in enumerate(read_text(path).splitlines(), start=1):
+    for number, line in enumerate(text.splitlines(), start=1):
         if line.strip():
             rows.append(line.split())
             numbers.append(number)
@@ -202,11 +223,11 @@ def _bias_changes(arr: FloatArray) -> list[list[float]]:
     return [[float(arr[i, 0]), *map(float, b[i])] for i in at]
 
 
-def _properties(path: Path) -> dict[str, str]:
+def _properties(text: str, source: str) -> dict[str, str]:
     """``Section.Key`` -> value of an INI-like ``record.properties``."""
     out: dict[str, str] = {}
     section = ""
-    for number, line in enumerate(read_text(path).splitlines(), start=1):
+    for number, line in enumerate(text.splitlines(), start=1):
         s = line.strip()
         if not s or s.startswith(("#", ";")):
             continue
@@ -215,23 +236,23 @@ def _properties(path: Path) -> dict[str, str]:
             continue
         key, sep, value = s.partition("=")
         if not sep or not key.strip():
-            raise InputError(f"expected '[Section]' or 'key = value', found '{s[:40]}'", source=str(path),
-                             line=number)
+            raise InputError(f"expected '[Section]' or 'key = value', found '{s[:40]}'", source=source, line=number)
         out[f"{section}.{key.strip()}" if section else key.strip()] = value.strip()
     return out
 
 
-def _alignment(path: Path) -> float:
-    text = read_text(path).split()
+def _alignment(text: str, source: str) -> float:
+    """Seconds to add to phone time to get mocap time: the one number of ``timeAlignment.txt``."""
+    fields = text.split()
     try:
-        if len(text) != 1:
+        if len(fields) != 1:
             raise ValueError
-        value = float(text[0])
+        value = float(fields[0])
     except ValueError:
-        raise InputError(f"expected one number (seconds to add to phone time), found '{' '.join(text)[:40]}'",
-                         source=str(path), line=1) from None
+        raise InputError(f"expected one number (seconds to add to phone time), found '{' '.join(fields)[:40]}'",
+                         source=source, line=1) from None
     if not np.isfinite(value) or abs(value) > 1e6:
-        raise InputError(f"time alignment {value} s is not a plausible offset", source=str(path), line=1)
+        raise InputError(f"time alignment {value} s is not a plausible offset", source=source, line=1)
     return value
 
 

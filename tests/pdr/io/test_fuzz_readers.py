@@ -145,6 +145,8 @@ DATA_SEEDS: dict[str, Callable[[], Seed]] = {
     "static_npz": lambda: Seed("static_npz", "imu.npz", {"n": _npz()}, "binary"),
     "tyrex": lambda: Seed("tyrex", "Jakob_Nexus5_NoDist_Texting", _gunzipped_tree(data_path(
         "attitude_smartphones", "android", "Jakob_Nexus5_NoDist_Texting")), "folder"),
+    "tyrex-zip": lambda: Seed("tyrex", "recording.zip", _gunzipped_tree(data_path(
+        "attitude_smartphones", "android", "Jakob_Nexus5_Dist_Swinging")), "zip"),
 }
 
 

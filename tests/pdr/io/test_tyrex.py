@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import gzip
 import math
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +14,7 @@ from scipy.io import savemat
 from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.frames import GRAVITY_MPS2, wrap_angle
-from pdr.io import tyrex
+from pdr.io import detect_format, tyrex
 from tests.pdr.io.dataset_samples import detect_or_skip, foreign_to, sample_path, samples_of
 
 NAME = "Alice_Nexus5_NoDist_FrontPocket"
@@ -196,6 +197,28 @@ def test_rotation_glitch_is_flagged():
     bad = tyrex.rotation_glitches(t, q)
     assert bad[100:110].all()
     assert bad.sum() <= 12 and not bad[:99].any() and not bad[111:].any()
+
+
+@pytest.mark.parametrize("top_folder", [True, False])
+def test_a_zip_of_the_folder_is_read_without_truth(tmp_path, top_folder):
+    folder = write_recording(tmp_path)
+    archive = tmp_path / "upload.zip"
+    with zipfile.ZipFile(archive, "w") as z:
+        for f in folder.iterdir():
+            z.write(f, f"{NAME}/{f.name}" if top_folder else f.name)
+    assert tyrex.sniff(archive) and detect_format(archive) == "tyrex"
+    rec = tyrex.read(archive)
+    direct = tyrex.read(folder)
+    assert dict(rec.streams) == dict(direct.streams)
+    assert rec.truth.is_empty() and direct.truth.positions is not None
+    assert rec.meta.get("carriage") == ("FrontPocket" if top_folder else None)
+    lines = gzip.decompress((folder / "accelerometer.txt.gz").read_bytes()).decode().splitlines()
+    lines[9] = "x 1 2 3"
+    with zipfile.ZipFile(archive, "w") as z:
+        z.writestr("accelerometer.txt", "\n".join(lines))
+        z.writestr("record.properties", "[Device]\nModel = Nexus 5\n")
+    with pytest.raises(InputError, match=r"upload.zip:accelerometer.txt, line 10, field 't'"):
+        tyrex.read(archive)
 
 
 def test_no_mocap_gives_a_recording_without_truth(tmp_path):
