@@ -143,3 +143,28 @@ def test_native_conversions_are_scored_like_the_folder(synthetic, tmp_path, caps
     assert lines[0] == ("t_start_s,t_s,placement,true_heading_deg,heading_deg,smoothed_heading_deg,"
                         "rv_y_heading_deg")
     assert len(lines) == rec["steps"] + 1
+
+
+@pytest.mark.slow
+@pytest.mark.data
+def test_eval_heading_on_the_whole_benchmark_keeps_the_reference_figures(capsys, shared_data):
+    """The phone's rotation vector is the fixed reference: its figures check the truth of all 18 recordings."""
+    root = shared_data / "attitude_smartphones"
+    if not root.exists():
+        pytest.skip(f"shared dataset not available: {root}")
+    assert main(["eval", "heading", str(root), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    recs = out["recordings"]
+    assert len(recs) == 18 and out["all"]["recordings"] == 18
+    assert {r["carriage"] for r in recs} == set(ev.CARRIAGES)
+    assert set(out["by_walker"]) == {"Guillaume", "Jakob"}
+    for r in recs:
+        assert r["walk_causal"]["n"] >= 0.8 * r["steps"], r["recording"]
+        # Michel et al.: the rotation vector's tilt stays within a few degrees, its yaw too in a clean field.
+        assert r["rv_tilt"]["mean_deg"] < 5.0, r["recording"]
+        if not r["disturbed"]:
+            assert r["rv_yaw"]["mean_deg"] < 8.0, r["recording"]
+            assert abs(r["field_azimuth_mocap_deg"]) < 3.0, r["recording"]
+        if r["carriage"] == "Texting":
+            assert r["walk_rv_y"]["median_deg"] < 25.0, r["recording"]
+    assert out["by_field"]["Dist"]["rv_yaw"]["mean_deg"] > out["by_field"]["NoDist"]["rv_yaw"]["mean_deg"]
