@@ -337,8 +337,14 @@ def aggregate(scores: Iterable[RecordingScore]) -> dict[str, Any]:
     return {"recordings": n, **{k: pooled[k].summary() for k in ERROR_SETS}}
 
 
+def _half(walker: str) -> str:
+    return "tuning" if walker == TUNING_WALKER else "confirmation" if walker == CONFIRMATION_WALKER else "other"
+
+
 def protocol(scores: list[RecordingScore]) -> dict[str, Any]:
-    """Aggregates: per carriage, per walker (tuning / confirmation half), disturbed against clean, and all."""
+    """Aggregates: per carriage (and field), per walker (tuning / confirmation half; and carriage), disturbed
+    against clean, and all.
+    """
     carriages = [c for c in CARRIAGES if any(s.carriage == c for s in scores)]
     carriages += sorted({s.carriage for s in scores} - set(carriages))
     return {
@@ -346,9 +352,12 @@ def protocol(scores: list[RecordingScore]) -> dict[str, Any]:
         "by_carriage_and_field": {f"{c} {'Dist' if d else 'NoDist'}": aggregate(
             s for s in scores if s.carriage == c and s.disturbed == d)
             for c in carriages for d in (False, True) if any(s.carriage == c and s.disturbed == d for s in scores)},
-        "by_walker": {w: {"half": "tuning" if w == TUNING_WALKER else "confirmation" if w == CONFIRMATION_WALKER
-                          else "other", **aggregate(s for s in scores if s.walker == w)}
+        "by_walker": {w: {"half": _half(w), **aggregate(s for s in scores if s.walker == w)}
                       for w in sorted({s.walker for s in scores})},
+        "by_walker_and_carriage": {f"{w} {c}": {"half": _half(w), **aggregate(
+            s for s in scores if s.walker == w and s.carriage == c)}
+            for w in sorted({s.walker for s in scores}) for c in carriages
+            if any(s.walker == w and s.carriage == c for s in scores)},
         "by_field": {"NoDist": aggregate(s for s in scores if not s.disturbed),
                      "Dist": aggregate(s for s in scores if s.disturbed)},
         "all": aggregate(scores),
@@ -393,6 +402,8 @@ def report_lines(scores: list[RecordingScore], agg: dict[str, Any]) -> list[str]
     out += ["", "per walker (Guillaume: tuning half, Jakob: confirmation half)", HEADER]
     for name, d in agg["by_walker"].items():
         out.append(_line(f"{name} ({d['half']}, {d['recordings']} rec.)", d, str(d["walk_causal"]["n"]), False))
+    for name, d in agg["by_walker_and_carriage"].items():
+        out.append(_line(f"{name} ({d['recordings']} rec.)", d, str(d["walk_causal"]["n"]), name.endswith("Texting")))
     out += ["", "disturbed against clean field", HEADER]
     for name, d in agg["by_field"].items():
         out.append(_line(f"{name} ({d['recordings']} rec.)", d, str(d["walk_causal"]["n"]), False))

@@ -85,6 +85,7 @@ def test_protocol_pools_steps_by_carriage_walker_and_field():
         {"n": 3, "mean_deg": 12.0, "median_deg": 4.0, "within_10_deg": 2 / 3, "within_20_deg": 2 / 3})
     assert agg["by_walker"]["Guillaume"]["half"] == "tuning" and agg["by_walker"]["Jakob"]["half"] == "confirmation"
     assert agg["by_walker"]["Jakob"]["walk_causal"]["n"] == 4
+    assert agg["by_walker_and_carriage"]["Jakob Texting"]["walk_causal"]["median_deg"] == 15.0
     assert agg["by_field"]["Dist"]["walk_causal"]["mean_deg"] == 30.0
     assert list(agg["by_carriage"]) == ["FrontPocket", "Texting"]
     assert agg["all"]["recordings"] == 3 and agg["all"]["walk_causal"]["n"] == 6
