@@ -7,8 +7,10 @@ numeric field) is reported the same way: an :class:`~pdr.errors.InputError` nami
 from __future__ import annotations
 
 import gzip
+import io
 import zipfile
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -98,6 +100,94 @@ def zip_texts(path: str | Path) -> dict[str, str]:
             return out
     except (zipfile.BadZipFile, OSError, EOFError) as exc:
         raise InputError(f"not a readable zip archive ({exc})", source=str(p)) from None
+
+
+#: Line breaks of :meth:`str.splitlines` other than LF and CR LF (the ASCII ones; non-ASCII text takes the exact path).
+_UNUSUAL_BREAKS = (b"\r", b"\x0b", b"\x0c", b"\x1c", b"\x1d", b"\x1e")
+_NEWLINE = 10
+
+
+@dataclass(frozen=True)
+class Lines:
+    """The lines of an ASCII text as byte offsets, for readers that classify and parse lines with array operations.
+
+    ``buf`` holds a LF, the text (CR LF made LF) and a LF; line ``i`` (0-based) is
+    ``buf[start[i]:start[i] + length[i]]``: these are the lines :meth:`str.splitlines` finds in the decoded text.
+    """
+
+    buf: NDArray[np.uint8]
+    start: NDArray[np.int64]
+    length: NDArray[np.int64]
+
+    def prefix(self, n: int) -> NDArray[np.uint8]:
+        """(N, n) first ``n`` bytes of every line (zero past a line's end)."""
+        padded = np.concatenate([self.buf, np.zeros(n, np.uint8)])
+        out = np.empty((self.start.size, n), np.uint8)
+        for k in range(n):
+            out[:, k] = np.where(self.length > k, padded[self.start + k], 0)
+        return out
+
+    def text(self, i: int) -> bytes:
+        """Line ``i`` as bytes."""
+        a = int(self.start[i])
+        return self.buf[a:a + int(self.length[i])].tobytes()
+
+    def fields(self, mask: NDArray[np.bool_], ncol: int, skip_bytes: int = 0, sep: bytes = b";", *,
+               trailing_separator: bool = False) -> NDArray[np.float64] | None:
+        """(N, ncol) float64 of the ``sep``-separated plain decimals of the selected lines after their first
+        ``skip_bytes`` bytes (:func:`pdr.io.decimal_kernel.parse_lines`: the values :func:`float` gives), or None
+        when a line is not of that form: the caller's line-by-line path then reads it or names the line and field.
+        """
+        from pdr.io.decimal_kernel import parse_lines
+        rows = np.flatnonzero(mask)
+        if np.any(self.length[rows] < skip_bytes):
+            return None
+        out = np.empty((rows.size, ncol))
+        bad = parse_lines(self.buf, self.start[rows] + skip_bytes, self.length[rows] - skip_bytes, ncol,
+                          trailing_separator, sep[0], out)
+        return out if bad < 0 else None
+
+
+def ascii_lines(raw: bytes) -> Lines | None:
+    """The :class:`Lines` of ``raw``, or None when the exact line-by-line path must read it.
+
+    None for anything :func:`decode_text` and :meth:`str.splitlines` would treat otherwise: non-ASCII bytes (a
+    BOM, Latin-1 or UTF-8 text), NUL bytes, other line breaks (a lone CR, form feed, ...).
+    """
+    if not raw.isascii() or b"\x00" in raw:
+        return None
+    if b"\r" in raw:
+        raw = raw.replace(b"\r\n", b"\n")
+    if any(c in raw for c in _UNUSUAL_BREAKS):
+        return None
+    buf = np.frombuffer(b"\n" + raw + (b"" if raw.endswith(b"\n") or not raw else b"\n"), np.uint8)
+    newline = np.flatnonzero(buf == _NEWLINE)
+    start = newline[:-1] + 1
+    return Lines(buf, start, newline[1:] - start)
+
+
+def float_table(bodies: Sequence[bytes], sep: bytes, ncol: int, *,
+                trailing_separator: bool = False) -> NDArray[np.float64] | None:
+    """(N, ncol) float64 array of ``bodies`` (lines of ``sep``-separated numbers) parsed in one C-level pass.
+
+    The values are those :func:`float` gives (``numpy.loadtxt`` rounds correctly, as ``float`` does). With
+    ``trailing_separator`` one separator ending a line is dropped, as the line-by-line readers do. None when
+    any line does not hold exactly ``ncol`` finite numbers: the caller's line-by-line path
+    (:func:`parse_float_rows`) then names the line and field.
+    """
+    if not bodies:
+        return np.empty((0, ncol))
+    text = b"\n".join(bodies) + b"\n"
+    if trailing_separator:
+        text = text.replace(sep + b"\n", b"\n")
+    try:
+        arr = np.loadtxt(io.BytesIO(text), dtype=np.float64, delimiter=sep.decode("ascii"), comments=None,
+                         ndmin=2, encoding="ascii")
+    except ValueError:
+        return None
+    if arr.shape != (len(bodies), ncol) or not bool(np.isfinite(arr).all()):
+        return None
+    return arr
 
 
 def parse_float_rows(rows: Sequence[Sequence[str]], line_numbers: Sequence[int], source: str,
