@@ -161,7 +161,8 @@ def time_process(log: str | Path, out_csv: str | Path) -> float:
     loading included), in s.
     """
     t0 = time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", "pdr.cli", "track", str(log), "--out", str(out_csv)],
+    done = subprocess.run([sys.executable, "-c", "import sys; from pdr.cli import main; sys.exit(main())", "track",
+                           str(log), "--out", str(out_csv)],
                           capture_output=True, text=True, check=False)
     wall = time.perf_counter() - t0
     if done.returncode != 0:
