@@ -137,9 +137,9 @@ def _read_text_fast(p: Path, raw: bytes) -> Recording | None:
     if lines is None:
         return None
     n = lines.start.size
-    head = lines.prefix(5)
-    tagged = head[:, 4] == ord(";")
-    code = np.ascontiguousarray(head[:, :4]).view("<u4")[:, 0]
+    code, fifth = lines.head_code()
+    tagged = fifth == ord(";")
+    head = code.view(np.uint8).reshape(-1, 4)             # the first four bytes
     masks = {tag: tagged & (code == _TAG_CODE[tag]) for tag in _TAG_CODE}
     known = np.zeros(n, bool)
     for m in masks.values():

@@ -119,13 +119,20 @@ class Lines:
     start: NDArray[np.int64]
     length: NDArray[np.int64]
 
-    def prefix(self, n: int) -> NDArray[np.uint8]:
-        """(N, n) first ``n`` bytes of every line (zero past a line's end)."""
-        padded = np.concatenate([self.buf, np.zeros(n, np.uint8)])
-        out = np.empty((self.start.size, n), np.uint8)
-        for k in range(n):
-            out[:, k] = np.where(self.length > k, padded[self.start + k], 0)
-        return out
+    def head_code(self) -> tuple[NDArray[np.uint32], NDArray[np.uint8]]:
+        """The first four bytes of every line as a little-endian uint32 (bytes past a line's end zero) and the
+        fifth byte (zero past the end): a record tag and its separator, compared with one integer per line.
+        """
+        padded = np.concatenate([self.buf, np.zeros(8, np.uint8)])
+        words = np.ndarray((padded.size - 3,), dtype="<u4", buffer=padded, strides=(1,))
+        code = words[self.start]
+        short = self.length < 4
+        if short.any():
+            keep = np.where(self.length[short] > 0, (1 << (8 * np.minimum(self.length[short], 4))) - 1, 0)
+            code[short] &= keep.astype(np.uint32)
+        fifth = padded[self.start + 4]
+        fifth[self.length < 5] = 0
+        return code, fifth
 
     def text(self, i: int) -> bytes:
         """Line ``i`` as bytes."""
