@@ -53,3 +53,12 @@ def test_stage_times_add_up_to_the_track_the_cli_writes(tmp_path) -> None:
     assert sum(res["stages_s"].values()) <= res["total_s"] * 1.001
     assert main(["track", str(log), "--out", str(tmp_path / "cli.csv")]) == 0
     assert (tmp_path / "bench.csv").read_text() == (tmp_path / "cli.csv").read_text()
+
+
+@pytest.mark.data
+def test_ahrs_ekf_reference_runs_on_the_same_samples() -> None:
+    pytest.importorskip("ahrs")
+    rec = ipin.read(data_path("ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial21_repetition01.txt"))
+    start = rec.time_span_s()[0]
+    res = bench_track.time_ahrs_ekf(rec.slice_time(start, start + 20.0))
+    assert res is not None and res["samples"] > 500 and res["samples_per_s"] > 0
