@@ -7,7 +7,6 @@ numeric field) is reported the same way: an :class:`~pdr.errors.InputError` nami
 from __future__ import annotations
 
 import gzip
-import io
 import zipfile
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -171,30 +170,6 @@ def ascii_lines(raw: bytes) -> Lines | None:
     newline = np.flatnonzero(buf == _NEWLINE)
     start = newline[:-1] + 1
     return Lines(buf, start, newline[1:] - start)
-
-
-def float_table(bodies: Sequence[bytes], sep: bytes, ncol: int, *,
-                trailing_separator: bool = False) -> NDArray[np.float64] | None:
-    """(N, ncol) float64 array of ``bodies`` (lines of ``sep``-separated numbers) parsed in one C-level pass.
-
-    The values are those :func:`float` gives (``numpy.loadtxt`` rounds correctly, as ``float`` does). With
-    ``trailing_separator`` one separator ending a line is dropped, as the line-by-line readers do. None when
-    any line does not hold exactly ``ncol`` finite numbers: the caller's line-by-line path
-    (:func:`parse_float_rows`) then names the line and field.
-    """
-    if not bodies:
-        return np.empty((0, ncol))
-    text = b"\n".join(bodies) + b"\n"
-    if trailing_separator:
-        text = text.replace(sep + b"\n", b"\n")
-    try:
-        arr = np.loadtxt(io.BytesIO(text), dtype=np.float64, delimiter=sep.decode("ascii"), comments=None,
-                         ndmin=2, encoding="ascii")
-    except ValueError:
-        return None
-    if arr.shape != (len(bodies), ncol) or not bool(np.isfinite(arr).all()):
-        return None
-    return arr
 
 
 def parse_float_rows(rows: Sequence[Sequence[str]], line_numbers: Sequence[int], source: str,
