@@ -14,6 +14,9 @@ from server.config import load_settings
 
 
 def _serve(args: argparse.Namespace) -> int:
+    from server import warmup
+
+    warmup.use_cache_dir(load_settings().data_dir / "numba-cache")   # before numba is imported (server.warmup doc)
     from waitress import serve
 
     from server.app import create_app
@@ -22,10 +25,17 @@ def _serve(args: argparse.Namespace) -> int:
     limit_native_threads()
     app = create_app()
     settings = app.extensions["pdr"].settings
+    warmup.start(extra=(_warm_classifier,))
     print(f"pdr service on http://{args.host}:{args.port}/api/v1/health (data: {settings.database_url})",
           flush=True)
     serve(app, host=args.host, port=args.port, threads=args.threads, ident="pdr")
     return 0
+
+
+def _warm_classifier(recording: object) -> None:
+    """The motion-mode classifier's compiled features, on the warm-up walk (server.warmup)."""
+    from classifiers.streaming import StreamingClassifier
+    StreamingClassifier().update(recording)  # type: ignore[arg-type]
 
 
 def register_serve(subparsers: argparse._SubParsersAction) -> None:

@@ -89,7 +89,8 @@ def openapi_document() -> dict[str, Any]:
         },
         "security": [{"bearer": []}],
         "paths": {
-            "/api/v1/health": {"get": _op("service health", {"200": _ok("ok")}, security=[])},
+            "/api/v1/health": {"get": _op("service health", {"200": _ok(
+                "ok; status \"warming up\" while the compiled kernels load (kernels.state)")}, security=[])},
             "/api/v1/openapi.json": {"get": _op("this document", {"200": _ok("OpenAPI document")}, security=[])},
             "/api/v1/sessions": {
                 "get": _op("list the user's sessions", {"200": _ok("sessions")} | _errors(401)),

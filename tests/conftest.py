@@ -9,6 +9,9 @@ import pytest
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 SHARED_DATA = Path(os.environ.get("PDR_SHARED_DATA", REPO_ROOT.parent / "shared" / "data"))
+# One numba cache for every server the tests start: `pdr serve` would otherwise compile all kernels afresh into each
+# test's new data directory (server.warmup). Set before numba is imported; inherited by the child processes.
+os.environ.setdefault("NUMBA_CACHE_DIR", str(REPO_ROOT / ".pytest_cache" / "numba"))
 
 
 def data_path(*parts: str) -> Path:

@@ -8,16 +8,21 @@ from the ``pdr.eval`` group in the same way. pdr/ never imports server/ or class
 Only the entry point a command line names is imported (``pdr inspect LOG`` loads neither scikit-learn nor Flask
 nor the Allan-variance fits): each plugin module imports what its command runs, several seconds of imports in
 all. An entry point's name is the (sub)command it adds. A command line that names none (``pdr --help``, a typo)
-loads them all, so that help and "invalid choice" list every command.
+lists them all, so that help and "invalid choice" list every command: it reads each one's one-line help from its
+module's source (:func:`_static_help`) instead of importing it, so that ``pdr --help`` stays under a second.
 """
 
 from __future__ import annotations
 
 import argparse
+import ast
+import functools
+import importlib.util
 import logging
 import sys
 from collections.abc import Sequence
-from importlib.metadata import entry_points
+from importlib.metadata import EntryPoint, entry_points
+from pathlib import Path
 
 from pdr.errors import InputError
 
@@ -46,12 +51,57 @@ def register_group(subparsers: argparse._SubParsersAction, group: str, level: in
     """
     eps = sorted(entry_points(group=group), key=lambda e: e.name)
     wanted = _requested[level] if level < len(_requested) else None
-    for ep in [ep for ep in eps if ep.name == wanted] or eps:
+    named = [ep for ep in eps if ep.name == wanted]
+    for ep in named or eps:
+        summary = None if named else _static_help(ep)
+        if summary is not None:
+            # Listed only (help, an unknown command): its module is not imported. Chosen, it would be named.
+            p = subparsers.add_parser(ep.name, help=summary)
+            p.set_defaults(func=_unavailable(ep.name, RuntimeError("listed without loading")))
+            continue
         try:
             ep.load()(subparsers)
         except (ImportError, AttributeError) as exc:
             p = subparsers.add_parser(ep.name, help=f"(unavailable: {exc})")
             p.set_defaults(func=_unavailable(ep.name, exc))
+
+
+@functools.cache
+def _module_tree(module: str) -> ast.Module | None:
+    """The parsed source of ``module``, found without executing it (its parent packages are imported)."""
+    try:
+        spec = importlib.util.find_spec(module)
+    except (ImportError, ValueError):
+        return None
+    if spec is None or not spec.origin or not spec.origin.endswith(".py"):
+        return None
+    try:
+        return ast.parse(Path(spec.origin).read_text(encoding="utf-8"))
+    except (OSError, SyntaxError, UnicodeDecodeError):
+        return None
+
+
+def _static_help(ep: EntryPoint) -> str | None:
+    """The one-line help an entry point's ``register`` function gives its (sub)command, read from its source.
+
+    Found when the function calls ``X.add_parser(NAME, help=TEXT)`` or ``helper(subparsers, NAME, TEXT, ...)``
+    with NAME the entry point's name and TEXT a string literal; None otherwise (the module is then imported).
+    This keeps ``pdr --help`` from importing every plugin (several seconds of imports).
+    """
+    tree = _module_tree(ep.module)
+    func = next((n for n in (tree.body if tree else []) if isinstance(n, ast.FunctionDef) and n.name == ep.attr),
+                None)
+    if func is None:
+        return None
+    for call in (n for n in ast.walk(func) if isinstance(n, ast.Call)):
+        args = [a.value if isinstance(a, ast.Constant) else None for a in call.args]
+        helps = [k.value.value for k in call.keywords if k.arg == "help" and isinstance(k.value, ast.Constant)]
+        if isinstance(call.func, ast.Attribute) and call.func.attr == "add_parser":
+            if args[:1] == [ep.name] and helps and isinstance(helps[0], str):
+                return helps[0]
+        elif len(args) >= 3 and args[1] == ep.name and isinstance(args[2], str):
+            return args[2]
+    return None
 
 
 def build_parser(argv: Sequence[str] = ()) -> argparse.ArgumentParser:

@@ -10,8 +10,9 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from pdr.cli.track import config_from_args, smoothed_rows
+from pdr.cli.track import config_from_args
 from pdr.evaluation.heading import evaluate, placement_for, report_lines
+from pdr.phone.heading_smoother import smoothed_rows
 from pdr.phone.pipeline import PipelineConfig
 from pdr.recording import Recording
 

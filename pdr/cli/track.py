@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 import sys
@@ -25,11 +24,11 @@ from pdr.evaluation.scoring import (
 )
 from pdr.io import read_recording
 from pdr.phone.configure import pipeline_config
-from pdr.phone.heading_smoother import smooth_track
+from pdr.phone.heading_smoother import smoothed_rows
 from pdr.phone.landmarks import Site
 from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
 from pdr.phone.step_length import StepLengthModel
-from pdr.phone.track_schema import TRACK_COLUMNS, csv_fields
+from pdr.phone.track_schema import write_csv
 from pdr.recording import Recording
 
 
@@ -71,22 +70,6 @@ def run_pipeline(rec: Recording, cfg: PipelineConfig, site: Site | None = None) 
     events = PdrPipeline(cfg, site).run(rec)
     notices = [str(e["message"]) for e in events if e.get("type") == "notice"]
     return track_rows(events), notices
-
-
-def smoothed_rows(rows: list[dict[str, Any]], notices: list[str]) -> list[dict[str, Any]]:
-    """The offline-smoothed track (:func:`pdr.phone.heading_smoother.smooth_track`); its summary joins ``notices``."""
-    out, summary = smooth_track(rows)
-    if summary:
-        notices.append(summary)
-    return out
-
-
-def write_csv(rows: list[dict[str, Any]], path: str | Path) -> None:
-    with open(path, "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(TRACK_COLUMNS)
-        for r in rows:
-            w.writerow(csv_fields(r))
 
 
 def write_geojson(rows: list[dict[str, Any]], path: str | Path, origin: tuple[float, float] | None) -> None:

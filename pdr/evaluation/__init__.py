@@ -8,5 +8,6 @@ error heading and step-length scale explain), :mod:`~pdr.evaluation.phone_bench`
 :mod:`~pdr.evaluation.foot_crossval` (two-fold learning study of the filter bank and BC),
 :mod:`~pdr.evaluation.foot_speed` (foot navigators' CPU cost and memory) and :mod:`~pdr.evaluation.coop`
 (``pdr eval coop``, cooperative localisation), :mod:`~pdr.evaluation.heading`
-(``pdr eval heading``, walking direction and attitude against motion capture).
+(``pdr eval heading``, walking direction and attitude against motion capture) and
+:mod:`~pdr.evaluation.track_bench` (``pdr bench track``, the whole ``pdr track`` path per stage).
 """

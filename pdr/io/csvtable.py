@@ -16,7 +16,6 @@ from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import pandas as pd
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
@@ -117,7 +116,7 @@ def parse_table(text: str, source: str, *, header_line: int = 1, delimiter: str 
         with warnings.catch_warnings():
             warnings.simplefilter("error")
             arrays = _fast(data_lines, header, delimiter, decimal, ints)
-    except (ValueError, TypeError, OverflowError, pd.errors.ParserError, Warning):
+    except (ValueError, TypeError, OverflowError, Warning):   # pandas' ParserError is a ValueError
         arrays = None
     if arrays is None or not _plausible(arrays, len(data_lines), header, nan_columns):
         arrays = _slow(data_lines, first, header, source, delimiter, decimal, ints, nan_columns)
@@ -128,6 +127,8 @@ def _fast(data_lines: list[str], header: tuple[str, ...], delimiter: str, decima
           ints: list[str]) -> dict[str, np.ndarray] | None:
     if not data_lines:
         return {h: np.empty(0, dtype=np.int64 if h in ints else np.float64) for h in header}
+    import pandas as pd  # half a second of imports: only when a table is parsed (not to sniff a format)
+
     dtypes = {i: (np.int64 if h in ints else np.float64) for i, h in enumerate(header)}
     frame = pd.read_csv(io.StringIO("\n".join(data_lines)), sep=delimiter, header=None, dtype=dtypes,
                         engine="c", float_precision="round_trip", skip_blank_lines=False, decimal=decimal,

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import gzip
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -79,6 +80,77 @@ def find_member(folder: Path, name: str) -> Path | None:
         if candidate.is_file():
             return candidate
     return None
+
+
+#: Line breaks of :meth:`str.splitlines` other than LF and CR LF (the ASCII ones; non-ASCII text takes the exact path).
+_UNUSUAL_BREAKS = (b"\r", b"\x0b", b"\x0c", b"\x1c", b"\x1d", b"\x1e")
+_NEWLINE = 10
+
+
+@dataclass(frozen=True)
+class Lines:
+    """The lines of an ASCII text as byte offsets, for readers that classify and parse lines with array operations.
+
+    ``buf`` holds a LF, the text (CR LF made LF) and a LF; line ``i`` (0-based) is
+    ``buf[start[i]:start[i] + length[i]]``: these are the lines :meth:`str.splitlines` finds in the decoded text.
+    """
+
+    buf: NDArray[np.uint8]
+    start: NDArray[np.int64]
+    length: NDArray[np.int64]
+
+    def head_code(self) -> tuple[NDArray[np.uint32], NDArray[np.uint8]]:
+        """The first four bytes of every line as a little-endian uint32 (bytes past a line's end zero) and the
+        fifth byte (zero past the end): a record tag and its separator, compared with one integer per line.
+        """
+        padded = np.concatenate([self.buf, np.zeros(8, np.uint8)])
+        words = np.ndarray((padded.size - 3,), dtype="<u4", buffer=padded, strides=(1,))
+        code = words[self.start]
+        short = self.length < 4
+        if short.any():
+            keep = np.where(self.length[short] > 0, (1 << (8 * np.minimum(self.length[short], 4))) - 1, 0)
+            code[short] &= keep.astype(np.uint32)
+        fifth = padded[self.start + 4]
+        fifth[self.length < 5] = 0
+        return code, fifth
+
+    def text(self, i: int) -> bytes:
+        """Line ``i`` as bytes."""
+        a = int(self.start[i])
+        return self.buf[a:a + int(self.length[i])].tobytes()
+
+    def fields(self, mask: NDArray[np.bool_], ncol: int, skip_bytes: int = 0, sep: bytes = b";", *,
+               trailing_separator: bool = False) -> NDArray[np.float64] | None:
+        """(N, ncol) float64 of the ``sep``-separated plain decimals of the selected lines after their first
+        ``skip_bytes`` bytes (:func:`pdr.io.decimal_kernel.parse_lines`: the values :func:`float` gives), or None
+        when a line is not of that form: the caller's line-by-line path then reads it or names the line and field.
+        """
+        from pdr.io.decimal_kernel import parse_lines
+        rows = np.flatnonzero(mask)
+        if np.any(self.length[rows] < skip_bytes):
+            return None
+        out = np.empty((rows.size, ncol))
+        bad = parse_lines(self.buf, self.start[rows] + skip_bytes, self.length[rows] - skip_bytes, ncol,
+                          trailing_separator, sep[0], out)
+        return out if bad < 0 else None
+
+
+def ascii_lines(raw: bytes) -> Lines | None:
+    """The :class:`Lines` of ``raw``, or None when the exact line-by-line path must read it.
+
+    None for anything :func:`decode_text` and :meth:`str.splitlines` would treat otherwise: non-ASCII bytes (a
+    BOM, Latin-1 or UTF-8 text), NUL bytes, other line breaks (a lone CR, form feed, ...).
+    """
+    if not raw.isascii() or b"\x00" in raw:
+        return None
+    if b"\r" in raw:
+        raw = raw.replace(b"\r\n", b"\n")
+    if any(c in raw for c in _UNUSUAL_BREAKS):
+        return None
+    buf = np.frombuffer(b"\n" + raw + (b"" if raw.endswith(b"\n") or not raw else b"\n"), np.uint8)
+    newline = np.flatnonzero(buf == _NEWLINE)
+    start = newline[:-1] + 1
+    return Lines(buf, start, newline[1:] - start)
 
 
 def parse_float_rows(rows: Sequence[Sequence[str]], line_numbers: Sequence[int], source: str,

@@ -272,3 +272,11 @@ def smooth_track(steps: list[dict[str, Any]], config: HeadingSmootherConfig | No
         s["smoothed"] = True
     return out, (f"heading smoothed over {len(out)} steps: residual gyro bias about the vertical "
                  f"{math.degrees(float(np.median(beta))):+.3f} deg/s")
+
+
+def smoothed_rows(rows: list[dict[str, Any]], notices: list[str]) -> list[dict[str, Any]]:
+    """The offline-smoothed track (:func:`smooth_track`); its summary joins ``notices``."""
+    out, summary = smooth_track(rows)
+    if summary:
+        notices.append(summary)
+    return out

@@ -7,7 +7,9 @@ positions are local ENU metres from the start of the recording, times on the log
 
 from __future__ import annotations
 
+import csv
 from dataclasses import dataclass
+from pathlib import Path
 
 
 @dataclass(frozen=True)
@@ -56,3 +58,12 @@ def csv_fields(row: dict[str, object]) -> list[object]:
     a label column is passed through as it is.
     """
     return [row[c.name] if c.dtype == "str" else format(row[c.name], c.csv_format) for c in TRACK_SCHEMA]
+
+
+def write_csv(rows: list[dict[str, object]], path: str | Path) -> None:
+    """Write track rows as the CSV of ``pdr track`` (:data:`TRACK_COLUMNS`, :func:`csv_fields`)."""
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(TRACK_COLUMNS)
+        for r in rows:
+            w.writerow(csv_fields(r))

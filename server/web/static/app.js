@@ -1000,6 +1000,20 @@
     body.appendChild(grid);
   }
 
+  /** "Warming up" under the header while the service compiles its kernels (/health), polled until ready. */
+  async function watchServiceState() {
+    let state = "ok";
+    try {
+      state = (await (await fetch(`${API}/health`)).json()).status;
+    } catch (err) {
+      state = "ok";  // no answer: the requests of the page report it
+    }
+    const box = $("service-state");
+    box.textContent = "The service is warming up (compiling its processing code): the first upload may wait.";
+    box.hidden = state !== "warming up";
+    if (state === "warming up") setTimeout(watchServiceState, 2000);
+  }
+
   // -- wiring -----------------------------------------------------------------------------------
   function redrawSession() {
     if (current) renderSessionData(false);
@@ -1028,5 +1042,6 @@
     $("dl-report-html").addEventListener("click", downloadReportHtml);
     window.addEventListener("hashchange", route);
     route();
+    watchServiceState();
   });
 })();

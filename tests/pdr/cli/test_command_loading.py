@@ -14,7 +14,7 @@ from pdr.cli import build_parser, main
 COMMANDS = {"allan", "bench", "calibrate", "classify", "convert", "eval", "foot", "inspect", "serve", "simulate",
             "track", "train", "users", "worker"}
 EVAL_TARGETS = {"classifier", "coop", "foot", "heading", "ipin", "ms", "pocket-heading", "steps"}
-BENCH_TARGETS = {"faults", "load", "phone", "processor", "server"}
+BENCH_TARGETS = {"faults", "load", "phone", "processor", "server", "track"}
 
 
 def _choices(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
@@ -26,9 +26,9 @@ def test_a_command_line_without_a_known_command_registers_every_command_and_targ
     for argv in ([], ["--help"], ["inspec", "x"], ["-v"]):
         commands = _choices(build_parser(argv))
         assert set(commands) == COMMANDS, argv
-    commands = _choices(build_parser([]))
-    assert set(_choices(commands["eval"])) == EVAL_TARGETS
-    assert set(_choices(commands["bench"])) == BENCH_TARGETS
+    # A command named without a target lists every target.
+    assert set(_choices(_choices(build_parser(["eval"]))["eval"])) == EVAL_TARGETS
+    assert set(_choices(_choices(build_parser(["bench", "--help"]))["bench"])) == BENCH_TARGETS
 
 
 def test_a_named_command_registers_only_itself_and_its_named_target() -> None:
@@ -56,3 +56,30 @@ def test_inspect_does_not_import_the_heavy_plugins() -> None:
             f"print(json.dumps([m for m in {heavy!r} if m in sys.modules]))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120)
     assert json.loads(out.stdout) == []
+
+
+def test_help_lists_every_command_without_importing_the_plugins() -> None:
+    heavy = ("numba", "scipy", "sklearn", "flask", "matplotlib", "classifiers.cli", "server.cli", "pdr.cli.track",
+             "pdr.cli.allan", "pdr.pipeline")
+    code = ("import json, sys; from pdr.cli import build_parser; p = build_parser(['--help']); "
+            "sub = next(a for a in p._actions if a.dest == 'command'); "
+            f"print(json.dumps([sorted(sub.choices), [m for m in {heavy!r} if m in sys.modules]]))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120)
+    names, imported = json.loads(out.stdout)
+    assert set(names) == COMMANDS
+    assert imported == []
+
+
+def _helps(parser: argparse.ArgumentParser) -> dict[str, str]:
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return {a.dest: str(a.help) for a in sub._choices_actions}
+
+
+def test_the_help_read_from_a_plugins_source_is_the_help_it_registers() -> None:
+    listed = _helps(build_parser([]))
+    for name in COMMANDS:
+        assert listed[name] == _helps(build_parser([name]))[name], name
+    listed_targets = _helps(_choices(build_parser(["eval"]))["eval"])
+    for target in EVAL_TARGETS:
+        loaded = _helps(_choices(build_parser(["eval", target]))["eval"])
+        assert listed_targets[target] == loaded[target], target

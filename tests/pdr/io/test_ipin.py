@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import gzip
 import importlib.util
-import time
 from pathlib import Path
 
 import numpy as np
@@ -46,10 +45,7 @@ def _load_reference():
 @pytest.mark.data
 def test_sm_a520f_logfile_rates_units_and_truth():
     path = sample_path("ipin:txt")
-    start = time.perf_counter()
-    rec = ipin.read(path)
-    elapsed = time.perf_counter() - start
-    assert elapsed < 2.0, f"full IPIN read took {elapsed:.2f} s"
+    rec = ipin.read(path)   # its speed: tools/reader_speed.py (no wall-clock assertion on a shared machine)
     assert rec.format == "ipin" and rec.t0_ns == 0
     assert rec.device.model == "SM-A520F" and rec.device.platform == "android"
     assert rec.device.role == "phone" and rec.device.placement == "hand"
@@ -262,3 +258,69 @@ def test_mat_roundtrip_and_bad_mat(tmp_path):
     junk = _write(tmp_path, b"MATLAB 5.0 MAT-file" + bytes(200), "junk.mat")
     with pytest.raises(InputError, match="junk.mat: not a readable MATLAB file"):
         ipin.read(junk)
+
+
+def _same_recording(a, b) -> None:
+    assert a.streams.keys() == b.streams.keys()
+    for k in a.streams:
+        assert a.streams[k].t_ns.tobytes() == b.streams[k].t_ns.tobytes(), k
+        assert a.streams[k].values.tobytes() == b.streams[k].values.tobytes(), k
+    assert a.meta == b.meta and list(a.meta["ignored_records"]) == list(b.meta["ignored_records"])
+    pa, pb = a.truth.positions, b.truth.positions
+    assert (pa is None) == (pb is None)
+    if pa is not None:
+        assert pa.pos_m.tobytes() == pb.pos_m.tobytes() and pa.t_s.tobytes() == pb.t_s.tobytes()
+
+
+EDGES = HEADER + """WIFI;0.01;100.0;net;00:11;2412;-60;
+ACCE;0.050;100.000;-0.00000;.5;9.;3;
+BLE4;0.05;iBeacon;x;-70;
+AB;1;2
+
+ACCE;0.070;100.020;-12.345678901234;0.20000;9.81000;3
+ \t
+GYRO;0.052;100.001;0.01000;-0.02000;0.03000;3
+LIGH;0.06;100.0;12.0;3
+POSI;0.080;1;49.4611;11.1110;0;100;
+"""
+
+
+@pytest.mark.parametrize("crlf", [False, True])
+def test_array_reader_equals_the_line_by_line_reader(tmp_path, crlf):
+    text = EDGES.replace("\n", "\r\n") if crlf else EDGES
+    p = tmp_path / "edges.txt"
+    p.write_bytes(text.encode())
+    raw = p.read_bytes()
+    fast = ipin._read_text_fast(p, raw)
+    assert fast is not None
+    _same_recording(fast, ipin._read_text_exact(p, raw))
+    assert fast.meta["ignored_records"] == {"WIFI": 1, "BLE4": 1, "AB": 1, "LIGH": 1}
+    assert np.signbit(fast.streams["acc"].values[0, 0])
+
+
+@pytest.mark.parametrize("line", ["ACCE;0.090;100.030;1e-3;0.2;9.8;3",            # exponent
+                                  "ACCE;0.090;100.030;0.1234567890123456;0.2;9.8;3",  # 16 digits
+                                  "ACCE;0.090;100.030; 0.1;0.2;9.8;3"])            # space
+def test_numbers_out_of_the_plain_form_take_the_exact_path_with_the_same_values(tmp_path, line):
+    p = tmp_path / "unusual.txt"
+    p.write_text(GOOD + line + "\n")
+    raw = p.read_bytes()
+    assert ipin._read_text_fast(p, raw) is None
+    _same_recording(ipin.read(p), ipin._read_text_exact(p, raw))
+
+
+def test_plain_decimals_parse_to_the_values_float_gives() -> None:
+    from pdr.io.text import ascii_lines
+    rng = np.random.default_rng(7)
+    texts = []
+    for _ in range(3000):
+        digits = int(rng.integers(1, 16))
+        m = "".join(str(d) for d in rng.integers(0, 10, digits))
+        dot = int(rng.integers(0, digits + 1))
+        texts.append(("-" if rng.random() < 0.5 else "") + m[:dot] + "." + m[dot:])
+    rows = [texts[i:i + 3] for i in range(0, len(texts), 3)]
+    lines = ascii_lines("\n".join(";".join(r) for r in rows).encode())
+    assert lines is not None
+    got = lines.fields(np.ones(len(rows), bool), 3)
+    assert got is not None
+    assert got.tobytes() == np.array([[float(v) for v in r] for r in rows]).tobytes()

@@ -8,8 +8,7 @@ import math
 
 import pytest
 
-from pdr.cli.track import write_csv
-from pdr.phone.track_schema import TRACK_COLUMNS, TRACK_SCHEMA, csv_fields
+from pdr.phone.track_schema import TRACK_COLUMNS, TRACK_SCHEMA, csv_fields, write_csv
 from server.api.track_columns import COLUMNS
 from server.store import TrackRow
 

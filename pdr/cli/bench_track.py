@@ -1,0 +1,50 @@
+"""``pdr bench track LOG [--repeat N] [--tile K]``: wall time per stage of ``pdr track`` (:mod:`pdr.bench_track`).
+
+Light on purpose: the parser imports nothing of the pipeline; the bench module is imported when the command runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+
+def register(targets: argparse._SubParsersAction) -> None:
+    p = targets.add_parser("track", help="pdr track on a real log: wall time per stage and total, against the "
+                                         "ahrs package's EKF on the same data when it is installed")
+    p.add_argument("log", help="log file (any supported format; --tile needs a GetSensorData .txt)")
+    p.add_argument("--repeat", type=int, default=1, help="runs; the best is reported (default 1)")
+    p.add_argument("--tile", type=int, default=1,
+                   help="first tile the GetSensorData log this many times in a temporary folder (24: a 154 s "
+                        "walk becomes one hour)")
+    p.add_argument("--json", action="store_true", help="print the figures as JSON")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from pdr.evaluation import track_bench as bench_track
+    from pdr.machine import environment_line
+    if args.repeat < 1 or args.tile < 1:
+        print("error: --repeat and --tile must be at least 1", flush=True)
+        return 2
+    res = bench_track.run(args.log, args.repeat, args.tile)
+    if args.json:
+        print(json.dumps(res, indent=2, default=str))
+        return 0
+    best = res["best"]
+    print(f"environment: {environment_line(res['environment'])}")
+    print(f"log: {res['log']} x{res['tile']} ({res['bytes'] / 1e6:.1f} MB, {best['duration_s']:.0f} s, "
+          f"{best['acc_samples']} acc samples, {best['steps']} steps); best of {res['repeat']}")
+    for stage in bench_track.STAGES:
+        print(f"  {stage:9s} {best['stages_s'][stage]:8.3f} s")
+    print(f"  {'total':9s} {best['total_s']:8.3f} s = {res['samples_per_s']:.0f} samples/s (in process)")
+    print(f"  {'process':9s} {res['process_s']:8.3f} s = {res['process_samples_per_s']:.0f} samples/s "
+          f"(a separate `pdr track` process: start-up and imports included)")
+    e = res["ahrs_ekf"]
+    if e is None:
+        print("ahrs EKF: n/a (the ahrs package is not installed)")
+    else:
+        print(f"ahrs EKF: {e['wall_s']:.3f} s = {e['samples_per_s']:.0f} samples/s (attitude only); "
+              f"pdr track is {res['ratio_to_ahrs_ekf']:.1f}x its rate in process, "
+              f"{res['process_ratio_to_ahrs_ekf']:.1f}x as a process")
+    return 0

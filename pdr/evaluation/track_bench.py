@@ -1,0 +1,204 @@
+"""Speed of the whole ``pdr track`` path on a real log: wall time per stage, and the ``ahrs`` package's EKF.
+
+Stages, in the order ``pdr track`` runs them: ``read`` (the log reader), ``grid`` (resampling onto the common
+time grid, :class:`~pdr.phone.grid.OnlineGrid`), ``attitude`` (the attitude filter's runs), ``steps`` (the step
+detector), ``heading`` (per confirmed step: heading, step length and position), ``other`` (the rest of the
+pipeline: floors, magnetometer calibration, elevator detection, event assembly), ``smoother`` (the offline heading
+smoother) and ``write`` (the CSV). A stage's time is measured by wrapping the stage object's method on the one
+pipeline instance being timed; the pipeline's code is not changed.
+
+A "step" of the rates is one accelerometer sample (as in ``pdr bench phone``): ``samples_per_s = number of
+accelerometer samples / wall time``. The reference is :class:`ahrs.filters.EKF` (attitude alone, no steps, no
+track) on the same accelerometer, gyroscope and magnetometer samples, timed in the same run.
+
+:func:`tile_ipin_log` makes a long log from a short real one (a one-hour log is a 154 s walk tiled 24 times).
+"""
+
+from __future__ import annotations
+
+import functools
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+#: Stage names in the order they are printed.
+STAGES = ("read", "grid", "attitude", "steps", "heading", "other", "smoother", "write")
+#: GetSensorData records whose third field is a SensorTimestamp (shifted with the AppTimestamp by tiling).
+_SENSOR_TIME_TAGS = frozenset({"ACCE", "GYRO", "MAGN", "PRES", "AHRS", "LIGH", "PROX", "HUMI", "TEMP"})
+
+
+def tile_ipin_log(src: str | Path, copies: int, out: str | Path) -> Path:
+    """Write ``copies`` back-to-back copies of the GetSensorData log ``src`` to ``out``; returns ``out``.
+
+    The header is written once. Copy ``k`` has every AppTimestamp (and the SensorTimestamp of the sensor records)
+    shifted by ``k * period``, ``period`` being the longer time span of its two clocks plus 1 s, rounded up to whole
+    seconds, so that the clocks keep increasing; values are written with the decimals they had.
+    """
+    if copies < 1:
+        raise ValueError(f"copies must be at least 1, got {copies}")
+    lines = Path(src).read_text(encoding="ascii").splitlines()
+    header = [ln for ln in lines if ln.startswith("%")]
+    body = [ln.split(";") for ln in lines if ln and not ln.startswith("%")]
+    shifted: list[tuple[list[str], list[int]]] = []
+    lo, hi = [np.inf, np.inf], [-np.inf, -np.inf]   # App, Sensor clock
+    for fields in body:
+        cols = [1, 2] if fields[0] in _SENSOR_TIME_TAGS and len(fields) > 2 else [1]
+        for c in cols:
+            v = float(fields[c])
+            lo[c - 1], hi[c - 1] = min(lo[c - 1], v), max(hi[c - 1], v)
+        shifted.append((fields, cols))
+    spans = [b - a for a, b in zip(lo, hi, strict=True) if b >= a]
+    period = float(np.ceil(max(spans) + 1.0)) if spans else 1.0
+    p = Path(out)
+    with p.open("w", encoding="ascii", newline="\n") as f:
+        f.write("\n".join(header) + "\n")
+        for k in range(copies):
+            off = k * period
+            for fields, cols in shifted:
+                row = list(fields)
+                for c in cols:
+                    decimals = len(row[c].partition(".")[2])
+                    row[c] = f"{float(row[c]) + off:.{decimals}f}"
+                f.write(";".join(row) + "\n")
+    return p
+
+
+class _StageClock:
+    """Accumulated wall time per stage name, filled by :meth:`wrap`-ped methods."""
+
+    def __init__(self) -> None:
+        self.seconds: dict[str, float] = dict.fromkeys(STAGES, 0.0)
+
+    def wrap(self, obj: Any, method: str, stage: str) -> None:
+        """Replace ``obj.method`` by a timed call that adds its wall time to ``stage``."""
+        inner: Callable[..., Any] = getattr(obj, method)
+
+        @functools.wraps(inner)
+        def timed(*args: Any, **kwargs: Any) -> Any:
+            t0 = time.perf_counter()
+            try:
+                return inner(*args, **kwargs)
+            finally:
+                self.seconds[stage] += time.perf_counter() - t0
+
+        setattr(obj, method, timed)
+
+
+def time_track(log: str | Path, out_csv: str | Path) -> dict[str, Any]:
+    """One ``pdr track LOG --out OUT`` (smoother on, no site) timed per stage; seconds and sample counts."""
+    from pdr.io import read_recording
+    from pdr.phone.heading_smoother import smoothed_rows
+    from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
+    from pdr.phone.track_schema import write_csv
+
+    clock = _StageClock()
+    t_start = time.perf_counter()
+    t0 = time.perf_counter()
+    rec = read_recording(log)
+    clock.seconds["read"] = time.perf_counter() - t0
+    pipe = PdrPipeline(PipelineConfig())
+    clock.wrap(pipe.attitude, "run", "attitude")
+    clock.wrap(pipe.steps, "update", "steps")
+    clock.wrap(pipe, "_step", "heading")
+    start = pipe._start
+
+    def start_and_wrap_grid(batch: Any) -> Any:
+        events = start(batch)
+        if pipe.grid is not None:
+            for m in ("push", "pull", "flush"):
+                clock.wrap(pipe.grid, m, "grid")
+        return events
+
+    pipe._start = start_and_wrap_grid  # type: ignore[method-assign]
+    t0 = time.perf_counter()
+    events = pipe.run(rec)
+    pipeline_s = time.perf_counter() - t0
+    clock.seconds["other"] = pipeline_s - sum(clock.seconds[s] for s in ("grid", "attitude", "steps", "heading"))
+    notices = [str(e["message"]) for e in events if e.get("type") == "notice"]
+    t0 = time.perf_counter()
+    rows = smoothed_rows(track_rows(events), notices)
+    clock.seconds["smoother"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    write_csv(rows, out_csv)
+    clock.seconds["write"] = time.perf_counter() - t0
+    total = time.perf_counter() - t_start
+    n = len(rec.stream("acc")) if rec.has("acc") else 0
+    return {"stages_s": clock.seconds, "total_s": total, "acc_samples": n, "steps": len(rows),
+            "duration_s": rec.duration_s, "recording": rec}
+
+
+def time_ahrs_ekf(rec: Any) -> dict[str, Any] | None:
+    """Wall time of :class:`ahrs.filters.EKF` on the recording's acc, gyro and mag (nearest samples to acc), or
+    None when ``ahrs`` is not installed. The inputs are prepared before the clock starts.
+    """
+    try:
+        from ahrs.filters import EKF
+    except ImportError:
+        return None
+    acc_s, gyro_s, mag_s = rec.stream("acc"), rec.stream("gyro"), rec.stream("mag")
+    t = acc_s.t_ns
+
+    def nearest(s: Any) -> np.ndarray:
+        i = np.clip(np.searchsorted(s.t_ns, t), 0, len(s) - 1)
+        return np.ascontiguousarray(s.values[i], dtype=np.float64)
+
+    acc = np.ascontiguousarray(acc_s.values, dtype=np.float64)
+    gyro, mag = nearest(gyro_s), nearest(mag_s)
+    rate = 1e9 * (len(t) - 1) / float(t[-1] - t[0])
+    t0 = time.perf_counter()
+    EKF(gyr=gyro, acc=acc, mag=mag, frequency=rate, frame="ENU")
+    wall = time.perf_counter() - t0
+    return {"wall_s": wall, "samples": len(t), "samples_per_s": len(t) / wall}
+
+
+def time_process(log: str | Path, out_csv: str | Path) -> float:
+    """Wall time of a separate ``pdr track LOG --out OUT`` process (interpreter start, imports, compiled-kernel
+    loading included), in s.
+    """
+    t0 = time.perf_counter()
+    done = subprocess.run([sys.executable, "-c", "import sys; from pdr.cli import main; sys.exit(main())", "track",
+                           str(log), "--out", str(out_csv)],
+                          capture_output=True, text=True, check=False)
+    wall = time.perf_counter() - t0
+    if done.returncode != 0:
+        raise RuntimeError(f"pdr track failed ({done.returncode}): {done.stderr.strip()[-500:]}")
+    return wall
+
+
+def run(log: str | Path, repeat: int = 1, tile: int = 1) -> dict[str, Any]:
+    """Best-of-``repeat`` stage times of ``pdr track`` on ``log`` (tiled ``tile`` times first when > 1), and the
+    ``ahrs`` EKF on the same data in the same run (best of ``repeat`` as well).
+    """
+    from pdr.machine import environment
+
+    with tempfile.TemporaryDirectory(prefix="pdr-bench-track-") as tmp:
+        src = Path(log)
+        if tile > 1:
+            src = tile_ipin_log(log, tile, Path(tmp) / f"tiled{tile}_{Path(log).name}")
+        runs = [time_track(src, Path(tmp) / "track.csv") for _ in range(max(1, repeat))]
+        best = min(runs, key=lambda r: r["total_s"])
+        rec = best.pop("recording")
+        for r in runs:
+            r.pop("recording", None)
+        ekf = [e for e in (time_ahrs_ekf(rec) for _ in range(max(1, repeat))) if e is not None]
+        process = [time_process(src, Path(tmp) / "track_process.csv") for _ in range(max(1, repeat))]
+        size = src.stat().st_size
+    out: dict[str, Any] = {"environment": environment(), "log": str(log), "tile": tile, "bytes": size,
+                           "repeat": repeat, "best": best, "all_totals_s": [r["total_s"] for r in runs]}
+    out["samples_per_s"] = best["acc_samples"] / best["total_s"]
+    out["process_s"] = min(process)
+    out["process_samples_per_s"] = best["acc_samples"] / out["process_s"]
+    if ekf:
+        e = min(ekf, key=lambda r: r["wall_s"])
+        out["ahrs_ekf"] = e
+        out["ratio_to_ahrs_ekf"] = out["samples_per_s"] / e["samples_per_s"]
+        out["process_ratio_to_ahrs_ekf"] = out["process_samples_per_s"] / e["samples_per_s"]
+    else:
+        out["ahrs_ekf"] = None
+    return out
