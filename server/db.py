@@ -52,6 +52,10 @@ api_tokens = Table(
     Column("prefix", String(16), nullable=False),
     Column("created_at", DateTime(timezone=True), nullable=False),
     Column("revoked_at", DateTime(timezone=True)),
+    # Migration 0005: what the token may do (server.auth.SCOPES), when it stops working, when it was last used.
+    Column("scope", String(8), nullable=False, server_default="full"),
+    Column("expires_at", DateTime(timezone=True)),
+    Column("last_used_at", DateTime(timezone=True)),
 )
 
 sessions = Table(

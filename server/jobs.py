@@ -2,7 +2,10 @@
 
 ``InProcessWorker.submit(session_id)`` queues a session; the thread waits ``settle_s`` so that a burst of
 uploads (and messages arriving slightly out of order) is processed together, then processes the session's
-pending batches. At start-up, batches left pending or interrupted by a crash are queued again.
+pending batches. At start-up, batches left pending or interrupted by a crash are queued again; each
+interruption counts as an attempt of the batch, and a batch interrupted ``max_attempts`` times (one that
+crashes the process every time it is processed) becomes a dead letter, as on the Redis path
+(:meth:`server.leases.Leases.recover_interrupted`).
 """
 
 from __future__ import annotations
@@ -20,9 +23,10 @@ log = logging.getLogger(__name__)
 class InProcessWorker:
     """A daemon thread processing queued sessions one after another."""
 
-    def __init__(self, processing: SessionProcessing, settle_s: float = 0.2) -> None:
+    def __init__(self, processing: SessionProcessing, settle_s: float = 0.2, max_attempts: int = 5) -> None:
         self.processing = processing
         self.settle_s = settle_s
+        self.max_attempts = max_attempts
         self._queue: queue.Queue[str | None] = queue.Queue()
         self._queued: set[str] = set()
         self._guard = threading.Lock()
@@ -36,10 +40,17 @@ class InProcessWorker:
             self._thread.start()
 
     def recover(self) -> None:
-        """Requeue sessions with batches left pending or interrupted by a previous crash."""
+        """Requeue sessions with batches left pending or interrupted by a previous crash (counting the attempt,
+        dead-lettering a batch interrupted ``max_attempts`` times).
+        """
+        from server.leases import Leases
+
         store = self.processing.store
-        store.reset_interrupted()
+        leases = Leases(store.engine, owner="embedded", max_attempts=self.max_attempts)
         for session_id in store.sessions_with_pending():
+            dead = leases.recover_interrupted(session_id)
+            if dead:
+                self.processing.finish(session_id)
             self.submit(session_id)
 
     def submit(self, session_id: str) -> None:

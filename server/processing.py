@@ -160,7 +160,7 @@ class SessionProcessing:
                 processed = True
             if processed:
                 self._fuse_feet(session_id)
-            self._finish(session_id)
+            self.finish(session_id)
 
     def clear(self, session_id: str) -> None:
         """Forget the session's results so that processing rebuilds them from raw batches."""
@@ -239,7 +239,8 @@ class SessionProcessing:
             log.exception("fusing the feet of session %s failed", session_id)
             self.store.add_session_warnings(session_id, [f"fused foot track: internal error: {type(exc).__name__}"])
 
-    def _finish(self, session_id: str) -> None:
+    def finish(self, session_id: str) -> None:
+        """Set the session's status from its batches' (failed if one failed or is a dead letter)."""
         summary = self.store.batch_summary(session_id)
         status = "failed" if summary.get("failed") or summary.get("dead") else ("done" if summary else "empty")
         self.store.set_session(session_id, status=status)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import copyreg
 import os
 import pickle
+import re
 import resource
 import subprocess
 import sys
@@ -38,6 +39,25 @@ CPU_LIMIT_S = 300
 WALL_LIMIT_S = 600
 
 
+#: Longest file name kept from an upload, characters (file systems allow 255 bytes).
+MAX_FILENAME_CHARS = 120
+
+
+def safe_filename(name: str | None) -> str:
+    """A harmless local file name for an uploaded file's name: its last path component, characters outside
+    ``[A-Za-z0-9._-]`` replaced, at most :data:`MAX_FILENAME_CHARS` (the suffixes such as ``.csv.gz``, which
+    format detection reads, are kept); ``upload`` when nothing usable is left (``..``, empty).
+    """
+    base = re.sub(r"[^A-Za-z0-9._-]", "_", (name or "").replace("\\", "/").rsplit("/", 1)[-1]).lstrip(".")
+    if not base.strip("._"):
+        return "upload"
+    if len(base) > MAX_FILENAME_CHARS:
+        stem, dot, suffixes = base.partition(".")
+        suffixes = suffixes[-40:] if dot else ""
+        base = stem[:MAX_FILENAME_CHARS - len(suffixes) - 1] + ("." + suffixes if suffixes else "")
+    return base
+
+
 def read_isolated(payload: bytes, filename: str, fmt: str | None = None,
                   detect_only: bool = False) -> tuple[str, Recording | None]:
     """(format, recording) of an uploaded file, read in a child process; ``detect_only`` skips reading.
@@ -47,7 +67,7 @@ def read_isolated(payload: bytes, filename: str, fmt: str | None = None,
     InputError
         The reader's own error, or the file crashed the reader or exceeded the limits.
     """
-    safe_name = Path(filename.replace("\x00", "")).name or "upload"
+    safe_name = safe_filename(filename)
     if fmt and fmt not in format_names():
         raise InputError(f"unknown format {fmt!r} (supported: {', '.join(format_names())})", source=safe_name,
                          field="format")

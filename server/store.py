@@ -223,11 +223,6 @@ class Store:
                 db.batches.c.status.in_(["pending", "processing"])).distinct())
             return [str(r[0]) for r in rows]
 
-    def reset_interrupted(self) -> None:
-        """Batches left 'processing' by a crashed worker go back to 'pending'."""
-        with self.engine.begin() as conn:
-            conn.execute(update(db.batches).where(db.batches.c.status == "processing").values(status="pending"))
-
     # -- processing state and results ------------------------------------------------------------
     def load_state(self, session_id: str, role: str) -> tuple[bytes | None, int | None]:
         with self.engine.connect() as conn:

@@ -23,7 +23,7 @@ bp = Blueprint("foot", __name__, url_prefix="/api/v1/sessions")
 @bp.post("/<session_id>/steps")
 def add_step_summaries(session_id: str) -> tuple[Response, int]:
     """Ingest step summaries of one shoe unit; re-sending the same ``batch_id`` is a no-op."""
-    user = current_user(allow_query_token=True)
+    user = current_user(allow_query_token=True, scope="ingest")
     svc = services()
     svc.store.session_row(session_id, user.id)
     body = json_body()

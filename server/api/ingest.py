@@ -45,7 +45,7 @@ def sensor_logger() -> Response:
 def _ingest() -> Response:
     from pdr.io.sensor_logger import parse_push_message
 
-    user = current_user(allow_query_token=True)
+    user = current_user(allow_query_token=True, scope="ingest")
     svc = services()
     raw = request.get_data()
     try:

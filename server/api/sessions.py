@@ -66,7 +66,7 @@ def time_span_ns(rec: Recording) -> tuple[int, int]:
 @bp.post("")
 def create_session() -> tuple[Response, int]:
     """Create an empty session (JSON body) or a session from an uploaded log file (multipart ``file``)."""
-    user = current_user()
+    user = current_user(scope="ingest")
     svc = services()
     if request.files:
         return _create_from_file(user.id)
@@ -150,7 +150,7 @@ def add_native_batch(session_id: str) -> tuple[Response, int]:
     """Ingest a native JSON batch (``pdr-batch/1``); re-sending the same ``batch_id`` is a no-op."""
     from pdr.io.native import batch_from_json
 
-    user = current_user(allow_query_token=True)
+    user = current_user(allow_query_token=True, scope="ingest")
     svc = services()
     svc.store.session_row(session_id, user.id)
     body = json_body()
