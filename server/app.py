@@ -15,7 +15,7 @@ from server.api import Services
 from server.config import Settings, load_settings
 from server.db import make_engine
 from server.errors import register_error_handlers
-from server.jobs import InProcessWorker, NoWorker
+from server.jobs import InProcessWorker, NoWorker, RetentionSweeper
 from server.limits import BodyLimit, BodyLimitMiddleware, make_body_limit
 from server.processing import ProcessorFactory, SessionProcessing
 from server.store import Store
@@ -76,4 +76,8 @@ def create_app(test_config: dict[str, Any] | None = None) -> Flask:
 
     worker.start()
     worker.recover()
+    if settings.retention_days > 0:
+        sweeper = RetentionSweeper(store, settings.retention_days)
+        sweeper.start()
+        app.extensions["pdr_retention"] = sweeper
     return app

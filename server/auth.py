@@ -22,8 +22,8 @@ import threading
 import time
 from collections import defaultdict, deque
 from dataclasses import dataclass
-from typing import Any
 from datetime import UTC, datetime, timedelta
+from typing import Any
 
 from flask import Request
 from sqlalchemy import Connection, Row, or_, select, update

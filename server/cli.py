@@ -22,17 +22,19 @@ def _serve(args: argparse.Namespace) -> int:
     from server.config import limit_native_threads, safe_url
     from server.limits import limited_channel
 
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s",
-                        stream=sys.stderr)
+    logging.getLogger().setLevel(logging.INFO)  # the access log (pdr.access) and the service's notes
     limit_native_threads()
     app = create_app()
     settings = app.extensions["pdr"].settings
     # waitress reads a whole body before the application runs: its own cap is the largest route limit, and its
     # request parser applies each route's limit from the headers (server.limits).
     server = create_server(app, host=args.host, port=args.port, threads=args.threads, ident="pdr",
-                           max_request_body_size=max(settings.max_upload_bytes, settings.max_batch_bytes) + 1)
+                           max_request_body_size=max(settings.max_upload_bytes, settings.max_batch_bytes) + 1,
+                           # behind trusted proxies werkzeug's ProxyFix (server.app) reads X-Forwarded-*
+                           clear_untrusted_proxy_headers=not settings.trusted_proxies)
     channel = limited_channel(body_limit_of(settings))
-    for dispatcher in list(server.map.values()):
+    dispatchers = getattr(server, "map", None) or server._map  # several sockets, or one server
+    for dispatcher in list(dispatchers.values()):
         if isinstance(dispatcher, BaseWSGIServer):
             dispatcher.channel_class = channel
     print(f"pdr service on http://{args.host}:{args.port}/api/v1/health (data: {safe_url(settings.database_url)})",

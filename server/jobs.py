@@ -14,8 +14,11 @@ import logging
 import queue
 import threading
 import time
+from datetime import timedelta
 
+from server import db
 from server.processing import SessionProcessing
+from server.store import Store
 
 log = logging.getLogger(__name__)
 
@@ -106,3 +109,38 @@ class NoWorker:
 
     def stop(self) -> None:
         """Nothing to stop."""
+
+
+class RetentionSweeper:
+    """``PDR_RETENTION_DAYS``: every ``period_s``, the raw batches of sessions finished more than ``days`` days ago
+    lose their payload (:meth:`server.store.Store.purge_raw_batches`); results stay. A daemon thread.
+    """
+
+    def __init__(self, store: Store, days: float, period_s: float = 3600.0) -> None:
+        if days <= 0:
+            raise ValueError(f"PDR_RETENTION_DAYS must be > 0 to sweep, got {days}")
+        self.store = store
+        self.days = days
+        self.period_s = period_s
+        self._stop = threading.Event()
+
+    def sweep(self) -> int:
+        """Purge now; returns how many batches lost their raw payload."""
+        n = self.store.purge_raw_batches(db.utcnow() - timedelta(days=self.days))
+        if n:
+            log.info("retention: deleted the raw data of %d batches older than %g days", n, self.days)
+        return n
+
+    def start(self) -> None:
+        threading.Thread(target=self._run, name="pdr-retention", daemon=True).start()
+
+    def stop(self) -> None:
+        self._stop.set()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            try:
+                self.sweep()
+            except Exception:  # a failed sweep is retried next period; it must not end the thread
+                log.exception("retention sweep failed")
+            self._stop.wait(self.period_s)

@@ -120,6 +120,7 @@ def limited_channel(body_limit: BodyLimit) -> type:
     from waitress.channel import HTTPChannel
     from waitress.parser import HTTPRequestParser
     from waitress.utilities import Error
+    from waitress.utilities import RequestEntityTooLarge as WaitressTooLarge
 
     class TooLarge(Error):
         code = 413
@@ -139,15 +140,15 @@ def limited_channel(body_limit: BodyLimit) -> type:
         def received(self, data: bytes) -> int:
             in_headers = not self.headers_finished
             consumed = int(super().received(data))
-            if self.error is not None:
-                return consumed
+            if self.error is not None and not isinstance(self.error, WaitressTooLarge):
+                return consumed  # a malformed request: waitress answers it
             if in_headers and self.headers_finished and not self.empty:
                 self.limit = body_limit(self.command or "GET", self.path or "",
                                         self.headers.get("CONTENT_TYPE", ""))
-                if self.content_length > self.limit:
+                if self.content_length > self.limit or self.error is not None:
                     self._refuse(f"declared {self.content_length} bytes")
                     return len(data)  # the rest of this read is the refused body
-            elif self.limit is not None and self.body_bytes_received > self.limit:
+            elif self.limit is not None and (self.body_bytes_received > self.limit or self.error is not None):
                 self._refuse(f"{self.body_bytes_received} bytes streamed")
                 return len(data)
             return consumed

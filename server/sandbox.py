@@ -17,6 +17,7 @@ service.
 from __future__ import annotations
 
 import copyreg
+import io
 import os
 import pickle
 import re
@@ -24,6 +25,8 @@ import resource
 import subprocess
 import sys
 import tempfile
+import threading
+import zipfile
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -33,7 +36,15 @@ from pdr.io import format_names
 from pdr.recording import Recording
 
 #: Address space a reader may use, MB (``PDR_READER_MEMORY_MB``; a 64 MB upload of any format needs far less).
-MEMORY_LIMIT_MB = 4096
+MEMORY_LIMIT_MB = 2048
+#: Readers running at once in this process (``PDR_READERS``); further uploads wait for a free one.
+READERS = 2
+#: Largest uncompressed size an archive or gzip file may declare, bytes, and its largest compression ratio:
+#: sensor logs (text, floats) compress 3-15x; a ratio far beyond is a compression bomb, refused before inflating.
+MAX_INFLATED_BYTES = 1024**3
+MAX_COMPRESSION_RATIO = 100.0
+
+_readers = threading.BoundedSemaphore(int(os.environ.get("PDR_READERS", READERS)))
 #: CPU time a reader may use, s, and wall-clock time the parent waits.
 CPU_LIMIT_S = 300
 WALL_LIMIT_S = 600
@@ -71,7 +82,8 @@ def read_isolated(payload: bytes, filename: str, fmt: str | None = None,
     if fmt and fmt not in format_names():
         raise InputError(f"unknown format {fmt!r} (supported: {', '.join(format_names())})", source=safe_name,
                          field="format")
-    with tempfile.TemporaryDirectory(prefix="pdr-upload-") as tmp:
+    check_compressed(payload, safe_name)
+    with _readers, tempfile.TemporaryDirectory(prefix="pdr-upload-") as tmp:
         path = Path(tmp) / safe_name
         path.write_bytes(payload)
         out = Path(tmp) / "result.pickle"
@@ -94,6 +106,31 @@ def read_isolated(payload: bytes, filename: str, fmt: str | None = None,
         err.code = code
         raise err
     raise RuntimeError(f"{result[1]}: {result[2]}")
+
+
+def check_compressed(payload: bytes, source: str) -> None:
+    """Refuse a zip or gzip file whose declared uncompressed size or compression ratio is excessive, from its
+    headers (zip central directory, gzip trailer), before anything is inflated. :class:`InputError` if so.
+    """
+    declared: list[tuple[str, int, int]] = []  # (member, uncompressed, compressed) bytes
+    if payload[:4] == b"PK\x03\x04":
+        try:
+            with zipfile.ZipFile(io.BytesIO(payload)) as zf:
+                declared = [(i.filename, i.file_size, i.compress_size) for i in zf.infolist()]
+        except (zipfile.BadZipFile, ValueError, OSError) as exc:
+            raise InputError(f"not a readable zip archive ({exc})", source=source) from None
+    elif payload[:2] == b"\x1f\x8b" and len(payload) >= 18:
+        # ISIZE, the last 4 bytes: the uncompressed size modulo 2**32 (a larger file is refused by its ratio).
+        declared = [(source, int.from_bytes(payload[-4:], "little"), len(payload))]
+    total = sum(size for _, size, _ in declared)
+    if total > MAX_INFLATED_BYTES:
+        raise InputError(f"the archive declares {total} bytes uncompressed, more than the service reads "
+                         f"({MAX_INFLATED_BYTES} bytes)", source=source)
+    for member, size, packed in declared:
+        if size > 1024**2 and size > MAX_COMPRESSION_RATIO * max(packed, 1):
+            raise InputError(f"member '{member}' declares a compression ratio of {size / max(packed, 1):.0f}:1 "
+                             f"(more than {MAX_COMPRESSION_RATIO:g}:1): refused as a compression bomb",
+                             source=source)
 
 
 def _proxy(d: dict[Any, Any]) -> MappingProxyType[Any, Any]:

@@ -7,6 +7,7 @@ from typing import Any
 
 from flask import current_app, request
 
+from pdr.recording import Recording
 from server.access_log import USER_KEY
 from server.auth import PREFIX_CHARS, FailureLimiter, User, lookup, token_from_request
 from server.config import Settings
@@ -79,11 +80,14 @@ def json_body() -> Any:
 
 @dataclass(frozen=True)
 class Upload:
-    """A log file from a multipart request: its bytes, file name and detected (or given) format."""
+    """A log file from a multipart request: its bytes, safe file name, detected (or given) format, and the
+    recording read from it (``None`` when only the format was detected).
+    """
 
     payload: bytes
     filename: str
     format: str
+    recording: Recording | None = None
 
     @property
     def descriptor(self) -> str:
@@ -91,10 +95,11 @@ class Upload:
         return f"{self.format}/{self.filename}"
 
 
-def uploaded_log(what: str = "log") -> Upload:
-    """The multipart ``file`` field (400 if missing, 422 if empty) and its format (field ``format`` or detected)."""
-    from server.processing import detect_uploaded_format
-    from server.sandbox import safe_filename
+def uploaded_log(what: str = "log", read: bool = False) -> Upload:
+    """The multipart ``file`` field (400 if missing, 422 if empty) and its format (field ``format`` or detected);
+    with ``read``, also its recording, detected and read by one sandboxed reader (:mod:`server.sandbox`).
+    """
+    from server.sandbox import read_isolated, safe_filename
 
     upload = request.files.get("file")
     if upload is None:
@@ -104,4 +109,5 @@ def uploaded_log(what: str = "log") -> Upload:
     if not payload:
         raise APIError(422, "uploaded file is empty", details={"field": "file"})
     filename = safe_filename(upload.filename)
-    return Upload(payload, filename, request.form.get("format") or detect_uploaded_format(payload, filename))
+    fmt, recording = read_isolated(payload, filename, request.form.get("format") or None, detect_only=not read)
+    return Upload(payload, filename, fmt, recording)

@@ -14,6 +14,7 @@ from pdr.errors import InputError
 from pdr.foot.summaries import SCHEMA, steps_from_json
 from server.api import current_user, json_body, services
 from server.errors import APIError
+from server.ingest import Device, store_batch
 from server.processing import FOOT_STEPS_JSON
 from server.schemas import validate
 
@@ -33,13 +34,10 @@ def add_step_summaries(session_id: str) -> tuple[Response, int]:
         summaries = steps_from_json(body, source=f"batch '{batch_id}'")
     except InputError as exc:
         raise APIError(422, str(exc), details=exc.details()) from None
-    bid, created = svc.store.add_batch(session_id, device_role=summaries.role, client_batch_id=batch_id,
-                                       payload_format=FOOT_STEPS_JSON, payload=request.get_data(),
-                                       t_first_ns=summaries.t_first_ns, t_last_ns=summaries.t_last_ns)
-    if created:
-        dev = body["device"]
-        svc.store.upsert_device(session_id, summaries.role, device_id=dev.get("device_id", ""), platform="imu",
-                                model=dev.get("model", ""), placement="foot")
-        svc.worker.submit(session_id)
-    return jsonify({"batch_id": batch_id, "id": bid, "duplicate": not created,
-                    "steps": len(summaries.steps)}), 201 if created else 200
+    dev = body["device"]
+    accepted = store_batch(svc, session_id, role=summaries.role, client_batch_id=batch_id,
+                           payload_format=FOOT_STEPS_JSON, payload=request.get_data(),
+                           t_first_ns=summaries.t_first_ns, t_last_ns=summaries.t_last_ns,
+                           device=Device(dev.get("device_id", ""), "imu", dev.get("model", ""), "foot"), content=body)
+    return (jsonify({"batch_id": batch_id, "id": accepted.id, "duplicate": not accepted.created,
+                     "steps": len(summaries.steps)}), 201 if accepted.created else 200)

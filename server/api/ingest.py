@@ -17,6 +17,7 @@ from server import plausibility
 from server.api import current_user, services
 from server.api.sessions import time_span_ns
 from server.errors import APIError
+from server.ingest import Device, store_batch
 from server.processing import SENSOR_LOGGER_JSON
 from server.schemas import SENSOR_LOGGER_MESSAGE, validate
 
@@ -62,12 +63,9 @@ def _ingest() -> Response:
                                       name=f"Sensor Logger {message['sessionId']}")
     t_first, t_last = time_span_ns(recording)
     plausibility.check_time(svc.store.engine, sid, "phone", SENSOR_LOGGER_JSON, t_first, t_last)
-    _, created = svc.store.add_batch(sid, device_role="phone", client_batch_id=f"msg-{message_id}",
-                                     payload_format=SENSOR_LOGGER_JSON, payload=raw, t_first_ns=t_first,
-                                     t_last_ns=t_last)
-    if created:
-        dev = recording.device
-        svc.store.upsert_device(sid, "phone", device_id=str(message["deviceId"]), platform=dev.platform,
-                                model=dev.model, placement=dev.placement)
-        svc.worker.submit(sid)
-    return jsonify({"status": "ok", "session": sid, "duplicate": not created})
+    dev = recording.device
+    accepted = store_batch(svc, sid, role="phone", client_batch_id=f"msg-{message_id}",
+                           payload_format=SENSOR_LOGGER_JSON, payload=raw, t_first_ns=t_first, t_last_ns=t_last,
+                           device=Device(str(message["deviceId"]), dev.platform, dev.model, dev.placement),
+                           content=message)
+    return jsonify({"status": "ok", "session": sid, "duplicate": not accepted.created})

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from flask import Blueprint, Response, jsonify
-from sqlalchemy import insert, select, update
+from sqlalchemy import delete, insert, select, update
 
 from pdr.errors import InputError
 from server import db
@@ -107,6 +107,15 @@ def get_report(report_id: str) -> Response:
     return jsonify({"id": row.id, "kind": row.kind, "status": row.status, "source": row.source_name,
                     "created_at": row.created_at.isoformat(), "error": row.error, "files": sorted(names),
                     "report": json.loads(row.result) if row.result else None})
+
+
+@bp.delete("/<report_id>")
+def delete_report(report_id: str) -> tuple[str, int]:
+    """Delete the report and its files."""
+    _report(report_id)
+    with services().store.engine.begin() as conn:
+        conn.execute(delete(db.reports).where(db.reports.c.id == report_id))
+    return "", 204
 
 
 @bp.get("/<report_id>/files/<name>")
