@@ -362,3 +362,15 @@ def test_retention_drops_raw_batches_of_finished_sessions_only(app, client, toke
     assert r.status_code == 409 and "retention" in r.get_json()["error"]["message"]
     assert [b["status"] for b in client.get(f"/api/v1/sessions/{live}", headers=h).get_json()["batch_list"]] == [
         "done"]
+
+
+def test_openapi_describes_deletion_and_token_scopes(client):
+    doc = client.get("/api/v1/openapi.json").get_json()
+    paths = doc["paths"]
+    assert "204" in paths["/api/v1/sessions/{session_id}"]["delete"]["responses"]
+    assert "204" in paths["/api/v1/reports/{report_id}"]["delete"]["responses"]
+    assert paths["/api/v1/sessions/{session_id}/batches"]["post"]["x-token-scope"] == "ingest"
+    assert paths["/api/v1/ingest/sensor-logger"]["post"]["x-token-scope"] == "ingest"
+    assert paths["/api/v1/sessions/{session_id}/track"]["get"]["x-token-scope"] == "read"
+    assert paths["/api/v1/sessions/{session_id}"]["delete"]["x-token-scope"] == "full"
+    assert "x-token-scope" not in paths["/api/v1/health"]["get"]
