@@ -387,6 +387,22 @@ def test_a_bad_token_gets_a_readable_message(page: Any, live: LiveService) -> No
     shot(page, "07-bad-token")
 
 
+def test_a_session_is_deleted_from_its_page(page: Any, live: LiveService) -> None:
+    alice = Client(live.url, live.tokens["alice"])
+    sid = alice.request("POST", "/api/v1/sessions", {"session_id": "to-delete", "name": "to-delete"}).json()["id"]
+    assert alice.request("POST", f"/api/v1/sessions/{sid}/batches", phone_batch("b0", 0.0)).status == 201
+    sign_in(page, live)
+    page.goto(f"{live.url}/#/session/{sid}")
+    page.wait_for_function("() => document.querySelector('#session-title').textContent === 'to-delete'")
+    page.once("dialog", lambda dialog: dialog.accept())
+    page.click("#delete-session")
+    page.wait_for_function("() => location.hash === '#/sessions'")
+    page.wait_for_selector("#sessions-table tbody tr")
+    assert page.locator(f"#sessions-table tr[data-session='{sid}']").count() == 0
+    assert alice.request("GET", f"/api/v1/sessions/{sid}").status == 404
+    alice.close()
+
+
 @pytest.mark.slow
 def test_sessions_update_live_while_uploading(page: Any, live: LiveService) -> None:
     alice = Client(live.url, live.tokens["alice"])
