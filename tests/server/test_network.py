@@ -22,6 +22,7 @@ from server.jobs import InProcessWorker
 from server.sandbox import check_compressed, safe_filename
 from tests.server.conftest import bearer, make_app
 from tests.server.helpers import multipart, phone_batch
+from tests.server.realservers import pg_database  # noqa: F401  (fixture)
 
 pytestmark = pytest.mark.timeout(240)
 
@@ -374,3 +375,30 @@ def test_openapi_describes_deletion_and_token_scopes(client):
     assert paths["/api/v1/sessions/{session_id}/track"]["get"]["x-token-scope"] == "read"
     assert paths["/api/v1/sessions/{session_id}"]["delete"]["x-token-scope"] == "full"
     assert "x-token-scope" not in paths["/api/v1/health"]["get"]
+
+
+def test_postgres_delete_session_and_user(tmp_path, pg_database):  # noqa: F811
+    app = make_app(tmp_path, database_url=pg_database)
+    try:
+        store = app.extensions["pdr"].store
+        with store.engine.begin() as conn:
+            h = bearer(auth.add_user(conn, "pgdel"))
+            auth.add_user(conn, "pgother")
+        c = app.test_client()
+        sid = c.post("/api/v1/sessions", json={"session_id": "pg"}, headers=h).get_json()["id"]
+        for i in range(2):
+            assert c.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch(f"b{i}", float(i)),
+                          headers=h).status_code == 201
+        app.extensions["pdr"].worker.wait_idle()
+        assert c.delete(f"/api/v1/sessions/{sid}", headers=h).status_code == 204
+        with store.engine.connect() as conn:
+            for table in (db.batches, db.track_points, db.events, db.processor_states, db.devices):
+                assert conn.execute(select(table).where(table.c.session_id == sid)).first() is None, table.name
+        c.post("/api/v1/sessions", json={"session_id": "pg2"}, headers=h)
+        with store.engine.begin() as conn:
+            auth.delete_user(conn, "pgdel")
+            assert conn.execute(select(db.sessions)).first() is None
+            assert [r.name for r in conn.execute(select(db.users.c.name))] == ["pgother"]
+    finally:
+        app.extensions["pdr"].worker.stop()
+        app.extensions["pdr"].store.engine.dispose()
