@@ -18,6 +18,7 @@ from server.errors import register_error_handlers
 from server.jobs import InProcessWorker, NoWorker, RetentionSweeper
 from server.limits import BodyLimit, BodyLimitMiddleware, make_body_limit
 from server.processing import ProcessorFactory, SessionProcessing
+from server.report_jobs import ReportRunner
 from server.store import Store
 
 log = logging.getLogger(__name__)
@@ -57,8 +58,9 @@ def create_app(test_config: dict[str, Any] | None = None) -> Flask:
     # A non-file form field (e.g. ``processing`` with a site description) may be as large as a batch.
     app.config["MAX_FORM_MEMORY_SIZE"] = settings.max_batch_bytes
     app.config["JSON_SORT_KEYS"] = False
+    report_runner = ReportRunner(store)
     app.extensions["pdr"] = Services(settings, store, processing, worker,
-                                     scaleout.failure_limiter(settings))
+                                     scaleout.failure_limiter(settings), report_runner)
     register_error_handlers(app)
 
     # Outermost first: the real client address (trusted proxies), the access log, then the body limits.
@@ -76,6 +78,7 @@ def create_app(test_config: dict[str, Any] | None = None) -> Flask:
 
     worker.start()
     worker.recover()
+    report_runner.recover(every_interrupted=settings.worker == "inprocess")  # the only web process: all are its own
     if settings.retention_days > 0:
         sweeper = RetentionSweeper(store, settings.retention_days)
         sweeper.start()

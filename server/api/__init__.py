@@ -14,6 +14,7 @@ from server.config import Settings
 from server.errors import APIError
 from server.jobs import InProcessWorker, NoWorker
 from server.processing import SessionProcessing
+from server.report_jobs import ReportRunner
 from server.store import Store
 
 
@@ -26,6 +27,7 @@ class Services:
     processing: SessionProcessing
     worker: InProcessWorker | NoWorker
     auth_failures: FailureLimiter
+    reports: ReportRunner
 
 
 def services() -> Services:

@@ -402,3 +402,50 @@ def test_postgres_delete_session_and_user(tmp_path, pg_database):  # noqa: F811
     finally:
         app.extensions["pdr"].worker.stop()
         app.extensions["pdr"].store.engine.dispose()
+
+
+# -- 10. Allan reports survive a restart -----------------------------------------------------------------------------
+def test_allan_report_interrupted_by_a_restart_is_finished_after_it(tmp_path):
+    from server.report_jobs import ReportRunner
+    from tests.server.test_models_reports import _static_npz
+
+    app = make_app(tmp_path)
+    store = app.extensions["pdr"].store
+    with store.engine.begin() as conn:
+        h = bearer(auth.add_user(conn, "rita"))
+        uid = auth.user_id(conn, "rita")
+    app.extensions["pdr"].worker.stop()
+    # As a crash leaves it: stored with its upload, started, never finished.
+    idle = ReportRunner(store)
+    idle.submit = lambda report_id: None  # type: ignore[method-assign]
+    idle.create("r-crashed", uid, "static.npz", _static_npz(), "/static.npz")
+    assert idle._claim("r-crashed") is not None
+    # After the restart (create_app recovers), the report completes.
+    again = make_app(tmp_path)
+    c = again.test_client()
+    deadline = time.monotonic() + 90
+    while (rep := c.get("/api/v1/reports/r-crashed", headers=h).get_json())["status"] == "pending":
+        assert time.monotonic() < deadline
+        time.sleep(0.2)
+    assert rep["status"] == "done", rep["error"]
+    with store.engine.connect() as conn:
+        assert conn.execute(select(db.report_uploads)).first() is None  # the upload is dropped once done
+    again.extensions["pdr"].worker.stop()
+    again.extensions["pdr"].reports.stop()
+
+
+def test_report_interrupted_too_often_fails_with_the_reason(app, tokens):
+    from server.report_jobs import MAX_ATTEMPTS, ReportRunner
+
+    store = app.extensions["pdr"].store
+    with store.engine.begin() as conn:
+        uid = auth.user_id(conn, "alice")
+    runner = ReportRunner(store)
+    runner.submit = lambda report_id: None  # type: ignore[method-assign]
+    runner.create("r-poison", uid, "x.npz", b"anything", "/x.npz")
+    for _ in range(MAX_ATTEMPTS):
+        assert runner._claim("r-poison") is not None  # each claim is an attempt a crash interrupted
+    assert runner._claim("r-poison") is None
+    with store.engine.connect() as conn:
+        row = conn.execute(select(db.reports).where(db.reports.c.id == "r-poison")).one()
+    assert row.status == "failed" and f"interrupted {MAX_ATTEMPTS} times" in row.error
