@@ -9,18 +9,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from pdr.recording import DeviceInfo
+
 if TYPE_CHECKING:
     from server.api import Services
-
-
-@dataclass(frozen=True)
-class Device:
-    """What a batch says about the device that sent it (``devices`` row of its role)."""
-
-    device_id: str = ""
-    platform: str = "unknown"
-    model: str = ""
-    placement: str | None = None
 
 
 @dataclass(frozen=True)
@@ -31,15 +23,16 @@ class Accepted:
     created: bool
 
 
-def store_batch(svc: Services, session_id: str, *, role: str, client_batch_id: str, payload_format: str,
-                payload: bytes, t_first_ns: int | None, t_last_ns: int | None, device: Device,
-                content: Any = None) -> Accepted:
-    """Persist a raw batch of ``session_id`` and queue the session when the batch is new.
+def store_batch(svc: Services, session_id: str, *, client_batch_id: str, payload_format: str, payload: bytes,
+                t_first_ns: int | None, t_last_ns: int | None, device: DeviceInfo, content: Any = None) -> Accepted:
+    """Persist a raw batch of ``session_id`` from ``device`` (its role names the processor) and queue the session
+    when the batch is new.
 
     ``content`` is the payload's decoded JSON (JSON payloads): a re-send with the same content in other
     whitespace is a replay (:meth:`server.store.Store.add_batch`). Raises the 409 of a different payload under
     an existing ``client_batch_id``.
     """
+    role = device.role
     bid, created = svc.store.add_batch(session_id, device_role=role, client_batch_id=client_batch_id,
                                        payload_format=payload_format, payload=payload, t_first_ns=t_first_ns,
                                        t_last_ns=t_last_ns, content=content)

@@ -12,9 +12,10 @@ from flask import Blueprint, Response, jsonify, request
 
 from pdr.errors import InputError
 from pdr.foot.summaries import SCHEMA, steps_from_json
+from pdr.recording import DeviceInfo
 from server.api import current_user, json_body, services
 from server.errors import APIError
-from server.ingest import Device, store_batch
+from server.ingest import store_batch
 from server.processing import FOOT_STEPS_JSON
 from server.schemas import validate
 
@@ -35,9 +36,10 @@ def add_step_summaries(session_id: str) -> tuple[Response, int]:
     except InputError as exc:
         raise APIError(422, str(exc), details=exc.details()) from None
     dev = body["device"]
-    accepted = store_batch(svc, session_id, role=summaries.role, client_batch_id=batch_id,
-                           payload_format=FOOT_STEPS_JSON, payload=request.get_data(),
-                           t_first_ns=summaries.t_first_ns, t_last_ns=summaries.t_last_ns,
-                           device=Device(dev.get("device_id", ""), "imu", dev.get("model", ""), "foot"), content=body)
+    accepted = store_batch(svc, session_id, client_batch_id=batch_id, payload_format=FOOT_STEPS_JSON,
+                           payload=request.get_data(), t_first_ns=summaries.t_first_ns,
+                           t_last_ns=summaries.t_last_ns, content=body,
+                           device=DeviceInfo(platform="imu", model=dev.get("model", ""), role=summaries.role,
+                                             placement="foot", device_id=dev.get("device_id", "")))
     return (jsonify({"batch_id": batch_id, "id": accepted.id, "duplicate": not accepted.created,
                      "steps": len(summaries.steps)}), 201 if accepted.created else 200)

@@ -14,7 +14,7 @@ from pdr.recording import Recording
 from server import plausibility
 from server.api import current_user, json_body, services, uploaded_log
 from server.errors import APIError
-from server.ingest import Device, store_batch
+from server.ingest import store_batch
 from server.processing import FILE_PREFIX, NATIVE_JSON
 from server.processing_options import META_KEY, ProcessingOptions
 from server.schemas import CREATE_SESSION, PAIR_DEVICE, PROCESSING, validate
@@ -107,9 +107,8 @@ def _create_from_file(user_id: int) -> tuple[Response, int]:
                                             name=filename, placement=placement, meta=_meta(options))
     dev = recording.device
     t_first, t_last = time_span_ns(recording)
-    store_batch(svc, sid, role=dev.role, client_batch_id=f"file-{digest[:32]}", payload_format=FILE_PREFIX + descriptor,
-                payload=payload, t_first_ns=t_first, t_last_ns=t_last,
-                device=Device(dev.device_id, dev.platform, dev.model, placement))
+    store_batch(svc, sid, client_batch_id=f"file-{digest[:32]}", payload_format=FILE_PREFIX + descriptor,
+                payload=payload, t_first_ns=t_first, t_last_ns=t_last, device=replace(dev, placement=placement))
     svc.store.set_session(sid, t0_ns=recording.origin_ns)
     if recording.truth.positions is not None and recording.truth.positions.origin_lat_lon_deg:
         lat, lon = recording.truth.positions.origin_lat_lon_deg
@@ -170,14 +169,12 @@ def add_native_batch(session_id: str) -> tuple[Response, int]:
         recording = batch_from_json(body, source=f"batch '{batch_id}'")
     except InputError as exc:
         raise APIError(422, str(exc), details=exc.details()) from None
-    role = recording.device.role
     t_first, t_last = time_span_ns(recording)
     plausibility.check_identity(svc.store.engine, session_id, batch_id, body.get("session_id"), recording)
     plausibility.check_batch(svc.store.engine, session_id, NATIVE_JSON, recording, t_first, t_last)
-    dev = recording.device
-    accepted = store_batch(svc, session_id, role=role, client_batch_id=batch_id, payload_format=NATIVE_JSON,
+    accepted = store_batch(svc, session_id, client_batch_id=batch_id, payload_format=NATIVE_JSON,
                            payload=request.get_data(), t_first_ns=t_first, t_last_ns=t_last,
-                           device=Device(dev.device_id, dev.platform, dev.model, dev.placement), content=body)
+                           device=recording.device, content=body)
     return (jsonify({"batch_id": batch_id, "id": accepted.id, "duplicate": not accepted.created}),
             201 if accepted.created else 200)
 

