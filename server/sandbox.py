@@ -124,8 +124,8 @@ def check_compressed(payload: bytes, source: str) -> None:
         declared = [(source, int.from_bytes(payload[-4:], "little"), len(payload))]
     total = sum(size for _, size, _ in declared)
     if total > MAX_INFLATED_BYTES:
-        raise InputError(f"the archive declares {total} bytes uncompressed, more than the service reads "
-                         f"({MAX_INFLATED_BYTES} bytes)", source=source)
+        raise InputError(f"the file declares {total} bytes uncompressed, more than the service's limits allow "
+                         f"({MAX_INFLATED_BYTES} bytes): refused before inflating", source=source)
     for member, size, packed in declared:
         if size > 1024**2 and size > MAX_COMPRESSION_RATIO * max(packed, 1):
             raise InputError(f"member '{member}' declares a compression ratio of {size / max(packed, 1):.0f}:1 "

@@ -380,7 +380,7 @@ def test_a_bad_token_gets_a_readable_message(page: Any, live: LiveService) -> No
     page.fill("#token", "pdr_not-a-real-token")
     page.click("#signin-form button[type=submit]")
     page.wait_for_selector("#message:not([hidden])")
-    assert page.inner_text("#message") == ("Your token was not accepted: invalid or revoked API token "
+    assert page.inner_text("#message") == ("Your token was not accepted: invalid, expired or revoked API token "
                                            "(HTTP 401, unauthorized)")
     assert page.evaluate("sessionStorage.length") == 0
     assert page.is_visible("#view-signin")
