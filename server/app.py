@@ -3,21 +3,30 @@
 from __future__ import annotations
 
 import logging
+import os
 from typing import Any
 
-from flask import Flask, request
-from werkzeug.exceptions import RequestEntityTooLarge
+from flask import Flask
+from werkzeug.middleware.proxy_fix import ProxyFix
 
 from server import migrations, reliability, scaleout
+from server.access_log import AccessLogMiddleware
 from server.api import Services
-from server.config import load_settings
+from server.config import Settings, load_settings
 from server.db import make_engine
 from server.errors import register_error_handlers
-from server.jobs import InProcessWorker, NoWorker
+from server.jobs import InProcessWorker, NoWorker, RetentionSweeper
+from server.limits import BodyLimit, BodyLimitMiddleware, make_body_limit
 from server.processing import ProcessorFactory, SessionProcessing
+from server.report_jobs import ReportRunner
 from server.store import Store
 
 log = logging.getLogger(__name__)
+
+
+def body_limit_of(settings: Settings) -> BodyLimit:
+    """The per-route body limit of a service with these settings (WSGI middleware and waitress parser)."""
+    return make_body_limit(settings.max_upload_bytes, settings.max_batch_bytes)
 
 
 def create_app(test_config: dict[str, Any] | None = None) -> Flask:
@@ -40,22 +49,26 @@ def create_app(test_config: dict[str, Any] | None = None) -> Flask:
         factory = scaleout.load_processor_factory(settings.processor)
     processing = SessionProcessing(store, factory)
     worker: InProcessWorker | NoWorker = (
-        InProcessWorker(processing, settle_s=float(cfg.get("settle_s", 0.2)))
+        InProcessWorker(processing, settle_s=float(cfg.get("settle_s", 0.2)),
+                        max_attempts=int(cfg.get("max_attempts") or os.environ.get("PDR_MAX_ATTEMPTS") or 5))
         if settings.worker == "inprocess" else scaleout.external_worker(settings))
 
     app = Flask(__name__)
-    app.config["MAX_CONTENT_LENGTH"] = settings.max_upload_bytes
+    app.config["MAX_CONTENT_LENGTH"] = max(settings.max_upload_bytes, settings.max_batch_bytes)
+    # A non-file form field (e.g. ``processing`` with a site description) may be as large as a batch.
+    app.config["MAX_FORM_MEMORY_SIZE"] = settings.max_batch_bytes
     app.config["JSON_SORT_KEYS"] = False
+    report_runner = ReportRunner(store)
     app.extensions["pdr"] = Services(settings, store, processing, worker,
-                                     scaleout.failure_limiter(settings))
+                                     scaleout.failure_limiter(settings), report_runner)
     register_error_handlers(app)
 
-    @app.before_request
-    def _reject_oversized() -> None:
-        # Refuse a declared oversized body before authentication or parsing reads any of it.
-        if request.content_length is not None and request.content_length > settings.max_upload_bytes:
-            raise RequestEntityTooLarge()
-
+    # Outermost first: the real client address (trusted proxies), the access log, then the body limits.
+    app.wsgi_app = BodyLimitMiddleware(app.wsgi_app, body_limit_of(settings))  # type: ignore[method-assign]
+    app.wsgi_app = AccessLogMiddleware(app.wsgi_app)  # type: ignore[method-assign]
+    if settings.trusted_proxies:
+        app.wsgi_app = ProxyFix(app.wsgi_app, x_for=settings.trusted_proxies,  # type: ignore[method-assign]
+                                x_proto=settings.trusted_proxies, x_host=settings.trusted_proxies)
     reliability.install(app, settings)  # data quota (507) after the size check; database down -> 503
 
     from server import web
@@ -65,4 +78,9 @@ def create_app(test_config: dict[str, Any] | None = None) -> Flask:
 
     worker.start()
     worker.recover()
+    report_runner.recover(every_interrupted=settings.worker == "inprocess")  # the only web process: all are its own
+    if settings.retention_days > 0:
+        sweeper = RetentionSweeper(store, settings.retention_days)
+        sweeper.start()
+        app.extensions["pdr_retention"] = sweeper
     return app

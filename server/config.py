@@ -4,7 +4,10 @@
 |---|---|---|
 | ``PDR_DATA_DIR`` | data directory of the embedded default (SQLite file, report files) | ``./var`` |
 | ``DATABASE_URL`` | SQLAlchemy URL; ``postgresql://...`` to scale out (``PDR_DATABASE_URL`` wins) | SQLite |
-| ``PDR_MAX_UPLOAD_MB`` | largest accepted request body, MB | 64 |
+| ``PDR_MAX_UPLOAD_MB`` | largest accepted file upload (multipart log file, Allan report), MB | 64 |
+| ``PDR_MAX_BATCH_MB`` | largest body of every other write (ingest, native batches, steps, JSON), MB | 8 |
+| ``PDR_TRUSTED_PROXIES`` | number of reverse proxies in front of the service whose ``X-Forwarded-*`` is trusted | 0 |
+| ``PDR_RETENTION_DAYS`` | delete raw batches of finished sessions this many days after their last batch; 0 = keep | 0 |
 | ``PDR_WORKER`` | ``inprocess`` (a web-process thread), ``redis`` (``pdr worker`` jobs), ``none`` | ``inprocess`` |
 | ``PDR_AUTH_FAILURES_PER_MINUTE`` | failed authentications per client address before 429 | 30 |
 | ``PDR_MODELS_DIR`` | folder of trained classifier models | ``models/`` of the checkout |
@@ -39,6 +42,9 @@ class Settings:
     redis_namespace: str = "pdr"
     data_quota_bytes: int = 0
     processor: str = "server.processors:make_processor"
+    max_batch_bytes: int = 8 * 1024 * 1024
+    trusted_proxies: int = 0
+    retention_days: float = 0.0
 
     @property
     def is_sqlite(self) -> bool:
@@ -75,7 +81,21 @@ def load_settings(environ: Mapping[str, str] | None = None, overrides: Mapping[s
         redis_namespace=str(o.get("redis_namespace") or env.get("PDR_REDIS_NAMESPACE") or "pdr"),
         data_quota_bytes=int(float(str(o.get("data_quota_mb") or env.get("PDR_DATA_QUOTA_MB") or 0)) * 1024 * 1024),
         processor=str(o.get("processor") or env.get("PDR_PROCESSOR") or "server.processors:make_processor"),
+        max_batch_bytes=int(float(str(o.get("max_batch_mb") or env.get("PDR_MAX_BATCH_MB") or 8)) * 1024 * 1024),
+        trusted_proxies=_non_negative_int("PDR_TRUSTED_PROXIES",
+                                          o.get("trusted_proxies") or env.get("PDR_TRUSTED_PROXIES") or 0),
+        retention_days=float(str(o.get("retention_days") or env.get("PDR_RETENTION_DAYS") or 0)),
     )
+
+
+def _non_negative_int(name: str, raw: object) -> int:
+    try:
+        n = int(str(raw))
+    except ValueError:
+        raise ValueError(f"{name} must be a non-negative integer, got {raw!r}") from None
+    if n < 0:
+        raise ValueError(f"{name} must be a non-negative integer, got {raw!r}")
+    return n
 
 
 def limit_native_threads(env: Mapping[str, str] | None = None) -> int:
@@ -97,3 +117,13 @@ def limit_native_threads(env: Mapping[str, str] | None = None) -> int:
         raise ValueError(f"PDR_NATIVE_THREADS must be a positive integer, got {raw!r}")
     threadpool_limits(limits=n)
     return n
+
+
+def safe_url(url: str) -> str:
+    """``url`` without its password (never print credentials)."""
+    from sqlalchemy.engine import make_url
+
+    try:
+        return make_url(url).render_as_string(hide_password=True)
+    except Exception:
+        return url.split("@")[-1]

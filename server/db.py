@@ -52,6 +52,10 @@ api_tokens = Table(
     Column("prefix", String(16), nullable=False),
     Column("created_at", DateTime(timezone=True), nullable=False),
     Column("revoked_at", DateTime(timezone=True)),
+    # Migration 0005: what the token may do (server.auth.SCOPES), when it stops working, when it was last used.
+    Column("scope", String(8), nullable=False, server_default="full"),
+    Column("expires_at", DateTime(timezone=True)),
+    Column("last_used_at", DateTime(timezone=True)),
 )
 
 sessions = Table(
@@ -154,6 +158,16 @@ reports = Table(
     Column("created_at", DateTime(timezone=True), nullable=False),
     Column("result", Text),
     Column("error", Text),
+    # Migration 0006: a report is a recoverable job (server.report_jobs).
+    Column("attempts", Integer, nullable=False, server_default="0"),
+    Column("started_at", DateTime(timezone=True)),
+)
+
+report_uploads = Table(
+    "report_uploads", metadata,
+    Column("report_id", String(36), ForeignKey("reports.id", ondelete="CASCADE"), primary_key=True),
+    Column("descriptor", String(300), nullable=False),
+    Column("payload", LargeBinary, nullable=False),  # zlib-compressed upload, deleted once the report is done
 )
 
 report_files = Table(

@@ -5,7 +5,7 @@ from __future__ import annotations
 import logging
 from typing import Any
 
-from flask import Flask, Response, jsonify
+from flask import Flask, Response, jsonify, request
 from werkzeug.exceptions import HTTPException
 
 from pdr.errors import InputError
@@ -38,6 +38,20 @@ def error_response(status: int, message: str, code: str | None = None,
     return resp
 
 
+def _too_large(app: Flask, description: str) -> tuple[str, dict[str, Any]]:
+    """Message and details of a 413: the route's body limit, or the form-field limit when a field was too big."""
+    from server.limits import ENVIRON_KEY, too_large_message
+
+    limit = int(request.environ.get(ENVIRON_KEY) or app.config.get("MAX_CONTENT_LENGTH") or 0)
+    if description.startswith("request body too large"):  # an unsized body passed the route's limit
+        return description, {"limit_bytes": limit}
+    field_limit = app.config.get("MAX_FORM_MEMORY_SIZE")
+    if field_limit and (request.content_length or 0) <= limit:
+        return (too_large_message(int(field_limit), "form field") + "; send large content as a file",
+                {"limit_bytes": int(field_limit)})
+    return too_large_message(limit), {"limit_bytes": limit}
+
+
 def register_error_handlers(app: Flask) -> None:
     """Install the handlers on the app (a blueprint cannot see routing 404s)."""
 
@@ -53,12 +67,17 @@ def register_error_handlers(app: Flask) -> None:
     def _http_error(exc: HTTPException) -> Response:
         status = exc.code or 500
         message = exc.description or exc.name
+        details: dict[str, Any] = {}
         if status == 413:
-            message = f"request body too large (limit {app.config.get('MAX_CONTENT_LENGTH')} bytes)"
-        resp = error_response(status, message)
+            message, details = _too_large(app, message)
+        resp = error_response(status, message, details=details)
         if status == 405 and exc.valid_methods:  # type: ignore[attr-defined]
             resp.headers["Allow"] = ", ".join(exc.valid_methods)  # type: ignore[attr-defined]
         return resp
+
+    @app.errorhandler(RecursionError)
+    def _too_deep(exc: RecursionError) -> Response:
+        return error_response(400, "input nested too deeply")
 
     @app.errorhandler(Exception)
     def _unexpected(exc: Exception) -> Response:

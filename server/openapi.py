@@ -66,6 +66,29 @@ def _results_path(what: str) -> dict[str, Any]:
                        parameters=[SESSION_ID, SINCE])}
 
 
+#: Operations an ``ingest`` token may call (server.auth.SCOPES); every other write needs ``full``, reads ``read``.
+INGEST_OPERATIONS = {("/api/v1/sessions", "post"), ("/api/v1/sessions/{session_id}/batches", "post"),
+                     ("/api/v1/sessions/{session_id}/steps", "post"), ("/api/v1/groups/{group_id}/uploads", "post"),
+                     ("/api/v1/ingest/sensor-logger", "post")}
+#: Writes that store nothing, allowed to ``read`` tokens.
+READ_WRITES = {("/api/v1/classify", "post")}
+
+
+def _scoped(paths: dict[str, Any]) -> dict[str, Any]:
+    """Mark every authenticated operation with the token scope it needs (``x-token-scope``) and its 403."""
+    for path, ops in paths.items():
+        for method, op in ops.items():
+            if op.get("security") == []:
+                continue
+            scope = ("ingest" if (path, method) in INGEST_OPERATIONS else
+                     "read" if method in ("get", "head") or (path, method) in READ_WRITES else "full")
+            op["x-token-scope"] = scope
+            op["description"] = (f"Token scope: '{scope}' (or 'full')." if scope != "full"
+                                 else "Token scope: 'full'.")
+            op["responses"] |= _errors(403)
+    return paths
+
+
 @cache
 def openapi_document() -> dict[str, Any]:
     batch_schema = json.loads((Path(pdr.__file__).parent / "io" / "schemas" / "batch.schema.json").read_text())
@@ -76,10 +99,16 @@ def openapi_document() -> dict[str, Any]:
         "openapi": "3.1.0",
         "info": {"title": "pdr-backend API", "version": pdr.__version__,
                  "description": "Pedestrian navigation backend: ingest phone and shoe IMU data, get tracks, "
-                                "motion context and sensor reports. Authenticate with 'Authorization: Bearer'."},
+                                "motion context and sensor reports. Authenticate with 'Authorization: Bearer'. "
+                                "Tokens have a scope (ingest, read, full; see each operation's x-token-scope). "
+                                "Bodies over a route's limit are refused 413 from their headers: file uploads "
+                                "PDR_MAX_UPLOAD_MB, every other write PDR_MAX_BATCH_MB."},
         "components": {
             "securitySchemes": {"bearer": {"type": "http", "scheme": "bearer"},
                                 "queryToken": {"type": "apiKey", "in": "query", "name": "token"}},
+            # Token scopes: each operation's x-token-scope names the one it needs ('full' tokens may do all).
+            "x-token-scopes": {"ingest": "push data only (Sensor Logger, native batches, uploads, steps)",
+                               "read": "read only", "full": "everything"},
             "schemas": {"Error": ERROR, "CreateSession": schemas.CREATE_SESSION, "Processing": schemas.PROCESSING,
                         "Device": schemas.PAIR_DEVICE,
                         "NativeBatch": batch_schema, "SensorLoggerMessage": schemas.SENSOR_LOGGER_MESSAGE,
@@ -88,7 +117,7 @@ def openapi_document() -> dict[str, Any]:
                         "FootSteps": FOOT_STEPS},
         },
         "security": [{"bearer": []}],
-        "paths": {
+        "paths": _scoped({
             "/api/v1/health": {"get": _op("service health", {"200": _ok(
                 "ok; status \"warming up\" while the compiled kernels load (kernels.state)")}, security=[])},
             "/api/v1/openapi.json": {"get": _op("this document", {"200": _ok("OpenAPI document")}, security=[])},
@@ -111,7 +140,9 @@ def openapi_document() -> dict[str, Any]:
             },
             "/api/v1/sessions/{session_id}": {
                 "get": _op("session detail with processing status, batches and warnings",
-                           {"200": _ok("session")} | _errors(401, 404), parameters=[SESSION_ID])},
+                           {"200": _ok("session")} | _errors(401, 404), parameters=[SESSION_ID]),
+                "delete": _op("delete the session: raw batches, results, processing state, queued work",
+                              {"204": {"description": "deleted"}} | _errors(401, 404), parameters=[SESSION_ID])},
             "/api/v1/sessions/{session_id}/devices": {
                 "post": _op("pair a device (shoe IMUs: left_foot / right_foot)", {"201": _ok("paired")} | common,
                             parameters=[SESSION_ID], requestBody=_json_body("Device"))},
@@ -163,7 +194,9 @@ def openapi_document() -> dict[str, Any]:
                                                "format": {"type": "string"}}}}}})},
             "/api/v1/reports/{report_id}": {
                 "get": _op("report status and every number", {"200": _ok("report")} | _errors(401, 404),
-                           parameters=[REPORT_ID])},
+                           parameters=[REPORT_ID]),
+                "delete": _op("delete the report and its files", {"204": {"description": "deleted"}}
+                              | _errors(401, 404), parameters=[REPORT_ID])},
             "/api/v1/reports/{report_id}/report.html": {
                 "get": _op("self-contained HTML report", {"200": _ok("page", "text/html")} | _errors(401, 404),
                            parameters=[REPORT_ID])},
@@ -196,5 +229,5 @@ def openapi_document() -> dict[str, Any]:
                              "413": _errors(413)["413"]},
                             parameters=[TOKEN_QUERY], requestBody=_json_body("SensorLoggerMessage"),
                             security=[{"bearer": []}, {"queryToken": []}])},
-        },
+        }),
     }

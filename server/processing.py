@@ -19,7 +19,8 @@ from typing import Any, Protocol
 from pdr.errors import InputError
 from pdr.foot.summaries import StepSummaryBatch
 from pdr.recording import Recording
-from server.store import BatchRecord, EventRow, Store, TrackRow
+from server.errors import APIError
+from server.store import PURGED, BatchRecord, EventRow, Store, TrackRow
 
 log = logging.getLogger(__name__)
 
@@ -109,13 +110,6 @@ def read_uploaded_file(payload: bytes, descriptor: str) -> Recording:
     return recording
 
 
-def detect_uploaded_format(payload: bytes, filename: str) -> str:
-    """Format name of an uploaded file (autodetected as for ``pdr inspect``, in a child process)."""
-    from server.sandbox import read_isolated
-
-    return read_isolated(payload, filename, detect_only=True)[0]
-
-
 class SessionLocks:
     """One lock per session: batches of a session are processed one at a time (within this process)."""
 
@@ -160,13 +154,23 @@ class SessionProcessing:
                 processed = True
             if processed:
                 self._fuse_feet(session_id)
-            self._finish(session_id)
+            self.finish(session_id)
 
     def clear(self, session_id: str) -> None:
-        """Forget the session's results so that processing rebuilds them from raw batches."""
+        """Forget the session's results so that processing rebuilds them from raw batches (409 when the retention
+        policy deleted some of them: the results could not be rebuilt).
+        """
         with self.locks.get(session_id):
+            if self.store.batch_summary(session_id).get(PURGED):
+                raise APIError(409, "the raw data of this session was deleted by the retention policy "
+                                    "(PDR_RETENTION_DAYS): its results cannot be rebuilt")
             self.store.clear_results(session_id)
             self.store.set_session(session_id, status="pending")
+
+    def delete(self, session_id: str) -> None:
+        """Delete the session and everything stored for it, once no batch of it is being processed here."""
+        with self.locks.get(session_id):
+            self.store.delete_session(session_id)
 
     def reprocess(self, session_id: str) -> None:
         """Rebuild all results of a session from its raw batches, now."""
@@ -239,7 +243,8 @@ class SessionProcessing:
             log.exception("fusing the feet of session %s failed", session_id)
             self.store.add_session_warnings(session_id, [f"fused foot track: internal error: {type(exc).__name__}"])
 
-    def _finish(self, session_id: str) -> None:
+    def finish(self, session_id: str) -> None:
+        """Set the session's status from its batches' (failed if one failed or is a dead letter)."""
         summary = self.store.batch_summary(session_id)
         status = "failed" if summary.get("failed") or summary.get("dead") else ("done" if summary else "empty")
         self.store.set_session(session_id, status=status)

@@ -77,6 +77,8 @@ class ProcessingOptions:
             return cls.from_json(json.loads(text))
         except json.JSONDecodeError as exc:
             raise InputError(f"not JSON ({exc})", field="processing") from None
+        except RecursionError:  # the JSON parser recurses per nesting level
+            raise InputError("JSON nested too deeply", field="processing") from None
 
     def to_json(self) -> dict[str, Any]:
         """The options as stored and shown (only those set)."""

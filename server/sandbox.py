@@ -17,12 +17,16 @@ service.
 from __future__ import annotations
 
 import copyreg
+import io
 import os
 import pickle
+import re
 import resource
 import subprocess
 import sys
 import tempfile
+import threading
+import zipfile
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -32,10 +36,37 @@ from pdr.io import format_names
 from pdr.recording import Recording
 
 #: Address space a reader may use, MB (``PDR_READER_MEMORY_MB``; a 64 MB upload of any format needs far less).
-MEMORY_LIMIT_MB = 4096
+MEMORY_LIMIT_MB = 2048
+#: Readers running at once in this process (``PDR_READERS``); further uploads wait for a free one.
+READERS = 2
+#: Largest uncompressed size an archive or gzip file may declare, bytes, and its largest compression ratio:
+#: sensor logs (text, floats) compress 3-15x; a ratio far beyond is a compression bomb, refused before inflating.
+MAX_INFLATED_BYTES = 1024**3
+MAX_COMPRESSION_RATIO = 100.0
+
+_readers = threading.BoundedSemaphore(int(os.environ.get("PDR_READERS", READERS)))
 #: CPU time a reader may use, s, and wall-clock time the parent waits.
 CPU_LIMIT_S = 300
 WALL_LIMIT_S = 600
+
+
+#: Longest file name kept from an upload, characters (file systems allow 255 bytes).
+MAX_FILENAME_CHARS = 120
+
+
+def safe_filename(name: str | None) -> str:
+    """A harmless local file name for an uploaded file's name: its last path component, characters outside
+    ``[A-Za-z0-9._-]`` replaced, at most :data:`MAX_FILENAME_CHARS` (the suffixes such as ``.csv.gz``, which
+    format detection reads, are kept); ``upload`` when nothing usable is left (``..``, empty).
+    """
+    base = re.sub(r"[^A-Za-z0-9._-]", "_", (name or "").replace("\\", "/").rsplit("/", 1)[-1]).lstrip(".")
+    if not base.strip("._"):
+        return "upload"
+    if len(base) > MAX_FILENAME_CHARS:
+        stem, dot, suffixes = base.partition(".")
+        suffixes = suffixes[-40:] if dot else ""
+        base = stem[:MAX_FILENAME_CHARS - len(suffixes) - 1] + ("." + suffixes if suffixes else "")
+    return base
 
 
 def read_isolated(payload: bytes, filename: str, fmt: str | None = None,
@@ -47,11 +78,12 @@ def read_isolated(payload: bytes, filename: str, fmt: str | None = None,
     InputError
         The reader's own error, or the file crashed the reader or exceeded the limits.
     """
-    safe_name = Path(filename.replace("\x00", "")).name or "upload"
+    safe_name = safe_filename(filename)
     if fmt and fmt not in format_names():
         raise InputError(f"unknown format {fmt!r} (supported: {', '.join(format_names())})", source=safe_name,
                          field="format")
-    with tempfile.TemporaryDirectory(prefix="pdr-upload-") as tmp:
+    check_compressed(payload, safe_name)
+    with _readers, tempfile.TemporaryDirectory(prefix="pdr-upload-") as tmp:
         path = Path(tmp) / safe_name
         path.write_bytes(payload)
         out = Path(tmp) / "result.pickle"
@@ -74,6 +106,31 @@ def read_isolated(payload: bytes, filename: str, fmt: str | None = None,
         err.code = code
         raise err
     raise RuntimeError(f"{result[1]}: {result[2]}")
+
+
+def check_compressed(payload: bytes, source: str) -> None:
+    """Refuse a zip or gzip file whose declared uncompressed size or compression ratio is excessive, from its
+    headers (zip central directory, gzip trailer), before anything is inflated. :class:`InputError` if so.
+    """
+    declared: list[tuple[str, int, int]] = []  # (member, uncompressed, compressed) bytes
+    if payload[:4] == b"PK\x03\x04":
+        try:
+            with zipfile.ZipFile(io.BytesIO(payload)) as zf:
+                declared = [(i.filename, i.file_size, i.compress_size) for i in zf.infolist()]
+        except (zipfile.BadZipFile, ValueError, OSError) as exc:
+            raise InputError(f"not a readable zip archive ({exc})", source=source) from None
+    elif payload[:2] == b"\x1f\x8b" and len(payload) >= 18:
+        # ISIZE, the last 4 bytes: the uncompressed size modulo 2**32 (a larger file is refused by its ratio).
+        declared = [(source, int.from_bytes(payload[-4:], "little"), len(payload))]
+    total = sum(size for _, size, _ in declared)
+    if total > MAX_INFLATED_BYTES:
+        raise InputError(f"the file declares {total} bytes uncompressed, more than the service's limits allow "
+                         f"({MAX_INFLATED_BYTES} bytes): refused before inflating", source=source)
+    for member, size, packed in declared:
+        if size > 1024**2 and size > MAX_COMPRESSION_RATIO * max(packed, 1):
+            raise InputError(f"member '{member}' declares a compression ratio of {size / max(packed, 1):.0f}:1 "
+                             f"(more than {MAX_COMPRESSION_RATIO:g}:1): refused as a compression bomb",
+                             source=source)
 
 
 def _proxy(d: dict[Any, Any]) -> MappingProxyType[Any, Any]:

@@ -2,9 +2,10 @@
 
 With several web processes (``PDR_WORKER=redis``) the per-process :class:`server.auth.FailureLimiter`
 would let an attacker multiply the allowance by the number of processes; this subclass keeps one
-sliding-minute window per client address in a Redis sorted set, so the limit holds for the whole
+sliding-minute window per key (client address or token prefix) in a Redis sorted set, so the limit holds for the whole
 deployment. If Redis is unreachable it degrades to the per-process count (still limited, never open).
-The key holds the client address only; tokens are never stored or logged.
+The key holds the client address or the 10-character token prefix (as `pdr users tokens` lists it); whole
+tokens are never stored or logged.
 """
 
 from __future__ import annotations

@@ -12,6 +12,7 @@ import uuid
 import zlib
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
+from datetime import datetime
 from typing import Any
 
 from sqlalchemy import Connection, Engine, Row, delete, func, insert, select, update
@@ -19,6 +20,9 @@ from sqlalchemy.exc import IntegrityError
 
 from server import db
 from server.errors import APIError
+
+#: Status of a batch whose raw payload was deleted by the retention policy (its results stay).
+PURGED = "purged"
 
 SESSION_COLUMNS = ("id", "client_session_id", "source", "name", "placement", "status", "created_at", "updated_at",
                    "t0_ns", "origin_lat_deg", "origin_lon_deg")
@@ -30,6 +34,12 @@ def unpack_state(blob: bytes) -> bytes:
     with the zlib header byte 0x78, which neither a JSON nor a :mod:`pdr.state_codec` state starts with).
     """
     return zlib.decompress(blob) if blob[:1] == b"\x78" else bytes(blob)
+
+
+def content_digest(content: Any) -> str:
+    """SHA-256 of decoded JSON content, independent of whitespace and key order."""
+    canonical = json.dumps(content, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=True)
+    return hashlib.sha256(canonical.encode("utf-8")).hexdigest()
 
 
 @dataclass(frozen=True)
@@ -112,6 +122,26 @@ class Store:
             raise APIError(404, f"no session '{session_id}'")
         return row
 
+    def delete_session(self, session_id: str) -> None:
+        """Delete a session with its devices, raw batches, processor states, results, leases and attempt counts
+        (``ON DELETE CASCADE`` in both back-ends); group agents that named it keep their data, unlinked.
+        """
+        with self.engine.begin() as conn:
+            conn.execute(delete(db.sessions).where(db.sessions.c.id == session_id))
+
+    def purge_raw_batches(self, older_than: datetime) -> int:
+        """Drop the raw payloads of finished sessions (status ``done``) whose last batch arrived before
+        ``older_than``; their results stay, the batches stay listed with status ``purged``. Returns how many.
+        """
+        b, s = db.batches, db.sessions
+        last = (select(b.c.session_id).group_by(b.c.session_id)
+                .having(func.max(b.c.received_at) < older_than))
+        q = (update(b).where(b.c.status == "done", b.c.session_id.in_(last),
+                             b.c.session_id.in_(select(s.c.id).where(s.c.status == "done")))
+             .values(status=PURGED, payload=zlib.compress(b""), error="raw data deleted by the retention policy"))
+        with self.engine.begin() as conn:
+            return int(conn.execute(q).rowcount or 0)
+
     def list_sessions(self, user_id: int) -> list[Row[Any]]:
         with self.engine.connect() as conn:
             return list(conn.execute(select(db.sessions).where(db.sessions.c.user_id == user_id)
@@ -151,11 +181,15 @@ class Store:
 
     # -- batches ---------------------------------------------------------------------------------
     def add_batch(self, session_id: str, *, device_role: str, client_batch_id: str, payload_format: str,
-                  payload: bytes, t_first_ns: int | None, t_last_ns: int | None) -> tuple[int, bool]:
+                  payload: bytes, t_first_ns: int | None, t_last_ns: int | None,
+                  content: Any = None) -> tuple[int, bool]:
         """Persist a raw batch; returns (id, created). A re-sent identical batch is a no-op; a different
         payload under the same client batch id is a 409 conflict.
+
+        ``content`` is the decoded JSON of a JSON payload: then the batch is identified by its content
+        (:func:`content_digest`), so a re-send that differs only in whitespace or key order is a replay.
         """
-        digest = hashlib.sha256(payload).hexdigest()
+        digest = hashlib.sha256(payload).hexdigest() if content is None else content_digest(content)
         q = select(db.batches.c.id, db.batches.c.payload_sha256).where(
             db.batches.c.session_id == session_id, db.batches.c.client_batch_id == client_batch_id)
         with self.engine.begin() as conn:
@@ -176,7 +210,7 @@ class Store:
                 except IntegrityError:
                     found = conn.execute(q).first()
             assert found is not None
-        if found.payload_sha256 != digest:
+        if found.payload_sha256 not in (digest, hashlib.sha256(payload).hexdigest()):  # raw: stored before 0005
             raise APIError(409, f"batch '{client_batch_id}' was already received with different content",
                            details={"batch_id": client_batch_id})
         return int(found.id), False
@@ -222,11 +256,6 @@ class Store:
             rows = conn.execute(select(db.batches.c.session_id).where(
                 db.batches.c.status.in_(["pending", "processing"])).distinct())
             return [str(r[0]) for r in rows]
-
-    def reset_interrupted(self) -> None:
-        """Batches left 'processing' by a crashed worker go back to 'pending'."""
-        with self.engine.begin() as conn:
-            conn.execute(update(db.batches).where(db.batches.c.status == "processing").values(status="pending"))
 
     # -- processing state and results ------------------------------------------------------------
     def load_state(self, session_id: str, role: str) -> tuple[bytes | None, int | None]:

@@ -17,7 +17,7 @@ import sys
 import time
 import uuid
 
-from server.config import limit_native_threads, load_settings
+from server.config import limit_native_threads, load_settings, safe_url
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -47,8 +47,8 @@ def _run(args: argparse.Namespace) -> int:
                             RetryPolicy(retries=args.retries))
     set_runtime(runtime)
     stop_reconciler = runtime.start_reconciler(args.reconcile_s)
-    print(f"pdr worker {name}: queue '{settings.redis_namespace}' on {_safe_url(settings.redis_url)}, "
-          f"database {_safe_url(settings.database_url)}", file=sys.stderr, flush=True)
+    print(f"pdr worker {name}: queue '{settings.redis_namespace}' on {safe_url(settings.redis_url)}, "
+          f"database {safe_url(settings.database_url)}", file=sys.stderr, flush=True)
     delay, restarts = 1.0, 0
     try:
         while True:
@@ -69,16 +69,6 @@ def _run(args: argparse.Namespace) -> int:
     finally:
         stop_reconciler.set()
         store.engine.dispose()
-
-
-def _safe_url(url: str) -> str:
-    """``url`` without its password (never print credentials)."""
-    from sqlalchemy.engine import make_url
-
-    try:
-        return make_url(url).render_as_string(hide_password=True)
-    except Exception:
-        return url.split("@")[-1]
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -7,11 +7,14 @@ from typing import Any
 
 from flask import current_app, request
 
-from server.auth import FailureLimiter, User, lookup, token_from_request
+from pdr.recording import Recording
+from server.access_log import USER_KEY
+from server.auth import PREFIX_CHARS, FailureLimiter, User, lookup, token_from_request
 from server.config import Settings
 from server.errors import APIError
 from server.jobs import InProcessWorker, NoWorker
 from server.processing import SessionProcessing
+from server.report_jobs import ReportRunner
 from server.store import Store
 
 
@@ -24,6 +27,7 @@ class Services:
     processing: SessionProcessing
     worker: InProcessWorker | NoWorker
     auth_failures: FailureLimiter
+    reports: ReportRunner
 
 
 def services() -> Services:
@@ -31,11 +35,14 @@ def services() -> Services:
     return svc
 
 
-def current_user(allow_query_token: bool = False) -> User:
-    """The authenticated user; 401 without a valid token, 429 after too many failures from one address."""
+def current_user(allow_query_token: bool = False, scope: str | None = None) -> User:
+    """The authenticated user, whose token must allow ``scope`` (default: ``read`` for GET/HEAD, else ``full``).
+
+    401 without a valid token; 403 when the token's scope does not allow the request; 429 after too many failed
+    authentications from this client address or with this token prefix. A valid token is looked up first and
+    never refused by the failure limit (clients behind one proxy address are not locked out by another's errors).
+    """
     svc = services()
-    client = request.remote_addr or "?"
-    svc.auth_failures.check(client)
     token = token_from_request(request, allow_query_token)
     if not token and not allow_query_token and "token" in request.args:
         raise APIError(403, "a token in the query string is accepted on ingest endpoints only; "
@@ -45,8 +52,18 @@ def current_user(allow_query_token: bool = False) -> User:
     with svc.store.engine.connect() as conn:
         user = lookup(conn, token)
     if user is None:
-        svc.auth_failures.fail(client)
-        raise APIError(401, "invalid or revoked API token")
+        keys = (f"addr:{request.remote_addr or '?'}", f"prefix:{token[:PREFIX_CHARS]}")
+        for key in keys:
+            svc.auth_failures.check(key)
+        for key in keys:
+            svc.auth_failures.fail(key)
+        raise APIError(401, "invalid, expired or revoked API token")
+    need = scope or ("read" if request.method in ("GET", "HEAD") else "full")
+    if not user.allows(need):
+        raise APIError(403, f"this token's scope '{user.scope}' does not allow this request (it needs '{need}'); "
+                            "ingest tokens may only push data, read tokens may only read",
+                       details={"scope": user.scope, "needs": need})
+    request.environ[USER_KEY] = user.id
     return user
 
 
@@ -65,11 +82,14 @@ def json_body() -> Any:
 
 @dataclass(frozen=True)
 class Upload:
-    """A log file from a multipart request: its bytes, file name and detected (or given) format."""
+    """A log file from a multipart request: its bytes, safe file name, detected (or given) format, and the
+    recording read from it (``None`` when only the format was detected).
+    """
 
     payload: bytes
     filename: str
     format: str
+    recording: Recording | None = None
 
     @property
     def descriptor(self) -> str:
@@ -77,9 +97,11 @@ class Upload:
         return f"{self.format}/{self.filename}"
 
 
-def uploaded_log(what: str = "log") -> Upload:
-    """The multipart ``file`` field (400 if missing, 422 if empty) and its format (field ``format`` or detected)."""
-    from server.processing import detect_uploaded_format
+def uploaded_log(what: str = "log", read: bool = False) -> Upload:
+    """The multipart ``file`` field (400 if missing, 422 if empty) and its format (field ``format`` or detected);
+    with ``read``, also its recording, detected and read by one sandboxed reader (:mod:`server.sandbox`).
+    """
+    from server.sandbox import read_isolated, safe_filename
 
     upload = request.files.get("file")
     if upload is None:
@@ -88,5 +110,6 @@ def uploaded_log(what: str = "log") -> Upload:
     upload.close()
     if not payload:
         raise APIError(422, "uploaded file is empty", details={"field": "file"})
-    filename = upload.filename or "upload"
-    return Upload(payload, filename, request.form.get("format") or detect_uploaded_format(payload, filename))
+    filename = safe_filename(upload.filename)
+    fmt, recording = read_isolated(payload, filename, request.form.get("format") or None, detect_only=not read)
+    return Upload(payload, filename, fmt, recording)

@@ -12,8 +12,10 @@ from flask import Blueprint, Response, jsonify, request
 
 from pdr.errors import InputError
 from pdr.foot.summaries import SCHEMA, steps_from_json
+from pdr.recording import DeviceInfo
 from server.api import current_user, json_body, services
 from server.errors import APIError
+from server.ingest import store_batch
 from server.processing import FOOT_STEPS_JSON
 from server.schemas import validate
 
@@ -23,7 +25,7 @@ bp = Blueprint("foot", __name__, url_prefix="/api/v1/sessions")
 @bp.post("/<session_id>/steps")
 def add_step_summaries(session_id: str) -> tuple[Response, int]:
     """Ingest step summaries of one shoe unit; re-sending the same ``batch_id`` is a no-op."""
-    user = current_user(allow_query_token=True)
+    user = current_user(allow_query_token=True, scope="ingest")
     svc = services()
     svc.store.session_row(session_id, user.id)
     body = json_body()
@@ -33,13 +35,11 @@ def add_step_summaries(session_id: str) -> tuple[Response, int]:
         summaries = steps_from_json(body, source=f"batch '{batch_id}'")
     except InputError as exc:
         raise APIError(422, str(exc), details=exc.details()) from None
-    bid, created = svc.store.add_batch(session_id, device_role=summaries.role, client_batch_id=batch_id,
-                                       payload_format=FOOT_STEPS_JSON, payload=request.get_data(),
-                                       t_first_ns=summaries.t_first_ns, t_last_ns=summaries.t_last_ns)
-    if created:
-        dev = body["device"]
-        svc.store.upsert_device(session_id, summaries.role, device_id=dev.get("device_id", ""), platform="imu",
-                                model=dev.get("model", ""), placement="foot")
-        svc.worker.submit(session_id)
-    return jsonify({"batch_id": batch_id, "id": bid, "duplicate": not created,
-                    "steps": len(summaries.steps)}), 201 if created else 200
+    dev = body["device"]
+    accepted = store_batch(svc, session_id, client_batch_id=batch_id, payload_format=FOOT_STEPS_JSON,
+                           payload=request.get_data(), t_first_ns=summaries.t_first_ns,
+                           t_last_ns=summaries.t_last_ns, content=body,
+                           device=DeviceInfo(platform="imu", model=dev.get("model", ""), role=summaries.role,
+                                             placement="foot", device_id=dev.get("device_id", "")))
+    return (jsonify({"batch_id": batch_id, "id": accepted.id, "duplicate": not accepted.created,
+                     "steps": len(summaries.steps)}), 201 if accepted.created else 200)

@@ -157,7 +157,7 @@ def join_group(group_id: str) -> tuple[Response, int]:
 @bp.post("/<group_id>/uploads")
 def upload(group_id: str) -> tuple[Response, int]:
     """Step summaries and ranges of one agent; re-sending the same ``batch_id`` is a no-op."""
-    user = current_user(allow_query_token=True)
+    user = current_user(allow_query_token=True, scope="ingest")
     repo = store()
     repo.row(group_id, user.id)
     body = json_body()

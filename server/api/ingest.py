@@ -9,6 +9,7 @@ are processed in time order). The token may be passed as ``?token=`` because the
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 from flask import Blueprint, Response, jsonify, request
 
@@ -17,6 +18,7 @@ from server import plausibility
 from server.api import current_user, services
 from server.api.sessions import time_span_ns
 from server.errors import APIError
+from server.ingest import store_batch
 from server.processing import SENSOR_LOGGER_JSON
 from server.schemas import SENSOR_LOGGER_MESSAGE, validate
 
@@ -45,7 +47,7 @@ def sensor_logger() -> Response:
 def _ingest() -> Response:
     from pdr.io.sensor_logger import parse_push_message
 
-    user = current_user(allow_query_token=True)
+    user = current_user(allow_query_token=True, scope="ingest")
     svc = services()
     raw = request.get_data()
     try:
@@ -62,12 +64,8 @@ def _ingest() -> Response:
                                       name=f"Sensor Logger {message['sessionId']}")
     t_first, t_last = time_span_ns(recording)
     plausibility.check_time(svc.store.engine, sid, "phone", SENSOR_LOGGER_JSON, t_first, t_last)
-    _, created = svc.store.add_batch(sid, device_role="phone", client_batch_id=f"msg-{message_id}",
-                                     payload_format=SENSOR_LOGGER_JSON, payload=raw, t_first_ns=t_first,
-                                     t_last_ns=t_last)
-    if created:
-        dev = recording.device
-        svc.store.upsert_device(sid, "phone", device_id=str(message["deviceId"]), platform=dev.platform,
-                                model=dev.model, placement=dev.placement)
-        svc.worker.submit(sid)
-    return jsonify({"status": "ok", "session": sid, "duplicate": not created})
+    accepted = store_batch(svc, sid, client_batch_id=f"msg-{message_id}", payload_format=SENSOR_LOGGER_JSON,
+                           payload=raw, t_first_ns=t_first, t_last_ns=t_last,
+                           device=replace(recording.device, role="phone", device_id=str(message["deviceId"])),
+                           content=message)
+    return jsonify({"status": "ok", "session": sid, "duplicate": not accepted.created})

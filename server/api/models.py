@@ -55,7 +55,7 @@ def classify() -> Response:
     from classifiers.artifacts import load_model
     from pdr.io.native import batch_from_json
 
-    current_user()
+    current_user(scope="read")  # computes an answer, stores nothing
     body = json_body()
     validate(body, CLASSIFY_WINDOW, "classification request")
     name = body.get("model", DEFAULT_MODEL)

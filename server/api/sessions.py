@@ -14,7 +14,8 @@ from pdr.recording import Recording
 from server import plausibility
 from server.api import current_user, json_body, services, uploaded_log
 from server.errors import APIError
-from server.processing import FILE_PREFIX, NATIVE_JSON, read_uploaded_file
+from server.ingest import store_batch
+from server.processing import FILE_PREFIX, NATIVE_JSON
 from server.processing_options import META_KEY, ProcessingOptions
 from server.schemas import CREATE_SESSION, PAIR_DEVICE, PROCESSING, validate
 
@@ -66,7 +67,7 @@ def time_span_ns(rec: Recording) -> tuple[int, int]:
 @bp.post("")
 def create_session() -> tuple[Response, int]:
     """Create an empty session (JSON body) or a session from an uploaded log file (multipart ``file``)."""
-    user = current_user()
+    user = current_user(scope="ingest")
     svc = services()
     if request.files:
         return _create_from_file(user.id)
@@ -94,9 +95,9 @@ def _meta(options: ProcessingOptions) -> dict[str, Any] | None:
 
 def _create_from_file(user_id: int) -> tuple[Response, int]:
     svc = services()
-    upload = uploaded_log()
-    payload, filename, descriptor = upload.payload, upload.filename, upload.descriptor
-    recording = read_uploaded_file(payload, descriptor)  # validate before accepting
+    upload = uploaded_log(read=True)  # validated before accepting
+    payload, filename, descriptor, recording = upload.payload, upload.filename, upload.descriptor, upload.recording
+    assert recording is not None
     options = ProcessingOptions.from_text(request.form.get("processing"))
     placement = request.form.get("placement") or recording.device.placement
     plausibility.check_device(replace(recording.device, placement=placement))
@@ -105,16 +106,13 @@ def _create_from_file(user_id: int) -> tuple[Response, int]:
                                             client_session_id=request.form.get("session_id") or f"file-{digest[:24]}",
                                             name=filename, placement=placement, meta=_meta(options))
     dev = recording.device
-    svc.store.upsert_device(sid, dev.role, device_id=dev.device_id, platform=dev.platform, model=dev.model,
-                            placement=placement)
     t_first, t_last = time_span_ns(recording)
-    svc.store.add_batch(sid, device_role=dev.role, client_batch_id=f"file-{digest[:32]}",
-                        payload_format=FILE_PREFIX + descriptor, payload=payload, t_first_ns=t_first, t_last_ns=t_last)
+    store_batch(svc, sid, client_batch_id=f"file-{digest[:32]}", payload_format=FILE_PREFIX + descriptor,
+                payload=payload, t_first_ns=t_first, t_last_ns=t_last, device=replace(dev, placement=placement))
     svc.store.set_session(sid, t0_ns=recording.origin_ns)
     if recording.truth.positions is not None and recording.truth.positions.origin_lat_lon_deg:
         lat, lon = recording.truth.positions.origin_lat_lon_deg
         svc.store.set_session(sid, origin_lat_deg=lat, origin_lon_deg=lon)
-    svc.worker.submit(sid)
     return jsonify(session_json(svc.store.session_row(sid, user_id))), 201 if created else 200
 
 
@@ -129,6 +127,16 @@ def list_sessions() -> Response:
 def get_session(session_id: str) -> Response:
     user = current_user()
     return jsonify(session_json(services().store.session_row(session_id, user.id), detail=True))
+
+
+@bp.delete("/<session_id>")
+def delete_session(session_id: str) -> tuple[str, int]:
+    """Delete the session: its raw batches, results, processing state and queued work. Not reversible."""
+    user = current_user()
+    svc = services()
+    svc.store.session_row(session_id, user.id)
+    svc.processing.delete(session_id)
+    return "", 204
 
 
 @bp.post("/<session_id>/devices")
@@ -150,7 +158,7 @@ def add_native_batch(session_id: str) -> tuple[Response, int]:
     """Ingest a native JSON batch (``pdr-batch/1``); re-sending the same ``batch_id`` is a no-op."""
     from pdr.io.native import batch_from_json
 
-    user = current_user(allow_query_token=True)
+    user = current_user(allow_query_token=True, scope="ingest")
     svc = services()
     svc.store.session_row(session_id, user.id)
     body = json_body()
@@ -161,19 +169,14 @@ def add_native_batch(session_id: str) -> tuple[Response, int]:
         recording = batch_from_json(body, source=f"batch '{batch_id}'")
     except InputError as exc:
         raise APIError(422, str(exc), details=exc.details()) from None
-    role = recording.device.role
     t_first, t_last = time_span_ns(recording)
     plausibility.check_identity(svc.store.engine, session_id, batch_id, body.get("session_id"), recording)
     plausibility.check_batch(svc.store.engine, session_id, NATIVE_JSON, recording, t_first, t_last)
-    bid, created = svc.store.add_batch(session_id, device_role=role, client_batch_id=batch_id,
-                                       payload_format=NATIVE_JSON, payload=request.get_data(),
-                                       t_first_ns=t_first, t_last_ns=t_last)
-    if created:
-        dev = recording.device
-        svc.store.upsert_device(session_id, role, device_id=dev.device_id, platform=dev.platform, model=dev.model,
-                                placement=dev.placement)
-        svc.worker.submit(session_id)
-    return jsonify({"batch_id": batch_id, "id": bid, "duplicate": not created}), 201 if created else 200
+    accepted = store_batch(svc, session_id, client_batch_id=batch_id, payload_format=NATIVE_JSON,
+                           payload=request.get_data(), t_first_ns=t_first, t_last_ns=t_last,
+                           device=recording.device, content=body)
+    return (jsonify({"batch_id": batch_id, "id": accepted.id, "duplicate": not accepted.created}),
+            201 if accepted.created else 200)
 
 
 @bp.post("/<session_id>/reprocess")

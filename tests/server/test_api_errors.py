@@ -69,10 +69,13 @@ def test_409_same_batch_id_different_content(client, tokens):
 
 
 def test_413_body_too_large(tmp_path, tokens):  # noqa: ARG001
-    app = make_app(tmp_path / "small", max_upload_mb=0.001)
+    app = make_app(tmp_path / "small", max_upload_mb=0.002, max_batch_mb=0.001)
     try:
         resp = app.test_client().post("/api/v1/sessions", data=b"x" * 5000, content_type="application/json")
-        assert_error(resp, 413, "too large")
+        body = assert_error(resp, 413, "too large: the limit of this route is 1048 bytes")
+        assert body["details"]["limit_bytes"] == 1048
+        resp = app.test_client().post("/api/v1/sessions", data=b"x" * 5000, content_type="multipart/form-data")
+        assert_error(resp, 413, "too large: the limit of this route is 2097 bytes")
     finally:
         app.extensions["pdr"].worker.stop()
 

@@ -25,7 +25,7 @@ from tests.server.helpers import multipart, phone_batch
 
 @pytest.fixture
 def env(tmp_path: Any) -> Any:
-    app = make_app(tmp_path, max_upload_mb=1)
+    app = make_app(tmp_path, max_upload_mb=1, max_batch_mb=1)
     with app.extensions["pdr"].store.engine.begin() as conn:
         h = bearer(auth.add_user(conn, "mallory"))
     c = app.test_client()

@@ -380,11 +380,27 @@ def test_a_bad_token_gets_a_readable_message(page: Any, live: LiveService) -> No
     page.fill("#token", "pdr_not-a-real-token")
     page.click("#signin-form button[type=submit]")
     page.wait_for_selector("#message:not([hidden])")
-    assert page.inner_text("#message") == ("Your token was not accepted: invalid or revoked API token "
+    assert page.inner_text("#message") == ("Your token was not accepted: invalid, expired or revoked API token "
                                            "(HTTP 401, unauthorized)")
     assert page.evaluate("sessionStorage.length") == 0
     assert page.is_visible("#view-signin")
     shot(page, "07-bad-token")
+
+
+def test_a_session_is_deleted_from_its_page(page: Any, live: LiveService) -> None:
+    alice = Client(live.url, live.tokens["alice"])
+    sid = alice.request("POST", "/api/v1/sessions", {"session_id": "to-delete", "name": "to-delete"}).json()["id"]
+    assert alice.request("POST", f"/api/v1/sessions/{sid}/batches", phone_batch("b0", 0.0)).status == 201
+    sign_in(page, live)
+    page.goto(f"{live.url}/#/session/{sid}")
+    page.wait_for_function("() => document.querySelector('#session-title').textContent === 'to-delete'")
+    page.once("dialog", lambda dialog: dialog.accept())
+    page.click("#delete-session")
+    page.wait_for_function("() => location.hash === '#/sessions'")
+    page.wait_for_selector("#sessions-table tbody tr")
+    assert page.locator(f"#sessions-table tr[data-session='{sid}']").count() == 0
+    assert alice.request("GET", f"/api/v1/sessions/{sid}").status == 404
+    alice.close()
 
 
 @pytest.mark.slow

@@ -42,12 +42,13 @@
 
   const token = () => sessionStorage.getItem(TOKEN_KEY);
 
-  async function apiFetch(path, accept) {
+  async function apiFetch(path, accept, method) {
     const tok = token();
     if (!tok) throw new ApiError(401, "unauthorized", "please sign in with your API token");
     let resp;
     try {
       resp = await fetch(path, {
+        method: method || "GET",
         headers: { Authorization: `Bearer ${tok}`, Accept: accept || "application/json" },
         cache: "no-store", credentials: "omit", referrerPolicy: "no-referrer",
       });
@@ -1038,6 +1039,18 @@
       }
     };
     $("dl-csv").addEventListener("click", dl("csv", "csv"));
+    $("delete-session").addEventListener("click", async () => {
+      if (!current) return;
+      const name = (current.detail && (current.detail.name || current.detail.session_id)) || current.id;
+      if (!window.confirm(`Delete the session "${name}" with its raw data and results? This cannot be undone.`)) return;
+      try {
+        await apiFetch(`${API}/sessions/${enc(current.id)}`, undefined, "DELETE");
+        location.hash = "#/sessions";
+        showMessage(`Session "${name}" deleted.`, "info");
+      } catch (err) {
+        reportError(err, "The session could not be deleted");
+      }
+    });
     $("dl-geojson").addEventListener("click", dl("geojson", "geojson"));
     $("dl-report-html").addEventListener("click", downloadReportHtml);
     window.addEventListener("hashchange", route);

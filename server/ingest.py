@@ -1,0 +1,43 @@
+"""The one ingest service every upload endpoint calls: store the raw batch (idempotent), note the device, queue.
+
+Views decode and validate their body once, then hand the decoded result here; the order (commit the raw batch
+before answering, register the device only for a new batch, queue the session) is written once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from pdr.recording import DeviceInfo
+
+if TYPE_CHECKING:
+    from server.api import Services
+
+
+@dataclass(frozen=True)
+class Accepted:
+    """The stored batch's id and whether it is new (``False``: a replay of a batch already stored)."""
+
+    id: int
+    created: bool
+
+
+def store_batch(svc: Services, session_id: str, *, client_batch_id: str, payload_format: str, payload: bytes,
+                t_first_ns: int | None, t_last_ns: int | None, device: DeviceInfo, content: Any = None) -> Accepted:
+    """Persist a raw batch of ``session_id`` from ``device`` (its role names the processor) and queue the session
+    when the batch is new.
+
+    ``content`` is the payload's decoded JSON (JSON payloads): a re-send with the same content in other
+    whitespace is a replay (:meth:`server.store.Store.add_batch`). Raises the 409 of a different payload under
+    an existing ``client_batch_id``.
+    """
+    role = device.role
+    bid, created = svc.store.add_batch(session_id, device_role=role, client_batch_id=client_batch_id,
+                                       payload_format=payload_format, payload=payload, t_first_ns=t_first_ns,
+                                       t_last_ns=t_last_ns, content=content)
+    if created:
+        svc.store.upsert_device(session_id, role, device_id=device.device_id, platform=device.platform,
+                                model=device.model, placement=device.placement)
+        svc.worker.submit(session_id)
+    return Accepted(bid, created)

@@ -1,0 +1,450 @@
+"""The service on a real network (issue 26), against a real ``pdr serve`` process where the transport matters:
+body limits from the headers, the failure limiter and proxies, scoped tokens, the access log, hostile uploads,
+idempotent replays in other whitespace, deletion and retention."""
+
+from __future__ import annotations
+
+import gzip
+import io
+import json
+import socket
+import subprocess
+import time
+import zipfile
+from datetime import timedelta
+
+import pytest
+from sqlalchemy import select, update
+
+from server import auth, db
+from server.client import Client, add_user, pdr_command, running_server
+from server.jobs import InProcessWorker
+from server.sandbox import check_compressed, safe_filename
+from tests.server.conftest import bearer, make_app
+from tests.server.helpers import multipart, phone_batch
+from tests.server.realservers import pg_database  # noqa: F401  (fixture)
+
+pytestmark = pytest.mark.timeout(240)
+
+MB = 1024 * 1024
+
+
+def _raw_exchange(url: str, head: bytes, body_part: bytes = b"", timeout_s: float = 5.0) -> tuple[bytes, float]:
+    """Send request headers (and the start of a body), then read the answer; returns (answer, seconds)."""
+    host, port = url.removeprefix("http://").split(":")
+    with socket.create_connection((host, int(port)), timeout=timeout_s) as sock:
+        t0 = time.perf_counter()
+        sock.sendall(head + body_part)
+        data = b""
+        while b"\r\n\r\n" not in data or not _complete(data):
+            chunk = sock.recv(65536)
+            if not chunk:
+                break
+            data += chunk
+        return data, time.perf_counter() - t0
+
+
+def _complete(data: bytes) -> bool:
+    head, _, body = data.partition(b"\r\n\r\n")
+    for line in head.split(b"\r\n"):
+        if line.lower().startswith(b"content-length:"):
+            return len(body) >= int(line.split(b":")[1])
+    return False
+
+
+def _status(answer: bytes) -> int:
+    return int(answer.split(b" ", 2)[1])
+
+
+def _json_body(answer: bytes) -> dict:
+    return json.loads(answer.partition(b"\r\n\r\n")[2])
+
+
+def _tmp_bytes(paths: list) -> int:
+    return sum(p.stat().st_size for d in paths for p in d.rglob("*") if p.is_file())
+
+
+# -- 1. body limits ---------------------------------------------------------------------------------------------
+def test_bodies_over_the_route_limit_are_refused_from_the_headers(tmp_path):
+    env = {"PDR_MAX_UPLOAD_MB": "16", "PDR_MAX_BATCH_MB": "2"}
+    with running_server(tmp_path / "srv", env) as (url, penv, _):
+        token = add_user(penv, "ulla")
+        before = _tmp_bytes([tmp_path / "srv"])
+        cases = [  # (route, content type, declared bytes, limit quoted)
+            ("/api/v1/sessions/x/batches", "application/json", 900 * MB, 2 * MB),
+            ("/api/v1/ingest/sensor-logger", "application/json", 5 * MB, 2 * MB),
+            ("/api/v1/sessions", "multipart/form-data; boundary=x", 200 * MB, 16 * MB),
+            ("/api/v1/reports/allan", "multipart/form-data; boundary=x", 17 * MB, 16 * MB),
+            ("/api/v1/sessions", "application/json", 3 * MB, 2 * MB),
+        ]
+        for path, ctype, declared, limit in cases:
+            for auth_header in (b"", f"Authorization: Bearer {token}\r\n".encode()):  # with or without a token
+                head = (f"POST {path} HTTP/1.1\r\nHost: t\r\nContent-Type: {ctype}\r\n"
+                        f"Content-Length: {declared}\r\n").encode() + auth_header + b"\r\n"
+                # answered while the client has sent only the headers and 1000 bytes: refused from the headers
+                answer, _ = _raw_exchange(url, head, b"x" * 1000)
+                assert _status(answer) == 413, (path, answer[:300])
+                err = _json_body(answer)["error"]
+                assert err["details"]["limit_bytes"] == limit and str(limit) in err["message"], (path, err)
+        # a chunked body is refused while it streams, once past the route's limit
+        head = (b"POST /api/v1/sessions/x/batches HTTP/1.1\r\nHost: t\r\nContent-Type: application/json\r\n"
+                b"Transfer-Encoding: chunked\r\n\r\n")
+        chunk = b"%x\r\n" % (256 * 1024) + b"x" * (256 * 1024) + b"\r\n"
+        answer, _ = _raw_exchange(url, head, chunk * 12)
+        assert _status(answer) == 413 and _json_body(answer)["error"]["details"]["limit_bytes"] == 2 * MB
+        # within the limit, a route answers as usual
+        c = Client(url, token)
+        assert c.request("POST", "/api/v1/sessions", {"session_id": "fine"}).status == 201
+        c.close()
+        assert _tmp_bytes([tmp_path / "srv"]) - before < 1 * MB  # nothing of the refused bodies was kept
+
+
+def test_body_limit_middleware_without_waitress(tmp_path):
+    app = make_app(tmp_path, max_batch_mb=0.5)
+    try:
+        with app.extensions["pdr"].store.engine.begin() as conn:
+            h = bearer(auth.add_user(conn, "vic"))
+        c = app.test_client()
+        r = c.post("/api/v1/sessions/x/batches", data=b"{" * (600 * 1024), content_type="application/json",
+                   headers=h)
+        assert r.status_code == 413 and r.get_json()["error"]["details"]["limit_bytes"] == 512 * 1024
+        # an unsized (chunked) body is counted while it is read
+        r = c.post("/api/v1/sessions/x/batches", input_stream=io.BytesIO(b" " * (600 * 1024)),
+                   content_type="application/json", headers={**h, "Transfer-Encoding": "chunked"})
+        assert r.status_code == 413 and "524288 bytes" in r.get_json()["error"]["message"]
+    finally:
+        app.extensions["pdr"].worker.stop()
+
+
+# -- 2. compressed uploads ----------------------------------------------------------------------------------------
+def test_compression_bombs_are_refused_before_inflating():
+    zeros = b"\0" * (64 * MB)
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
+        zf.writestr("Accelerometer.csv", zeros)
+    with pytest.raises(Exception, match="compression ratio of .* refused as a compression bomb"):
+        check_compressed(buf.getvalue(), "bomb.zip")
+    with pytest.raises(Exception, match="compression bomb"):
+        check_compressed(gzip.compress(zeros), "bomb.csv.gz")
+    text = "\n".join(f"{i * 0.01:.3f},{(i * 7919) % 1000 / 100:.4f},0.1,9.81" for i in range(100_000)).encode()
+    check_compressed(gzip.compress(text), "walk.csv.gz")  # a real-looking log passes
+    check_compressed(text, "walk.csv")
+
+
+def test_zip_bomb_upload_is_a_quick_422(client, tokens):
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
+        zf.writestr("Accelerometer.csv", b"\0" * (256 * MB))
+    body, ctype = multipart({"file": (buf.getvalue(), "bomb.zip")})
+    r = client.post("/api/v1/sessions", data=body, content_type=ctype, headers=bearer(tokens["alice"]))
+    # refused from the central directory (the message of the header check), not after inflating 256 MB
+    assert r.status_code == 422 and "compression bomb" in r.get_json()["error"]["message"]
+
+
+# -- 3. the failure limiter ---------------------------------------------------------------------------------------
+def test_failed_logins_never_lock_out_a_valid_token(tmp_path):
+    with running_server(tmp_path, {"PDR_AUTH_FAILURES_PER_MINUTE": "5"}) as (url, env, _):
+        token = add_user(env, "wanda")
+        bad = Client(url, "pdr_" + "x" * 43)
+        statuses = [bad.request("GET", "/api/v1/sessions").status for _ in range(8)]
+        assert statuses[:5] == [401] * 5 and set(statuses[5:]) == {429}
+        good = Client(url, token)
+        assert good.request("GET", "/api/v1/sessions").status == 200
+        msg = {"messageId": 1, "sessionId": "s", "deviceId": "d", "payload": []}
+        assert good.request("POST", f"/api/v1/ingest/sensor-logger?token={token}", msg).status == 200
+        bad.close()
+        good.close()
+
+
+def test_trusted_proxy_address_is_the_forwarded_client(tmp_path):
+    with running_server(tmp_path, {"PDR_AUTH_FAILURES_PER_MINUTE": "3", "PDR_TRUSTED_PROXIES": "1"}) as (url, _, _):
+        host, port = url.removeprefix("http://").split(":")
+
+        def get(client_ip: str, token: str) -> int:
+            head = (f"GET /api/v1/sessions HTTP/1.1\r\nHost: t\r\nAuthorization: Bearer {token}\r\n"
+                    f"X-Forwarded-For: {client_ip}\r\n\r\n").encode()
+            return _status(_raw_exchange(url, head)[0])
+
+        assert [get("10.0.0.1", f"pdr_a{i}xxxxxxxxxx") for i in range(4)] == [401, 401, 401, 429]
+        assert get("10.0.0.2", "pdr_zzzzzzzzzzzz") == 401  # another client behind the same proxy is not blocked
+
+
+# -- 4. scoped tokens -----------------------------------------------------------------------------------------------
+def _cli(env: dict[str, str], *args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([*pdr_command(), "users", *args], env=env, capture_output=True, text=True)
+
+
+def test_scoped_tokens_listing_and_revocation_by_prefix(tmp_path):
+    with running_server(tmp_path) as (url, env, _):
+        full = add_user(env, "xena")
+        ingest = _cli(env, "token", "xena", "--scope", "ingest", "--expires", "30").stdout.strip()
+        read = _cli(env, "token", "xena", "--scope", "read").stdout.strip()
+        assert _cli(env, "token", "xena", "--scope", "admin").returncode == 2
+        f, i, r = Client(url, full), Client(url, ingest), Client(url, read)
+        sid = i.request("POST", "/api/v1/sessions", {"session_id": "phone"}).json()["id"]
+        assert i.request("POST", f"/api/v1/sessions/{sid}/batches", phone_batch("b0", 0.0)).status == 201
+        denied = i.request("GET", f"/api/v1/sessions/{sid}")
+        assert denied.status == 403 and "scope 'ingest'" in denied.json()["error"]["message"]
+        assert r.request("GET", f"/api/v1/sessions/{sid}").status == 200
+        assert r.request("POST", f"/api/v1/sessions/{sid}/batches", phone_batch("b1", 1.0)).status == 403
+        assert r.request("DELETE", f"/api/v1/sessions/{sid}").status == 403
+        assert f.request("GET", f"/api/v1/sessions/{sid}").status == 200
+
+        listing = _cli(env, "tokens", "xena").stdout.splitlines()
+        rows = {line.split("\t")[0]: line.split("\t") for line in listing[1:]}
+        assert set(rows) == {full[:10], ingest[:10], read[:10]}
+        assert rows[ingest[:10]][1] == "ingest" and rows[ingest[:10]][3] != "-"  # expires
+        assert rows[read[:10]][1] == "read" and rows[read[:10]][4] != "-"  # last used
+        assert full not in "\n".join(listing)
+
+        out = _cli(env, "revoke", "xena", "--token", ingest[:10])
+        assert "revoked 1 token" in out.stdout
+        assert i.request("POST", f"/api/v1/sessions/{sid}/batches", phone_batch("b2", 2.0)).status == 401
+        assert f.request("GET", "/api/v1/sessions").status == 200  # the others keep working
+        assert _cli(env, "revoke", "xena", "--token", "pdr_nonexist").returncode == 2
+        for c in (f, i, r):
+            c.close()
+        log = (tmp_path / "server.log").read_text()
+    # 5. the access log: method, path without the query string, status, duration, user; never a token
+    assert f"GET /api/v1/sessions/{sid} 403" in log and "user=1" in log
+    assert all(t[4:] not in log for t in (full, ingest, read))
+
+
+def test_expired_token_is_refused(app, client, tokens):
+    with app.extensions["pdr"].store.engine.begin() as conn:
+        uid = auth.user_id(conn, "alice")
+        short = auth.issue_token(conn, uid, "read", expires_days=1)
+        conn.execute(update(db.api_tokens).where(db.api_tokens.c.prefix == short[:10])
+                     .values(expires_at=db.utcnow() - timedelta(seconds=1)))
+    r = client.get("/api/v1/sessions", headers=bearer(short))
+    assert r.status_code == 401 and "expired" in r.get_json()["error"]["message"]
+
+
+def test_serve_masks_the_database_password():
+    from server.config import safe_url
+
+    shown = safe_url("postgresql+psycopg://pdr:s3cret@db.example:5432/pdr")
+    assert "s3cret" not in shown and "db.example" in shown
+
+
+# -- 6. poison batch in the embedded worker ------------------------------------------------------------------------
+def test_embedded_worker_dead_letters_a_batch_interrupted_too_often(tmp_path):
+    app = make_app(tmp_path, max_attempts=3)
+    with app.extensions["pdr"].store.engine.begin() as conn:
+        h = bearer(auth.add_user(conn, "yuri"))
+    c = app.test_client()
+    sid = c.post("/api/v1/sessions", json={"session_id": "poison"}, headers=h).get_json()["id"]
+    assert c.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch("b0", 0.0), headers=h).status_code == 201
+    app.extensions["pdr"].worker.wait_idle()
+    app.extensions["pdr"].worker.stop()
+    engine = app.extensions["pdr"].store.engine
+    statuses = []
+    for _ in range(3):  # each start finds the batch interrupted mid-processing (as a crash leaves it)
+        with engine.begin() as conn:
+            conn.execute(update(db.batches).where(db.batches.c.session_id == sid).values(status="processing"))
+        again = make_app(tmp_path, worker="none")
+        InProcessWorker(again.extensions["pdr"].processing, max_attempts=3).recover()  # as create_app runs it
+        with engine.connect() as conn:
+            statuses.append(conn.execute(select(db.batches.c.status, db.batches.c.error)
+                                         .where(db.batches.c.session_id == sid)).one())
+    assert [s.status for s in statuses] == ["pending", "pending", "dead"]
+    assert "interrupted 3 times" in statuses[-1].error
+
+
+# -- 7. hostile uploads ----------------------------------------------------------------------------------------------
+def test_safe_filename():
+    assert safe_filename("..") == "upload"
+    assert safe_filename("../../etc/passwd") == "passwd"
+    long = safe_filename("a" * 300 + ".csv.gz")
+    assert len(long) <= 120 and long.endswith(".csv.gz")
+    assert safe_filename("walk 1 (copy).json") == "walk_1__copy_.json"
+
+
+@pytest.mark.parametrize("name", ["..", "a" * 300 + ".csv", "../../x.csv", ""])
+def test_hostile_upload_names_are_4xx(client, tokens, name):
+    body, ctype = multipart({"file": (b"not a log at all\n", name)})
+    r = client.post("/api/v1/sessions", data=body, content_type=ctype, headers=bearer(tokens["alice"]))
+    assert 400 <= r.status_code < 500, r.get_data()[:300]
+
+
+def test_deep_processing_field_and_large_form_field(tmp_path):
+    app = make_app(tmp_path, max_batch_mb=0.5)
+    try:
+        with app.extensions["pdr"].store.engine.begin() as conn:
+            h = bearer(auth.add_user(conn, "zoe"))
+        c = app.test_client()
+        body, ctype = multipart({"file": (b"t,x\n1,2\n", "a.csv"), "processing": "[" * 100_000})
+        r = c.post("/api/v1/sessions", data=body, content_type=ctype, headers=h)
+        assert 400 <= r.status_code < 500, r.get_data()[:300]
+        # (the field before the file: werkzeug leaves a file it spooled unclosed when a later field is refused)
+        body, ctype = multipart({"processing": "x" * (600 * 1024), "file": (b"t,x\n1,2\n", "a.csv")})
+        r = c.post("/api/v1/sessions", data=body, content_type=ctype, headers=h)
+        assert r.status_code == 413
+        assert "form field too large: the limit of this route is 524288 bytes" in r.get_json()["error"]["message"]
+    finally:
+        app.extensions["pdr"].worker.stop()
+
+
+# -- 8. idempotency on decoded content -------------------------------------------------------------------------------
+def test_replay_in_other_whitespace_is_a_duplicate(app, client, tokens):
+    h = bearer(tokens["alice"])
+    sid = client.post("/api/v1/sessions", json={"session_id": "ws"}, headers=h).get_json()["id"]
+    batch = phone_batch("b0", 0.0)
+    first = client.post(f"/api/v1/sessions/{sid}/batches", data=json.dumps(batch), headers=h,
+                        content_type="application/json")
+    again = client.post(f"/api/v1/sessions/{sid}/batches", data=json.dumps(batch, indent=2, sort_keys=True),
+                        headers=h, content_type="application/json")
+    assert first.status_code == 201 and again.status_code == 200 and again.get_json()["duplicate"] is True
+    msg = {"messageId": 7, "sessionId": "s", "deviceId": "d",
+           "payload": [{"name": "accelerometer", "time": 1_700_000_000_000_000_000,
+                        "values": {"x": 0.0, "y": 0.0, "z": 9.81}}]}
+    url = f"/api/v1/ingest/sensor-logger?token={tokens['alice']}"
+    one = client.post(url, data=json.dumps(msg), content_type="application/json")
+    two = client.post(url, data=json.dumps(msg, indent=4), content_type="application/json")
+    assert one.status_code == 200 and two.status_code == 200 and two.get_json()["duplicate"] is True
+    changed = dict(batch, streams={k: dict(v, values=[[1.0, 2.0, 3.0]] * len(v["values"]))
+                                   for k, v in batch["streams"].items()})
+    assert client.post(f"/api/v1/sessions/{sid}/batches", json=changed, headers=h).status_code == 409
+
+
+# -- 9. deletion and retention ---------------------------------------------------------------------------------------
+def test_delete_session_and_report_and_user(tmp_path):
+    with running_server(tmp_path) as (url, env, _):
+        token = add_user(env, "abel")
+        other = add_user(env, "cain")
+        c = Client(url, token)
+        sid = c.request("POST", "/api/v1/sessions", {"session_id": "gone"}).json()["id"]
+        for i in range(3):
+            assert c.request("POST", f"/api/v1/sessions/{sid}/batches", phone_batch(f"b{i}", float(i))).status == 201
+        deadline = time.monotonic() + 60
+        while c.request("GET", f"/api/v1/sessions/{sid}").json()["status"] not in ("done", "failed"):
+            assert time.monotonic() < deadline
+            time.sleep(0.2)
+        o = Client(url, other)
+        assert o.request("DELETE", f"/api/v1/sessions/{sid}").status == 404  # not theirs
+        assert c.request("DELETE", f"/api/v1/sessions/{sid}").status == 204
+        assert c.request("GET", f"/api/v1/sessions/{sid}").status == 404
+        assert c.request("DELETE", f"/api/v1/sessions/{sid}").status == 404
+        assert c.request("DELETE", "/api/v1/reports/nope").status == 404
+        c.close()
+        from server.db import make_engine
+
+        engine = make_engine(f"sqlite:///{tmp_path / 'pdr.sqlite3'}")
+        with engine.connect() as conn:
+            for table in (db.batches, db.track_points, db.events, db.processor_states, db.devices):
+                assert conn.execute(select(table).where(table.c.session_id == sid)).first() is None, table.name
+        assert _cli(env, "delete", "cain").returncode == 2  # needs --yes
+        assert _cli(env, "delete", "cain", "--yes").returncode == 0
+        assert o.request("GET", "/api/v1/sessions").status == 401
+        o.close()
+        engine.dispose()
+
+
+def test_retention_drops_raw_batches_of_finished_sessions_only(app, client, tokens):
+    from server.jobs import RetentionSweeper
+
+    h = bearer(tokens["alice"])
+    sid = client.post("/api/v1/sessions", json={"session_id": "old"}, headers=h).get_json()["id"]
+    client.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch("b0", 0.0), headers=h)
+    live = client.post("/api/v1/sessions", json={"session_id": "live"}, headers=h).get_json()["id"]
+    app.extensions["pdr"].worker.wait_idle()
+    track_before = client.get(f"/api/v1/sessions/{sid}/track", headers=h).get_json()["points"]
+    store = app.extensions["pdr"].store
+    with store.engine.begin() as conn:
+        conn.execute(update(db.batches).values(received_at=db.utcnow() - timedelta(days=40)))
+    client.post(f"/api/v1/sessions/{live}/batches", json=phone_batch("b0", 0.0), headers=h)  # arrives now
+    app.extensions["pdr"].worker.wait_idle()
+    assert RetentionSweeper(store, days=30).sweep() == 1
+    detail = client.get(f"/api/v1/sessions/{sid}", headers=h).get_json()
+    assert [b["status"] for b in detail["batch_list"]] == ["purged"] and detail["status"] == "done"
+    assert client.get(f"/api/v1/sessions/{sid}/track", headers=h).get_json()["points"] == track_before
+    r = client.post(f"/api/v1/sessions/{sid}/reprocess", headers=h)
+    assert r.status_code == 409 and "retention" in r.get_json()["error"]["message"]
+    assert [b["status"] for b in client.get(f"/api/v1/sessions/{live}", headers=h).get_json()["batch_list"]] == [
+        "done"]
+
+
+def test_openapi_describes_deletion_and_token_scopes(client):
+    doc = client.get("/api/v1/openapi.json").get_json()
+    paths = doc["paths"]
+    assert "204" in paths["/api/v1/sessions/{session_id}"]["delete"]["responses"]
+    assert "204" in paths["/api/v1/reports/{report_id}"]["delete"]["responses"]
+    assert paths["/api/v1/sessions/{session_id}/batches"]["post"]["x-token-scope"] == "ingest"
+    assert paths["/api/v1/ingest/sensor-logger"]["post"]["x-token-scope"] == "ingest"
+    assert paths["/api/v1/sessions/{session_id}/track"]["get"]["x-token-scope"] == "read"
+    assert paths["/api/v1/sessions/{session_id}"]["delete"]["x-token-scope"] == "full"
+    assert "x-token-scope" not in paths["/api/v1/health"]["get"]
+
+
+def test_postgres_delete_session_and_user(tmp_path, pg_database):  # noqa: F811
+    app = make_app(tmp_path, database_url=pg_database)
+    try:
+        store = app.extensions["pdr"].store
+        with store.engine.begin() as conn:
+            h = bearer(auth.add_user(conn, "pgdel"))
+            auth.add_user(conn, "pgother")
+        c = app.test_client()
+        sid = c.post("/api/v1/sessions", json={"session_id": "pg"}, headers=h).get_json()["id"]
+        for i in range(2):
+            assert c.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch(f"b{i}", float(i)),
+                          headers=h).status_code == 201
+        app.extensions["pdr"].worker.wait_idle()
+        assert c.delete(f"/api/v1/sessions/{sid}", headers=h).status_code == 204
+        with store.engine.connect() as conn:
+            for table in (db.batches, db.track_points, db.events, db.processor_states, db.devices):
+                assert conn.execute(select(table).where(table.c.session_id == sid)).first() is None, table.name
+        c.post("/api/v1/sessions", json={"session_id": "pg2"}, headers=h)
+        with store.engine.begin() as conn:
+            auth.delete_user(conn, "pgdel")
+            assert conn.execute(select(db.sessions)).first() is None
+            assert [r.name for r in conn.execute(select(db.users.c.name))] == ["pgother"]
+    finally:
+        app.extensions["pdr"].worker.stop()
+        app.extensions["pdr"].store.engine.dispose()
+
+
+# -- 10. Allan reports survive a restart -----------------------------------------------------------------------------
+def test_allan_report_interrupted_by_a_restart_is_finished_after_it(tmp_path):
+    from server.report_jobs import ReportRunner
+    from tests.server.test_models_reports import _static_npz
+
+    app = make_app(tmp_path)
+    store = app.extensions["pdr"].store
+    with store.engine.begin() as conn:
+        h = bearer(auth.add_user(conn, "rita"))
+        uid = auth.user_id(conn, "rita")
+    app.extensions["pdr"].worker.stop()
+    # As a crash leaves it: stored with its upload, started, never finished.
+    idle = ReportRunner(store)
+    idle.submit = lambda report_id: None  # type: ignore[method-assign]
+    idle.create("r-crashed", uid, "static.npz", _static_npz(), "/static.npz")
+    assert idle._claim("r-crashed") is not None
+    # After the restart (create_app recovers), the report completes.
+    again = make_app(tmp_path)
+    c = again.test_client()
+    deadline = time.monotonic() + 90
+    while (rep := c.get("/api/v1/reports/r-crashed", headers=h).get_json())["status"] == "pending":
+        assert time.monotonic() < deadline
+        time.sleep(0.2)
+    assert rep["status"] == "done", rep["error"]
+    with store.engine.connect() as conn:
+        assert conn.execute(select(db.report_uploads)).first() is None  # the upload is dropped once done
+    again.extensions["pdr"].worker.stop()
+    again.extensions["pdr"].reports.stop()
+
+
+def test_report_interrupted_too_often_fails_with_the_reason(app, tokens):
+    from server.report_jobs import MAX_ATTEMPTS, ReportRunner
+
+    store = app.extensions["pdr"].store
+    with store.engine.begin() as conn:
+        uid = auth.user_id(conn, "alice")
+    runner = ReportRunner(store)
+    runner.submit = lambda report_id: None  # type: ignore[method-assign]
+    runner.create("r-poison", uid, "x.npz", b"anything", "/x.npz")
+    for _ in range(MAX_ATTEMPTS):
+        assert runner._claim("r-poison") is not None  # each claim is an attempt a crash interrupted
+    assert runner._claim("r-poison") is None
+    with store.engine.connect() as conn:
+        row = conn.execute(select(db.reports).where(db.reports.c.id == "r-poison")).one()
+    assert row.status == "failed" and f"interrupted {MAX_ATTEMPTS} times" in row.error
