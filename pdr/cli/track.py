@@ -128,6 +128,11 @@ def write_plot(rows: list[dict[str, Any]], path: str | Path, rec: Recording) -> 
 
 def run_track(args: argparse.Namespace) -> int:
     rec = read_recording(args.log)
+    if not rec.has("acc"):
+        # No specific force with gravity: no attitude and no steps, so a track would be empty (never exit 0).
+        why = "; ".join(w for w in rec.warnings if "acc" in w)
+        raise InputError("no accelerometer stream with gravity ('acc'): cannot track" + (f" ({why})" if why else ""),
+                         source=str(args.log))
     site = Site.load(args.site) if args.site else None
     floor0 = 0.0
     cfg = config_from_args(args, floor0)

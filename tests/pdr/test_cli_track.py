@@ -55,6 +55,21 @@ def test_track_bad_input_is_a_clean_error(tmp_path, capsys):
     assert "type must be one of" in capsys.readouterr().err
 
 
+def test_track_refuses_gravity_free_acceleration_only(tmp_path, capsys):
+    # A phyphox "Linear Acceleration" export has no specific force with gravity: an error naming the
+    # experiment to use, never an empty track with exit 0.
+    fixture = Path(__file__).parent / "io" / "fixtures" / "phyphox" / "android_export"
+    export = tmp_path / "linear"
+    (export / "meta").mkdir(parents=True)
+    for f in ("meta/time.csv", "meta/device.csv", "Linear Acceleration.csv"):
+        (export / f).write_bytes((fixture / f).read_bytes())
+    out = tmp_path / "x.csv"
+    assert main(["track", str(export), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "no accelerometer stream with gravity" in err and "'Acceleration (with g)' experiment" in err
+    assert not out.exists()
+
+
 def test_calibrate_scales_to_the_known_distance(tmp_path):
     from pdr.io import read_recording
     rec = read_recording(SIM / "hand_escalator.zip")
