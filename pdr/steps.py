@@ -13,8 +13,8 @@ Per seed 004 Sec. 3.2, on a uniform grid (the caller resamples; 20-25 Hz is enou
 Optionally (``beat_min_peak`` below ``min_peak``; off by default) a crossing that comes on the beat of the
 last two accepted starts (its interval within ``beat_tolerance`` of theirs, itself at most ``max_step_s``)
 needs only ``beat_min_peak``, and a rise rate scaled by the same ratio: a gentle hand-held walker's steps
-(0.4-0.6 m/s^2 peaks) that keep the rhythm are steps. It is off because it costs the Oxford figure (see
-``StepConfig``).
+(0.4-0.6 m/s^2 peaks) that keep the rhythm are steps. It is off: it costs the Oxford figure and over-counts
+a swinging hand (see ``StepConfig``).
 
 The reference level is not the constant g but a slow causal low-pass of ``a_n`` (``reference_hz``), which
 absorbs accelerometer scale and bias errors. The peak-height limit adapts to the carriage: it is the
@@ -185,9 +185,8 @@ class StepConfig:
     beat_min_peak, beat_tolerance
         Peak-height floor (m/s^2) of a crossing on the beat of the last two accepted starts (its interval
         within this fraction of theirs), instead of ``min_peak``. Equal to ``min_peak`` (the default) turns the
-        rule off. With 0.3 and 0.35 the Sensor Logger hand-held walks count 19 of 20 and 31 of 30 (0 and 28
-        without), but the Oxford error grows from 1.06 to 1.17 % (0.57 to 0.75 % against the bounce-free truth)
-        and a swinging-hand mocap walk gains 40 steps (``pdr eval steps``, commit message of this change).
+        rule off: with 0.3 and 0.35 it counts gentle hand-held walks, but raises the Oxford error and
+        over-counts a swinging hand (half-stride arm peaks on the beat); figures in the commit that added it.
     min_bout_step_s
         Shortest median step (s) of the starts that confirm a walking bout (faster is handling, not walking).
     """
