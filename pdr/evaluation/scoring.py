@@ -138,3 +138,33 @@ def step_count_error_pct(detected: int, true: int) -> float:
     if true <= 0:
         raise InputError("true step count must be positive", source="scoring")
     return 100.0 * (detected - true) / true
+
+
+def plain_step_count(t_s: FloatArray, acc_b: FloatArray, rate_hz: float = 50.0, cutoff_hz: float = 3.0,
+                     min_step_s: float = 0.3) -> int:
+    """Steps counted by a plain peak detector, the reference put beside the product's detector.
+
+    ``|acc|`` is resampled to ``rate_hz`` (linear interpolation), low-passed without phase lag (2nd-order
+    Butterworth at ``cutoff_hz``, forward and backward), and its peaks above mean + 0.5 standard deviations, at
+    least ``min_step_s`` apart, are counted (``scipy.signal.find_peaks``). No walking-bout logic.
+
+    Parameters
+    ----------
+    t_s
+        (N,) sample times (s), increasing.
+    acc_b
+        (N, 3) specific force (m/s^2), any frame.
+    """
+    from scipy import signal
+
+    t = np.asarray(t_s, dtype=np.float64)
+    if t.size < 2:
+        return 0
+    grid = np.arange(t[0], t[-1], 1.0 / rate_hz)
+    norm = np.interp(grid, t, np.linalg.norm(np.asarray(acc_b, dtype=np.float64), axis=1))
+    b, a = signal.butter(2, cutoff_hz / (0.5 * rate_hz))
+    if norm.size <= 3 * max(a.size, b.size):
+        return 0
+    x = signal.filtfilt(b, a, norm)
+    peaks, _ = signal.find_peaks(x, height=float(x.mean() + 0.5 * x.std()), distance=max(1, int(min_step_s * rate_hz)))
+    return int(peaks.size)

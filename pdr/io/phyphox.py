@@ -6,10 +6,18 @@ their column headers, not file names: ``Time (s)`` plus
 ``Acceleration x (m/s^2)`` ... -> ``acc`` (with g), ``Linear Acceleration x (m/s^2)`` ... -> ``lin_acc``,
 ``Gyroscope x (rad/s)`` ... -> ``gyro``, ``Magnetic Field x (µT)`` ... -> ``mag``, ``Pressure (hPa)`` -> ``baro``.
 
+The iOS multi-sensor export names the sensor only in the file name: ``Accelerometer.csv`` (with g),
+``Linear Accelerometer.csv``, ``Gyroscope.csv``, ``Magnetometer.csv`` with plain ``X (m/s^2)``, ``Y (m/s^2)``,
+``Z (m/s^2)`` columns; inside an export (next to ``meta/``) such a file is read by its name (:data:`FILE_KINDS`).
+
 The unit in parentheses is honoured (m/s^2 or g, rad/s or deg/s, µT/uT, mT, hPa/kPa/Pa). phyphox already
 reports Android-convention specific force on both platforms, so no sign changes are made. Columns such as
-``Absolute acceleration`` are ignored. The three CSV dialects of phyphox are read: comma with decimal point,
-tab with decimal point, semicolon with decimal comma.
+``Absolute acceleration`` are ignored. The five CSV dialects of phyphox are read: comma, tab or semicolon
+with a decimal point, tab or semicolon with a decimal comma (the decimal mark is taken from the first data
+line). Repeated timestamps (a resaved file) are dropped with a warning, keeping the first sample of each.
+
+An export of gravity-free acceleration only (the "Linear Acceleration" experiment) gives no ``acc`` stream and
+a warning naming the experiment that records acceleration with g, which the attitude and step stages need.
 
 Time: ``Time (s)`` is experiment time, which stops while the experiment is paused. ``meta/time.csv`` lists
 ``event, experiment time, system time`` (epoch s) of every START/PAUSE; a sample at experiment time ``t`` after
@@ -44,16 +52,34 @@ _VECTOR = re.compile(r"^(?P<sensor>linear acceleration|acceleration|gyroscope|ma
                      r"\((?P<unit>[^)]*)\)$", re.IGNORECASE)
 _PRESSURE = re.compile(r"^pressure \((?P<unit>[^)]*)\)$", re.IGNORECASE)
 _KINDS = {"acceleration": "acc", "linear acceleration": "lin_acc", "gyroscope": "gyro", "magnetic field": "mag"}
+#: Bare axis columns of the iOS multi-sensor export (``X (m/s^2)``); the file name says the sensor.
+_BARE_AXIS = re.compile(r"^(?P<axis>[XYZxyz]) \((?P<unit>[^)]*)\)$")
+#: File stem (lower case) -> stream kind, for files with bare axis columns inside an export with ``meta/``.
+FILE_KINDS = {"accelerometer": "acc", "acceleration": "acc", "linear accelerometer": "lin_acc",
+              "linear acceleration": "lin_acc", "gyroscope": "gyro", "magnetometer": "mag", "magnetic field": "mag"}
+#: What to record when an export has gravity-free acceleration only.
+LIN_ACC_ONLY = ("only gravity-free acceleration (the phyphox 'Linear Acceleration' experiment): no 'acc' stream; "
+                "record with the 'Acceleration (with g)' experiment, or a multi-sensor one with the "
+                "accelerometer and gyroscope, for tracks and step counts")
 _UNITS = {"acc": ACC_UNITS, "lin_acc": ACC_UNITS, "gyro": GYRO_UNITS, "mag": {**MAG_UNITS, "mT": 1000.0},
           "baro": PRESSURE_UNITS}
 _ALIASES = {"µT": "uT", "μT": "uT", "m/s²": "m/s^2", "m/s2": "m/s^2", "°/s": "deg/s", "mbar": "hPa"}
 TIME_COLUMN = "Time (s)"
 
 
-def _axis_columns(header: list[str]) -> dict[str, dict[str, tuple[str, str]]]:
-    """Stream kind -> axis -> (column name, unit) of the recognised columns of a header."""
+def _axis_columns(header: list[str], file_kind: str | None = None) -> dict[str, dict[str, tuple[str, str]]]:
+    """Stream kind -> axis -> (column name, unit) of the recognised columns of a header.
+
+    ``file_kind`` is the stream kind the file name gives (iOS multi-sensor export): bare ``X (unit)`` columns
+    are then read as that stream's axes.
+    """
     out: dict[str, dict[str, tuple[str, str]]] = {}
     for col in header:
+        b = _BARE_AXIS.match(col)
+        if b and file_kind is not None:
+            unit = b["unit"].strip()
+            out.setdefault(file_kind, {})[b["axis"].lower()] = (col, _ALIASES.get(unit, unit))
+            continue
         # the axis letter must be lower case: phyphox writes "x", x-io writes "X"
         m = _VECTOR.match(col)
         if m and m["axis"] in "xyz":
@@ -67,22 +93,31 @@ def _axis_columns(header: list[str]) -> dict[str, dict[str, tuple[str, str]]]:
     return out
 
 
-def _dialect(first_line: str) -> tuple[str, str]:
-    """(delimiter, decimal mark) of a phyphox CSV from its header line."""
-    if "\t" in first_line:
-        return "\t", "."
-    if ";" in first_line:
-        return ";", ","
-    return ",", "."
+def _dialect(text: str) -> tuple[str, str]:
+    """(delimiter, decimal mark) of a phyphox CSV: the delimiter from its header line, the decimal mark from
+    the first data line (a comma there, with a tab or semicolon delimiter, is a decimal comma).
+    """
+    lines = text.lstrip("\ufeff").split("\n", 2)
+    first = lines[0]
+    delim = "\t" if "\t" in first else ";" if ";" in first else ","
+    data = lines[1] if len(lines) > 1 else ""
+    return delim, "," if delim != "," and "," in data else "."
 
 
-def _is_data_header(first_line: str) -> bool:
+def _file_kind(member: str, with_meta: bool) -> str | None:
+    """Stream kind a data file's name gives, inside an export (``meta/`` next to it) only."""
+    stem = member.rsplit("/", 1)[-1]
+    stem = stem[:-4] if stem.lower().endswith(".csv") else stem
+    return FILE_KINDS.get(stem.strip().lower()) if with_meta else None
+
+
+def _is_data_header(first_line: str, file_kind: str | None = None) -> bool:
     delim, _ = _dialect(first_line)
     try:
         header = split_header(first_line, delim)
     except InputError:
         return False
-    return bool(header) and header[0] == TIME_COLUMN and bool(_axis_columns(header[1:]))
+    return bool(header) and header[0] == TIME_COLUMN and bool(_axis_columns(header[1:], file_kind))
 
 
 def sniff(path: str | Path) -> bool:
@@ -97,7 +132,10 @@ def sniff(path: str | Path) -> bool:
             for m in members:
                 if "/" not in m and m.lower().endswith(".csv"):
                     raw = bundle.get(m)
-                    if raw is not None and _is_data_header(raw[:1000].decode("utf-8-sig", "replace").split("\n")[0]):
+                    if raw is None:
+                        continue
+                    first = raw[:1000].decode("utf-8-sig", "replace").split("\n")[0]
+                    if _is_data_header(first, _file_kind(m, True)):
                         return True
             return False
         if not strip_gz(p.name.lower()).endswith(".csv"):
@@ -115,7 +153,7 @@ def read(path: str | Path) -> Recording:
     meta: dict[str, object] = {}
     model, platform = "", "unknown"
     clock: list[tuple[float, int]] | None = None
-    texts: list[tuple[str, str]] = []
+    texts: list[tuple[str, str, str | None]] = []   # (name, text, stream kind its file name gives)
     if p.is_dir() or (p.is_file() and (p.name.lower().endswith(".zip") or is_zip(p))):
         bundle = Bundle(p, anchor="meta/time.csv")
         members = bundle.members()
@@ -127,21 +165,23 @@ def read(path: str | Path) -> Recording:
             model, platform = _model_platform(props)
         for m in members:
             if "/" not in m and m.lower().endswith(".csv"):
-                texts.append((bundle.name(m), bundle.text(m)))
+                texts.append((bundle.name(m), bundle.text(m), _file_kind(m, True)))
     else:
-        texts.append((str(p), decode_text(read_bytes(p), str(p))))
+        texts.append((str(p), decode_text(read_bytes(p), str(p)), None))
     if clock is None:
         warnings.append("no meta/time.csv: timestamps are phyphox experiment time (s from the start), not epoch")
 
     streams: dict[str, SensorStream] = {}
-    for name, text in texts:
-        for kind, stream in _read_data_csv(name, text, clock).items():
+    for name, text, file_kind in texts:
+        for kind, stream in _read_data_csv(name, text, clock, file_kind, warnings).items():
             if kind in streams:
                 raise InputError(f"a second '{kind}' data set (the first came from another file)", source=name)
             streams[kind] = stream
     if not streams:
         raise InputError("no phyphox data set found (a CSV with 'Time (s)' and e.g. 'Acceleration x (m/s^2)')",
                          source=str(p))
+    if "lin_acc" in streams and "acc" not in streams:
+        warnings.append(LIN_ACC_ONLY)
     if clock is not None:
         meta["start_epoch_ns"] = clock[0][1]
         meta["pauses"] = len(clock) - 1
@@ -149,11 +189,12 @@ def read(path: str | Path) -> Recording:
                      warnings=tuple(warnings), meta=meta)
 
 
-def _read_data_csv(name: str, text: str, clock: list[tuple[float, int]] | None) -> dict[str, SensorStream]:
+def _read_data_csv(name: str, text: str, clock: list[tuple[float, int]] | None, file_kind: str | None,
+                   warnings: list[str]) -> dict[str, SensorStream]:
     first = text.split("\n", 1)[0].lstrip("\ufeff")
-    delim, decimal = _dialect(first)
+    delim, decimal = _dialect(text)
     header = split_header(first, delim, name) if first.strip() else []
-    groups = _axis_columns(header[1:] if header[:1] == [TIME_COLUMN] else [])
+    groups = _axis_columns(header[1:] if header[:1] == [TIME_COLUMN] else [], file_kind)
     if not groups:
         return {}
     table = parse_table(text, name, delimiter=delim, decimal=decimal)
@@ -167,6 +208,9 @@ def _read_data_csv(name: str, text: str, clock: list[tuple[float, int]] | None) 
                          field=TIME_COLUMN)
     t_ns = _epoch_ns(table.column(TIME_COLUMN), clock, name)
     keep = np.r_[True, np.diff(t_ns) > 0]
+    if not keep.all():
+        warnings.append(f"{name.rsplit('/', 1)[-1]}: dropped {int((~keep).sum())} of {keep.size} samples repeating "
+                        "the previous timestamp (a file resaved with fewer time digits?)")
     out: dict[str, SensorStream] = {}
     for kind, axes in groups.items():
         names = ("p",) if kind == "baro" else ("x", "y", "z")
@@ -204,8 +248,7 @@ def _epoch_ns(t_s: np.ndarray, clock: list[tuple[float, int]] | None, source: st
 
 
 def _csv_rows(text: str, source: str) -> list[list[str]]:
-    first = text.split("\n", 1)[0]
-    delim, _ = _dialect(first)
+    delim, _ = _dialect(text)
     try:
         return list(csv.reader(io.StringIO(text, newline=""), delimiter=delim))
     except csv.Error as exc:
@@ -224,7 +267,7 @@ def _read_time(text: str, source: str) -> list[tuple[float, int]] | None:
         raise InputError(f"missing column(s) {missing} (header has {header})", source=source, line=1,
                          field=missing[0])
     idx = [header.index(h) for h in need]
-    _, decimal = _dialect(text.split("\n", 1)[0])
+    _, decimal = _dialect(text)
     starts = []
     for line, row in enumerate(rows[1:], start=2):
         if not row:

@@ -10,8 +10,10 @@ message; :func:`read` takes a ``.json`` file holding one message or a list of me
 
 Export: a folder or zip with one CSV per sensor, ``time,seconds_elapsed,<components>`` (for xyz sensors the file
 order is ``z,y,x``: columns are always read by name), plus ``Metadata.csv`` (``platform``, ``standardisation``,
-``device name``, ...). The JSON export (a list of flat records ``{"sensor": "Accelerometer", "time": ..,
-"x": ..}`` including a ``Metadata`` record) is read too.
+``device name``, ...). The export of early 2021 (Metadata ``version`` 2) has ``time,<components>`` (no
+``seconds_elapsed``) and no ``standardisation`` column; it is read the same way. The app writes empty (0-byte)
+files for streams that recorded nothing: they are skipped with a warning. The JSON export (a list of flat
+records ``{"sensor": "Accelerometer", "time": .., "x": ..}`` including a ``Metadata`` record) is read too.
 
 Readings and streams
     ``accelerometer`` -> ``lin_acc`` (gravity removed!), ``totalacceleration`` -> ``acc``, ``gravity`` ->
@@ -102,9 +104,15 @@ class _Raw:
 
 # --------------------------------------------------------------------------------------------- sniffing
 
-def _is_reading_csv_header(raw: bytes) -> bool:
+def _is_reading_csv_header(raw: bytes, name: str, with_metadata: bool) -> bool:
+    """The header of reading ``name``'s CSV: ``time,seconds_elapsed,...`` (Metadata version 3 and later), or,
+    next to a ``Metadata.csv``, ``time`` and the reading's components (version 2, early 2021: ``time,z,y,x``).
+    """
     first = raw.split(b"\n", 1)[0].decode("utf-8-sig", errors="replace").strip().lower()
-    return first.startswith("time,seconds_elapsed")
+    if first.startswith("time,seconds_elapsed"):
+        return True
+    cols = [c.strip() for c in first.split(",")]
+    return with_metadata and cols[:1] == ["time"] and {c.lower() for c in READINGS[name][1]} <= set(cols[1:])
 
 
 def sniff(path: str | Path) -> bool:
@@ -113,11 +121,12 @@ def sniff(path: str | Path) -> bool:
         p = Path(path)
         if p.is_dir() or (p.is_file() and (p.name.lower().endswith(".zip") or is_zip(p))):
             bundle = Bundle(p, anchor="Metadata.csv")
-            for member in bundle.members():
+            members = bundle.members()
+            for member in members:
                 stem = member.rsplit("/", 1)[-1].rsplit(".", 1)[0].lower()
                 if "/" not in member and member.lower().endswith(".csv") and stem in READINGS:
                     raw = bundle.get(member)
-                    if raw is not None and _is_reading_csv_header(raw[:200]):
+                    if raw is not None and _is_reading_csv_header(raw[:200], stem, "Metadata.csv" in members):
                         return True
             return False
         if not p.is_file() or not strip_gz(p.name.lower()).endswith(".json"):
@@ -315,6 +324,7 @@ def _read_bundle(bundle: Bundle, source: str) -> Recording:
         if len(rows) >= 2:
             metadata = {k.strip(): v.strip() for k, v in zip(rows[0], rows[1], strict=False)}
     raw: dict[str, _Raw] = {}
+    notes: list[str] = []
     for member in bundle.members():
         if "/" in member or not member.lower().endswith(".csv"):
             continue
@@ -322,18 +332,24 @@ def _read_bundle(bundle: Bundle, source: str) -> Recording:
         if name not in READINGS:
             continue
         fname = bundle.name(member)
-        table = parse_table(bundle.text(member), fname, int_columns=("time",))
+        text = bundle.text(member)
+        if not text.strip():
+            # The app writes empty files for streams that recorded nothing (e.g. Annotation.csv).
+            notes.append(f"{member}: empty file (no header, no samples): {READINGS[name][0]} skipped")
+            continue
+        table = parse_table(text, fname, int_columns=("time",))
         comps = READINGS[name][1]
         for c in ("time", *comps):
             table.column(c)  # InputError naming the missing column
         raw[name] = _Raw(table.column("time").astype(np.int64), table.stack(comps),
                          [f"{fname}, line {table.line(i)}" for i in range(len(table))])
     if not raw:
-        raise InputError(f"no supported sensor CSV (expected e.g. {', '.join(_csv_names()[:4])}, ...)", source=source)
+        raise InputError(f"no supported sensor CSV (expected e.g. {', '.join(_csv_names()[:4])}, ...)"
+                         + (f"; {'; '.join(notes)}" if notes else ""), source=source)
     platform, standardised, meta, device_name = _metadata_fields(metadata)
     if not metadata:
         meta["metadata"] = "missing"
-    return _assemble(raw, meta, source, platform, standardised, sort=False, device_name=device_name)
+    return _assemble(raw, meta, source, platform, standardised, sort=False, device_name=device_name, notes=notes)
 
 
 def _csv_names() -> list[str]:
@@ -406,8 +422,8 @@ def _interp(t_src: NDArray[np.int64], v_src: NDArray[np.float64], t_dst: NDArray
 
 
 def _assemble(raw: dict[str, _Raw], meta: dict[str, Any], source: str, platform: str | None,
-              standardised: bool | None, *, sort: bool, device_name: str) -> Recording:
-    warnings: list[str] = []
+              standardised: bool | None, *, sort: bool, device_name: str, notes: Sequence[str] = ()) -> Recording:
+    warnings: list[str] = list(notes)
     raw = {n: _ordered(n, r, source, sort, warnings) for n, r in raw.items()}
     raw = {n: r for n, r in raw.items() if len(r.t_ns)}
     if not raw:

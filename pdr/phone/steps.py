@@ -10,6 +10,12 @@ Per seed 004 Sec. 3.2, on a uniform grid (the caller resamples; 20-25 Hz is enou
    and rise rate exceed their limits, and at least ``min_interval_s`` after the previous step start;
 4. the step ends ``t_e(k)`` when the next step starts, or ``max_step_s`` after its start.
 
+Optionally (``beat_min_peak`` below ``min_peak``; off by default) a crossing that comes on the beat of the
+last two accepted starts (its interval within ``beat_tolerance`` of theirs, itself at most ``max_step_s``)
+needs only ``beat_min_peak``, and a rise rate scaled by the same ratio: a gentle hand-held walker's steps
+(0.4-0.6 m/s^2 peaks) that keep the rhythm are steps. It is off: it costs the Oxford figure and over-counts
+a swinging hand (see ``StepConfig``).
+
 The reference level is not the constant g but a slow causal low-pass of ``a_n`` (``reference_hz``), which
 absorbs accelerometer scale and bias errors. The peak-height limit adapts to the carriage: it is the
 larger of ``min_peak`` and ``peak_ratio`` times a running mean of accepted peak heights (a phone in a
@@ -26,7 +32,11 @@ back pocket) while the stride stays regular.
   a phone into a pocket or bag, or taking it out, gives peaks at irregular intervals and is dropped. The
   legs alternate, so each step must also agree with the same leg's step one stride later (ratio within
   ``[1/step_spread, step_spread]``): a stride can look regular while a double crossing splits it into
-  0.3 s + 0.7 s on a walk of symmetric 0.5 s steps. Once confirmed, the bout also takes the earlier starts
+  0.3 s + 0.7 s on a walk of symmetric 0.5 s steps. The confirming starts must also come at a walking pace:
+  their median step at least ``min_bout_step_s`` (0.38 s, about 2.6 steps/s, faster than people walk).
+  Putting a phone into a pocket gives regular peaks 0.3-0.4 s apart; without this limit such a run
+  confirmed a bout at half the walk's stride and the missed-step rule below then put a step between every
+  two real ones (60 steps on a real 27-step pocket walk). Once confirmed, the bout also takes the earlier starts
   (gait initiation) whose strides stay within ``[min_stride_ratio, max_stride_ratio]`` times the bout's
   median stride and whose steps pass the same-leg test.
 * A candidate bout (not yet confirmed) breaks at a start off the rhythm of its recent strides. It then
@@ -172,6 +182,13 @@ class StepConfig:
     step_spread
         Largest ratio between a step (start to next start) and the same leg's step one stride later, in the
         starts that confirm a bout and in the gait-initiation starts it takes before them.
+    beat_min_peak, beat_tolerance
+        Peak-height floor (m/s^2) of a crossing on the beat of the last two accepted starts (its interval
+        within this fraction of theirs), instead of ``min_peak``. Equal to ``min_peak`` (the default) turns the
+        rule off: with 0.3 and 0.35 it counts gentle hand-held walks, but raises the Oxford error and
+        over-counts a swinging hand (half-stride arm peaks on the beat); figures in the commit that added it.
+    min_bout_step_s
+        Shortest median step (s) of the starts that confirm a walking bout (faster is handling, not walking).
     """
 
     cutoff_hz: float = 3.0
@@ -199,10 +216,13 @@ class StepConfig:
     short_bout_spread: float = 1.15
     short_bout_peak_ratio: float = 0.6
     step_spread: float = 1.67
+    beat_min_peak: float = 0.6
+    beat_tolerance: float = 0.2
+    min_bout_step_s: float = 0.38
 
     def __post_init__(self) -> None:
         for name in ("cutoff_hz", "reference_hz", "max_rise_s", "min_interval_s", "max_step_s",
-                     "min_stride_ratio", "gravity_hz", "handling_angle_deg"):
+                     "min_stride_ratio", "gravity_hz", "handling_angle_deg", "min_peak", "beat_min_peak"):
             if not getattr(self, name) > 0:
                 raise InputError(f"{name} must be positive", field=name, source="step config")
         if self.soft_walk_steps < 1:
@@ -253,8 +273,9 @@ class Steps:
 
 
 # Kernel state layout.
-_S_REF_INIT, _S_PREV_D, _S_CAND, _S_CAND_START, _S_CAND_PEAK, _S_CAND_PEAK_I, _S_AMP, _S_LAST, _S_INDEX = range(9)
-_S_SIZE = 9
+_S_REF_INIT, _S_PREV_D, _S_CAND, _S_CAND_START, _S_CAND_PEAK, _S_CAND_PEAK_I, _S_AMP, _S_LAST, _S_INDEX, \
+    _S_LAST2 = range(10)
+_S_SIZE = 10
 #: Starts kept of a confirmed bout (stride and peak medians, last step duration) and of a candidate bout.
 _BOUT_HISTORY = 10
 _CANDIDATE_HISTORY = 12
@@ -284,8 +305,14 @@ def _strides(starts: Sequence[int]) -> list[int]:
 @numba.njit(cache=True)
 def _detect_kernel(d: FloatArray, st: FloatArray, fs: float, min_peak: float, peak_ratio: float,
                    min_rate: float, max_rise: int, min_interval: int,
-                   amp_tau: float) -> tuple[IntArray, FloatArray, IntArray]:
-    """Crossing/peak state machine over ``d = a_n - reference``; returns accepted (start, peak, decided_at)."""
+                   amp_tau: float, beat_peak: float, beat_tol: float,
+                   max_step: int) -> tuple[IntArray, FloatArray, IntArray]:
+    """Crossing/peak state machine over ``d = a_n - reference``; returns accepted (start, peak, decided_at).
+
+    A crossing on the beat (its interval from the last accepted start within ``beat_tol`` of the interval
+    before, itself at most ``max_step``) needs a peak of ``beat_peak`` instead of ``min_peak``, and a rise rate
+    scaled by the same ratio (the same step shape, softer); the amplitude-relative limit is unchanged.
+    """
     n = d.size
     starts = np.empty(n, dtype=np.int64)
     peaks = np.empty(n)
@@ -307,14 +334,20 @@ def _detect_kernel(d: FloatArray, st: FloatArray, fs: float, min_peak: float, pe
                 h = st[_S_CAND_PEAK]
                 rise = (st[_S_CAND_PEAK_I] - cs + 1) / fs
                 thr = min_peak
+                rate_thr = min_rate
+                prev_step = st[_S_LAST] - st[_S_LAST2]
+                if prev_step <= max_step and abs(cs - st[_S_LAST] - prev_step) <= beat_tol * prev_step:
+                    thr = beat_peak
+                    rate_thr = min_rate * beat_peak / min_peak
                 if st[_S_AMP] > 1e-9 and peak_ratio * st[_S_AMP] > thr:
                     thr = peak_ratio * st[_S_AMP]
-                accepted = h >= thr and h / rise >= min_rate and cs - st[_S_LAST] >= min_interval
+                accepted = h >= thr and h / rise >= rate_thr and cs - st[_S_LAST] >= min_interval
                 if accepted:
                     starts[m] = cs
                     peaks[m] = h
                     decided[m] = gi
                     m += 1
+                    st[_S_LAST2] = st[_S_LAST]
                     st[_S_LAST] = cs
                     st[_S_AMP] = h if st[_S_AMP] <= 1e-9 else 0.8 * st[_S_AMP] + 0.2 * h
                 st[_S_CAND] = 0.0
@@ -363,6 +396,7 @@ class StepDetector:
         self._energy = 0.0                      # running sum of (a_n - reference)^2 over every sample seen
         self._kernel = np.zeros(_S_SIZE)
         self._kernel[_S_LAST] = -1e12
+        self._kernel[_S_LAST2] = -2e12
         # Walking bout bookkeeping: accepted starts not yet reported (_Start rows), whether the bout is
         # confirmed, the stride RMS of its recent steady steps, and its doubtful steps held back (_Held rows).
         self._bout: list[_Start] = []
@@ -393,7 +427,10 @@ class StepDetector:
             det._rzi = None if d["rzi"] is None else np.array(d["rzi"], dtype=np.float64)
             det._gzi = None if d["gzi"] is None else np.array(d["gzi"], dtype=np.float64)
             det._energy = float(d["energy"])
-            det._kernel = np.array(d["kernel"], dtype=np.float64)
+            kernel = np.array(d["kernel"], dtype=np.float64)
+            if kernel.size == _S_LAST2:          # saved before the on-beat floor: no start before the last
+                kernel = np.r_[kernel, -2e12]
+            det._kernel = kernel
             det._bout = [(int(s), float(p), int(a), float(e), float(gx), float(gy), float(gz))
                          for s, p, a, e, gx, gy, gz in d["bout"]]
             det._bout_confirmed = bool(d["bout_confirmed"])
@@ -482,6 +519,9 @@ class StepDetector:
         if strides.max() > c.bout_spread * strides.min():
             return None
         steps = np.diff(window)
+        if _median(steps.tolist()) < c.min_bout_step_s * self.rate_hz:
+            # Faster than walking (about 2.6 steps/s and more): the phone being handled or put away.
+            return None
         same_leg = steps[:-2] / steps[2:]
         if same_leg.size and (same_leg.max() > c.step_spread or same_leg.min() < 1.0 / c.step_spread):
             return None
@@ -609,7 +649,8 @@ class StepDetector:
             d = an - ref
             starts, peaks, decided = _detect_kernel(
                 d, self._kernel, fs, c.min_peak, c.peak_ratio, c.min_rise_rate,
-                int(round(c.max_rise_s * fs)), int(round(c.min_interval_s * fs)), c.amplitude_tau_s)
+                int(round(c.max_rise_s * fs)), int(round(c.min_interval_s * fs)), c.amplitude_tau_s,
+                c.beat_min_peak, c.beat_tolerance, int(round(c.max_step_s * fs)))
             energy = self._energy + np.cumsum(d * d)
             self._energy = float(energy[-1])
             grav = self._gravity_dir(acc)

@@ -54,6 +54,21 @@ def test_track_bad_input_is_a_clean_error(tmp_path, capsys):
     assert "type must be one of" in capsys.readouterr().err
 
 
+def test_track_refuses_gravity_free_acceleration_only(tmp_path, capsys):
+    # A phyphox "Linear Acceleration" export has no specific force with gravity: an error naming the
+    # experiment to use, never an empty track with exit 0.
+    fixture = Path(__file__).parent / "io" / "fixtures" / "phyphox" / "android_export"
+    export = tmp_path / "linear"
+    (export / "meta").mkdir(parents=True)
+    for f in ("meta/time.csv", "meta/device.csv", "Linear Acceleration.csv"):
+        (export / f).write_bytes((fixture / f).read_bytes())
+    out = tmp_path / "x.csv"
+    assert main(["track", str(export), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "no accelerometer stream with gravity" in err and "'Acceleration (with g)' experiment" in err
+    assert not out.exists()
+
+
 def test_calibrate_scales_to_the_known_distance(tmp_path):
     from pdr.io import read_recording
     rec = read_recording(SIM / "hand_escalator.zip")
@@ -183,3 +198,22 @@ def test_distance_ratio_same_floor_leaves_out_floor_changes():
     # A landmark between two track rows: the interval is cut at the interpolated position (no partial step lost).
     assert distance_ratio_same_floor(t, en, np.array([0.5, 9.5]), np.array([[0.5, 0.0], [9.5, 0.0]]),
                                      np.zeros(2)) == pytest.approx(1.0)
+
+
+@pytest.mark.data
+def test_steps_eval_on_sensor_logger_walks_with_plain_detector_beside(capsys):
+    # Truth from the folder names (<carriage>-<N>-steps-<walker>); each walk read, counted, and the plain
+    # low-pass + find_peaks count printed beside it.
+    root = data_path("sensor_logger_walks")
+    assert main(["eval", "steps", str(root), "--json"]) == 0
+    files = {r["walk"]: r for r in json.loads(capsys.readouterr().out)["files"]}
+    assert set(files) == {"inhand-20-steps-Zyf", "inhand-30-steps-Zyf", "texting-30-steps-Zyf",
+                          "inpocket-27-steps-Matan"}
+    for name, r in files.items():
+        assert "error" not in r, r
+        assert r["true"] == int(name.split("-")[1])
+        assert r["count_error"] == r["detected"] - r["true"]
+        assert r["plain_detected"] > 0
+    # The early-2021 pocket export, once refused, and its handling before the walk (60 steps before the
+    # cadence limit): within one step.
+    assert abs(files["inpocket-27-steps-Matan"]["count_error"]) <= 1

@@ -150,3 +150,81 @@ def test_binary_member_and_foreign_inputs(tmp_path):
 
 def test_detect_format():
     assert detect_or_skip(FIXTURE) == "phyphox"
+
+
+_ACC_ROWS = [(0.0, 0.01, -0.02, 9.81), (0.01, 0.01, -0.02, 9.80), (0.02, 0.02, -0.01, 9.79)]
+
+
+def _dialect_text(delim: str, decimal: str) -> str:
+    cols = ["Time (s)", "Acceleration x (m/s^2)", "Acceleration y (m/s^2)", "Acceleration z (m/s^2)"]
+    lines = [delim.join(f'"{c}"' for c in cols)]
+    for row in _ACC_ROWS:
+        lines.append(delim.join(f"{v:.9E}".replace(".", decimal) for v in row))
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize(("delim", "decimal"), [(",", "."), ("\t", "."), (";", "."), ("\t", ","), (";", ",")])
+def test_all_five_csv_dialects(delim, decimal, tmp_path):
+    # phyphox's export menu: comma / tabulator / semicolon with a decimal point, tabulator / semicolon with a
+    # decimal comma ("Tabulator, decimal comma" was refused: '0,000000000E0' is not a number).
+    p = tmp_path / "Raw Data.csv"
+    p.write_text(_dialect_text(delim, decimal), encoding="utf-8")
+    assert phyphox.sniff(p)
+    rec = phyphox.read(p)
+    np.testing.assert_allclose(rec.values("acc"), [r[1:] for r in _ACC_ROWS])
+    assert rec.stream("acc").t_ns[-1] == 20_000_000
+
+
+def _ios_multi_sensor_export(folder: Path, with_acc: bool = True) -> Path:
+    """phyphox iOS multi-sensor export: one CSV per sensor named after it, bare ``X (unit)`` columns, meta/."""
+    (folder / "meta").mkdir(parents=True)
+    (folder / "meta" / "time.csv").write_text('"event","experiment time","system time","system time text"\n'
+                                              '"START",0.000000000E0,1717000000.25,"x"\n')
+    (folder / "meta" / "device.csv").write_text('"property","value"\n"deviceModel","iPhone14,5"\n'
+                                                '"deviceBrand","Apple"\n')
+    t = np.arange(100) * 0.01
+    files = {"Gyroscope.csv": ("rad/s", [0.1, 0.0, -0.1]), "Linear Accelerometer.csv": ("m/s^2", [0.2, 0.1, 0.0])}
+    if with_acc:
+        files["Accelerometer.csv"] = ("m/s^2", [0.2, 0.1, 9.81])
+    for fname, (unit, v) in files.items():
+        lines = [f'"Time (s)","X ({unit})","Y ({unit})","Z ({unit})"']
+        lines += [f"{ti:.9E},{v[0]:.9E},{v[1]:.9E},{v[2]:.9E}" for ti in t]
+        (folder / fname).write_text("\n".join(lines) + "\n")
+    return folder
+
+
+def test_ios_multi_sensor_export_streams_from_file_names(tmp_path):
+    path = _ios_multi_sensor_export(tmp_path / "Multi 2024-05-29")
+    assert phyphox.sniff(path)
+    rec = phyphox.read(path)
+    assert rec.device.platform == "ios"
+    assert set(rec.streams) == {"acc", "lin_acc", "gyro"}
+    np.testing.assert_allclose(rec.values("acc")[0], [0.2, 0.1, 9.81])       # Accelerometer.csv includes g
+    np.testing.assert_allclose(rec.values("lin_acc")[0], [0.2, 0.1, 0.0])
+    np.testing.assert_allclose(rec.values("gyro")[0], [0.1, 0.0, -0.1])
+    assert rec.warnings == ()
+
+
+def test_bare_axis_columns_outside_an_export_are_not_read(tmp_path):
+    # Without meta/ the file name is no evidence of a phyphox sensor (x-io and others write "X (...)" too).
+    path = _ios_multi_sensor_export(tmp_path / "export")
+    single = path / "Accelerometer.csv"
+    assert not phyphox.sniff(single)
+
+
+def test_linear_acceleration_only_export_warns_which_experiment_to_use(tmp_path):
+    path = _ios_multi_sensor_export(tmp_path / "export", with_acc=False)
+    (path / "Gyroscope.csv").unlink()
+    rec = phyphox.read(path)
+    assert set(rec.streams) == {"lin_acc"}
+    assert any("'Acceleration (with g)' experiment" in w for w in rec.warnings)
+
+
+def test_repeated_timestamps_are_dropped_with_a_warning(tmp_path):
+    # A spreadsheet-resaved file keeps fewer time digits: many rows share a timestamp.
+    p = tmp_path / "Raw Data.csv"
+    p.write_text('"Time (s)","Acceleration x (m/s^2)","Acceleration y (m/s^2)","Acceleration z (m/s^2)"\n'
+                 "0.00,0,0,9.8\n0.00,1,0,9.8\n0.01,0,0,9.8\n0.01,2,0,9.8\n0.01,3,0,9.8\n0.02,0,0,9.8\n")
+    rec = phyphox.read(p)
+    np.testing.assert_allclose(rec.values("acc")[:, 0], [0.0, 0.0, 0.0])    # the first of each repeat kept
+    assert any("dropped 3 of 6 samples repeating the previous timestamp" in w for w in rec.warnings)

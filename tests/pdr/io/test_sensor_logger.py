@@ -225,7 +225,6 @@ def _edit_line(path: Path, line: int, new: str | None):
 
 
 @pytest.mark.parametrize(("edit", "line", "field", "match"), [
-    (lambda p: p.write_text(""), 1, None, "empty file"),
     (lambda p: p.write_text(p.read_text()[:-25]), None, None, None),  # truncated last line: caught below
     (lambda p: _edit_line(p, 4, "1717000000150000000,0.03,0.1"), 4, None, "expected 5 fields"),
     (lambda p: _edit_line(p, 4, "1717000000150000000,0.03,0.1,0.2,0.3,0.4"), 4, None, "expected 5 fields"),
@@ -297,3 +296,74 @@ def test_foreign_inputs_are_not_sniffed(tmp_path):
 @pytest.mark.parametrize("name", [*EXPORTS, "android_push.json", "ios_push_list.json"])
 def test_detect_format(name):
     assert detect_or_skip(FIXTURES / name) == "sensor_logger"
+
+
+def test_empty_sensor_csv_is_skipped_with_a_warning(tmp_path):
+    # Sensor Logger writes 0-byte files for streams that recorded nothing (Annotation.csv, Barometer.csv).
+    folder = _copy_export(tmp_path)
+    (folder / "Barometer.csv").write_text("")
+    rec = sensor_logger.read(folder)
+    assert not rec.has("baro") and rec.has("acc") and rec.has("gyro")
+    assert any("Barometer.csv: empty file" in w for w in rec.warnings)
+
+
+def test_every_sensor_csv_empty_is_refused_naming_them(tmp_path):
+    folder = tmp_path / "export"
+    folder.mkdir()
+    (folder / "Metadata.csv").write_text("version,device name,recording time,platform\n2,SM-N960F,x,android\n")
+    (folder / "Accelerometer.csv").write_text("")
+    with pytest.raises(InputError, match="Accelerometer.csv: empty file"):
+        sensor_logger.read(folder)
+
+
+def _write_v2_export(folder: Path) -> Path:
+    """A Sensor Logger export of early 2021 (Metadata version 2): ``time,z,y,x``, no ``seconds_elapsed``."""
+    folder.mkdir()
+    (folder / "Metadata.csv").write_text("version,device name,recording time,platform\n2,SM-N960F,"
+                                         "2021-00-12_21-13-19,android")      # no final newline, as the app
+    t0 = 1610478799122730000
+    rows = [f"{t0 + i * 10_000_000},{9.8 + 0.01 * i},{0.1},{-0.2}" for i in range(50)]
+    grav = [f"{t0 + i * 10_000_000},9.81,0.0,0.0" for i in range(50)]
+    lin = [f"{t0 + i * 10_000_000},{0.01 * i},0.1,-0.2" for i in range(50)]
+    (folder / "Gyroscope.csv").write_text("time,z,y,x\n" + "\n".join(rows) + "\n")
+    (folder / "Gravity.csv").write_text("time,z,y,x\n" + "\n".join(grav) + "\n")
+    (folder / "Accelerometer.csv").write_text("time,z,y,x\n" + "\n".join(lin) + "\n")
+    (folder / "Barometer.csv").write_text("time,relativeAltitude,pressure\n"
+                                          f"{t0},0,1017.08\n{t0 + 100_000_000},0,1017.09\n")
+    (folder / "Location.csv").write_text("")
+    return folder
+
+
+def test_metadata_version_2_export_is_read(tmp_path):
+    folder = _write_v2_export(tmp_path / "walk")
+    assert sensor_logger.sniff(folder)
+    rec = sensor_logger.read(folder)
+    assert rec.device.platform == "android" and rec.device.model == "SM-N960F"
+    assert rec.meta["convention"] == "android"
+    np.testing.assert_allclose(rec.values("gyro")[0], [-0.2, 0.1, 9.8])        # x, y, z read by name
+    np.testing.assert_allclose(rec.values("acc")[3], [-0.2, 0.1, 9.81 + 0.03])  # accelerometer + gravity
+    assert rec.values("baro")[1, 0] == pytest.approx(1017.09)
+    assert rec.warnings == ()
+
+
+def test_time_and_components_without_metadata_are_not_sniffed(tmp_path):
+    # Without Metadata.csv and seconds_elapsed, a folder of time,x,y,z files is someone else's format.
+    folder = _write_v2_export(tmp_path / "walk")
+    (folder / "Metadata.csv").unlink()
+    assert not sensor_logger.sniff(folder)
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("walk", ["inhand-20-steps-Zyf", "inhand-30-steps-Zyf", "texting-30-steps-Zyf",
+                                  "inpocket-27-steps-Matan"])
+def test_real_sensor_logger_walks_are_read(walk):
+    from pdr.io.registry import detect_format, read_recording
+    from tests.conftest import data_path
+    path = data_path("sensor_logger_walks", walk)
+    assert detect_format(path) == "sensor_logger"
+    rec = read_recording(path)
+    assert rec.device.platform == "android"
+    for kind in ("acc", "gyro", "mag", "gravity"):
+        assert rec.has(kind), kind
+    # at rest at the start the specific force is gravity, in m/s^2 and the Android sign
+    assert np.linalg.norm(rec.values("acc")[:20].mean(axis=0)) == pytest.approx(9.81, abs=0.5)

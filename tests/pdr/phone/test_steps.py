@@ -337,3 +337,49 @@ def test_real_walk_started_right_after_putting_the_phone_away():
     t, steps, true = _oxford_walk_steps("Pixel_Jamie_Hard_FrontPocket_1")
     assert abs(len(steps) - true.size) <= 1
     assert np.count_nonzero(t[steps.start_idx] < true[3] + 0.2) >= 3
+
+
+def test_handling_faster_than_walking_does_not_confirm_a_bout():
+    # Putting a phone into a pocket: six peaks 0.3-0.42 s apart (the intervals of the real
+    # inpocket-27-steps-Matan walk; regular enough to pass the stride rules, but faster than walking), a pause,
+    # then a 27-step walk of 0.6 s steps. Without the cadence limit the handling run confirms a bout of its
+    # own (on the real walk it went on at half the walk's stride, the missed-step rule putting a step between
+    # every two real ones: 60 steps).
+    handling = 2.0 + np.cumsum([0.0, 0.3, 0.4, 0.42, 0.32, 0.34])
+    walk_t = handling[-1] + 1.5 + 0.6 * np.arange(27)
+    times = np.concatenate([handling, walk_t])
+    amps = np.concatenate([np.tile([2.0, 3.5], 3), np.tile([7.0, 3.5], 14)[:27]])
+    steps = detect_steps(bumps(times, amps, times[-1] + 3.0), FS)
+    assert abs(len(steps) - walk_t.size) <= 1
+    assert steps.start_idx.min() / FS > handling[-2]
+    legacy = detect_steps(bumps(times, amps, times[-1] + 3.0), FS, StepConfig(min_bout_step_s=0.0))
+    assert len(legacy) >= walk_t.size + 5         # the handling counted: what the limit removes
+
+
+def test_on_beat_floor_counts_a_gentle_walk_only_when_enabled():
+    # A gentle hand-held walker: steps 0.9 s apart, three firm ones, then peaks alternating firm and soft (below
+    # min_peak). The on-beat floor (beat_min_peak), once two firm steps set the beat, accepts the soft peaks
+    # that come on it; by default they are not steps and the walk never confirms.
+    times = 2.0 + 0.9 * np.arange(20)
+    amps = np.r_[0.9, 0.9, 0.9, np.tile([0.65, 0.9], 9)[:17]]   # filtered peaks about 0.65 and 0.4 m/s^2
+    acc = bumps(times, amps, times[-1] + 2.0, width_s=0.4)
+    assert len(detect_steps(acc, FS)) < 10
+    soft = detect_steps(acc, FS, StepConfig(beat_min_peak=0.3, beat_tolerance=0.35))
+    assert abs(len(soft) - times.size) <= 1
+
+
+def test_state_saved_before_the_on_beat_floor_loads():
+    _, acc = walk(30)
+    det = StepDetector(FS)
+    a, _ = det.update(acc[:400])
+    state = det.state_dict()
+    state["kernel"] = state["kernel"][:-1]            # the kernel state of earlier versions
+    b, _ = StepDetector.from_state_dict(state).update(acc[400:], final=True)
+    assert len(a) + len(b) == 30
+
+
+def test_plain_peak_counter_counts_a_clean_walk():
+    from pdr.scoring import plain_step_count
+    t, acc = walk(30, 1.8, 3.0)
+    assert plain_step_count(t, acc) == 30
+    assert plain_step_count(t[:1], acc[:1]) == 0
