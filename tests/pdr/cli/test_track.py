@@ -57,7 +57,7 @@ def test_track_bad_input_is_a_clean_error(tmp_path, capsys):
 def test_track_refuses_gravity_free_acceleration_only(tmp_path, capsys):
     # A phyphox "Linear Acceleration" export has no specific force with gravity: an error naming the
     # experiment to use, never an empty track with exit 0.
-    fixture = Path(__file__).parent / "io" / "fixtures" / "phyphox" / "android_export"
+    fixture = REPO_ROOT / "tests" / "pdr" / "io" / "fixtures" / "phyphox" / "android_export"
     export = tmp_path / "linear"
     (export / "meta").mkdir(parents=True)
     for f in ("meta/time.csv", "meta/device.csv", "Linear Acceleration.csv"):

@@ -379,7 +379,7 @@ def test_state_saved_before_the_on_beat_floor_loads():
 
 
 def test_plain_peak_counter_counts_a_clean_walk():
-    from pdr.scoring import plain_step_count
+    from pdr.evaluation.scoring import plain_step_count
     t, acc = walk(30, 1.8, 3.0)
     assert plain_step_count(t, acc) == 30
     assert plain_step_count(t[:1], acc[:1]) == 0
