@@ -31,10 +31,11 @@ gyro bias estimate (deg/s, device frame; None before the first stationary period
 ``{"type": "floor_change", ...}`` and ``{"type": "notice", "message"}`` (degraded inputs). ``t_s`` is on the
 log's own clock (seconds).
 
-Placement (``pocket``, ``hand``, ``torso``) comes from the configuration, else from an injected
+Placement (``pocket``, ``hand``, ``torso``, ``swinging``) comes from the configuration, else from an injected
 ``placement_provider(recording) -> str | None`` (e.g. the placement classifier; pdr/ never imports it),
-else from the recording's :class:`~pdr.recording.DeviceInfo`, else from a simple rule at the first
-steps: a device whose long axis swings by more than ``pocket_swing_deg`` over a step is in a pocket.
+else from the recording's :class:`~pdr.recording.DeviceInfo`, else it is detected online from the physics of
+the carriage, stride by stride (:mod:`pdr.placement_detect`: a steady device is held, a pendulum's specific
+force stays along the arm, a pocket phone's turns with the thigh), and revised when the phone changes place.
 """
 
 from __future__ import annotations
@@ -75,6 +76,7 @@ from pdr.heading import (
 )
 from pdr.landmarks import ElevatorDetector, LandmarkConfig, Site, classify_step, neighbour_correction
 from pdr.magcal import HardIronEstimator, MagCalConfig
+from pdr.placement_detect import PlacementDetectConfig, PlacementDetector, stride_cues
 from pdr.recording import Recording
 from pdr.step_length import StepLengthModel, step_patterns
 from pdr.steps import StepConfig, StepDetector
@@ -89,6 +91,8 @@ PLACEMENT_GROUPS = {"trouser_pocket_front": "pocket", "trouser_pocket_back": "po
 #: Device forward axis (body frame) per placement for the device-heading method: hand-held in reading
 #: position the top of the phone (+y) points ahead; on the torso the phone is upright with the screen
 #: facing forward (+z).  Other mounts need `heading_offset="pca"` (which corrects up to +/-90 degrees).
+#: Placements the pipeline has a heading method for.
+PIPELINE_PLACEMENTS = ("pocket", "hand", "torso", "swinging")
 FORWARD_AXIS = {"hand": np.array([0.0, 1.0, 0.0]), "torso": np.array([0.0, 0.0, 1.0])}
 
 
@@ -101,7 +105,7 @@ class PipelineConfig:
     rate_hz
         Grid rate (Hz).
     placement
-        ``auto``, ``pocket``, ``hand`` or ``torso``.
+        ``auto``, ``pocket``, ``hand``, ``torso`` or ``swinging`` (a phone in a hand swinging with the arm).
     attitude_method
         ``ukf`` (seed 003) or ``ekf`` (RMPCA baseline).
     heading_offset
@@ -109,7 +113,8 @@ class PipelineConfig:
     initial_floor
         Floor number at the start.
     pocket_swing_deg
-        Auto placement rule threshold (deg).
+        Unused since the placement is detected by :mod:`pdr.placement_detect` (``placement_detect``); kept so
+        that saved session states load.
     heading_process_var
         Process noise ``w`` of eq. 41 (rad^2).
     step_length_rel_sigma
@@ -144,10 +149,12 @@ class PipelineConfig:
     landmarks: LandmarkConfig = field(default_factory=LandmarkConfig)
     magcal: MagCalConfig = field(default_factory=MagCalConfig)
     hde: DriftEliminationConfig = field(default_factory=DriftEliminationConfig)
+    placement_detect: PlacementDetectConfig = field(default_factory=PlacementDetectConfig)
 
     def __post_init__(self) -> None:
-        if self.placement not in ("auto", "pocket", "hand", "torso"):
-            raise InputError("placement must be auto, pocket, hand or torso", field="placement", source="config")
+        if self.placement not in ("auto", *PIPELINE_PLACEMENTS):
+            raise InputError("placement must be auto, pocket, hand, torso or swinging", field="placement",
+                             source="config")
         if self.attitude_method not in ("ukf", "ekf"):
             raise InputError("attitude_method must be ukf or ekf", field="attitude_method", source="config")
         if self.heading_offset not in ("zero", "pca"):
@@ -163,7 +170,7 @@ class PipelineConfig:
         try:
             sub = {"step": StepConfig, "attitude": AttitudeConfig, "step_length": StepLengthModel,
                    "floors": FloorConfig, "landmarks": LandmarkConfig, "magcal": MagCalConfig,
-                   "hde": DriftEliminationConfig}
+                   "hde": DriftEliminationConfig, "placement_detect": PlacementDetectConfig}
             kw = {k: (sub[k](**v) if k in sub else v) for k, v in d.items()}
             return cls(**kw)
         except TypeError as exc:
@@ -293,6 +300,9 @@ class PdrPipeline:
         self.hde = StepDriftElimination(c.hde, self._grid_yaw())
         self.history = _History(int(c.history_s * c.rate_hz))
         self.placement: str | None = None if c.placement == "auto" else c.placement
+        # Detected online (pdr.placement_detect) unless the configuration, a provider or the device names it.
+        self.auto_placement = c.placement == "auto"
+        self.placement_detector = PlacementDetector(c.placement_detect)
         self.t0_ns = 0
         self.prev_yaw: float | None = None
         self.prev_q: list[float] | None = None
@@ -367,6 +377,7 @@ class PdrPipeline:
             "attitude": self.attitude.state.to_dict(), "magcal": self.magcal.to_dict(), "floors": self.floors.to_dict(),
             "elevator": self.elevator.to_dict(), "track": self.track.to_dict(), "offset": self.offset.to_dict(),
             "hde": self.hde.to_dict(), "history": self.history.to_dict(), "placement": self.placement,
+            "auto_placement": self.auto_placement, "placement_detector": self.placement_detector.to_dict(),
             "t0_ns": self.t0_ns,
             "prev_yaw": self.prev_yaw, "prev_q": self.prev_q, "prev_mode": self.prev_mode,
             "last_step": None if self.last_step is None else list(self.last_step),
@@ -398,6 +409,10 @@ class PdrPipeline:
                 p.hde = StepDriftElimination.from_dict(d["hde"], p.config.hde, p._grid_yaw())
             p.history = _History.from_dict(d["history"])
             p.placement, p.t0_ns = d["placement"], int(d["t0_ns"])
+            # Absent in states saved before the online placement detector: their placement stays as it was.
+            p.auto_placement = bool(d.get("auto_placement", False))
+            if d.get("placement_detector") is not None:
+                p.placement_detector = PlacementDetector.from_dict(d["placement_detector"], p.config.placement_detect)
             p.prev_yaw, p.prev_q, p.prev_mode = d["prev_yaw"], d["prev_q"], str(d["prev_mode"])
             last = d.get("last_step")             # absent in states saved before the turn factor
             p.last_step = None if last is None else (float(last[0]), float(last[1]))
@@ -442,6 +457,7 @@ class PdrPipeline:
                 self.placement = _placement_group(self.placement_provider(batch))
             if self.placement is None:
                 self.placement = _placement_group(batch.device.placement)
+            self.auto_placement = self.placement is None
         return events
 
     def _process(self, t: FloatArray, vals: dict[str, FloatArray], final: bool = False) -> list[Event]:
@@ -524,16 +540,36 @@ class PdrPipeline:
 
     def _placement_known(self) -> None:
         """Attitude parameters of the placement: ``device_heading_sigma_gyro`` for hand and torso, from the first
-        step on (the same sample whether the placement came from the configuration, a provider or the rule).
+        step on (the same sample whether the placement came from the configuration, a provider or the detector),
+        and the configured ``sigma_gyro`` again when a detected placement changes to another carriage.
         """
         sg = self.config.device_heading_sigma_gyro
-        if sg is not None and self.placement in ("hand", "torso") and self.attitude.config.sigma_gyro != sg:
-            self.attitude.set_config(replace(self.attitude.config, sigma_gyro=float(sg)))
+        if sg is None:
+            return
+        want = float(sg) if self.placement in ("hand", "torso") else self.config.attitude.sigma_gyro
+        if self.attitude.config.sigma_gyro != want:
+            self.attitude.set_config(replace(self.attitude.config, sigma_gyro=want))
 
-    def _decide_placement(self, y_up: FloatArray) -> str:
-        # Rule: a trouser-pocket phone's long axis swings with the thigh (tens of degrees per step).
-        swing = math.degrees(float(np.arcsin(np.clip(y_up, -1, 1)).max() - np.arcsin(np.clip(y_up, -1, 1)).min()))
-        return "pocket" if swing > self.config.pocket_swing_deg else "hand"
+    def _detect_placement(self, s: int, e: int) -> None:
+        """Online placement from the stride ending with this step (:mod:`pdr.placement_detect`); a change
+        restarts the carriage-specific heading state (the pocket's walking-direction continuity and vote).
+        """
+        h = self.history
+        stride = h.sl(s - (e - s), e)
+        q, acc = h.q[stride], h.acc[stride]
+        if q.shape[0] < 3 or not np.all(np.isfinite(q)):
+            return
+        new = self.placement_detector.update(stride_cues(q, acc, self.config.rate_hz,
+                                                         self.config.placement_detect.smooth_s))
+        if new == self.placement:
+            return
+        if self.placement is not None:
+            self.notices.append(f"placement changed from {self.placement} to {new} at t={float(h.t[stride][-1]):.2f} s")
+        else:
+            self.notices.append(f"placement detected: {new}")
+        self.placement = new
+        self.prev_yaw = self.prev_q = self.prev_step_start = None
+        self.direction_vote = DirectionVote()
 
     def _step(self, s: int, e: int, peak: float) -> list[Event]:
         h = self.history
@@ -542,9 +578,10 @@ class PdrPipeline:
         if q.shape[0] < 3 or not np.all(np.isfinite(q)):
             return []
         c = self.config
+        if self.auto_placement:
+            self._detect_placement(s, e)
         if self.placement is None:
-            self.placement = self._decide_placement(h.y_up[sl])
-            self.notices.append(f"placement decided by rule: {self.placement}")
+            return []
         # From the first step on, whenever the placement became known (configuration, provider or rule).
         self._placement_known()
         f_n = h.f_n[sl]
@@ -553,7 +590,7 @@ class PdrPipeline:
         # Heading.
         axis, _ratio = pca_axis(f_n[:, :2])                     # RMPCA
         st = self.attitude.state
-        if self.placement == "pocket":
+        if self.placement in ("pocket", "swinging"):
             # A pocket phone moves with one thigh, whose stance and swing halves of the gait cycle differ: the
             # walking axis (RMPCA) and the 180-degree rule use the stride made of this step and the one before
             # it (a step's length before it after a pause).
@@ -677,7 +714,7 @@ class PdrPipeline:
                 self.landmark_attitude_updates += int(attitude_updated)
         else:
             self.stairs_landmark = None
-        if self.placement == "pocket" and self.prev_yaw is not None:
+        if self.placement in ("pocket", "swinging") and self.prev_yaw is not None:
             # The step after this one is already resolved (one-step output delay): it keeps its own heading,
             # moved by the correction a landmark made here (replacing it by this step's would make every
             # other step resolve against a heading two steps old).
