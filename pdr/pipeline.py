@@ -81,6 +81,7 @@ from pdr.recording import Recording
 from pdr.step_length import StepLengthModel, step_patterns
 from pdr.steps import StepConfig, StepDetector
 from pdr.track import TrackState
+from pdr.walking_direction import swing_plane_axis, turn_evidence
 
 FloatArray = NDArray[np.float64]
 Event = dict[str, Any]
@@ -126,6 +127,11 @@ class PipelineConfig:
         torso (the walking direction is the device heading, so the yaw matters, not the tilt during a thigh
         swing): the larger process noise makes the magnetometer rows act over a shorter stretch of the walk.
         None keeps ``attitude.sigma_gyro``.
+    pocket_axis
+        Trouser pocket: the walking line from the thigh's swing plane (``swing``, :mod:`pdr.walking_direction`)
+        or from seed 003's improved RMPCA of the specific force through the second UKF (``rmpca``). A site
+        landmark updates the attitude with seed 003's row either way (its innovation does not depend on the
+        line used).
     drift_elimination
         Hand/torso: heuristic drift elimination of the step heading towards dominant directions learnt
         from the walk (:class:`pdr.heading.StepDriftElimination`, parameters ``hde``).
@@ -142,6 +148,7 @@ class PipelineConfig:
     history_s: float = 30.0
     device_heading_sigma_gyro: float | None = 0.02
     drift_elimination: bool = True
+    pocket_axis: str = "swing"
     step: StepConfig = field(default_factory=StepConfig)
     attitude: AttitudeConfig = field(default_factory=AttitudeConfig)
     step_length: StepLengthModel = field(default_factory=StepLengthModel)
@@ -157,6 +164,8 @@ class PipelineConfig:
                              source="config")
         if self.attitude_method not in ("ukf", "ekf"):
             raise InputError("attitude_method must be ukf or ekf", field="attitude_method", source="config")
+        if self.pocket_axis not in ("swing", "rmpca"):
+            raise InputError("pocket_axis must be swing or rmpca", field="pocket_axis", source="config")
         if self.heading_offset not in ("zero", "pca"):
             raise InputError("heading_offset must be zero or pca", field="heading_offset", source="config")
         if not self.rate_hz >= 10:
@@ -601,7 +610,11 @@ class PdrPipeline:
             q_str, f_str = h.q[stride], h.f_n[stride]
             if not (np.all(np.isfinite(q_str)) and np.all(np.isfinite(f_str))):
                 q_str, f_str = q, f_n
-            axis, _ratio = pca_axis(f_str[:, :2])                 # RMPCA over the stride
+            if self.placement == "swinging" or c.pocket_axis == "swing":
+                # The swing plane's axis of the thigh or arm (pdr.walking_direction), not the device yaw.
+                axis, _ratio = swing_plane_axis(q_str, c.rate_hz)
+            else:
+                axis, _ratio = pca_axis(f_str[:, :2])             # RMPCA over the stride
             q_mid = q[q.shape[0] // 2]
             if self.prev_yaw is None or self.prev_q is None:
                 prior = axis
@@ -611,15 +624,23 @@ class PdrPipeline:
                 prior = self.prev_yaw + turn
             self.prev_q = q_mid.tolist()
             psi0 = resolve_direction(axis, prior)
-            # 180-degree rule (pdr.heading module doc): the thigh's fast swing votes for a direction.
-            if self.direction_vote.update(thigh_swing_evidence(q_str, c.rate_hz, psi0)):
+            # 180-degree rule: in a trouser pocket the thigh's fast swing (pdr.heading module doc); in a swinging
+            # hand, whose swing is nearly symmetric, the centripetal acceleration in turns (pdr.walking_direction).
+            if self.placement == "pocket":
+                evidence = thigh_swing_evidence(q_str, c.rate_hz, psi0)
+            else:
+                evidence = turn_evidence(f_str, _yaw_rate(q_str, c.rate_hz), psi0)
+            if self.direction_vote.update(evidence):
                 psi0 = float(wrap_angle(psi0 + math.pi))
                 if self.pending is not None:
                     # The step waiting for output was resolved by the refuted direction: reverse it too.
                     self.pending["yaw"] = float(wrap_angle(self.pending["yaw"] + math.pi))
                     self.pending["psi0"] = float(wrap_angle(self.pending["psi0"] + math.pi))
             m1 = scatter_of(f_str, st.q)
-            est = improved_rmpca_ut(st.q, st.P, m1, psi0, c.heading_process_var, self._ut_points())
+            if self.placement == "swinging" or c.pocket_axis == "swing":
+                est = HeadingEstimate(psi0, yaw_variance(st.q, st.P) + c.heading_process_var)
+            else:
+                est = improved_rmpca_ut(st.q, st.P, m1, psi0, c.heading_process_var, self._ut_points())
             self.prev_yaw = est.yaw
         else:
             dev = mean_yaw(h.yaw_z[sl] if self.placement == "torso" else h.yaw_y[sl])   # seed 004 eq. 21
@@ -755,6 +776,12 @@ class PdrPipeline:
 
     def _clock(self, t_s: float) -> float:
         return t_s
+
+
+def _yaw_rate(q_nb: FloatArray, rate_hz: float) -> float:
+    """Mean rotation rate about the vertical (rad/s) over attitudes ``q_nb`` (N, 4) at ``rate_hz``."""
+    dyaw = float(quat.to_rotvec(quat.multiply(q_nb[-1], quat.conjugate(q_nb[0])))[2])
+    return dyaw * rate_hz / max(q_nb.shape[0] - 1, 1)
 
 
 def _mean_finite(x: FloatArray) -> Any:

@@ -23,9 +23,10 @@ The decision, stride by stride (:func:`classify_stride`):
      along the string at every instant: the tangential part of gravity is exactly what accelerates the bob, so
      no tangential specific force is left. The specific-force direction in the device frame therefore stays
      nearly fixed (along the arm) while the device turns through the whole swing: the ratio is well below 1.
-   - A phone in a trouser pocket sits a hand's width from the hip's rotation centre on a limb that is driven,
-     not swinging freely: its specific force is gravity plus the trunk's accelerations, so its direction turns
-     at least as much as the device does (ratio 1 or more; running, with its large impacts, well above 1).
+   - A phone in a trouser pocket turns with the thigh, which through the stance (about 60 % of the cycle)
+     turns about the planted foot while the hip moves on at nearly constant velocity: no pendulum, the
+     specific force is gravity plus the trunk's bounce and the heel strikes' impacts, so its direction turns at
+     least as much as the device does (ratio about 1 or more; running, with its larger impacts, well above 1).
 
    ``ratio < pendulum_max_ratio`` (halfway between the ideal pendulum's 0 and the rigid, gravity-dominated
    mount's 1) is ``swinging``.
