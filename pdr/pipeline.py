@@ -316,7 +316,7 @@ class PdrPipeline:
         self.prev_yaw: float | None = None
         self.prev_q: list[float] | None = None
         self.prev_step_start: int | None = None
-        self.direction_vote = DirectionVote()
+        self.direction_vote = _direction_vote(self.placement)
         self.prev_mode = ""
         self.last_step: tuple[float, float] | None = None   # (raw yaw rad, end time s) of the last emitted step
         self.stairs_landmark: str | None = None
@@ -430,6 +430,7 @@ class PdrPipeline:
             p.landmark_updates = int(d.get("landmark_updates", 0))
             p.landmark_attitude_updates = int(d.get("landmark_attitude_updates", 0))
             p.prev_step_start = None if d["prev_step_start"] is None else int(d["prev_step_start"])
+            p.direction_vote = _direction_vote(p.placement)
             p.direction_vote.score = float(d["direction_score"])
             p.direction_vote.n = int(d["direction_votes"])
             p.pending = _from_jsonable(d["pending"])
@@ -578,7 +579,7 @@ class PdrPipeline:
             self.notices.append(f"placement detected: {new}")
         self.placement = new
         self.prev_yaw = self.prev_q = self.prev_step_start = None
-        self.direction_vote = DirectionVote()
+        self.direction_vote = _direction_vote(new)
 
     def _step(self, s: int, e: int, peak: float) -> list[Event]:
         h = self.history
@@ -776,6 +777,14 @@ class PdrPipeline:
 
     def _clock(self, t_s: float) -> float:
         return t_s
+
+
+def _direction_vote(placement: str | None) -> DirectionVote:
+    """The forward/backward vote of a placement. A hand holds the phone the same way for minutes and its
+    evidence (the centripetal acceleration, pdr.walking_direction) comes only in turns: a longer memory and a
+    larger margin than the pocket's, whose thigh evidence comes every stride.
+    """
+    return DirectionVote(decay=0.97, margin=2.0) if placement == "swinging" else DirectionVote()
 
 
 def _yaw_rate(q_nb: FloatArray, rate_hz: float) -> float:
