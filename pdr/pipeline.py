@@ -128,10 +128,12 @@ class PipelineConfig:
         swing): the larger process noise makes the magnetometer rows act over a shorter stretch of the walk.
         None keeps ``attitude.sigma_gyro``.
     pocket_axis
-        Trouser pocket: the walking line from the thigh's swing plane (``swing``, :mod:`pdr.walking_direction`)
-        or from seed 003's improved RMPCA of the specific force through the second UKF (``rmpca``). A site
-        landmark updates the attitude with seed 003's row either way (its innovation does not depend on the
-        line used).
+        Trouser pocket: the walking line from the thigh's swing plane (``swing``, :mod:`pdr.walking_direction`),
+        from seed 003's improved RMPCA of the specific force through the second UKF (``rmpca``), or ``auto``:
+        ``rmpca`` when the site has landmarks, ``swing`` otherwise. Seed 003's landmark row corrects the attitude
+        through the RMPCA measurement ``f(q)`` (eqs. 32, 41), so with landmarks the heading is the one that row is
+        written for; without them the swing plane is the better line on real thighs (the RMPCA axis of a front
+        pocket is turned by the thigh's own accelerations).
     drift_elimination
         Hand/torso: heuristic drift elimination of the step heading towards dominant directions learnt
         from the walk (:class:`pdr.heading.StepDriftElimination`, parameters ``hde``).
@@ -148,7 +150,7 @@ class PipelineConfig:
     history_s: float = 30.0
     device_heading_sigma_gyro: float | None = 0.02
     drift_elimination: bool = True
-    pocket_axis: str = "swing"
+    pocket_axis: str = "auto"
     step: StepConfig = field(default_factory=StepConfig)
     attitude: AttitudeConfig = field(default_factory=AttitudeConfig)
     step_length: StepLengthModel = field(default_factory=StepLengthModel)
@@ -164,8 +166,8 @@ class PipelineConfig:
                              source="config")
         if self.attitude_method not in ("ukf", "ekf"):
             raise InputError("attitude_method must be ukf or ekf", field="attitude_method", source="config")
-        if self.pocket_axis not in ("swing", "rmpca"):
-            raise InputError("pocket_axis must be swing or rmpca", field="pocket_axis", source="config")
+        if self.pocket_axis not in ("auto", "swing", "rmpca"):
+            raise InputError("pocket_axis must be auto, swing or rmpca", field="pocket_axis", source="config")
         if self.heading_offset not in ("zero", "pca"):
             raise InputError("heading_offset must be zero or pca", field="heading_offset", source="config")
         if not self.rate_hz >= 10:
@@ -611,7 +613,9 @@ class PdrPipeline:
             q_str, f_str = h.q[stride], h.f_n[stride]
             if not (np.all(np.isfinite(q_str)) and np.all(np.isfinite(f_str))):
                 q_str, f_str = q, f_n
-            if self.placement == "swinging" or c.pocket_axis == "swing":
+            swing_axis = self.placement == "swinging" or c.pocket_axis == "swing" or (
+                c.pocket_axis == "auto" and (self.site is None or not self.site.landmarks))
+            if swing_axis:
                 # The swing plane's axis of the thigh or arm (pdr.walking_direction), not the device yaw.
                 axis, _ratio = swing_plane_axis(q_str, c.rate_hz)
             else:
@@ -638,7 +642,7 @@ class PdrPipeline:
                     self.pending["yaw"] = float(wrap_angle(self.pending["yaw"] + math.pi))
                     self.pending["psi0"] = float(wrap_angle(self.pending["psi0"] + math.pi))
             m1 = scatter_of(f_str, st.q)
-            if self.placement == "swinging" or c.pocket_axis == "swing":
+            if swing_axis:
                 est = HeadingEstimate(psi0, yaw_variance(st.q, st.P) + c.heading_process_var)
             else:
                 est = improved_rmpca_ut(st.q, st.P, m1, psi0, c.heading_process_var, self._ut_points())
