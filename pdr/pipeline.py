@@ -566,6 +566,12 @@ class PdrPipeline:
         """Online placement from the stride ending with this step (:mod:`pdr.placement_detect`); a change
         restarts the carriage-specific heading state (the pocket's walking-direction continuity and vote).
         """
+        if self.grid is not None and "gyro" not in self.grid.kinds:
+            # Without a gyroscope the attitude follows the specific force: the thigh's or arm's turn is not seen.
+            self.placement, self.auto_placement = "hand", False
+            self.notices.append("no gyroscope: placement not detected, the phone is taken as hand-held "
+                                "(give the placement if it is in a pocket)")
+            return
         h = self.history
         stride = h.sl(s - (e - s), e)
         q, acc = h.q[stride], h.acc[stride]

@@ -34,6 +34,9 @@ The decision, stride by stride (:func:`classify_stride`):
    at least ``cos(pocket_max_axis_tilt_deg)`` is ``pocket``; a phone that turns but lies across the vertical
    (a reading phone swaying in a walking hand, screen up) is ``hand``.
 
+The device's turn comes from the attitude filter's gyro propagation: without a gyroscope the attitude follows
+the specific force and neither cue exists (the pipeline then takes the phone as hand-held and says so).
+
 :class:`PlacementDetector` turns these per-stride labels into an online decision: the first stride decides,
 and a different label replaces the current one once it has won ``switch_strides`` strides in a row, so a
 phone taken out of the pocket mid-walk is followed within a few strides while one odd stride changes nothing.
