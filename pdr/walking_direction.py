@@ -41,6 +41,7 @@ from numpy.typing import NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
+from pdr.heading import pca_axis
 
 FloatArray = NDArray[np.float64]
 
@@ -63,18 +64,13 @@ def nav_angular_rate(q_nb: FloatArray, rate_hz: float) -> FloatArray:
 def swing_plane_axis(q_nb: FloatArray, rate_hz: float) -> tuple[float, float]:
     """Walking line of one stride from the swing plane: (yaw in (-pi/2, pi/2], eigenvalue ratio).
 
-    The line is perpendicular to the principal axis of the horizontal navigation-frame angular rate
-    (module doc); the ratio of the two eigenvalues (>= 1) says how planar the swing was.
+    The line is perpendicular to the principal axis (:func:`pdr.heading.pca_axis`) of the horizontal
+    navigation-frame angular rate (module doc); the ratio of the two eigenvalues (>= 1) says how planar the
+    swing was.
     """
-    w = nav_angular_rate(q_nb, rate_hz)[:, :2]
-    s = w.T @ w
-    axis = 0.5 * math.atan2(2.0 * s[0, 1], s[0, 0] - s[1, 1])
-    tr, det = s[0, 0] + s[1, 1], s[0, 0] * s[1, 1] - s[0, 1] ** 2
-    disc = math.sqrt(max(tr * tr / 4 - det, 0.0))
-    ratio = (tr / 2 + disc) / max(tr / 2 - disc, 1e-12)
+    axis, ratio = pca_axis(nav_angular_rate(q_nb, rate_hz)[:, :2])
     line = axis + math.pi / 2
-    line = line - math.pi if line > math.pi / 2 else line
-    return float(line), float(ratio)
+    return float(line - math.pi if line > math.pi / 2 else line), ratio
 
 
 def turn_evidence(f_n: FloatArray, yaw_rate_rps: float, yaw: float, v_ref_mps: float = V_REF_MPS,
