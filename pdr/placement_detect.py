@@ -37,9 +37,11 @@ The decision, stride by stride (:func:`classify_stride`):
 The device's turn comes from the attitude filter's gyro propagation: without a gyroscope the attitude follows
 the specific force and neither cue exists (the pipeline then takes the phone as hand-held and says so).
 
-:class:`PlacementDetector` turns these per-stride labels into an online decision: the first stride decides,
-and a different label replaces the current one once it has won ``switch_strides`` strides in a row, so a
-phone taken out of the pocket mid-walk is followed within a few strides while one odd stride changes nothing.
+:class:`PlacementDetector` turns these per-stride labels into an online decision. During the first
+``switch_strides`` strides of the session the placement is the latest stride's label (a walk's first stride
+starts from rest and swings the limb through half its range); afterwards a different label replaces the
+current one once it has won ``switch_strides`` strides in a row, so a phone taken out of the pocket mid-walk is
+followed within a few strides while one odd stride changes nothing.
 """
 
 from __future__ import annotations
@@ -176,12 +178,14 @@ class PlacementDetector:
         self.placement: str | None = None
         self.candidate: str | None = None
         self.run = 0
+        self.strides = 0
 
     def update(self, cues: StrideCues) -> str:
         """Add one stride; returns the current placement."""
         label = classify_stride(cues, self.config)
-        if self.placement is None:
-            self.placement = label
+        self.strides += 1
+        if self.placement is None or self.strides <= self.config.switch_strides:
+            self.placement, self.candidate, self.run = label, None, 0
         elif label == self.placement:
             self.candidate, self.run = None, 0
         else:
@@ -192,10 +196,11 @@ class PlacementDetector:
         return self.placement
 
     def to_dict(self) -> dict[str, Any]:
-        return {"placement": self.placement, "candidate": self.candidate, "run": self.run}
+        return {"placement": self.placement, "candidate": self.candidate, "run": self.run, "strides": self.strides}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any], config: PlacementDetectConfig | None = None) -> PlacementDetector:
         o = cls(config)
         o.placement, o.candidate, o.run = d["placement"], d["candidate"], int(d["run"])
+        o.strides = int(d.get("strides", o.config.switch_strides))   # absent in states saved before the settling
         return o
