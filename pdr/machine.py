@@ -1,7 +1,7 @@
 """What a speed figure depends on besides the code: the interpreter, the numerical libraries and the machine.
 
-The benchmarks (``pdr bench phone``, ``python -m pdr.foot.speed``) print it with their figures, so figures from
-different sessions or machines can be compared.
+The benchmarks (``pdr bench phone``, ``python -m pdr.evaluation.foot_speed``) print it with their figures, so
+figures from different sessions or machines can be compared.
 """
 
 from __future__ import annotations

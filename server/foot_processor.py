@@ -13,7 +13,8 @@ Two inputs, one per session role (not mixed):
 Track rows: ``t_s`` on the device's clock (s), ENU position from the start (m), ``heading_deg`` compass
 (clockwise from north), ``step_length_m`` the horizontal length of the stride ``hypot(dp_x, dp_y)``, mode
 ``walking``, no floor. Step events carry the step's increment (``data.increment``: sample index, ``dp_m``,
-``dpsi_rad``, 4x4 ``cov``), from which :mod:`server.fused_feet` fuses the two feet of a session.
+``dpsi_rad``, 4x4 ``cov``), from which :mod:`server.fused_feet` fuses the two feet of a session
+(:mod:`server.foot_steps` reads and writes it).
 """
 
 from __future__ import annotations
@@ -28,14 +29,13 @@ from pdr.errors import InputError
 from pdr.foot.online import FootStep, OnlineFootNavigator
 from pdr.foot.stepwise import StepwiseDeadReckoning
 from pdr.foot.summaries import StepSummaryBatch
-from pdr.foot.zupt import StepIncrement
 from pdr.frames import yaw_to_heading_deg
 from pdr.recording import Recording
+from pdr.step_increment import StepIncrement
+from server.foot_steps import MODE, increment_to_json
 from server.processing import ProcessorOutput, SessionContext
 from server.processing_options import session_options
 from server.store import EventRow, TrackRow
-
-MODE = "walking"
 
 
 def _rows(t_s: float, pos_n: Any, yaw: float, inc: StepIncrement) -> tuple[TrackRow, EventRow]:
@@ -46,22 +46,6 @@ def _rows(t_s: float, pos_n: Any, yaw: float, inc: StepIncrement) -> tuple[Track
                      data={"heading_deg": heading, "dpsi_deg": math.degrees(float(inc.dpsi)), "dz_m": float(inc.dp[2]),
                            "increment": increment_to_json(inc)})
     return track, event
-
-
-def increment_to_json(inc: StepIncrement) -> dict[str, Any]:
-    """The step increment of eqs. 7-8 as stored in a step event: what the dual-foot fusion stage reads back."""
-    return {"index": int(inc.index), "dp_m": [float(x) for x in inc.dp], "dpsi_rad": float(inc.dpsi),
-            "cov": np.asarray(inc.cov, dtype=np.float64).tolist()}
-
-
-def increment_from_json(t_s: float, data: dict[str, Any]) -> StepIncrement:
-    """Inverse of :func:`increment_to_json` for a step event at ``t_s`` (s); InputError when absent."""
-    d = data.get("increment")
-    if not isinstance(d, dict):
-        raise InputError("a foot step event without its increment (stored by an older version): reprocess the "
-                         "session", field="increment")
-    return StepIncrement(float(t_s), int(d["index"]), np.asarray(d["dp_m"], dtype=np.float64), float(d["dpsi_rad"]),
-                         np.asarray(d["cov"], dtype=np.float64))
 
 
 def _output(steps: list[FootStep], warnings: list[str]) -> ProcessorOutput:

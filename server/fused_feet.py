@@ -22,9 +22,9 @@ from typing import Any
 
 from pdr.errors import InputError
 from pdr.foot.dual import DualFootFusion, FusedStep
-from pdr.foot.zupt import StepIncrement
 from pdr.frames import yaw_to_heading_deg
-from server.foot_processor import MODE, increment_from_json
+from pdr.step_increment import StepIncrement
+from server.foot_steps import MODE, increment_from_json
 from server.store import Store, TrackRow
 
 ROLE = "fused"

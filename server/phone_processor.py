@@ -1,8 +1,8 @@
-"""The phone PDR pipeline (:class:`pdr.pipeline.PdrPipeline`) and motion-mode classifier as a session processor.
+"""The phone PDR pipeline (:class:`pdr.phone.pipeline.PdrPipeline`) and motion-mode classifier as a session processor.
 
 Pipeline events become result rows: each ``step`` a track row (the columns of ``pdr track``) and a
 ``step`` event (whose ``smoother`` data keeps the step's inputs of the offline heading smoother,
-:mod:`pdr.heading_smoother`, for ``GET .../track?heading=smoothed``); ``elevator`` and site ``landmark``
+:mod:`pdr.phone.heading_smoother`, for ``GET .../track?heading=smoothed``); ``elevator`` and site ``landmark``
 events ``landmark`` events; ``floor_change`` a ``floor`` event; ``notice`` a session warning. Motion modes
 come from the shipped streaming classifier (:class:`classifiers.streaming.StreamingClassifier`, one ``mode``
 event per window with its confidence) once the pipeline has found the phone in a trouser pocket (the model's
@@ -16,28 +16,23 @@ session ended now, so a session's track equals ``pdr track --smoother off`` on t
 
 from __future__ import annotations
 
-from dataclasses import replace
 from typing import Any
 
 from classifiers.streaming import StreamingClassifier
 from pdr import state_codec
 from pdr.errors import InputError
-from pdr.pipeline import PdrPipeline, PipelineConfig
+from pdr.phone.configure import pipeline_config, placement_group
+from pdr.phone.pipeline import PdrPipeline
 from pdr.recording import Recording
 from server.processing import ProcessorOutput, SessionContext
 from server.processing_options import session_options
 from server.store import EventRow, TrackRow
 
-#: Session placements (pdr.recording.PLACEMENTS) -> pipeline placement groups.
-PLACEMENT_GROUPS = {"trouser_pocket_front": "pocket", "trouser_pocket_back": "pocket", "trouser_pocket": "pocket",
-                    "hand": "hand", "torso": "torso", "neck": "torso"}
-
-
 #: Placement (pipeline group) the shipped motion-mode model was trained for (MobiFall: trouser pocket).
 MODEL_PLACEMENT = "pocket"
 
 
-#: Step event fields the offline heading smoother needs besides the track row (pdr.heading_smoother.smooth_track).
+#: Step event fields the offline heading smoother needs besides the track row (pdr.phone.heading_smoother.smooth_track).
 SMOOTHER_INPUTS = ("placement", "heading_sigma_deg", "heading_raw_deg", "gyro_heading_deg", "up_time_s",
                    "gyro_bias_dps", "position_fix", "landmark_heading")
 
@@ -59,11 +54,8 @@ class PhoneProcessor:
             if d.get("classifier") is not None:
                 self.classifier = StreamingClassifier.from_state(d["classifier"])
         else:
-            placement = PLACEMENT_GROUPS.get(ctx.placement or "", "auto")
             options = session_options(ctx.meta)
-            config = PipelineConfig(placement=placement)
-            if options.step_length is not None:
-                config = replace(config, step_length=options.step_length)
+            config = pipeline_config(placement_group(ctx.placement), step_length=options.step_length)
             self.pipeline = PdrPipeline(config, options.site)
             self.last_mode = ""
             self.classifier_status = "pending"

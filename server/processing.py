@@ -227,7 +227,7 @@ class SessionProcessing:
 
     def _fuse_feet(self, session_id: str) -> None:
         """Session-level stage after a pass: the fused dual-foot track (role ``fused``, :mod:`server.fused_feet`)."""
-        from server.fused_feet import fuse_session  # imports the foot processor, which imports this module
+        from server.fused_feet import fuse_session  # on first use: only sessions with two feet need it
 
         try:
             fuse_session(self.store, session_id)

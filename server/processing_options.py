@@ -24,8 +24,8 @@ from typing import Any
 
 from pdr.errors import InputError
 from pdr.foot.zupt import ZuptConfig
-from pdr.landmarks import Site
-from pdr.step_length import StepLengthModel
+from pdr.phone.landmarks import Site
+from pdr.phone.step_length import StepLengthModel
 
 #: Key of the options in the session's ``meta``.
 META_KEY = "processing"

@@ -1,6 +1,6 @@
 """The processors the service runs per device role: the phone PDR pipeline, foot-mounted navigation.
 
-Each adapter turns the library's online objects (:mod:`pdr.pipeline`, :mod:`pdr.foot`) into the
+Each adapter turns the library's online objects (:mod:`pdr.phone.pipeline`, :mod:`pdr.foot`) into the
 :class:`server.processing.Processor` protocol: ``update(recording) -> ProcessorOutput`` and a byte state.
 """
 

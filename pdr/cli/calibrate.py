@@ -16,8 +16,8 @@ import numpy as np
 
 from pdr.errors import InputError
 from pdr.io import read_recording
-from pdr.pipeline import PdrPipeline, PipelineConfig, track_rows
-from pdr.step_length import EXPONENTS, PATTERNS, StepLengthModel, calibrate_k, fit_model, step_sums, turn_factor
+from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
+from pdr.phone.step_length import EXPONENTS, PATTERNS, StepLengthModel, calibrate_k, fit_model, step_sums, turn_factor
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -66,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
 @dataclass(frozen=True)
 class CalibrationWalk:
     """A walk of known length: the patterns (K, 6) of its steps, which were on stairs (K,), its length in m, and
-    the steps' turns (K,) in rad (None: straight; :func:`pdr.step_length.turn_factor`).
+    the steps' turns (K,) in rad (None: straight; :func:`pdr.phone.step_length.turn_factor`).
     """
 
     patterns: np.ndarray
@@ -97,7 +97,7 @@ def landmark_walk(rows: list[dict[str, Any]], t_truth: np.ndarray, pos: np.ndarr
                   floor: np.ndarray | None = None) -> CalibrationWalk | None:
     """The walk between landmarks on one floor: steps ending inside those intervals, straight-line length.
 
-    The intervals are those :func:`pdr.scoring.distance_ratio_same_floor` scores: across a floor change the
+    The intervals are those :func:`pdr.evaluation.scoring.distance_ratio_same_floor` scores: across a floor change the
     straight line between two landmarks is not the walked path (winding stairs). ``floor`` (N,) is the
     landmarks' floor (None: all on one floor); ``t_truth`` (N,) s on the rows' clock; ``pos`` (N, >=2) m.
     None if fewer than 5 steps or 5 m remain.
@@ -117,7 +117,9 @@ def landmark_walk(rows: list[dict[str, Any]], t_truth: np.ndarray, pos: np.ndarr
 
 
 def calibrate_on_walks(base: StepLengthModel, walks: list[CalibrationWalk]) -> StepLengthModel:
-    """``base`` with ``K`` rescaled (:func:`pdr.step_length.calibrate_k`) so the walks' steps add up to their length."""
+    """``base`` with ``K`` rescaled (:func:`pdr.phone.step_length.calibrate_k`) so the walks' steps add up to their
+    length.
+    """
     if not walks:
         raise InputError("no calibration walk", source="calibration")
     return calibrate_k(base, np.vstack([w.patterns for w in walks]), sum(w.length_m for w in walks),

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from pdr.errors import InputError
-from pdr.fusion.evaluation import (
+from pdr.evaluation.coop import (
     cost_experiment,
     influence_function,
     kalman_config,

@@ -14,26 +14,22 @@ from typing import Any
 import numpy as np
 
 from pdr.errors import InputError
+from pdr.evaluation.foot_metrics import (
+    PYSHOE_EXCLUDED,
+    loop_closure_error,
+    path_length,
+    pyshoe_armse,
+    stride_errors,
+)
 from pdr.foot.bc import BCTrack
 from pdr.foot.detectors import DETECTORS, DetectorConfig
 from pdr.foot.dual import DualFootConfig, DualFootTrack, navigate_feet
 from pdr.foot.filterbank import FilterBankTrack
-from pdr.foot.metrics import loop_closure_error, path_length, pyshoe_armse, stride_errors
 from pdr.foot.navigate import METHODS, FootImu, navigate, unsupported_options
 from pdr.foot.zupt import ZuptConfig, ZuptTrack
 from pdr.frames import yaw_to_heading_deg
 from pdr.fusion.constraints import SeparationConfig
 from pdr.io.pyshoe import VICON_TO_RIGHT_HANDED
-
-#: PyShoe VICON trials that the source repository's ``training_data_tag`` marks 0 (non-bipedal / crawling;
-#: see ``pyshoe_vicon/SOURCE.md``), mapped to names through the upstream file order.
-PYSHOE_EXCLUDED: frozenset[str] = frozenset({
-    "2017-11-22-11-22-46", "2017-11-22-11-23-25", "2017-11-22-11-25-20", "2017-11-22-11-26-05",
-    "2017-11-22-11-26-46", "2017-11-22-11-27-30", "2017-11-22-11-28-03", "2017-11-22-11-28-39",
-    "2017-11-22-11-30-14", "2017-11-22-11-37-47", "2017-11-27-11-12-44", "2017-11-27-11-19-16",
-    "2017-11-27-11-22-22", "2017-11-27-11-23-18", "2018-02-09-11-18-04", "2018-02-09-11-19-39",
-    "2018-02-09-11-22-01", "2018-02-09-11-29-43", "2018-02-22-10-09-36", "2018-02-22-10-10-29",
-    "2018-02-22-10-10-56"})
 
 
 def _detector_config(args: argparse.Namespace) -> DetectorConfig:

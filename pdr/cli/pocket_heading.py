@@ -1,4 +1,4 @@
-"""Check the trouser-pocket walking direction of the phone pipeline (180-degree rule of :mod:`pdr.heading`).
+"""Check the trouser-pocket walking direction of the phone pipeline (180-degree rule of :mod:`pdr.phone.heading`).
 
 Simulated pocket walks (truth ``walking_heading_rad``): mean absolute heading error, share of steps more than
 90 degrees off, median step-to-step change, over seeds, both thighs and random mounts.
@@ -17,7 +17,7 @@ corrections of seed 003 (attitude row eqs. 14-32, second UKF eqs. 41-42) are mea
 Usage: ``pdr eval pocket-heading [--sim-seeds N] [--data DIR] [--no-real] [--no-sim] [--method ukf|ekf]
 [--json]``. JSON keys: ``method``; ``sim`` (the flat walks: ``walks``, ``steps``, ``mean_abs_err_deg``,
 ``median_abs_err_deg``, ``within_10_deg``, ``share_over_90_deg``, ``walks_mean_over_90_deg``; ``smoothed``: the
-figures of the offline-smoothed tracks, :mod:`pdr.heading_smoother`); ``sim_landmarks`` (``without`` and ``with``:
+figures of the offline-smoothed tracks, :mod:`pdr.phone.heading_smoother`); ``sim_landmarks`` (``without`` and ``with``:
 the same figures, ``without_smoothed`` and ``with_smoothed`` those of the smoothed tracks; ``staircases``,
 ``staircases_matched``, ``landmark_heading_updates``, ``landmark_attitude_updates``); ``mobifall`` and ``oxford``
 (steps, flips, turn-check counts).
@@ -36,10 +36,10 @@ import numpy as np
 
 from pdr import quaternion as quat
 from pdr.frames import heading_deg_to_yaw, wrap_angle
-from pdr.heading_smoother import smooth_track
 from pdr.io.registry import read_recording
-from pdr.landmarks import Site
-from pdr.pipeline import PdrPipeline, PipelineConfig, track_rows
+from pdr.phone.heading_smoother import smooth_track
+from pdr.phone.landmarks import Site
+from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
 from pdr.recording import Recording
 from pdr.sim import simulate, site_document
 
@@ -145,8 +145,8 @@ def landmark_scenarios(side: str) -> list[dict[str, Any]]:
 def walk_errors(scenario: dict[str, Any], seed: int, site: Site | None = None, method: str = "ukf",
                 pocket_axis: str = "auto") -> tuple[np.ndarray, np.ndarray, list[dict[str, Any]], PdrPipeline]:
     """Absolute heading errors (deg) of the steps of one simulated walk (truth at mid-step), causal and after the
-    offline smoother (:mod:`pdr.heading_smoother`), its events and the pipeline that processed it (landmark
-    counters). ``pocket_axis``: :attr:`pdr.pipeline.PipelineConfig.pocket_axis`.
+    offline smoother (:mod:`pdr.phone.heading_smoother`), its events and the pipeline that processed it (landmark
+    counters). ``pocket_axis``: :attr:`pdr.phone.pipeline.PipelineConfig.pocket_axis`.
     """
     rec = simulate(scenario, seed)
     pipe = PdrPipeline(PipelineConfig(attitude_method=method, pocket_axis=pocket_axis), site=site)

@@ -13,14 +13,9 @@ from typing import Any
 
 import numpy as np
 
-from pdr.error_budget import BUDGET_TRACKS, budget_tracks
 from pdr.errors import InputError
-from pdr.heading_smoother import smooth_track
-from pdr.io import read_recording
-from pdr.landmarks import Site
-from pdr.pipeline import PdrPipeline, PipelineConfig, track_rows
-from pdr.recording import Recording
-from pdr.scoring import (
+from pdr.evaluation.error_budget import BUDGET_TRACKS, budget_tracks
+from pdr.evaluation.scoring import (
     bounce_free_step_count,
     distance_ratio,
     distance_ratio_same_floor,
@@ -28,9 +23,14 @@ from pdr.scoring import (
     step_count_error_pct,
     waypoint_errors,
 )
-from pdr.step_length import StepLengthModel
-
-CSV_COLUMNS = ("t_s", "east_m", "north_m", "up_m", "floor", "heading_deg", "step_length_m", "mode")
+from pdr.io import read_recording
+from pdr.phone.configure import pipeline_config
+from pdr.phone.heading_smoother import smooth_track
+from pdr.phone.landmarks import Site
+from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
+from pdr.phone.step_length import StepLengthModel
+from pdr.phone.track_schema import TRACK_COLUMNS, csv_fields
+from pdr.recording import Recording
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -43,7 +43,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--plot", help="also write a PNG plot of the track")
     p.add_argument("--smoother", default="on", choices=("on", "off"),
                    help="OFFLINE: smooth the step headings over the whole walk (gyro yaw with its "
-                        "bias learnt from the magnetometer, pdr.heading_smoother); off: the causal track the "
+                        "bias learnt from the magnetometer, pdr.phone.heading_smoother); off: the causal track the "
                         "server streams")
     p.set_defaults(func=run_track)
 
@@ -60,13 +60,10 @@ def _common_options(p: argparse.ArgumentParser) -> None:
 
 
 def config_from_args(args: argparse.Namespace, initial_floor: float = 0.0) -> PipelineConfig:
-    cfg = PipelineConfig(placement=args.placement, attitude_method=args.method, initial_floor=initial_floor)
-    if getattr(args, "calibration", None):
-        cfg = PipelineConfig(**{**cfg.__dict__, "step_length": StepLengthModel.load(args.calibration)})
-    if getattr(args, "floor_height", None):
-        from dataclasses import replace
-        cfg = replace(cfg, floors=replace(cfg.floors, floor_height_m=float(args.floor_height)))
-    return cfg
+    calibration = getattr(args, "calibration", None)
+    return pipeline_config(args.placement, attitude_method=args.method, initial_floor=initial_floor,
+                           step_length=StepLengthModel.load(calibration) if calibration else None,
+                           floor_height_m=getattr(args, "floor_height", None) or None)
 
 
 def run_pipeline(rec: Recording, cfg: PipelineConfig, site: Site | None = None) -> tuple[list[dict[str, Any]],
@@ -78,7 +75,7 @@ def run_pipeline(rec: Recording, cfg: PipelineConfig, site: Site | None = None) 
 
 
 def smoothed_rows(rows: list[dict[str, Any]], notices: list[str]) -> list[dict[str, Any]]:
-    """The offline-smoothed track (:func:`pdr.heading_smoother.smooth_track`); its summary joins ``notices``."""
+    """The offline-smoothed track (:func:`pdr.phone.heading_smoother.smooth_track`); its summary joins ``notices``."""
     out, summary = smooth_track(rows)
     if summary:
         notices.append(summary)
@@ -88,10 +85,9 @@ def smoothed_rows(rows: list[dict[str, Any]], notices: list[str]) -> list[dict[s
 def write_csv(rows: list[dict[str, Any]], path: str | Path) -> None:
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(CSV_COLUMNS)
+        w.writerow(TRACK_COLUMNS)
         for r in rows:
-            w.writerow([f"{r['t_s']:.3f}", f"{r['east_m']:.3f}", f"{r['north_m']:.3f}", f"{r['up_m']:.2f}",
-                        f"{r['floor']:g}", f"{r['heading_deg']:.1f}", f"{r['step_length_m']:.3f}", r["mode"]])
+            w.writerow(csv_fields(r))
 
 
 def write_geojson(rows: list[dict[str, Any]], path: str | Path, origin: tuple[float, float] | None) -> None:
@@ -178,11 +174,12 @@ def _register_eval(targets: argparse._SubParsersAction, name: str, helptext: str
                             "repetitions of its route (never the log itself)")
         p.add_argument("--smoother", default="both", choices=("both", "off"),
                        help="both: also score the offline-smoothed tracks (pdr track's default; "
-                            "pdr.heading_smoother) next to the causal ones")
+                            "pdr.phone.heading_smoother) next to the causal ones")
         p.add_argument("--budget", action="store_true",
                        help="also score the track (smoothed when --smoother both) re-walked with the true "
                             "heading of each straight leg, with its length scaled to the truth, and both "
-                            "(pdr.error_budget): how much of the error heading and step-length scale explain")
+                            "(pdr.evaluation.error_budget): how much of the error heading and step-length "
+                            "scale explain")
         p.add_argument("--trim-start", type=float, default=0.0, metavar="S",
                        help="drop each log's first S seconds (refused if that reaches its first landmark): "
                             "shows how much the figures depend on the start conditions")
@@ -212,7 +209,7 @@ def _emit(summary: dict[str, Any], per_file: list[dict[str, Any]], as_json: bool
 
 
 def _ipin_scores(rows: list[dict[str, Any]], t_truth: np.ndarray, pt: Any) -> dict[str, Any]:
-    """Landmark errors, distance ratios and floor agreement of one track (see :mod:`pdr.scoring`)."""
+    """Landmark errors, distance ratios and floor agreement of one track (see :mod:`pdr.evaluation.scoring`)."""
     t = np.array([r["t_s"] for r in rows])
     en = np.array([[r["east_m"], r["north_m"]] for r in rows])
     e_abs = landmark_errors(t, en, t_truth, pt.pos_m, "none")
@@ -464,7 +461,7 @@ def eval_steps(args: argparse.Namespace) -> int:
         row: dict[str, Any] = {"walk": d.name, "placement": place, "true": int(true), "detected": n, "error_pct": err}
         feet = [rec.truth.extra.get(k) for k in ("step_times_chan1_s", "step_times_chan2_s")]
         if all(f is not None for f in feet):
-            # Secondary figure: the same truth with contact-switch bounces removed (pdr.scoring).
+            # Secondary figure: the same truth with contact-switch bounces removed (pdr.evaluation.scoring).
             row["true_bounce_free"] = bounce_free_step_count(feet)  # type: ignore[arg-type]
             row["error_pct_bounce_free"] = step_count_error_pct(n, row["true_bounce_free"])
             by_place_bf.setdefault(place, []).append(row["error_pct_bounce_free"])
@@ -515,9 +512,9 @@ def register_bench(targets: argparse._SubParsersAction) -> None:
 
 
 def run_bench(args: argparse.Namespace) -> int:
-    from pdr import bench
+    from pdr.evaluation import phone_bench
     from pdr.machine import environment_line
-    res = bench.run(args.duration, args.rate, args.batch)
+    res = phone_bench.run(args.duration, args.rate, args.batch)
     if args.json:
         print(json.dumps(res, indent=2))
         return 0

@@ -4,7 +4,7 @@ matrix, yaw and angle wrap on scalars and small arrays.
 The conventions of :mod:`pdr.frames`: Hamilton quaternions, scalar first, ``q_nb`` rotates body vectors into the
 ENU navigation frame; yaw counter-clockwise from east. :mod:`pdr.quaternion` is the vectorised counterpart for
 whole arrays; these are for the ``@njit`` loops (:mod:`pdr.foot.zupt`, :mod:`pdr.foot.filterbank`,
-:mod:`pdr.foot.bc`, :mod:`pdr.gyro_yaw`, :mod:`pdr.heading_smoother`) and tested against it.
+:mod:`pdr.foot.bc`, :mod:`pdr.phone.gyro_yaw`, :mod:`pdr.phone.heading_smoother`) and tested against it.
 """
 
 from __future__ import annotations

@@ -44,12 +44,13 @@ from pdr.errors import InputError
 from pdr.foot.detectors import DetectorConfig
 from pdr.foot.navigate import FootImu, navigate
 from pdr.foot.stepwise import StepwiseDeadReckoning
-from pdr.foot.zupt import Segmentation, StepIncrement, ZuptConfig, ZuptTrack
+from pdr.foot.zupt import Segmentation, ZuptConfig, ZuptTrack
 from pdr.frames import wrap_angle
 from pdr.fusion.constraints import SeparationConfig, impose_separation
 from pdr.fusion.dead_reckoning import check_increment, propagate_step
 from pdr.fusion.state import FootKey, GlobalState
 from pdr.recording import Recording
+from pdr.step_increment import StepIncrement
 
 Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]

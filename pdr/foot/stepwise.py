@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
-from pdr.foot.zupt import StepIncrement
+from pdr.step_increment import StepIncrement
 
 Array = NDArray[np.float64]
 

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from pdr.errors import InputError
-from pdr.foot.zupt import StepIncrement
+from pdr.step_increment import StepIncrement
 
 FORMAT = "pdr-foot-steps/1"
 

@@ -65,6 +65,7 @@ from pdr.filters.rts import rts_step
 from pdr.foot.detectors import STILL_THRESHOLD, still_samples
 from pdr.foot.drift import HDE_SIZE, drift_predict, drift_update, initial_state, rotate_yaw
 from pdr.frames import GRAVITY_MPS2
+from pdr.step_increment import StepIncrement
 from pdr.strapdown import initial_attitude_from_gravity
 
 Array = NDArray[np.float64]
@@ -212,31 +213,6 @@ class Segmentation:
     gamma_p: float = 1e-4
     c_min_s: float = 0.3
     c_max_s: float = 2.0
-
-
-@dataclass(frozen=True)
-class StepIncrement:
-    """Low-rate output of the step-wise inertial navigation at reset ``l`` (seed 001 eqs. 7-8).
-
-    Attributes
-    ----------
-    t_s
-        Time of the reset, s.
-    index
-        Sample index of the reset.
-    dp
-        (3,) displacement since the previous reset, m, in the local frame of the previous reset.
-    dpsi
-        Heading change since the previous reset, rad (counter-clockwise).
-    cov
-        (4, 4) covariance of ``(dp, dpsi)``: ``[[P_p, P_p,psi], [P_p,psi^T, P_psi]]``.
-    """
-
-    t_s: float
-    index: int
-    dp: Array
-    dpsi: float
-    cov: Array
 
 
 @dataclass(frozen=True)

@@ -10,5 +10,5 @@ the joint state of all feet of all agents (:mod:`~pdr.fusion.state`), propagates
 the dual-foot separation constraint (:mod:`~pdr.fusion.constraints`, Algorithm 2), robust inter-agent ranges
 (:mod:`~pdr.fusion.ranging`, Algorithm 3) and anchors, position fixes and pressure (:mod:`~pdr.fusion.aiding`).
 Corrections flow back to the agents. :mod:`~pdr.fusion.simulation` reproduces the seed's simulations and
-:mod:`~pdr.fusion.evaluation` computes the figures of ``pdr eval coop``.
+:mod:`pdr.evaluation.coop` computes the figures of ``pdr eval coop``.
 """

@@ -22,10 +22,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pdr.errors import InputError
-from pdr.foot.zupt import StepIncrement
 from pdr.fusion.centre import AgentCorrection, FusionCentre, FusionConfig
 from pdr.fusion.measurements import StepSummary, event_to_dict, parse_event
 from pdr.fusion.state import FootKey
+from pdr.step_increment import StepIncrement
 
 
 class Agent:

@@ -21,7 +21,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pdr.errors import InputError
-from pdr.foot.zupt import StepIncrement
 from pdr.fusion.aiding import anchor_range_update, height_difference_update, position_fix_update
 from pdr.fusion.constraints import SeparationConfig, impose_separation
 from pdr.fusion.dead_reckoning import propagate_step
@@ -34,6 +33,7 @@ from pdr.fusion.ranging import (
     square_lattice,
 )
 from pdr.fusion.state import FOOT_DIM, FootKey, GlobalState, as_cov, as_vector
+from pdr.step_increment import StepIncrement
 
 Array = NDArray[np.float64]
 

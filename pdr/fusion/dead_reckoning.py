@@ -20,8 +20,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
-from pdr.foot.zupt import StepIncrement
 from pdr.fusion.state import FOOT_DIM, FootKey, GlobalState, as_cov
+from pdr.step_increment import StepIncrement
 
 Array = NDArray[np.float64]
 

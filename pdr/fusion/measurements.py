@@ -26,10 +26,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
-from pdr.foot.zupt import StepIncrement
 from pdr.fusion.aiding import pressure_height_difference
 from pdr.fusion.dead_reckoning import check_increment
 from pdr.fusion.ranging import RangeModel
+from pdr.step_increment import StepIncrement
 
 Array = NDArray[np.float64]
 

@@ -23,11 +23,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
-from pdr.foot.zupt import StepIncrement
 from pdr.frames import wrap_angle
 from pdr.fusion.centre import FusionCentre, FusionConfig
 from pdr.fusion.dead_reckoning import rotation_z
 from pdr.fusion.state import FOOT_DIM, FootKey
+from pdr.step_increment import StepIncrement
 
 Array = NDArray[np.float64]
 

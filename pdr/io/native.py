@@ -69,11 +69,6 @@ def batch_schema() -> dict[str, Any]:
     return _schema("batch.schema.json")
 
 
-def folder_schema() -> dict[str, Any]:
-    """The JSON Schema of the ``meta.json`` index of a ``pdr-native/1`` folder (refers to the batch schema)."""
-    return _schema("folder.schema.json")
-
-
 @cache
 def _validator(name: str) -> jsonschema.protocols.Validator:
     """Validator for one schema file; ``$ref`` to the other schema file of this package resolves locally."""

@@ -7,7 +7,6 @@ numeric field) is reported the same way: an :class:`~pdr.errors.InputError` nami
 from __future__ import annotations
 
 import gzip
-import zipfile
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -80,24 +79,6 @@ def find_member(folder: Path, name: str) -> Path | None:
         if candidate.is_file():
             return candidate
     return None
-
-
-def zip_texts(path: str | Path) -> dict[str, str]:
-    """Member name -> decoded text of every file in a zip archive (``.gz`` members gunzipped)."""
-    p = Path(path)
-    try:
-        with zipfile.ZipFile(p) as zf:
-            out = {}
-            for info in zf.infolist():
-                if info.is_dir():
-                    continue
-                raw = zf.read(info)
-                if info.filename.endswith(".gz"):
-                    raw = gzip.decompress(raw)
-                out[strip_gz(info.filename)] = decode_text(raw, f"{p}:{info.filename}")
-            return out
-    except (zipfile.BadZipFile, OSError, EOFError) as exc:
-        raise InputError(f"not a readable zip archive ({exc})", source=str(p)) from None
 
 
 def parse_float_rows(rows: Sequence[Sequence[str]], line_numbers: Sequence[int], source: str,

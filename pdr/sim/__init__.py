@@ -2,7 +2,7 @@
 
 ``simulate(scenario, seed) -> Recording``; scenarios are JSON (:func:`load_scenario`,
 :func:`parse_scenario`). See :mod:`pdr.sim.simulate` for what the ground truth holds; :func:`site_document`
-gives a scenario's site description (its stairs, elevators and escalators as :class:`pdr.landmarks.Site` JSON).
+gives a scenario's site description (its stairs, elevators and escalators as :class:`pdr.phone.landmarks.Site` JSON).
 """
 
 from pdr.sim.scenario import Scenario, load_scenario, parse_scenario

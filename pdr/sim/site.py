@@ -3,7 +3,7 @@
 A scenario places landmarks implicitly: a ``stairs`` segment is a flight walked along the current walking
 heading, an ``elevator`` segment a cabin entered at the current position, an ``escalator`` segment a ride
 along the current heading. :func:`site_document` writes them as the site description JSON that
-:class:`pdr.landmarks.Site` reads (``{"name", "floor_height_m", "landmarks": [...]}``), so a simulated walk
+:class:`pdr.phone.landmarks.Site` reads (``{"name", "floor_height_m", "landmarks": [...]}``), so a simulated walk
 can be processed with the landmarks (and the magnetic declination, ``declination_deg``) a surveyor would
 have given for the same building (seed 003 Sec. 5:
 each landmark carries an interval covering all possible user headings there; the pipeline takes its centre
@@ -48,7 +48,7 @@ DEFAULT_RADIUS_M = 8.0
 
 def site_document(scenario: Scenario | Mapping[str, Any], half_width_deg: Mapping[str, float] | None = None,
                   radius_m: float = DEFAULT_RADIUS_M) -> dict[str, Any]:
-    """The site description (JSON object for :meth:`pdr.landmarks.Site.from_dict`) of a scenario's landmarks.
+    """The site description (JSON object for :meth:`pdr.phone.landmarks.Site.from_dict`) of a scenario's landmarks.
 
     Parameters
     ----------

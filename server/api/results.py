@@ -1,7 +1,7 @@
 """Results of a session: track (JSON, CSV, GeoJSON), steps, motion modes, landmarks, floors; ``?since=`` polling.
 
 ``GET .../track?heading=smoothed`` gives the track ``pdr track`` writes by default: the hand-held and torso phone
-steps' headings smoothed over the whole session so far (:mod:`pdr.heading_smoother`) and the positions
+steps' headings smoothed over the whole session so far (:mod:`pdr.phone.heading_smoother`) and the positions
 re-integrated. Smoothing moves earlier rows too, so a poller asking with ``since`` gets the rows after it of the
 track smoothed over everything received. ``heading=causal`` (the default) is the track as it was streamed.
 A smoothed answer names the devices whose headings the smoother changed (``smoothed_devices``; foot sensors and
@@ -20,14 +20,13 @@ from typing import Any
 from flask import Blueprint, Response, jsonify, request
 
 from pdr.frames import local_enu_to_geodetic
-from pdr.heading_smoother import smooth_track
+from pdr.phone.heading_smoother import smooth_track
+from pdr.phone.track_schema import TRACK_COLUMNS
 from server.api import current_user, services
 from server.errors import APIError
 
 bp = Blueprint("results", __name__, url_prefix="/api/v1/sessions")
 
-#: Columns of the track, identical to ``pdr track`` CSV output.
-TRACK_COLUMNS = ("t_s", "east_m", "north_m", "up_m", "floor", "heading_deg", "step_length_m", "mode")
 EVENT_KINDS = {"steps": "step", "modes": "mode", "landmarks": "landmark", "floors": "floor"}
 
 

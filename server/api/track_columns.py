@@ -15,6 +15,7 @@ from typing import Any
 
 from flask import Blueprint, Response, request
 
+from pdr.phone.track_schema import TRACK_COLUMNS
 from server.api import current_user, services
 from server.api.results import parse_heading, parse_since, track_points
 
@@ -22,8 +23,7 @@ bp = Blueprint("track_columns", __name__, url_prefix="/api/v1/sessions")
 
 #: Columns of the track (those of ``pdr track`` CSV output), the device role of each row and whether it is
 #: provisional (the processor's tail: what ending the session now would add; replaced by the next batch).
-COLUMNS = ("t_s", "east_m", "north_m", "up_m", "floor", "heading_deg", "step_length_m", "mode", "device_role",
-           "provisional")
+COLUMNS = (*TRACK_COLUMNS, "device_role", "provisional")
 
 
 def _finite(values: list[Any]) -> list[Any]:

@@ -14,7 +14,7 @@ from pdr.frames import yaw_to_heading_deg
 from pdr.io.native import batch_to_json
 from pdr.recording import GroundTruth, Recording
 from pdr.sim import parse_scenario, simulate
-from server.foot_processor import increment_from_json
+from server.foot_steps import increment_from_json
 from tests.server.conftest import bearer
 
 T0_NS = 1_700_000_000_000_000_000

@@ -382,7 +382,7 @@ def test_the_reader_sandbox_child_loads_the_readers_but_not_the_service():
     import subprocess
     import sys
 
-    probe = ("import sys, server.sandbox, pdr.io; "
-             "print(sorted(m for m in ('flask', 'sqlalchemy', 'server.app', 'pdr.pipeline') if m in sys.modules))")
+    probe = ("import sys, server.sandbox, pdr.io; print(sorted(m for m in "
+             "('flask', 'sqlalchemy', 'server.app', 'pdr.phone.pipeline') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"

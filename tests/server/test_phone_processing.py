@@ -62,9 +62,9 @@ def test_smoothed_track_equals_pdr_tracks_default(real_app):
     # ?heading=smoothed is pdr track's default output: the causal steps (stored as streamed) with the offline
     # heading smoother run over the inputs kept in the step events.
     from pdr.cli.track import run_pipeline
-    from pdr.heading_smoother import smooth_track
     from pdr.io import read_recording
-    from pdr.pipeline import PipelineConfig
+    from pdr.phone.heading_smoother import smooth_track
+    from pdr.phone.pipeline import PipelineConfig
 
     app, token = real_app
     log = data_path("ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial22_repetition01.txt")

@@ -14,11 +14,11 @@ from pdr.errors import InputError
 from pdr.foot.navigate import navigate
 from pdr.foot.zupt import ZuptConfig
 from pdr.io.native import batch_to_json
-from pdr.landmarks import Site
-from pdr.pipeline import PdrPipeline, PipelineConfig
+from pdr.phone.landmarks import Site
+from pdr.phone.pipeline import PdrPipeline, PipelineConfig
+from pdr.phone.step_length import StepLengthModel
 from pdr.recording import DeviceInfo, Recording, SensorStream
 from pdr.sim import parse_scenario, simulate
-from pdr.step_length import StepLengthModel
 from server import auth
 from server.processing_options import ProcessingOptions
 from tests.pdr.foot.gait import simulate_gait

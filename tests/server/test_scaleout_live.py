@@ -15,9 +15,9 @@ import threading
 
 import pytest
 
-from server.bench import simulated_phone, split_batches
+from server.bench.cluster import ReplayResult, fetch_tracks, replay_phones, running_cluster, wait_drained
+from server.bench.server import simulated_phone, split_batches
 from server.client import add_user, running_server
-from server.cluster import ReplayResult, fetch_tracks, replay_phones, running_cluster, wait_drained
 from server.config import REPO_ROOT
 from tests.server.realservers import pg_database, redis_namespace  # noqa: F401  (fixtures)
 
@@ -81,8 +81,8 @@ def test_short_load_loses_and_duplicates_nothing_and_drains():
     """``pdr bench load`` in small: 10 phones x 30 s of real-time 1 s batches, 2 web processes + 2 workers."""
     import argparse
 
-    from server.bench_load import run_load
-    from server.cluster import ensure_services
+    from server.bench.cluster import ensure_services
+    from server.bench.load import run_load
     from tests.server.realservers import POSTGRES_ADMIN_URL, REDIS_TEST_URL
 
     try:

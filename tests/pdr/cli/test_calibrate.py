@@ -9,7 +9,7 @@ import pytest
 from pdr.cli import main
 from pdr.cli.calibrate import CalibrationWalk, calibrate_on_walks, calibration_partners, landmark_walk, trial_key
 from pdr.errors import InputError
-from pdr.step_length import StepLengthModel
+from pdr.phone.step_length import StepLengthModel
 from tests.conftest import data_path
 
 
@@ -47,7 +47,7 @@ def test_calibrating_on_other_walks_recovers_the_walkers_k():
         walks.append(CalibrationWalk(pats, stairs, float(np.sum(walker.length(pats, stairs)))))
     got = calibrate_on_walks(StepLengthModel(), walks)
     assert got.k == pytest.approx(0.55, rel=1e-9)
-    # A walk that turns covers less ground per step (pdr.step_length turn factor): its rows' turn_deg count.
+    # A walk that turns covers less ground per step (pdr.phone.step_length turn factor): its rows' turn_deg count.
     t_end = np.arange(0.5, 30.01, 0.5)
     rows = _rows(t_end, rng.uniform(1.4, 2.0, t_end.size))
     for i, r in enumerate(rows):

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from pdr.errors import InputError
+from pdr.evaluation.foot_metrics import stride_errors
 from pdr.foot.bc import BCConfig, ContextModel, learn_context, potential_factors, run_bc
 from pdr.foot.detectors import detect
-from pdr.foot.metrics import stride_errors
 from pdr.foot.navigate import foot_imu
 from pdr.foot.zupt import ZuptConfig, run_zupt
 from pdr.io import read_recording

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from pdr.cli import main
-from pdr.foot.metrics import loop_closure_error, pyshoe_armse
+from pdr.evaluation.foot_metrics import loop_closure_error, pyshoe_armse
 from pdr.foot.navigate import navigate
 from pdr.foot.zupt import ZuptConfig
 from pdr.io import read_recording

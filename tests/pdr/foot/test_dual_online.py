@@ -12,8 +12,9 @@ import pytest
 from pdr.errors import InputError
 from pdr.foot.dual import DualFootConfig, DualFootFusion, DualFootTrack, FusedStep, fuse_feet
 from pdr.foot.navigate import navigate
-from pdr.foot.zupt import StepIncrement, ZuptConfig, ZuptTrack
+from pdr.foot.zupt import ZuptConfig, ZuptTrack
 from pdr.sim import parse_scenario, simulate
+from pdr.step_increment import StepIncrement
 from tests.pdr.foot.test_dual import _feet
 
 

@@ -9,9 +9,9 @@ import pytest
 from scipy import stats
 
 from pdr.errors import InputError
+from pdr.evaluation.foot_metrics import pyshoe_armse
 from pdr.foot.detectors import detect
 from pdr.foot.filterbank import FilterBankConfig, _log_density, run_filterbank
-from pdr.foot.metrics import pyshoe_armse
 from pdr.foot.navigate import foot_imu
 from pdr.io import read_recording
 from tests.conftest import data_path

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pdr.cli import main
-from pdr.foot.metrics import pyshoe_armse
+from pdr.evaluation.foot_metrics import pyshoe_armse
 from pdr.foot.navigate import navigate
 from pdr.io import read_recording
 from tests.conftest import data_path

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from pdr.errors import InputError
-from pdr.foot.zupt import StepIncrement
 from pdr.fusion.centre import FusionCentre, FusionConfig
 from pdr.fusion.ranging import RangeModel
 from pdr.fusion.state import FootKey
+from pdr.step_increment import StepIncrement
 
 COV = np.diag([1e-4, 1e-4, 1e-4, 1e-5])
 

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from pdr.errors import InputError
-from pdr.foot.zupt import StepIncrement
 from pdr.fusion.dead_reckoning import propagate_step, step_transition
 from pdr.fusion.state import FootKey, GlobalState
+from pdr.step_increment import StepIncrement
 
 A = FootKey("a", "left")
 B = FootKey("b", "left")

@@ -2,8 +2,7 @@ import numpy as np
 import pytest
 
 from pdr.errors import InputError
-from pdr.fusion.centre import FusionConfig
-from pdr.fusion.evaluation import (
+from pdr.evaluation.coop import (
     cost_experiment,
     fit_power_law,
     influence_function,
@@ -11,6 +10,7 @@ from pdr.fusion.evaluation import (
     march_experiment,
     static_experiment,
 )
+from pdr.fusion.centre import FusionConfig
 from pdr.fusion.simulation import SimulationConfig, march_scenario, run_scenario, static_circle_scenario
 from pdr.fusion.state import FootKey
 

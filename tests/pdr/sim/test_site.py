@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 from pdr import quaternion as quat
-from pdr.attitude import AttitudeConfig
 from pdr.frames import heading_deg_to_yaw, wrap_angle
-from pdr.heading import f_of_q, scatter_in_frame, scatter_of
-from pdr.landmarks import Site
-from pdr.pipeline import PdrPipeline, PipelineConfig, track_rows
+from pdr.phone.attitude import AttitudeConfig
+from pdr.phone.heading import f_of_q, scatter_in_frame, scatter_of
+from pdr.phone.landmarks import Site
+from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
 from pdr.sim import parse_scenario, simulate, site_document
 from pdr.sim.trajectory import build_path
 

@@ -1,0 +1,33 @@
+"""The stored form of a foot step: the mode of its track row and the step increment its event carries.
+
+Written by the foot processor (:mod:`server.foot_processor`), read back by the dual-foot fusion stage
+(:mod:`server.fused_feet`); apart from both so that neither imports the other.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from pdr.errors import InputError
+from pdr.step_increment import StepIncrement
+
+#: Mode of every foot track row (foot navigation does not classify the motion).
+MODE = "walking"
+
+
+def increment_to_json(inc: StepIncrement) -> dict[str, Any]:
+    """The step increment of eqs. 7-8 as stored in a step event: what the dual-foot fusion stage reads back."""
+    return {"index": int(inc.index), "dp_m": [float(x) for x in inc.dp], "dpsi_rad": float(inc.dpsi),
+            "cov": np.asarray(inc.cov, dtype=np.float64).tolist()}
+
+
+def increment_from_json(t_s: float, data: dict[str, Any]) -> StepIncrement:
+    """Inverse of :func:`increment_to_json` for a step event at ``t_s`` (s); InputError when absent."""
+    d = data.get("increment")
+    if not isinstance(d, dict):
+        raise InputError("a foot step event without its increment (stored by an older version): reprocess the "
+                         "session", field="increment")
+    return StepIncrement(float(t_s), int(d["index"]), np.asarray(d["dp_m"], dtype=np.float64), float(d["dpsi_rad"]),
+                         np.asarray(d["cov"], dtype=np.float64))

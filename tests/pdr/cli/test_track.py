@@ -1,0 +1,185 @@
+"""``pdr track`` / ``pdr calibrate`` / ``pdr eval ipin|steps``: outputs, agreement with the reference scorer."""
+
+import csv
+import importlib.util
+import json
+
+import numpy as np
+import pytest
+
+from pdr.cli import main
+from pdr.evaluation.error_budget import BUDGET_TRACKS
+from pdr.evaluation.scoring import landmark_errors
+from tests.conftest import REPO_ROOT, SHARED_DATA, data_path
+
+SIM = REPO_ROOT / "mobile_logs" / "sim"
+
+
+def read_rows(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def test_track_writes_csv_and_geojson(tmp_path, capsys):
+    out, gj = tmp_path / "t.csv", tmp_path / "t.geojson"
+    assert main(["track", str(SIM / "hand_escalator.zip"), "--out", str(out), "--geojson", str(gj)]) == 0
+    rows = read_rows(out)
+    assert rows and list(rows[0]) == ["t_s", "east_m", "north_m", "up_m", "floor", "heading_deg", "step_length_m",
+                                      "mode"]
+    t = np.array([float(r["t_s"]) for r in rows])
+    assert np.all(np.diff(t) > 0)
+    assert all(0 <= float(r["heading_deg"]) < 360 for r in rows)
+    assert json.loads(gj.read_text())["features"][0]["geometry"]["type"] == "LineString"
+    assert "steps" in capsys.readouterr().out
+
+
+def test_track_smooths_offline_unless_told_not_to(tmp_path, capsys):
+    smoothed, causal = tmp_path / "s.csv", tmp_path / "c.csv"
+    assert main(["track", str(SIM / "hand_escalator.zip"), "--out", str(smoothed)]) == 0
+    assert "heading smoothed over" in capsys.readouterr().err
+    assert main(["track", str(SIM / "hand_escalator.zip"), "--out", str(causal), "--smoother", "off"]) == 0
+    assert "heading smoothed" not in capsys.readouterr().err
+    a, b = read_rows(smoothed), read_rows(causal)
+    assert [r["t_s"] for r in a] == [r["t_s"] for r in b]
+    assert [r["step_length_m"] for r in a] == [r["step_length_m"] for r in b]
+    assert [r["heading_deg"] for r in a] != [r["heading_deg"] for r in b]
+
+
+def test_track_bad_input_is_a_clean_error(tmp_path, capsys):
+    assert main(["track", str(tmp_path / "missing.txt"), "--out", str(tmp_path / "x.csv")]) == 2
+    assert "no such file" in capsys.readouterr().err
+    bad = tmp_path / "site.json"
+    bad.write_text('{"landmarks": [{"type": "lift"}]}')
+    assert main(["track", str(SIM / "hand_escalator.zip"), "--site", str(bad), "--out", str(tmp_path / "x.csv")]) == 2
+    assert "type must be one of" in capsys.readouterr().err
+
+
+def test_calibrate_scales_to_the_known_distance(tmp_path):
+    from pdr.io import read_recording
+    rec = read_recording(SIM / "hand_escalator.zip")
+    assert rec.truth.step_lengths_m is not None
+    walked = float(np.sum(rec.truth.step_lengths_m))
+    cal = tmp_path / "cal.json"
+    assert main(["calibrate", str(SIM / "hand_escalator.zip"), "--distance", f"{walked}", "--out", str(cal)]) == 0
+    out = tmp_path / "t.csv"
+    assert main(["track", str(SIM / "hand_escalator.zip"), "--calibration", str(cal), "--out", str(out)]) == 0
+    dist = sum(float(r["step_length_m"]) for r in read_rows(out))
+    assert dist == pytest.approx(walked, rel=0.01)
+
+
+def _ipin_ref():
+    path = SHARED_DATA.parent / "tools" / "ipin_ref.py"
+    if not path.exists():
+        pytest.skip("reference scorer not available")
+    spec = importlib.util.spec_from_file_location("ipin_ref", path)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@pytest.mark.data
+def test_ipin_eval_agrees_with_the_reference_scorer(tmp_path, capsys):
+    logdir = data_path("ipin2023_t3", "logfiles")
+    ref = _ipin_ref()
+    one = tmp_path / "logs"
+    one.mkdir()
+    src = logdir / "IPIN2023_T3_TrainingTrial22_repetition01.txt"
+    (one / src.name).symlink_to(src)
+    tracks = tmp_path / "tracks"
+    assert main(["eval", "ipin", str(one), "--placement", "hand", "--tracks", str(tracks), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    rows = read_rows(tracks / (src.stem + ".csv"))
+    t = np.array([float(r["t_s"]) for r in rows])
+    en = np.array([[float(r["east_m"]), float(r["north_m"])] for r in rows])
+    log = ref.read_log(str(src))
+    e_ref = ref.score(t, en, log, "none")[0]
+    tt, gt, _ = ref.truth(log)
+    assert np.allclose(landmark_errors(t, en, tt, gt, "none"), e_ref, atol=1e-9)
+    assert res["files"][0]["p75_abs_m"] == pytest.approx(float(np.percentile(e_ref, 75)), abs=0.01)
+    # The smoothed track is scored too (and written next to the causal one).
+    smoothed = read_rows(tracks / (src.stem + ".smoothed.csv"))
+    ts = np.array([float(r["t_s"]) for r in smoothed])
+    ens = np.array([[float(r["east_m"]), float(r["north_m"])] for r in smoothed])
+    assert res["files"][0]["smoothed"]["p75_abs_m"] == pytest.approx(
+        float(np.percentile(ref.score(ts, ens, log, "none")[0], 75)), abs=0.01)
+    assert res["overall"]["smoothed"]["files"] == 1
+    # Regression guard for this route (hand-held, floor -2): measured 3.6 m p75, ratio 0.99.
+    assert res["files"][0]["p75_abs_m"] < 6.0
+    assert abs(res["files"][0]["distance_ratio"] - 1) < 0.05
+
+
+@pytest.mark.data
+def test_ipin_eval_trim_start_drops_samples_before_the_first_landmark(tmp_path, capsys):
+    logdir = data_path("ipin2023_t3", "logfiles")
+    one = tmp_path / "logs"
+    one.mkdir()
+    src = logdir / "IPIN2023_T3_TrainingTrial23_repetition01.txt"
+    (one / src.name).symlink_to(src)
+    tracks = tmp_path / "tracks"
+    assert main(["eval", "ipin", str(one), "--placement", "hand", "--json", "--budget"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    full = result["files"][0]
+    # --budget: the smoothed track re-walked with the truth put in scores better on what the truth fixed.
+    budget, overall = full["budget"], result["overall"]["budget"]
+    assert overall["of"] == "smoothed" and set(budget) == set(BUDGET_TRACKS)
+    assert budget["truth_scale"]["distance_ratio_same_floor"] == pytest.approx(1.0, abs=1e-9)
+    assert budget["truth_heading_and_scale"]["p75_abs_m"] < full["smoothed"]["p75_abs_m"]
+    assert overall["truth_heading"]["files"] == 1
+    assert main(["eval", "ipin", str(one), "--placement", "hand", "--json", "--trim-start", "3",
+                 "--tracks", str(tracks)]) == 0
+    trimmed = json.loads(capsys.readouterr().out)["files"][0]
+    rows = read_rows(tracks / (src.stem + ".csv"))
+    assert float(rows[0]["t_s"]) >= 3.0          # the log's clock starts near 0 s
+    assert trimmed["landmarks"] == full["landmarks"]
+    assert trimmed["steps"] <= full["steps"]
+    # Reaching the first landmark is refused with a message naming the option.
+    assert main(["eval", "ipin", str(one), "--trim-start", "10000"]) == 2
+    assert "trim_start" in capsys.readouterr().err
+
+
+@pytest.mark.data
+def test_steps_eval_on_two_oxford_walks(capsys):
+    root = data_path("oxford_step_counter", "optimisation", "data")
+    walks = [root / "Samsung_Dario_Hard_FrontPocket_2", root / "Samsung_Carmelo_Hard_InHand_2"]
+    for w in walks:
+        if not w.exists():
+            pytest.skip(f"missing {w}")
+    from pdr.io import read_recording
+    from pdr.phone.pipeline import PdrPipeline, track_rows
+    for w in walks:
+        rec = read_recording(w)
+        n = len(track_rows(PdrPipeline().run(rec)))
+        assert rec.truth.step_count is not None
+        assert abs(n - rec.truth.step_count) / rec.truth.step_count < 0.02
+
+
+@pytest.mark.data
+@pytest.mark.slow
+def test_full_oxford_step_count(capsys):
+    assert main(["eval", "steps", str(data_path("oxford_step_counter")), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)["overall"]
+    # Measured 1.09 % mean absolute error over pocket/hand/bag/armband walks, 0.58 % against the truth without
+    # contact-switch bounces (1.14 % / 0.63 % before the walk-end rule; target 1 %, not reached: switch bounces
+    # in the contact-switch truth alone account for 0.88 %, see pdr.phone.steps).
+    assert res["mean_abs_error_pct_pocket_hand_bag_armband"] < 1.2
+    assert res["mean_abs_error_pct_pocket_hand_bag_armband_bounce_free"] < 0.62
+
+
+def test_distance_ratio_same_floor_leaves_out_floor_changes():
+    from pdr.evaluation.scoring import distance_ratio, distance_ratio_same_floor
+    # Landmarks: 10 m east on floor 0, then a winding stair (walked 12 m, ends 2 m apart) to floor -1.
+    truth_t = np.array([0.0, 10.0, 22.0])
+    truth_en = np.array([[0.0, 0.0], [10.0, 0.0], [12.0, 0.0]])
+    floor = np.array([0.0, 0.0, -1.0])
+    t = np.linspace(0.0, 10.0, 11)
+    en = np.column_stack([t, np.zeros_like(t)])
+    ang = np.linspace(0.0, 2 * np.pi, 13)[1:]
+    stair = np.column_stack([10.0 + 2.0 * ang / (2 * np.pi) + np.sin(ang), 1 - np.cos(ang)])
+    t_all = np.concatenate([t, 10.0 + np.arange(1, 13)])
+    en_all = np.vstack([en, stair])
+    assert distance_ratio(t_all, en_all, truth_t, truth_en) > 1.3        # the straight line under-counts the stair
+    assert distance_ratio_same_floor(t_all, en_all, truth_t, truth_en, floor) == pytest.approx(1.0)
+    # A landmark between two track rows: the interval is cut at the interpolated position (no partial step lost).
+    assert distance_ratio_same_floor(t, en, np.array([0.5, 9.5]), np.array([[0.5, 0.0], [9.5, 0.0]]),
+                                     np.zeros(2)) == pytest.approx(1.0)

@@ -1,0 +1,240 @@
+"""Attitude filters: analytic truth (stationary, constant rate), UKF vs EKF, generic UKF vs filterpy."""
+
+import math
+
+import numpy as np
+import pytest
+
+from pdr import quaternion as quat
+from pdr.errors import InputError
+from pdr.filters.ukf import SigmaPoints, UnscentedKalmanFilter, unscented_transform
+from pdr.frames import GRAVITY_MPS2
+from pdr.phone.attitude import AttitudeConfig, AttitudeFilter, AttitudeState, yaw_of_axis
+
+FS = 50.0
+H_ENU = np.array([0.0, 20.0, -44.0])  # magnetic field (uT), north and down
+
+
+def body_measurements(q_nb, n, rng=None, noise=0.0):
+    g_b = quat.rotate(quat.conjugate(q_nb), np.array([0.0, 0.0, GRAVITY_MPS2]))
+    m_b = quat.rotate(quat.conjugate(q_nb), H_ENU)
+    acc = np.tile(g_b, (n, 1))
+    mag = np.tile(m_b, (n, 1))
+    if rng is not None:
+        acc = acc + rng.normal(0, noise, acc.shape)
+        mag = mag + rng.normal(0, 10 * noise, mag.shape)
+    return acc, mag
+
+
+@pytest.mark.parametrize("method", ["ukf", "ekf"])
+@pytest.mark.parametrize("rpy_deg", [(0, 0, 30), (20, -10, 135), (-35, 25, -100)])
+def test_stationary_attitude_from_gravity_and_field(method, rpy_deg):
+    q_true = quat.from_euler(*np.radians(rpy_deg))
+    rng = np.random.default_rng(1)
+    acc, mag = body_measurements(q_true, 500, rng, 0.02)
+    cfg = AttitudeConfig(mag_when_static=True)
+    q, used = AttitudeFilter(FS, cfg, method=method).run(acc, np.zeros((500, 3)), mag)
+    assert math.degrees(quat.angle_between(q[-1], q_true)) < 1.0
+    assert np.all(np.abs(np.linalg.norm(q, axis=1) - 1) < 1e-9)
+    assert (used[-100:] & 1).all() and (used[-100:] & 2).all()
+
+
+@pytest.mark.parametrize("method", ["ukf", "ekf"])
+def test_constant_rate_yaw_follows_gyro(method):
+    n, rate = 250, 0.4  # 5 s at 0.4 rad/s about up, device flat
+    t = np.arange(n) / FS
+    q_true = quat.from_euler(np.zeros(n), np.zeros(n), 0.3 + rate * (t + 1 / FS))
+    acc = np.tile([0.0, 0.0, GRAVITY_MPS2], (n, 1))
+    gyro = np.tile([0.0, 0.0, rate], (n, 1))
+    f = AttitudeFilter(FS, method=method)
+    f.state.q[:] = quat.from_euler(0.0, 0.0, 0.3)
+    f.state.aux[9] = 1  # skip the initial alignment (no magnetometer here)
+    q, _ = f.run(acc, gyro, None)
+    err = np.degrees(quat.angle_between(q, q_true))
+    assert err.max() < 0.5
+
+
+def test_gyro_bias_estimated_when_stationary():
+    n = int(30 * FS)
+    q_true = quat.from_euler(0.1, -0.2, 1.0)
+    acc, mag = body_measurements(q_true, n)
+    bias = np.array([0.01, -0.02, 0.015])
+    f = AttitudeFilter(FS)
+    q, used = f.run(acc, np.tile(bias, (n, 1)), mag)
+    assert np.allclose(f.state.bias, bias, atol=1e-3)
+    assert (used & 4).any()
+
+
+def trembling_hand(n, rng):
+    """A standing user's hand-held phone: slow drift and 7 Hz tremor of the attitude; body rates (rad/s)."""
+    t = np.arange(n) / FS
+    rv = np.column_stack([0.05 * np.sin(2 * np.pi * 0.3 * t) + 0.02 * t / 30,
+                          0.04 * np.sin(2 * np.pi * 0.5 * t + 1),
+                          0.3 + 0.06 * t / 30 + 0.004 * np.sin(2 * np.pi * 7 * t)])
+    q_true = quat.normalize(quat.multiply(quat.from_rotvec(rv), quat.from_euler(0.3, -0.4, 0.0)))
+    omega = 2 * quat.multiply(quat.conjugate(q_true), np.gradient(q_true, 1 / FS, axis=0))[:, 1:]
+    acc = quat.rotate(quat.conjugate(q_true), np.array([0.0, 0.0, GRAVITY_MPS2]))
+    mag = quat.rotate(quat.conjugate(q_true), H_ENU)
+    return q_true, omega, acc + rng.normal(0, 0.02, acc.shape), mag + rng.normal(0, 0.3, mag.shape)
+
+
+def test_gyro_bias_of_a_trembling_hand_held_phone():
+    """The phone rotates slowly while the user stands: the mean gyro is biased, the least squares is not."""
+    rng = np.random.default_rng(5)
+    n = int(30 * FS)
+    _, omega, acc, mag = trembling_hand(n, rng)
+    bias = np.array([0.01, -0.02, 0.015])
+    gyro = omega + bias + rng.normal(0, 0.005, (n, 3))
+    f = AttitudeFilter(FS)
+    _, used = f.run(acc, gyro, mag)
+    assert (used & 4).mean() > 0.9
+    assert np.abs(f.state.bias - bias).max() < 0.5e-3
+    assert np.abs(gyro.mean(axis=0) - bias).max() > 1e-3      # what a plain average would get
+
+
+def test_gyro_bias_and_attitude_kept_in_a_moving_field():
+    """A user standing in an elevator cabin that moves through the building's field: the device does not
+    rotate, but the field (scaled by the cabin) drifts in magnitude and direction. The bias component about
+    the vertical comes from the gyro mean, not from the field; the bias and the attitude stay put.
+    """
+    rng = np.random.default_rng(3)
+    n0, n1 = int(4 * FS), int(16 * FS)
+    n = n0 + n1
+    q_true = quat.from_euler(0.4, -0.2, 1.1)
+    s = np.r_[np.zeros(n0), np.linspace(0.0, 1.0, n1)]
+    field_n = 0.55 * H_ENU + s[:, None] * np.array([9.0, -4.0, 5.0])
+    mag = quat.rotate(quat.conjugate(q_true), field_n) + rng.normal(0, 0.3, (n, 3))
+    acc = np.tile(quat.rotate(quat.conjugate(q_true), np.array([0.0, 0.0, GRAVITY_MPS2])), (n, 1))
+    acc = acc + rng.normal(0, 0.02, acc.shape)
+    bias = np.array([0.004, -0.006, 0.008])
+    gyro = bias + rng.normal(0, 0.005, (n, 3))
+    f = AttitudeFilter(FS)
+    q, used = f.run(acc, gyro, mag)
+    assert (used[n0:] & 4).all()
+    assert np.abs(f.state.bias - bias).max() < 1e-3            # field rows in the bias: 0.04 rad/s off
+    assert math.degrees(quat.angle_between(q[-1], q_true)) < 2.0  # field rows in the bias: 28 degrees off
+
+
+@pytest.mark.parametrize("method", ["ukf", "ekf"])
+def test_heading_recovers_from_a_disturbed_start(method):
+    """20 s standing where the field is turned by 60 degrees and 30 % stronger, then 60 s of walking-like
+    motion (vertical bounce, slow turn) in the earth field: the walk's magnetometer rows fix the yaw, the
+    standing samples (one disturbed spot) do not lock it.
+    """
+    n1, n2 = int(20 * FS), int(60 * FS)
+    yaw0, rate = 0.5, 0.02
+    q1 = quat.from_euler(0.2, -0.3, yaw0)
+    g_b = quat.rotate(quat.conjugate(q1), np.array([0.0, 0.0, GRAVITY_MPS2]))
+    h_bad = 1.3 * quat.rotate(quat.from_euler(0.0, 0.0, math.radians(60)), H_ENU)
+    acc1 = np.tile(g_b, (n1, 1))
+    mag1 = np.tile(quat.rotate(quat.conjugate(q1), h_bad), (n1, 1))
+    t = np.arange(1, n2 + 1) / FS
+    q2 = quat.from_euler(np.full(n2, 0.2), np.full(n2, -0.3), yaw0 + rate * t)
+    bounce = np.column_stack([np.zeros(n2), np.zeros(n2), GRAVITY_MPS2 + 2.0 * np.sin(2 * np.pi * 2.0 * t)])
+    acc2 = quat.rotate(quat.conjugate(q2), bounce)
+    mag2 = quat.rotate(quat.conjugate(q2), np.tile(H_ENU, (n2, 1)))
+    gyro = np.zeros((n1 + n2, 3))
+    gyro[n1:] = quat.rotate(quat.conjugate(q2), np.array([0.0, 0.0, rate]))
+    q, used = AttitudeFilter(FS, method=method).run(np.vstack([acc1, acc2]), gyro, np.vstack([mag1, mag2]))
+    assert not (used[n1 // 2:n1] & 2).any()                  # no magnetometer rows while standing
+    err = math.degrees(quat.angle_between(q[-1], q2[-1]))
+    assert err < 3.0
+
+
+def test_state_round_trip_and_bad_input():
+    f = AttitudeFilter(FS)
+    acc, mag = body_measurements(quat.IDENTITY, 20)
+    f.run(acc, np.zeros((20, 3)), mag)
+    st = AttitudeState.from_dict(f.state.to_dict())
+    assert np.array_equal(st.q, f.state.q) and np.array_equal(st.P, f.state.P)
+    with pytest.raises(InputError, match="acc must be"):
+        f.run(np.zeros((5, 2)))
+    with pytest.raises(InputError, match="method"):
+        AttitudeFilter(FS, method="kalman")
+    with pytest.raises(InputError, match="attitude state"):
+        AttitudeState.from_dict({"q": [1, 0, 0]})
+
+
+def test_chunked_run_equals_one_batch():
+    rng = np.random.default_rng(3)
+    n = 400
+    acc, mag = body_measurements(quat.from_euler(0.2, 0.1, -0.5), n, rng, 0.3)
+    gyro = rng.normal(0, 0.05, (n, 3))
+    q1, _ = AttitudeFilter(FS).run(acc, gyro, mag)
+    f = AttitudeFilter(FS)
+    parts = [f.run(acc[a:b], gyro[a:b], mag[a:b])[0] for a, b in ((0, 7), (7, 150), (150, 151), (151, n))]
+    assert np.array_equal(np.concatenate(parts), q1)
+
+
+def test_yaw_of_axis_convention():
+    q = quat.from_euler(0.0, 0.0, math.radians(30))
+    assert math.isclose(float(yaw_of_axis(q[None], np.array([0.0, 1.0, 0.0]))[0]), math.radians(120), abs_tol=1e-12)
+
+
+def test_sigma_point_weights_sum_to_one():
+    wm, wc = SigmaPoints(4).weights()
+    assert math.isclose(wm.sum(), 1.0, abs_tol=1e-6)
+    sp = SigmaPoints(2, alpha=0.5)
+    x, p = np.array([1.0, 2.0]), np.array([[2.0, 0.3], [0.3, 1.0]])
+    m, c = unscented_transform(sp.sigma_points(x, p), *sp.weights())
+    assert np.allclose(m, x) and np.allclose(c, p)
+
+
+def test_generic_ukf_matches_filterpy():
+    filterpy = pytest.importorskip("filterpy.kalman")
+
+    def fx(x, dt):
+        return np.array([x[0] + dt * x[1], x[1]])
+
+    def hx(x):
+        return np.array([math.atan2(x[0], 10.0)])
+
+    x0, p0 = np.array([0.5, 1.0]), np.eye(2) * 0.5
+    q, r = np.eye(2) * 0.01, np.array([[0.02]])
+    ours = UnscentedKalmanFilter(fx, hx, SigmaPoints(2, alpha=0.3, beta=2.0, kappa=1.0), x0, p0)
+    pts = filterpy.MerweScaledSigmaPoints(2, alpha=0.3, beta=2.0, kappa=1.0)
+    ref = filterpy.UnscentedKalmanFilter(dim_x=2, dim_z=1, dt=0.1, hx=hx, fx=fx, points=pts)
+    ref.x, ref.P, ref.Q, ref.R = x0.copy(), p0.copy(), q, r
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        z = np.array([rng.normal(0.1, 0.1)])
+        ours.predict(q, dt=0.1)
+        ours.update(z, r)
+        ref.predict()
+        ref.update(z)
+        assert np.allclose(ours.x, ref.x, atol=1e-9) and np.allclose(ours.P, ref.P, atol=1e-9)
+
+
+def test_yaw_reopens_after_the_first_stand_that_gives_the_bias_not_after_a_short_blip():
+    """The yaw variance is reopened once, when the first stand long enough to estimate the gyro bias ends.
+
+    A stand shorter than one bias block (here 0.6 s past the 1 s stillness test) gives no bias rows; if it
+    counted, the reopening (and so the walk's heading) would depend on where the recording happens to start.
+    """
+    from pdr.phone.heading import yaw_variance
+
+    rng = np.random.default_rng(3)
+    q_true = quat.from_euler(0.1, -0.2, 1.0)
+    bias = np.array([0.01, -0.02, 0.015])
+    f = AttitudeFilter(FS)
+
+    def stand(seconds):
+        n = int(seconds * FS)
+        acc, mag = body_measurements(q_true, n, rng, 0.02)
+        f.run(acc, bias + rng.normal(0, 0.002, (n, 3)), mag)
+
+    def move(seconds):  # the phone shaken: |a| far from g, so no stillness and no gravity rows
+        n = int(seconds * FS)
+        acc, mag = body_measurements(q_true, n)
+        f.run(acc + rng.normal(0, 3.0, acc.shape), np.tile(bias, (n, 1)), mag)
+        return yaw_variance(f.state.q, f.state.P)
+
+    sigma_reopen = math.radians(AttitudeConfig().init_yaw_sigma_deg)
+    stand(1.6)
+    assert move(2.0) < 0.02 * sigma_reopen**2      # a blip: not reopened
+    stand(6.0)
+    assert move(0.1) > 0.1 * sigma_reopen**2       # the first real stand: reopened (field rows shrink it)
+    assert np.allclose(f.state.bias, bias, atol=3e-3)
+    stand(6.0)
+    var_before = yaw_variance(f.state.q, f.state.P)
+    assert move(0.1) < max(2 * var_before, 0.02 * sigma_reopen**2)   # only once
