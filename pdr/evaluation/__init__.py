@@ -7,5 +7,6 @@ error heading and step-length scale explain), :mod:`~pdr.evaluation.phone_bench`
 :mod:`~pdr.evaluation.foot_metrics` (foot navigation against VICON, loop closure and footprints),
 :mod:`~pdr.evaluation.foot_crossval` (two-fold learning study of the filter bank and BC),
 :mod:`~pdr.evaluation.foot_speed` (foot navigators' CPU cost and memory) and :mod:`~pdr.evaluation.coop`
-(``pdr eval coop``, cooperative localisation).
+(``pdr eval coop``, cooperative localisation), :mod:`~pdr.evaluation.heading`
+(``pdr eval heading``, walking direction and attitude against motion capture).
 """

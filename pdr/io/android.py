@@ -8,14 +8,16 @@ from numpy.typing import NDArray
 from pdr import quaternion as quat
 
 
-def rotation_vector_to_q_nb(xyz: NDArray[np.float64]) -> NDArray[np.float64]:
+def rotation_vector_to_q_nb(xyz: NDArray[np.float64], w: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
     """Android rotation vector (N, 3) to attitude ``q_nb`` (N, 4), Hamilton scalar first, ENU.
 
     ``TYPE_ROTATION_VECTOR`` holds the x, y, z parts of the unit quaternion that rotates device axes
-    into the East-North-Up world frame; the scalar is ``w = sqrt(max(0, 1 - |v|^2))`` (as
-    ``SensorManager.getQuaternionFromVector`` does when the 4th value is absent). The result is
-    normalised, so it is exactly ``q_nb`` of :mod:`pdr.frames`.
+    into the East-North-Up world frame (north: magnetic north, Android applies no declination); the scalar
+    is the logged 4th value ``w`` when given (N,), else ``w = sqrt(max(0, 1 - |v|^2))`` (as
+    ``SensorManager.getQuaternionFromVector`` does when the 4th value is absent). The result is normalised,
+    so it is exactly ``q_nb`` of :mod:`pdr.frames`.
     """
     v = np.asarray(xyz, dtype=np.float64)
-    w = np.sqrt(np.clip(1.0 - np.sum(v * v, axis=1), 0.0, 1.0))
-    return quat.normalize(np.column_stack([w, v]))
+    if w is None:
+        w = np.sqrt(np.clip(1.0 - np.sum(v * v, axis=1), 0.0, 1.0))
+    return quat.normalize(np.column_stack([np.asarray(w, dtype=np.float64), v]))

@@ -29,14 +29,18 @@ def variables(path: str | Path) -> set[str]:
         return set()
 
 
-def load(path: str | Path) -> dict[str, Any]:
-    """All variables of a ``.mat`` (or ``.mat.gz``) file; :class:`InputError` if it is not a readable one."""
+def load(path: str | Path, structs: bool = False) -> dict[str, Any]:
+    """All variables of a ``.mat`` (or ``.mat.gz``) file; :class:`InputError` if it is not a readable one.
+
+    ``structs``: MATLAB structs as objects with attributes and 1xN arrays squeezed (scipy's ``squeeze_me=True,
+    struct_as_record=False``), for exports made of nested structs (Qualisys).
+    """
     from scipy.io import loadmat
 
     p = Path(path)
     raw = read_bytes(p)
     try:
-        mat: dict[str, Any] = loadmat(io.BytesIO(raw))
+        mat: dict[str, Any] = loadmat(io.BytesIO(raw), squeeze_me=structs, struct_as_record=not structs)
     except NotImplementedError:
         raise InputError("MATLAB v7.3 (HDF5) files are not supported; save with -v7", source=str(p)) from None
     except Exception as exc:  # noqa: BLE001 - scipy raises many types on corrupt input

@@ -15,6 +15,7 @@ READER_MODULES: tuple[str, ...] = (
     "pdr.io.ipin",
     "pdr.io.ms_indoor",
     "pdr.io.oxford",
+    "pdr.io.tyrex",
     "pdr.io.mobifall",
     "pdr.io.driving",
     "pdr.io.pyshoe",

@@ -20,6 +20,7 @@ SAMPLES: dict[str, str] = {
     "mobifall:gyro": "mobifall_v2_pocket/sub2/ADL/WAL/WAL_gyro_2_1.txt.gz",
     "driving:folder": "driving_phone_mount/17",
     "driving:acc": "driving_phone_mount/17/acelerometro_terra.csv",
+    "tyrex:folder": "attitude_smartphones/android/Jakob_Nexus5_NoDist_Texting",
     "other:pyshoe": "pyshoe_vicon/2017-11-22-11-35-59.mat",
     "other:xio": "xio_gait_loop/short_walk.csv",
     "other:npz": "allan_static_imudata/adis_16405_imu1.npz",

@@ -90,6 +90,16 @@ def _zip_tree(path: Path, lines: int = 150) -> dict[str, bytes]:
         return {n: _head(z.read(n), lines, n) for n in z.namelist() if not n.endswith("/")}
 
 
+def _gunzipped_tree(folder: Path, lines: int = 150) -> dict[str, bytes]:
+    """Every file of a folder, ``.gz`` members decompressed (and renamed without ``.gz``), cut to ``lines``."""
+    out = {}
+    for p in sorted(folder.iterdir()):
+        if p.is_file():
+            raw = gzip.decompress(p.read_bytes()) if p.name.endswith(".gz") else p.read_bytes()
+            out[p.name.removesuffix(".gz")] = _head(raw, lines)
+    return out
+
+
 def _native_batch() -> bytes:
     from tests.server.helpers import phone_batch
 
@@ -133,6 +143,10 @@ DATA_SEEDS: dict[str, Callable[[], Seed]] = {
     "pyshoe": lambda: Seed("pyshoe", "2017-11-22-11-35-59.mat", {"m": data_path(
         "pyshoe_vicon", "2017-11-22-11-35-59.mat").read_bytes()}, "binary"),
     "static_npz": lambda: Seed("static_npz", "imu.npz", {"n": _npz()}, "binary"),
+    "tyrex": lambda: Seed("tyrex", "Jakob_Nexus5_NoDist_Texting", _gunzipped_tree(data_path(
+        "attitude_smartphones", "android", "Jakob_Nexus5_NoDist_Texting")), "folder"),
+    "tyrex-zip": lambda: Seed("tyrex", "recording.zip", _gunzipped_tree(data_path(
+        "attitude_smartphones", "android", "Jakob_Nexus5_Dist_Swinging")), "zip"),
 }
 
 

@@ -1,0 +1,435 @@
+"""Walking heading and device attitude against motion capture (Tyrex benchmark, :mod:`pdr.io.tyrex`).
+
+Per recording, the phone pipeline runs as ``pdr track`` runs it (:func:`pdr.cli.track.run_pipeline`, the same
+configuration from the same options; placement automatic unless told), and is scored against the mocap truth:
+
+Walking direction (per step)
+    The true direction of a step is that of the walking path (``truth.extra['walk_pos_m']``, the phone's
+    horizontal position averaged over one stride) between the step's start (``t_start_s``) and end (``t_s``);
+    steps whose true displacement is shorter than :data:`MIN_STEP_M` or undefined (hidden markers, the ends of
+    the recording) are not scored. The estimate is the step's ``heading_deg`` (the direction the track moves),
+    of the causal track and of the offline-smoothed one (``pdr track``'s default,
+    :func:`pdr.heading_smoother.smooth_track`). Figures: mean and median absolute error, share within 10 and
+    20 degrees, steps scored.
+Attitude (per mocap frame)
+    The attitude filter's ``q_nb`` on the pipeline's grid (captured from the pipeline's own filter while it runs)
+    and the phone's rotation vector (``orientation`` stream), each at the grid or stream sample nearest to every
+    valid mocap frame (within :data:`MAX_MATCH_S`), against the mocap ``q_nb``. Error rotation
+    ``q_e = q_est q_true^-1`` (navigation frame): yaw error = its twist about the vertical, tilt error = the angle
+    between the estimated and true up directions in the device frame. Mean and median over frames.
+Rotation vector as walking direction
+    The step's mean horizontal direction of the device +y axis by the rotation vector: the walking direction of
+    a phone held in reading position (texting). Scored like the steps above.
+
+Frames: the mocap world is X east, Y magnetic north, Z up; the rotation vector is referenced to magnetic north
+and the pipeline applies no declination unless configured (``attitude.mag_declination_deg``, 0 by default), so
+all three are compared in that frame as they are. A declination configured in the pipeline is reported in the
+output (``declination_deg``) and removed from the estimates before scoring.
+
+Protocol: the recordings of Guillaume are the tuning half, Jakob's the confirmation half (per-walker
+aggregates); aggregates over steps (walking direction) and frames (attitude) per carriage, per walker,
+disturbed against clean, and over all.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pdr import quaternion as quat
+from pdr.errors import InputError
+from pdr.frames import heading_deg_to_yaw, wrap_angle, yaw_to_heading_deg
+from pdr.io.registry import read_recording
+from pdr.phone.pipeline import PLACEMENT_GROUPS, PdrPipeline, PipelineConfig, track_rows
+from pdr.recording import Recording
+
+FloatArray = NDArray[np.float64]
+
+#: Shortest true step displacement (m) whose direction is scored: below it the walker stands or turns on the spot.
+MIN_STEP_M = 0.15
+#: Largest time (s) between a mocap frame and the estimate sample compared with it.
+MAX_MATCH_S = 0.05
+#: Carriages in report order (the folder names' motion).
+CARRIAGES = ("FrontPocket", "BackPocket", "Swinging", "Texting", "RunningPocket")
+#: Walker of each protocol half.
+TUNING_WALKER, CONFIRMATION_WALKER = "Guillaume", "Jakob"
+
+
+@dataclass
+class ErrorSet:
+    """Absolute errors (deg) of one quantity, pooled over steps or frames."""
+
+    deg: FloatArray = field(default_factory=lambda: np.zeros(0))
+
+    def add(self, other: ErrorSet) -> None:
+        self.deg = np.concatenate([self.deg, other.deg])
+
+    def summary(self) -> dict[str, float]:
+        e = self.deg
+        if e.size == 0:
+            return {"n": 0, "mean_deg": math.nan, "median_deg": math.nan, "within_10_deg": math.nan,
+                    "within_20_deg": math.nan}
+        return {"n": int(e.size), "mean_deg": float(e.mean()), "median_deg": float(np.median(e)),
+                "within_10_deg": float(np.mean(e <= 10.0)), "within_20_deg": float(np.mean(e <= 20.0))}
+
+
+#: Error sets kept per recording: walking direction (causal, smoothed, rotation vector +y) and attitude.
+ERROR_SETS = ("walk_causal", "walk_smoothed", "walk_rv_y", "att_yaw", "att_tilt", "rv_yaw", "rv_tilt")
+
+
+@dataclass
+class RecordingScore:
+    """Figures of one recording; ``errors`` by :data:`ERROR_SETS` name."""
+
+    name: str
+    walker: str
+    carriage: str
+    disturbed: bool
+    placement: str
+    steps: int
+    errors: dict[str, ErrorSet]
+    notices: list[str]
+    #: Per step (columns of equal length): ``t_start_s``, ``t_s`` (log clock, s), ``placement``, and the compass
+    #: headings (deg, magnetic north) ``true_heading_deg``, ``heading_deg`` (causal), ``smoothed_heading_deg``,
+    #: ``rv_y_heading_deg``; NaN where undefined.
+    step_table: dict[str, Any] = field(default_factory=dict)
+    #: Azimuth (deg) of magnetic north from the mocap Y axis (:func:`pdr.io.tyrex.field_azimuth_deg`), if known.
+    field_azimuth_deg: float | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"recording": self.name, "walker": self.walker, "carriage": self.carriage,
+                "disturbed": self.disturbed, "placement": self.placement, "steps": self.steps,
+                **{k: self.errors[k].summary() for k in ERROR_SETS},
+                "field_azimuth_mocap_deg": self.field_azimuth_deg, "notices": self.notices}
+
+
+# -- truth ------------------------------------------------------------------------------------------------
+def true_step_yaw(rec: Recording, t_start_s: FloatArray, t_end_s: FloatArray,
+                  min_step_m: float = MIN_STEP_M) -> FloatArray:
+    """ENU yaw (rad) of the walking path between each step's start and end times (log clock, s); NaN where the
+    path is undefined at either end or the true displacement is shorter than ``min_step_m``.
+    """
+    ex = rec.truth.extra
+    if "walk_pos_m" not in ex or "trajectory_t_s" not in ex:
+        raise InputError("the recording has no walking-path truth (truth.extra['walk_pos_m'])",
+                         source=rec.source or None)
+    t = rec.origin_ns / 1e9 + np.asarray(ex["trajectory_t_s"], dtype=np.float64)
+    walk = np.asarray(ex["walk_pos_m"], dtype=np.float64)
+
+    def at(tq: FloatArray) -> FloatArray:
+        # Linear interpolation that stays NaN next to a NaN frame (np.interp would bridge it).
+        i = np.clip(np.searchsorted(t, tq) - 1, 0, t.size - 2)
+        w = ((tq - t[i]) / (t[i + 1] - t[i]))[:, None]
+        out = walk[i] * (1 - w) + walk[i + 1] * w
+        out[(tq < t[0]) | (tq > t[-1])] = np.nan
+        return out
+
+    d = at(np.asarray(t_end_s, dtype=np.float64)) - at(np.asarray(t_start_s, dtype=np.float64))
+    yaw = np.arctan2(d[:, 1], d[:, 0])
+    yaw[~(np.hypot(d[:, 0], d[:, 1]) >= min_step_m)] = np.nan
+    return yaw
+
+
+def _step_times(rows: list[dict[str, Any]]) -> tuple[FloatArray, FloatArray]:
+    """(N,) start and end times (log clock, s) of a track's steps."""
+    return (np.array([r["t_start_s"] for r in rows], dtype=np.float64),
+            np.array([r["t_s"] for r in rows], dtype=np.float64))
+
+
+def track_yaw(rows: list[dict[str, Any]], declination_deg: float = 0.0) -> FloatArray:
+    """(N,) ENU yaw (rad) of a track's steps, referenced to magnetic north (``declination_deg`` removed)."""
+    return heading_deg_to_yaw(np.array([r["heading_deg"] for r in rows], dtype=np.float64) - declination_deg)
+
+
+def abs_errors(est_yaw: FloatArray, true_yaw: FloatArray) -> ErrorSet:
+    """Absolute angle errors (deg) where both yaws (rad) are defined."""
+    e = np.degrees(np.abs(wrap_angle(est_yaw - true_yaw)))
+    return ErrorSet(e[np.isfinite(e)])
+
+
+def step_errors(rows: list[dict[str, Any]], rec: Recording, declination_deg: float = 0.0) -> ErrorSet:
+    """Absolute walking-direction errors (deg) of a track's steps against the walking path."""
+    if not rows:
+        return ErrorSet()
+    return abs_errors(track_yaw(rows, declination_deg), true_step_yaw(rec, *_step_times(rows)))
+
+
+def attitude_errors(t_est_s: FloatArray, q_est: FloatArray, rec: Recording, declination_deg: float = 0.0,
+                    max_match_s: float = MAX_MATCH_S) -> tuple[ErrorSet, ErrorSet]:
+    """Yaw and tilt errors (deg) of attitude estimates ``q_est`` (N, 4) at log-clock times ``t_est_s`` (N,)
+    against the mocap ``q_nb``, at every valid frame with an estimate within ``max_match_s``.
+    """
+    ex = rec.truth.extra
+    if "q_nb" not in ex:
+        raise InputError("the recording has no attitude truth (truth.extra['q_nb'])", source=rec.source or None)
+    tt = rec.origin_ns / 1e9 + np.asarray(ex["trajectory_t_s"], dtype=np.float64)
+    qt = np.asarray(ex["q_nb"], dtype=np.float64)
+    ok_est = np.all(np.isfinite(q_est), axis=1)
+    te, qe = np.asarray(t_est_s, dtype=np.float64)[ok_est], np.asarray(q_est, dtype=np.float64)[ok_est]
+    if te.size == 0:
+        return ErrorSet(), ErrorSet()
+    j = np.clip(np.searchsorted(te, tt), 1, max(te.size - 1, 1))
+    j = np.where(np.abs(te[j - 1] - tt) < np.abs(te[np.minimum(j, te.size - 1)] - tt), j - 1, j)
+    j = np.minimum(j, te.size - 1)
+    use = np.all(np.isfinite(qt), axis=1) & (np.abs(te[j] - tt) <= max_match_s)
+    qe_m, qt_m = qe[j[use]], qt[use]
+    if declination_deg:
+        # Estimates referenced to true north: rotate them back to magnetic north (about up by +declination).
+        half = math.radians(declination_deg) / 2
+        qe_m = quat.multiply(np.array([math.cos(half), 0.0, 0.0, math.sin(half)]), qe_m)
+    yaw, tilt = yaw_tilt_error(qe_m, qt_m)
+    return ErrorSet(np.degrees(yaw)), ErrorSet(np.degrees(tilt))
+
+
+def yaw_tilt_error(q_est: FloatArray, q_true: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """(N,) yaw and tilt errors (rad, >= 0) between attitudes ``q_nb`` (N, 4).
+
+    Yaw: the twist about the navigation up axis of ``q_est q_true^-1``. Tilt: the angle between the up direction
+    each attitude puts in the device frame. Both are free of the gimbal lock of Euler angles (a phone upright
+    in a pocket).
+    """
+    qe = quat.multiply(q_est, quat.conjugate(q_true))
+    yaw = np.abs(wrap_angle(2.0 * np.arctan2(qe[:, 3], qe[:, 0])))
+    up = np.array([0.0, 0.0, 1.0])
+    ue = quat.rotate(quat.conjugate(q_est), np.broadcast_to(up, (q_est.shape[0], 3)))
+    ut = quat.rotate(quat.conjugate(q_true), np.broadcast_to(up, (q_true.shape[0], 3)))
+    tilt = np.arctan2(np.linalg.norm(np.cross(ue, ut), axis=1), np.sum(ue * ut, axis=1))
+    return yaw, tilt
+
+
+def device_y_yaw(rows: list[dict[str, Any]], rec: Recording) -> FloatArray:
+    """(N,) ENU yaw (rad) of the rotation vector's device +y axis, its mean horizontal direction over each step of
+    ``rows`` (NaN without an orientation sample in the step): the phone's own heading of a phone held in reading
+    position.
+    """
+    t0, t1 = _step_times(rows)
+    if not rows or not rec.has("orientation"):
+        return np.full(t0.size, np.nan)
+    t = rec.origin_ns / 1e9 + rec.t_s("orientation")
+    y_n = quat.rotate(rec.values("orientation"), np.broadcast_to([0.0, 1.0, 0.0], (t.size, 3)))[:, :2]
+    unit = y_n / np.maximum(np.linalg.norm(y_n, axis=1), 1e-9)[:, None]
+    c = np.concatenate([np.zeros((1, 2)), np.cumsum(unit, axis=0)])
+    a, b = np.searchsorted(t, t0), np.searchsorted(t, t1)
+    s = c[b] - c[a]
+    return np.where(b > a, np.arctan2(s[:, 1], s[:, 0]), np.nan)
+
+
+def device_y_step_errors(rows: list[dict[str, Any]], rec: Recording) -> ErrorSet:
+    """Walking-direction errors (deg) of the rotation vector's device +y axis (:func:`device_y_yaw`)."""
+    if not rows:
+        return ErrorSet()
+    return abs_errors(device_y_yaw(rows, rec), true_step_yaw(rec, *_step_times(rows)))
+
+
+# -- running the product ------------------------------------------------------------------------------------
+def run_with_attitude(rec: Recording, cfg: PipelineConfig
+                      ) -> tuple[list[dict[str, Any]], list[str], FloatArray, FloatArray]:
+    """Causal track rows, notices, and the attitude filter's grid times (log clock, s) and ``q_nb`` (N, 4).
+
+    The pipeline runs unchanged; its attitude filter's ``run`` and its sample history's ``append`` are wrapped on
+    the instance to record what they compute (the grid samples in order).
+    """
+    pipe = PdrPipeline(cfg)
+    times: list[FloatArray] = []
+    qs: list[FloatArray] = []
+    att_run, hist_append = pipe.attitude.run, pipe.history.append
+
+    def recording_run(*args: Any, **kwargs: Any) -> Any:
+        out = att_run(*args, **kwargs)
+        qs.append(np.array(out[0], dtype=np.float64))
+        return out
+
+    def recording_append(start: int, t: FloatArray, *args: Any) -> None:
+        times.append(np.array(t, dtype=np.float64))
+        hist_append(start, t, *args)
+
+    pipe.attitude.run = recording_run  # type: ignore[method-assign]
+    pipe.history.append = recording_append  # type: ignore[method-assign,assignment]
+    events = pipe.run(rec)
+    notices = [str(e["message"]) for e in events if e.get("type") == "notice"]
+    t = np.concatenate(times) if times else np.zeros(0)
+    q = np.concatenate(qs) if qs else np.zeros((0, 4))
+    if t.size != q.shape[0]:
+        notices.append(f"attitude capture failed ({t.size} grid samples, {q.shape[0]} attitudes): not scored")
+        t, q = np.zeros(0), np.zeros((0, 4))
+    return track_rows(events), notices, t, q
+
+
+def placement_for(rec: Recording, placement: str) -> str:
+    """Pipeline placement for ``--placement``: ``auto``/``pocket``/``hand``/``torso`` as given, ``label``: the
+    recording's carriage label (``meta['placement_label']``).
+    """
+    if placement != "label":
+        return placement
+    label = rec.meta.get("placement_label")
+    group = PLACEMENT_GROUPS.get(str(label)) if label else None
+    if group is None:
+        raise InputError(f"no placement label for this recording (carriage {rec.meta.get('carriage')!r})",
+                         source=rec.source or None, field="placement")
+    return group
+
+
+def score_recording(rec: Recording, cfg: PipelineConfig,
+                    smooth: Callable[[list[dict[str, Any]], list[str]], list[dict[str, Any]]]) -> RecordingScore:
+    """Every figure of one recording (module doc); ``smooth`` makes the offline-smoothed track (the same steps)."""
+    decl = float(cfg.attitude.mag_declination_deg)
+    rows, notices, t_att, q_att = run_with_attitude(rec, cfg)
+    smoothed = smooth(rows, notices)
+    t0, t1 = _step_times(rows)
+    truth = true_step_yaw(rec, t0, t1)
+    causal, smooth_yaw, rv_y = track_yaw(rows, decl), track_yaw(smoothed, decl), device_y_yaw(rows, rec)
+    errors = {"walk_causal": abs_errors(causal, truth), "walk_smoothed": abs_errors(smooth_yaw, truth),
+              "walk_rv_y": abs_errors(rv_y, truth)}
+    errors["att_yaw"], errors["att_tilt"] = attitude_errors(t_att, q_att, rec, decl)
+    if rec.has("orientation"):
+        errors["rv_yaw"], errors["rv_tilt"] = attitude_errors(rec.origin_ns / 1e9 + rec.t_s("orientation"),
+                                                              rec.values("orientation"), rec)
+    else:
+        errors["rv_yaw"], errors["rv_tilt"] = ErrorSet(), ErrorSet()
+    placements = Counter(str(r.get("placement")) for r in rows)
+    used = placements.most_common(1)[0][0] if placements else str(cfg.placement)
+    table = {"t_start_s": t0, "t_s": t1, "placement": [str(r.get("placement")) for r in rows],
+             "true_heading_deg": yaw_to_heading_deg(truth), "heading_deg": yaw_to_heading_deg(causal),
+             "smoothed_heading_deg": yaw_to_heading_deg(smooth_yaw), "rv_y_heading_deg": yaw_to_heading_deg(rv_y)}
+    m = rec.meta
+    return RecordingScore(name=Path(rec.source).name.removesuffix(".zip"), walker=str(m.get("walker", "")),
+                          carriage=str(m.get("carriage", "")), disturbed=bool(m.get("disturbed", False)),
+                          placement=used, steps=len(rows), errors=errors, notices=notices, step_table=table,
+                          field_azimuth_deg=m.get("field_azimuth_mocap_deg"))
+
+
+def recordings_in(root: str | Path) -> list[Path]:
+    """Recordings under ``root``: Tyrex logger folders (a dataset root, its ``android`` folder, or one recording),
+    and native recordings (zip or folder, :mod:`pdr.io.native`) converted from them, which keep the truth and the
+    ``meta`` (walker, carriage, field) the evaluation needs.
+    """
+    from pdr.io import native, tyrex
+
+    p = Path(root)
+    if not p.exists():
+        raise InputError("no such file or folder", source=str(p))
+    if tyrex.sniff(p) or native.sniff(p):
+        return [p]
+    found = {f.parent for f in p.rglob("record.properties") if tyrex.sniff(f.parent)}
+    found |= {f for f in p.rglob("*.zip") if native.sniff(f)}
+    found |= {f.parent for f in p.rglob("meta.json") if native.sniff(f.parent)}
+    if not found:
+        raise InputError("no Tyrex logger recording (folder with record.properties and accelerometer.txt) or native "
+                         "recording here", source=str(p))
+    return sorted(found)
+
+
+def aggregate(scores: Iterable[RecordingScore]) -> dict[str, Any]:
+    """Pooled figures of several recordings (each :data:`ERROR_SETS` entry) and how many recordings."""
+    pooled = {k: ErrorSet() for k in ERROR_SETS}
+    n = 0
+    for s in scores:
+        n += 1
+        for k in ERROR_SETS:
+            pooled[k].add(s.errors[k])
+    return {"recordings": n, **{k: pooled[k].summary() for k in ERROR_SETS}}
+
+
+def _half(walker: str) -> str:
+    return "tuning" if walker == TUNING_WALKER else "confirmation" if walker == CONFIRMATION_WALKER else "other"
+
+
+def protocol(scores: list[RecordingScore]) -> dict[str, Any]:
+    """Aggregates: per carriage (and field), per walker (tuning / confirmation half; and carriage), disturbed
+    against clean, and all.
+    """
+    carriages = [c for c in CARRIAGES if any(s.carriage == c for s in scores)]
+    carriages += sorted({s.carriage for s in scores} - set(carriages))
+    return {
+        "by_carriage": {c: aggregate(s for s in scores if s.carriage == c) for c in carriages},
+        "by_carriage_and_field": {f"{c} {'Dist' if d else 'NoDist'}": aggregate(
+            s for s in scores if s.carriage == c and s.disturbed == d)
+            for c in carriages for d in (False, True) if any(s.carriage == c and s.disturbed == d for s in scores)},
+        "by_walker": {w: {"half": _half(w), **aggregate(s for s in scores if s.walker == w)}
+                      for w in sorted({s.walker for s in scores})},
+        "by_walker_and_carriage": {f"{w} {c}": {"half": _half(w), **aggregate(
+            s for s in scores if s.walker == w and s.carriage == c)}
+            for w in sorted({s.walker for s in scores}) for c in carriages
+            if any(s.walker == w and s.carriage == c for s in scores)},
+        "by_field": {"NoDist": aggregate(s for s in scores if not s.disturbed),
+                     "Dist": aggregate(s for s in scores if s.disturbed)},
+        "all": aggregate(scores),
+    }
+
+
+# -- text report --------------------------------------------------------------------------------------------
+def _f(x: float, fmt: str = "5.1f") -> str:
+    return "n/a".rjust(int(fmt.split(".")[0])) if not np.isfinite(x) else format(x, fmt)
+
+
+def _walk(s: dict[str, Any]) -> str:
+    return (f"{_f(s['mean_deg'])} {_f(s['median_deg'])} {_f(100 * s['within_10_deg'], '4.0f')}% "
+            f"{_f(100 * s['within_20_deg'], '4.0f')}%")
+
+
+def _line(label: str, d: dict[str, Any], steps: str, texting: bool) -> str:
+    rv_y = _walk(d["walk_rv_y"]) if texting else "            -            "
+    return (f"{label:<48} {steps:>9} | {_walk(d['walk_causal'])} | {_walk(d['walk_smoothed'])} | "
+            f"{_f(d['att_yaw']['mean_deg'])} {_f(d['att_tilt']['mean_deg'])} | "
+            f"{_f(d['rv_yaw']['mean_deg'])} {_f(d['rv_tilt']['mean_deg'])} | {rv_y}")
+
+
+HEADER = (f"{'':<48} {'steps':>9} | {'causal walking direction':<25} | {'smoothed walking direction':<25} | "
+          f"{'attitude':<11} | {'rot. vector':<11} | rot. vector +y (texting)\n"
+          f"{'':<48} {'':>9} | {'mean   med  <=10  <=20':<25} | {'mean   med  <=10  <=20':<25} | "
+          f"{'yaw  tilt':<11} | {'yaw  tilt':<11} | mean   med  <=10  <=20")
+
+
+def report_lines(scores: list[RecordingScore], agg: dict[str, Any]) -> list[str]:
+    """The text table: one line per recording, then the aggregates (degrees; shares in %)."""
+    out = ["per recording (placement: what the pipeline used)", HEADER]
+    for s in scores:
+        d = s.to_dict()
+        label = f"{s.name} [{s.placement}]"
+        out.append(_line(label, d, f"{d['walk_causal']['n']}/{s.steps}", s.carriage == "Texting"))
+    for title, key in (("per carriage", "by_carriage"), ("per carriage and field", "by_carriage_and_field")):
+        out += ["", title, HEADER]
+        for name, d in agg[key].items():
+            out.append(_line(f"{name} ({d['recordings']} rec.)", d, str(d["walk_causal"]["n"]),
+                             name.startswith("Texting")))
+    out += ["", "per walker (Guillaume: tuning half, Jakob: confirmation half)", HEADER]
+    for name, d in agg["by_walker"].items():
+        out.append(_line(f"{name} ({d['half']}, {d['recordings']} rec.)", d, str(d["walk_causal"]["n"]), False))
+    for name, d in agg["by_walker_and_carriage"].items():
+        out.append(_line(f"{name} ({d['recordings']} rec.)", d, str(d["walk_causal"]["n"]), name.endswith("Texting")))
+    out += ["", "disturbed against clean field", HEADER]
+    for name, d in agg["by_field"].items():
+        out.append(_line(f"{name} ({d['recordings']} rec.)", d, str(d["walk_causal"]["n"]), False))
+    out += ["", HEADER, _line(f"ALL ({agg['all']['recordings']} rec.)", agg["all"], str(agg["all"]["walk_causal"]["n"]),
+                              False)]
+    return out
+
+
+def evaluate(root: str | Path, cfg_for: Callable[[Recording], PipelineConfig],
+             smooth: Callable[[list[dict[str, Any]], list[str]], list[dict[str, Any]]],
+             limit: int = 0, progress: Callable[[str], None] | None = None
+             ) -> tuple[list[RecordingScore], dict[str, Any]]:
+    """Score every recording under ``root`` (``limit`` > 0: the first ``limit``); per-recording scores and
+    :func:`protocol` aggregates. ``cfg_for`` gives each recording's pipeline configuration.
+    """
+    folders = recordings_in(root)
+    if limit:
+        folders = folders[:limit]
+    scores = []
+    for f in folders:
+        rec = read_recording(f)
+        if not {"walk_pos_m", "trajectory_t_s", "q_nb"} <= set(rec.truth.extra):
+            if progress:
+                progress(f"{f.name}: no motion-capture truth (walking path and attitude), skipped")
+            continue
+        scores.append(score_recording(rec, cfg_for(rec), smooth))
+        if progress:
+            progress(f"{f.name}: done")
+    return scores, protocol(scores)
