@@ -18,10 +18,10 @@ EXPECTED = {"FrontPocket": "pocket", "BackPocket": "pocket", "RunningPocket": "p
 @pytest.mark.slow
 @pytest.mark.data
 def test_auto_placement_and_pocket_direction_on_the_attitude_benchmark():
-    # 18 recordings (2 walkers, 5 carriages, clean and disturbed field), placement not given. When written: steps
-    # detected as their carriage 99.3 % (pocket), 96.3 % (swinging), 98.9 % (texting); pocket steps more than
-    # 120 deg off (reversed) at most 10.4 % of a recording (the one-step rule before: the pocket walks came out
-    # hand-held and backwards, 134-169 deg mean error).
+    # 18 recordings (2 walkers, 5 carriages, clean and disturbed field), placement not given. When written, steps
+    # detected as their carriage: pocket 2117 of 2136 (99.1 %), swinging 564 of 582 (96.9 %), texting (hand) 287
+    # of 290 (99.0 %); pocket steps more than 120 deg off (reversed): at most 10.5 % of a recording. Before (a
+    # one-step rule on the y axis' swing) every pocket walk came out hand-held and backwards (134-169 deg mean).
     root = data_path("attitude_smartphones")
     paths = recordings_in(root)
     assert len(paths) == 18
