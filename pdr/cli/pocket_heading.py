@@ -142,14 +142,14 @@ def landmark_scenarios(side: str) -> list[dict[str, Any]]:
     ]
 
 
-def walk_errors(scenario: dict[str, Any], seed: int, site: Site | None = None, method: str = "ukf"
-                ) -> tuple[np.ndarray, np.ndarray, list[dict[str, Any]], PdrPipeline]:
+def walk_errors(scenario: dict[str, Any], seed: int, site: Site | None = None, method: str = "ukf",
+                pocket_axis: str = "auto") -> tuple[np.ndarray, np.ndarray, list[dict[str, Any]], PdrPipeline]:
     """Absolute heading errors (deg) of the steps of one simulated walk (truth at mid-step), causal and after the
     offline smoother (:mod:`pdr.phone.heading_smoother`), its events and the pipeline that processed it (landmark
-    counters).
+    counters). ``pocket_axis``: :attr:`pdr.phone.pipeline.PipelineConfig.pocket_axis`.
     """
     rec = simulate(scenario, seed)
-    pipe = PdrPipeline(PipelineConfig(attitude_method=method), site=site)
+    pipe = PdrPipeline(PipelineConfig(attitude_method=method, pocket_axis=pocket_axis), site=site)
     events = pipe.run(rec)
     rows = track_rows(events)
     assert rec.truth is not None
@@ -164,11 +164,11 @@ def walk_errors(scenario: dict[str, Any], seed: int, site: Site | None = None, m
     return errors(rows), errors(smooth_track(rows)[0]), events, pipe
 
 
-def sim_walk(side: str, seed: int, method: str = "ukf") -> tuple[np.ndarray, np.ndarray]:
+def sim_walk(side: str, seed: int, method: str = "ukf", pocket_axis: str = "auto") -> tuple[np.ndarray, np.ndarray]:
     """Absolute heading errors (deg) of the steps of one simulated flat pocket walk (:func:`sim_scenario`),
     causal and smoothed.
     """
-    causal, smoothed, _, _ = walk_errors(sim_scenario(side), seed, method=method)
+    causal, smoothed, _, _ = walk_errors(sim_scenario(side), seed, method=method, pocket_axis=pocket_axis)
     return causal, smoothed
 
 

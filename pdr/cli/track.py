@@ -50,8 +50,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _common_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--placement", default="auto", choices=("auto", "pocket", "torso", "hand"),
-                   help="where the phone is carried (auto: from the log's metadata or a rule)")
+    p.add_argument("--placement", default="auto", choices=("auto", "pocket", "torso", "hand", "swinging"),
+                   help="where the phone is carried (swinging: in a hand swinging with the arm; auto: from the "
+                        "log's metadata, else detected stride by stride from the carriage's motion)")
     p.add_argument("--site", help="site description JSON (landmarks that correct heading and position; optional "
                                   "declination_deg and grid_deg, the compass bearing of a main axis of the building)")
     p.add_argument("--calibration", help="step-length calibration JSON from `pdr calibrate`")

@@ -81,10 +81,10 @@ from pdr.phone.track import redo_steps
 
 FloatArray = NDArray[np.float64]
 
-#: Placements the smoother handles: hand-held and torso (the step heading is the device heading plus an offset) and
-#: trouser pocket (the step heading is the RMPCA walking direction; the phone's yaw keeps a fixed offset to it while
-#: it stays in the pocket).
-SMOOTHED_PLACEMENTS = ("hand", "torso", "pocket")
+#: Placements the smoother handles: hand-held and torso (the step heading is the device heading plus an offset),
+#: trouser pocket and swinging hand (the step heading is the walking direction from the thigh's or arm's motion;
+#: the phone's yaw keeps a fixed offset to it while it stays in the pocket or the hand's grip).
+SMOOTHED_PLACEMENTS = ("hand", "torso", "pocket", "swinging")
 
 
 @dataclass(frozen=True)
@@ -247,7 +247,9 @@ def smooth_track(steps: list[dict[str, Any]], config: HeadingSmootherConfig | No
         return out, ("heading not smoothed: the smoother needs a hand-held, torso or trouser-pocket phone with a "
                      f"gyroscope ({sum(usable)} of {len(out)} steps qualify)")
     c = config or HeadingSmootherConfig()
-    if out[0].get("placement") == "pocket":
+    if any(s.get("placement") in ("pocket", "swinging") for s in out):
+        # A swinging phone's step heading (thigh or arm) jumps more than a held one's; a walk whose placement
+        # changed has the offset jump at the change.
         c = replace(c, jump_deg=c.pocket_jump_deg)
     t = np.array([s["t_s"] for s in out], dtype=np.float64)
     gyro = np.asarray(heading_deg_to_yaw(np.array([s["gyro_heading_deg"] for s in out])), dtype=np.float64)

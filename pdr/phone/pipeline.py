@@ -31,10 +31,11 @@ gyro bias estimate (deg/s, device frame; None before the first stationary period
 ``{"type": "floor_change", ...}`` and ``{"type": "notice", "message"}`` (degraded inputs). ``t_s`` is on the
 log's own clock (seconds).
 
-Placement (``pocket``, ``hand``, ``torso``) comes from the configuration, else from an injected
+Placement (``pocket``, ``hand``, ``torso``, ``swinging``) comes from the configuration, else from an injected
 ``placement_provider(recording) -> str | None`` (e.g. the placement classifier; pdr/ never imports it),
-else from the recording's :class:`~pdr.recording.DeviceInfo`, else from a simple rule at the first
-steps: a device whose long axis swings by more than ``pocket_swing_deg`` over a step is in a pocket.
+else from the recording's :class:`~pdr.recording.DeviceInfo`, else it is detected online from the physics of
+the carriage, stride by stride (:mod:`pdr.phone.placement_detect`: a steady device is held, a pendulum's specific
+force stays along the arm, a pocket phone's turns with the thigh), and revised when the phone changes place.
 """
 
 from __future__ import annotations
@@ -75,9 +76,11 @@ from pdr.phone.heading import (
 )
 from pdr.phone.landmarks import ElevatorDetector, LandmarkConfig, Site, classify_step, neighbour_correction
 from pdr.phone.magcal import HardIronEstimator, MagCalConfig
+from pdr.phone.placement_detect import PlacementDetectConfig, PlacementDetector, stride_cues
 from pdr.phone.step_length import StepLengthModel, step_patterns
 from pdr.phone.steps import StepConfig, StepDetector
 from pdr.phone.track import TrackState
+from pdr.phone.walking_direction import swing_plane_axis, turn_evidence
 from pdr.recording import Recording
 
 FloatArray = NDArray[np.float64]
@@ -86,6 +89,8 @@ PlacementProvider = Callable[[Recording], "str | None"]
 
 PLACEMENT_GROUPS = {"trouser_pocket_front": "pocket", "trouser_pocket_back": "pocket", "trouser_pocket": "pocket",
                     "hand": "hand", "torso": "torso", "neck": "torso", "bag": "torso", "armband": "hand"}
+#: Placements the pipeline has a heading method for.
+PIPELINE_PLACEMENTS = ("pocket", "hand", "torso", "swinging")
 
 
 @dataclass(frozen=True)
@@ -97,7 +102,7 @@ class PipelineConfig:
     rate_hz
         Grid rate (Hz).
     placement
-        ``auto``, ``pocket``, ``hand`` or ``torso``.
+        ``auto``, ``pocket``, ``hand``, ``torso`` or ``swinging`` (a phone in a hand swinging with the arm).
     attitude_method
         ``ukf`` (seed 003) or ``ekf`` (RMPCA baseline).
     heading_offset
@@ -105,7 +110,8 @@ class PipelineConfig:
     initial_floor
         Floor number at the start.
     pocket_swing_deg
-        Auto placement rule threshold (deg).
+        Unused since the placement is detected by :mod:`pdr.phone.placement_detect` (``placement_detect``); kept so
+        that saved session states load.
     heading_process_var
         Process noise ``w`` of eq. 41 (rad^2).
     step_length_rel_sigma
@@ -117,6 +123,13 @@ class PipelineConfig:
         torso (the walking direction is the device heading, so the yaw matters, not the tilt during a thigh
         swing): the larger process noise makes the magnetometer rows act over a shorter stretch of the walk.
         None keeps ``attitude.sigma_gyro``.
+    pocket_axis
+        Trouser pocket: the walking line from the thigh's swing plane (``swing``, :mod:`pdr.phone.walking_direction`),
+        from seed 003's improved RMPCA of the specific force through the second UKF (``rmpca``), or ``auto``:
+        ``rmpca`` when the site has landmarks, ``swing`` otherwise. Seed 003's landmark row corrects the attitude
+        through the RMPCA measurement ``f(q)`` (eqs. 32, 41), so with landmarks the heading is the one that row is
+        written for; without them the swing plane is the better line on real thighs (the RMPCA axis of a front
+        pocket is turned by the thigh's own accelerations).
     drift_elimination
         Hand/torso: heuristic drift elimination of the step heading towards dominant directions learnt
         from the walk (:class:`pdr.heading.StepDriftElimination`, parameters ``hde``).
@@ -133,6 +146,7 @@ class PipelineConfig:
     history_s: float = 30.0
     device_heading_sigma_gyro: float | None = 0.02
     drift_elimination: bool = True
+    pocket_axis: str = "auto"
     step: StepConfig = field(default_factory=StepConfig)
     attitude: AttitudeConfig = field(default_factory=AttitudeConfig)
     step_length: StepLengthModel = field(default_factory=StepLengthModel)
@@ -140,12 +154,16 @@ class PipelineConfig:
     landmarks: LandmarkConfig = field(default_factory=LandmarkConfig)
     magcal: MagCalConfig = field(default_factory=MagCalConfig)
     hde: DriftEliminationConfig = field(default_factory=DriftEliminationConfig)
+    placement_detect: PlacementDetectConfig = field(default_factory=PlacementDetectConfig)
 
     def __post_init__(self) -> None:
-        if self.placement not in ("auto", "pocket", "hand", "torso"):
-            raise InputError("placement must be auto, pocket, hand or torso", field="placement", source="config")
+        if self.placement not in ("auto", *PIPELINE_PLACEMENTS):
+            raise InputError("placement must be auto, pocket, hand, torso or swinging", field="placement",
+                             source="config")
         if self.attitude_method not in ("ukf", "ekf"):
             raise InputError("attitude_method must be ukf or ekf", field="attitude_method", source="config")
+        if self.pocket_axis not in ("auto", "swing", "rmpca"):
+            raise InputError("pocket_axis must be auto, swing or rmpca", field="pocket_axis", source="config")
         if self.heading_offset not in ("zero", "pca"):
             raise InputError("heading_offset must be zero or pca", field="heading_offset", source="config")
         if not self.rate_hz >= 10:
@@ -159,7 +177,7 @@ class PipelineConfig:
         try:
             sub = {"step": StepConfig, "attitude": AttitudeConfig, "step_length": StepLengthModel,
                    "floors": FloorConfig, "landmarks": LandmarkConfig, "magcal": MagCalConfig,
-                   "hde": DriftEliminationConfig}
+                   "hde": DriftEliminationConfig, "placement_detect": PlacementDetectConfig}
             kw = {k: (sub[k](**v) if k in sub else v) for k, v in d.items()}
             return cls(**kw)
         except TypeError as exc:
@@ -289,11 +307,14 @@ class PdrPipeline:
         self.hde = StepDriftElimination(c.hde, self._grid_yaw())
         self.history = _History(int(c.history_s * c.rate_hz))
         self.placement: str | None = None if c.placement == "auto" else c.placement
+        # Detected online (pdr.phone.placement_detect) unless the configuration, a provider or the device names it.
+        self.auto_placement = c.placement == "auto"
+        self.placement_detector = PlacementDetector(c.placement_detect)
         self.t0_ns = 0
         self.prev_yaw: float | None = None
         self.prev_q: list[float] | None = None
         self.prev_step_start: int | None = None
-        self.direction_vote = DirectionVote()
+        self.direction_vote = _direction_vote(self.placement)
         self.prev_mode = ""
         self.last_step: tuple[float, float] | None = None   # (raw yaw rad, end time s) of the last emitted step
         self.stairs_landmark: str | None = None
@@ -363,6 +384,7 @@ class PdrPipeline:
             "attitude": self.attitude.state.to_dict(), "magcal": self.magcal.to_dict(), "floors": self.floors.to_dict(),
             "elevator": self.elevator.to_dict(), "track": self.track.to_dict(), "offset": self.offset.to_dict(),
             "hde": self.hde.to_dict(), "history": self.history.to_dict(), "placement": self.placement,
+            "auto_placement": self.auto_placement, "placement_detector": self.placement_detector.to_dict(),
             "t0_ns": self.t0_ns,
             "prev_yaw": self.prev_yaw, "prev_q": self.prev_q, "prev_mode": self.prev_mode,
             "last_step": None if self.last_step is None else list(self.last_step),
@@ -394,6 +416,10 @@ class PdrPipeline:
                 p.hde = StepDriftElimination.from_dict(d["hde"], p.config.hde, p._grid_yaw())
             p.history = _History.from_dict(d["history"])
             p.placement, p.t0_ns = d["placement"], int(d["t0_ns"])
+            # Absent in states saved before the online placement detector: their placement stays as it was.
+            p.auto_placement = bool(d.get("auto_placement", False))
+            if d.get("placement_detector") is not None:
+                p.placement_detector = PlacementDetector.from_dict(d["placement_detector"], p.config.placement_detect)
             p.prev_yaw, p.prev_q, p.prev_mode = d["prev_yaw"], d["prev_q"], str(d["prev_mode"])
             last = d.get("last_step")             # absent in states saved before the turn factor
             p.last_step = None if last is None else (float(last[0]), float(last[1]))
@@ -402,6 +428,7 @@ class PdrPipeline:
             p.landmark_updates = int(d.get("landmark_updates", 0))
             p.landmark_attitude_updates = int(d.get("landmark_attitude_updates", 0))
             p.prev_step_start = None if d["prev_step_start"] is None else int(d["prev_step_start"])
+            p.direction_vote = _direction_vote(p.placement)
             p.direction_vote.score = float(d["direction_score"])
             p.direction_vote.n = int(d["direction_votes"])
             p.pending = _from_jsonable(d["pending"])
@@ -438,6 +465,7 @@ class PdrPipeline:
                 self.placement = _placement_group(self.placement_provider(batch))
             if self.placement is None:
                 self.placement = _placement_group(batch.device.placement)
+            self.auto_placement = self.placement is None
         return events
 
     def _process(self, t: FloatArray, vals: dict[str, FloatArray], final: bool = False) -> list[Event]:
@@ -520,16 +548,42 @@ class PdrPipeline:
 
     def _placement_known(self) -> None:
         """Attitude parameters of the placement: ``device_heading_sigma_gyro`` for hand and torso, from the first
-        step on (the same sample whether the placement came from the configuration, a provider or the rule).
+        step on (the same sample whether the placement came from the configuration, a provider or the detector),
+        and the configured ``sigma_gyro`` again when a detected placement changes to another carriage.
         """
         sg = self.config.device_heading_sigma_gyro
-        if sg is not None and self.placement in ("hand", "torso") and self.attitude.config.sigma_gyro != sg:
-            self.attitude.set_config(replace(self.attitude.config, sigma_gyro=float(sg)))
+        if sg is None:
+            return
+        want = float(sg) if self.placement in ("hand", "torso") else self.config.attitude.sigma_gyro
+        if self.attitude.config.sigma_gyro != want:
+            self.attitude.set_config(replace(self.attitude.config, sigma_gyro=want))
 
-    def _decide_placement(self, y_up: FloatArray) -> str:
-        # Rule: a trouser-pocket phone's long axis swings with the thigh (tens of degrees per step).
-        swing = math.degrees(float(np.arcsin(np.clip(y_up, -1, 1)).max() - np.arcsin(np.clip(y_up, -1, 1)).min()))
-        return "pocket" if swing > self.config.pocket_swing_deg else "hand"
+    def _detect_placement(self, s: int, e: int) -> None:
+        """Online placement from the stride ending with this step (:mod:`pdr.phone.placement_detect`); a change
+        restarts the carriage-specific heading state (the pocket's walking-direction continuity and vote).
+        """
+        if self.grid is not None and "gyro" not in self.grid.kinds:
+            # Without a gyroscope the attitude follows the specific force: the thigh's or arm's turn is not seen.
+            self.placement, self.auto_placement = "hand", False
+            self.notices.append("no gyroscope: placement not detected, the phone is taken as hand-held "
+                                "(give the placement if it is in a pocket)")
+            return
+        h = self.history
+        stride = h.sl(s - (e - s), e)
+        q, acc = h.q[stride], h.acc[stride]
+        if q.shape[0] < 3 or not np.all(np.isfinite(q)):
+            return
+        new = self.placement_detector.update(stride_cues(q, acc, self.config.rate_hz,
+                                                         self.config.placement_detect.smooth_s))
+        if new == self.placement:
+            return
+        if self.placement is not None:
+            self.notices.append(f"placement changed from {self.placement} to {new} at t={float(h.t[stride][-1]):.2f} s")
+        else:
+            self.notices.append(f"placement detected: {new}")
+        self.placement = new
+        self.prev_yaw = self.prev_q = self.prev_step_start = None
+        self.direction_vote = _direction_vote(new)
 
     def _step(self, s: int, e: int, peak: float) -> list[Event]:
         h = self.history
@@ -538,9 +592,10 @@ class PdrPipeline:
         if q.shape[0] < 3 or not np.all(np.isfinite(q)):
             return []
         c = self.config
+        if self.auto_placement:
+            self._detect_placement(s, e)
         if self.placement is None:
-            self.placement = self._decide_placement(h.y_up[sl])
-            self.notices.append(f"placement decided by rule: {self.placement}")
+            return []
         # From the first step on, whenever the placement became known (configuration, provider or rule).
         self._placement_known()
         f_n = h.f_n[sl]
@@ -549,7 +604,7 @@ class PdrPipeline:
         # Heading.
         axis, _ratio = pca_axis(f_n[:, :2])                     # RMPCA
         st = self.attitude.state
-        if self.placement == "pocket":
+        if self.placement in ("pocket", "swinging"):
             # A pocket phone moves with one thigh, whose stance and swing halves of the gait cycle differ: the
             # walking axis (RMPCA) and the 180-degree rule use the stride made of this step and the one before
             # it (a step's length before it after a pause).
@@ -560,7 +615,13 @@ class PdrPipeline:
             q_str, f_str = h.q[stride], h.f_n[stride]
             if not (np.all(np.isfinite(q_str)) and np.all(np.isfinite(f_str))):
                 q_str, f_str = q, f_n
-            axis, _ratio = pca_axis(f_str[:, :2])                 # RMPCA over the stride
+            swing_axis = self.placement == "swinging" or c.pocket_axis == "swing" or (
+                c.pocket_axis == "auto" and (self.site is None or not self.site.landmarks))
+            if swing_axis:
+                # The swing plane's axis of the thigh or arm (pdr.phone.walking_direction), not the device yaw.
+                axis, _ratio = swing_plane_axis(q_str, c.rate_hz)
+            else:
+                axis, _ratio = pca_axis(f_str[:, :2])             # RMPCA over the stride
             q_mid = q[q.shape[0] // 2]
             if self.prev_yaw is None or self.prev_q is None:
                 prior = axis
@@ -570,15 +631,24 @@ class PdrPipeline:
                 prior = self.prev_yaw + turn
             self.prev_q = q_mid.tolist()
             psi0 = resolve_direction(axis, prior)
-            # 180-degree rule (pdr.heading module doc): the thigh's fast swing votes for a direction.
-            if self.direction_vote.update(thigh_swing_evidence(q_str, c.rate_hz, psi0)):
+            # 180-degree rule: in a trouser pocket the thigh's fast swing (pdr.phone.heading module doc); in a
+            # swinging hand, whose swing is nearly symmetric, the centripetal acceleration in turns
+            # (pdr.phone.walking_direction).
+            if self.placement == "pocket":
+                evidence = thigh_swing_evidence(q_str, c.rate_hz, psi0)
+            else:
+                evidence = turn_evidence(f_str, _yaw_rate(q_str, c.rate_hz), psi0)
+            if self.direction_vote.update(evidence):
                 psi0 = float(wrap_angle(psi0 + math.pi))
                 if self.pending is not None:
                     # The step waiting for output was resolved by the refuted direction: reverse it too.
                     self.pending["yaw"] = float(wrap_angle(self.pending["yaw"] + math.pi))
                     self.pending["psi0"] = float(wrap_angle(self.pending["psi0"] + math.pi))
             m1 = scatter_of(f_str, st.q)
-            est = improved_rmpca_ut(st.q, st.P, m1, psi0, c.heading_process_var, self._ut_points())
+            if swing_axis:
+                est = HeadingEstimate(psi0, yaw_variance(st.q, st.P) + c.heading_process_var)
+            else:
+                est = improved_rmpca_ut(st.q, st.P, m1, psi0, c.heading_process_var, self._ut_points())
             self.prev_yaw = est.yaw
         else:
             dev = mean_yaw(h.yaw_z[sl] if self.placement == "torso" else h.yaw_y[sl])   # seed 004 eq. 21
@@ -673,7 +743,7 @@ class PdrPipeline:
                 self.landmark_attitude_updates += int(attitude_updated)
         else:
             self.stairs_landmark = None
-        if self.placement == "pocket" and self.prev_yaw is not None:
+        if self.placement in ("pocket", "swinging") and self.prev_yaw is not None:
             # The step after this one is already resolved (one-step output delay): it keeps its own heading,
             # moved by the correction a landmark made here (replacing it by this step's would make every
             # other step resolve against a heading two steps old).
@@ -714,6 +784,20 @@ class PdrPipeline:
 
     def _clock(self, t_s: float) -> float:
         return t_s
+
+
+def _direction_vote(placement: str | None) -> DirectionVote:
+    """The forward/backward vote of a placement. A hand holds the phone the same way for minutes and its
+    evidence (the centripetal acceleration, pdr.phone.walking_direction) comes only in turns: a longer memory and a
+    larger margin than the pocket's, whose thigh evidence comes every stride.
+    """
+    return DirectionVote(decay=0.97, margin=2.0) if placement == "swinging" else DirectionVote()
+
+
+def _yaw_rate(q_nb: FloatArray, rate_hz: float) -> float:
+    """Mean rotation rate about the vertical (rad/s) over attitudes ``q_nb`` (N, 4) at ``rate_hz``."""
+    dyaw = float(quat.to_rotvec(quat.multiply(q_nb[-1], quat.conjugate(q_nb[0])))[2])
+    return dyaw * rate_hz / max(q_nb.shape[0] - 1, 1)
 
 
 def _mean_finite(x: FloatArray) -> Any:
