@@ -36,10 +36,10 @@ def register_eval(targets: argparse._SubParsersAction) -> None:
     p.add_argument("--limit", type=int, default=0, help="only the first N recordings (0: all)")
     p.add_argument("--steps", metavar="DIR", help="also write one CSV per recording into DIR: per step its times, "
                                                   "placement, true, causal, smoothed and rotation-vector +y headings")
-    p.add_argument("--placement", default="auto", choices=("auto", "pocket", "torso", "hand", "label"),
-                   help="where the phone is carried: auto (as pdr track), pocket, torso, hand, or label (each "
-                        "recording's own carriage: FrontPocket/BackPocket/RunningPocket -> pocket, Swinging/Texting "
-                        "-> hand)")
+    p.add_argument("--placement", default="auto", choices=("auto", "pocket", "torso", "hand", "swinging", "label"),
+                   help="where the phone is carried: auto (as pdr track), pocket, torso, hand, swinging, or label "
+                        "(each recording's own carriage: FrontPocket/BackPocket/RunningPocket -> pocket, "
+                        "Swinging -> swinging, Texting -> hand)")
     p.add_argument("--calibration", help="step-length calibration JSON from `pdr calibrate`")
     p.add_argument("--method", default="ukf", choices=("ukf", "ekf"), help="attitude filter")
     p.set_defaults(func=run)

@@ -263,11 +263,14 @@ def run_with_attitude(rec: Recording, cfg: PipelineConfig
 
 
 def placement_for(rec: Recording, placement: str) -> str:
-    """Pipeline placement for ``--placement``: ``auto``/``pocket``/``hand``/``torso`` as given, ``label``: the
-    recording's carriage label (``meta['placement_label']``).
+    """Pipeline placement for ``--placement``: ``auto``/``pocket``/``hand``/``torso``/``swinging`` as given,
+    ``label``: the recording's carriage label (``meta['placement_label']``; a hand swinging at the walker's side,
+    carriage ``Swinging``, is the pipeline's ``swinging``).
     """
     if placement != "label":
         return placement
+    if rec.meta.get("carriage") == "Swinging":
+        return "swinging"
     label = rec.meta.get("placement_label")
     group = PLACEMENT_GROUPS.get(str(label)) if label else None
     if group is None:
