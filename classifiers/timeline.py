@@ -13,6 +13,11 @@ turns what it reports into timeline entries (:class:`ModeEntry`):
   with its altitude change.
 
 The state (:meth:`StopTimeline.state`) is JSON-able, for the session processor's stored state.
+
+:class:`StepModes` turns the pipeline's per-step modes into timeline entries: an entry where the mode changes,
+except that a stairs entry needs ``MIN_FLIGHT_STEPS`` consecutive stairs steps of one direction (a flight of
+stairs has at least three risers; one or two steps labelled stairs are the barometer settling after an elevator
+ride or a door's pressure change, and stay in the walking entry).
 """
 
 from __future__ import annotations
@@ -30,6 +35,10 @@ from pdr.recording import Recording
 FLOOR_LAG_S = 3.0
 #: Floor changes kept in the state to label stops reported later (a stop is reported after its closing step).
 KEEP_FLOOR_CHANGES = 16
+
+#: Fewest consecutive stairs steps (one direction) that open a stairs entry.
+MIN_FLIGHT_STEPS = 3
+STAIRS_MODES = ("stairs_up", "stairs_down")
 
 STATE_VERSION = 1
 
@@ -115,3 +124,45 @@ class StopTimeline:
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"not a stop timeline state ({exc})", field="state") from None
         return tl
+
+
+class StepModes:
+    """Timeline entries from per-step modes (module docstring); ``last`` is the mode of the latest entry."""
+
+    def __init__(self, last: str = "") -> None:
+        self.last = last
+        self.pending: tuple[str, float, int] | None = None  # stairs run not yet long enough: label, start, steps
+
+    def step(self, mode: str, t_start_s: float) -> list[tuple[float, str]]:
+        """A step of ``mode`` starting at ``t_start_s`` (s); returns the entries ``(t_s, label)`` it opens."""
+        if not mode or mode == self.last:
+            self.pending = None
+            return []
+        if mode in STAIRS_MODES:
+            label, t0, n = self.pending if self.pending and self.pending[0] == mode else (mode, t_start_s, 0)
+            if n + 1 < MIN_FLIGHT_STEPS:
+                self.pending = (label, t0, n + 1)
+                return []
+            self.pending = None
+            self.last = mode
+            return [(t0, mode)]
+        self.pending = None
+        self.last = mode
+        return [(t_start_s, mode)]
+
+    def entry(self, label: str) -> None:
+        """Another entry (a stop, an elevator ride) now holds the timeline."""
+        self.last, self.pending = label, None
+
+    def state(self) -> dict[str, Any]:
+        return {"last": self.last, "pending": None if self.pending is None else list(self.pending)}
+
+    @classmethod
+    def from_state(cls, state: dict[str, Any]) -> StepModes:
+        try:
+            m = cls(str(state["last"]))
+            p = state.get("pending")
+            m.pending = None if p is None else (str(p[0]), float(p[1]), int(p[2]))
+        except (KeyError, TypeError, ValueError, IndexError) as exc:
+            raise InputError(f"not a step-modes state ({exc})", field="state") from None
+        return m

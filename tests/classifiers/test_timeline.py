@@ -159,3 +159,19 @@ def test_transition_gate_online_equals_offline():
     assert tuple(g["mode"] for g in got) == offline
     assert [g["t_start_s"] for g in got] == sorted(g["t_start_s"] for g in got)
     assert TRANSITION_REACH_S > 2.56
+
+
+def test_step_modes_need_a_flight_for_a_stairs_entry():
+    from classifiers.timeline import MIN_FLIGHT_STEPS, StepModes
+
+    m = StepModes()
+    seq = ["walking"] * 3 + ["stairs_down"] * 2 + ["walking"] * 3 + ["stairs_up"] * 5 + ["walking"]
+    entries = [e for i, mode in enumerate(seq) for e in m.step(mode, float(i))]
+    assert entries == [(0.0, "walking"), (8.0, "stairs_up"), (13.0, "walking")]
+    assert MIN_FLIGHT_STEPS == 3
+    m.step("stairs_down", 20.0)
+    m2 = StepModes.from_state(json.loads(json.dumps(m.state())))
+    assert m2.step("stairs_down", 21.0) == [] and m2.step("stairs_down", 22.0) == [(20.0, "stairs_down")]
+    with pytest.raises(InputError, match="step-modes state"):
+        StepModes.from_state({})
+

@@ -143,3 +143,16 @@ def test_elevator_rides_appear_in_modes_with_their_floor_change(real_app):
         direction = "elevator_up" if change > 0 else "elevator_down"
         found = [m for m in modes if m["label"] == direction and m["t_s"] < t1 and m["t_end_s"] > t0]
         assert found and found[0]["floors"] >= 1, (t0, t1, change, modes)
+
+
+def test_pocket_office_walk_has_no_car_labels_when_standing(real_app):
+    # The simulated pocket office walk stands still between its legs: once labelled car_step_in (issue 30).
+    from pathlib import Path
+
+    app, token = real_app
+    log = Path(__file__).resolve().parents[2] / "mobile_logs" / "sim" / "pocket_office.zip"
+    session = _upload(app, token, log, placement="trouser_pocket")
+    assert session["status"] == "done", session
+    labels = Counter(m["label"] for m in _modes(app, token, session))
+    assert not [k for k in labels if k.startswith(("car_", "vehicle"))], labels
+    assert labels["stationary"] + labels["standing"] > 0, labels
