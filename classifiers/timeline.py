@@ -6,7 +6,9 @@ turns what it reports into timeline entries (:class:`ModeEntry`):
 
 * a stop during which the pipeline reports a floor change (``floor_change`` event between the stop's start and
   ``FLOOR_LAG_S`` after its end: the barometric floor decision lags the pressure) is an elevator ride,
-  ``elevator_up`` or ``elevator_down``, with its floor change (``from_floor``, ``floor``, ``floors``): a person
+  ``elevator_up`` or ``elevator_down``, with its floor change (``from_floor``, ``floor``, ``floors``; the floors
+  are the pipeline's, counted with its floor height unless a site gives the floors' altitudes) and the altitude
+  change between the steps before and after it (``altitude_change_m``): a person
   who takes no step and holds the phone still while the altitude changes by a floor rides a cabin;
 * any other stop is ``standing``;
 * an ``elevator`` event of the pipeline (vertical-acceleration impulse pair) is an ``elevator_up/down`` entry
@@ -33,6 +35,8 @@ from pdr.recording import Recording
 
 #: Seconds after a stop's end within which a floor change still belongs to it.
 FLOOR_LAG_S = 3.0
+#: Steps kept in the state for the altitude change across a stop.
+KEEP_STEPS = 64
 #: Floor changes kept in the state to label stops reported later (a stop is reported after its closing step).
 KEEP_FLOOR_CHANGES = 16
 
@@ -59,6 +63,7 @@ class StopTimeline:
     def __init__(self) -> None:
         self.detector = StopDetector()
         self.floor_changes: list[tuple[float, float, float]] = []  # (t_s, from_floor, floor)
+        self.step_up: list[tuple[float, float, float]] = []  # recent steps: (t_start_s, t_s, up_m)
 
     def update(self, batch: Recording, events: Sequence[dict[str, Any]]) -> list[ModeEntry]:
         """Entries that became final with this batch and the pipeline's events for it (time order)."""
@@ -82,6 +87,8 @@ class StopTimeline:
             kind = e.get("type")
             if kind == "step":
                 busy.append((float(e.get("t_start_s", e["t_s"])), float(e["t_s"])))
+                if e.get("up_m") is not None:
+                    self.step_up.append((busy[-1][0], busy[-1][1], float(e["up_m"])))
             elif kind == "floor_change":
                 self.floor_changes.append((float(e["t_s"]), float(e.get("from_floor", float("nan"))),
                                            float(e["floor"])))
@@ -91,7 +98,14 @@ class StopTimeline:
                 data = {"altitude_change_m": e.get("altitude_change_m"), "source": "impulses"}
                 rides.append(ModeEntry(a, b, f"elevator_{e.get('direction', 'up')}", data))
         self.floor_changes = self.floor_changes[-KEEP_FLOOR_CHANGES:]
+        self.step_up = self.step_up[-KEEP_STEPS:]
         return busy, rides
+
+    def _altitude_change(self, s: Stop) -> float | None:
+        """Barometric altitude (m) of the first step after the stop minus that of the last step before it."""
+        before = [u for a, b, u in self.step_up if b <= s.t_start_s + 1e-9]
+        after = [u for a, b, u in self.step_up if a >= s.t_end_s - 1e-9]
+        return after[0] - before[-1] if before and after else None
 
     def _entries(self, stops: list[Stop]) -> list[ModeEntry]:
         out: list[ModeEntry] = []
@@ -103,6 +117,7 @@ class StopTimeline:
                 if math.isfinite(change) and change != 0:
                     out.append(ModeEntry(s.t_start_s, s.t_end_s, "elevator_up" if change > 0 else "elevator_down",
                                          {"from_floor": start, "floor": end, "floors": abs(change),
+                                          "altitude_change_m": self._altitude_change(s),
                                           "source": "stop with a floor change"}))
                     continue
             out.append(ModeEntry(s.t_start_s, s.t_end_s, STOP_LABEL, {"duration_s": s.duration_s}))
@@ -110,7 +125,7 @@ class StopTimeline:
 
     def state(self) -> dict[str, Any]:
         return {"version": STATE_VERSION, "detector": self.detector.state(),
-                "floor_changes": [list(f) for f in self.floor_changes]}
+                "floor_changes": [list(f) for f in self.floor_changes], "step_up": [list(u) for u in self.step_up]}
 
     @classmethod
     def from_state(cls, state: dict[str, Any]) -> StopTimeline:
@@ -121,6 +136,7 @@ class StopTimeline:
             tl = cls()
             tl.detector = StopDetector.from_state(state["detector"])
             tl.floor_changes = [(float(a), float(b), float(c)) for a, b, c in state["floor_changes"]]
+            tl.step_up = [(float(a), float(b), float(c)) for a, b, c in state.get("step_up", [])]
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"not a stop timeline state ({exc})", field="state") from None
         return tl

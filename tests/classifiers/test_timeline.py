@@ -108,12 +108,14 @@ def test_stop_rule_rejects_bad_input():
 
 def test_timeline_labels_a_stop_with_a_floor_change_as_an_elevator_ride():
     rec = _walk_and_stand([("walk", 5.0), ("still", 20.0), ("walk", 5.0), ("still", 6.0), ("walk", 3.0)])
-    events = [{"type": "step", "t_start_s": a, "t_s": b} for a, b in _steps(0, 5) + _steps(25, 30) + _steps(36, 39)]
+    events = [{"type": "step", "t_start_s": a, "t_s": b, "up_m": 0.0 if b < 10 else 8.1}
+              for a, b in _steps(0, 5) + _steps(25, 30) + _steps(36, 39)]
     events.insert(10, {"type": "floor_change", "t_s": 22.0, "floor": 2.0, "from_floor": 0.0})
     tl = StopTimeline()
     entries = tl.update(rec, events) + tl.finish()
     assert [e.label for e in entries] == ["elevator_up", "standing"]
     assert entries[0].data["floors"] == 2.0 and entries[0].data["from_floor"] == 0.0
+    assert entries[0].data["altitude_change_m"] == pytest.approx(8.1)
     tl2 = StopTimeline.from_state(json.loads(json.dumps(StopTimeline().state())))
     assert tl2.update(rec, events)[0].label == "elevator_up"
 

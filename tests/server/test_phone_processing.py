@@ -143,6 +143,7 @@ def test_elevator_rides_appear_in_modes_with_their_floor_change(real_app):
         direction = "elevator_up" if change > 0 else "elevator_down"
         found = [m for m in modes if m["label"] == direction and m["t_s"] < t1 and m["t_end_s"] > t0]
         assert found and found[0]["floors"] >= 1, (t0, t1, change, modes)
+    assert not any(m["label"].startswith("stairs") for m in modes), modes  # the walk has no stairs
 
 
 def test_pocket_office_walk_has_no_car_labels_when_standing(real_app):
