@@ -134,12 +134,16 @@ def _labels(pattern: str) -> tuple[tuple[str, ...], np.ndarray, np.ndarray, np.n
 
 
 def test_car_transitions_hold_only_next_to_a_vehicle_segment():
-    labels, proba, t0, classes = _labels("wwwsiiisswww" + "w" * 30 + "siivvvvvooww")
+    labels, proba, t0, classes = _labels("wwwsiiisswww" + "w" * 30 + "sii" + "v" * 30 + "ooww")
     out, conf = gate_transitions(labels, np.full(len(labels), 0.6), proba, classes, t0, t0 + 2.56)
     s = "".join({"walking": "w", "stationary": "s", "car_step_in": "i", "car_step_out": "o",
                  "vehicle": "v"}[x] for x in out)
-    assert s == "wwwsssssswww" + "w" * 30 + "siivvvvvooww"
+    assert s == "wwwsssssswww" + "w" * 30 + "sii" + "v" * 30 + "ooww"
     assert conf[4] == pytest.approx(0.2 / (0.2 + 0.05 + 0.05))  # renormalised over stationary, vehicle, walking
+    # A vehicle run shorter than MIN_SEGMENT_S is no car trip; the step-in before it goes with it.
+    labels, proba, t0, classes = _labels("wwsii" + "v" * 8 + "sww")
+    out, _ = gate_transitions(labels, np.full(len(labels), 0.6), proba, classes, t0, t0 + 2.56)
+    assert not {"vehicle", "car_step_in"} & set(out)
     # car_step_out with no vehicle before it is standing too.
     labels, proba, t0, classes = _labels("wwoows")
     out, _ = gate_transitions(labels, np.full(6, 0.6), proba, classes, t0, t0 + 2.56)
@@ -147,7 +151,9 @@ def test_car_transitions_hold_only_next_to_a_vehicle_segment():
 
 
 def test_transition_gate_online_equals_offline():
-    labels, proba, t0, classes = _labels("wwwsiiisswww" + "w" * 30 + "siivvvvvooww" + "s" * 5 + "ii")
+    pattern = ("wwwsiiisswww" + "w" * 30 + "sii" + "v" * 30 + "ooww" + "s" * 5 + "ii" + "v" * 6 + "ss"
+               + "i" * 3 + "w" * 10 + "v" * 40 + "o")
+    labels, proba, t0, classes = _labels(pattern)
     offline, _ = gate_transitions(labels, np.full(len(labels), 0.6), proba, classes, t0, t0 + 2.56)
     items = [{"t_start_s": float(a), "t_end_s": float(a + 2.56), "mode": lab, "confidence": 0.6,
               "proba": dict(zip(classes, p.tolist(), strict=True))}
@@ -160,7 +166,7 @@ def test_transition_gate_online_equals_offline():
     got += gate.flush()
     assert tuple(g["mode"] for g in got) == offline
     assert [g["t_start_s"] for g in got] == sorted(g["t_start_s"] for g in got)
-    assert TRANSITION_REACH_S > 2.56
+    assert TRANSITION_REACH_S > 2.56 and set(offline) >= {"vehicle", "car_step_in", "car_step_out", "stationary"}
 
 
 def test_step_modes_need_a_flight_for_a_stairs_entry():
