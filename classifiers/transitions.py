@@ -5,8 +5,8 @@ A window classifier trained on isolated clips (MobiFall's car step-in/out record
 seat or a phone coming to rest and cannot tell it from a car door scene; in a walk it labels standing still
 ``car_step_in``. The rule: a window labelled with a transition class keeps it only when a window of its anchor
 class lies within ``TRANSITION_REACH_S`` on the anchor's side (``car_step_in``: a ``vehicle`` window starting
-after it; ``car_step_out``: one ending before it). Otherwise it takes the best of the other classes (posterior
-renormalised over them), so a phone at rest becomes ``stationary``/``sitting``.
+after it; ``car_step_out``: one ending before it). Otherwise it takes the best class other than the transitions
+and vehicle (posterior renormalised over them), so a phone at rest becomes ``stationary``/``sitting``.
 
 A segment of the anchor class itself (consecutive ``vehicle`` windows) must last ``MIN_SEGMENT_S``: nobody drives
 for less than half a minute, while a phone put down on a table for a few seconds can look like one on a windscreen
@@ -40,14 +40,14 @@ MIN_SEGMENT_S = 30.0
 ANCHORS = tuple(sorted({a for a, _ in TRANSITIONS.values()}))
 
 
-def fallback(proba: Sequence[float], classes: Sequence[str], exclude: Sequence[str] = ()) -> tuple[str, float]:
-    """Best class of one window's posterior other than the transitions and ``exclude``, and its posterior
-    renormalised over the allowed classes.
+def fallback(proba: Sequence[float], classes: Sequence[str]) -> tuple[str, float]:
+    """Best class of one window's posterior other than the transitions and their anchors (a window that loses a
+    car label is not in a car), and its posterior renormalised over the allowed classes.
     """
     p = np.asarray(proba, dtype=np.float64)
-    allowed = np.array([c not in TRANSITIONS and c not in exclude for c in classes])
+    allowed = np.array([c not in TRANSITIONS and c not in ANCHORS for c in classes])
     if not allowed.any():
-        raise InputError("no class is left once transitions are excluded", field="classes")
+        raise InputError("no class is left once transitions and their anchors are excluded", field="classes")
     q = np.where(allowed, p, -1.0)
     b = int(np.argmax(q))
     total = float(p[allowed].sum())
@@ -81,7 +81,7 @@ def gate_transitions(labels: Sequence[str], confidence: FloatArray, proba: Float
         for i, j in _runs(labs, anchor):
             if t1[j - 1] - t0[i] < min_segment_s:
                 for k in range(i, j):
-                    labs[k], conf[k] = fallback(proba[k], classes, exclude=(anchor,))
+                    labs[k], conf[k] = fallback(proba[k], classes)
     kept = tuple(labs)
     for cls_name, (anchor, side) in TRANSITIONS.items():
         idx = [i for i, lab in enumerate(kept) if lab == cls_name]
@@ -159,8 +159,7 @@ class TransitionGate:
         for h in self.held:
             if h.pop("run", False) and not h.get("anchor_ok"):
                 classes = list(h["proba"])
-                h["mode"], h["confidence"] = fallback([h["proba"][c] for c in classes], classes,
-                                                      exclude=(self.run["mode"],))
+                h["mode"], h["confidence"] = fallback([h["proba"][c] for c in classes], classes)
         self.run = None
 
     def _judge_past(self, it: dict[str, Any]) -> dict[str, Any]:

@@ -139,7 +139,7 @@ def test_car_transitions_hold_only_next_to_a_vehicle_segment():
     s = "".join({"walking": "w", "stationary": "s", "car_step_in": "i", "car_step_out": "o",
                  "vehicle": "v"}[x] for x in out)
     assert s == "wwwsssssswww" + "w" * 30 + "sii" + "v" * 30 + "ooww"
-    assert conf[4] == pytest.approx(0.2 / (0.2 + 0.05 + 0.05))  # renormalised over stationary, vehicle, walking
+    assert conf[4] == pytest.approx(0.2 / (0.2 + 0.05))  # renormalised over stationary and walking
     # A vehicle run shorter than MIN_SEGMENT_S is no car trip; the step-in before it goes with it.
     labels, proba, t0, classes = _labels("wwsii" + "v" * 8 + "sww")
     out, _ = gate_transitions(labels, np.full(len(labels), 0.6), proba, classes, t0, t0 + 2.56)
