@@ -120,7 +120,7 @@ def test_timeline_labels_a_stop_with_a_floor_change_as_an_elevator_ride():
     assert tl2.update(rec, events)[0].label == "elevator_up"
 
 
-def _labels(pattern: str) -> tuple[tuple[str, ...], np.ndarray, np.ndarray, np.ndarray]:
+def _labels(pattern: str) -> tuple[tuple[str, ...], np.ndarray, np.ndarray, tuple[str, ...]]:
     names = {"w": "walking", "s": "stationary", "i": "car_step_in", "o": "car_step_out", "v": "vehicle"}
     classes = ("car_step_in", "car_step_out", "stationary", "vehicle", "walking")
     labels = tuple(names[c] for c in pattern)
@@ -130,7 +130,7 @@ def _labels(pattern: str) -> tuple[tuple[str, ...], np.ndarray, np.ndarray, np.n
         proba[i, classes.index(lab)] = 0.6
         if lab.startswith("car"):
             proba[i, classes.index("stationary")] = 0.2
-    return labels, proba, t0, classes  # type: ignore[return-value]
+    return labels, proba, t0, classes
 
 
 def test_car_transitions_hold_only_next_to_a_vehicle_segment():

@@ -132,17 +132,14 @@ def test_elevator_rides_appear_in_modes_with_their_floor_change(real_app):
     log = data_path("ipin2023_t3", "mat", "IPIN2023_T3_TrainingTrial53_repetition01.mat")
     session = _upload(app, token, log, placement="hand")
     modes = _modes(app, token, session)
+    from classifiers.timeline_eval import truth_stops
     from pdr.io import read_recording
 
-    pos = read_recording(log).truth.positions
-    rides = [(float(pos.t_s[i]), float(pos.t_s[i + 1]), float(pos.floor[i + 1] - pos.floor[i]))
-             for i in range(len(pos) - 1)
-             if pos.floor[i] != pos.floor[i + 1] and np.linalg.norm(pos.pos_m[i + 1, :2] - pos.pos_m[i, :2]) < 3.0]
+    rides = [r for r in truth_stops(read_recording(log)) if r[2].startswith("elevator")]
     assert len(rides) == 4
-    for t0, t1, change in rides:
-        direction = "elevator_up" if change > 0 else "elevator_down"
+    for t0, t1, direction in rides:
         found = [m for m in modes if m["label"] == direction and m["t_s"] < t1 and m["t_end_s"] > t0]
-        assert found and found[0]["floors"] >= 1, (t0, t1, change, modes)
+        assert found and found[0]["floors"] >= 1, (t0, t1, direction, modes)
     assert not any(m["label"].startswith("stairs") for m in modes), modes  # the walk has no stairs
 
 
