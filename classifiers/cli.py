@@ -10,7 +10,8 @@
 ``pdr eval classifier MODEL --data PATH... [--cv] [--json] [--out-dir DIR] [--target-classes ...]``
     Confusion matrix, per-class precision/recall/F1, macro-F1 and calibration (JSON and PNG) of a saved
     model on held-out data, or (``--cv``) of its configuration retrained leave-one-group-out; prints the
-    inference speed in windows per second on one core.
+    inference speed in windows per second on one core. With ``--timeline``: the modes timeline's figures per
+    recording instead (:mod:`classifiers.timeline_eval`).
 """
 
 from __future__ import annotations
@@ -184,6 +185,9 @@ def register_eval(targets: argparse._SubParsersAction) -> None:
     p.add_argument("--out-dir", default=None, help="write metrics.json and report.png here")
     p.add_argument("--target-classes", nargs="*", default=None, help="classes of the headline macro-F1")
     p.add_argument("--update-card", action="store_true", help="append the figures to the model card")
+    p.add_argument("--timeline", action="store_true",
+                   help="instead: figures of the modes timeline per recording (car/vehicle labels in walks, "
+                        "vehicle fraction of car trips, IPIN stops found; classifiers.timeline_eval)")
     p.set_defaults(func=run_eval)
 
 
@@ -249,6 +253,20 @@ def run_eval(args: argparse.Namespace) -> int:
     model = load_model(args.model)
     task = get_task(model.task)
     recs = _recordings(args)
+    if args.timeline:
+        from classifiers.timeline_eval import print_timeline, timeline_figures
+
+        fig = timeline_figures(model, recs)
+        fig["command"] = _command_line()
+        if args.out_dir:
+            out = Path(args.out_dir)
+            out.mkdir(parents=True, exist_ok=True)
+            (out / "timeline.json").write_text(json.dumps(fig, indent=1) + "\n", encoding="utf-8")
+        if args.json:
+            print(json.dumps(fig, indent=1))
+        else:
+            print_timeline(fig)
+        return 0
     missing = [s for s in model.required_streams if not all(r.has(s) for r in recs)]
     if missing:
         raise InputError(f"the model needs the {', '.join(missing)} stream(s), which some of the data lacks")

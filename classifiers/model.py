@@ -10,12 +10,14 @@ window settings and feature layout it was trained with, and turns a recording in
    the estimator's posteriors divided by its effective training priors as emission likelihoods; unusable
    windows contribute no evidence;
 4. reject option (seed 004 Sec. 4.3, partial classification): the label is ``unknown`` when the smoothed
-   posterior of the best class is below ``reject_threshold`` or the window is unusable.
+   posterior of the best class is below ``reject_threshold`` or the window is unusable;
+5. in a timeline (:meth:`ContextModel.classify`, the streaming classifier), transition classes hold only next to
+   their anchor (:mod:`classifiers.transitions`: car step-in/out next to a vehicle segment).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -23,6 +25,7 @@ from numpy.typing import NDArray
 
 from classifiers.features import FEATURE_GROUPS, context_margin_s, extract_features, feature_names
 from classifiers.sequence import ForwardFilter, dwell_transitions, forward_backward, scaled_log_likelihood
+from classifiers.transitions import gate_transitions
 from classifiers.windows import WindowConfig, Windows, make_windows
 from pdr.errors import InputError
 from pdr.recording import Recording
@@ -184,10 +187,17 @@ class ContextModel:
         return self.decide(smoothed, raw, usable, win.t_start_s, win.t_end_s)
 
     def classify(self, rec: Recording) -> WindowResults:
-        """Offline decisions for every window of a recording (see module docstring)."""
+        """Offline timeline of a recording: a decision per window, transitions gated (module docstring)."""
         self.check_recording(rec)
         win = make_windows(rec, self.window, margin_s=self.margin_s)
-        return self.predict_windows(win)
+        return self.gated(self.predict_windows(win))
+
+    @staticmethod
+    def gated(res: WindowResults) -> WindowResults:
+        """``res`` with transition windows away from their anchor relabelled (:mod:`classifiers.transitions`)."""
+        labels, conf = gate_transitions(res.label, res.confidence, res.proba, res.classes, res.t_start_s,
+                                        res.t_end_s)
+        return replace(res, label=labels, confidence=conf)
 
     def forward_filter(self) -> ForwardFilter:
         """A fresh online smoother for this model."""

@@ -6,7 +6,9 @@ window and the forward-filter distribution; :meth:`StreamingClassifier.update` t
 the batch completed, and costs time proportional to the batch. The window grid is anchored at the first
 accelerometer sample of the session, so the per-window posteriors equal those of an offline pass over the
 whole log (``ContextModel.classify``); the offline pass smooths forward-backward, the online one filters
-forward (it cannot see the future). A model with context features (``ctx_*`` groups) looks
+forward (it cannot see the future). Transition classes are gated as offline
+(:class:`classifiers.transitions.TransitionGate`): a ``car_step_in`` window waits for its vehicle window.
+A model with context features (``ctx_*`` groups) looks
 ``ContextModel.margin_s`` seconds past each window, so its decisions come that much later.
 
 The state is a JSON-serialisable dict (:meth:`state`, :meth:`from_state`): a session can be resumed in
@@ -24,6 +26,7 @@ import numpy as np
 from classifiers.artifacts import DEFAULT_MODEL, load_model, resolve_model_dir
 from classifiers.features import extract_features
 from classifiers.model import ContextModel
+from classifiers.transitions import TransitionGate
 from classifiers.windows import WINDOW_STREAMS, WindowConfig, make_windows
 from pdr.errors import InputError
 from pdr.recording import Recording, SensorStream
@@ -97,6 +100,7 @@ class StreamingClassifier:
         self.next_window = 0
         self.buffers: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self.filter = self.model.forward_filter()
+        self.gate = TransitionGate()
 
     @property
     def window(self) -> WindowConfig:
@@ -130,7 +134,7 @@ class StreamingClassifier:
 
         Their context spans end at the last sample, as in an offline pass over the whole log.
         """
-        return self._emit(final=True, source="")
+        return self._emit(final=True, source="") + [StreamResult(**d) for d in self.gate.flush()]
 
     def _emit(self, final: bool, source: str) -> list[StreamResult]:
         t0 = self.t0_ns
@@ -160,16 +164,18 @@ class StreamingClassifier:
             self.buffers[k] = (t[m], v[m])
         classes = res.classes
         off = t0 / 1e9
-        return [StreamResult(float(a + off), float(b + off), lab, float(c), classes[int(np.argmax(r))],
-                             {cl: float(p) for cl, p in zip(classes, pr, strict=True)})
-                for a, b, lab, c, r, pr in zip(res.t_start_s, res.t_end_s, res.label, res.confidence, res.raw_proba,
-                                                res.proba, strict=True)]
+        results = [StreamResult(float(a + off), float(b + off), lab, float(c), classes[int(np.argmax(r))],
+                                {cl: float(p) for cl, p in zip(classes, pr, strict=True)})
+                   for a, b, lab, c, r, pr in zip(res.t_start_s, res.t_end_s, res.label, res.confidence,
+                                                   res.raw_proba, res.proba, strict=True)]
+        return [StreamResult(**d) for d in self.gate.push([r.to_dict() for r in results])]
 
     def state(self) -> dict[str, Any]:
         """State for :func:`pdr.state_codec.dumps`: model name, clock origin, next window, filter, sample buffers."""
         return {
             "version": STATE_VERSION, "model": self.model_name, "window": self.window.to_dict(),
             "t0_ns": self.t0_ns, "next_window": self.next_window, "filter": self.filter.state(),
+            "gate": self.gate.state(),
             "buffers": {k: {"t_ns": t.copy(), "values": v.copy()} for k, (t, v) in self.buffers.items()},
         }
 
@@ -185,6 +191,8 @@ class StreamingClassifier:
             clf.t0_ns = None if state["t0_ns"] is None else int(state["t0_ns"])
             clf.next_window = int(state["next_window"])
             clf.filter.set_state(state["filter"])
+            if "gate" in state:  # states stored before the gate existed resume with an empty one
+                clf.gate = TransitionGate.from_state(state["gate"])
             for k, b in state["buffers"].items():
                 t = np.asarray(b["t_ns"], dtype=np.int64)
                 v = np.asarray(b["values"], dtype=np.float64).reshape(t.size, -1)

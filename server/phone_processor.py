@@ -7,7 +7,8 @@ events ``landmark`` events; ``floor_change`` a ``floor`` event; ``notice`` a ses
 come from the shipped streaming classifier (:class:`classifiers.streaming.StreamingClassifier`, one ``mode``
 event per window with its confidence) once the pipeline has found the phone in a trouser pocket (the model's
 training placement); for other placements, or when the recording lacks a sensor the model needs, from the
-pipeline's per-step modes.
+pipeline's per-step modes, with the stops and elevator rides of :class:`classifiers.timeline.StopTimeline`
+(``standing`` for 2 s or more without a step and with a still phone; ``elevator_up/down`` with the floor change).
 The provisional tail (:meth:`PhoneProcessor.tail`) is what :meth:`PdrPipeline.finish` would add if the
 session ended now, so a session's track equals ``pdr track --smoother off`` on the same data at any time, and
 ``?heading=smoothed`` equals ``pdr track`` -- with the session's processing options
@@ -16,9 +17,11 @@ session ended now, so a session's track equals ``pdr track --smoother off`` on t
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 from classifiers.streaming import StreamingClassifier
+from classifiers.timeline import ModeEntry, StepModes, StopTimeline
 from pdr import state_codec
 from pdr.errors import InputError
 from pdr.phone.configure import pipeline_config, placement_group
@@ -49,21 +52,26 @@ class PhoneProcessor:
         if state:
             d = state_codec.loads(state)
             self.pipeline = PdrPipeline.from_dict(d["pipeline"])
-            self.last_mode: str = d["last_mode"]
+            self.step_modes = (StepModes.from_state(d["step_modes"]) if d.get("step_modes")
+                               else StepModes(str(d.get("last_mode", ""))))
             self.classifier_status: str = d.get("classifier_status", "pending")
             if d.get("classifier") is not None:
                 self.classifier = StreamingClassifier.from_state(d["classifier"])
+            self.stops = StopTimeline.from_state(d["stops"]) if d.get("stops") else StopTimeline()
         else:
+            self.stops = StopTimeline()
             options = session_options(ctx.meta)
             config = pipeline_config(placement_group(ctx.placement), step_length=options.step_length)
             self.pipeline = PdrPipeline(config, options.site)
-            self.last_mode = ""
+            self.step_modes = StepModes()
             self.classifier_status = "pending"
 
     def update(self, recording: Recording) -> ProcessorOutput:
         events = self.pipeline.update(recording)
         modes, notice = self._classify(recording)
-        out, self.last_mode = convert_events(events, self.last_mode, step_modes=self.classifier_status != "active")
+        stops = self.stops.update(recording, events)
+        step_modes = self.classifier_status != "active"
+        out = convert_events(events, self.step_modes, step_modes=step_modes, stops=stops if step_modes else ())
         out.events += modes
         if notice:
             out.warnings.append(notice)
@@ -90,25 +98,36 @@ class PhoneProcessor:
 
     def tail(self) -> ProcessorOutput:
         copy = PdrPipeline.from_dict(self.pipeline.to_dict())
-        out, _ = convert_events(copy.finish(), self.last_mode, step_modes=self.classifier_status != "active")
+        events = copy.finish()
+        step_modes = self.classifier_status != "active"
+        out = convert_events(events, StepModes.from_state(self.step_modes.state()), step_modes=step_modes,
+                             stops=self.stops.pending(events) if step_modes else ())
         return out
 
     def to_bytes(self) -> bytes:
-        return state_codec.dumps({"pipeline": self.pipeline.to_dict(), "last_mode": self.last_mode,
+        return state_codec.dumps({"pipeline": self.pipeline.to_dict(), "step_modes": self.step_modes.state(),
                                   "classifier_status": self.classifier_status,
-                                  "classifier": None if self.classifier is None else self.classifier.state()})
+                                  "classifier": None if self.classifier is None else self.classifier.state(),
+                                  "stops": self.stops.state()})
 
 
-def convert_events(events: list[dict[str, Any]], last_mode: str,
-                   step_modes: bool = True) -> tuple[ProcessorOutput, str]:
-    """Result rows of pipeline events; returns them with the step mode in force after them.
+def convert_events(events: list[dict[str, Any]], modes: StepModes | None = None, step_modes: bool = True,
+                   stops: Sequence[ModeEntry] = ()) -> ProcessorOutput:
+    """Result rows of pipeline events; ``modes`` (updated) is the timeline's step-mode state.
 
-    ``step_modes``: also emit a ``mode`` event where the pipeline's per-step mode changes.
+    ``step_modes``: also emit a ``mode`` event where the pipeline's per-step mode changes
+    (:class:`classifiers.timeline.StepModes`: a stairs entry needs a flight of steps). ``stops``: stop and
+    elevator entries (:class:`classifiers.timeline.StopTimeline`), each a ``mode`` event with its end, placed
+    among the steps by time; the step after one emits its mode again.
     """
+    modes = StepModes() if modes is None else modes
     out = ProcessorOutput()
+    pending = sorted(stops, key=lambda m: m.t_start_s)
     for e in events:
         kind = e.get("type")
         if kind == "step":
+            while pending and pending[0].t_start_s <= float(e.get("t_start_s", e["t_s"])):
+                _stop_row(out, pending.pop(0), modes)
             out.track.append(TrackRow(float(e["t_s"]), float(e["east_m"]), float(e["north_m"]), float(e["up_m"]),
                                       _num(e.get("floor")), _num(e.get("heading_deg")), _num(e.get("step_length_m")),
                                       e.get("mode")))
@@ -117,11 +136,9 @@ def convert_events(events: list[dict[str, Any]], last_mode: str,
                                        data={"t_start_s": e.get("t_start_s"), "heading_deg": e.get("heading_deg"),
                                              "floor": e.get("floor"),
                                              "smoother": {k: e.get(k) for k in SMOOTHER_INPUTS}}))
-            mode = str(e.get("mode") or "")
-            if mode and mode != last_mode:
+            for t, label in modes.step(str(e.get("mode") or ""), float(e.get("t_start_s", e["t_s"]))):
                 if step_modes:
-                    out.events.append(EventRow("mode", float(e.get("t_start_s", e["t_s"])), label=mode))
-                last_mode = mode
+                    out.events.append(EventRow("mode", t, label=label))
         elif kind in ("elevator", "landmark"):
             t = float(e.get("t_s", e.get("t_start_s", 0.0)))
             label = "elevator" if kind == "elevator" else str(e.get("mode") or e.get("landmark") or "landmark")
@@ -132,4 +149,12 @@ def convert_events(events: list[dict[str, Any]], last_mode: str,
             out.events.append(EventRow("floor", float(e["t_s"]), value=_num(e.get("floor")), label="floor"))
         elif kind == "notice":
             out.warnings.append(str(e.get("message", "")))
-    return out, last_mode
+    while pending:
+        _stop_row(out, pending.pop(0), modes)
+    return out
+
+
+def _stop_row(out: ProcessorOutput, m: ModeEntry, modes: StepModes) -> None:
+    """Append the ``mode`` event of a stop or elevator entry, which then holds the timeline."""
+    out.events.append(EventRow("mode", m.t_start_s, t_end_s=m.t_end_s, label=m.label, data=dict(m.data)))
+    modes.entry(m.label)

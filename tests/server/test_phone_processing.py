@@ -98,3 +98,59 @@ def test_smoothed_track_equals_pdr_tracks_default(real_app):
     assert columns["columns"]["device"] == [p["device"] for p in later["points"]]
     assert c.get(url + "/columns", headers=bearer(token)).get_json()["heading"] == "causal"
     assert c.get(url + "/columns?heading=magic", headers=bearer(token)).status_code == 400
+
+
+def _modes(app, token: str, session: dict) -> list[dict]:  # noqa: ANN001
+    return app.test_client().get(f"/api/v1/sessions/{session['id']}/modes", headers=bearer(token)).get_json()["modes"]
+
+
+def _covered(modes: list[dict], label_prefix: str, t0: float, t1: float) -> float:
+    """Fraction of [t0, t1] (s) covered by mode entries whose label starts with ``label_prefix``."""
+    cover = sum(max(0.0, min(t1, m["t_end_s"]) - max(t0, m["t_s"])) for m in modes
+                if m["label"].startswith(label_prefix) and m["t_end_s"] is not None)
+    return cover / (t1 - t0)
+
+
+@pytest.mark.slow
+def test_hand_held_stop_is_its_own_standing_entry(real_app):
+    # IPIN trial 03 repetition 01: the walker passes landmark 7 at 117.8 s and again, at the same place,
+    # at 153.6 s with no step in between: a ~36 s stop in the middle of a 207 s walk.
+    app, token = real_app
+    session = _upload(app, token, data_path("ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial03_repetition01.txt"))
+    modes = _modes(app, token, session)
+    assert _covered(modes, "standing", 117.8, 153.6) > 0.7, modes
+    labels = [m["label"] for m in modes]
+    i = labels.index("standing", 1)
+    assert "walking" in labels[i + 1:], labels  # the walk resumes after the stop
+    assert not any(m["label"].startswith(("car_", "vehicle")) for m in modes)
+
+
+@pytest.mark.slow
+def test_elevator_rides_appear_in_modes_with_their_floor_change(real_app):
+    # IPIN trial 53: four elevator rides, each between two landmarks at the same place on different floors.
+    app, token = real_app
+    log = data_path("ipin2023_t3", "mat", "IPIN2023_T3_TrainingTrial53_repetition01.mat")
+    session = _upload(app, token, log, placement="hand")
+    modes = _modes(app, token, session)
+    from classifiers.timeline_eval import truth_stops
+    from pdr.io import read_recording
+
+    rides = [r for r in truth_stops(read_recording(log)) if r[2].startswith("elevator")]
+    assert len(rides) == 4
+    for t0, t1, direction in rides:
+        found = [m for m in modes if m["label"] == direction and m["t_s"] < t1 and m["t_end_s"] > t0]
+        assert found and found[0]["floors"] >= 1, (t0, t1, direction, modes)
+    assert not any(m["label"].startswith("stairs") for m in modes), modes  # the walk has no stairs
+
+
+def test_pocket_office_walk_has_no_car_labels_when_standing(real_app):
+    # The simulated pocket office walk stands still between its legs: once labelled car_step_in (issue 30).
+    from pathlib import Path
+
+    app, token = real_app
+    log = Path(__file__).resolve().parents[2] / "mobile_logs" / "sim" / "pocket_office.zip"
+    session = _upload(app, token, log, placement="trouser_pocket")
+    assert session["status"] == "done", session
+    labels = Counter(m["label"] for m in _modes(app, token, session))
+    assert not [k for k in labels if k.startswith(("car_", "vehicle"))], labels
+    assert labels["stationary"] + labels["standing"] > 0, labels

@@ -24,6 +24,8 @@
   let pollTimer = null;
   let map = null;
   let current = null; // the open session's state
+  /** /modes entries drawn over the step-mode band (they cover time without steps). */
+  const BAND_ENTRY_MODES = new Set(["standing", "elevator_up", "elevator_down"]);
 
   // -- API --------------------------------------------------------------------------------------
   class ApiError extends Error {
@@ -360,10 +362,14 @@
 
   async function loadExtras(gen) {
     const id = current.id;
-    const [landmarks, truth, smoothed] = await Promise.allSettled([apiJson(`${API}/sessions/${enc(id)}/landmarks`),
-      apiJson(`${API}/sessions/${enc(id)}/truth`), loadSmoothed()]);
+    const [landmarks, truth, smoothed, modes] = await Promise.allSettled([apiJson(`${API}/sessions/${enc(id)}/landmarks`),
+      apiJson(`${API}/sessions/${enc(id)}/truth`), loadSmoothed(), apiJson(`${API}/sessions/${enc(id)}/modes`)]);
     if (gen !== generation) return;
     if (landmarks.status === "fulfilled") current.landmarks = landmarks.value.landmarks || [];
+    // Stops and elevator rides have no steps: the band shows them from /modes (entries with an end).
+    if (modes.status === "fulfilled") {
+      current.stopEntries = (modes.value.modes || []).filter((m) => BAND_ENTRY_MODES.has(m.label) && m.t_end_s !== null);
+    }
     if (truth.status === "fulfilled") current.truth = truth.value;
     else current.truthError = truth.reason;
     if (smoothed.status === "rejected") reportError(smoothed.reason, "Could not load the smoothed track");
@@ -646,6 +652,7 @@
       for (const d of current.byDevice.keys()) item(Plot.deviceColour(d), d);
     } else {
       const modes = new Set(current.rows.map((r) => r.mode || "unknown"));
+      for (const m of current.stopEntries || []) modes.add(m.label);
       for (const m of modes) item(Plot.modeColour(m), m);
       if (current.byDevice.size > 1) legend.appendChild(el("div", { class: "muted" }, "dashed: single foot"));
     }
@@ -667,6 +674,11 @@
       const last = bands[bands.length - 1];
       if (last && last.label === mode) last.t1 = t1;
       else bands.push({ t0: rows[i].t_s, t1, label: mode, colour: Plot.modeColour(mode) });
+    }
+    for (const m of current.stopEntries || []) {
+      if (m.device && m.device !== primary) continue;
+      const label = m.floors ? `${m.label} (${m.floors} floor${m.floors === 1 ? "" : "s"})` : m.label;
+      bands.push({ t0: m.t_s, t1: m.t_end_s, label, colour: Plot.modeColour(m.label) });
     }
     const floorsKnown = rows.some((r) => r.floor !== null && r.floor !== undefined);
     Plot.timeChart($("timeline"), floorsKnown ? [{ name: "floor", colour: "#344054", t: rows.map((r) => r.t_s),

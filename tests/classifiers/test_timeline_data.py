@@ -1,0 +1,42 @@
+"""The modes timeline's figures on real recordings (``pdr eval classifier MODEL --timeline``)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from classifiers.artifacts import load_model
+from classifiers.timeline_eval import timeline_figures, truth_stops
+from pdr.cli import main
+from pdr.io import read_recording
+from tests.conftest import REPO_ROOT, data_path
+
+pytestmark = pytest.mark.data
+
+
+def test_truth_stops_of_ipin_landmarks():
+    rec = read_recording(data_path("ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial03_repetition01.txt"))
+    assert [(round(a), round(b), k) for a, b, k in truth_stops(rec)] == [(118, 154, "standing")]
+    rides = truth_stops(read_recording(data_path("ipin2023_t3", "mat", "IPIN2023_T3_TrainingTrial53_repetition01.mat")))
+    assert [k for *_, k in rides] == ["elevator_down", "standing", "elevator_up", "standing", "elevator_down",
+                                      "standing", "elevator_up"]
+
+
+def test_timeline_figures_stop_pocket_rest_and_driving():
+    recs = [read_recording(p) for p in (
+        data_path("ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial03_repetition01.txt"),
+        REPO_ROOT / "mobile_logs" / "sim" / "pocket_office.zip",
+        data_path("driving_phone_mount", "17"))]
+    fig = timeline_figures(load_model("motion_mode"), recs)
+    assert fig["truth_stops"] == fig["truth_stops_found"] == 1
+    office = next(w for w in fig["walks"] if w["recording"] == "pocket_office.zip")
+    assert office["vehicle_labels"] == 0 and office["ungated_vehicle_labels"] > 0  # the gate is what removes them
+    assert fig["driving"][0]["vehicle_fraction"] >= 0.9
+
+
+def test_eval_classifier_timeline_cli(tmp_path, capsys):
+    log = REPO_ROOT / "mobile_logs" / "sim" / "pocket_office.zip"
+    assert main(["eval", "classifier", "motion_mode", "--timeline", "--data", str(log), "--json"]) == 0
+    fig = json.loads(capsys.readouterr().out)
+    assert fig["walk_recordings"] == 1 and fig["walk_vehicle_windows"] == 0
