@@ -1,6 +1,5 @@
 import gzip
 import json
-import time
 import zipfile
 from typing import Any
 
@@ -226,15 +225,13 @@ def test_batch_not_an_object():
         native.batch_from_json([1, 2], source="upload")  # type: ignore[arg-type]
 
 
-def test_large_batch_validates_fast():
+def test_large_batch_validates():
     n = 100_000
     t = (T_BASE + np.arange(n) * 5_000_000).tolist()
     v = np.random.default_rng(0).normal(size=(n, 3)).tolist()
     b: dict[str, Any] = {"format": "pdr-batch/1", "device": {},
                          "streams": {"acc": {"t_ns": t, "values": v}, "gyro": {"t_ns": t, "values": v}}}
-    start = time.perf_counter()
     rec = native.batch_from_json(b)
-    assert time.perf_counter() - start < 3.0
     assert len(rec.stream("gyro")) == n
     b["streams"]["gyro"]["values"][n - 7][2] = True
     with pytest.raises(InputError) as err:
@@ -242,14 +239,12 @@ def test_large_batch_validates_fast():
     assert err.value.field == f"streams.gyro.values[{n - 7}][2]"
 
 
-def test_large_folder_round_trip_is_fast(tmp_path):
+def test_large_folder_round_trip(tmp_path):
     n = 200_000
     rng = np.random.default_rng(1)
     rec = Recording({"acc": SensorStream("acc", T_BASE + np.arange(n) * 5_000_000, rng.normal(size=(n, 3)))})
-    start = time.perf_counter()
     native.write(rec, tmp_path / "big")
     assert native.read(tmp_path / "big") == rec
-    assert time.perf_counter() - start < 10.0
 
 
 @pytest.mark.parametrize(("content", "line", "field", "match"), [

@@ -1,5 +1,4 @@
 import gzip
-import time
 
 import numpy as np
 import pytest
@@ -119,12 +118,10 @@ def test_missing_member_and_garbage(tmp_path):
     assert not static_npz.sniff(tmp_path)
 
 
-def test_million_samples_fast(tmp_path):
+def test_million_samples(tmp_path):
     data, _, _ = _static(n=1_000_000)
     p = _save(tmp_path, data)
-    start = time.perf_counter()
     rec = static_npz.read(p)
-    assert time.perf_counter() - start < 5.0
     assert len(rec.stream("gyro")) == 1_000_000
 
 
