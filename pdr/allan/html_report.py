@@ -141,8 +141,8 @@ def render(data: Mapping[str, Any], pngs: Mapping[str, bytes]) -> str:
     """The HTML page of a report dictionary (:func:`pdr.allan.report.report_dict`) with its PNG plots."""
     rec = data["recording"]
     t = rec.get("temperature")
-    name = _source_name(rec["source"])
-    rows = [["source", _e(name)], ["format", _e(rec["format"])],
+    file_name = _source_name(rec["source"])
+    rows = [["source", _e(file_name)], ["format", _e(rec["format"])],
             ["device", _e(", ".join(f"{k}={v}" for k, v in rec["device"].items() if v))],
             ["duration [s]", _num(rec["duration_s"], 6)],
             ["temperature [degC]", "not recorded" if not t else
@@ -152,7 +152,7 @@ def render(data: Mapping[str, Any], pngs: Mapping[str, bytes]) -> str:
         if name in data:
             s = data[name]
             rows.append([f"{name} rate [Hz] / samples", f"{_num(s['rate_hz'], 6)} / {s['n_samples']}"])
-    body = [f"<h1>Allan-variance report: {_e(name)}</h1>",
+    body = [f"<h1>Allan-variance report: {_e(file_name)}</h1>",
             _table(["recording", ""], rows)]
     if data.get("flags"):
         body.append("<h3>Flags</h3><ul>" + "".join(f'<li class="flag">{_e(x)}</li>' for x in data["flags"]) + "</ul>")
@@ -165,5 +165,5 @@ def render(data: Mapping[str, Any], pngs: Mapping[str, bytes]) -> str:
                 "K&sup2;&tau;/3 + R&sup2;&tau;&sup2;/2 fitted by weighted non-negative least squares; all numbers in "
                 "<code>report.json</code>. Grades, PDR impact and noise-term reading after "
                 f"{_e(REFERENCE)}.</small></p>")
-    return (f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>Allan-variance report: {_e(name)}</title>"
+    return (f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>Allan-variance report: {_e(file_name)}</title>"
             f"<style>{_CSS}</style></head><body>{''.join(body)}</body></html>\n")
