@@ -77,12 +77,18 @@ def list_models() -> Response:
     return jsonify({"models": [_card(n, d) for n, d in _model_dirs().items()]})
 
 
-@bp.get("/models/<name>")
-def model_card(name: str) -> Response:
+def _model_dir(name: str) -> Path:
+    """The signed-in user's view of one installed model's folder; 404 when there is none of that name."""
     current_user()
     d = _model_dirs().get(name)
     if d is None:
         raise APIError(404, f"no model '{name}'")
+    return d
+
+
+@bp.get("/models/<name>")
+def model_card(name: str) -> Response:
+    d = _model_dir(name)
     card = d / "MODEL_CARD.md"
     return jsonify(_card(name, d) | {"card_markdown": card.read_text(encoding="utf-8") if card.is_file() else ""})
 
@@ -90,11 +96,7 @@ def model_card(name: str) -> Response:
 @bp.get("/models/<name>/model.json")
 def model_artifact(name: str) -> Response:
     """The raw artifact (fitted estimator internals included), as a download."""
-    current_user()
-    d = _model_dirs().get(name)
-    if d is None:
-        raise APIError(404, f"no model '{name}'")
-    return send_file(d / "model.json", mimetype="application/json", as_attachment=True,
+    return send_file(_model_dir(name) / "model.json", mimetype="application/json", as_attachment=True,
                      download_name=f"{name}.model.json")
 
 
