@@ -181,6 +181,9 @@ def openapi_document() -> dict[str, Any]:
             "/api/v1/models": {"get": _op("classifier models", {"200": _ok("models")} | _errors(401))},
             "/api/v1/models/{name}": {
                 "get": _op("model card", {"200": _ok("card")} | _errors(401, 404), parameters=[NAME])},
+            "/api/v1/models/{name}/model.json": {
+                "get": _op("the raw model artifact (download)", {"200": _ok("model.json")} | _errors(401, 404),
+                           parameters=[NAME])},
             "/api/v1/classify": {
                 "post": _op("classify the windows of a native batch", {"200": _ok("one decision per window")}
                             | common, requestBody=_json_body("ClassifyWindow"))},

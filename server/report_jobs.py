@@ -11,6 +11,7 @@ instead of crashing the service again.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import tempfile
 import zlib
@@ -104,7 +105,9 @@ class ReportRunner:
 
         try:
             recording = read_uploaded_file(payload, descriptor)
-            result = characterise_recording(recording)
+            # The report names the uploaded file, never the server's temporary copy that the reader was given.
+            result = dataclasses.replace(characterise_recording(recording),
+                                         source=descriptor.partition("/")[2] or "upload")
             with tempfile.TemporaryDirectory(prefix="pdr-report-") as tmp:
                 paths = write_report(result, tmp)
                 files = {p.name: p.read_bytes() for p in paths.values()}

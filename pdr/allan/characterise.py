@@ -176,11 +176,11 @@ def characterise_samples(samples: ArrayLike, rate_hz: float, sensor: str, *, axi
         if sensor == "gyro":
             b_val = ax.fit.value["B"] if ax.fit.value["B"] is not None else ax.slopes.B
             if b_val is not None:
-                calls.append(grade.grade_value("gyro", "bias_instability", b_val * DEG * 3600.0))
+                calls.append(grade.grade_value("gyro", "bias_instability", b_val * DEG * 3600.0, ax.axis))
             if n_val is not None:
-                calls.append(grade.grade_value("gyro", "angular_random_walk", n_val * DEG * 60.0))
+                calls.append(grade.grade_value("gyro", "angular_random_walk", n_val * DEG * 60.0, ax.axis))
         elif n_val is not None:
-            calls.append(grade.grade_value("acc", "noise_density", n_val * UG))
+            calls.append(grade.grade_value("acc", "noise_density", n_val * UG, ax.axis))
     overall = grade.worst(calls)
     per_axis = {k: filter_params.axis_parameters(a.fit, a.slopes, curve.rate_hz) for k, a in axes.items()}
     filt = {"axes": per_axis, "sensor": filter_params.sensor_parameters(per_axis), "rate_hz": curve.rate_hz}
@@ -198,7 +198,7 @@ def characterise_samples(samples: ArrayLike, rate_hz: float, sensor: str, *, axi
         elif overall in grade.GRADES:
             typical = grade.TABLE1[("gyro", "scale_factor_error")][1 + grade.GRADES.index(overall)]
             sf = scale_factor_impact(float(typical) / 100.0, st.walker)
-            sf_source = (f"assumed: seed 004 Table 1 value for a {overall}-grade gyro "
+            sf_source = (f"assumed: {grade.REFERENCE_SHORT} Table 1 value for a {overall}-grade gyro "
                          "(not measurable from a static record)")
     return SensorResult(sensor=sensor, rate_hz=curve.rate_hz, n_samples=curve.n_samples, curve=curve, axes=axes,
                         grade_calls=tuple(calls), grade=overall, filter=filt, bias_impact=impacts, bias_used=used,
@@ -240,9 +240,17 @@ def characterise_recording(rec: Recording, sensors: Sequence[str] = ("gyro", "ac
     dev = rec.device
     return RecordingResult(
         source=rec.source, format=rec.format,
-        device={"platform": dev.platform, "model": dev.model, "role": dev.role, "device_id": dev.device_id},
+        device={"platform": dev.platform, "model": dev.model, "role": _role(dev.platform, dev.role),
+                "device_id": dev.device_id},
         duration_s=rec.duration_s, temperature=_temperature(rec), warnings=warnings, meta=dict(rec.meta),
         sensors=results, settings=st)
+
+
+def _role(platform: str, role: str) -> str:
+    """The device's role as a report names it: a reader's default role ``phone`` on a platform that is no phone
+    (``imu``: a lab or shoe IMU) is not a fact about the device, so it reads ``standalone IMU``.
+    """
+    return "standalone IMU" if role == "phone" and platform not in ("android", "ios") else role
 
 
 __all__ = ["AXES", "SI_UNITS", "AxisResult", "RecordingResult", "SensorResult", "Settings", "characterise_recording",

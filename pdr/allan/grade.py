@@ -15,6 +15,11 @@ from dataclasses import dataclass
 import numpy as np
 
 GRADES: tuple[str, ...] = ("navigation", "tactical", "consumer")
+#: The paper of Table 1 (seed 004), as a reader of a report can look it up.
+REFERENCE = ("J. Collin, P. Davidson, M. Kirkko-Jaakkola, H. Leppäkoski: Inertial Sensors and Their Applications. "
+             "In: Handbook of Signal Processing Systems, 3rd ed., Springer (2019)")
+#: Short form of :data:`REFERENCE` for table captions.
+REFERENCE_SHORT = "Collin et al. (2019)"
 BELOW = "below consumer"
 
 #: Seed 004 Table 1: (sensor, parameter) -> (unit, navigation, tactical, consumer).
@@ -37,10 +42,11 @@ class GradeCall:
     unit: str
     grade: str
     table: Mapping[str, float]
+    axis: str = ""
 
 
-def grade_value(sensor: str, parameter: str, value: float) -> GradeCall:
-    """Grade one value (in the Table 1 unit of ``(sensor, parameter)``)."""
+def grade_value(sensor: str, parameter: str, value: float, axis: str = "") -> GradeCall:
+    """Grade one value (in the Table 1 unit of ``(sensor, parameter)``) measured on ``axis`` (x, y, z)."""
     unit, *refs = TABLE1[(sensor, parameter)]
     table = dict(zip(GRADES, (float(r) for r in refs), strict=True))
     logs = np.log10(np.array(refs, dtype=float))
@@ -53,7 +59,7 @@ def grade_value(sensor: str, parameter: str, value: float) -> GradeCall:
         grade = GRADES[int(np.searchsorted(bounds, lv))]
         if v > 10.0 * refs[-1]:
             grade = BELOW
-    return GradeCall(parameter=parameter, value=v, unit=str(unit), grade=grade, table=table)
+    return GradeCall(parameter=parameter, value=v, unit=str(unit), grade=grade, table=table, axis=axis)
 
 
 def worst(calls: list[GradeCall]) -> str | None:

@@ -7,6 +7,7 @@ import html
 from collections.abc import Mapping
 from typing import Any
 
+from pdr.allan.grade import REFERENCE, REFERENCE_SHORT
 from pdr.allan.noise_model import TERMS
 from pdr.allan.units import headline_unit
 
@@ -70,11 +71,12 @@ def _impact(s: Mapping[str, Any]) -> str:
         return ""
     rows = [[_e(a), _num(v["bias_deg_h"], 3), _e(v["bias_source"]), _e(v["readable"]["2pct"]),
              _e(v["readable"]["3pct"]), _e(v["readable"]["3deg"])] for a, v in imp["axes"].items()]
-    rows += [["<i>seed 004 Table 3, consumer</i>", "25", "paper", "5.5 min", "8.3 min", "7.2 min"],
-             ["<i>seed 004 Table 3, tactical</i>", "1", "paper", "2.3 h", "3.4 h", "3.0 h"],
-             ["<i>seed 004 Table 3, navigation</i>", "0.0035", "paper", "27 days", "41 days", "35 days"]]
+    rows += [[f"<i>{REFERENCE_SHORT} Table 3, consumer</i>", "25", "paper", "5.5 min", "8.3 min", "7.2 min"],
+             [f"<i>{REFERENCE_SHORT} Table 3, tactical</i>", "1", "paper", "2.3 h", "3.4 h", "3.0 h"],
+             [f"<i>{REFERENCE_SHORT} Table 3, navigation</i>", "0.0035", "paper", "27 days", "41 days", "35 days"]]
     w = imp["walker"]
-    out = (f"<h3>PDR impact of the gyro bias instability</h3><p>Simulated PDR (seed 004 eqs. 20-22): walker at "
+    out = (f"<h3>PDR impact of the gyro bias instability</h3><p>Simulated PDR ({REFERENCE_SHORT} eqs. 20-22): "
+           "walker at "
            f"{w['step_length_m']:g} m steps, {w['step_rate_hz']:g} steps/s, gyro integrated at "
            f"{w['gyro_rate_hz']:g} Hz, "
            "bias uncompensated.</p>"
@@ -112,9 +114,10 @@ def _sensor_section(name: str, s: Mapping[str, Any], png: bytes | None) -> str:
                  "<br>".join(_e(n) for n in s[a]["slopes"]["notes"]) or "-"] for a in axes]
     parts.append(_table(["axis", "reduced chi2 of the fit", "tau_min [s]", "slope-reading notes"], fit_rows))
     g = s["grade"]
-    grows = [[_e(c["parameter"]), _num(c["value"], 3), _e(c["unit"]), _e(c["grade"])] for c in g["calls"]]
-    parts.append(f"<h3>Grade (seed 004 Table 1): {_e(g['overall'])}</h3>"
-                 + _table(["parameter", "measured", "unit", "grade"], grows)
+    grows = [[_e(c.get("axis") or "-"), _e(c["parameter"].replace("_", " ")), _num(c["value"], 3), _e(c["unit"]),
+              _e(c["grade"])] for c in g["calls"]]
+    parts.append(f"<h3>Grade ({REFERENCE_SHORT}, Table 1): {_e(g['overall'])}</h3>"
+                 + _table(["axis", "parameter", "measured", "unit", "grade"], grows, left=2)
                  + _table(["Table 1", "unit", "navigation", "tactical", "consumer"],
                           [[_e(k), _e(v["unit"]), _num(v["navigation"]), _num(v["tactical"]), _num(v["consumer"])]
                            for k, v in g["table1"].items()]) + f"<p><small>{_e(g['note'])}</small></p>")
@@ -129,11 +132,17 @@ def _sensor_section(name: str, s: Mapping[str, Any], png: bytes | None) -> str:
     return "\n".join(parts)
 
 
+def _source_name(source: str) -> str:
+    """The recording's file name: never a directory of the machine that made the report (a server's temp path)."""
+    return str(source).replace("\\", "/").rstrip("/").split("/")[-1] or "recording"
+
+
 def render(data: Mapping[str, Any], pngs: Mapping[str, bytes]) -> str:
     """The HTML page of a report dictionary (:func:`pdr.allan.report.report_dict`) with its PNG plots."""
     rec = data["recording"]
     t = rec.get("temperature")
-    rows = [["source", _e(rec["source"])], ["format", _e(rec["format"])],
+    file_name = _source_name(rec["source"])
+    rows = [["source", _e(file_name)], ["format", _e(rec["format"])],
             ["device", _e(", ".join(f"{k}={v}" for k, v in rec["device"].items() if v))],
             ["duration [s]", _num(rec["duration_s"], 6)],
             ["temperature [degC]", "not recorded" if not t else
@@ -143,7 +152,7 @@ def render(data: Mapping[str, Any], pngs: Mapping[str, bytes]) -> str:
         if name in data:
             s = data[name]
             rows.append([f"{name} rate [Hz] / samples", f"{_num(s['rate_hz'], 6)} / {s['n_samples']}"])
-    body = [f"<h1>Allan-variance report: {_e(rec['source'].split('/')[-1] or 'recording')}</h1>",
+    body = [f"<h1>Allan-variance report: {_e(file_name)}</h1>",
             _table(["recording", ""], rows)]
     if data.get("flags"):
         body.append("<h3>Flags</h3><ul>" + "".join(f'<li class="flag">{_e(x)}</li>' for x in data["flags"]) + "</ul>")
@@ -154,6 +163,7 @@ def render(data: Mapping[str, Any], pngs: Mapping[str, bytes]) -> str:
                 "(Greenhall-Riley); IEEE noise model AVAR = 3Q&sup2;/&tau;&sup2; + N&sup2;/&tau; + "
                 "(2 ln2/&pi;)B&sup2; + "
                 "K&sup2;&tau;/3 + R&sup2;&tau;&sup2;/2 fitted by weighted non-negative least squares; all numbers in "
-                "<code>report.json</code>.</small></p>")
-    return (f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>Allan-variance report</title>"
+                "<code>report.json</code>. Grades, PDR impact and noise-term reading after "
+                f"{_e(REFERENCE)}.</small></p>")
+    return (f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>Allan-variance report: {_e(file_name)}</title>"
             f"<style>{_CSS}</style></head><body>{''.join(body)}</body></html>\n")

@@ -85,10 +85,13 @@ def sensor_dict(sr: SensorResult) -> dict[str, Any]:
     out["grade"] = {"overall": sr.grade, "calls": [asdict(c) for c in sr.grade_calls],
                     "table1": {f"{s}/{p}": dict(zip(("unit", *grade.GRADES), v, strict=True))
                                for (s, p), v in grade.TABLE1.items() if s == sr.sensor},
-                    "note": "seed 004 Table 1 values are indicative orders of magnitude, not definitions"}
+                    "reference": grade.REFERENCE,
+                    "note": f"{grade.REFERENCE_SHORT} Table 1 values are indicative orders of magnitude, "
+                            "not definitions"}
     if sr.sensor == "gyro":
         impact: dict[str, Any] = {"walker": asdict(sr.walker), "axes": {},
-                                  "scenario": "seed 004 Sec. 3, eqs. 20-22 (Table 3 bias, Table 4 scale factor)"}
+                                  "scenario": f"{grade.REFERENCE_SHORT} Sec. 3, eqs. 20-22 (Table 3 bias, "
+                                              "Table 4 scale factor)"}
         for name, bi in sr.bias_impact.items():
             b, src = sr.bias_used[name]
             impact["axes"][name] = {

@@ -20,6 +20,7 @@ from pdr.allan.confidence import ONE_SIGMA
 from pdr.allan.estimators import allan_curve
 from pdr.allan.pdr_impact import Walker
 from pdr.allan.report import report_dict, write_comparison, write_report
+from pdr.cli.progress import Progress
 from pdr.errors import InputError
 from pdr.io import read_recording
 
@@ -101,12 +102,18 @@ def run(args: argparse.Namespace) -> int:
     names = [Path(p).name for p in args.logs]
     for log in args.logs:
         t0 = time.perf_counter()
-        rec = read_recording(log, format=args.format)
-        t_read = time.perf_counter() - t0
-        res = characterise_recording(rec, sensors=sensors, axes=tuple(args.axis), settings=settings)
-        t_char = time.perf_counter() - t0 - t_read
-        out = args.out if len(args.logs) == 1 else args.out / _unique(Path(log).name, names)
-        paths = write_report(res, out)
+        # Stages of one log on stderr (a TTY only): reading, the Allan analysis, the report's files and plots.
+        with Progress(3, f"allan {Path(log).name}") as bar:
+            bar.set_note("reading")
+            rec = read_recording(log, format=args.format)
+            t_read = time.perf_counter() - t0
+            bar.advance(note="analysis")
+            res = characterise_recording(rec, sensors=sensors, axes=tuple(args.axis), settings=settings)
+            t_char = time.perf_counter() - t0 - t_read
+            bar.advance(note="writing the report")
+            out = args.out if len(args.logs) == 1 else args.out / _unique(Path(log).name, names)
+            paths = write_report(res, out)
+            bar.advance()
         data = report_dict(res)
         reports.append(data)
         t_all = time.perf_counter() - t0

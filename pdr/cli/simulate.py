@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pdr.cli.progress import Progress
 from pdr.errors import InputError
 from pdr.io import native
 from pdr.sim.scenario import SIM_PLACEMENTS, load_scenario, parse_scenario
@@ -30,12 +31,16 @@ def run(args: argparse.Namespace) -> int:
         if args.side:
             doc["side"] = args.side
         scenario = parse_scenario(doc, source=str(args.scenario))
-    rec = simulate(scenario, args.seed)
     out = Path(args.out)
-    if out.name.endswith((".json", ".json.gz")):
-        native.write_batch(rec, out)
-    else:
-        native.write(rec, out)
+    with Progress(2, "simulate") as bar:
+        bar.set_note(f"{scenario.document.get('placement', '')} walk, seed {args.seed}")
+        rec = simulate(scenario, args.seed)
+        bar.advance(note=f"writing {out.name}")
+        if out.name.endswith((".json", ".json.gz")):
+            native.write_batch(rec, out)
+        else:
+            native.write(rec, out)
+        bar.advance()
     tr = rec.truth
     pos = tr.positions.pos_m if tr.positions is not None else np.zeros((1, 3))
     path_m = float(np.sum(np.linalg.norm(np.diff(pos[:, :2], axis=0), axis=1)))

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from pdr.cli import progress
 from pdr.errors import InputError
 from pdr.evaluation.error_budget import BUDGET_TRACKS, budget_tracks
 from pdr.evaluation.scoring import (
@@ -272,7 +273,7 @@ def eval_ipin(args: argparse.Namespace) -> int:
     per: list[dict[str, Any]] = []
     done: list[dict[str, Any]] = []           # scored files with what a second pass needs
     site = Site.load(args.site) if args.site else None
-    for f in files:
+    for f in progress.each(files, "eval ipin"):
         rec = read_recording(f)
         pt = rec.truth.positions
         if pt is None or len(pt) < 2:
@@ -390,7 +391,7 @@ def eval_ms(args: argparse.Namespace) -> int:
         files = files[:args.limit]
     per: list[dict[str, Any]] = []
     errs: list[np.ndarray] = []
-    for f in files:
+    for f in progress.each(files, "eval ms"):
         try:
             rec = read_recording(f)
         except InputError as exc:

@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import json
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from flask import Blueprint, Response, jsonify
+from flask import Blueprint, Response, jsonify, send_file
 
 from pdr.errors import InputError
 from server.api import current_user, json_body, services
@@ -26,27 +27,77 @@ def _model_dirs() -> dict[str, Path]:
     return {d.name: d for d in sorted(root.iterdir()) if (d / "model.json").is_file()}
 
 
-def _summary(name: str, d: Path) -> dict[str, Any]:
-    doc = json.loads((d / "model.json").read_text(encoding="utf-8"))
-    info = doc.get("info", {}) if isinstance(doc.get("info"), dict) else {}
-    keys = ("task", "estimator", "classes", "created", "metrics", "window", "versions", "training")
-    return {"name": name, **{k: doc.get(k, info.get(k)) for k in keys if doc.get(k, info.get(k)) is not None}}
+#: Scalar metrics a model card shows per evaluation (the per-class table and confusion matrix are in the download).
+CARD_METRICS = ("macro_f1", "macro_f1_target_classes", "accuracy", "balanced_accuracy", "coverage", "ece",
+                "n_windows", "n_groups", "n_recordings")
+
+
+def _card(name: str, d: Path) -> dict[str, Any]:
+    """The model card of one artifact: what a user needs to judge the model, without its fitted internals.
+
+    Task, classes, the metrics of every recorded evaluation with its protocol (title and command), the
+    training data, the feature list, the library versions and the date of the artifact (its file's
+    modification time, UTC: the artifact records none). The raw ``model.json`` is served by
+    ``GET /models/NAME/model.json``.
+    """
+    path = d / "model.json"
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    info: dict[str, Any] = doc["info"] if isinstance(doc.get("info"), dict) else {}
+    training: dict[str, Any] = info["training_data"] if isinstance(info.get("training_data"), dict) else {}
+    groups = training.get("groups")
+    evaluations = []
+    for ev in info.get("evaluations") or []:
+        if not isinstance(ev, dict):
+            continue
+        metrics: dict[str, Any] = ev["metrics"] if isinstance(ev.get("metrics"), dict) else {}
+        scalars = {k: metrics[k] for k in CARD_METRICS if isinstance(metrics.get(k), int | float)}
+        evaluations.append({"protocol": ev.get("title"), "command": ev.get("command"),
+                            "target_classes": metrics.get("target_classes"), "metrics": scalars})
+    names = doc.get("feature_names") if isinstance(doc.get("feature_names"), list) else []
+    card: dict[str, Any] = {
+        "name": name, "task": doc.get("task"), "estimator": doc.get("estimator_kind") or doc.get("estimator"),
+        "classes": doc.get("classes"), "evaluations": evaluations,
+        "training": {k: v for k, v in training.items() if k != "groups"}
+        | ({"groups": len(groups)} if isinstance(groups, list) else {}),
+        "train_command": info.get("train_command"), "window": doc.get("window"),
+        "features": {"set_version": doc.get("feature_set_version"), "groups": doc.get("feature_groups"),
+                     "count": len(names), "names": names, "required_streams": doc.get("required_streams")},
+        "versions": doc.get("versions"),
+        "date": datetime.fromtimestamp(path.stat().st_mtime, tz=UTC).isoformat(timespec="seconds"),
+        "raw_bytes": path.stat().st_size,
+    }
+    if isinstance(doc.get("estimator"), str):  # an older artifact naming its estimator here
+        card["estimator"] = doc["estimator"]
+    return {k: v for k, v in card.items() if v is not None}
 
 
 @bp.get("/models")
 def list_models() -> Response:
     current_user()
-    return jsonify({"models": [_summary(n, d) for n, d in _model_dirs().items()]})
+    return jsonify({"models": [_card(n, d) for n, d in _model_dirs().items()]})
 
 
-@bp.get("/models/<name>")
-def model_card(name: str) -> Response:
+def _model_dir(name: str) -> Path:
+    """The signed-in user's view of one installed model's folder; 404 when there is none of that name."""
     current_user()
     d = _model_dirs().get(name)
     if d is None:
         raise APIError(404, f"no model '{name}'")
+    return d
+
+
+@bp.get("/models/<name>")
+def model_card(name: str) -> Response:
+    d = _model_dir(name)
     card = d / "MODEL_CARD.md"
-    return jsonify(_summary(name, d) | {"card_markdown": card.read_text(encoding="utf-8") if card.is_file() else ""})
+    return jsonify(_card(name, d) | {"card_markdown": card.read_text(encoding="utf-8") if card.is_file() else ""})
+
+
+@bp.get("/models/<name>/model.json")
+def model_artifact(name: str) -> Response:
+    """The raw artifact (fitted estimator internals included), as a download."""
+    return send_file(_model_dir(name) / "model.json", mimetype="application/json", as_attachment=True,
+                     download_name=f"{name}.model.json")
 
 
 @bp.post("/classify")

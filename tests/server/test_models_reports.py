@@ -82,3 +82,20 @@ def test_allan_report_round_trip(client, tokens):
     html = client.get(f"/api/v1/reports/{rid}/report.html", headers=h)
     assert html.status_code == 200 and b"<html" in html.data.lower()
     assert client.get(f"/api/v1/reports/{rid}", headers=bearer(tokens["bob"])).status_code == 404
+
+
+def test_model_cards_carry_no_fitted_internals_and_the_artifact_downloads(client, tokens):
+    h = bearer(tokens["alice"])
+    models = client.get("/api/v1/models", headers=h)
+    assert len(models.data) < 60_000  # the three cards; the motion-mode artifact alone is 700 KB
+    card = next(m for m in models.get_json()["models"] if m["name"] == "motion_mode")
+    assert card["task"] == "motion_mode" and card["estimator"] == "bayes" and "walking" in card["classes"]
+    assert card["evaluations"][0]["protocol"].startswith("leave-one-group-out")
+    assert 0 < card["evaluations"][0]["metrics"]["macro_f1"] <= 1
+    assert card["features"]["count"] == len(card["features"]["names"]) > 0
+    assert card["training"]["recordings"] > 0 and "numpy" in card["versions"] and card["date"]
+    raw = client.get("/api/v1/models/motion_mode/model.json", headers=h)
+    assert raw.status_code == 200 and "attachment" in raw.headers["Content-Disposition"]
+    assert "estimator" in raw.get_json()
+    assert client.get("/api/v1/models/nope/model.json", headers=h).status_code == 404
+    assert client.get("/api/v1/models/motion_mode/model.json").status_code == 401

@@ -12,7 +12,7 @@ from flask import Flask
 from flask.testing import FlaskClient
 
 from tests.server.conftest import bearer, make_app
-from tests.server.web_seed import TRUTH_OFFSET_M, WebTestProcessor, truth_log
+from tests.server.web_seed import WebTestProcessor, truth_log, truth_offset_m
 
 
 @pytest.fixture
@@ -77,11 +77,11 @@ def test_truth_of_an_uploaded_log_is_served_on_the_track_time_axis(app: Flask, c
     assert truth_set["kind"] == "waypoint" and truth_set["frame"] == "enu" and truth_set["error"] is None
     assert [p["t_s"] for p in truth_set["points"]] == expected["t_s"]
     track = client.get(f"/api/v1/sessions/{sid}/track", headers=bearer(tokens["alice"])).get_json()["points"]
-    # The test processor's track is the truth shifted by TRUTH_OFFSET_M at the same times: same time axis.
+    # The test processor's track is the truth shifted by truth_offset_m(k) at the same times: same time axis.
     by_t = {p["t_s"]: p for p in track}
-    for p in truth_set["points"]:
-        assert by_t[p["t_s"]]["east_m"] == pytest.approx(p["east_m"] + TRUTH_OFFSET_M[0])
-        assert by_t[p["t_s"]]["north_m"] == pytest.approx(p["north_m"] + TRUTH_OFFSET_M[1])
+    for k, p in enumerate(truth_set["points"]):
+        assert by_t[p["t_s"]]["east_m"] == pytest.approx(p["east_m"] + truth_offset_m(k)[0])
+        assert by_t[p["t_s"]]["north_m"] == pytest.approx(p["north_m"] + truth_offset_m(k)[1])
     # Answered again from the cache, identically.
     again = client.get(f"/api/v1/sessions/{sid}/truth", headers=bearer(tokens["alice"])).get_json()
     assert again == body
@@ -108,7 +108,7 @@ def test_track_columns_match_the_track_rows(app: Flask, client: FlaskClient, tok
     rows = client.get(f"/api/v1/sessions/{sid}/track", headers=h).get_json()["points"]
     body = client.get(f"/api/v1/sessions/{sid}/track/columns", headers=h).get_json()
     cols = body["columns"]
-    assert body["count"] == len(rows) == 12
+    assert body["count"] == len(rows) == 13  # a row before the first of the 12 truth points, then one at each
     assert [dict(zip(cols, values, strict=True)) for values in zip(*cols.values(), strict=True)] == rows
     assert body["next_since"] == rows[-1]["t_s"]
     later = client.get(f"/api/v1/sessions/{sid}/track/columns?since={rows[5]['t_s']}&device=phone",

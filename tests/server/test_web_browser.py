@@ -16,6 +16,7 @@ tests skip with the reason when it cannot be.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import json
 import math
@@ -42,7 +43,7 @@ from tests.server.web_seed import (
     allan_report,
     corridor_walk,
     drifting_compass_walk,
-    expected_truth_error_m,
+    expected_truth_errors_m,
     seed_session,
     truth_log,
 )
@@ -336,8 +337,21 @@ def test_truth_and_error_are_shown_for_an_uploaded_log(page: Any, live: LiveServ
     page.wait_for_selector("[data-role=truth-stats]")
     stats = page.inner_text("[data-role=truth-stats]")
     assert f"{live.truth_points} (waypoint)" in stats
-    expected = f"{expected_truth_error_m():.2f}".rstrip("0").rstrip(".")
-    assert f"mean: {expected} m" in stats and f"max: {expected} m" in stats
+    # As pdr eval scores it: the track starts at the first truth point, the errors are those of points 2..K.
+    errors = expected_truth_errors_m(live.truth_points)
+    assert f"({len(errors)} later points)" in stats
+    assert f"mean: {statistics.mean(errors):g} m" in stats and f"max: {max(errors):g} m" in stats
+    assert "starts at the first truth point (0 s)" in stats
+    first = page.evaluate("""() => {
+        const l = document.querySelector('#map polyline[data-role=track]');
+        const p = l.points.getItem(0);
+        return [p.x, -p.y];
+    }""")
+    truth = page.evaluate("""() => {
+        const p = document.querySelector('#map polyline[data-role=truth]').points.getItem(0);
+        return [p.x, -p.y];
+    }""")
+    assert first == pytest.approx(truth, abs=0.01)  # the lead row before the first truth point is not drawn
     assert page.locator("#map polyline[data-role=truth]").count() == 1
     assert page.locator("#map circle[data-role=truth-point]").count() == live.truth_points
     assert page.locator("#error-plot polyline").count() == 1
@@ -398,8 +412,9 @@ def test_a_session_is_deleted_from_its_page(page: Any, live: LiveService) -> Non
     page.once("dialog", lambda dialog: dialog.accept())
     page.click("#delete-session")
     page.wait_for_function("() => location.hash === '#/sessions'")
-    page.wait_for_selector("#sessions-table tbody tr")
-    assert page.locator(f"#sessions-table tr[data-session='{sid}']").count() == 0
+    # The list shown before is redrawn once the service answers: wait for the deleted row to go.
+    page.wait_for_selector(f"#sessions-table tr[data-session='{sid}']", state="detached")
+    assert page.locator("#sessions-table tbody tr").count() > 0
     assert alice.request("GET", f"/api/v1/sessions/{sid}").status == 404
     alice.close()
 
@@ -454,27 +469,23 @@ def _png_1x1() -> bytes:
 
 
 @pytest.mark.slow
-def test_allan_report_and_model_cards_render_from_the_api(page: Any, live: LiveService) -> None:
-    """Report and model views on the API's answers (GET /api/v1/reports, /reports/ID, /reports/ID/files/NAME,
-    /models, /models/NAME), answered in the browser with a real ``pdr.allan`` report of a synthetic record."""
+def test_allan_report_renders_from_the_api(page: Any, live: LiveService) -> None:
+    """The report view on the API's answers (GET /api/v1/reports, /reports/ID, /reports/ID/files/NAME), answered
+    in the browser with a real ``pdr.allan`` report of a synthetic record."""
     report_id = "r-1"
     report = allan_report()
     listing = {"reports": [{"id": report_id, "kind": "allan", "status": "done", "source": "static.csv",
                             "created_at": "2026-01-01T00:00:00+00:00", "error": None}]}
     detail = {"id": report_id, "kind": "allan", "status": "done", "source": "static.csv", "error": None,
-              "created_at": "2026-01-01T00:00:00+00:00", "files": ["gyro.png", "report.html", "report.json"],
+              "created_at": "2026-01-01T00:00:00+00:00",
+              "files": ["gyro.png", "report.html", "report.json", "temperature.png"],
               "report": report}
-    model = {"name": "motion_mode", "task": "motion_mode", "estimator": "xgboost",
-             "classes": ["walking", "stairs_up", "elevator"], "metrics": {"balanced_accuracy": 0.912},
-             "window": {"length_s": 2.56, "overlap": 0.5}}
     answers: dict[str, tuple[str, bytes]] = {
         "/api/v1/reports": ("application/json", json.dumps(listing).encode()),
         f"/api/v1/reports/{report_id}": ("application/json", json.dumps(detail).encode()),
         f"/api/v1/reports/{report_id}/files/report.html": ("text/html", b"<html><body>Allan report</body></html>"),
         f"/api/v1/reports/{report_id}/files/gyro.png": ("image/png", _png_1x1()),
-        "/api/v1/models": ("application/json", json.dumps({"models": [model]}).encode()),
-        "/api/v1/models/motion_mode": ("application/json",
-                                       json.dumps(model | {"card_markdown": "# motion_mode\nTrained on ..."}).encode()),
+        f"/api/v1/reports/{report_id}/files/temperature.png": ("image/png", _png_1x1()),
     }
     seen_auth: list[str] = []
 
@@ -485,11 +496,13 @@ def test_allan_report_and_model_cards_render_from_the_api(page: Any, live: LiveS
         route.fulfill(status=200, content_type=media, body=body)
 
     page.route("**/api/v1/reports**", fulfil)
-    page.route("**/api/v1/models**", fulfil)
     sign_in(page, live)
     page.click("#nav a[data-view=reports]")
+    assert page.inner_text(f"#reports-body a[href='#/report/{report_id}']") == "static.csv"
     page.click(f"#reports-body a[href='#/report/{report_id}']")
     page.wait_for_selector("svg.loglog[data-sensor=acc]")
+    # Titled by the recording, not the report's id.
+    assert page.inner_text("#report-title") == "Allan report: static.csv"
     n_tau = len(report["gyro"]["tau_s"])
     for sensor in ("gyro", "acc"):
         series = page.eval_on_selector_all(f"svg.loglog[data-sensor={sensor}] polyline[data-series]",
@@ -499,17 +512,165 @@ def test_allan_report_and_model_cards_render_from_the_api(page: Any, live: LiveS
     assert f"{report['gyro']['x']['N']:.3e}".replace("e-0", "e-") in text
     assert "not resolved" in text  # the short record cannot resolve every term
     assert "Predicted PDR impact" in text
-    page.wait_for_selector("#report-body img.report-png")
+    # The grade table names the axis of every call and cites the paper, not the project's seed number.
+    grade_rows = page.eval_on_selector_all("#report-body table.grade tbody tr",
+                                           "rs => rs.map(r => [...r.cells].map(c => c.textContent))")
+    calls = report["gyro"]["grade"]["calls"] + report["acc"]["grade"]["calls"]
+    assert [r[:2] for r in grade_rows] == [[c["axis"], c["parameter"].replace("_", " ")] for c in calls]
+    assert {r[0] for r in grade_rows} == {"x", "y", "z"}
+    assert "Collin" in text and "Handbook of Signal Processing Systems" in text and "seed 004" not in text
+    # The IMU is not a phone: the reader's default role is not shown as one.
+    assert "role standalone IMU" in text and "role phone" not in text
+    # Each plot once: the sensor's curves are drawn by the page, so its PNG (the same plot) is not added.
+    # (a plot of something else, here "temperature.png", is still shown: once it is there, the loop is done)
+    page.wait_for_selector("#report-body img.report-png[alt='temperature.png']")
+    assert page.locator("#report-body img.report-png").count() == 1
+    assert page.locator("svg.loglog[data-sensor=gyro]").count() == 1
     shot(page, "09-allan-report")
     with page.expect_download() as info:
         page.click("#dl-report-html")
     assert Path(info.value.path()).read_text() == "<html><body>Allan report</body></html>"
-    page.click("#nav a[data-view=models]")
-    card = page.locator(".card[data-model=motion_mode]")
-    card.wait_for()
-    assert "stairs_up" in card.inner_text() and "0.912" in card.inner_text()
-    card.locator("summary").click()
-    card.locator("pre.card-text").wait_for()
-    assert "Trained on" in card.inner_text()
-    shot(page, "10-models")
+    assert info.value.suggested_filename == "allan-report-static.html"
     assert seen_auth and all(a == f"Bearer {live.tokens['alice']}" for a in seen_auth)
+
+
+def _outside_view(page: Any) -> dict[str, int]:
+    """Vertices of the map's polylines (track and truth) outside its view box (drawn whole: 'meet')."""
+    return page.evaluate("""() => {
+        const svg = document.querySelector('#map');
+        const [x, y, w, h] = svg.getAttribute('viewBox').split(' ').map(Number);
+        let n = 0, out = 0;
+        for (const l of svg.querySelectorAll('polyline')) {
+            for (let i = 0; i < l.points.numberOfItems; i++) {
+                const p = l.points.getItem(i);
+                n++;
+                if (p.x < x || p.x > x + w || p.y < y || p.y > y + h) out++;
+            }
+        }
+        return {n, out};
+    }""")
+
+
+def _stop_walk(live: LiveService) -> tuple[str, float, float]:
+    """A seeded walk with a 40 s stop in the middle (no steps); returns its id, the stop's start and its end (s)."""
+    walk = corridor_walk(120.0, seed=3)
+    rows = walk.rows()
+    half = len(rows) // 2
+    stop_s = 40.0
+    moved = [dataclasses.replace(r, t_s=r.t_s + stop_s) if k >= half else r for k, r in enumerate(rows)]
+    sid = seed_session(live.app.extensions["pdr"].store, live.tokens["alice"], "stop-40s", {"phone": moved})
+    return sid, moved[half - 1].t_s, moved[half].t_s
+
+
+def test_map_fits_on_load_and_charts_break_at_stops(page: Any, live: LiveService) -> None:
+    """The map shows the whole track once everything is loaded (the smoothed track replaces the streamed one
+    after the first fit); the step-length and heading charts draw no line across a 40 s stop."""
+    sign_in(page, live)
+    page.goto(f"{live.url}/#/session/{live.compass_id}")
+    page.wait_for_function("() => window.pdrPage.timings.complete !== undefined && "
+                           "window.pdrPage.track.heading === 'smoothed'")
+    seen = _outside_view(page)
+    assert seen["n"] > 100 and seen["out"] == 0
+    shot(page, "11-map-fit-on-load")
+    # A pan is kept when more rows arrive; Fit brings the whole track back.
+    page.click("#zoom-in")
+    page.click("#zoom-in")
+    assert _outside_view(page)["out"] > 0
+    page.click("#zoom-reset")
+    assert _outside_view(page)["out"] == 0
+
+    sid, stop_t0, stop_t1 = _stop_walk(live)
+    page.goto(f"{live.url}/#/sessions/{sid}")  # the plural form opens the session too
+    page.wait_for_function("() => window.pdrPage.timings.complete !== undefined")
+    assert page.inner_text("#session-title") == "stop-40s"
+    for chart in ("#steps-plot", "#heading-plot"):
+        spans = page.evaluate(f"""() => {{
+            const svg = document.querySelector('{chart}');
+            return [...svg.querySelectorAll('polyline[data-series]')].map(l => {{
+                const xs = [];
+                for (let i = 0; i < l.points.numberOfItems; i++) xs.push(l.points.getItem(i).x);
+                return xs;
+            }});
+        }}""")
+        width = page.evaluate(f"document.querySelector('{chart}').clientWidth")
+        # The stop takes 40 s of the walk's 160 s: about a quarter of the plot; no segment may be that wide.
+        widest = max(b - a for xs in spans for a, b in zip(xs, xs[1:], strict=False))
+        assert widest < 0.1 * width, (chart, widest, width)
+        assert len(spans) >= 2
+    assert stop_t1 - stop_t0 > 39.0
+    shot(page, "12-charts-break-at-a-stop")
+
+
+def _tick_labels(page: Any, chart: str) -> list[tuple[float, str]]:
+    return page.evaluate(f"""() => [...document.querySelectorAll('{chart} text[text-anchor=middle]')]
+        .map(t => [Math.round(Number(t.getAttribute('x'))), t.textContent])""")
+
+
+@pytest.mark.slow
+def test_every_chart_is_on_the_sessions_time_axis(page: Any, live: LiveService) -> None:
+    sign_in(page, live)
+    page.goto(f"{live.url}/#/session/{live.truth_id}")
+    page.wait_for_selector("#error-plot polyline")
+    steps = _tick_labels(page, "#steps-plot")
+    assert steps and _tick_labels(page, "#error-plot") == steps == _tick_labels(page, "#heading-plot")
+
+
+def test_models_page_shows_model_cards(page: Any, live: LiveService) -> None:
+    """The installed models (../models) as model cards; the fitted internals only behind a download."""
+    models_dir = Path(__file__).resolve().parents[2] / "models"
+    names = sorted(d.name for d in models_dir.iterdir() if (d / "model.json").is_file())
+    sign_in(page, live)
+    page.click("#nav a[data-view=models]")
+    page.wait_for_selector(".card[data-model]")
+    assert sorted(page.eval_on_selector_all(".card[data-model]", "cs => cs.map(c => c.dataset.model)")) == names
+    card = page.locator(".card[data-model=motion_mode]")
+    text = card.inner_text()
+    doc = json.loads((models_dir / "motion_mode" / "model.json").read_text())
+    for expected in ("Task", "motion_mode", "Classes", "Training data", "Features", "Versions", "Date",
+                     f"{len(doc['feature_names'])} features", "Protocol: leave-one-group-out cross-validation",
+                     "macro F1", "Recordings"):
+        assert expected in text, expected
+    assert all(c in text for c in doc["classes"])
+    # The page stays short (the raw dump was 290 000 px tall) and nothing sticks out of its card.
+    height = page.evaluate("document.documentElement.scrollHeight")
+    assert height < 3000, height
+    assert page.evaluate("document.documentElement.scrollWidth <= window.innerWidth")
+    shot(page, "10-models")
+    with page.expect_download() as info:
+        card.locator("[data-role=download-model]").click()
+    assert info.value.suggested_filename == "motion_mode.model.json"
+    assert json.loads(Path(info.value.path()).read_text()) == doc
+
+
+@pytest.mark.slow
+def test_the_page_is_usable_at_phone_width(browser: Any, live: LiveService) -> None:
+    """390 px wide (a phone): no sideways scrolling, time labels apart, the whole track in the map."""
+    context = browser.new_context(viewport={"width": 390, "height": 844}, accept_downloads=True)
+    pg = context.new_page()
+    errors: list[str] = []
+    pg.on("pageerror", lambda exc: errors.append(str(exc)))
+    try:
+        sign_in(pg, live)
+        assert pg.evaluate("document.documentElement.scrollWidth") <= 390
+        shot(pg, "13-phone-sessions")
+        pg.goto(f"{live.url}/#/session/{live.long_id}")
+        pg.wait_for_function("() => window.pdrPage.timings.complete !== undefined")
+        assert pg.evaluate("document.documentElement.scrollWidth") <= 390
+        box = pg.locator("#map").bounding_box()
+        assert box["x"] >= 0 and box["x"] + box["width"] <= 390
+        assert _outside_view(pg)["out"] == 0
+        for chart in ("#timeline", "#steps-plot", "#heading-plot"):
+            boxes = pg.evaluate(f"""() => [...document.querySelectorAll('{chart} text')].map(t => {{
+                const b = t.getBoundingClientRect(); return [b.left, b.top, b.right, b.bottom, t.textContent]; }})""")
+            for i, a in enumerate(boxes):
+                for b in boxes[i + 1:]:
+                    overlap = min(a[2], b[2]) - max(a[0], b[0]) > 0.5 and min(a[3], b[3]) - max(a[1], b[1]) > 0.5
+                    assert not overlap, (chart, a, b)
+        shot(pg, "14-phone-session")
+        pg.click("#nav a[data-view=models]")
+        pg.wait_for_selector(".card[data-model]")
+        assert pg.evaluate("document.documentElement.scrollWidth") <= 390
+        shot(pg, "15-phone-models")
+    finally:
+        context.close()
+    assert not errors, errors

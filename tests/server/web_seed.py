@@ -20,13 +20,24 @@ from server import auth
 from server.processing import NATIVE_JSON, ProcessorOutput, SessionContext
 from server.store import EventRow, Store, TrackRow
 
-#: Offset of the test processor's track from the truth: east 0.3 m, north 0.4 m -> 0.5 m error everywhere.
+#: Drift of the test processor's track from the truth per truth point: east 0.3 m, north 0.4 m -> 0.5 m more error
+#: at every later point (k + 1 times it at point k, counted from 0).
 TRUTH_OFFSET_M = (0.3, 0.4)
+#: The test processor's track starts this long (s) before the first truth point, at LEAD_POSITION_M.
+LEAD_S = 2.0
+LEAD_POSITION_M = (-6.0, -8.0)
+
+
+def truth_offset_m(k: int) -> tuple[float, float]:
+    """Offset (east, north) of the test processor's track from truth point ``k`` (counted from 0), metres."""
+    return (TRUTH_OFFSET_M[0] * (k + 1), TRUTH_OFFSET_M[1] * (k + 1))
 
 
 class WebTestProcessor:
-    """Test double: a log with truth positions gives a track at the truth times, offset by ``TRUTH_OFFSET_M``
-    (so the page's error is known: 0.5 m); any other batch gives one walking step at its last sample,
+    """Test double: a log with truth positions gives a track that starts ``LEAD_S`` before the first truth point
+    at ``LEAD_POSITION_M``, then a row at every truth time offset by :func:`truth_offset_m` (so the error the
+    page shows once the track starts at the first truth point is known: 0.5 k m at point k); any other batch
+    gives one walking step at its last sample,
     advancing 0.7 m east per batch (state: batches seen).
     """
 
@@ -36,10 +47,11 @@ class WebTestProcessor:
     def update(self, recording: Recording) -> ProcessorOutput:
         pos = recording.truth.positions
         if pos is not None:
-            de, dn = TRUTH_OFFSET_M
-            track = [TrackRow(float(t), float(p[0] + de), float(p[1] + dn), 0.0, 0.0, 90.0, 0.7, "walking")
-                     for t, p in zip(pos.t_s, pos.pos_m, strict=True)]
-            return ProcessorOutput(track=track)
+            lead = TrackRow(float(pos.t_s[0]) - LEAD_S, *LEAD_POSITION_M, 0.0, 0.0, 90.0, 0.7, "walking")
+            track = [TrackRow(float(t), float(p[0]) + truth_offset_m(k)[0], float(p[1]) + truth_offset_m(k)[1],
+                              0.0, 0.0, 90.0, 0.7, "walking")
+                     for k, (t, p) in enumerate(zip(pos.t_s, pos.pos_m, strict=True))]
+            return ProcessorOutput(track=[lead, *track])
         self.count += 1
         last_ns = max(int(s.t_ns[-1]) for s in recording.streams.values())
         t = (last_ns - recording.origin_ns) / 1e9 + self.count
@@ -166,8 +178,9 @@ def truth_log(duration_s: float = 60.0, rate_hz: float = 50.0) -> dict[str, Any]
     return batch_to_json(rec, session_id="truth-walk", batch_id="truth-1")
 
 
-def expected_truth_error_m() -> float:
-    return math.hypot(*TRUTH_OFFSET_M)
+def expected_truth_errors_m(n_points: int) -> list[float]:
+    """Errors (m) at truth points 2..K of the test processor's track once it starts at the first truth point."""
+    return [math.hypot(*TRUTH_OFFSET_M) * k for k in range(1, n_points)]
 
 
 def allan_report(duration_s: float = 600.0, rate_hz: float = 100.0) -> dict[str, Any]:

@@ -10,6 +10,9 @@
   const API = "/api/v1";
   const LIVE_STATUSES = new Set(["pending", "processing", "empty"]);
   const RECENT_MS = 10 * 60 * 1000;
+  /** Longest interval between two steps (s) drawn as a line: a stride takes about 1 s even at a slow walk,
+   * so a longer interval is a stop, and the charts leave it blank rather than draw a line across it. */
+  const STEP_GAP_S = 3;
   const FOOT_ROLES = new Set(["left_foot", "right_foot"]);
   const $ = (id) => document.getElementById(id);
   const enc = encodeURIComponent;
@@ -173,9 +176,11 @@
     const [view, ...rest] = (location.hash || "#/sessions").replace(/^#\/?/, "").split("/");
     const arg = rest.length ? decodeURIComponent(rest.join("/")) : "";
     switch (view) {
-      case "session": return openSession(arg);
-      case "reports": return showReports();
-      case "report": return showReport(arg);
+      // Both the singular and the plural form name one item (#/session/ID, #/sessions/ID).
+      case "session": return arg ? openSession(arg) : showSessions();
+      case "sessions": return arg ? openSession(arg) : showSessions();
+      case "reports": return arg ? showReport(arg) : showReports();
+      case "report": return arg ? showReport(arg) : showReports();
       case "models": return showModels();
       default: return showSessions();
     }
@@ -561,12 +566,12 @@
   }
 
   /** Track layers for the map: per device, polylines split where the colour changes or the floor is hidden. */
-  function trackLayers() {
+  function trackLayers(byDeviceRows) {
     const floorSel = $("floor-filter").value;
     const floor = floorSel === "" ? null : Number(floorSel);
     const byDevice = $("colour-by").value === "device";
     const tracks = [];
-    for (const [device, rows] of current.byDevice) {
+    for (const [device, rows] of byDeviceRows) {
       const segments = [];
       let seg = null, prev = null;
       for (const r of rows) {
@@ -583,7 +588,7 @@
         seg.count++;
         prev = r;
       }
-      tracks.push({ device, foot: FOOT_ROLES.has(device) && current.byDevice.size > 1,
+      tracks.push({ device, foot: FOOT_ROLES.has(device) && byDeviceRows.size > 1,
         segments: segments.map((s) => ({ colour: s.colour, mode: s.mode, count: s.count, xy: Float64Array.from(s.coords) })) });
     }
     return tracks;
@@ -593,15 +598,60 @@
     const t = current.truth;
     if (!t || !t.truth) return [];
     const pts = [];
-    for (const set of t.truth) for (const p of set.points || []) pts.push(Object.assign({ kind: set.kind }, p));
+    for (const set of t.truth) {
+      for (const p of set.points || []) pts.push(Object.assign({ kind: set.kind, frame: set.frame || "enu" }, p));
+    }
     pts.sort((a, b) => a.t_s - b.t_s);
     return pts;
+  }
+
+  /**
+   * The tracks as the scorers of ``pdr eval`` compare them with the truth (pdr.evaluation.scoring): rows
+   * before the first truth point dropped, the rest translated so that the primary track's position at that
+   * time is the first truth point; in a ``map`` frame (a floor plan, not north-aligned) also rotated about
+   * it by the least-squares angle over all truth points (``waypoint_errors``). Returns null when the first
+   * truth point falls outside the primary track's time span (nothing to align on).
+   */
+  function alignToTruth(primary, truth) {
+    const rows = current.byDevice.get(primary) || [];
+    const first = truth[0];
+    const est0 = first ? positionAt(rows, first.t_s) : null;
+    if (!est0) return null;
+    let angle = 0;
+    if (first.frame === "map") {
+      let cross = 0, dot = 0;
+      for (const p of truth) {
+        const est = positionAt(rows, p.t_s);
+        if (!est) continue;
+        const rx = est[0] - est0[0], ry = est[1] - est0[1], gx = p.east_m - first.east_m, gy = p.north_m - first.north_m;
+        cross += rx * gy - ry * gx;
+        dot += rx * gx + ry * gy;
+      }
+      angle = Math.atan2(cross, dot);
+    }
+    const c = Math.cos(angle), s = Math.sin(angle);
+    const move = (r) => {
+      const dx = r.east_m - est0[0], dy = r.north_m - est0[1];
+      return Object.assign({}, r, { east_m: first.east_m + c * dx - s * dy, north_m: first.north_m + s * dx + c * dy });
+    };
+    const out = new Map();
+    for (const [device, list] of current.byDevice) {
+      const kept = [];
+      const at = positionAt(list, first.t_s);
+      if (at) kept.push(move(Object.assign({}, list[0], { t_s: first.t_s, east_m: at[0], north_m: at[1] })));
+      for (const r of list) if (r.t_s > first.t_s) kept.push(move(r));
+      if (kept.length) out.set(device, kept);
+    }
+    return { byDevice: out, t0: first.t_s, angleDeg: (angle * 180) / Math.PI, frame: first.frame };
   }
 
   function renderSessionData(keepView) {
     const devices = [...current.byDevice.keys()];
     const primary = primaryDevice(devices);
-    const primaryRows = current.byDevice.get(primary) || [];
+    const truth = truthPoints();
+    const aligned = truth.length ? alignToTruth(primary, truth) : null;
+    const drawn = aligned ? aligned.byDevice : current.byDevice;
+    const primaryRows = drawn.get(primary) || [];
     const markers = [];
     if (primaryRows.length) {
       const a = primaryRows[0], b = primaryRows[primaryRows.length - 1];
@@ -609,32 +659,33 @@
       markers.push({ e: b.east_m, n: b.north_m, cls: "marker end", px: 6, title: `end (${primary})` });
     }
     for (const lm of current.landmarks) {
-      const rows = current.byDevice.get(lm.device) || primaryRows;
+      const rows = drawn.get(lm.device) || primaryRows;
       const pos = Number.isFinite(lm.east_m) && Number.isFinite(lm.north_m) ? [lm.east_m, lm.north_m] : positionAt(rows, lm.t_s);
       if (pos) markers.push({ e: pos[0], n: pos[1], cls: "landmark", px: 5, title: `${lm.label || "landmark"} at ${fmt(lm.t_s, 1)} s` });
     }
-    const truth = truthPoints();
     const errors = [];
     const errorT = [], errorM = [];
-    for (const p of truth) {
+    // As the scorers: the first truth point is where the track starts, so the errors are those of points 2..K.
+    for (const p of aligned ? truth.slice(1) : []) {
       const est = positionAt(primaryRows, p.t_s);
       if (!est) continue;
       errorT.push(p.t_s);
       errorM.push(Math.hypot(est[0] - p.east_m, est[1] - p.north_m));
       errors.push([p.east_m, p.north_m, est[0], est[1]]);
     }
-    if (truth.length <= 500) {
-      for (const p of truth) markers.push({ e: p.east_m, n: p.north_m, cls: "truth-point", px: 4, title: `truth ${p.kind} at ${fmt(p.t_s, 1)} s` });
+    if (truth.length <= 500) { // under the start and end markers: the track starts at the first truth point
+      const points = truth.map((p) => ({ e: p.east_m, n: p.north_m, cls: "truth-point", px: 4, title: `truth ${p.kind} at ${fmt(p.t_s, 1)} s` }));
+      markers.unshift(...points);
     }
     if (!map) map = new Plot.TrackMap($("map"), $("scale-bar"));
     const step = Math.max(1, Math.ceil(errors.length / 500));
-    map.draw({ tracks: trackLayers(), truth: truth.map((p) => ({ e: p.east_m, n: p.north_m })),
+    map.draw({ tracks: trackLayers(drawn), truth: truth.map((p) => ({ e: p.east_m, n: p.north_m })),
       errors: errors.filter((_, i) => i % step === 0), markers,
       empty: current.detail && LIVE_STATUSES.has(current.detail.status) ? "waiting for the first track points…" : "this session has no track" },
     keepView);
     renderLegend(truth.length > 0);
-    renderCharts(primary);
-    renderTruthPanel(truth, errorT, errorM, primary);
+    const span = renderCharts(primary);
+    renderTruthPanel(truth, errorT, errorM, primary, aligned, span);
   }
 
   function renderLegend(hasTruth) {
@@ -662,6 +713,7 @@
     if (hasTruth) item("#111", "ground truth (– – –), error in red");
   }
 
+  /** Mode, step-length and heading charts on the session's time axis; returns that axis {tMin, tMax}. */
   function renderCharts(primary) {
     const rows = current.byDevice.get(primary) || [];
     const tMin = current.rows.length ? Math.min(...[...current.byDevice.values()].map((r) => r[0].t_s)) : undefined;
@@ -689,14 +741,15 @@
     const series = (key) => [...current.byDevice].map(([device, r]) => ({
       name: device, colour: current.byDevice.size > 1 ? Plot.deviceColour(device) : "#1f6feb",
       t: r.map((x) => x.t_s), y: r.map((x) => (x[key] === null || x[key] === undefined ? NaN : x[key])),
-      breakAbove: key === "heading_deg" ? 180 : undefined,
+      breakAbove: key === "heading_deg" ? 180 : undefined, gapS: STEP_GAP_S,
     }));
     Plot.timeChart($("steps-plot"), series("step_length_m"), { title: "step length (m)", tMin, tMax, empty: "no steps yet" });
     Plot.timeChart($("heading-plot"), series("heading_deg"), { title: "heading (° clockwise from north)", tMin, tMax,
       yMin: 0, yMax: 360, empty: "no steps yet" });
+    return { tMin, tMax };
   }
 
-  function renderTruthPanel(truth, errorT, errorM, primary) {
+  function renderTruthPanel(truth, errorT, errorM, primary, aligned, span) {
     const panel = $("truth-panel");
     clearNode(panel);
     if (current.truthError) {
@@ -721,10 +774,14 @@
       stats.appendChild(s);
     };
     add("Truth points", `${truth.length} (${kinds})`);
+    if (aligned) {
+      const how = aligned.frame === "map" ? `, rotated by ${fmt(aligned.angleDeg, 1)}° (map frame)` : "";
+      add("Track", `starts at the first truth point (${fmt(aligned.t0, 1)} s)${how}, as pdr eval scores it`);
+    }
     if (errorM.length) {
       const mean = errorM.reduce((a, b) => a + b, 0) / errorM.length;
       const rms = Math.sqrt(errorM.reduce((a, b) => a + b * b, 0) / errorM.length);
-      add(`Horizontal error of ${primary} (${errorM.length} points)`, "");
+      add(`Horizontal error of ${primary} (${errorM.length} later points)`, "");
       add("mean", `${fmt(mean, 2)} m`);
       add("RMS", `${fmt(rms, 2)} m`);
       add("max", `${fmt(errorM.reduce((a, b) => Math.max(a, b), 0), 2)} m`);
@@ -736,7 +793,7 @@
     if (errorM.length) {
       const svg = Plot.svgEl("svg", { class: "chart", id: "error-plot" }, panel);
       Plot.timeChart(svg, [{ name: "error", colour: "#d92d20", t: errorT, y: errorM }],
-        { title: "horizontal error (m) against time", yMin: 0 });
+        { title: "horizontal error (m) against time", yMin: 0, tMin: span.tMin, tMax: span.tMax });
     }
   }
 
@@ -769,16 +826,15 @@
     }
     const table = el("table", { class: "grid" });
     const head = el("tr");
-    for (const h of ["Report", "Kind", "Source", "Created", "Status"]) head.appendChild(el("th", {}, h));
+    for (const h of ["Recording", "Kind", "Created", "Status"]) head.appendChild(el("th", {}, h));
     table.appendChild(el("thead")).appendChild(head);
     const tbody = table.appendChild(el("tbody"));
     for (const r of reports) {
       const tr = el("tr", { class: "clickable" });
       const td = el("td");
-      td.appendChild(el("a", { href: `#/report/${enc(r.id)}` }, r.id));
+      td.appendChild(el("a", { href: `#/report/${enc(r.id)}`, title: `report ${r.id}` }, r.source || r.source_name || r.id));
       tr.appendChild(td);
       tr.appendChild(el("td", {}, r.kind || "allan"));
-      tr.appendChild(el("td", {}, r.source || r.source_name || "–"));
       tr.appendChild(el("td", {}, r.created_at ? new Date(r.created_at).toLocaleString() : "–"));
       const st = el("td");
       st.appendChild(statusBadge(r.status || "done"));
@@ -809,6 +865,8 @@
   }
 
   const TERMS = ["N", "B", "K", "Q", "R"];
+  /** The paper behind the grade table (Table 1) and the PDR impact (Tables 3-4), as the reports cite it. */
+  const REFERENCE_SHORT = "Collin et al. (2019)";
 
   /** One sensor of an Allan report: log-log curves with intervals and the fitted model, terms, grade, impact. */
   function renderAllanSensor(body, s) {
@@ -846,8 +904,27 @@
     body.appendChild(table);
     const summary = {};
     for (const k of ["unit", "rate_hz", "duration_s", "n_samples"]) if (s.value[k] !== undefined) summary[k] = s.value[k];
-    if (s.value.grade && s.value.grade.overall) summary.grade = s.value.grade.overall;
     if (Object.keys(summary).length) body.appendChild(keyValues(summary));
+    const grade = s.value.grade;
+    if (grade && Array.isArray(grade.calls) && grade.calls.length) {
+      body.appendChild(el("h3", { "data-role": "grade" }, `Grade: ${grade.overall || "–"} (Table 1 of ${REFERENCE_SHORT}; the worst over axes and parameters)`));
+      const t = el("table", { class: "grid grade" });
+      const h = el("tr");
+      for (const c of ["axis", "parameter", "measured", "unit", "grade"]) h.appendChild(el("th", {}, c));
+      t.appendChild(el("thead")).appendChild(h);
+      const tb = t.appendChild(el("tbody"));
+      for (const c of grade.calls) {
+        const r = el("tr");
+        for (const cell of [c.axis || "–", String(c.parameter).replace(/_/g, " "), fmt(c.value, 3), c.unit, c.grade]) {
+          r.appendChild(el("td", {}, cell));
+        }
+        tb.appendChild(r);
+      }
+      body.appendChild(t);
+      if (grade.note || grade.reference) {
+        body.appendChild(el("p", { class: "muted citation" }, `${grade.note ? grade.note + ". " : ""}${grade.reference ? `Reference: ${grade.reference}.` : ""}`));
+      }
+    }
     const impact = s.value.pdr_impact;
     if (impact && impact.axes && Object.keys(impact.axes).length) {
       body.appendChild(el("h3", {}, "Predicted PDR impact of the bias instability"));
@@ -874,7 +951,7 @@
     const gen = generation;
     const body = $("report-body");
     notAvailable(body, "Loading…");
-    $("report-title").textContent = `Allan report ${id}`;
+    $("report-title").textContent = "Allan report";
     let data;
     try {
       data = await apiJson(`${API}/reports/${enc(id)}`);
@@ -891,6 +968,12 @@
       try { report = JSON.parse(report); } catch (_) { report = { text: report }; }
     }
     clearNode(body);
+    // Named by the recording's file: the uploaded name, else the file name of the recording's source.
+    const rec = report && report.recording;
+    const fileName = (p) => String(p || "").replace(/\\/g, "/").replace(/\/+$/, "").split("/").pop();
+    const name = fileName(data.source) || (rec && fileName(rec.source)) || "recording";
+    $("report-title").textContent = `Allan report: ${name}`;
+    if (data.created_at) body.appendChild(el("p", { class: "muted" }, `created ${new Date(data.created_at).toLocaleString()}`));
     if (data.status && data.status !== "done") body.appendChild(el("p", { class: "warn-box" },
       `Report status: ${data.status}${data.error ? ` (${data.error})` : ""}`));
     const sensors = reportSensors(report || {});
@@ -899,10 +982,11 @@
         ? "The report is not ready yet." : "This report has no Allan curves."));
     }
     for (const s of sensors) renderAllanSensor(body, s);
-    const rec = report && report.recording;
     if (rec && typeof rec === "object") {
       body.appendChild(el("h2", {}, "Recording"));
-      body.appendChild(keyValues(rec));
+      const device = rec.device && typeof rec.device === "object"
+        ? Object.entries(rec.device).filter(([, v]) => v).map(([k, v]) => `${k} ${v}`).join(", ") : rec.device;
+      body.appendChild(keyValues(Object.assign({}, rec, { source: name, device })));
     }
     if (report && Array.isArray(report.flags) && report.flags.length) {
       body.appendChild(el("h2", {}, "Flags"));
@@ -916,7 +1000,7 @@
       det.appendChild(keyValues(report.settings));
       body.appendChild(det);
     }
-    await showReportImages(id, data, body, gen);
+    await showReportImages(id, data, body, gen, new Set(sensors.map((x) => x.name)));
   }
 
   function reportFiles(data) {
@@ -925,8 +1009,9 @@
 
   const reportFileUrl = (id, f) => f.url || `${API}/reports/${enc(id)}/files/${enc(f.name)}`;
 
-  async function showReportImages(id, data, body, gen) {
-    for (const f of reportFiles(data).filter((x) => /\.png$/i.test(x.name))) {
+  /** The report's PNG plots that the page did not draw itself (each plot once: a sensor's curves are drawn above). */
+  async function showReportImages(id, data, body, gen, drawn) {
+    for (const f of reportFiles(data).filter((x) => /\.png$/i.test(x.name) && !drawn.has(x.name.replace(/\.png$/i, "")))) {
       try {
         const blob = await (await apiFetch(reportFileUrl(id, f), "image/png")).blob();
         if (gen !== generation) return;
@@ -939,12 +1024,13 @@
   }
 
   async function downloadReportHtml() {
-    const id = decodeURIComponent(location.hash.replace(/^#\/report\//, ""));
+    const id = decodeURIComponent(location.hash.replace(/^#\/reports?\//, ""));
     let data = {};
     try { data = await apiJson(`${API}/reports/${enc(id)}`); } catch (_) { /* fall back to the default name */ }
     const f = reportFiles(data).find((x) => /\.html?$/i.test(x.name)) || { name: "report.html" };
     try {
-      await download(reportFileUrl(id, f), `allan-report-${id}.html`, "text/html");
+      const base = String(data.source || id).split("/").pop().replace(/\.[^.]*$/, "");
+      await download(reportFileUrl(id, f), `allan-report-${base}.html`, "text/html");
     } catch (err) {
       reportError(err, "The report HTML could not be downloaded");
     }
@@ -988,29 +1074,95 @@
     clearNode(body);
     if (!models.length) { body.appendChild(el("p", { class: "muted" }, "No trained models are installed.")); return; }
     const grid = el("div", { class: "cards" });
-    for (const m of models) {
-      const card = el("div", { class: "card", "data-model": m.name || "" });
-      card.appendChild(el("h3", {}, m.name || "model"));
-      const content = m.card && typeof m.card === "object" ? m.card : Object.fromEntries(Object.entries(m).filter(([k]) => k !== "name"));
-      card.appendChild(keyValues(content));
-      if (m.name) {
-        const det = el("details", { class: "model-card" });
-        det.appendChild(el("summary", {}, "Model card"));
-        det.addEventListener("toggle", async () => {
-          if (!det.open || det.dataset.loaded) return;
-          det.dataset.loaded = "1";
-          try {
-            const full = await apiJson(`${API}/models/${enc(m.name)}`);
-            det.appendChild(el("pre", { class: "card-text" }, full.card_markdown || "This model has no card text."));
-          } catch (err) {
-            det.appendChild(el("p", { class: "muted" }, err.readable ? err.readable("The model card is not available") : String(err)));
-          }
-        });
-        card.appendChild(det);
-      }
-      grid.appendChild(card);
-    }
+    for (const m of models) grid.appendChild(modelCard(m));
     body.appendChild(grid);
+  }
+
+  const METRIC_NAMES = { macro_f1: "macro F1", macro_f1_target_classes: "macro F1 (target classes)", accuracy: "accuracy",
+    balanced_accuracy: "balanced accuracy", coverage: "coverage", ece: "calibration error (ECE)", n_windows: "windows",
+    n_groups: "groups", n_recordings: "recordings" };
+
+  /** A definition list of [label, value] pairs, skipping empty values. */
+  function pairs(list) {
+    const dl = el("dl", { class: "kv" });
+    for (const [k, v] of list) {
+      if (v === undefined || v === null || v === "") continue;
+      dl.appendChild(el("dt", {}, k));
+      const dd = el("dd");
+      if (v instanceof Node) dd.appendChild(v); else dd.textContent = String(v);
+      dl.appendChild(dd);
+    }
+    return dl;
+  }
+
+  /** One model card: what the model does, how well (with the protocol), on what data, with which features and
+   * versions; the fitted internals only as a download of the raw artifact. */
+  function modelCard(m) {
+    const card = el("div", { class: "card", "data-model": m.name || "" });
+    card.appendChild(el("h3", {}, m.name || "model"));
+    const w = m.window || {};
+    const windowText = w.length_s ? `${fmt(w.length_s, 2)} s windows every ${fmt(w.hop_s, 2)} s${w.rate_hz ? ` at ${fmt(w.rate_hz, 1)} Hz` : ""}` : "";
+    const versions = m.versions && typeof m.versions === "object"
+      ? Object.entries(m.versions).map(([k, v]) => `${k} ${v}`).join(", ") : "";
+    card.appendChild(pairs([["Task", m.task], ["Estimator", m.estimator],
+      ["Classes", Array.isArray(m.classes) ? m.classes.join(", ") : ""], ["Window", windowText],
+      ["Date", m.date ? new Date(m.date).toLocaleDateString() : ""], ["Versions", versions]]));
+    card.appendChild(el("h4", {}, "Metrics"));
+    const evals = Array.isArray(m.evaluations) ? m.evaluations : [];
+    if (!evals.length) card.appendChild(el("p", { class: "muted" }, "No evaluation is recorded with this model."));
+    for (const ev of evals) {
+      const sec = el("div", { class: "evaluation", "data-role": "evaluation" });
+      sec.appendChild(el("p", { class: "protocol" }, `Protocol: ${ev.protocol || "not stated"}`));
+      const rows = Object.entries(ev.metrics || {}).map(([k, v]) => [METRIC_NAMES[k] || k,
+        Number.isInteger(v) ? String(v) : fmt(v, 3)]);
+      if (Array.isArray(ev.target_classes) && ev.target_classes.length) rows.push(["target classes", ev.target_classes.join(", ")]);
+      sec.appendChild(pairs(rows));
+      if (ev.command) sec.appendChild(el("code", { class: "command" }, ev.command));
+      card.appendChild(sec);
+    }
+    const t = m.training || {};
+    card.appendChild(el("h4", {}, "Training data"));
+    const classWindows = t.class_windows && typeof t.class_windows === "object"
+      ? Object.entries(t.class_windows).map(([k, v]) => `${k} ${v}`).join(", ") : "";
+    card.appendChild(pairs([["Data", Array.isArray(t.paths) ? t.paths.join(", ") : ""], ["Recordings", t.recordings],
+      ["Groups", t.groups], ["Windows", t.windows], ["Simulated logs", t.simulated_logs || ""],
+      ["Windows per class", classWindows]]));
+    const f = m.features || {};
+    card.appendChild(el("h4", {}, "Features"));
+    const names = el("details", { class: "feature-names" });
+    names.appendChild(el("summary", {}, `${f.count || 0} features`));
+    names.appendChild(el("p", { class: "names" }, (f.names || []).join(", ")));
+    card.appendChild(pairs([["Groups", Array.isArray(f.groups) ? f.groups.join(", ") : ""],
+      ["Required streams", Array.isArray(f.required_streams) ? f.required_streams.join(", ") : ""],
+      ["Feature set", f.set_version !== undefined ? `version ${f.set_version}` : ""], ["Names", names]]));
+    const tools = el("div", { class: "toolbar" });
+    const dl = el("button", { type: "button", "data-role": "download-model" },
+      `Download model.json${m.raw_bytes ? ` (${fmt(m.raw_bytes / 1024, 0)} KiB, fitted internals)` : ""}`);
+    dl.addEventListener("click", async () => {
+      try {
+        await download(`${API}/models/${enc(m.name)}/model.json`, `${m.name}.model.json`);
+      } catch (err) {
+        reportError(err, "The model could not be downloaded");
+      }
+    });
+    tools.appendChild(dl);
+    card.appendChild(tools);
+    if (m.name) {
+      const det = el("details", { class: "model-card" });
+      det.appendChild(el("summary", {}, "Model card text"));
+      det.addEventListener("toggle", async () => {
+        if (!det.open || det.dataset.loaded) return;
+        det.dataset.loaded = "1";
+        try {
+          const full = await apiJson(`${API}/models/${enc(m.name)}`);
+          det.appendChild(el("pre", { class: "card-text" }, full.card_markdown || "This model has no card text."));
+        } catch (err) {
+          det.appendChild(el("p", { class: "muted" }, err.readable ? err.readable("The model card is not available") : String(err)));
+        }
+      });
+      card.appendChild(det);
+    }
+    return card;
   }
 
   /** "Warming up" under the header while the service compiles its kernels (/health), polled until ready. */
@@ -1065,6 +1217,18 @@
     });
     $("dl-geojson").addEventListener("click", dl("geojson", "geojson"));
     $("dl-report-html").addEventListener("click", downloadReportHtml);
+    $("delete-report").addEventListener("click", async () => {
+      const id = decodeURIComponent(location.hash.replace(/^#\/reports?\//, ""));
+      const name = $("report-title").textContent.replace(/^Allan report: /, "");
+      if (!id || !window.confirm(`Delete the Allan report of "${name}" with its files? This cannot be undone.`)) return;
+      try {
+        await apiFetch(`${API}/reports/${enc(id)}`, undefined, "DELETE");
+        location.hash = "#/reports";
+        showMessage(`Report "${name}" deleted.`, "info");
+      } catch (err) {
+        reportError(err, "The report could not be deleted");
+      }
+    });
     window.addEventListener("hashchange", route);
     route();
     watchServiceState();

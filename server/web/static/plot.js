@@ -87,14 +87,15 @@ const Plot = (() => {
   const deviceColour = (d) => DEVICE_COLOURS[d] || hashColour(d);
 
   /**
-   * Time-series chart. series: [{name, colour, t: [], y: [], breakAbove?: number (jump that breaks the line)}];
+   * Time-series chart. series: [{name, colour, t: [], y: [], breakAbove?: number (jump that breaks the line),
+ * gapS?: number (s; a longer interval between two samples breaks the line)}];
    * bands: [{t0, t1, colour, label}] drawn as a strip; opts: {title, yLabel, yMin, yMax, tMin, tMax, steps}.
    */
   function timeChart(svg, series, opts) {
     clear(svg);
     const W = svg.clientWidth || 900, H = svg.clientHeight || 150;
     svg.setAttribute("viewBox", `0 0 ${W} ${H}`);
-    const L = 54, R = 12, T = 18, B = 22;
+    const L = 54, R = 12, T = 18, B = 24; // B: room for the time labels below the lowest y label
     const bands = opts.bands || [];
     const bandH = bands.length ? 16 : 0;
     let tMin = opts.tMin, tMax = opts.tMax, yMin = opts.yMin, yMax = opts.yMax;
@@ -123,10 +124,11 @@ const Plot = (() => {
       svgText(svg, L - 4, y(v) + 4, (opts.yFormat || fmt)(v), { "text-anchor": "end" });
     }
     const origin = opts.tOrigin ?? tMin;
-    for (const t of timeTicks(0, tMax - origin, 8)) {
+    // About one label per 80 px: "1 h 20 min" is about 60 px wide, so narrow charts get fewer ticks.
+    for (const t of timeTicks(0, tMax - origin, Math.max(2, Math.min(8, Math.floor((W - L - R) / 80))))) {
       if (origin + t < tMin) continue;
       svgEl("line", { x1: x(origin + t), x2: x(origin + t), y1: H - B, y2: H - B + 4, class: "axis" }, svg);
-      svgText(svg, x(origin + t), H - 6, fmtDuration(t), { "text-anchor": "middle" });
+      svgText(svg, x(origin + t), H - 5, fmtDuration(t), { "text-anchor": "middle" });
     }
     svgEl("line", { x1: L, x2: W - R, y1: H - B, y2: H - B, class: "axis" }, svg);
     svgEl("line", { x1: L, x2: L, y1: plotTop, y2: H - B, class: "axis" }, svg);
@@ -144,7 +146,8 @@ const Plot = (() => {
       for (let i = 0; i < s.t.length; i++) {
         const v = s.y[i];
         if (!Number.isFinite(v)) { if (cur.length) parts.push(cur); cur = []; continue; }
-        if (cur.length && s.breakAbove !== undefined && Math.abs(v - s.y[i - 1]) > s.breakAbove) {
+        if (cur.length && ((s.breakAbove !== undefined && Math.abs(v - s.y[i - 1]) > s.breakAbove)
+          || (s.gapS !== undefined && s.t[i] - s.t[i - 1] > s.gapS))) {
           parts.push(cur); cur = [];
         }
         if (opts.steps && cur.length) cur.push(`${x(s.t[i]).toFixed(1)},${y(s.y[i - 1]).toFixed(1)}`);
@@ -152,6 +155,11 @@ const Plot = (() => {
       }
       if (cur.length) parts.push(cur);
       for (const p of parts) {
+        if (p.length === 1) { // a lone sample between two gaps: a dot, or it would not show at all
+          const [cx, cy] = p[0].split(",");
+          svgEl("circle", { cx, cy, r: 1.8, fill: s.colour, class: "lone", "data-series": s.name }, svg);
+          continue;
+        }
         svgEl("polyline", { points: p.join(" "), class: "series", stroke: s.colour, "data-series": s.name }, svg);
       }
     }
@@ -232,6 +240,7 @@ const Plot = (() => {
       this.box = null;
       this.home = null;
       this.markers = [];
+      this.moved = false; // the user panned or zoomed: a redraw keeps their view, else it fits the data
       this._bind();
     }
 
@@ -241,6 +250,7 @@ const Plot = (() => {
       svg.addEventListener("pointerdown", (ev) => {
         if (!this.box) return;
         drag = { x: ev.clientX, y: ev.clientY, box: this.box.slice() };
+        this.moved = true;
         svg.setPointerCapture(ev.pointerId);
         svg.classList.add("dragging");
       });
@@ -275,6 +285,7 @@ const Plot = (() => {
     }
 
     zoom(factor, centre) {
+      this.moved = true;
       const [x, y, w, h] = this.box;
       const c = centre || [x + w / 2, y + h / 2];
       this.setBox([c[0] - (c[0] - x) * factor, c[1] - (c[1] - y) * factor, w * factor, h * factor]);
@@ -287,6 +298,7 @@ const Plot = (() => {
     }
 
     fit() {
+      this.moved = false;
       if (this.home) this.setBox(this.home.slice());
     }
 
@@ -367,7 +379,9 @@ const Plot = (() => {
       }
       this.home = home;
       svg.dataset.points = String(drawn);
-      if (keepView && this.box) this.setBox(this.box); else this.setBox(home.slice());
+      // Keep the view only when the user chose it: rows arriving later (the smoothed track, the truth, a live
+      // upload) may reach beyond the first fit, which would leave them outside the view.
+      if (keepView && this.box && this.moved) this.setBox(this.box); else { this.moved = false; this.setBox(home.slice()); }
       return drawn;
     }
   }

@@ -127,3 +127,25 @@ def test_cli_bad_input(tmp_path, capsys):
     log = _write_npz(tmp_path / "short.npz", n=3000)
     assert main(["allan", str(log), "--out", str(tmp_path / "r"), "--tau-max", "100"]) == 2
     assert "too short for tau = 100 s" in capsys.readouterr().err
+
+
+def test_html_names_the_file_the_axes_and_the_paper(tmp_path):
+    """A report read from a temporary copy shows only the file name; each grade row names its axis; the grade
+    table cites the paper (not the project's seed number); a lab IMU is not called a phone."""
+    rec = Recording(_recording(with_temperature=False).streams, device=DeviceInfo(platform="imu", model="ADIS16465"),
+                    source="/tmp/pdr-upload-rpfql2fy/static.npz", format="test")
+    assert rec.device.role == "phone"  # the reader's default
+    res = characterise_recording(rec)
+    paths = write_report(res, tmp_path)
+    html = paths["html"].read_text()
+    data = json.loads(paths["json"].read_text())
+    assert "pdr-upload" not in html and "<h1>Allan-variance report: static.npz</h1>" in html
+    assert data["recording"]["device"]["role"] == "standalone IMU" and "role=phone" not in html
+    calls = data["gyro"]["grade"]["calls"]
+    assert [c["axis"] for c in calls] == ["x", "x", "y", "y", "z", "z"]
+    assert [c["parameter"] for c in calls[:2]] == ["bias_instability", "angular_random_walk"]
+    rows = re.findall(r'<tr><td class="l">([xyz])</td><td class="l">(bias instability|angular random walk)</td>', html)
+    assert rows == [(c["axis"], c["parameter"].replace("_", " ")) for c in calls]
+    assert "seed 004" not in html and "Collin et al. (2019), Table 1" in html
+    assert "Handbook of Signal Processing Systems" in html
+    assert "Handbook of Signal" in data["gyro"]["grade"]["reference"]

@@ -1,0 +1,51 @@
+"""The CLI's progress bar: drawn on a terminal's stderr, silent otherwise, never on stdout."""
+
+import io
+import json
+import sys
+
+from pdr.cli import main, progress
+from pdr.cli.progress import BAR_WIDTH, Progress
+
+
+class Terminal(io.StringIO):
+    """A stream that says it is a terminal."""
+
+    def isatty(self) -> bool:
+        return True
+
+
+def test_silent_when_stderr_is_not_a_terminal():
+    stream = io.StringIO()
+    with Progress(3, "work", stream=stream) as bar:
+        for _ in range(3):
+            bar.advance(note="x")
+    assert stream.getvalue() == ""
+
+
+def test_drawn_in_place_on_a_terminal_and_cleared_at_the_end():
+    stream = Terminal()
+    bar = Progress(4, "eval ipin", stream=stream)
+    bar.advance(2, note="T01.txt")
+    assert bar.line().startswith(f"eval ipin [{'#' * (BAR_WIDTH // 2)}{'.' * (BAR_WIDTH // 2)}] 2/4  T01.txt")
+    bar.advance(2)
+    drawn = stream.getvalue()
+    assert drawn.startswith("\r") and "\n" not in drawn and "4/4" in drawn  # the last state is always drawn
+    bar.close()
+    assert stream.getvalue().endswith("\r") and stream.getvalue()[len(drawn):].strip() == ""
+
+
+def test_each_counts_the_items_and_names_them(monkeypatch):
+    stream = Terminal()
+    monkeypatch.setattr(sys, "stderr", stream)
+    seen = [p for p in progress.each(["a.txt", "b.txt"], "eval ms")]
+    assert seen == ["a.txt", "b.txt"]
+    assert "eval ms [" in stream.getvalue() and "2/2" in stream.getvalue()
+
+
+def test_simulate_prints_its_summary_on_stdout_and_no_bar_when_piped(tmp_path, capsys):
+    scenario = tmp_path / "s.json"
+    scenario.write_text(json.dumps({"name": "p", "segments": [{"type": "walk", "duration_s": 3}]}))
+    assert main(["simulate", str(scenario), "--out", str(tmp_path / "rec")]) == 0
+    captured = capsys.readouterr()
+    assert captured.out.startswith("wrote ") and captured.err == ""
