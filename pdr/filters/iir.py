@@ -51,8 +51,7 @@ def butter_lowpass(order: int, wn: float) -> tuple[Array, Array]:
 
 
 def _poly(roots: NDArray[np.generic]) -> NDArray[np.generic]:
-    """Coefficients (highest power first) of the monic polynomial with these roots; real when they are in
-    conjugate pairs."""
+    """Coefficients (highest power first) of the monic polynomial with these roots (real for conjugate pairs)."""
     out = np.ones((1,), dtype=roots.dtype)
     one = np.ones_like(roots[0])
     for r in roots:

@@ -119,6 +119,41 @@ class Lines:
         a = int(self.start[i])
         return self.buf[a:a + int(self.length[i])].tobytes()
 
+    def numbers(self, start: NDArray[np.int64], length: NDArray[np.int64], ncol: int, sep: bytes, *,
+                trailing_separator: bool = False) -> NDArray[np.float64] | None:
+        """(N, ncol) float64 of the ``sep``-separated numbers in the byte ranges ``buf[start:start + length]``.
+
+        Plain decimals go through the compiled one-pass parser (:mod:`pdr.io.decimal_kernel`); a range it does
+        not take (an exponent, more than 15 digits, ...) is converted by numpy from its text, as
+        :func:`parse_float_rows` converts it. None when a range has the wrong number of fields, a field is not a
+        number or a value is not finite: the caller's line-by-line path names the line and field.
+        """
+        from pdr.io.decimal_kernel import parse_lines
+        out = np.empty((start.size, ncol))
+        if np.any(length < 0):
+            return None
+        done = 0
+        while done < start.size:
+            bad = parse_lines(self.buf, start[done:], length[done:], ncol, trailing_separator, sep[0], out[done:])
+            if bad < 0:
+                break
+            i = done + bad
+            text = self.buf[start[i]:start[i] + length[i]].tobytes().decode("utf-8")
+            if trailing_separator and text.endswith(sep.decode()):
+                text = text[:-1]
+            parts = text.split(sep.decode())
+            if len(parts) != ncol:
+                return None
+            try:
+                row = np.array(parts, dtype=np.float64)
+            except ValueError:
+                return None
+            if not np.all(np.isfinite(row)):
+                return None
+            out[i] = row
+            done = i + 1
+        return out
+
     def fields(self, mask: NDArray[np.bool_], ncol: int, skip_bytes: int = 0, sep: bytes = b";", *,
                trailing_separator: bool = False) -> NDArray[np.float64] | None:
         """(N, ncol) float64 of the ``sep``-separated plain decimals of the selected lines after their first
@@ -143,6 +178,11 @@ def ascii_lines(raw: bytes) -> Lines | None:
     """
     if not raw.isascii() or b"\x00" in raw:
         return None
+    return _split_lines(raw)
+
+
+def _split_lines(raw: bytes) -> Lines | None:
+    """:class:`Lines` of a text without NUL bytes whose only line breaks are LF and CR LF (else None)."""
     if b"\r" in raw:
         raw = raw.replace(b"\r\n", b"\n")
     if any(c in raw for c in _UNUSUAL_BREAKS):
@@ -151,6 +191,29 @@ def ascii_lines(raw: bytes) -> Lines | None:
     newline = np.flatnonzero(buf == _NEWLINE)
     start = newline[:-1] + 1
     return Lines(buf, start, newline[1:] - start)
+
+
+#: UTF-8 encodings of the line breaks of :meth:`str.splitlines` beyond ASCII (NEL, LINE and PARAGRAPH SEPARATOR).
+_UNICODE_BREAKS = (b"\xc2\x85", b"\xe2\x80\xa8", b"\xe2\x80\xa9")
+_BOM = b"\xef\xbb\xbf"
+
+
+def utf8_lines(raw: bytes) -> Lines | None:
+    """The :class:`Lines` of a UTF-8 text (a BOM dropped) whose lines are those :func:`decode_text` and
+    :meth:`str.splitlines` give, or None when the exact line-by-line path must read it: text that is not UTF-8
+    (:func:`decode_text` then takes it as Latin-1), NUL bytes, line breaks other than LF and CR LF.
+    """
+    if raw.isascii():
+        return ascii_lines(raw)
+    if raw.startswith(_BOM):
+        raw = raw[len(_BOM):]
+    if b"\x00" in raw or any(c in raw for c in _UNICODE_BREAKS):
+        return None
+    try:
+        raw.decode("utf-8")
+    except UnicodeDecodeError:
+        return None
+    return _split_lines(raw)
 
 
 def parse_float_rows(rows: Sequence[Sequence[str]], line_numbers: Sequence[int], source: str,
