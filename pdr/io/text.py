@@ -87,6 +87,10 @@ _UNUSUAL_BREAKS = (b"\r", b"\x0b", b"\x0c", b"\x1c", b"\x1d", b"\x1e")
 _NEWLINE = 10
 
 
+#: Ranges :meth:`Lines.numbers` converts with numpy before it leaves a text to the line-by-line path (or 5 %).
+MAX_EXACT_ROWS = 1000
+
+
 @dataclass(frozen=True)
 class Lines:
     """The lines of an ASCII text as byte offsets, for readers that classify and parse lines with array operations.
@@ -126,18 +130,23 @@ class Lines:
         Plain decimals go through the compiled one-pass parser (:mod:`pdr.io.decimal_kernel`); a range it does
         not take (an exponent, more than 15 digits, ...) is converted by numpy from its text, as
         :func:`parse_float_rows` converts it. None when a range has the wrong number of fields, a field is not a
-        number or a value is not finite: the caller's line-by-line path names the line and field.
+        number or a value is not finite: the caller's line-by-line path names the line and field. None too when
+        more than :data:`MAX_EXACT_ROWS` or a twentieth of the ranges need numpy: that path is as fast then.
         """
         from pdr.io.decimal_kernel import parse_lines
         out = np.empty((start.size, ncol))
         if np.any(length < 0):
             return None
         done = 0
+        budget = max(MAX_EXACT_ROWS, start.size // 20)
         while done < start.size:
             bad = parse_lines(self.buf, start[done:], length[done:], ncol, trailing_separator, sep[0], out[done:])
             if bad < 0:
                 break
             i = done + bad
+            budget -= 1
+            if budget < 0:
+                return None         # mostly out of the kernel's form: the line-by-line path is as fast
             text = self.buf[start[i]:start[i] + length[i]].tobytes().decode("utf-8")
             if trailing_separator and text.endswith(sep.decode()):
                 text = text[:-1]
@@ -214,6 +223,22 @@ def utf8_lines(raw: bytes) -> Lines | None:
     except UnicodeDecodeError:
         return None
     return _split_lines(raw)
+
+
+def numeric_rows(raw: bytes, ncol: int, sep: bytes = b",", *, skip_lines: int = 0
+                 ) -> tuple[NDArray[np.float64], NDArray[np.int64]] | None:
+    """(N, ncol) numbers of the non-empty lines (after the first ``skip_lines``) of a text of ``sep``-separated
+    numbers and their 1-based line numbers, by :meth:`Lines.numbers`: the values :func:`parse_float_rows` gives
+    for the fields ``str.split`` cuts. None when a reader's line-by-line path must read the text (see
+    :func:`utf8_lines`, :meth:`Lines.numbers`).
+    """
+    lines = utf8_lines(raw)
+    if lines is None:
+        return None
+    rows = np.flatnonzero(lines.length > 0)
+    rows = rows[rows >= skip_lines]
+    arr = lines.numbers(lines.start[rows], lines.length[rows], ncol, sep)
+    return None if arr is None else (arr, rows + 1)
 
 
 def parse_float_rows(rows: Sequence[Sequence[str]], line_numbers: Sequence[int], source: str,
