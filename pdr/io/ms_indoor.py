@@ -75,8 +75,6 @@ WAYPOINT_FIELDS = ("timestamp_ms", "x_m", "y_m")
 _RECORD = re.compile(rb"^\d{13}\tTYPE_[A-Z_]+\t", re.MULTILINE)
 #: Where a run-on line must be cut: before a 13-digit Unix-ms timestamp followed by a record tag.
 _RUN_ON_CUT = re.compile(r"(?<=.)(?=\d{13}\tTYPE_)")
-#: Longest record tag the array path groups (the longest upstream tag has 43 bytes); longer: the exact path.
-_MAX_TAG_BYTES = 256
 _META_KEYS = ("startTime", "endTime", "SiteID", "SiteName", "FloorId", "FloorName", "Brand", "Model",
               "AndroidName", "APILevel", "VersionName")
 
@@ -181,21 +179,18 @@ def _parse_fast(raw: bytes) -> tuple[_Rows, dict[str, int], dict[str, str], list
     if np.any(t1 >= end[record]):
         return None                                         # a record without a tab: the exact path names it
     t2 = np.minimum(last[np.minimum(k + 1, tabs.size)], end[record])      # the tab (or line end) after the tag
-    if _run_on(buf, tabs, start[record], end[record]).any() or np.any(t2 - t1 - 1 > _MAX_TAG_BYTES):
+    words = _words(buf)
+    if _run_on(words, tabs, start[record], end[record]).any():
         return None
-    width = max(int((t2 - t1 - 1).max()) if record.size else 0, 1)
-    index = (t1 + 1)[:, None] + np.arange(width)
-    tag_bytes = np.where(index < t2[:, None], buf[np.minimum(index, buf.size - 1)], 0).astype(np.uint8)
-    tags, first_at, inverse, counts = np.unique(tag_bytes.view(f"S{width}").ravel(), return_index=True,
-                                                return_inverse=True, return_counts=True)
-    names = [bytes(t).decode("utf-8") for t in tags]
-    ignored = {names[j]: int(counts[j]) for j in np.argsort(first_at, kind="stable")
-               if names[j] not in SENSOR_RECORDS and names[j] != "TYPE_WAYPOINT"}
+    pos, size = t1 + 1, t2 - t1 - 1                         # each record's tag: buf[pos:pos + size]
     arrays: _Rows = {}
-    for j, name in enumerate(names):
-        if name not in SENSOR_RECORDS and name != "TYPE_WAYPOINT":
+    matched = np.zeros(record.size, bool)
+    for name in (*SENSOR_RECORDS, "TYPE_WAYPOINT"):
+        cand = np.flatnonzero(size == len(name))
+        sel = cand[_equal(words, pos[cand], name.encode())]
+        if not sel.size:
             continue
-        sel = np.flatnonzero(inverse.ravel() == j)
+        matched[sel] = True
         rows = record[sel]
         ncol = len(_fields_of(name))
         t = lines.numbers(start[rows], t1[sel] - start[rows], 1, b"\t")
@@ -203,6 +198,9 @@ def _parse_fast(raw: bytes) -> tuple[_Rows, dict[str, int], dict[str, str], list
         if t is None or v is None:
             return None
         arrays[name] = (np.column_stack([t, v]), (rows + 1).tolist())
+    ignored = _ignored_tags(buf, words, pos[~matched], size[~matched])
+    if ignored is None:
+        return None
     order = (*SENSOR_RECORDS, "TYPE_WAYPOINT")
     arrays = {tag: arrays[tag] for tag in order if tag in arrays}
     meta_header: dict[str, str] = {}
@@ -211,11 +209,54 @@ def _parse_fast(raw: bytes) -> tuple[_Rows, dict[str, int], dict[str, str], list
     return arrays, ignored, meta_header, []
 
 
-def _run_on(buf: NDArray[np.uint8], tabs: NDArray[np.int64], start: NDArray[np.int64],
+def _words(buf: NDArray[np.uint8]) -> NDArray[np.uint64]:
+    """``words[i]``: the eight bytes ``buf[i:i + 8]`` (zeros past the end) as one little-endian uint64."""
+    padded = np.concatenate([buf, np.zeros(8, np.uint8)])
+    return np.ndarray((buf.size,), dtype="<u8", buffer=padded, strides=(1,))
+
+
+def _low_bytes(n: NDArray[np.int64]) -> NDArray[np.uint64]:
+    """Masks keeping the ``n`` (0..8) low bytes of a uint64."""
+    return np.where(n >= 8, np.uint64(2**64 - 1), (np.uint64(1) << (np.uint64(8) * np.minimum(n, 7).astype(np.uint64)))
+                    - np.uint64(1)).astype(np.uint64)
+
+
+def _equal(words: NDArray[np.uint64], pos: NDArray[np.int64], text: bytes) -> NDArray[np.bool_]:
+    """Per position: do the ``len(text)`` bytes from there equal ``text``? Eight bytes per comparison."""
+    ok = np.ones(pos.size, bool)
+    for j in range(0, len(text), 8):
+        chunk = text[j:j + 8]
+        mask = _low_bytes(np.array([len(chunk)]))[0]
+        ok &= (words[pos + j] & mask) == np.uint64(int.from_bytes(chunk, "little"))
+    return ok
+
+
+def _ignored_tags(buf: NDArray[np.uint8], words: NDArray[np.uint64], pos: NDArray[np.int64],
+                  size: NDArray[np.int64]) -> dict[str, int] | None:
+    """Count per distinct tag ``buf[pos:pos + size]``, in the order of first appearance.
+
+    Tags are grouped by their length and first and last eight bytes, longer ones checked byte by byte: None when
+    two different tags share a group (the exact path counts them then).
+    """
+    first = words[pos] & _low_bytes(size)
+    last = np.where(size > 8, words[np.maximum(pos + size - 8, 0)], np.uint64(0))
+    key = np.column_stack([size.astype(np.uint64), first, last])
+    _, first_at, inverse, counts = np.unique(key, axis=0, return_index=True, return_inverse=True, return_counts=True)
+    inverse = inverse.ravel()
+    out: dict[str, int] = {}
+    for g in np.argsort(first_at, kind="stable").tolist():
+        i = int(first_at[g])
+        text = buf[pos[i]:pos[i] + size[i]].tobytes()
+        if size[i] > 16 and not _equal(words, pos[inverse == g], text).all():
+            return None
+        out[text.decode("utf-8")] = int(counts[g])
+    return out
+
+
+def _run_on(words: NDArray[np.uint64], tabs: NDArray[np.int64], start: NDArray[np.int64],
             end: NDArray[np.int64]) -> NDArray[np.bool_]:
     """Per line ``buf[start:end]``: does a tab followed by ``TYPE_`` occur in it more than once (a run-on line)?"""
-    padded = np.concatenate([buf, np.zeros(5, np.uint8)])
-    marker = tabs[np.all(np.stack([padded[tabs + 1 + i] == c for i, c in enumerate(b"TYPE_")]), axis=0)]
+    marker = tabs[(words[tabs] & np.uint64(2**48 - 1)) == np.uint64(int.from_bytes(b"\tTYPE_", "little"))]
     return np.asarray(np.searchsorted(marker, end) - np.searchsorted(marker, start) > 1)
 
 
