@@ -2,12 +2,13 @@
 
 Each field must be a decimal (optional ``-``, digits, at most one ``.``, at least one digit, optionally an
 exponent ``e``/``E`` with an optional sign and one to three digits, as Java's ``Float.toString`` writes
-``7.171631E-4``) of at most 15 mantissa digits whose power of ten ``k`` (exponent minus decimals) is within
-+-22. Its value is then ``m * 10**k`` or ``m / 10**-k`` with the integer ``m < 2**53`` and the power of ten
-exact in float64, and one IEEE multiplication or division rounds that correctly: the value :func:`float` gives
-(Clinger's fast path, W. D. Clinger, "How to read floating point numbers accurately", PLDI 1990). Anything
-else (a leading ``+``, spaces, more digits, a larger power, an empty field, a field too many or too few) stops
-the kernel at that line, and the caller takes a slower exact path.
+``7.171631E-4``) of at most 18 mantissa digits. With the integer mantissa ``m`` and the power of ten ``k``
+(exponent minus decimals) within +-22, and ``m <= 2**53`` unless ``k = 0``, the value is ``m * 10**k`` or
+``m / 10**-k`` of exact float64 operands, which one IEEE multiplication or division rounds correctly (a whole
+number, ``k = 0``, is one correctly rounded int64 conversion): the value :func:`float` gives (Clinger's fast
+path, W. D. Clinger, "How to read floating point numbers accurately", PLDI 1990). Anything else (a leading
+``+``, spaces, more digits, a larger power, a long mantissa with decimals, an empty field, a field too many or
+too few) stops the kernel at that line, and the caller takes a slower exact path.
 """
 
 from __future__ import annotations
@@ -17,8 +18,10 @@ from numba import njit
 from numpy.typing import NDArray
 
 _SEMICOLON, _DOT, _MINUS, _PLUS, _ZERO, _NINE, _E, _E_UPPER = 59, 46, 45, 43, 48, 57, 101, 69
-#: Digits of a field's mantissa the fast path takes (10**15 < 2**53).
-MAX_DIGITS = 15
+#: Digits of a field's mantissa the fast path takes (10**18 < 2**63: no int64 overflow).
+MAX_DIGITS = 18
+#: Largest mantissa that is exact in float64 (2**53); a larger one only as a whole number (no power of ten).
+MAX_EXACT_INT = 2**53
 #: Largest power of ten exact in float64 (5**22 < 2**53).
 MAX_EXACT_POWER = 22
 
@@ -85,7 +88,7 @@ def parse_lines(buf: NDArray[np.uint8], start: NDArray[np.int64], length: NDArra
             if digits == 0 or digits > MAX_DIGITS:
                 return i
             scale = exponent - max(decimals, 0)
-            if scale < -MAX_EXACT_POWER or scale > MAX_EXACT_POWER:
+            if scale < -MAX_EXACT_POWER or scale > MAX_EXACT_POWER or (scale != 0 and m > MAX_EXACT_INT):
                 return i
             value = m * pow10[scale] if scale >= 0 else m / pow10[-scale]
             out[i, c] = -value if negative else value
