@@ -1,14 +1,15 @@
 """Compiled (numba) parser of the numeric fields of text log lines: one pass over the bytes.
 
-Each field must be a decimal (optional ``-``, digits, at most one ``.``, at least one digit, optionally an
-exponent ``e``/``E`` with an optional sign and one to three digits, as Java's ``Float.toString`` writes
-``7.171631E-4``) of at most 18 mantissa digits. With the integer mantissa ``m`` and the power of ten ``k``
-(exponent minus decimals) within +-22, and ``m <= 2**53`` unless ``k = 0``, the value is ``m * 10**k`` or
-``m / 10**-k`` of exact float64 operands, which one IEEE multiplication or division rounds correctly (a whole
-number, ``k = 0``, is one correctly rounded int64 conversion): the value :func:`float` gives (Clinger's fast
-path, W. D. Clinger, "How to read floating point numbers accurately", PLDI 1990). Anything else (a leading
-``+``, spaces, more digits, a larger power, a long mantissa with decimals, an empty field, a field too many or
-too few) stops the kernel at that line, and the caller takes a slower exact path.
+Each field must be a decimal (blanks around it allowed, as :func:`float` allows them; optional ``-``, digits,
+at most one ``.``, at least one digit, optionally an exponent ``e``/``E`` with an optional sign and one to three
+digits, as Java's ``Float.toString`` writes ``7.171631E-4``) of at most 18 mantissa digits. With the integer
+mantissa ``m`` and the power of ten ``k`` (exponent minus decimals) within +-22, and ``m <= 2**53`` unless
+``k = 0``, the value is ``m * 10**k`` or ``m / 10**-k`` of exact float64 operands, which one IEEE multiplication
+or division rounds correctly (a whole number, ``k = 0``, is one correctly rounded int64 conversion): the value
+:func:`float` gives (Clinger's fast path, W. D. Clinger, "How to read floating point numbers accurately", PLDI
+1990). Anything else (a leading ``+``, a blank inside a number, other white space, more digits, a larger power,
+a long mantissa with decimals, an empty field, a field too many or too few) stops the kernel at that line, and
+the caller takes a slower exact path.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-_SEMICOLON, _DOT, _MINUS, _PLUS, _ZERO, _NINE, _E, _E_UPPER = 59, 46, 45, 43, 48, 57, 101, 69
+_SEMICOLON, _DOT, _MINUS, _PLUS, _ZERO, _NINE, _E, _E_UPPER, _SPACE = 59, 46, 45, 43, 48, 57, 101, 69, 32
 #: Digits of a field's mantissa the fast path takes (10**18 < 2**63: no int64 overflow).
 MAX_DIGITS = 18
 #: Largest mantissa that is exact in float64 (2**53); a larger one only as a whole number (no power of ten).
@@ -46,6 +47,8 @@ def parse_lines(buf: NDArray[np.uint8], start: NDArray[np.int64], length: NDArra
         for c in range(ncol):
             if ended:
                 return i
+            while p < end and buf[p] == _SPACE:
+                p += 1          # blanks around a number: float() ignores them
             negative = False
             if p < end and buf[p] == _MINUS:
                 negative = True
@@ -56,6 +59,12 @@ def parse_lines(buf: NDArray[np.uint8], start: NDArray[np.int64], length: NDArra
             exponent = 0
             while p < end and buf[p] != sep:
                 ch = buf[p]
+                if ch == _SPACE:
+                    while p < end and buf[p] == _SPACE:
+                        p += 1
+                    if p < end and buf[p] != sep:
+                        return i
+                    break
                 if _ZERO <= ch <= _NINE:
                     m = m * 10 + (ch - _ZERO)
                     digits += 1
@@ -72,6 +81,12 @@ def parse_lines(buf: NDArray[np.uint8], start: NDArray[np.int64], length: NDArra
                     exp_digits = 0
                     while p < end and buf[p] != sep and exp_digits <= 3:
                         ch = buf[p]
+                        if ch == _SPACE:
+                            while p < end and buf[p] == _SPACE:
+                                p += 1
+                            if p < end and buf[p] != sep:
+                                return i
+                            break
                         if not _ZERO <= ch <= _NINE:
                             return i
                         exponent = exponent * 10 + (ch - _ZERO)

@@ -87,8 +87,8 @@ _UNUSUAL_BREAKS = (b"\r", b"\x0b", b"\x0c", b"\x1c", b"\x1d", b"\x1e")
 _NEWLINE = 10
 
 
-#: Ranges :meth:`Lines.numbers` converts with numpy before it leaves a text to the line-by-line path (or 5 %).
-MAX_EXACT_ROWS = 1000
+#: Ranges :meth:`Lines.numbers` converts with numpy before it leaves a text to the line-by-line path (or 2 %).
+MAX_EXACT_ROWS = 64
 
 
 @dataclass(frozen=True)
@@ -131,14 +131,14 @@ class Lines:
         not take (an exponent, more than 15 digits, ...) is converted by numpy from its text, as
         :func:`parse_float_rows` converts it. None when a range has the wrong number of fields, a field is not a
         number or a value is not finite: the caller's line-by-line path names the line and field. None too when
-        more than :data:`MAX_EXACT_ROWS` or a twentieth of the ranges need numpy: that path is as fast then.
+        more than :data:`MAX_EXACT_ROWS` or 2 % of the ranges need numpy: that path is as fast then.
         """
         from pdr.io.decimal_kernel import parse_lines
         out = np.empty((start.size, ncol))
         if np.any(length < 0):
             return None
         done = 0
-        budget = max(MAX_EXACT_ROWS, start.size // 20)
+        budget = max(MAX_EXACT_ROWS, start.size // 50)
         while done < start.size:
             bad = parse_lines(self.buf, start[done:], length[done:], ncol, trailing_separator, sep[0], out[done:])
             if bad < 0:

@@ -300,7 +300,7 @@ def test_array_reader_equals_the_line_by_line_reader(tmp_path, crlf):
 
 @pytest.mark.parametrize("line", ["ACCE;0.090;100.030;1e-30;0.2;9.8;3",           # power of ten beyond 1e22
                                   "ACCE;0.090;100.030;0.12345678901234567;0.2;9.8;3",  # 17 digits
-                                  "ACCE;0.090;100.030; 0.1;0.2;9.8;3"])            # space
+                                  "ACCE;0.090;100.030;+0.1;0.2;9.8;3"])            # plus sign
 def test_numbers_out_of_the_plain_form_take_the_exact_path_with_the_same_values(tmp_path, line):
     p = tmp_path / "unusual.txt"
     p.write_text(GOOD + line + "\n")
