@@ -14,6 +14,7 @@ import io
 import warnings
 from collections.abc import Collection, Sequence
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -131,11 +132,20 @@ def _fast(data_lines: list[str], header: tuple[str, ...], delimiter: str, decima
 
     dtypes = {i: (np.int64 if h in ints else np.float64) for i, h in enumerate(header)}
     frame = pd.read_csv(io.StringIO("\n".join(data_lines)), sep=delimiter, header=None, dtype=dtypes,
-                        engine="c", float_precision="round_trip", skip_blank_lines=False, decimal=decimal,
-                        na_filter=True, keep_default_na=True)
+                        engine="c", skip_blank_lines=False, decimal=decimal, na_filter=True, keep_default_na=True,
+                        float_precision=_float_precision(pd.__version__))
     if frame.shape[1] != len(header):
         return None
     return {h: frame.iloc[:, i].to_numpy() for i, h in enumerate(header)}
+
+
+def _float_precision(version: str) -> Literal["round_trip"] | None:
+    """The ``read_csv`` option for the values :func:`float` gives: ``"round_trip"`` before pandas 3.1; None (the
+    default) from 3.1, where every mode uses that converter and the option is deprecated (a warning, which sent
+    every table to the slow path here).
+    """
+    major, minor = (int(p) for p in version.split(".")[:2])
+    return "round_trip" if (major, minor) < (3, 1) else None
 
 
 def _plausible(arrays: dict[str, np.ndarray], n: int, header: tuple[str, ...], nan_columns: Collection[str]) -> bool:

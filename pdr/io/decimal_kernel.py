@@ -1,11 +1,15 @@
 """Compiled (numba) parser of the numeric fields of text log lines: one pass over the bytes.
 
-Each field must be a plain decimal (optional ``-``, digits, at most one ``.``, at least one digit) of at most
-15 digits. Its value is then ``m / 10**d`` with the integer ``m < 2**53`` and ``10**d`` (``d <= 15``) exact in
-float64, and one IEEE division rounds that correctly: the value :func:`float` gives (Clinger's fast path, W. D.
-Clinger, "How to read floating point numbers accurately", PLDI 1990). Anything else (an exponent, ``+``,
-spaces, more digits, an empty field, a field too many or too few) stops the kernel at that line, and the caller
-takes a slower exact path.
+Each field must be a decimal (blanks around it allowed, as :func:`float` allows them; optional ``-``, digits,
+at most one ``.``, at least one digit, optionally an exponent ``e``/``E`` with an optional sign and one to three
+digits, as Java's ``Float.toString`` writes ``7.171631E-4``) of at most 18 mantissa digits. With the integer
+mantissa ``m`` and the power of ten ``k`` (exponent minus decimals) within +-22, and ``m <= 2**53`` unless
+``k = 0``, the value is ``m * 10**k`` or ``m / 10**-k`` of exact float64 operands, which one IEEE multiplication
+or division rounds correctly (a whole number, ``k = 0``, is one correctly rounded int64 conversion): the value
+:func:`float` gives (Clinger's fast path, W. D. Clinger, "How to read floating point numbers accurately", PLDI
+1990). Anything else (a leading ``+``, a blank inside a number, other white space, more digits, a larger power,
+a long mantissa with decimals, an empty field, a field too many or too few) stops the kernel at that line, and
+the caller takes a slower exact path.
 """
 
 from __future__ import annotations
@@ -14,9 +18,13 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-_SEMICOLON, _DOT, _MINUS, _ZERO, _NINE = 59, 46, 45, 48, 57
-#: Digits of a field the fast path takes (10**15 < 2**53).
-MAX_DIGITS = 15
+_SEMICOLON, _DOT, _MINUS, _PLUS, _ZERO, _NINE, _E, _E_UPPER, _SPACE = 59, 46, 45, 43, 48, 57, 101, 69, 32
+#: Digits of a field's mantissa the fast path takes (10**18 < 2**63: no int64 overflow).
+MAX_DIGITS = 18
+#: Largest mantissa that is exact in float64 (2**53); a larger one only as a whole number (no power of ten).
+MAX_EXACT_INT = 2**53
+#: Largest power of ten exact in float64 (5**22 < 2**53).
+MAX_EXACT_POWER = 22
 
 
 @njit(cache=True)
@@ -27,9 +35,9 @@ def parse_lines(buf: NDArray[np.uint8], start: NDArray[np.int64], length: NDArra
 
     With ``trailing_separator`` one separator ending a line (an empty last field) is accepted and dropped.
     """
-    pow10 = np.empty(MAX_DIGITS + 1)
+    pow10 = np.empty(MAX_EXACT_POWER + 1)
     p10 = 1.0
-    for k in range(MAX_DIGITS + 1):
+    for k in range(MAX_EXACT_POWER + 1):
         pow10[k] = p10
         p10 *= 10.0
     for i in range(start.size):
@@ -39,6 +47,8 @@ def parse_lines(buf: NDArray[np.uint8], start: NDArray[np.int64], length: NDArra
         for c in range(ncol):
             if ended:
                 return i
+            while p < end and buf[p] == _SPACE:
+                p += 1          # blanks around a number: float() ignores them
             negative = False
             if p < end and buf[p] == _MINUS:
                 negative = True
@@ -46,8 +56,15 @@ def parse_lines(buf: NDArray[np.uint8], start: NDArray[np.int64], length: NDArra
             m = 0
             digits = 0
             decimals = -1
+            exponent = 0
             while p < end and buf[p] != sep:
                 ch = buf[p]
+                if ch == _SPACE:
+                    while p < end and buf[p] == _SPACE:
+                        p += 1
+                    if p < end and buf[p] != sep:
+                        return i
+                    break
                 if _ZERO <= ch <= _NINE:
                     m = m * 10 + (ch - _ZERO)
                     digits += 1
@@ -55,12 +72,40 @@ def parse_lines(buf: NDArray[np.uint8], start: NDArray[np.int64], length: NDArra
                         decimals += 1
                 elif ch == _DOT and decimals < 0:
                     decimals = 0
+                elif (ch == _E or ch == _E_UPPER) and digits > 0:
+                    p += 1
+                    exp_negative = False
+                    if p < end and (buf[p] == _MINUS or buf[p] == _PLUS):
+                        exp_negative = buf[p] == _MINUS
+                        p += 1
+                    exp_digits = 0
+                    while p < end and buf[p] != sep and exp_digits <= 3:
+                        ch = buf[p]
+                        if ch == _SPACE:
+                            while p < end and buf[p] == _SPACE:
+                                p += 1
+                            if p < end and buf[p] != sep:
+                                return i
+                            break
+                        if not _ZERO <= ch <= _NINE:
+                            return i
+                        exponent = exponent * 10 + (ch - _ZERO)
+                        exp_digits += 1
+                        p += 1
+                    if exp_digits == 0 or exp_digits > 3:
+                        return i
+                    if exp_negative:
+                        exponent = -exponent
+                    break
                 else:
                     return i
                 p += 1
             if digits == 0 or digits > MAX_DIGITS:
                 return i
-            value = m / pow10[max(decimals, 0)]
+            scale = exponent - max(decimals, 0)
+            if scale < -MAX_EXACT_POWER or scale > MAX_EXACT_POWER or (scale != 0 and m > MAX_EXACT_INT):
+                return i
+            value = m * pow10[scale] if scale >= 0 else m / pow10[-scale]
             out[i, c] = -value if negative else value
             if p < end:
                 p += 1          # the separator

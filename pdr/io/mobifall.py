@@ -22,7 +22,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
-from pdr.io.text import check_increasing_rows, find_member, head, parse_float_rows, read_text, strip_gz, timestamps_ns
+from pdr.io.text import (
+    check_increasing_rows,
+    decode_text,
+    find_member,
+    head,
+    numeric_rows,
+    parse_float_rows,
+    read_bytes,
+    strip_gz,
+    timestamps_ns,
+)
 from pdr.recording import DeviceInfo, GroundTruth, Labels, Recording, SensorStream
 
 FORMAT = "mobifall"
@@ -128,7 +138,8 @@ def _activity_code(activity: str) -> str:
 
 def _read_file(p: Path) -> tuple[str, dict[str, str], NDArray[np.int64], NDArray[np.float64]]:
     source = str(p)
-    lines = read_text(p).splitlines()
+    raw = read_bytes(p)
+    lines = decode_text(raw, source).splitlines()
     header: dict[str, str] = {}
     data_start = None
     for number, line in enumerate(lines, start=1):
@@ -145,16 +156,20 @@ def _read_file(p: Path) -> tuple[str, dict[str, str], NDArray[np.int64], NDArray
     if data_start is None:
         raise InputError("no '@DATA' line: not a MobiFall file", source=source)
     kind = _kind_of(p, lines[:data_start], source)
-    rows: list[list[str]] = []
-    numbers: list[int] = []
-    for number in range(data_start + 1, len(lines) + 1):
-        line = lines[number - 1]
-        if line.strip():
-            rows.append(line.split(","))
-            numbers.append(number)
-    if not rows:
-        raise InputError("no samples after '@DATA'", source=source)
-    arr = parse_float_rows(rows, numbers, source, FIELDS)
+    fast = numeric_rows(raw, len(FIELDS), skip_lines=data_start)
+    if fast is not None and fast[0].shape[0]:
+        arr, numbers = fast[0], fast[1].tolist()
+    else:                                   # line by line: names the bad line and field
+        rows: list[list[str]] = []
+        numbers = []
+        for number in range(data_start + 1, len(lines) + 1):
+            line = lines[number - 1]
+            if line.strip():
+                rows.append(line.split(","))
+                numbers.append(number)
+        if not rows:
+            raise InputError("no samples after '@DATA'", source=source)
+        arr = parse_float_rows(rows, numbers, source, FIELDS)
     check_increasing_rows(arr[:, 0], numbers, source, "timestamp_ns")
     return kind, header, timestamps_ns(arr[:, 0], source, "timestamp_ns", line_numbers=numbers), arr[:, 1:4]
 

@@ -43,7 +43,16 @@ from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.io.android import rotation_vector_to_q_nb
-from pdr.io.text import check_increasing_rows, head, parse_float_rows, read_text, strip_gz, timestamps_ns
+from pdr.io.text import (
+    check_increasing_rows,
+    decode_text,
+    head,
+    parse_float_rows,
+    read_bytes,
+    strip_gz,
+    timestamps_ns,
+    utf8_lines,
+)
 from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, SensorStream
 
 FORMAT = "ms_indoor"
@@ -81,7 +90,19 @@ def read(path: str | Path) -> Recording:
     p = Path(path)
     if p.is_dir():
         raise InputError("a Microsoft indoor-location trace is a single .txt file, not a folder", source=str(p))
-    source = str(p)
+    raw = read_bytes(p)
+    parsed = _parse_fast(raw)
+    return _assemble(p, parsed if parsed is not None else _parse_exact(str(p), raw))
+
+
+#: Per record tag: its (N, fields) numbers and the 1-based file line of every row.
+_Rows = dict[str, tuple[NDArray[np.float64], list[int]]]
+
+
+def _parse_exact(source: str, raw: bytes) -> tuple[_Rows, dict[str, int], dict[str, str], list[str]]:
+    """The records read line by line: rows per tag, ignored record counts, ``#`` metadata and warnings.
+    :class:`InputError` naming the line and field of anything malformed (module docstring).
+    """
     wanted = (*SENSOR_RECORDS, "TYPE_WAYPOINT")
     rows: dict[str, list[list[str]]] = {tag: [] for tag in wanted}
     numbers: dict[str, list[int]] = {tag: [] for tag in wanted}
@@ -90,7 +111,7 @@ def read(path: str | Path) -> Recording:
     warnings: list[str] = []
     run_on_lines = 0
     dropped: list[int] = []
-    for number, line in enumerate(read_text(p).splitlines(), start=1):
+    for number, line in enumerate(decode_text(raw, source).splitlines(), start=1):
         if not line.strip():
             continue
         if line[0] == "#":
@@ -113,7 +134,7 @@ def read(path: str | Path) -> Recording:
                 ignored[tag] = ignored.get(tag, 0) + 1
                 continue
             numeric = [fields[0], *fields[2:]]
-            expected = len(SENSOR_RECORDS[tag][1]) if tag in SENSOR_RECORDS else len(WAYPOINT_FIELDS)
+            expected = len(_fields_of(tag))
             if len(pieces) > 1 and k < len(pieces) - 1 and not _is_clean(numeric, expected):
                 dropped.append(number)  # the fragment that lost its end to the run-on
                 continue
@@ -124,12 +145,130 @@ def read(path: str | Path) -> Recording:
     if dropped:
         warnings.append(f"dropped {len(dropped)} malformed fragment(s) of run-on lines (lines "
                         f"{', '.join(str(n) for n in dropped[:10])}{', ...' if len(dropped) > 10 else ''})")
-    streams: dict[str, SensorStream] = {}
-    for tag, (kind, names) in SENSOR_RECORDS.items():
-        if not rows[tag]:
+    arrays = {tag: (parse_float_rows(rows[tag], numbers[tag], source, _fields_of(tag)), numbers[tag])
+              for tag in wanted if rows[tag]}
+    return arrays, ignored, meta_header, warnings
+
+
+def _fields_of(tag: str) -> tuple[str, ...]:
+    return SENSOR_RECORDS[tag][1] if tag in SENSOR_RECORDS else WAYPOINT_FIELDS
+
+
+def _parse_fast(raw: bytes) -> tuple[_Rows, dict[str, int], dict[str, str], list[str]] | None:
+    """What :func:`_parse_exact` gives, by array operations on the bytes (:class:`~pdr.io.text.Lines`), or None.
+
+    Records are told apart by the field between their first two tabs, the numbers parsed in one pass per record
+    kind (:meth:`~pdr.io.text.Lines.numbers`). None for anything the exact path treats otherwise or refuses
+    (text that is not UTF-8, unusual line breaks, run-on lines, a record not starting with a digit, a line
+    without a tab, a bad number or field count): that path then reads it or names the line and field.
+    """
+    lines = utf8_lines(raw)
+    if lines is None:
+        return None
+    buf, start, length = lines.buf, lines.start, lines.length
+    end = start + length
+    first = buf[start]                                      # the LF ending the previous line when a line is empty
+    comment = (length > 0) & (first == ord("#"))
+    record = np.flatnonzero((length > 0) & ~comment)
+    if not np.all((buf[start[record]] >= ord("0")) & (buf[start[record]] <= ord("9"))):
+        return None                                         # blank-looking or malformed lines: the exact path
+    tabs = np.flatnonzero(buf == ord("\t"))
+    k = np.searchsorted(tabs, start[record])
+    last = np.append(tabs, buf.size)                        # a sentinel past every line
+    t1 = last[k]                                            # the tab after the timestamp
+    if np.any(t1 >= end[record]):
+        return None                                         # a record without a tab: the exact path names it
+    t2 = np.minimum(last[np.minimum(k + 1, tabs.size)], end[record])      # the tab (or line end) after the tag
+    words = _words(buf)
+    if _run_on(words, tabs, start[record], end[record]).any():
+        return None
+    pos, size = t1 + 1, t2 - t1 - 1                         # each record's tag: buf[pos:pos + size]
+    arrays: _Rows = {}
+    matched = np.zeros(record.size, bool)
+    for name in (*SENSOR_RECORDS, "TYPE_WAYPOINT"):
+        cand = np.flatnonzero(size == len(name))
+        sel = cand[_equal(words, pos[cand], name.encode())]
+        if not sel.size:
             continue
-        arr = parse_float_rows(rows[tag], numbers[tag], source, names)
-        arr, lines = _drop_repeated_times(arr, numbers[tag], source, tag, warnings)
+        matched[sel] = True
+        rows = record[sel]
+        ncol = len(_fields_of(name))
+        t = lines.numbers(start[rows], t1[sel] - start[rows], 1, b"\t")
+        v = lines.numbers(t2[sel] + 1, end[rows] - t2[sel] - 1, ncol - 1, b"\t", trailing_separator=True)
+        if t is None or v is None:
+            return None
+        arrays[name] = (np.column_stack([t, v]), (rows + 1).tolist())
+    ignored = _ignored_tags(buf, words, pos[~matched], size[~matched])
+    if ignored is None:
+        return None
+    order = (*SENSOR_RECORDS, "TYPE_WAYPOINT")
+    arrays = {tag: arrays[tag] for tag in order if tag in arrays}
+    meta_header: dict[str, str] = {}
+    for i in np.flatnonzero(comment).tolist():
+        _parse_meta(lines.text(i).decode("utf-8"), meta_header)
+    return arrays, ignored, meta_header, []
+
+
+def _words(buf: NDArray[np.uint8]) -> NDArray[np.uint64]:
+    """``words[i]``: the eight bytes ``buf[i:i + 8]`` (zeros past the end) as one little-endian uint64."""
+    padded = np.concatenate([buf, np.zeros(8, np.uint8)])
+    return np.ndarray((buf.size,), dtype="<u8", buffer=padded, strides=(1,))
+
+
+def _low_bytes(n: NDArray[np.int64]) -> NDArray[np.uint64]:
+    """Masks keeping the ``n`` (0..8) low bytes of a uint64."""
+    return np.where(n >= 8, np.uint64(2**64 - 1), (np.uint64(1) << (np.uint64(8) * np.minimum(n, 7).astype(np.uint64)))
+                    - np.uint64(1)).astype(np.uint64)
+
+
+def _equal(words: NDArray[np.uint64], pos: NDArray[np.int64], text: bytes) -> NDArray[np.bool_]:
+    """Per position: do the ``len(text)`` bytes from there equal ``text``? Eight bytes per comparison."""
+    ok = np.ones(pos.size, bool)
+    for j in range(0, len(text), 8):
+        chunk = text[j:j + 8]
+        mask = _low_bytes(np.array([len(chunk)]))[0]
+        ok &= (words[pos + j] & mask) == np.uint64(int.from_bytes(chunk, "little"))
+    return ok
+
+
+def _ignored_tags(buf: NDArray[np.uint8], words: NDArray[np.uint64], pos: NDArray[np.int64],
+                  size: NDArray[np.int64]) -> dict[str, int] | None:
+    """Count per distinct tag ``buf[pos:pos + size]``, in the order of first appearance.
+
+    Tags are grouped by their length and first and last eight bytes, longer ones checked byte by byte: None when
+    two different tags share a group (the exact path counts them then).
+    """
+    first = words[pos] & _low_bytes(size)
+    last = np.where(size > 8, words[np.maximum(pos + size - 8, 0)], np.uint64(0))
+    key = np.column_stack([size.astype(np.uint64), first, last])
+    _, first_at, inverse, counts = np.unique(key, axis=0, return_index=True, return_inverse=True, return_counts=True)
+    inverse = inverse.ravel()
+    out: dict[str, int] = {}
+    for g in np.argsort(first_at, kind="stable").tolist():
+        i = int(first_at[g])
+        text = buf[pos[i]:pos[i] + size[i]].tobytes()
+        if size[i] > 16 and not _equal(words, pos[inverse == g], text).all():
+            return None
+        out[text.decode("utf-8")] = int(counts[g])
+    return out
+
+
+def _run_on(words: NDArray[np.uint64], tabs: NDArray[np.int64], start: NDArray[np.int64],
+            end: NDArray[np.int64]) -> NDArray[np.bool_]:
+    """Per line ``buf[start:end]``: does a tab followed by ``TYPE_`` occur in it more than once (a run-on line)?"""
+    marker = tabs[(words[tabs] & np.uint64(2**48 - 1)) == np.uint64(int.from_bytes(b"\tTYPE_", "little"))]
+    return np.asarray(np.searchsorted(marker, end) - np.searchsorted(marker, start) > 1)
+
+
+def _assemble(p: Path, parsed: tuple[_Rows, dict[str, int], dict[str, str], list[str]]) -> Recording:
+    """The recording of the parsed records (either path): streams, waypoint truth, metadata."""
+    source = str(p)
+    arrays, ignored, meta_header, warnings = parsed
+    streams: dict[str, SensorStream] = {}
+    for tag, (kind, _) in SENSOR_RECORDS.items():
+        if tag not in arrays:
+            continue
+        arr, lines = _drop_repeated_times(*arrays[tag], source, tag, warnings)
         t_ns = timestamps_ns(arr[:, 0], source, "timestamp_ms", multiplier=1_000_000, line_numbers=lines)
         values = rotation_vector_to_q_nb(arr[:, 1:4]) if kind == "orientation" else arr[:, 1:4]
         streams[kind] = SensorStream(kind, t_ns, values)
@@ -138,18 +277,17 @@ def read(path: str | Path) -> Recording:
                          "indoor-location trace", source=source)
     firsts = [int(s.t_ns[0]) for s in streams.values()]
     truth = GroundTruth()
-    if rows["TYPE_WAYPOINT"]:
-        wp = parse_float_rows(rows["TYPE_WAYPOINT"], numbers["TYPE_WAYPOINT"], source, WAYPOINT_FIELDS)
+    if "TYPE_WAYPOINT" in arrays:
+        wp, wp_lines = arrays["TYPE_WAYPOINT"]
         back = np.flatnonzero(np.diff(wp[:, 0]) < 0)
         if back.size:
             i = int(back[0]) + 1
             raise InputError(f"waypoint time goes backwards ({wp[i - 1, 0]:.0f} then {wp[i, 0]:.0f})",
-                             source=source, line=numbers["TYPE_WAYPOINT"][i], field="timestamp_ms")
-        wp_ns = timestamps_ns(wp[:, 0], source, "timestamp_ms", multiplier=1_000_000,
-                              line_numbers=numbers["TYPE_WAYPOINT"])
+                             source=source, line=wp_lines[i], field="timestamp_ms")
+        wp_ns = timestamps_ns(wp[:, 0], source, "timestamp_ms", multiplier=1_000_000, line_numbers=wp_lines)
         firsts.append(int(wp_ns[0]))
     t0_ns = min(firsts)
-    if rows["TYPE_WAYPOINT"]:
+    if "TYPE_WAYPOINT" in arrays:
         floor = floor_number(meta_header.get("FloorName", ""))
         truth = GroundTruth(positions=PositionTruth(
             t_s=(wp_ns - t0_ns) / 1e9, pos_m=np.column_stack([wp[:, 1:3], np.zeros(len(wp))]),

@@ -30,17 +30,18 @@ from collections.abc import Callable, Mapping
 from functools import cache
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import jsonschema
 import numpy as np
-from referencing import Registry, Resource
 
 from pdr.errors import InputError
 from pdr.io.bundle import Bundle, is_zip
 from pdr.io.csvtable import parse_table
 from pdr.io.text import decode_text, head, read_bytes
 from pdr.recording import STREAM_KINDS, DeviceInfo, GroundTruth, Labels, PositionTruth, Recording, SensorStream
+
+if TYPE_CHECKING:   # jsonschema costs about 0.5 s to import: only when a document is validated
+    import jsonschema
 
 FORMAT = "native"
 DESCRIPTION = "pdr native: JSON batch (pdr-batch/1) or folder/zip of CSVs with meta.json (pdr-native/1)"
@@ -72,6 +73,8 @@ def batch_schema() -> dict[str, Any]:
 @cache
 def _validator(name: str) -> jsonschema.protocols.Validator:
     """Validator for one schema file; ``$ref`` to the other schema file of this package resolves locally."""
+    import jsonschema
+    from referencing import Registry, Resource
     registry: Registry = Registry().with_resources(
         (_schema(n)["$id"], Resource.from_contents(_schema(n))) for n in ("batch.schema.json", "folder.schema.json"))
     cls = jsonschema.validators.validator_for(_schema(name))
@@ -108,7 +111,8 @@ def validate_batch(obj: Any, *, source: str = "batch") -> None:
         for kind, s in streams.items():
             small[kind] = _stream_skeleton(kind, s, where)
         skeleton = {**obj, "streams": small}
-    error = jsonschema.exceptions.best_match(_validator("batch.schema.json").iter_errors(skeleton))
+    from jsonschema.exceptions import best_match
+    error = best_match(_validator("batch.schema.json").iter_errors(skeleton))
     if error is not None:
         path = list(error.absolute_path)
         if len(path) >= 4 and path[0] == "streams" and (path[1], path[2]) in where and path[3] == 0:
@@ -120,7 +124,8 @@ def validate_folder_meta(obj: Any, *, source: str = "meta.json") -> None:
     """Check a decoded folder ``meta.json`` against its schema; :class:`InputError` naming the JSON path."""
     if not isinstance(obj, dict):
         raise InputError(f"meta.json must be a JSON object, got {type(obj).__name__}", source=source, field="$")
-    error = jsonschema.exceptions.best_match(_validator("folder.schema.json").iter_errors(obj))
+    from jsonschema.exceptions import best_match
+    error = best_match(_validator("folder.schema.json").iter_errors(obj))
     if error is not None:
         raise _schema_error(error, list(error.absolute_path), source)
 

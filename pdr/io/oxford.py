@@ -35,7 +35,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
-from pdr.io.text import find_member, head, parse_float_rows, read_text, strip_gz, timestamps_ns
+from pdr.io.text import (
+    decode_text,
+    find_member,
+    head,
+    numeric_rows,
+    parse_float_rows,
+    read_bytes,
+    read_text,
+    strip_gz,
+    timestamps_ns,
+)
 from pdr.recording import DeviceInfo, GroundTruth, Recording, SensorStream
 
 FORMAT = "oxford"
@@ -115,10 +125,15 @@ def read(path: str | Path) -> Recording:
 
 
 def _csv_rows(path: Path, columns: tuple[str, ...]) -> tuple[NDArray[np.float64], list[int]]:
+    """The numbers of a headerless CSV file and the line of every row (array path; line by line on bad input)."""
     source = str(path)
+    raw = read_bytes(path)
+    fast = numeric_rows(raw, len(columns))
+    if fast is not None and fast[0].shape[0]:
+        return fast[0], fast[1].tolist()
     rows: list[list[str]] = []
     numbers: list[int] = []
-    for number, line in enumerate(read_text(path).splitlines(), start=1):
+    for number, line in enumerate(decode_text(raw, source).splitlines(), start=1):
         if line.strip():
             rows.append(line.split(","))
             numbers.append(number)

@@ -87,6 +87,10 @@ _UNUSUAL_BREAKS = (b"\r", b"\x0b", b"\x0c", b"\x1c", b"\x1d", b"\x1e")
 _NEWLINE = 10
 
 
+#: Ranges :meth:`Lines.numbers` converts with numpy before it leaves a text to the line-by-line path (or 2 %).
+MAX_EXACT_ROWS = 64
+
+
 @dataclass(frozen=True)
 class Lines:
     """The lines of an ASCII text as byte offsets, for readers that classify and parse lines with array operations.
@@ -119,6 +123,46 @@ class Lines:
         a = int(self.start[i])
         return self.buf[a:a + int(self.length[i])].tobytes()
 
+    def numbers(self, start: NDArray[np.int64], length: NDArray[np.int64], ncol: int, sep: bytes, *,
+                trailing_separator: bool = False) -> NDArray[np.float64] | None:
+        """(N, ncol) float64 of the ``sep``-separated numbers in the byte ranges ``buf[start:start + length]``.
+
+        Plain decimals go through the compiled one-pass parser (:mod:`pdr.io.decimal_kernel`); a range it does
+        not take (an exponent, more than 15 digits, ...) is converted by numpy from its text, as
+        :func:`parse_float_rows` converts it. None when a range has the wrong number of fields, a field is not a
+        number or a value is not finite: the caller's line-by-line path names the line and field. None too when
+        more than :data:`MAX_EXACT_ROWS` or 2 % of the ranges need numpy: that path is as fast then.
+        """
+        from pdr.io.decimal_kernel import parse_lines
+        out = np.empty((start.size, ncol))
+        if np.any(length < 0):
+            return None
+        done = 0
+        budget = max(MAX_EXACT_ROWS, start.size // 50)
+        while done < start.size:
+            bad = parse_lines(self.buf, start[done:], length[done:], ncol, trailing_separator, sep[0], out[done:])
+            if bad < 0:
+                break
+            i = done + bad
+            budget -= 1
+            if budget < 0:
+                return None         # mostly out of the kernel's form: the line-by-line path is as fast
+            text = self.buf[start[i]:start[i] + length[i]].tobytes().decode("utf-8")
+            if trailing_separator and text.endswith(sep.decode()):
+                text = text[:-1]
+            parts = text.split(sep.decode())
+            if len(parts) != ncol:
+                return None
+            try:
+                row = np.array(parts, dtype=np.float64)
+            except ValueError:
+                return None
+            if not np.all(np.isfinite(row)):
+                return None
+            out[i] = row
+            done = i + 1
+        return out
+
     def fields(self, mask: NDArray[np.bool_], ncol: int, skip_bytes: int = 0, sep: bytes = b";", *,
                trailing_separator: bool = False) -> NDArray[np.float64] | None:
         """(N, ncol) float64 of the ``sep``-separated plain decimals of the selected lines after their first
@@ -143,6 +187,11 @@ def ascii_lines(raw: bytes) -> Lines | None:
     """
     if not raw.isascii() or b"\x00" in raw:
         return None
+    return _split_lines(raw)
+
+
+def _split_lines(raw: bytes) -> Lines | None:
+    """:class:`Lines` of a text without NUL bytes whose only line breaks are LF and CR LF (else None)."""
     if b"\r" in raw:
         raw = raw.replace(b"\r\n", b"\n")
     if any(c in raw for c in _UNUSUAL_BREAKS):
@@ -151,6 +200,45 @@ def ascii_lines(raw: bytes) -> Lines | None:
     newline = np.flatnonzero(buf == _NEWLINE)
     start = newline[:-1] + 1
     return Lines(buf, start, newline[1:] - start)
+
+
+#: UTF-8 encodings of the line breaks of :meth:`str.splitlines` beyond ASCII (NEL, LINE and PARAGRAPH SEPARATOR).
+_UNICODE_BREAKS = (b"\xc2\x85", b"\xe2\x80\xa8", b"\xe2\x80\xa9")
+_BOM = b"\xef\xbb\xbf"
+
+
+def utf8_lines(raw: bytes) -> Lines | None:
+    """The :class:`Lines` of a UTF-8 text (a BOM dropped) whose lines are those :func:`decode_text` and
+    :meth:`str.splitlines` give, or None when the exact line-by-line path must read it: text that is not UTF-8
+    (:func:`decode_text` then takes it as Latin-1), NUL bytes, line breaks other than LF and CR LF.
+    """
+    if raw.isascii():
+        return ascii_lines(raw)
+    if raw.startswith(_BOM):
+        raw = raw[len(_BOM):]
+    if b"\x00" in raw or any(c in raw for c in _UNICODE_BREAKS):
+        return None
+    try:
+        raw.decode("utf-8")
+    except UnicodeDecodeError:
+        return None
+    return _split_lines(raw)
+
+
+def numeric_rows(raw: bytes, ncol: int, sep: bytes = b",", *, skip_lines: int = 0
+                 ) -> tuple[NDArray[np.float64], NDArray[np.int64]] | None:
+    """(N, ncol) numbers of the non-empty lines (after the first ``skip_lines``) of a text of ``sep``-separated
+    numbers and their 1-based line numbers, by :meth:`Lines.numbers`: the values :func:`parse_float_rows` gives
+    for the fields ``str.split`` cuts. None when a reader's line-by-line path must read the text (see
+    :func:`utf8_lines`, :meth:`Lines.numbers`).
+    """
+    lines = utf8_lines(raw)
+    if lines is None:
+        return None
+    rows = np.flatnonzero(lines.length > 0)
+    rows = rows[rows >= skip_lines]
+    arr = lines.numbers(lines.start[rows], lines.length[rows], ncol, sep)
+    return None if arr is None else (arr, rows + 1)
 
 
 def parse_float_rows(rows: Sequence[Sequence[str]], line_numbers: Sequence[int], source: str,

@@ -14,14 +14,18 @@ import csv
 import io
 import json
 import math
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any
 
 from flask import Blueprint, Response, jsonify, request
+from sqlalchemy import func, select
 
 from pdr.frames import local_enu_to_geodetic
 from pdr.phone.heading_smoother import smooth_track
 from pdr.phone.track_schema import TRACK_COLUMNS
+from server import db
 from server.api import current_user, services
 from server.errors import APIError
 
@@ -71,13 +75,49 @@ def track_points(session_id: str, device: str | None, since: float | None, headi
     ``heading="smoothed"`` smooths the whole stored track before taking the rows after ``since`` (module doc).
     """
     store = services().store
-    points = store.track(session_id, device, None if heading == "smoothed" else since)
-    rows = [{c: _clean(getattr(p, c)) for c in TRACK_COLUMNS} | {"device": p.device_role, "provisional": p.provisional}
-            for p in points]
     if heading != "smoothed":
-        return rows, None
-    rows, smoothing = _smoothed(rows, store.events(session_id, "step"))
-    return ([r for r in rows if r["t_s"] > since] if since is not None else rows), smoothing
+        return _rows(store.track(session_id, device, since)), None
+    key = (str(store.engine.url), session_id, device, _results_version(store.engine, session_id))
+    with _SMOOTHED_LOCK:
+        hit = _SMOOTHED.get(key)
+        if hit is not None:
+            _SMOOTHED.move_to_end(key)
+    if hit is None:
+        hit = _smoothed(_rows(store.track(session_id, device, None)), store.events(session_id, "step"))
+        with _SMOOTHED_LOCK:
+            _SMOOTHED[key] = hit
+            while len(_SMOOTHED) > SMOOTHED_CACHE_SIZE:
+                _SMOOTHED.popitem(last=False)
+    rows, smoothing = hit
+    return ([r for r in rows if r["t_s"] > since] if since is not None else list(rows)), smoothing
+
+
+#: Smoothed tracks kept (:func:`track_points`): the sessions being watched, a few thousand rows each.
+SMOOTHED_CACHE_SIZE = 8
+#: (database URL, session id, device, results version) -> the smoothed rows and what the smoother did. The rows are
+#: shared between answers: read them, never change them.
+_SMOOTHED: OrderedDict[tuple[Any, ...], tuple[list[dict[str, Any]], Smoothing]] = OrderedDict()
+_SMOOTHED_LOCK = threading.Lock()
+
+
+def _results_version(engine: Any, session_id: str) -> tuple[Any, ...]:
+    """What changes whenever a session's stored results do: every commit of results (``Store.commit_results``)
+    stamps its processor state's ``updated_at`` and adds or replaces track rows (new ids), a reprocessing
+    (``Store.clear_results``) deletes the states and rows. One indexed query, whatever the session's length.
+    """
+    tp, ps = db.track_points, db.processor_states
+    q = select(*(select(agg).where(table.c.session_id == session_id).scalar_subquery()
+                 for table, agg in ((tp, func.count(tp.c.id)), (tp, func.max(tp.c.id)),
+                                    (ps, func.count(ps.c.device_role)), (ps, func.max(ps.c.updated_at)))))
+    with engine.connect() as conn:
+        row = conn.execute(q).first()
+    return tuple(row) if row is not None else ()
+
+
+def _rows(points: list[Any]) -> list[dict[str, Any]]:
+    """Stored track rows as dicts: the track columns (non-finite values as None), ``device``, ``provisional``."""
+    return [{c: _clean(getattr(p, c)) for c in TRACK_COLUMNS} | {"device": p.device_role, "provisional": p.provisional}
+            for p in points]
 
 
 def _clean(v: Any) -> Any:

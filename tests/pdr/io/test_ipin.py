@@ -298,9 +298,9 @@ def test_array_reader_equals_the_line_by_line_reader(tmp_path, crlf):
     assert np.signbit(fast.streams["acc"].values[0, 0])
 
 
-@pytest.mark.parametrize("line", ["ACCE;0.090;100.030;1e-3;0.2;9.8;3",            # exponent
-                                  "ACCE;0.090;100.030;0.1234567890123456;0.2;9.8;3",  # 16 digits
-                                  "ACCE;0.090;100.030; 0.1;0.2;9.8;3"])            # space
+@pytest.mark.parametrize("line", ["ACCE;0.090;100.030;1e-30;0.2;9.8;3",           # power of ten beyond 1e22
+                                  "ACCE;0.090;100.030;0.12345678901234567;0.2;9.8;3",  # 17 digits
+                                  "ACCE;0.090;100.030;+0.1;0.2;9.8;3"])            # plus sign
 def test_numbers_out_of_the_plain_form_take_the_exact_path_with_the_same_values(tmp_path, line):
     p = tmp_path / "unusual.txt"
     p.write_text(GOOD + line + "\n")
@@ -317,7 +317,9 @@ def test_plain_decimals_parse_to_the_values_float_gives() -> None:
         digits = int(rng.integers(1, 16))
         m = "".join(str(d) for d in rng.integers(0, 10, digits))
         dot = int(rng.integers(0, digits + 1))
-        texts.append(("-" if rng.random() < 0.5 else "") + m[:dot] + "." + m[dot:])
+        exponent = f"{'eE'[int(rng.integers(0, 2))]}{['', '-', '+'][int(rng.integers(0, 3))]}{rng.integers(0, 8)}"
+        texts.append(("-" if rng.random() < 0.5 else "") + m[:dot] + "." + m[dot:]
+                     + (exponent if rng.random() < 0.3 else ""))      # Java's Float.toString: 7.171631E-4
     rows = [texts[i:i + 3] for i in range(0, len(texts), 3)]
     lines = ascii_lines("\n".join(";".join(r) for r in rows).encode())
     assert lines is not None

@@ -173,3 +173,40 @@ def test_floor_names():
     assert ms_indoor.floor_number("2F") == 2.0
     assert ms_indoor.floor_number("B2") == -2.0
     assert np.isnan(ms_indoor.floor_number("L"))
+
+
+# ---------------------------------------------------------------------------------------------------------
+# array path against the line-by-line path
+
+def _same_parse(fast, exact) -> None:  # noqa: ANN001
+    assert fast is not None
+    assert list(fast[0]) == list(exact[0])
+    for tag, (arr, lines) in exact[0].items():
+        assert fast[0][tag][0].tobytes() == arr.tobytes() and list(fast[0][tag][1]) == lines
+    assert fast[1] == exact[1] and list(fast[1]) == list(exact[1])       # ignored records, first-seen order
+    assert fast[2] == exact[2] and fast[3] == exact[3]
+
+
+def test_array_path_equals_line_by_line_path(tmp_path):
+    text = ("\ufeff#\tSiteID:x\tSiteName:杭州大悦城\tFloorName:F4\n" + "\n".join([
+        WP1, "1574142012100\tTYPE_WIFI\tcafé\t-50", ACC1, "1574142012137\tTYPE_BEACON\t1\t2", RV1,
+        "1574142012140\tTYPE_GYROSCOPE_UNCALIBRATED\t0.81\t0.086\t0.14\t-0.0024\t-0.0022\t7.171631E-4\t3",
+        "", "1574142012141\tTYPE_GYROSCOPE\t1e-30\t0.1234567890123456\t-0\t3\t", ACC2,
+        "1574142012150\tTYPE_WIFI\tx\t-60", WP2]) + "\r\n").encode()
+    p = _write(tmp_path, text)
+    raw = p.read_bytes()
+    fast, exact = ms_indoor._parse_fast(raw), ms_indoor._parse_exact(str(p), raw)
+    _same_parse(fast, exact)
+    assert exact[1] == {"TYPE_WIFI": 2, "TYPE_BEACON": 1} and exact[2]["SiteName"] == "杭州大悦城"
+    assert np.signbit(fast[0]["TYPE_GYROSCOPE"][0][0, 3])
+
+
+@pytest.mark.parametrize("line", ["1574142012157\tTYPE_ACCELEROMETER\t0.1\t0.3\t9.8\t2\t\t",         # two tabs
+                                  "1574142012157\tTYPE_ACCELEROMETER\t0.1\tx\t9.8\t2",               # text
+                                  "1574142012157\tTYPE_ACCELEROMETER\t0.1\t0.3\t9.8",                # short
+                                  "1574142012157",                                                   # no tag
+                                  " 1574142012157\tTYPE_ACCELEROMETER\t0.1\t0.3\t9.8\t2",            # blank first
+                                  "1574142012157\tTYPE_ACCELEROMETER\t0.1\t0.3\t9.8\t2" + ACC2])     # run-on
+def test_array_path_leaves_unusual_lines_to_the_line_by_line_path(tmp_path, line):
+    raw = _write(tmp_path, [ACC1, line]).read_bytes()
+    assert ms_indoor._parse_fast(raw) is None

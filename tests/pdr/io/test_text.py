@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from pdr.errors import InputError
-from pdr.io.text import timestamps_ns
+from pdr.io.text import parse_float_rows, timestamps_ns
 
 
 def test_timestamps_ns_is_exact_for_integer_units_and_rounds_seconds():
@@ -18,3 +18,24 @@ def test_timestamps_far_in_the_future_or_past_are_an_input_error_naming_the_line
     with pytest.raises(InputError, match="out of range") as err:
         timestamps_ns(np.array([1.0, bad]), "log.txt", "time", line_numbers=[7, 8])
     assert (err.value.line, err.value.field) == (8, "time")
+
+
+def test_numeric_rows_equal_the_line_by_line_values() -> None:
+    from pdr.io.text import numeric_rows, utf8_lines
+    rng = np.random.default_rng(11)
+    values = np.concatenate([rng.normal(size=300) * 10.0 ** rng.integers(-9, 9, 300), [0.0, -0.0, 1e-30]])
+    fields = [f"{v:.9g}" for v in values] + [repr(float(v)) for v in values[:19]] + [" 7.171631E-4 ", "1_0"]
+    rows = [fields[i:i + 3] for i in range(0, len(fields), 3)]
+    body = [",".join(r) for r in rows]
+    text = "#skipped\n" + "\n".join(body[:50]) + "\r\n\n" + "\n".join(body[50:])
+    got = numeric_rows(text.encode(), 3, skip_lines=1)
+    assert got is not None
+    lines = text.splitlines()
+    numbers = [n for n in range(2, len(lines) + 1) if lines[n - 1]]
+    assert got[1].tolist() == numbers
+    assert got[0].tobytes() == parse_float_rows([lines[n - 1].split(",") for n in numbers], numbers, "t",
+                                                ["a", "b", "c"]).tobytes()
+    assert utf8_lines("\u00e9\n1\n".encode()) is not None
+    for bad in ("1,2,3\n4,5\n", "1,2,x\n", "1,2,nan\n", "1,2,3\n\u2028\n", "\u00e9\r1\n"):
+        assert numeric_rows(bad.encode(), 3) is None, bad
+    assert numeric_rows("1,2,3\n".encode("utf-16"), 3) is None

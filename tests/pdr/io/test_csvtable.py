@@ -1,0 +1,37 @@
+"""pdr.io.csvtable: the pandas fast path is taken on good tables and gives the values float() gives."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pdr.errors import InputError
+from pdr.io import csvtable
+
+
+def test_good_table_takes_the_fast_path_with_exact_values(monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = np.random.default_rng(5)
+    values = rng.normal(size=(400, 2)) * 10.0 ** rng.integers(-12, 12, (400, 2))
+    text = "t_ns,x,y\n" + "\n".join(f"{1_700_000_000_000_000_000 + i},{float(a)!r},{b:.17g}"
+                                     for i, (a, b) in enumerate(values))
+
+    def no_slow(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
+        raise AssertionError("the line-by-line path ran on a good table")
+
+    monkeypatch.setattr(csvtable, "_slow", no_slow)
+    table = csvtable.parse_table(text, "t.csv", int_columns=("t_ns",))
+    lines = text.splitlines()[1:]
+    assert table.column("t_ns").tolist() == [int(line.split(",")[0]) for line in lines]
+    expected = np.array([[float(f) for f in line.split(",")[1:]] for line in lines])
+    assert table.stack(["x", "y"]).tobytes() == expected.tobytes()
+
+
+def test_float_precision_option_by_pandas_version() -> None:
+    assert csvtable._float_precision("2.2.3") == "round_trip"
+    assert csvtable._float_precision("3.0.1") == "round_trip"
+    assert csvtable._float_precision("3.1.1") is None and csvtable._float_precision("4.0.0.dev0+12") is None
+
+
+def test_bad_value_still_named_by_the_line_by_line_path() -> None:
+    with pytest.raises(InputError, match="line 3.*'abc' is not a number|'abc' is not a number.*line 3"):
+        csvtable.parse_table("t,x\n1,2.5\n2,abc\n", "t.csv")
