@@ -412,7 +412,9 @@ def _gentle_hand_walk(seed: int, gain: float = 0.4):
     b, a_ = signal.butter(1, 0.3 / (FS / 2))
     slow = signal.filtfilt(b, a_, a, axis=0)
     rng = np.random.default_rng(seed)
-    return slow + gain * (a - slow) + rng.normal(0, 0.03, a.shape), int(rec.truth.step_times_s.size)
+    true_steps = rec.truth.step_times_s
+    assert true_steps is not None
+    return slow + gain * (a - slow) + rng.normal(0, 0.03, a.shape), int(true_steps.size)
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
