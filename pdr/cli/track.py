@@ -31,6 +31,7 @@ from pdr.phone.heading_smoother import smoothed_rows
 from pdr.phone.landmarks import Site
 from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
 from pdr.phone.step_length import StepLengthModel
+from pdr.phone.steps import StepConfig
 from pdr.phone.track_schema import write_csv
 from pdr.recording import Recording
 
@@ -158,6 +159,10 @@ def _register_eval(targets: argparse._SubParsersAction, name: str, helptext: str
     p.add_argument("--limit", type=int, default=0, help="only the first N files (0: all)")
     if name != "steps":
         _common_options(p)
+    else:
+        p.add_argument("--step", metavar="JSON", default="{}",
+                       help="step detector parameters (pdr.phone.steps.StepConfig fields) as a JSON object, e.g. "
+                            "'{\"floor_gain\": 1.0, \"slow_missed_steps\": true}' (the automatic peak-floor gain)")
     if name == "ipin":
         p.add_argument("--calibrate", default="none", choices=("none", "cross", "cross-rep"),
                        help="also score each log after recalibrating the step-length scale K (pdr calibrate) "
@@ -431,10 +436,25 @@ def eval_ms(args: argparse.Namespace) -> int:
 _STEPS_IN_NAME = re.compile(r"^(?P<carriage>[a-z]+)-(?P<n>\d+)-steps-")
 
 
+def _step_config(text: str) -> StepConfig:
+    """``--step JSON`` as a :class:`StepConfig` (unknown fields and bad JSON are refused naming them)."""
+    try:
+        fields = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"--step: not JSON ({exc})", field="step", source="command line") from None
+    if not isinstance(fields, dict):
+        raise InputError("--step must be a JSON object", field="step", source="command line")
+    try:
+        return StepConfig(**fields)
+    except TypeError as exc:
+        raise InputError(f"--step: {exc}", field="step", source="command line") from None
+
+
 def eval_steps(args: argparse.Namespace) -> int:
     """Step-count error per walk: Oxford step counter (truth in the recording), or folders named
     ``<carriage>-<N>-steps-<walker>`` (Sensor Logger exports); a plain peak detector's count beside each.
     """
+    step = _step_config(args.step)
     dirs = sorted({p.parent for p in _files(args.dir, ("accelerometer.csv", "accelerometer.csv.gz",
                                                        "Accelerometer.csv", "Accelerometer.csv.gz"))})
     if args.limit:
@@ -455,7 +475,7 @@ def eval_steps(args: argparse.Namespace) -> int:
         if true is None or true < 10:
             per.append({"walk": d.name, "error": f"no usable step truth ({true} steps)"})
             continue
-        events = PdrPipeline(PipelineConfig()).run(rec)
+        events = PdrPipeline(PipelineConfig(step=step)).run(rec)
         n = sum(1 for e in events if e.get("type") == "step")
         err = step_count_error_pct(n, int(true))
         place = rec.device.placement or (named["carriage"] if named else "unknown")

@@ -365,6 +365,7 @@ def test_on_beat_floor_counts_a_gentle_walk_only_when_enabled():
     acc = bumps(times, amps, times[-1] + 2.0, width_s=0.4)
     assert len(detect_steps(acc, FS)) < 10
     soft = detect_steps(acc, FS, StepConfig(beat_min_peak=0.3, beat_tolerance=0.35))
+    assert abs(len(detect_steps(acc, FS, StepConfig(floor_gain=1.0))) - times.size) <= 1   # automatic gain too
     assert abs(len(soft) - times.size) <= 1
 
 
@@ -383,3 +384,97 @@ def test_plain_peak_counter_counts_a_clean_walk():
     t, acc = walk(30, 1.8, 3.0)
     assert plain_step_count(t, acc) == 30
     assert plain_step_count(t[:1], acc[:1]) == 0
+
+
+#: The automatic gain of the peak floor and the slow walker's missed steps, on (off by default: StepConfig).
+GAIN = StepConfig(floor_gain=1.0, slow_missed_steps=True)
+
+
+def _gentle_hand_walk(seed: int, gain: float = 0.4):
+    """A simulated hand-held walk (pdr.sim: 2 s standing, 20 steps at 1.1 steps/s, 2 s standing) on a 50 Hz grid,
+    its dynamic part (specific force minus its 0.3 Hz low-pass) scaled by ``gain``: peaks of 0.4-0.5 m/s^2, as the
+    gentle real walkers of sensor_logger_walks; white sensor noise (0.03 m/s^2 per axis) added after the scaling.
+    """
+    from scipy import signal
+
+    from pdr.sim.scenario import parse_scenario
+    from pdr.sim.simulate import simulate
+
+    sc = parse_scenario({"placement": "hand", "segments": [
+        {"type": "stand", "duration_s": 2.0},
+        {"type": "walk", "duration_s": 18.0, "speed_mps": 0.35, "step_frequency_hz": 1.1},
+        {"type": "stand", "duration_s": 2.0}]})
+    rec = simulate(sc, seed)
+    acc = rec.stream("acc")
+    t = acc.t_ns / 1e9
+    grid = np.arange(t[0], t[-1], 1 / FS)
+    a = np.column_stack([np.interp(grid, t, np.asarray(acc.values)[:, i]) for i in range(3)])
+    b, a_ = signal.butter(1, 0.3 / (FS / 2))
+    slow = signal.filtfilt(b, a_, a, axis=0)
+    rng = np.random.default_rng(seed)
+    true_steps = rec.truth.step_times_s
+    assert true_steps is not None
+    return slow + gain * (a - slow) + rng.normal(0, 0.03, a.shape), int(true_steps.size)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_automatic_gain_counts_a_gentle_simulated_walk(seed):
+    acc, n_true = _gentle_hand_walk(seed)
+    steps = detect_steps(acc, FS, GAIN)
+    assert abs(len(steps) - n_true) <= 1
+    # The same walk with the fixed floor (min_peak) alone, the default: the steps do not pass.
+    assert len(detect_steps(acc, FS)) < n_true // 2
+
+
+def test_automatic_gain_does_not_count_standing_still():
+    # Standing in reading position (the gentle walk's stand segments only): noise peaks stay under noise_peak.
+    acc, _ = _gentle_hand_walk(4)
+    still = np.concatenate([acc[:90]] * 12)
+    assert len(detect_steps(still, FS, GAIN)) == 0
+
+
+def test_slow_walk_with_a_missed_step_goes_on():
+    # Steps 0.9 s apart (a gentle walker) with one step too soft to detect: a 1.8 s gap, longer than max_step_s.
+    # The confirmed bout infers the missed step instead of ending the walk (and losing its last four steps, too
+    # few to confirm a bout of their own).
+    times = 2.0 + 0.9 * np.arange(16)
+    amps = np.full(times.size, 2.0)
+    amps[11] = 0.0
+    acc = bumps(times, amps, times[-1] + 2.0, width_s=0.4)
+    assert abs(len(detect_steps(acc, FS, StepConfig(slow_missed_steps=True))) - times.size) <= 1
+    assert len(detect_steps(acc, FS)) <= times.size - 4      # default: the walk ends at the gap
+
+
+def test_state_saved_before_the_automatic_gain_loads():
+    _, acc = walk(30)
+    det = StepDetector(FS)
+    a, _ = det.update(acc[:400])
+    state = det.state_dict()
+    state["kernel"] = state["kernel"][:-1]            # the kernel state before the automatic gain
+    b, _ = StepDetector.from_state_dict(state).update(acc[400:], final=True)
+    assert len(a) + len(b) == 30
+
+
+def test_automatic_gain_chunked_with_state_round_trip_equals_one_batch():
+    acc, _ = _gentle_hand_walk(5)
+    one = detect_steps(acc, FS, GAIN)
+    det = StepDetector(FS, GAIN)
+    got, i = [], 0
+    while i < len(acc):
+        s, _ = det.update(acc[i:i + 37], final=i + 37 >= len(acc))
+        got.append(s.start_idx)
+        det = StepDetector.from_state_dict(json.loads(json.dumps(det.state_dict())))
+        i += 37
+    assert np.array_equal(np.concatenate(got), one.start_idx)
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("walk_name,true", [("inhand-20-steps-Zyf", 20), ("inhand-30-steps-Zyf", 30),
+                                            ("texting-30-steps-Zyf", 30), ("inpocket-27-steps-Matan", 27)])
+def test_real_short_walks_are_counted(walk_name, true):
+    from pdr.io import read_recording
+    from pdr.phone.pipeline import PdrPipeline, PipelineConfig
+
+    rec = read_recording(data_path("sensor_logger_walks", walk_name))
+    n = sum(1 for e in PdrPipeline(PipelineConfig(step=GAIN)).run(rec) if e.get("type") == "step")
+    assert abs(n - true) <= 2
