@@ -40,9 +40,9 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.signal import lfilter
 
 from pdr.errors import InputError
+from pdr.filters import iir
 
 FloatArray = NDArray[np.float64]
 
@@ -200,7 +200,7 @@ class HardIronEstimator:
         prev = np.hstack([s.info.ravel(), s.vec, [s.yy, s.rows]])
         decay = math.exp(-c.block_s / c.tau_s)
         # S_j = decay (S_{j-1} + x_j) for the complete blocks (lfilter: y_j = d x_j + d y_{j-1}, y_{-1} = prev).
-        sums = lfilter([decay], [1.0, -decay], x[:nc], axis=0, zi=decay * prev[None, :])[0] if nc else x[:0]
+        sums = iir.lfilter([decay], [1.0, -decay], x[:nc], decay * prev[None, :])[0] if nc else x[:0]
         applied = self._refresh(sums, ts)                                          # (nc, 3) after each block
         last = sums[-1] if nc else prev
         if nc < x.shape[0]:

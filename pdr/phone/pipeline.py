@@ -47,10 +47,10 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import signal
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
+from pdr.filters import iir
 from pdr.filters.ukf import SigmaPoints
 from pdr.frames import GRAVITY_MPS2, heading_deg_to_yaw, wrap_angle, yaw_to_heading_deg
 from pdr.phone.attitude import AttitudeConfig, AttitudeFilter, AttitudeState
@@ -325,7 +325,7 @@ class PdrPipeline:
         self.last_floor = float(c.initial_floor)
         self.notices: list[str] = []
         self._av_zi: FloatArray | None = None
-        b, a = signal.butter(1, 0.5 / (0.5 * c.rate_hz))
+        b, a = iir.butter_lowpass(1, 0.5 / (0.5 * c.rate_hz))
         self._av_ba = (b, a)
         self.n_input_samples = 0
         self.gyro_yaw = GyroYaw(c.rate_hz)      # the gyro's rotation about the vertical since the start
@@ -524,8 +524,8 @@ class PdrPipeline:
         av = self.history.f_n[self.history.sl(g0, g0 + t.size), 2] - GRAVITY_MPS2
         b, a = self._av_ba
         if self._av_zi is None:
-            self._av_zi = signal.lfilter_zi(b, a) * av[0]
-        dv, self._av_zi = signal.lfilter(b, a, av, zi=self._av_zi)
+            self._av_zi = iir.lfilter_zi(b, a) * av[0]
+        dv, self._av_zi = iir.lfilter(b, a, av, self._av_zi)
         out: list[Event] = []
         for s, e, direction in self.elevator.update(dv, np.zeros(dv.size, dtype=bool)):
             sl = self.history.sl(s, e + 1)

@@ -122,9 +122,9 @@ from typing import Any
 import numba
 import numpy as np
 from numpy.typing import NDArray
-from scipy import signal
 
 from pdr.errors import InputError
+from pdr.filters import iir
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -431,9 +431,9 @@ class StepDetector:
             if getattr(c, name) >= nyq:
                 raise InputError(f"cut-off {getattr(c, name)} Hz must be below the Nyquist frequency {nyq} Hz",
                                  field=name, source="step config")
-        self._b, self._a = signal.butter(2, c.cutoff_hz / nyq)
-        self._rb, self._ra = signal.butter(1, c.reference_hz / nyq)
-        self._gb, self._ga = signal.butter(1, c.gravity_hz / nyq)
+        self._b, self._a = iir.butter_lowpass(2, c.cutoff_hz / nyq)
+        self._rb, self._ra = iir.butter_lowpass(1, c.reference_hz / nyq)
+        self._gb, self._ga = iir.butter_lowpass(1, c.gravity_hz / nyq)
         self._zi: FloatArray | None = None      # (3, 2) component filter states
         self._rzi: FloatArray | None = None     # (1,) reference filter state
         self._gzi: FloatArray | None = None     # (3, 1) gravity filter states
@@ -653,24 +653,24 @@ class StepDetector:
         """Low-passed norm ``a_n`` (eq. 12) and reference level for a batch; advances the filter states."""
         acc = np.asarray(acc_b, dtype=np.float64)
         if self._zi is None:
-            zi0 = signal.lfilter_zi(self._b, self._a)
+            zi0 = iir.lfilter_zi(self._b, self._a)
             self._zi = np.outer(acc[0], zi0)
         af = np.empty_like(acc)
         for i in range(3):
-            af[:, i], self._zi[i] = signal.lfilter(self._b, self._a, acc[:, i], zi=self._zi[i])
+            af[:, i], self._zi[i] = iir.lfilter(self._b, self._a, acc[:, i], self._zi[i])
         an = np.sqrt(np.sum(af * af, axis=1))
         if self._rzi is None:
-            self._rzi = signal.lfilter_zi(self._rb, self._ra) * an[0]
-        ref, self._rzi = signal.lfilter(self._rb, self._ra, an, zi=self._rzi)
+            self._rzi = iir.lfilter_zi(self._rb, self._ra) * an[0]
+        ref, self._rzi = iir.lfilter(self._rb, self._ra, an, self._rzi)
         return an, ref
 
     def _gravity_dir(self, acc: FloatArray) -> FloatArray:
         """(N, 3) unit gravity direction in the device frame (slow low-pass of the components)."""
         if self._gzi is None:
-            self._gzi = np.outer(acc[0], signal.lfilter_zi(self._gb, self._ga))
+            self._gzi = np.outer(acc[0], iir.lfilter_zi(self._gb, self._ga))
         g = np.empty_like(acc)
         for i in range(3):
-            g[:, i], self._gzi[i] = signal.lfilter(self._gb, self._ga, acc[:, i], zi=self._gzi[i])
+            g[:, i], self._gzi[i] = iir.lfilter(self._gb, self._ga, acc[:, i], self._gzi[i])
         return g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-9)
 
     def update(self, acc_b: FloatArray, final: bool = False) -> tuple[Steps, FloatArray]:
