@@ -300,12 +300,13 @@ def test_the_model_check_counts_innovations_against_their_variances():
     # innovation squares sum to about their degrees of freedom; a drift the prior forbids inflates them.
     rng = np.random.default_rng(7)
     n, sigma = 400, math.radians(30)
-    t = np.arange(n) * 0.5
+    t = np.arange(n, dtype=np.float64) * 0.5
     meas = 0.3 + rng.normal(0, sigma, n)
     c = HeadingSmootherConfig(jump_deg=179.0)
     ok = check_model(t, np.zeros(n), meas, np.full(n, sigma), c, c.stationary_bias_sigma_deg)
     assert ok.dof == n - 1 and 0.8 < ok.nis / ok.dof < 1.2
-    drift = check_model(t, -math.radians(2.0) * t, meas, np.full(n, sigma), c, c.stationary_bias_sigma_deg)
+    gyro = np.asarray(-math.radians(2.0) * t, dtype=np.float64)
+    drift = check_model(t, gyro, meas, np.full(n, sigma), c, c.stationary_bias_sigma_deg)
     assert drift.nis / drift.dof > 3.0
 
 
