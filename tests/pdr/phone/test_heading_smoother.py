@@ -10,7 +10,7 @@ from pdr.errors import InputError
 from pdr.evaluation.scoring import landmark_errors
 from pdr.frames import heading_deg_to_yaw, wrap_angle, yaw_to_heading_deg
 from pdr.io.registry import read_recording
-from pdr.phone.heading_smoother import HeadingSmootherConfig, _forward, smooth_offsets, smooth_track
+from pdr.phone.heading_smoother import HeadingSmootherConfig, _forward, check_model, smooth_offsets, smooth_track
 from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
 from tests.conftest import data_path
 
@@ -238,3 +238,78 @@ def test_smoothing_improves_the_ipin_hand_held_tracks():
     p75_aligned = {k: float(np.percentile(np.concatenate(v), 75)) for k, v in aligned.items()}
     assert p75["smoothed"] < p75["causal"] - 0.1
     assert p75_aligned["smoothed"] < p75_aligned["causal"] - 0.8
+
+
+def _loop_walk(seed: int, n: int = 220, dt: float = 0.55):
+    """A turning-rich walk: loops of a 5 x 5 m room (a quarter turn every 5 steps, about 30 deg/s on average),
+    the magnetometer heading deflected as in :func:`route` plus 3 deg noise, a bias-free gyro (rad)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * dt
+    truth = 0.4 + np.where(np.arange(n) % 5 == 0, math.pi / 2, 0.0).cumsum()
+    gyro = truth + 1.0 + rng.normal(0, math.radians(0.5), n)
+    blocks = np.repeat(rng.normal(0, math.radians(12), n // 20 + 1), 20)[:n]
+    deflection = np.convolve(np.pad(blocks, (4, 0), mode="edge"), np.ones(5) / 5, mode="valid")
+    mag = truth + deflection + rng.normal(0, math.radians(3), n)
+    return t, truth, np.asarray(wrap_angle(gyro)), np.asarray(wrap_angle(mag))
+
+
+def _with_stationary_bias(rows, t, u, b_dps):
+    for r, tk in zip(rows, t, strict=True):
+        r["t_s"], r["up_time_s"], r["gyro_bias_dps"] = float(tk), (u * tk).tolist(), list(b_dps)
+    return rows
+
+
+def _mean_err_deg(rows, truth):
+    yaw = heading_deg_to_yaw(np.array([r["heading_deg"] for r in rows]))
+    return float(np.degrees(np.abs(wrap_angle(yaw - truth))).mean())
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_wrong_stationary_bias_on_a_turning_walk_falls_back_to_the_magnetometer_learnt_bias(seed):
+    # The attitude filter reported a bias of 2 deg/s about the vertical that the gyro does not have (the failure of
+    # Jakob_NoDist_Texting): removing it turns the gyro yaw by 2 deg/s. The likelihood-ratio test must reject the
+    # stationary prior, and the smoothed heading must then be no worse than the causal (magnetometer) one.
+    t, truth, gyro, mag = _loop_walk(seed)
+    u = np.array([0.0, 0.6, 0.8])
+    b_dps = [0.0, 1.0, 1.75]                                  # u . b = 2.0 deg/s
+    rows = _with_stationary_bias(_steps(mag, mag, gyro), t, u, b_dps)
+    out, summary = smooth_track(rows)
+    assert "stationary gyro bias estimate disagrees" in str(summary)
+    forced, _ = smooth_track(rows, HeadingSmootherConfig(consistency_p=1e-300))      # test never rejects
+    assert _mean_err_deg(out, truth) < 0.5 * _mean_err_deg(forced, truth)
+    assert _mean_err_deg(out, truth) <= _mean_err_deg(rows, truth)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_right_stationary_bias_on_a_straight_corridor_walk_keeps_the_stationary_prior(seed):
+    # Long straight legs (route: 12 quarter turns in 400 steps) and a stationary bias that is right: the test does
+    # not fire, and the track is the one of the stationary prior.
+    t, truth, gyro, mag = route(seed, bias_deg_s=0.0)
+    u = np.array([0.0, 0.6, 0.8])
+    b = np.radians([0.4, 0.3, 0.4])                           # u . b = 0.5 deg/s, present in the gyro
+    rows = _with_stationary_bias(_steps(mag, mag, np.asarray(wrap_angle(gyro + (u @ b) * t))), t, u,
+                                 np.degrees(b).tolist())
+    out, summary = smooth_track(rows)
+    assert "disagrees" not in str(summary) and "smoothed over 400 steps" in str(summary)
+    forced, _ = smooth_track(rows, HeadingSmootherConfig(consistency_p=1e-300))
+    assert [r["heading_deg"] for r in out] == [r["heading_deg"] for r in forced]
+
+
+def test_the_model_check_counts_innovations_against_their_variances():
+    # Offsets that are exactly the model's (constant, white measurement noise of the stated sigma): the normalised
+    # innovation squares sum to about their degrees of freedom; a drift the prior forbids inflates them.
+    rng = np.random.default_rng(7)
+    n, sigma = 400, math.radians(30)
+    t = np.arange(n, dtype=np.float64) * 0.5
+    meas = 0.3 + rng.normal(0, sigma, n)
+    c = HeadingSmootherConfig(jump_deg=179.0)
+    ok = check_model(t, np.zeros(n), meas, np.full(n, sigma), c, c.stationary_bias_sigma_deg)
+    assert ok.dof == n - 1 and 0.8 < ok.nis / ok.dof < 1.2
+    gyro = np.asarray(-math.radians(2.0) * t, dtype=np.float64)
+    drift = check_model(t, gyro, meas, np.full(n, sigma), c, c.stationary_bias_sigma_deg)
+    assert drift.nis / drift.dof > 3.0
+
+
+def test_consistency_p_is_checked():
+    with pytest.raises(InputError, match="consistency_p"):
+        HeadingSmootherConfig(consistency_p=1.5)
