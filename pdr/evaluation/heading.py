@@ -9,7 +9,7 @@ Walking direction (per step)
     steps whose true displacement is shorter than :data:`MIN_STEP_M` or undefined (hidden markers, the ends of
     the recording) are not scored. The estimate is the step's ``heading_deg`` (the direction the track moves),
     of the causal track and of the offline-smoothed one (``pdr track``'s default,
-    :func:`pdr.heading_smoother.smooth_track`). Figures: mean and median absolute error, share within 10 and
+    :func:`pdr.phone.heading_smoother.smooth_track`). Figures: mean and median absolute error, share within 10 and
     20 degrees, steps scored.
 Attitude (per mocap frame)
     The attitude filter's ``q_nb`` on the pipeline's grid (captured from the pipeline's own filter while it runs)

@@ -16,7 +16,7 @@ them; otherwise their variance is infinite, i.e. the rows are dropped. The varia
 computed over a trailing exponential window (time constant ``var_window_s``) instead of the centred
 window of the paper, so the filter is causal and can run online. The quaternion is renormalised after
 each update. The landmark row ``Delta UH = f(q)`` (eqs. 14-32) is applied once per step by
-:func:`landmark_update` (see :mod:`pdr.heading`).
+:func:`landmark_update` (see :mod:`pdr.phone.heading`).
 
 Gyro bias: while the user stands (quasi-static accelerometer, small spread of ``|a|`` and of the gyro for
 ``static_min_s``; a hand-held phone still trembles) gravity is fixed in the navigation frame, also in a moving
@@ -122,7 +122,7 @@ class AttitudeConfig:
         Time constant of the trailing exponential windows for the variances of eqs. 12-13 (s).
     alpha, beta, kappa
         Unscented transform parameters (eqs. 35-37; the paper's 1e-3, 2, 0), also used by the unscented
-        transforms of the landmark row and of the second UKF (:mod:`pdr.heading`). With the attitude
+        transforms of the landmark row and of the second UKF (:mod:`pdr.phone.heading`). With the attitude
         covariances met in practice (yaw sigma of a few degrees) the measurement functions are close to
         linear over the sigma-point spread, so alpha = 0.5 or 1 gives the same headings as 1e-3, and the
         UKF the same as the EKF (``pdr eval pocket-heading``, ``pdr eval ipin``).

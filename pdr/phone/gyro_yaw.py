@@ -1,6 +1,6 @@
 """Gyro yaw of a phone: its rotation about the vertical from the gyroscope alone, free of the geometric phase.
 
-The offline heading smoother (:mod:`pdr.heading_smoother`) needs, per step, the heading change the gyroscope saw,
+The offline heading smoother (:mod:`pdr.phone.heading_smoother`) needs, per step, the heading change the gyroscope saw,
 with neither the magnetometer's deflections nor a landmark's correction in it. Integrating the body rate's vertical
 component, ``int omega . u dt`` (``u`` the up direction in the device frame), is exact for a phone that only turns
 about the vertical, but not for one that also swings: a closed loop of attitudes (one gait cycle of a thigh, whose

@@ -2,18 +2,18 @@
 
 Why
     The causal hand-held/torso heading follows the magnetometer-referenced device yaw within seconds (the
-    attitude UKF's yaw noise is large there, :attr:`pdr.pipeline.PipelineConfig.device_heading_sigma_gyro`), so a
+    attitude UKF's yaw noise is large there, :attr:`pdr.phone.pipeline.PipelineConfig.device_heading_sigma_gyro`), so a
     building's steel deflects it by 10-25 degrees over whole corridors. The gyro alone keeps the shape of a route
     to a few degrees once its bias about the vertical is known, but that bias (0.2-0.4 deg/s on the IPIN 2023
-    phones, 1.8 deg/s on some walks; the stationary estimate of :mod:`pdr.attitude` misses it by up to 0.3 deg/s
+    phones, 1.8 deg/s on some walks; the stationary estimate of :mod:`pdr.phone.attitude` misses it by up to 0.3 deg/s
     when the user never stands still) turns it by tens of degrees within minutes, and a causal filter cannot tell
     the bias from a deflection until minutes of magnetometer data have passed (a causal version of this model,
     tried on the IPIN walks, was worse than the magnetometer heading). Once the whole walk is known, a
     fixed-interval smoother can: the magnetometer's deflections vary from place to place, the bias does not.
 
 Model (per step ``k`` at time ``t_k``, yaw in rad counter-clockwise from east)
-    ``psi_k = g_k + d_k`` where ``g_k`` is the gyro yaw of the step (:class:`pdr.pipeline.PdrPipeline` integrates the
-    gyro's rate about the vertical; its origin is arbitrary) and the state ``x = (d, beta)`` is the offset of the
+    ``psi_k = g_k + d_k`` where ``g_k`` is the gyro yaw of the step (:class:`pdr.phone.pipeline.PdrPipeline`
+    integrates the gyro's rate about the vertical; its origin is arbitrary) and the state ``x = (d, beta)`` is the offset of the
     gyro yaw and its drift rate (the gyro bias about the vertical, rad/s):
 
     - transition ``d_k = d_{k-1} + beta_{k-1} dt + w_d``, ``beta_k = beta_{k-1} + w_beta``: a random walk of the offset
@@ -27,7 +27,7 @@ Model (per step ``k`` at time ``t_k``, yaw in rad counter-clockwise from east)
     smoothed heading is ``g_k + d_k``.
 
     Stationary bias: when the user stood still at some time in the walk, the attitude filter measured the gyro bias
-    ``b`` (device frame, :mod:`pdr.attitude`), and the step events carry it (``gyro_bias_dps``) with the
+    ``b`` (device frame, :mod:`pdr.phone.attitude`), and the step events carry it (``gyro_bias_dps``) with the
     device-frame up direction integrated over the walk (``up_time_s``). The bias added ``up_time_s . b`` to the gyro
     yaw; the walk's last estimate is removed from ``g_k`` first and ``beta`` is then only what is left of it, with a
     prior of ``stationary_bias_sigma_deg`` instead of ``bias_sigma_deg``. Without it the magnetometer has to teach the
@@ -59,7 +59,7 @@ Model checks (:func:`smooth_track`)
 Track
     Positions are re-integrated with the causal step lengths,
     ``p_k = p_k^causal + sum_j L_j (u(psi_j) - u(psi_j^causal))`` over the steps since the last position fix (a site
-    landmark), so fixes and floors stay as they were (:func:`pdr.track.redo_steps`).
+    landmark), so fixes and floors stay as they were (:func:`pdr.phone.track.redo_steps`).
 
 Measured (``pdr eval ipin DIR --placement hand``, which scores the causal and the smoothed tracks). Parameters
 chosen on the repetition-01 files, where the landmark p75 stays within 3.78-3.89 m over sigma_mag 15-45 deg, either
@@ -67,13 +67,13 @@ random walk /3 to x3 and the bias prior 0.5-2 deg/s; the stationary bias prior t
 give 3.12, 3.15, 3.25, 3.50 m (3.86 m without the stationary bias). On the held-out repetition-02 files the
 landmark median/p75 goes from 2.30/3.51 m (causal) to 1.80/2.90 m, and with the first segment aligned from
 2.06/3.49 m to 1.24/2.07 m; on all 25 files from 2.38/3.83 to 1.89/3.04 m (aligned 2.08/3.73 to 1.36/2.34 m). (With
-the vertical rate integrated directly as the gyro yaw, before :mod:`pdr.gyro_yaw`: 1.88/3.10 and 1.35/2.15 m held
+the vertical rate integrated directly as the gyro yaw, before :mod:`pdr.phone.gyro_yaw`: 1.88/3.10 and 1.35/2.15 m held
 out, 1.97/3.13 and 1.44/2.39 m on all; without the stationary bias, 1.98/3.27 and 1.53/2.34 m held out.) What is
 left is mostly the deflection averaged over a whole walk (+18 deg on both walks of trial 3), which no
 magnetometer-referenced heading can see.
 
-Trouser pocket: ``m_k`` is the pocket step's causal heading, the RMPCA walking direction (:mod:`pdr.heading`), and the
-gyro yaw is that of a device axis (:mod:`pdr.gyro_yaw`; the vertical rate integrated directly would gain the
+Trouser pocket: ``m_k`` is the pocket step's causal heading, the RMPCA walking direction (:mod:`pdr.phone.heading`),
+and the gyro yaw is that of a device axis (:mod:`pdr.phone.gyro_yaw`; the vertical rate integrated directly would gain the
 swinging thigh's geometric phase, 1-2 deg per stride). The offset is the phone's yaw in the pocket relative to the
 walking direction, fixed while the phone stays put, so the smoother mostly removes the RMPCA's lag through turns; a
 walk-long bias of the RMPCA direction stays. Simulated pocket walks (``pdr eval pocket-heading --no-real``): mean
@@ -314,7 +314,7 @@ def _forward(t: FloatArray, z: FloatArray, r: FloatArray, jump: NDArray[np.bool_
 
 def smooth_track(steps: list[dict[str, Any]], config: HeadingSmootherConfig | None = None
                  ) -> tuple[list[dict[str, Any]], str | None]:
-    """Smoothed copies of a finished walk's step events (:mod:`pdr.pipeline`) and a one-line summary.
+    """Smoothed copies of a finished walk's step events (:mod:`pdr.phone.pipeline`) and a one-line summary.
 
     Steps of other placements, or without a gyro, are returned unchanged with the reason as the summary.
     The copies carry ``"smoothed": True``, the smoothed ``heading_deg`` and ``heading_sigma_deg`` and the
@@ -344,7 +344,7 @@ def smooth_track(steps: list[dict[str, Any]], config: HeadingSmootherConfig | No
     known = [s for s in out if s.get("gyro_bias_dps") is not None and s.get("up_time_s") is not None]
     if known:
         # The walk's last stationary bias estimate (device frame), removed from the gyro yaw: it added
-        # up_time . b to it (pdr.pipeline); the smoother then learns only the residual.
+        # up_time . b to it (pdr.phone.pipeline); the smoother then learns only the residual.
         b = np.radians(np.asarray(known[-1]["gyro_bias_dps"], dtype=np.float64))
         up_time = np.array([s.get("up_time_s") or [math.nan] * 3 for s in out], dtype=np.float64)
         if np.isfinite(up_time).all():

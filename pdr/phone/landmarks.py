@@ -29,7 +29,7 @@ A detected landmark is matched to the nearest site landmark of a compatible type
 within its radius; its heading interval gives ``UH_landmark`` (centre) with a standard deviation of a sixth
 of the width (three-sigma interval, Sec. 5) for both UKFs, and its position fixes the track. A flight of
 stairs is matched at its first step (which fixes the position) and then observed at every step the tree
-labels stairs (:class:`pdr.pipeline.PdrPipeline`). :func:`pdr.sim.site_document` writes the site
+labels stairs (:class:`pdr.phone.pipeline.PdrPipeline`). :func:`pdr.sim.site_document` writes the site
 description of a simulated scenario.
 """
 
@@ -145,7 +145,7 @@ class Site:
     attitude filter uses it instead of ``AttitudeConfig.mag_declination_deg``.
     ``grid_deg`` (deg, compass bearing clockwise from north of one of the building's main axes, optional): when
     given, the heuristic drift elimination of hand-held and torso headings snaps to this grid instead of learning
-    the walk's dominant directions (:class:`pdr.heading.StepDriftElimination`).
+    the walk's dominant directions (:class:`pdr.phone.heading.StepDriftElimination`).
     """
 
     name: str

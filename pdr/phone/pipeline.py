@@ -4,30 +4,30 @@ Stages per batch (each keeps its own state, so a session can be fed batch by bat
 :meth:`PdrPipeline.to_dict`, resumed with :meth:`PdrPipeline.from_dict`, and gives the same track as one
 big batch):
 
-1. :class:`pdr.grid.OnlineGrid`: acc, gyro, mag, baro on one uniform grid (``rate_hz``);
-   the magnetometer's hard-iron offset is learnt online from the gyro (:mod:`pdr.magcal`) and removed once
+1. :class:`pdr.phone.grid.OnlineGrid`: acc, gyro, mag, baro on one uniform grid (``rate_hz``);
+   the magnetometer's hard-iron offset is learnt online from the gyro (:mod:`pdr.phone.magcal`) and removed once
    significant; a site's ``declination_deg`` replaces the configured declination;
-2. :class:`pdr.steps.StepDetector` (seed 004 Sec. 3.2) on the accelerometer;
-3. :class:`pdr.attitude.AttitudeFilter` (seed 003 UKF, or the EKF baseline), run in segments that end
+2. :class:`pdr.phone.steps.StepDetector` (seed 004 Sec. 3.2) on the accelerometer;
+3. :class:`pdr.phone.attitude.AttitudeFilter` (seed 003 UKF, or the EKF baseline), run in segments that end
    where steps become known, so a landmark can update the attitude (eqs. 14-32) at a deterministic sample;
-4. per step: patterns and length (seed 004 eqs. 13-19), heading (:mod:`pdr.heading`: device heading +
+4. per step: patterns and length (seed 004 eqs. 13-19), heading (:mod:`pdr.phone.heading`: device heading +
    offset for hand-held/torso, improved RMPCA + second UKF for the trouser pocket; hand-held/torso headings
-   then pass the heuristic drift elimination :class:`pdr.heading.StepDriftElimination`), landmark label
-   (:mod:`pdr.landmarks`, with the neighbour-step correction, which delays each step by one step),
+   then pass the heuristic drift elimination :class:`pdr.phone.heading.StepDriftElimination`), landmark label
+   (:mod:`pdr.phone.landmarks`, with the neighbour-step correction, which delays each step by one step),
    site landmarks (a flight of stairs: position fix at its first step, heading rows of both UKFs at every
-   step of it), floor (:mod:`pdr.floors`), and the PDR position (:mod:`pdr.track`, eqs. 20-22);
-5. elevator rides from the vertical specific force (:class:`pdr.landmarks.ElevatorDetector`).
+   step of it), floor (:mod:`pdr.phone.floors`), and the PDR position (:mod:`pdr.phone.track`, eqs. 20-22);
+5. elevator rides from the vertical specific force (:class:`pdr.phone.landmarks.ElevatorDetector`).
 
 Events are plain dicts: ``{"type": "step", "t_s", "east_m", "north_m", "up_m", "floor", "heading_deg",
 "step_length_m", "turn_deg", "mode", ...}`` (``turn_deg``: the change of the step heading since the previous step
-of the walk, which shortens a turning step, :func:`pdr.step_length.turn_factor`; ``heading_raw_deg``, the heading
+of the walk, which shortens a turning step, :func:`pdr.phone.step_length.turn_factor`; ``heading_raw_deg``, the heading
 before the drift elimination, ``gyro_heading_deg``, the gyro's rotation about the vertical since the start with an
-arbitrary origin (:mod:`pdr.gyro_yaw`: no magnetometer, no landmark, no geometric phase of a swinging phone),
+arbitrary origin (:mod:`pdr.phone.gyro_yaw`: no magnetometer, no landmark, no geometric phase of a swinging phone),
 ``up_time_s``, the device-frame up direction integrated over the same time (s, so that ``up_time_s . b`` is what a
 constant gyro bias ``b`` added to it), ``gyro_bias_dps``, the attitude filter's stationary
 gyro bias estimate (deg/s, device frame; None before the first stationary period), ``position_fix`` and
 ``landmark_heading``: the inputs of the offline
-:mod:`pdr.heading_smoother`), ``{"type": "elevator", ...}``,
+:mod:`pdr.phone.heading_smoother`), ``{"type": "elevator", ...}``,
 ``{"type": "floor_change", ...}`` and ``{"type": "notice", "message"}`` (degraded inputs). ``t_s`` is on the
 log's own clock (seconds).
 
@@ -132,7 +132,7 @@ class PipelineConfig:
         pocket is turned by the thigh's own accelerations).
     drift_elimination
         Hand/torso: heuristic drift elimination of the step heading towards dominant directions learnt
-        from the walk (:class:`pdr.heading.StepDriftElimination`, parameters ``hde``).
+        from the walk (:class:`pdr.phone.heading.StepDriftElimination`, parameters ``hde``).
     """
 
     rate_hz: float = 50.0
@@ -479,7 +479,7 @@ class PdrPipeline:
         gyro = vals["gyro"] if "gyro" in kinds and n else None
         mag = vals["mag"] if "mag" in kinds and n else None
         if mag is not None and gyro is not None:
-            # Hard-iron offset learnt online from the rotation (pdr.magcal); applied only once significant.
+            # Hard-iron offset learnt online from the rotation (pdr.phone.magcal); applied only once significant.
             mag = self.magcal.update(mag, gyro, self.attitude.state.bias)
         mag_n = np.linalg.norm(mag, axis=1) if mag is not None else np.full(n, np.nan)
         if "baro" in kinds and n:
@@ -696,7 +696,7 @@ class PdrPipeline:
         if nxt is not None and self.prev_mode and nxt["t_start"] - rec["t_end"] < max_gap:
             mode = neighbour_correction(self.prev_mode, mode, nxt["mode"])
         on_stairs = mode in ("stairs_up", "stairs_down")
-        # The walking direction's change since the previous step of the same walk (pdr.step_length turn factor).
+        # The walking direction's change since the previous step of the same walk (pdr.phone.step_length turn factor).
         # Hand and torso only: there the step heading follows the device's smooth yaw; a pocket phone's per-step
         # heading jitters with the thigh (MobiFall walks: 90th percentile 9-66 deg per step), which is no turn.
         last = self.last_step
@@ -750,7 +750,7 @@ class PdrPipeline:
             self.prev_yaw = float(wrap_angle(self.prev_yaw + (est.yaw - rec["yaw"])))
         raw_yaw = est.yaw
         if c.drift_elimination and self.placement in ("hand", "torso"):
-            # Heuristic drift elimination towards the walk's dominant directions (pdr.heading module doc).
+            # Heuristic drift elimination towards the walk's dominant directions (pdr.phone.heading module doc).
             est = HeadingEstimate(self.hde.step(est.yaw, length, rec["t_end"]), est.var)
         self.track.step(length, est.yaw, (c.step_length_rel_sigma * length) ** 2, est.var)
         self.prev_mode = mode
@@ -762,7 +762,7 @@ class PdrPipeline:
             "placement": self.placement, "heading_sigma_deg": math.degrees(math.sqrt(est.var)),
             "pos_sigma_m": math.sqrt(max(float(np.trace(self.track.P)), 0.0)),
             "patterns": rec["pats"],
-            # Inputs of the offline heading smoother (pdr.heading_smoother).
+            # Inputs of the offline heading smoother (pdr.phone.heading_smoother).
             "heading_raw_deg": float(yaw_to_heading_deg(raw_yaw)),
             "gyro_heading_deg": None if rec.get("gyro_yaw") is None else float(yaw_to_heading_deg(rec["gyro_yaw"])),
             "up_time_s": rec.get("up_time"),

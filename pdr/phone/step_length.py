@@ -28,7 +28,7 @@ routes 2.7 -> 1.2 % (11 -> 5 outside); in that column every pattern and exponent
 offline study on the tracks' headings, a linear ``1 - c |Delta psi| / 90 deg`` chose ``c`` = 1.0-1.1 on every
 held-out route and did as well as ``cos^2``; plain ``cos`` did worse. ``turn="none"`` turns the factor off (and is
 what a model saved before it existed loads with). The pipeline measures turns for hand-held and torso phones only
-(:mod:`pdr.pipeline`): a pocket phone's per-step heading jitters with the thigh, and no data set here has the
+(:mod:`pdr.phone.pipeline`): a pocket phone's per-step heading jitters with the thigh, and no data set here has the
 distance of a pocket walk to check the factor on.
 """
 

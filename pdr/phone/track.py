@@ -80,7 +80,7 @@ def redo_steps(steps: list[dict[str, Any]], yaw_rad: FloatArray, length_m: Float
     ``steps`` carry ``east_m``, ``north_m``, ``heading_deg`` (clockwise from north), ``step_length_m`` and
     optionally ``position_fix``; ``yaw_rad`` (K,) is counter-clockwise from east, ``length_m`` (K,) in m (default:
     the rows' own). Each position moves by the sum, since the last position fix, of how much each step's
-    displacement changed: a fix (a site landmark, :mod:`pdr.pipeline`) is set before its step's displacement, so
+    displacement changed: a fix (a site landmark, :mod:`pdr.phone.pipeline`) is set before its step's displacement, so
     the fix's row moves by its own step's change only, and floors are kept. The copies get the new
     ``heading_deg`` and ``step_length_m``.
     """
