@@ -14,8 +14,7 @@ Why
 Model (per step ``k`` at time ``t_k``, yaw in rad counter-clockwise from east)
     ``psi_k = g_k + d_k`` where ``g_k`` is the gyro yaw of the step (:class:`pdr.phone.pipeline.PdrPipeline`
     integrates the gyro's rate about the vertical; its origin is arbitrary) and the state ``x = (d, beta)`` is the
-    offset of the
-    gyro yaw and its drift rate (the gyro bias about the vertical, rad/s):
+    offset of the gyro yaw and its drift rate (the gyro bias about the vertical, rad/s):
 
     - transition ``d_k = d_{k-1} + beta_{k-1} dt + w_d``, ``beta_k = beta_{k-1} + w_beta``: a random walk of the offset
       (``heading_rw_deg`` per sqrt(s): gyro noise, the device turning in the hand) and an integrated random walk of
@@ -74,9 +73,8 @@ left is mostly the deflection averaged over a whole walk (+18 deg on both walks 
 magnetometer-referenced heading can see.
 
 Trouser pocket: ``m_k`` is the pocket step's causal heading, the RMPCA walking direction (:mod:`pdr.phone.heading`),
-and the gyro yaw is that of a device axis (:mod:`pdr.phone.gyro_yaw`; the vertical rate integrated directly would
-gain the
-swinging thigh's geometric phase, 1-2 deg per stride). The offset is the phone's yaw in the pocket relative to the
+and the gyro yaw is that of a device axis (:mod:`pdr.phone.gyro_yaw`; the vertical rate integrated directly would gain
+the swinging thigh's geometric phase, 1-2 deg per stride). The offset is the phone's yaw in the pocket relative to the
 walking direction, fixed while the phone stays put, so the smoother mostly removes the RMPCA's lag through turns; a
 walk-long bias of the RMPCA direction stays. Simulated pocket walks (``pdr eval pocket-heading --no-real``): mean
 absolute error 7.64 -> 5.62 deg without landmarks; the median (5.4 deg) is that walk-long bias and does not move.

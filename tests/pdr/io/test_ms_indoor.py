@@ -197,6 +197,7 @@ def test_array_path_equals_line_by_line_path(tmp_path):
     raw = p.read_bytes()
     fast, exact = ms_indoor._parse_fast(raw), ms_indoor._parse_exact(str(p), raw)
     _same_parse(fast, exact)
+    assert fast is not None
     assert exact[1] == {"TYPE_WIFI": 2, "TYPE_BEACON": 1} and exact[2]["SiteName"] == "杭州大悦城"
     assert np.signbit(fast[0]["TYPE_GYROSCOPE"][0][0, 3])
 
