@@ -130,13 +130,25 @@ def _fast(data_lines: list[str], header: tuple[str, ...], delimiter: str, decima
         return {h: np.empty(0, dtype=np.int64 if h in ints else np.float64) for h in header}
     import pandas as pd  # half a second of imports: only when a table is parsed (not to sniff a format)
 
-    dtypes = {i: (np.int64 if h in ints else np.float64) for i, h in enumerate(header)}
+    # Integer columns are read as text and converted by numpy, which takes plain integers only: pandas' int64
+    # parser would also take "1.7e18", which the exact path refuses as "not an integer".
+    dtypes = {i: (str if h in ints else np.float64) for i, h in enumerate(header)}
     frame = pd.read_csv(io.StringIO("\n".join(data_lines)), sep=delimiter, header=None, dtype=dtypes,
                         engine="c", skip_blank_lines=False, decimal=decimal, na_filter=True, keep_default_na=True,
                         float_precision=_float_precision(pd.__version__))
     if frame.shape[1] != len(header):
         return None
-    return {h: frame.iloc[:, i].to_numpy() for i, h in enumerate(header)}
+    out: dict[str, np.ndarray] = {}
+    for i, h in enumerate(header):
+        column = frame.iloc[:, i]
+        if h in ints:
+            try:
+                out[h] = column.to_numpy(dtype=str).astype(np.int64)
+            except (ValueError, OverflowError):
+                return None  # the exact path names the line and field
+        else:
+            out[h] = column.to_numpy()
+    return out
 
 
 def _float_precision(version: str) -> Literal["round_trip"] | None:
