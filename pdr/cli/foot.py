@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from pdr.cli import progress
 from pdr.errors import InputError
 from pdr.evaluation.foot_metrics import (
     PYSHOE_EXCLUDED,
@@ -353,7 +354,7 @@ def eval_pyshoe(d: Path, args: argparse.Namespace, tracks: Path | None, method: 
     files = sorted(d.glob("*.mat"))
     if args.limit:
         files = files[: args.limit]
-    for f in files:
+    for f in progress.each(files, "eval foot pyshoe"):
         if f.stem in PYSHOE_EXCLUDED:
             continue
         rec = read_recording(f)
@@ -402,7 +403,7 @@ def eval_gcp(d: Path, args: argparse.Namespace, tracks: Path | None, method: str
     files = sorted((d / "own").glob("*.csv")) if (d / "own").is_dir() else sorted(d.glob("*.csv"))
     if args.limit:
         files = files[: args.limit]
-    for f in files:
+    for f in progress.each(files, "eval foot"):
         try:
             rec = read_recording(f)
         except InputError as exc:

@@ -462,7 +462,7 @@ def eval_steps(args: argparse.Namespace) -> int:
     per: list[dict[str, Any]] = []
     by_place: dict[str, list[float]] = {}
     by_place_bf: dict[str, list[float]] = {}
-    for d in dirs:
+    for d in progress.each(dirs, "eval steps"):
         try:
             rec = read_recording(d)
         except InputError as exc:
