@@ -334,12 +334,12 @@ class ElevatorDetector:
         out.append((self.first[0], end, self.first[2]))
         self.first = None
 
-    def to_dict(self) -> dict[str, Any]:
+    def state(self) -> dict[str, Any]:
         return {"rate_hz": self.rate_hz, "run_sign": self.run_sign, "run_start": self.run_start,
                 "run_len": self.run_len, "first": list(self.first) if self.first else None, "index": self.index}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any], config: LandmarkConfig | None = None) -> ElevatorDetector:
+    def from_state(cls, d: dict[str, Any], config: LandmarkConfig | None = None) -> ElevatorDetector:
         e = cls(float(d["rate_hz"]), config)
         e.run_sign, e.run_start, e.run_len = int(d["run_sign"]), int(d["run_start"]), int(d["run_len"])
         f = d["first"]

@@ -10,7 +10,8 @@ big batch):
 2. :class:`pdr.phone.steps.StepDetector` (seed 004 Sec. 3.2) on the accelerometer;
 3. :class:`pdr.phone.attitude.AttitudeFilter` (seed 003 UKF, or the EKF baseline), run in segments that end
    where steps become known, so a landmark can update the attitude (eqs. 14-32) at a deterministic sample;
-4. per step: patterns and length (seed 004 eqs. 13-19), heading (:mod:`pdr.phone.heading`: device heading +
+4. per step: patterns and length (seed 004 eqs. 13-19), heading (:mod:`pdr.phone.heading_stages` on
+   :mod:`pdr.phone.heading`: device heading +
    offset for hand-held/torso, improved RMPCA + second UKF for the trouser pocket; hand-held/torso headings
    then pass the heuristic drift elimination :class:`pdr.phone.heading.StepDriftElimination`), landmark label
    (:mod:`pdr.phone.landmarks`, with the neighbour-step correction, which delays each step by one step),
@@ -18,18 +19,10 @@ big batch):
    step of it), floor (:mod:`pdr.phone.floors`), and the PDR position (:mod:`pdr.phone.track`, eqs. 20-22);
 5. elevator rides from the vertical specific force (:class:`pdr.phone.landmarks.ElevatorDetector`).
 
-Events are plain dicts: ``{"type": "step", "t_s", "east_m", "north_m", "up_m", "floor", "heading_deg",
-"step_length_m", "turn_deg", "mode", ...}`` (``turn_deg``: the change of the step heading since the previous step
-of the walk, which shortens a turning step, :func:`pdr.phone.step_length.turn_factor`; ``heading_raw_deg``, the heading
-before the drift elimination, ``gyro_heading_deg``, the gyro's rotation about the vertical since the start with an
-arbitrary origin (:mod:`pdr.phone.gyro_yaw`: no magnetometer, no landmark, no geometric phase of a swinging phone),
-``up_time_s``, the device-frame up direction integrated over the same time (s, so that ``up_time_s . b`` is what a
-constant gyro bias ``b`` added to it), ``gyro_bias_dps``, the attitude filter's stationary
-gyro bias estimate (deg/s, device frame; None before the first stationary period), ``position_fix`` and
-``landmark_heading``: the inputs of the offline
-:mod:`pdr.phone.heading_smoother`), ``{"type": "elevator", ...}``,
-``{"type": "floor_change", ...}`` and ``{"type": "notice", "message"}`` (degraded inputs). ``t_s`` is on the
-log's own clock (seconds).
+Events are frozen dataclasses (:mod:`pdr.phone.events`: a step, a floor change, a landmark, an elevator ride, a
+notice of degraded input); :meth:`PdrPipeline.update` returns their rows (``{"type": "step", "t_s", "east_m", ...}``),
+:meth:`PdrPipeline.update_events` the dataclasses. ``t_s`` is on the log's own clock (seconds). The per-step stages
+and how to plug in another are described in :mod:`pdr.phone.stage` and ``docs/architecture.md``.
 
 Placement (``pocket``, ``hand``, ``torso``, ``swinging``) comes from the configuration, else from an injected
 ``placement_provider(recording) -> str | None`` (e.g. the placement classifier; pdr/ never imports it),
@@ -331,9 +324,9 @@ class PdrPipeline:
         """JSON-serialisable state (configuration and site included)."""
         d = {
             "config": self.config.to_dict(), "site": None if self.site is None else self.site.to_dict(),
-            "grid": None if self.grid is None else self.grid.to_dict(), "steps": self.steps.state_dict(),
-            "attitude": self.attitude.state.to_dict(), "magcal": self.magcal.to_dict(), "floors": self.floors.to_dict(),
-            "elevator": self.elevator.to_dict(), "track": self.track.to_dict(), **self.device_heading.state(),
+            "grid": None if self.grid is None else self.grid.state(), "steps": self.steps.state_dict(),
+            "attitude": self.attitude.state.to_dict(), "magcal": self.magcal.state(), "floors": self.floors.state(),
+            "elevator": self.elevator.state(), "track": self.track.state(), **self.device_heading.state(),
             **self.drift.state(), "history": self.history.state(), "placement": self.placement,
             "auto_placement": self.auto_placement, "placement_detector": self.placement_detector.to_dict(),
             "t0_ns": self.t0_ns, **self.pocket_heading.state(), **self.modes.state(), **self.turns.state(),
@@ -341,7 +334,7 @@ class PdrPipeline:
             "pending": None if self.pending is None else self.pending.state(),
             "last_floor": self.last_floor, "notices": self.notices,
             "av_zi": None if self._av_zi is None else self._av_zi.tolist(), "n_input_samples": self.n_input_samples,
-            "gyro_yaw": self.gyro_yaw.state_dict(),
+            "gyro_yaw": self.gyro_yaw.state(),
         }
         if self.stages:
             d["stages"] = {st.name: st.state() for st in self.stages}
@@ -357,14 +350,14 @@ class PdrPipeline:
             site = None if d["site"] is None else Site.from_dict(d["site"])
             p = cls(PipelineConfig.from_dict(d["config"]), site, placement_provider)
             c = p.config
-            p.grid = None if d["grid"] is None else OnlineGrid.from_dict(d["grid"])
+            p.grid = None if d["grid"] is None else OnlineGrid.from_state(d["grid"])
             p.steps = StepDetector.from_state_dict(d["steps"])
             p.attitude.state = AttitudeState.from_dict(d["attitude"])
             if d.get("magcal") is not None:
-                p.magcal = HardIronEstimator.from_dict(d["magcal"], c.rate_hz, c.magcal)
-            p.floors = FloorTracker.from_dict(d["floors"])
-            p.elevator = ElevatorDetector.from_dict(d["elevator"], c.landmarks)
-            p.track = TrackState.from_dict(d["track"])
+                p.magcal = HardIronEstimator.from_state(d["magcal"], c.rate_hz, c.magcal)
+            p.floors = FloorTracker.from_state(d["floors"])
+            p.elevator = ElevatorDetector.from_state(d["elevator"], c.landmarks)
+            p.track = TrackState.from_state(d["track"])
             p.device_heading = DeviceHeading.from_state(d, c.heading_offset, c.heading_process_var)
             p.drift = DriftElimination.from_state(d, c.drift_elimination, p.drift.hde)
             p.history = SampleHistory.from_state(d["history"])
@@ -384,7 +377,7 @@ class PdrPipeline:
             p._av_zi = None if d["av_zi"] is None else np.array(d["av_zi"], dtype=np.float64)
             p.n_input_samples = int(d["n_input_samples"])
             if isinstance(d.get("gyro_yaw"), dict):      # older states kept a plain integral (restarted here)
-                p.gyro_yaw = GyroYaw.from_state_dict(d["gyro_yaw"], c.rate_hz)
+                p.gyro_yaw = GyroYaw.from_state(d["gyro_yaw"], c.rate_hz)
             saved = d.get("stages") or {}
             p.stages = [st.from_state(saved[st.name]) if st.name in saved else st for st in stages]
             if p.pending is not None or p.track.n_steps:      # a step was processed (see _placement_known)
