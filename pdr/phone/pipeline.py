@@ -83,6 +83,9 @@ PlacementProvider = Callable[[Recording], "str | None"]
 
 PLACEMENT_GROUPS = {"trouser_pocket_front": "pocket", "trouser_pocket_back": "pocket", "trouser_pocket": "pocket",
                     "hand": "hand", "torso": "torso", "neck": "torso", "bag": "torso", "armband": "hand"}
+#: Layout of :meth:`PdrPipeline.to_dict`: 1 (no ``format`` key) before the stage classes, 2 since (the same keys plus
+#: ``format`` and the plugged-in stages' ``stages``). :meth:`PdrPipeline.from_dict` reads both.
+STATE_FORMAT = 2
 #: Placements the pipeline has a heading method for.
 PIPELINE_PLACEMENTS = ("pocket", "hand", "torso", "swinging")
 
@@ -323,7 +326,8 @@ class PdrPipeline:
     def to_dict(self) -> dict[str, Any]:
         """JSON-serialisable state (configuration and site included)."""
         d = {
-            "config": self.config.to_dict(), "site": None if self.site is None else self.site.to_dict(),
+            "format": STATE_FORMAT, "config": self.config.to_dict(),
+            "site": None if self.site is None else self.site.to_dict(),
             "grid": None if self.grid is None else self.grid.state(), "steps": self.steps.state_dict(),
             "attitude": self.attitude.state.to_dict(), "magcal": self.magcal.state(), "floors": self.floors.state(),
             "elevator": self.elevator.state(), "track": self.track.state(), **self.device_heading.state(),
@@ -344,8 +348,18 @@ class PdrPipeline:
     def from_dict(cls, d: dict[str, Any], placement_provider: PlacementProvider | None = None,
                   stages: Sequence[StepStage] = ()) -> PdrPipeline:
         """A pipeline resuming a saved state (:meth:`to_dict`); ``stages``: the plugged-in stages, built as for the
-        saved session, each restored from its saved state.
+        saved session, each restored from its saved state. A state that cannot be resumed (damaged, of a newer format,
+        or of an older one whose fields this version no longer fills in) is refused with an :class:`InputError`
+        that says to reprocess the session.
         """
+        if not isinstance(d, dict):
+            raise InputError(f"pipeline state must be an object, got {type(d).__name__}: it cannot be resumed; "
+                             "reprocess the session from its recording", source="pipeline state")
+        fmt = d.get("format", 1)
+        if isinstance(fmt, bool) or not isinstance(fmt, int) or not 1 <= fmt <= STATE_FORMAT:
+            raise InputError(f"pipeline state of format {fmt!r}; this version reads formats 1 to {STATE_FORMAT}: it "
+                             "cannot be resumed; reprocess the session from its recording", source="pipeline state",
+                             field="format")
         try:
             site = None if d["site"] is None else Site.from_dict(d["site"])
             p = cls(PipelineConfig.from_dict(d["config"]), site, placement_provider)
@@ -383,7 +397,8 @@ class PdrPipeline:
             if p.pending is not None or p.track.n_steps:      # a step was processed (see _placement_known)
                 p._placement_known()
         except (KeyError, TypeError, ValueError) as exc:
-            raise InputError(f"bad pipeline state ({exc})", source="pipeline state") from None
+            raise InputError(f"bad pipeline state ({type(exc).__name__}: {exc}): it cannot be resumed; reprocess the "
+                             "session from its recording", source="pipeline state") from None
         return p
 
     # -- internals ---------------------------------------------------------------------------------
