@@ -60,12 +60,12 @@ class FloorTracker:
                                                    c.hysteresis, self.floor0, self.alt, self.ref, self.n, up, fl)
         return up, fl
 
-    def to_dict(self) -> dict[str, Any]:
+    def state(self) -> dict[str, Any]:
         return {"rate_hz": self.rate_hz, "config": asdict(self.config), "floor0": self.floor0, "alt": self.alt,
                 "ref": self.ref, "n": self.n}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> FloorTracker:
+    def from_state(cls, d: dict[str, Any]) -> FloorTracker:
         try:
             t = cls(float(d["rate_hz"]), FloorConfig(**d["config"]), float(d["floor0"]))
             t.alt, t.ref, t.n = float(d["alt"]), float(d["ref"]), int(d["n"])

@@ -92,13 +92,13 @@ class OnlineGrid:
     def _empty(self) -> tuple[FloatArray, dict[str, FloatArray]]:
         return np.zeros(0), {k: np.zeros((0, 1)) for k in self.kinds}
 
-    def to_dict(self) -> dict[str, Any]:
+    def state(self) -> dict[str, Any]:
         return {"rate_hz": self.rate_hz, "kinds": list(self.kinds), "next_k": self.next_k, "first_k": self.first_k,
                 "buf_t": {k: v.tolist() for k, v in self.buf_t.items()},
                 "buf_v": {k: v.tolist() for k, v in self.buf_v.items()}}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> OnlineGrid:
+    def from_state(cls, d: dict[str, Any]) -> OnlineGrid:
         try:
             g = cls(float(d["rate_hz"]), tuple(d["kinds"]))
             g.next_k = None if d["next_k"] is None else int(d["next_k"])

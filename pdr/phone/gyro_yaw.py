@@ -129,7 +129,7 @@ class GyroYaw:
     """Running gyro yaw (rad, counter-clockwise, arbitrary origin) and up time (s, device frame) of a session.
 
     :meth:`update` takes the attitude filter's attitudes and the raw gyro of the next samples on the uniform grid.
-    State: the last yaw and up time, the axis in use and the last attitude (:meth:`state_dict`).
+    State: the last yaw and up time, the axis in use and the last attitude (:meth:`state`).
     """
 
     def __init__(self, rate_hz: float) -> None:
@@ -157,12 +157,12 @@ class GyroYaw:
             self.yaw, self.up_time, self.q_prev = float(yaw[-1]), up_time[-1].copy(), q[-1].copy()
         return yaw, up_time
 
-    def state_dict(self) -> dict[str, Any]:
+    def state(self) -> dict[str, Any]:
         return {"yaw": self.yaw, "up_time": self.up_time.tolist(), "axis": self.axis,
                 "q_prev": None if self.q_prev is None else self.q_prev.tolist()}
 
     @classmethod
-    def from_state_dict(cls, d: dict[str, Any], rate_hz: float) -> GyroYaw:
+    def from_state(cls, d: dict[str, Any], rate_hz: float) -> GyroYaw:
         g = cls(rate_hz)
         g.yaw = float(d["yaw"])
         g.up_time = np.array(d["up_time"], dtype=np.float64).reshape(3)

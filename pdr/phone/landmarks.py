@@ -46,6 +46,7 @@ from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.frames import heading_deg_to_yaw
+from pdr.phone.history import SampleHistory
 
 FloatArray = NDArray[np.float64]
 
@@ -109,6 +110,60 @@ def classify_step(vertical_rate_mps: float | None, pitch_max_deg: float | None, 
 def neighbour_correction(prev: str, cur: str, nxt: str) -> str:
     """Seed 003 Sec. 3: a label that differs from two agreeing neighbours takes theirs."""
     return prev if prev == nxt and cur != prev else cur
+
+
+class StepModeLabeller:
+    """The pipeline's landmark-label stage: the third level of the tree per step (:func:`classify_step`) against a
+    running baseline of the leg pitch on flat walking, and the neighbour-step correction at output.
+
+    ``prev_mode`` is the (corrected) label of the last step output (``""`` before the first).
+    """
+
+    def __init__(self, config: LandmarkConfig, rate_hz: float) -> None:
+        self.config = config
+        self.rate_hz = rate_hz
+        self.pitch_baseline: list[float] | None = None
+        self.prev_mode = ""
+
+    def label(self, h: SampleHistory, s: int, e: int, placement: str | None, has_baro: bool) -> str:
+        """Label of the step of grid samples ``[s, e)``: the barometric vertical rate over the 2 s before its end,
+        and for a trouser pocket the leg pitch (deg) over the step (eqs. 1-3).
+        """
+        sl = h.sl(s, e)
+        rate = None
+        if has_baro:
+            back = h.sl(s - int(2.0 * self.rate_hz), e)
+            tt, uu = h.t[back], h.up[back]
+            if tt.size > 2 and tt[-1] > tt[0]:
+                rate = float((uu[-1] - uu[0]) / (tt[-1] - tt[0]))
+        pmax = pmin = None
+        if placement == "pocket":
+            pitch = np.degrees(np.arcsin(np.clip(h.y_up[sl], -1, 1)))
+            pmax, pmin = float(pitch.max()), float(pitch.min())
+        base = tuple(self.pitch_baseline) if self.pitch_baseline else None
+        mode = classify_step(rate, pmax, pmin, base, self.config)  # type: ignore[arg-type]
+        if mode == "walking" and pmax is not None and pmin is not None:
+            nb = [pmax - pmin, pmax, pmin]
+            self.pitch_baseline = nb if self.pitch_baseline is None else [
+                0.9 * a + 0.1 * b for a, b in zip(self.pitch_baseline, nb, strict=True)]
+        return mode
+
+    def corrected(self, mode: str, next_mode: str | None) -> str:
+        """The label of the step being output, between the last output step's and the next step's (None: no next
+        step within a step's duration).
+        """
+        if next_mode is not None and self.prev_mode:
+            return neighbour_correction(self.prev_mode, mode, next_mode)
+        return mode
+
+    def state(self) -> dict[str, Any]:
+        return {"prev_mode": self.prev_mode, "pitch_baseline": self.pitch_baseline}
+
+    @classmethod
+    def from_state(cls, d: dict[str, Any], config: LandmarkConfig, rate_hz: float) -> StepModeLabeller:
+        o = cls(config, rate_hz)
+        o.prev_mode, o.pitch_baseline = str(d["prev_mode"]), d["pitch_baseline"]
+        return o
 
 
 @dataclass(frozen=True)
@@ -279,12 +334,12 @@ class ElevatorDetector:
         out.append((self.first[0], end, self.first[2]))
         self.first = None
 
-    def to_dict(self) -> dict[str, Any]:
+    def state(self) -> dict[str, Any]:
         return {"rate_hz": self.rate_hz, "run_sign": self.run_sign, "run_start": self.run_start,
                 "run_len": self.run_len, "first": list(self.first) if self.first else None, "index": self.index}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any], config: LandmarkConfig | None = None) -> ElevatorDetector:
+    def from_state(cls, d: dict[str, Any], config: LandmarkConfig | None = None) -> ElevatorDetector:
         e = cls(float(d["rate_hz"]), config)
         e.run_sign, e.run_start, e.run_len = int(d["run_sign"]), int(d["run_start"]), int(d["run_len"])
         f = d["first"]

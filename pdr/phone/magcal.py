@@ -147,7 +147,7 @@ class HardIronEstimator:
             raise InputError(f"rate must be positive, got {rate_hz}", field="rate_hz")
         self.rate_hz = float(rate_hz)
         self.config = config or MagCalConfig()
-        self.state = HardIronState()
+        self.hard_iron = HardIronState()
 
     def update(self, mag_b: FloatArray, gyro_b: FloatArray, gyro_bias: FloatArray | None = None) -> FloatArray:
         """Feed a batch and return the field with the applied offset removed.
@@ -171,7 +171,7 @@ class HardIronEstimator:
             raise InputError("mag and gyro must both be (N, 3)", source="magcal")
         if n == 0 or not self.config.enabled:
             return m
-        c, s = self.config, self.state
+        c, s = self.config, self.hard_iron
         ts = 1.0 / self.rate_hz
         w = np.asarray(gyro_b, dtype=np.float64) - (np.zeros(3) if gyro_bias is None else gyro_bias)
         # Pairs (k-1, k) for k = 0..n-1 (k = 0 pairs with the previous batch's last sample).
@@ -219,7 +219,7 @@ class HardIronEstimator:
         """Solve the normal equations after each complete block (``sums`` (J, 14): info, vec, yy, rows), estimate
         the row noise, open, hold or close the gate; returns the (J, 3) offsets applied after each block.
         """
-        c, s = self.config, self.state
+        c, s = self.config, self.hard_iron
         out = np.empty((sums.shape[0], 3))
         if not sums.shape[0]:
             return out
@@ -245,12 +245,12 @@ class HardIronEstimator:
         out[:] = np.where((src >= 0)[:, None], cand[np.maximum(src, 0)], s.applied[None, :])
         return out
 
-    def to_dict(self) -> dict[str, Any]:
-        return self.state.to_dict()
+    def state(self) -> dict[str, Any]:
+        return self.hard_iron.to_dict()
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any], rate_hz: float, config: MagCalConfig | None = None
-                  ) -> HardIronEstimator:
+    def from_state(cls, d: dict[str, Any], rate_hz: float, config: MagCalConfig | None = None
+                   ) -> HardIronEstimator:
         est = cls(rate_hz, config)
-        est.state = HardIronState.from_dict(d)
+        est.hard_iron = HardIronState.from_dict(d)
         return est

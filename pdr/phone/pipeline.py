@@ -10,7 +10,8 @@ big batch):
 2. :class:`pdr.phone.steps.StepDetector` (seed 004 Sec. 3.2) on the accelerometer;
 3. :class:`pdr.phone.attitude.AttitudeFilter` (seed 003 UKF, or the EKF baseline), run in segments that end
    where steps become known, so a landmark can update the attitude (eqs. 14-32) at a deterministic sample;
-4. per step: patterns and length (seed 004 eqs. 13-19), heading (:mod:`pdr.phone.heading`: device heading +
+4. per step: patterns and length (seed 004 eqs. 13-19), heading (:mod:`pdr.phone.heading_stages` on
+   :mod:`pdr.phone.heading`: device heading +
    offset for hand-held/torso, improved RMPCA + second UKF for the trouser pocket; hand-held/torso headings
    then pass the heuristic drift elimination :class:`pdr.phone.heading.StepDriftElimination`), landmark label
    (:mod:`pdr.phone.landmarks`, with the neighbour-step correction, which delays each step by one step),
@@ -18,18 +19,10 @@ big batch):
    step of it), floor (:mod:`pdr.phone.floors`), and the PDR position (:mod:`pdr.phone.track`, eqs. 20-22);
 5. elevator rides from the vertical specific force (:class:`pdr.phone.landmarks.ElevatorDetector`).
 
-Events are plain dicts: ``{"type": "step", "t_s", "east_m", "north_m", "up_m", "floor", "heading_deg",
-"step_length_m", "turn_deg", "mode", ...}`` (``turn_deg``: the change of the step heading since the previous step
-of the walk, which shortens a turning step, :func:`pdr.phone.step_length.turn_factor`; ``heading_raw_deg``, the heading
-before the drift elimination, ``gyro_heading_deg``, the gyro's rotation about the vertical since the start with an
-arbitrary origin (:mod:`pdr.phone.gyro_yaw`: no magnetometer, no landmark, no geometric phase of a swinging phone),
-``up_time_s``, the device-frame up direction integrated over the same time (s, so that ``up_time_s . b`` is what a
-constant gyro bias ``b`` added to it), ``gyro_bias_dps``, the attitude filter's stationary
-gyro bias estimate (deg/s, device frame; None before the first stationary period), ``position_fix`` and
-``landmark_heading``: the inputs of the offline
-:mod:`pdr.phone.heading_smoother`), ``{"type": "elevator", ...}``,
-``{"type": "floor_change", ...}`` and ``{"type": "notice", "message"}`` (degraded inputs). ``t_s`` is on the
-log's own clock (seconds).
+Events are frozen dataclasses (:mod:`pdr.phone.events`: a step, a floor change, a landmark, an elevator ride, a
+notice of degraded input); :meth:`PdrPipeline.update` returns their rows (``{"type": "step", "t_s", "east_m", ...}``),
+:meth:`PdrPipeline.update_events` the dataclasses. ``t_s`` is on the log's own clock (seconds). The per-step stages
+and how to plug in another are described in :mod:`pdr.phone.stage` and ``docs/architecture.md``.
 
 Placement (``pocket``, ``hand``, ``torso``, ``swinging``) comes from the configuration, else from an injected
 ``placement_provider(recording) -> str | None`` (e.g. the placement classifier; pdr/ never imports it),
@@ -41,54 +34,58 @@ force stays along the arm, a pocket phone's turns with the thigh), and revised w
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.filters import iir
-from pdr.filters.ukf import SigmaPoints
-from pdr.frames import GRAVITY_MPS2, heading_deg_to_yaw, wrap_angle, yaw_to_heading_deg
+from pdr.frames import GRAVITY_MPS2, heading_deg_to_yaw, yaw_to_heading_deg
 from pdr.phone.attitude import AttitudeConfig, AttitudeFilter, AttitudeState
+from pdr.phone.events import (
+    ElevatorEvent,
+    EventRow,
+    FloorChangeEvent,
+    NoticeEvent,
+    PipelineEvent,
+    StepEvent,
+    to_rows,
+)
 from pdr.phone.floors import FloorConfig, FloorTracker
 from pdr.phone.grid import OnlineGrid
 from pdr.phone.gyro_yaw import GyroYaw
-from pdr.phone.heading import (
-    DirectionVote,
-    DriftEliminationConfig,
-    HeadingEstimate,
-    OffsetEstimator,
-    StepDriftElimination,
-    fuse_landmark,
-    improved_rmpca_ut,
-    landmark_attitude_update,
-    mean_yaw,
-    pca_axis,
-    resolve_direction,
-    scatter_in_frame,
-    scatter_of,
-    thigh_swing_evidence,
-    yaw_variance,
+from pdr.phone.heading import DriftEliminationConfig, HeadingEstimate, StepDriftElimination, pca_axis
+from pdr.phone.heading_stages import (
+    STRIDE_HEADING_PLACEMENTS,
+    DeviceHeading,
+    DriftElimination,
+    PocketHeading,
+    StairsLandmarkHeading,
+    StepTurn,
 )
-from pdr.phone.landmarks import ElevatorDetector, LandmarkConfig, Site, classify_step, neighbour_correction
+from pdr.phone.history import SampleHistory
+from pdr.phone.landmarks import ElevatorDetector, LandmarkConfig, Site, StepModeLabeller
 from pdr.phone.magcal import HardIronEstimator, MagCalConfig
 from pdr.phone.placement_detect import PlacementDetectConfig, PlacementDetector, stride_cues
+from pdr.phone.stage import PendingStep, StepStage, StepWindow
 from pdr.phone.step_length import StepLengthModel, step_patterns
 from pdr.phone.steps import StepConfig, StepDetector
 from pdr.phone.track import TrackState
-from pdr.phone.walking_direction import swing_plane_axis, turn_evidence
 from pdr.recording import Recording
 
 FloatArray = NDArray[np.float64]
-Event = dict[str, Any]
+#: The row form of an event (:meth:`pdr.phone.events.StepEvent.to_row` and the others).
+Event = EventRow
 PlacementProvider = Callable[[Recording], "str | None"]
 
 PLACEMENT_GROUPS = {"trouser_pocket_front": "pocket", "trouser_pocket_back": "pocket", "trouser_pocket": "pocket",
                     "hand": "hand", "torso": "torso", "neck": "torso", "bag": "torso", "armband": "hand"}
+#: Layout of :meth:`PdrPipeline.to_dict`: 1 (no ``format`` key) before the stage classes, 2 since (the same keys plus
+#: ``format`` and the plugged-in stages' ``stages``). :meth:`PdrPipeline.from_dict` reads both.
+STATE_FORMAT = 2
 #: Placements the pipeline has a heading method for.
 PIPELINE_PLACEMENTS = ("pocket", "hand", "torso", "swinging")
 
@@ -184,11 +181,6 @@ class PipelineConfig:
             raise InputError(f"bad pipeline configuration ({exc})", source="config") from None
 
 
-_FIELD_WIDTHS = (("t", 0), ("acc", 3), ("q", 4), ("f_n", 3), ("yaw_y", 0), ("yaw_z", 0), ("y_up", 0), ("an", 0),
-                 ("mag_n", 0), ("up", 0), ("floor", 0), ("gyro_yaw", 0), ("up_time", 3))
-_FIELDS = tuple(n for n, _ in _FIELD_WIDTHS)
-
-
 def _derived(q: FloatArray, acc: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """Per sample from ``C_nb(q)``: specific force in ENU, yaw of the device y and z axes and up-part of y."""
     w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
@@ -201,76 +193,13 @@ def _derived(q: FloatArray, acc: FloatArray) -> tuple[FloatArray, FloatArray, Fl
     return f_n, np.arctan2(c11, c01), np.arctan2(c12, c02), c21
 
 
-class _History:
-    """Grid samples of the last ``size`` indices: t, acc_b, q_nb, f_n (specific force in ENU), yaw of the
-    device y and z axes, up-component of the device y axis, a_n, |m|, up (m), floor, the gyro yaw (rad: the
-    angular rate about the vertical integrated since the start, no magnetometer, no bias removed) and the
-    device-frame up direction integrated since the start (s).
-    """
-
-    def __init__(self, size: int) -> None:
-        self.size = size
-        self.start = 0
-        self.t = np.zeros(0)
-        self.acc = np.zeros((0, 3))
-        self.q = np.zeros((0, 4))
-        self.f_n = np.zeros((0, 3))
-        self.yaw_y = np.zeros(0)
-        self.yaw_z = np.zeros(0)
-        self.y_up = np.zeros(0)
-        self.an = np.zeros(0)
-        self.mag_n = np.zeros(0)
-        self.up = np.zeros(0)
-        self.floor = np.zeros(0)
-        self.gyro_yaw = np.zeros(0)
-        self.up_time = np.zeros((0, 3))
-
-    def append(self, start: int, t: FloatArray, acc: FloatArray, an: FloatArray, mag_n: FloatArray,
-               up: FloatArray, floor: FloatArray) -> None:
-        if self.t.size == 0:
-            self.start = start
-        self.t = np.concatenate([self.t, t])
-        self.acc = np.concatenate([self.acc, acc])
-        self.q = np.concatenate([self.q, np.full((t.size, 4), np.nan)])
-        self.f_n = np.concatenate([self.f_n, np.full((t.size, 3), np.nan)])
-        self.yaw_y = np.concatenate([self.yaw_y, np.full(t.size, np.nan)])
-        self.yaw_z = np.concatenate([self.yaw_z, np.full(t.size, np.nan)])
-        self.y_up = np.concatenate([self.y_up, np.full(t.size, np.nan)])
-        self.an = np.concatenate([self.an, an])
-        self.mag_n = np.concatenate([self.mag_n, mag_n])
-        self.up = np.concatenate([self.up, up])
-        self.floor = np.concatenate([self.floor, floor])
-        self.gyro_yaw = np.concatenate([self.gyro_yaw, np.full(t.size, np.nan)])
-        self.up_time = np.concatenate([self.up_time, np.full((t.size, 3), np.nan)])
-
-    def trim(self) -> None:
-        extra = self.t.size - self.size
-        if extra > 0:
-            self.start += extra
-            for name in _FIELDS:
-                setattr(self, name, getattr(self, name)[extra:])
-
-    def sl(self, a: int, b: int) -> slice:
-        return slice(max(a - self.start, 0), max(b - self.start, 0))
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"size": self.size, "start": self.start,
-                **{n: getattr(self, n).copy() for n in _FIELDS}}
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> _History:
-        h = cls(int(d["size"]))
-        h.start = int(d["start"])
-        for n, w in _FIELD_WIDTHS:
-            # The gyro yaw and up time are absent in states saved before the heading smoother.
-            a = np.array(d[n] if n in d else np.full((len(d["t"]), w) if w else len(d["t"]), np.nan),
-                         dtype=np.float64)
-            setattr(h, n, a.reshape(-1, w) if w else a.reshape(-1))
-        return h
-
-
 class PdrPipeline:
     """Online phone PDR: feed :class:`~pdr.recording.Recording` batches, get events.
+
+    The pipeline composes its stages (module doc; :mod:`pdr.phone.stage` for the protocol): per batch the grid, the
+    hard-iron calibration, the step detector, the floors, the attitude and the gyro yaw; per step the landmark
+    label (:class:`pdr.phone.landmarks.StepModeLabeller`), the heading stages (:mod:`pdr.phone.heading_stages`), the
+    step length and the track, then the plugged-in ``stages`` (:class:`pdr.phone.stage.StepStage`).
 
     Parameters
     ----------
@@ -283,11 +212,14 @@ class PdrPipeline:
         :data:`pdr.recording.PLACEMENTS` name, or None), e.g. a classifier; never imported by pdr/.
     start_en_m
         Start position (east, north) in metres of the site frame.
+    stages
+        Further per-step stages run on every step event after the PDR position update, in order (e.g. a map
+        matcher).
     """
 
     def __init__(self, config: PipelineConfig | None = None, site: Site | None = None,
                  placement_provider: PlacementProvider | None = None,
-                 start_en_m: tuple[float, float] = (0.0, 0.0)) -> None:
+                 start_en_m: tuple[float, float] = (0.0, 0.0), stages: Sequence[StepStage] = ()) -> None:
         self.config = config or PipelineConfig()
         self.site = site
         self.placement_provider = placement_provider
@@ -303,25 +235,22 @@ class PdrPipeline:
             c.floors, floor_height_m=site.floor_height_m), c.initial_floor)
         self.elevator = ElevatorDetector(c.rate_hz, c.landmarks)
         self.track = TrackState(float(start_en_m[0]), float(start_en_m[1]))
-        self.offset = OffsetEstimator()
-        self.hde = StepDriftElimination(c.hde, self._grid_yaw())
-        self.history = _History(int(c.history_s * c.rate_hz))
+        self.history = SampleHistory(int(c.history_s * c.rate_hz))
         self.placement: str | None = None if c.placement == "auto" else c.placement
         # Detected online (pdr.phone.placement_detect) unless the configuration, a provider or the device names it.
         self.auto_placement = c.placement == "auto"
         self.placement_detector = PlacementDetector(c.placement_detect)
         self.t0_ns = 0
-        self.prev_yaw: float | None = None
-        self.prev_q: list[float] | None = None
-        self.prev_step_start: int | None = None
-        self.direction_vote = _direction_vote(self.placement)
-        self.prev_mode = ""
-        self.last_step: tuple[float, float] | None = None   # (raw yaw rad, end time s) of the last emitted step
-        self.stairs_landmark: str | None = None
-        self.landmark_updates = 0
-        self.landmark_attitude_updates = 0
-        self.pending: dict[str, Any] | None = None
-        self.pitch_baseline: list[float] | None = None
+        # The per-step stages.
+        self.modes = StepModeLabeller(c.landmarks, c.rate_hz)
+        self.device_heading = DeviceHeading(c.heading_offset, c.heading_process_var)
+        self.pocket_heading = PocketHeading(c.rate_hz, c.pocket_axis, c.heading_process_var, c.attitude,
+                                            self._site_has_landmarks(), self.placement)
+        self.stairs = StairsLandmarkHeading(site, c.attitude)
+        self.turns = StepTurn(self._max_gap_s())
+        self.drift = DriftElimination(c.drift_elimination, StepDriftElimination(c.hde, self._grid_yaw()))
+        self.stages: list[StepStage] = list(stages)
+        self.pending: PendingStep | None = None
         self.last_floor = float(c.initial_floor)
         self.notices: list[str] = []
         self._av_zi: FloatArray | None = None
@@ -332,7 +261,19 @@ class PdrPipeline:
 
     # -- public API --------------------------------------------------------------------------------
     def update(self, batch: Recording) -> list[Event]:
-        """Process the next batch of the session; returns the events it produced.
+        """Process the next batch of the session; returns the events it produced, as rows (:meth:`update_events`)."""
+        return to_rows(self.update_events(batch))
+
+    def finish(self) -> list[Event]:
+        """End the session (:meth:`finish_events`); the events as rows."""
+        return to_rows(self.finish_events())
+
+    def run(self, recording: Recording) -> list[Event]:
+        """Whole recording as one batch, then :meth:`finish`."""
+        return self.update(recording) + self.finish()
+
+    def update_events(self, batch: Recording) -> list[PipelineEvent]:
+        """Process the next batch of the session; returns the typed events it produced.
 
         A batch from a shoe IMU (:attr:`~pdr.recording.DeviceInfo.is_foot`) is refused with an :class:`InputError`
         and leaves the state as it was: phone PDR would count its strides as steps of a phone.
@@ -342,7 +283,7 @@ class PdrPipeline:
             raise InputError(f"this is a foot-mounted IMU recording (device role '{d.role}', placement "
                              f"'{d.placement}'); phone PDR needs a phone: use 'pdr foot' for shoe IMU logs",
                              source=batch.source or None, field="device")
-        events: list[Event] = []
+        events: list[PipelineEvent] = []
         if self.grid is None:
             events += self._start(batch)
             if self.grid is None:
@@ -354,11 +295,11 @@ class PdrPipeline:
             events += self._process(t, vals)
         return events
 
-    def finish(self) -> list[Event]:
+    def finish_events(self) -> list[PipelineEvent]:
         """End the session: process what is buffered, close the last walking bout, emit the last step."""
-        events: list[Event] = []
+        events: list[PipelineEvent] = []
         if self.grid is None:
-            return [{"type": "notice", "message": "no accelerometer data: empty track"}]
+            return [NoticeEvent("no accelerometer data: empty track")]
         t, vals = self.grid.pull()
         if t.size:
             events += self._process(t, vals)
@@ -368,87 +309,103 @@ class PdrPipeline:
             events += self._emit_step(self.pending, None)
             self.pending = None
         if self.track.n_steps == 0:
-            events.append({"type": "notice", "message": "no walking detected: empty track"})
+            events.append(NoticeEvent("no walking detected: empty track"))
         return events
 
-    def run(self, recording: Recording) -> list[Event]:
-        """Whole recording as one batch, then :meth:`finish`."""
-        return self.update(recording) + self.finish()
+    @property
+    def landmark_updates(self) -> int:
+        """Steps whose heading a site landmark corrected."""
+        return self.stairs.updates
+
+    @property
+    def landmark_attitude_updates(self) -> int:
+        """Steps whose landmark also updated the attitude (first UKF row)."""
+        return self.stairs.attitude_updates
 
     # -- state -------------------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
         """JSON-serialisable state (configuration and site included)."""
-        return {
-            "config": self.config.to_dict(), "site": None if self.site is None else self.site.to_dict(),
-            "grid": None if self.grid is None else self.grid.to_dict(), "steps": self.steps.state_dict(),
-            "attitude": self.attitude.state.to_dict(), "magcal": self.magcal.to_dict(), "floors": self.floors.to_dict(),
-            "elevator": self.elevator.to_dict(), "track": self.track.to_dict(), "offset": self.offset.to_dict(),
-            "hde": self.hde.to_dict(), "history": self.history.to_dict(), "placement": self.placement,
+        d = {
+            "format": STATE_FORMAT, "config": self.config.to_dict(),
+            "site": None if self.site is None else self.site.to_dict(),
+            "grid": None if self.grid is None else self.grid.state(), "steps": self.steps.state_dict(),
+            "attitude": self.attitude.state.to_dict(), "magcal": self.magcal.state(), "floors": self.floors.state(),
+            "elevator": self.elevator.state(), "track": self.track.state(), **self.device_heading.state(),
+            **self.drift.state(), "history": self.history.state(), "placement": self.placement,
             "auto_placement": self.auto_placement, "placement_detector": self.placement_detector.to_dict(),
-            "t0_ns": self.t0_ns,
-            "prev_yaw": self.prev_yaw, "prev_q": self.prev_q, "prev_mode": self.prev_mode,
-            "last_step": None if self.last_step is None else list(self.last_step),
-            "stairs_landmark": self.stairs_landmark, "landmark_updates": self.landmark_updates,
-            "landmark_attitude_updates": self.landmark_attitude_updates,
-            "prev_step_start": self.prev_step_start, "direction_score": self.direction_vote.score,
-            "direction_votes": self.direction_vote.n,
-            "pending": _jsonable(self.pending),
-            "pitch_baseline": self.pitch_baseline, "last_floor": self.last_floor, "notices": self.notices,
+            "t0_ns": self.t0_ns, **self.pocket_heading.state(), **self.modes.state(), **self.turns.state(),
+            **self.stairs.state(),
+            "pending": None if self.pending is None else self.pending.state(),
+            "last_floor": self.last_floor, "notices": self.notices,
             "av_zi": None if self._av_zi is None else self._av_zi.tolist(), "n_input_samples": self.n_input_samples,
-            "gyro_yaw": self.gyro_yaw.state_dict(),
+            "gyro_yaw": self.gyro_yaw.state(),
         }
+        if self.stages:
+            d["stages"] = {st.name: st.state() for st in self.stages}
+        return d
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any], placement_provider: PlacementProvider | None = None) -> PdrPipeline:
+    def from_dict(cls, d: dict[str, Any], placement_provider: PlacementProvider | None = None,
+                  stages: Sequence[StepStage] = ()) -> PdrPipeline:
+        """A pipeline resuming a saved state (:meth:`to_dict`); ``stages``: the plugged-in stages, built as for the
+        saved session, each restored from its saved state. A state that cannot be resumed (damaged, of a newer format,
+        or of an older one whose fields this version no longer fills in) is refused with an :class:`InputError`
+        that says to reprocess the session.
+        """
+        if not isinstance(d, dict):
+            raise InputError(f"pipeline state must be an object, got {type(d).__name__}: it cannot be resumed; "
+                             "reprocess the session from its recording", source="pipeline state")
+        fmt = d.get("format", 1)
+        if isinstance(fmt, bool) or not isinstance(fmt, int) or not 1 <= fmt <= STATE_FORMAT:
+            raise InputError(f"pipeline state of format {fmt!r}; this version reads formats 1 to {STATE_FORMAT}: it "
+                             "cannot be resumed; reprocess the session from its recording", source="pipeline state",
+                             field="format")
         try:
             site = None if d["site"] is None else Site.from_dict(d["site"])
             p = cls(PipelineConfig.from_dict(d["config"]), site, placement_provider)
-            p.grid = None if d["grid"] is None else OnlineGrid.from_dict(d["grid"])
+            c = p.config
+            p.grid = None if d["grid"] is None else OnlineGrid.from_state(d["grid"])
             p.steps = StepDetector.from_state_dict(d["steps"])
             p.attitude.state = AttitudeState.from_dict(d["attitude"])
             if d.get("magcal") is not None:
-                p.magcal = HardIronEstimator.from_dict(d["magcal"], p.config.rate_hz, p.config.magcal)
-            p.floors = FloorTracker.from_dict(d["floors"])
-            p.elevator = ElevatorDetector.from_dict(d["elevator"], p.config.landmarks)
-            p.track = TrackState.from_dict(d["track"])
-            p.offset = OffsetEstimator.from_dict(d["offset"])
-            if d.get("hde") is not None:      # absent in states saved before the drift elimination
-                p.hde = StepDriftElimination.from_dict(d["hde"], p.config.hde, p._grid_yaw())
-            p.history = _History.from_dict(d["history"])
+                p.magcal = HardIronEstimator.from_state(d["magcal"], c.rate_hz, c.magcal)
+            p.floors = FloorTracker.from_state(d["floors"])
+            p.elevator = ElevatorDetector.from_state(d["elevator"], c.landmarks)
+            p.track = TrackState.from_state(d["track"])
+            p.device_heading = DeviceHeading.from_state(d, c.heading_offset, c.heading_process_var)
+            p.drift = DriftElimination.from_state(d, c.drift_elimination, p.drift.hde)
+            p.history = SampleHistory.from_state(d["history"])
             p.placement, p.t0_ns = d["placement"], int(d["t0_ns"])
             # Absent in states saved before the online placement detector: their placement stays as it was.
             p.auto_placement = bool(d.get("auto_placement", False))
             if d.get("placement_detector") is not None:
-                p.placement_detector = PlacementDetector.from_dict(d["placement_detector"], p.config.placement_detect)
-            p.prev_yaw, p.prev_q, p.prev_mode = d["prev_yaw"], d["prev_q"], str(d["prev_mode"])
-            last = d.get("last_step")             # absent in states saved before the turn factor
-            p.last_step = None if last is None else (float(last[0]), float(last[1]))
-            # Absent in states saved before per-step stairs landmarks.
-            p.stairs_landmark = d.get("stairs_landmark")
-            p.landmark_updates = int(d.get("landmark_updates", 0))
-            p.landmark_attitude_updates = int(d.get("landmark_attitude_updates", 0))
-            p.prev_step_start = None if d["prev_step_start"] is None else int(d["prev_step_start"])
-            p.direction_vote = _direction_vote(p.placement)
-            p.direction_vote.score = float(d["direction_score"])
-            p.direction_vote.n = int(d["direction_votes"])
-            p.pending = _from_jsonable(d["pending"])
-            p.pitch_baseline, p.last_floor = d["pitch_baseline"], float(d["last_floor"])
+                p.placement_detector = PlacementDetector.from_dict(d["placement_detector"], c.placement_detect)
+            p.pocket_heading = PocketHeading.from_state(d, c.rate_hz, c.pocket_axis, c.heading_process_var,
+                                                        c.attitude, p._site_has_landmarks(), p.placement)
+            p.modes = StepModeLabeller.from_state(d, c.landmarks, c.rate_hz)
+            p.turns = StepTurn.from_state(d, p._max_gap_s())
+            p.stairs = StairsLandmarkHeading.from_state(d, site, c.attitude)
+            p.pending = None if d["pending"] is None else PendingStep.from_state(d["pending"])
+            p.last_floor = float(d["last_floor"])
             p.notices = list(d["notices"])
             p._av_zi = None if d["av_zi"] is None else np.array(d["av_zi"], dtype=np.float64)
             p.n_input_samples = int(d["n_input_samples"])
             if isinstance(d.get("gyro_yaw"), dict):      # older states kept a plain integral (restarted here)
-                p.gyro_yaw = GyroYaw.from_state_dict(d["gyro_yaw"], p.config.rate_hz)
+                p.gyro_yaw = GyroYaw.from_state(d["gyro_yaw"], c.rate_hz)
+            saved = d.get("stages") or {}
+            p.stages = [st.from_state(saved[st.name]) if st.name in saved else st for st in stages]
             if p.pending is not None or p.track.n_steps:      # a step was processed (see _placement_known)
                 p._placement_known()
         except (KeyError, TypeError, ValueError) as exc:
-            raise InputError(f"bad pipeline state ({exc})", source="pipeline state") from None
+            raise InputError(f"bad pipeline state ({type(exc).__name__}: {exc}): it cannot be resumed; reprocess the "
+                             "session from its recording", source="pipeline state") from None
         return p
 
     # -- internals ---------------------------------------------------------------------------------
-    def _start(self, batch: Recording) -> list[Event]:
-        events: list[Event] = []
+    def _start(self, batch: Recording) -> list[PipelineEvent]:
+        events: list[PipelineEvent] = []
         if not batch.has("acc"):
-            return [{"type": "notice", "message": "batch without accelerometer samples skipped"}]
+            return [NoticeEvent("batch without accelerometer samples skipped")]
         kinds = ["acc"]
         for k, msg in (("gyro", "no gyroscope: attitude from accelerometer and magnetometer only, heading noisy"),
                        ("mag", "no magnetometer: heading is relative to the initial device heading"),
@@ -457,7 +414,7 @@ class PdrPipeline:
                 kinds.append(k)
             else:
                 self.notices.append(msg)
-                events.append({"type": "notice", "message": msg})
+                events.append(NoticeEvent(msg))
         self.grid = OnlineGrid(self.config.rate_hz, tuple(kinds))
         self.t0_ns = 0
         if self.placement is None:
@@ -468,12 +425,12 @@ class PdrPipeline:
             self.auto_placement = self.placement is None
         return events
 
-    def _process(self, t: FloatArray, vals: dict[str, FloatArray], final: bool = False) -> list[Event]:
+    def _process(self, t: FloatArray, vals: dict[str, FloatArray], final: bool = False) -> list[PipelineEvent]:
         assert self.grid is not None and self.grid.first_k is not None
-        events: list[Event] = []
+        events: list[PipelineEvent] = []
         n = t.size
         acc = vals["acc"] if n else np.zeros((0, 3))
-        g0 = self.steps._n_seen
+        g0 = self.steps.samples_seen
         steps, an = self.steps.update(acc, final=final)
         kinds = self.grid.kinds
         gyro = vals["gyro"] if "gyro" in kinds and n else None
@@ -486,8 +443,8 @@ class PdrPipeline:
             up, floor = self.floors.update(vals["baro"][:, 0], np.ones(n, dtype=bool))
             changes = np.flatnonzero(np.diff(np.concatenate([[self.last_floor], floor])) != 0)
             for i in changes:
-                events.append({"type": "floor_change", "t_s": float(t[i]), "floor": float(floor[i]),
-                               "from_floor": float(self.last_floor if i == 0 else floor[i - 1])})
+                events.append(FloorChangeEvent(float(t[i]), float(floor[i]),
+                                               float(self.last_floor if i == 0 else floor[i - 1])))
             if floor.size:
                 self.last_floor = float(floor[-1])
         else:
@@ -514,36 +471,36 @@ class PdrPipeline:
                     self.history.gyro_yaw[hs], self.history.up_time[hs] = self.gyro_yaw.update(qs, gyro[a:b])
                 pos = cut + 1
             for j in by_confirm.get(cut, []):
-                    events += self._step(int(steps.start_idx[j]), int(steps.end_idx[j]), float(steps.peak[j]))
+                events += self._step(int(steps.start_idx[j]), int(steps.end_idx[j]), float(steps.peak[j]))
         if n:
             events += self._elevator(t, g0)
         self.history.trim()
         return events
 
-    def _elevator(self, t: FloatArray, g0: int) -> list[Event]:
+    def _elevator(self, t: FloatArray, g0: int) -> list[PipelineEvent]:
         av = self.history.f_n[self.history.sl(g0, g0 + t.size), 2] - GRAVITY_MPS2
         b, a = self._av_ba
         if self._av_zi is None:
             self._av_zi = iir.lfilter_zi(b, a) * av[0]
         dv, self._av_zi = iir.lfilter(b, a, av, self._av_zi)
-        out: list[Event] = []
+        out: list[PipelineEvent] = []
         for s, e, direction in self.elevator.update(dv, np.zeros(dv.size, dtype=bool)):
             sl = self.history.sl(s, e + 1)
             dh = float(self.history.up[sl][-1] - self.history.up[sl][0]) if self.history.up[sl].size else 0.0
-            has_baro = self.grid is not None and "baro" in self.grid.kinds
-            if has_baro and abs(dh) < 0.5 * self.floors.config.floor_height_m:
+            if self._has_baro() and abs(dh) < 0.5 * self.floors.config.floor_height_m:
                 continue
             mags = self.history.mag_n[sl]
-            ev: Event = {"type": "elevator", "t_start_s": float(self.history.t[sl][0]) if mags.size else float(t[0]),
-                         "t_end_s": float(self.history.t[sl][-1]) if mags.size else float(t[-1]),
-                         "direction": "up" if direction > 0 else "down", "altitude_change_m": dh,
-                         "mag_change_uT": float(np.nanmax(mags) - np.nanmin(mags)) if np.isfinite(mags).any() else None}
+            site_landmark = None
             if self.site is not None:
                 lm = self.site.match("elevator", self.track.east_m, self.track.north_m, math.nan)
                 if lm is not None:
                     self.track.fix(lm.east_m, lm.north_m, 1.0)
-                    ev["site_landmark"] = lm.id
-            out.append(ev)
+                    site_landmark = lm.id
+            out.append(ElevatorEvent(
+                float(self.history.t[sl][0]) if mags.size else float(t[0]),
+                float(self.history.t[sl][-1]) if mags.size else float(t[-1]),
+                "up" if direction > 0 else "down", dh,
+                float(np.nanmax(mags) - np.nanmin(mags)) if np.isfinite(mags).any() else None, site_landmark))
         return out
 
     def _placement_known(self) -> None:
@@ -582,10 +539,10 @@ class PdrPipeline:
         else:
             self.notices.append(f"placement detected: {new}")
         self.placement = new
-        self.prev_yaw = self.prev_q = self.prev_step_start = None
-        self.direction_vote = _direction_vote(new)
+        self.pocket_heading.reset(new)
 
-    def _step(self, s: int, e: int, peak: float) -> list[Event]:
+    def _step(self, s: int, e: int, peak: float) -> list[PipelineEvent]:
+        """One confirmed step ``[s, e)``: its heading and label now, output one step later (:meth:`_emit_step`)."""
         h = self.history
         sl = h.sl(s, e)
         q = h.q[sl]
@@ -599,205 +556,81 @@ class PdrPipeline:
         # From the first step on, whenever the placement became known (configuration, provider or rule).
         self._placement_known()
         f_n = h.f_n[sl]
-        a_v = f_n[:, 2]
-        pats = step_patterns(h.an[sl], a_v, c.rate_hz)
-        # Heading.
-        axis, _ratio = pca_axis(f_n[:, :2])                     # RMPCA
+        pats = step_patterns(h.an[sl], f_n[:, 2], c.rate_hz)
         st = self.attitude.state
-        if self.placement in ("pocket", "swinging"):
-            # A pocket phone moves with one thigh, whose stance and swing halves of the gait cycle differ: the
-            # walking axis (RMPCA) and the 180-degree rule use the stride made of this step and the one before
-            # it (a step's length before it after a pause).
-            ps = self.prev_step_start
-            s0 = ps if ps is not None and 0 < s - ps <= 2 * (e - s) else s - (e - s)
-            self.prev_step_start = s
-            stride = h.sl(s0, e)
-            q_str, f_str = h.q[stride], h.f_n[stride]
-            if not (np.all(np.isfinite(q_str)) and np.all(np.isfinite(f_str))):
-                q_str, f_str = q, f_n
-            swing_axis = self.placement == "swinging" or c.pocket_axis == "swing" or (
-                c.pocket_axis == "auto" and (self.site is None or not self.site.landmarks))
-            if swing_axis:
-                # The swing plane's axis of the thigh or arm (pdr.phone.walking_direction), not the device yaw.
-                axis, _ratio = swing_plane_axis(q_str, c.rate_hz)
-            else:
-                axis, _ratio = pca_axis(f_str[:, :2])             # RMPCA over the stride
-            q_mid = q[q.shape[0] // 2]
-            if self.prev_yaw is None or self.prev_q is None:
-                prior = axis
-            else:
-                # Previous heading turned by the device's rotation about the vertical since then.
-                turn = float(quat.to_rotvec(quat.multiply(q_mid, quat.conjugate(np.array(self.prev_q))))[2])
-                prior = self.prev_yaw + turn
-            self.prev_q = q_mid.tolist()
-            psi0 = resolve_direction(axis, prior)
-            # 180-degree rule: in a trouser pocket the thigh's fast swing (pdr.phone.heading module doc); in a
-            # swinging hand, whose swing is nearly symmetric, the centripetal acceleration in turns
-            # (pdr.phone.walking_direction).
-            if self.placement == "pocket":
-                evidence = thigh_swing_evidence(q_str, c.rate_hz, psi0)
-            else:
-                evidence = turn_evidence(f_str, _yaw_rate(q_str, c.rate_hz), psi0)
-            if self.direction_vote.update(evidence):
-                psi0 = float(wrap_angle(psi0 + math.pi))
-                if self.pending is not None:
-                    # The step waiting for output was resolved by the refuted direction: reverse it too.
-                    self.pending["yaw"] = float(wrap_angle(self.pending["yaw"] + math.pi))
-                    self.pending["psi0"] = float(wrap_angle(self.pending["psi0"] + math.pi))
-            m1 = scatter_of(f_str, st.q)
-            if swing_axis:
-                est = HeadingEstimate(psi0, yaw_variance(st.q, st.P) + c.heading_process_var)
-            else:
-                est = improved_rmpca_ut(st.q, st.P, m1, psi0, c.heading_process_var, self._ut_points())
-            self.prev_yaw = est.yaw
+        win = StepWindow(s, e, h, q, f_n, pca_axis(f_n[:, :2])[0], st.q, st.P)   # RMPCA axis of the step
+        if self.placement in STRIDE_HEADING_PLACEMENTS:
+            head = self.pocket_heading.estimate(win, self.placement)
+            if head.reversed_direction and self.pending is not None:
+                # The step waiting for output was resolved by the refuted direction: reverse it too.
+                self.pending.reverse()
         else:
-            dev = mean_yaw(h.yaw_z[sl] if self.placement == "torso" else h.yaw_y[sl])   # seed 004 eq. 21
-            if c.heading_offset == "pca":
-                off = self.offset.update(axis, dev)
-            else:
-                off = 0.0
-            psi0 = float(wrap_angle(dev + off))
-            m1 = scatter_of(f_n, st.q) if self.site is not None else np.zeros((3, 3))
-            var = yaw_variance(st.q, st.P) + c.heading_process_var
-            est = HeadingEstimate(psi0, var)
-        # Landmark label (third level of the tree).
-        rate = None
-        if self.grid is not None and "baro" in self.grid.kinds:
-            back = h.sl(s - int(2.0 * c.rate_hz), e)
-            tt, uu = h.t[back], h.up[back]
-            if tt.size > 2 and tt[-1] > tt[0]:
-                rate = float((uu[-1] - uu[0]) / (tt[-1] - tt[0]))
-        pmax = pmin = None
-        if self.placement == "pocket":
-            pitch = np.degrees(np.arcsin(np.clip(h.y_up[sl], -1, 1)))
-            pmax, pmin = float(pitch.max()), float(pitch.min())
-        base = tuple(self.pitch_baseline) if self.pitch_baseline else None
-        mode = classify_step(rate, pmax, pmin, base, c.landmarks)  # type: ignore[arg-type]
-        if mode == "walking" and pmax is not None and pmin is not None:
-            nb = [pmax - pmin, pmax, pmin]
-            self.pitch_baseline = nb if self.pitch_baseline is None else [
-                0.9 * a + 0.1 * b for a, b in zip(self.pitch_baseline, nb, strict=True)]
-        rec = {"s": s, "e": e, "t_start": float(h.t[sl][0]), "t_end": float(h.t[sl][-1]) + 1.0 / c.rate_hz,
-               "pats": pats.tolist(), "yaw": est.yaw, "var": est.var, "psi0": psi0, "axis": axis,
-               "mode": mode, "up": float(h.up[sl][-1]), "floor": float(h.floor[sl][-1]), "m1": m1.tolist(),
-               "q1": st.q.tolist(), "peak": peak, "gyro_yaw": _mean_finite(h.gyro_yaw[sl]),
-               "up_time": _mean_finite(h.up_time[sl]),
-               "gyro_bias": st.bias.tolist() if self.attitude.bias_known else None}
-        events: list[Event] = []
+            head = self.device_heading.estimate(win, self.placement, self.site is not None)
+        mode = self.modes.label(h, s, e, self.placement, self._has_baro())
+        rec = PendingStep(s, e, float(h.t[sl][0]), float(h.t[sl][-1]) + 1.0 / c.rate_hz, pats.tolist(),
+                          head.est.yaw, head.est.var, head.psi0, head.axis, mode, float(h.up[sl][-1]),
+                          float(h.floor[sl][-1]), head.m1.tolist(), st.q.tolist(), peak,
+                          _mean_finite(h.gyro_yaw[sl]), _mean_finite(h.up_time[sl]),
+                          st.bias.tolist() if self.attitude.bias_known else None)
+        events: list[PipelineEvent] = []
         if self.pending is not None:
             events += self._emit_step(self.pending, rec)
         self.pending = rec
         return events
 
-    def _emit_step(self, rec: dict[str, Any], nxt: dict[str, Any] | None) -> list[Event]:
+    def _emit_step(self, rec: PendingStep, nxt: PendingStep | None) -> list[PipelineEvent]:
+        """Output the step ``rec`` (``nxt``: the step after it, None at the end): label correction, turn, length,
+        landmark, drift elimination, track, then the plugged-in stages.
+        """
         c = self.config
-        mode = rec["mode"]
-        max_gap = c.step.max_step_s + 1e-9
-        if nxt is not None and self.prev_mode and nxt["t_start"] - rec["t_end"] < max_gap:
-            mode = neighbour_correction(self.prev_mode, mode, nxt["mode"])
+        near = nxt is not None and nxt.t_start - rec.t_end < self._max_gap_s()
+        mode = self.modes.corrected(rec.mode, nxt.mode if near and nxt is not None else None)
         on_stairs = mode in ("stairs_up", "stairs_down")
-        # The walking direction's change since the previous step of the same walk (pdr.phone.step_length turn factor).
-        # Hand and torso only: there the step heading follows the device's smooth yaw; a pocket phone's per-step
-        # heading jitters with the thigh (MobiFall walks: 90th percentile 9-66 deg per step), which is no turn.
-        last = self.last_step
-        turn = (abs(float(wrap_angle(rec["yaw"] - last[0])))
-                if last is not None and rec["t_start"] - last[1] < max_gap and not on_stairs
-                and self.placement in ("hand", "torso") else 0.0)
-        self.last_step = (float(rec["yaw"]), float(rec["t_end"]))
-        length = float(self.config.step_length.length(np.array(rec["pats"]), on_stairs, turn))
-        est = HeadingEstimate(rec["yaw"], rec["var"])
-        events: list[Event] = []
-        fixed = landmark_heading = False
-        if self.site is not None and on_stairs:
-            # Every step of a flight of stairs observes the landmark (seed 003 Sec. 5: a landmark is available
-            # while the decision tree labels the steps stairs). The flight is matched at its first step, which
-            # also fixes the position; the following steps of the flight keep that landmark.
-            entering = self.prev_mode not in ("stairs_up", "stairs_down")
-            if entering:
-                lm = self.site.match(mode, self.track.east_m, self.track.north_m, rec["floor"])
-                self.stairs_landmark = None if lm is None else lm.id
-            else:
-                lm = self.site.by_id(self.stairs_landmark) if self.stairs_landmark is not None else None
-            if lm is not None:
-                yaw_lm, var_lm = lm.yaw_and_var()
-                st = self.attitude.state
-                d_uh = float(wrap_angle(yaw_lm - rec["psi0"]))
-                attitude_updated = False
-                if abs(d_uh) < math.pi / 4 and self.placement == "pocket":
-                    # First UKF landmark row (eqs. 20, 32) on the current attitude. The step's scatter matrix
-                    # was expressed in the device frame of the attitude q1 the filter had when the step was
-                    # processed; the filter has moved on by one step since (output delay), so the samples are
-                    # carried into the current device frame (eqs. 14-16 with t1 = now) before f(q) is evaluated.
-                    m_now = scatter_in_frame(np.array(rec["m1"]), np.array(rec["q1"]), st.q)
-                    st.q[:], st.P[:, :] = landmark_attitude_update(st.q, st.P, m_now, rec["psi0"], d_uh, var_lm,
-                                                                   self._ut_points())
-                    attitude_updated = True
-                est = fuse_landmark(est, yaw_lm, var_lm)                 # second UKF (eq. 42)
-                landmark_heading = True
-                if entering:
-                    self.track.fix(lm.east_m, lm.north_m, 1.0)
-                    fixed = True
-                    events.append({"type": "landmark", "t_s": self._clock(rec["t_start"]), "landmark": lm.id,
-                                   "mode": mode})
-                self.landmark_updates += 1
-                self.landmark_attitude_updates += int(attitude_updated)
-        else:
-            self.stairs_landmark = None
-        if self.placement in ("pocket", "swinging") and self.prev_yaw is not None:
-            # The step after this one is already resolved (one-step output delay): it keeps its own heading,
-            # moved by the correction a landmark made here (replacing it by this step's would make every
-            # other step resolve against a heading two steps old).
-            self.prev_yaw = float(wrap_angle(self.prev_yaw + (est.yaw - rec["yaw"])))
+        turn = self.turns.turn(rec, on_stairs, self.placement)
+        length = float(c.step_length.length(np.array(rec.pats), on_stairs, turn))
+        est, landmark, landmark_heading = self.stairs.correct(
+            rec, mode, self.modes.prev_mode, HeadingEstimate(rec.yaw, rec.var), self.track, self.attitude.state,
+            self.placement)
+        events: list[PipelineEvent] = [] if landmark is None else [landmark]
+        if self.placement in STRIDE_HEADING_PLACEMENTS:
+            self.pocket_heading.corrected(rec.yaw, est.yaw)
         raw_yaw = est.yaw
-        if c.drift_elimination and self.placement in ("hand", "torso"):
-            # Heuristic drift elimination towards the walk's dominant directions (pdr.phone.heading module doc).
-            est = HeadingEstimate(self.hde.step(est.yaw, length, rec["t_end"]), est.var)
+        est = self.drift.apply(est, length, rec.t_end, self.placement)
         self.track.step(length, est.yaw, (c.step_length_rel_sigma * length) ** 2, est.var)
-        self.prev_mode = mode
-        events.append({
-            "type": "step", "t_s": self._clock(rec["t_end"]), "t_start_s": self._clock(rec["t_start"]),
-            "east_m": self.track.east_m, "north_m": self.track.north_m, "up_m": rec["up"], "floor": rec["floor"],
-            "heading_deg": float(yaw_to_heading_deg(est.yaw)), "step_length_m": length,
-            "turn_deg": math.degrees(turn), "mode": mode,
-            "placement": self.placement, "heading_sigma_deg": math.degrees(math.sqrt(est.var)),
-            "pos_sigma_m": math.sqrt(max(float(np.trace(self.track.P)), 0.0)),
-            "patterns": rec["pats"],
+        self.modes.prev_mode = mode
+        step = StepEvent(
+            t_s=rec.t_end, t_start_s=rec.t_start, east_m=self.track.east_m, north_m=self.track.north_m, up_m=rec.up,
+            floor=rec.floor, heading_deg=float(yaw_to_heading_deg(est.yaw)), step_length_m=length,
+            turn_deg=math.degrees(turn), mode=mode, placement=self.placement,
+            heading_sigma_deg=math.degrees(math.sqrt(est.var)),
+            pos_sigma_m=math.sqrt(max(float(np.trace(self.track.P)), 0.0)), patterns=rec.pats,
             # Inputs of the offline heading smoother (pdr.phone.heading_smoother).
-            "heading_raw_deg": float(yaw_to_heading_deg(raw_yaw)),
-            "gyro_heading_deg": None if rec.get("gyro_yaw") is None else float(yaw_to_heading_deg(rec["gyro_yaw"])),
-            "up_time_s": rec.get("up_time"),
-            "gyro_bias_dps": None if rec.get("gyro_bias") is None else np.degrees(rec["gyro_bias"]).tolist(),
-            "position_fix": fixed, "landmark_heading": landmark_heading,
-        })
-        return events
+            heading_raw_deg=float(yaw_to_heading_deg(raw_yaw)),
+            gyro_heading_deg=None if rec.gyro_yaw is None else float(yaw_to_heading_deg(rec.gyro_yaw)),
+            up_time_s=rec.up_time,
+            gyro_bias_dps=None if rec.gyro_bias is None else np.degrees(rec.gyro_bias).tolist(),
+            position_fix=landmark is not None, landmark_heading=landmark_heading)
+        extra: list[PipelineEvent] = []
+        for stage in self.stages:
+            step, more = stage.step(step, self.track)
+            extra += more
+        return [*events, step, *extra]
+
+    def _has_baro(self) -> bool:
+        return self.grid is not None and "baro" in self.grid.kinds
+
+    def _max_gap_s(self) -> float:
+        """Longest gap (s) between two steps of one walk (the detector's longest step)."""
+        return self.config.step.max_step_s + 1e-9
+
+    def _site_has_landmarks(self) -> bool:
+        return self.site is not None and bool(self.site.landmarks)
 
     def _grid_yaw(self) -> float | None:
         """Yaw (rad, ENU) of the site's building grid for the drift elimination, or None."""
         if self.site is None or self.site.grid_deg is None:
             return None
         return float(heading_deg_to_yaw(self.site.grid_deg))
-
-    def _ut_points(self) -> SigmaPoints:
-        """Sigma points of the unscented transforms on ``q(t1)`` (eqs. 35-37), with the attitude UKF's parameters."""
-        a = self.config.attitude
-        return SigmaPoints(4, alpha=a.alpha, beta=a.beta, kappa=a.kappa)
-
-    def _clock(self, t_s: float) -> float:
-        return t_s
-
-
-def _direction_vote(placement: str | None) -> DirectionVote:
-    """The forward/backward vote of a placement. A hand holds the phone the same way for minutes and its
-    evidence (the centripetal acceleration, pdr.phone.walking_direction) comes only in turns: a longer memory and a
-    larger margin than the pocket's, whose thigh evidence comes every stride.
-    """
-    return DirectionVote(decay=0.97, margin=2.0) if placement == "swinging" else DirectionVote()
-
-
-def _yaw_rate(q_nb: FloatArray, rate_hz: float) -> float:
-    """Mean rotation rate about the vertical (rad/s) over attitudes ``q_nb`` (N, 4) at ``rate_hz``."""
-    dyaw = float(quat.to_rotvec(quat.multiply(q_nb[-1], quat.conjugate(q_nb[0])))[2])
-    return dyaw * rate_hz / max(q_nb.shape[0] - 1, 1)
 
 
 def _mean_finite(x: FloatArray) -> Any:
@@ -814,14 +647,6 @@ def _placement_group(name: str | None) -> str | None:
     if name in ("pocket", "hand", "torso"):
         return name
     return PLACEMENT_GROUPS.get(name)
-
-
-def _jsonable(d: dict[str, Any] | None) -> dict[str, Any] | None:
-    return None if d is None else dict(d)
-
-
-def _from_jsonable(d: dict[str, Any] | None) -> dict[str, Any] | None:
-    return None if d is None else dict(d)
 
 
 def track_rows(events: list[Event]) -> list[Event]:

@@ -453,6 +453,11 @@ class StepDetector:
         self._n_seen = 0
 
     # -- state -------------------------------------------------------------------------------------
+    @property
+    def samples_seen(self) -> int:
+        """Number of samples fed so far: the grid index of the next sample :meth:`update` gets."""
+        return self._n_seen
+
     def state_dict(self) -> dict[str, Any]:
         return {"rate_hz": self.rate_hz, "config": asdict(self.config),
                 "zi": None if self._zi is None else self._zi.tolist(),

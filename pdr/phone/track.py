@@ -49,11 +49,11 @@ class TrackState:
         self.east_m, self.north_m = float(east_m), float(north_m)
         self.P = np.eye(2) * var_m2
 
-    def to_dict(self) -> dict[str, Any]:
+    def state(self) -> dict[str, Any]:
         return {"east_m": self.east_m, "north_m": self.north_m, "P": self.P.tolist(), "n_steps": self.n_steps}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> TrackState:
+    def from_state(cls, d: dict[str, Any]) -> TrackState:
         try:
             return cls(float(d["east_m"]), float(d["north_m"]), np.array(d["P"], dtype=np.float64),
                        int(d["n_steps"]))

@@ -51,7 +51,7 @@ def test_chunks_with_state_round_trips_equal_one_batch():
         u, f = tracker.update(p[a:b], flat[a:b])
         ups.append(u)
         fls.append(f)
-        tracker = FloorTracker.from_dict(tracker.to_dict())
+        tracker = FloorTracker.from_state(tracker.state())
     np.testing.assert_array_equal(np.concatenate(ups), up1)
     np.testing.assert_array_equal(np.concatenate(fls), fl1)
 
@@ -60,4 +60,4 @@ def test_bad_configuration_and_state_are_named():
     with pytest.raises(InputError, match="floor height must be positive"):
         FloorConfig(floor_height_m=0.0)
     with pytest.raises(InputError, match="bad floor state"):
-        FloorTracker.from_dict({"rate_hz": 10.0})
+        FloorTracker.from_state({"rate_hz": 10.0})

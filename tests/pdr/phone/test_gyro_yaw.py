@@ -90,12 +90,12 @@ def test_batches_and_state_round_trips_give_the_one_batch_result(cuts):
     parts = []
     for a, b in zip([0, *sorted(cuts)], [*sorted(cuts), q.shape[0]], strict=True):
         parts.append(g.update(q[a:b], gyro[a:b]))
-        g = GyroYaw.from_state_dict(g.state_dict(), RATE_HZ)
+        g = GyroYaw.from_state(g.state(), RATE_HZ)
     np.testing.assert_array_equal(np.concatenate([p[0] for p in parts]), whole[0])
     np.testing.assert_array_equal(np.concatenate([p[1] for p in parts]), whole[1])
 
 
 def test_a_bad_state_is_refused():
-    d = GyroYaw(RATE_HZ).state_dict() | {"axis": 3}
+    d = GyroYaw(RATE_HZ).state() | {"axis": 3}
     with pytest.raises(ValueError, match="axis"):
-        GyroYaw.from_state_dict(d, RATE_HZ)
+        GyroYaw.from_state(d, RATE_HZ)

@@ -226,6 +226,7 @@ def test_site_grid_is_read_checked_and_reaches_the_pipeline():
     with pytest.raises(InputError, match="grid_deg"):
         Site.from_dict({"landmarks": [], "grid_deg": "north"})
     p = PdrPipeline(PipelineConfig(placement="hand"), site)
-    assert p.hde.grid_yaw == pytest.approx(math.radians(90.0 - 69.5))  # ENU yaw of a compass bearing
+    assert p.drift.hde.grid_yaw == pytest.approx(math.radians(90.0 - 69.5))  # ENU yaw of a compass bearing
     from pdr import state_codec
-    assert PdrPipeline.from_dict(state_codec.loads(state_codec.dumps(p.to_dict()))).hde.grid_yaw == p.hde.grid_yaw
+    again = PdrPipeline.from_dict(state_codec.loads(state_codec.dumps(p.to_dict())))
+    assert again.drift.hde.grid_yaw == p.drift.hde.grid_yaw

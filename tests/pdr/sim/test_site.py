@@ -102,7 +102,8 @@ def test_stairs_landmark_corrects_a_seeded_heading_error(side, seed):
     # Stored state round-trips the landmark bookkeeping.
     state = pipe.to_dict()
     again = PdrPipeline.from_dict(state)
-    assert again.stairs_landmark == pipe.stairs_landmark and again.landmark_updates == pipe.landmark_updates
+    assert again.stairs.stairs_landmark == pipe.stairs.stairs_landmark
+    assert again.landmark_updates == pipe.landmark_updates
 
 
 def test_site_carries_the_scenario_declination_and_the_pipeline_uses_it():

@@ -1,0 +1,331 @@
+"""The heading stages of the phone pipeline: the per-step heading policy, one class per stage, composed by
+:class:`pdr.phone.pipeline.PdrPipeline` (the estimators themselves are in :mod:`pdr.phone.heading`).
+
+- :class:`DeviceHeading`: hand-held and torso, the device heading plus an offset (seed 004 eq. 21);
+- :class:`PocketHeading`: trouser pocket and swinging hand, the walking axis of the stride (swing plane or
+  improved RMPCA), carried from step to step by the device's rotation (the prior turn), the 180-degree vote, and
+  the second UKF (seed 003 eq. 41);
+- :class:`StairsLandmarkHeading`: a site's flight of stairs, matched at its first step (position fix), whose heading
+  updates the attitude (first UKF row, eqs. 20, 32) and the step heading (second UKF, eq. 42) at every step of it;
+- :class:`StepTurn`: the change of the walking direction since the previous step (the step length's turn factor);
+- :class:`DriftElimination`: heuristic drift elimination of hand-held and torso headings.
+
+Each stage has ``state()`` and ``from_state()`` (:mod:`pdr.phone.stage`); the keys of their states are those the
+pipeline's saved state has always had, so states saved before the stages existed resume.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pdr import quaternion as quat
+from pdr.filters.ukf import SigmaPoints
+from pdr.frames import wrap_angle
+from pdr.phone.attitude import AttitudeConfig, AttitudeState
+from pdr.phone.events import LandmarkEvent
+from pdr.phone.heading import (
+    DirectionVote,
+    HeadingEstimate,
+    OffsetEstimator,
+    StepDriftElimination,
+    fuse_landmark,
+    improved_rmpca_ut,
+    landmark_attitude_update,
+    mean_yaw,
+    pca_axis,
+    resolve_direction,
+    scatter_in_frame,
+    scatter_of,
+    thigh_swing_evidence,
+    yaw_variance,
+)
+from pdr.phone.landmarks import Site
+from pdr.phone.stage import PendingStep, StepHeading, StepWindow
+from pdr.phone.track import TrackState
+from pdr.phone.walking_direction import swing_plane_axis, turn_evidence
+
+FloatArray = NDArray[np.float64]
+
+#: Placements whose walking direction is the device heading (plus an offset).
+DEVICE_HEADING_PLACEMENTS = ("hand", "torso")
+#: Placements whose walking direction comes from the stride's motion (swing plane or RMPCA, 180-degree vote).
+STRIDE_HEADING_PLACEMENTS = ("pocket", "swinging")
+
+
+def ut_points(config: AttitudeConfig) -> SigmaPoints:
+    """Sigma points of the unscented transforms on ``q(t1)`` (eqs. 35-37), with the attitude UKF's parameters."""
+    return SigmaPoints(4, alpha=config.alpha, beta=config.beta, kappa=config.kappa)
+
+
+class DeviceHeading:
+    """Hand-held and torso: the yaw of the device's forward axis averaged over the step (seed 004 eq. 21; the y axis
+    of a hand-held phone, the z axis of one on the torso) plus an offset (``zero``, or ``pca``: the running offset of
+    the RMPCA axis, :class:`pdr.phone.heading.OffsetEstimator`); variance from the attitude covariance plus the
+    process noise ``process_var`` (rad^2) of eq. 41.
+    """
+
+    def __init__(self, heading_offset: str, process_var: float, offset: OffsetEstimator | None = None) -> None:
+        self.heading_offset = heading_offset
+        self.process_var = process_var
+        self.offset = offset or OffsetEstimator()
+
+    def estimate(self, win: StepWindow, placement: str, with_scatter: bool) -> StepHeading:
+        """The step's heading; ``with_scatter``: also the scatter matrix (a site's landmark may use it)."""
+        h = win.history
+        sl = h.sl(win.s, win.e)
+        dev = mean_yaw(h.yaw_z[sl] if placement == "torso" else h.yaw_y[sl])   # seed 004 eq. 21
+        if self.heading_offset == "pca":
+            off = self.offset.update(win.axis, dev)
+        else:
+            off = 0.0
+        psi0 = float(wrap_angle(dev + off))
+        m1 = scatter_of(win.f_n, win.att_q) if with_scatter else np.zeros((3, 3))
+        var = yaw_variance(win.att_q, win.att_p) + self.process_var
+        return StepHeading(HeadingEstimate(psi0, var), psi0, win.axis, m1)
+
+    def state(self) -> dict[str, Any]:
+        return {"offset": self.offset.to_dict()}
+
+    @classmethod
+    def from_state(cls, d: dict[str, Any], heading_offset: str, process_var: float) -> DeviceHeading:
+        return cls(heading_offset, process_var, OffsetEstimator.from_dict(d["offset"]))
+
+
+def direction_vote(placement: str | None) -> DirectionVote:
+    """The forward/backward vote of a placement. A hand holds the phone the same way for minutes and its
+    evidence (the centripetal acceleration, pdr.phone.walking_direction) comes only in turns: a longer memory and a
+    larger margin than the pocket's, whose thigh evidence comes every stride.
+    """
+    return DirectionVote(decay=0.97, margin=2.0) if placement == "swinging" else DirectionVote()
+
+
+def _yaw_rate(q_nb: FloatArray, rate_hz: float) -> float:
+    """Mean rotation rate about the vertical (rad/s) over attitudes ``q_nb`` (N, 4) at ``rate_hz``."""
+    dyaw = float(quat.to_rotvec(quat.multiply(q_nb[-1], quat.conjugate(q_nb[0])))[2])
+    return dyaw * rate_hz / max(q_nb.shape[0] - 1, 1)
+
+
+class PocketHeading:
+    """Trouser pocket and swinging hand: the walking line of the stride, its direction and the second UKF.
+
+    A pocket phone moves with one thigh, whose stance and swing halves of the gait cycle differ: the walking axis and
+    the 180-degree rule use the stride made of this step and the one before it (a step's length before it after a
+    pause). The axis is the swing plane's (:func:`pdr.phone.walking_direction.swing_plane_axis`) or seed 003's RMPCA
+    of the stride (``pocket_axis``: ``swing``, ``rmpca``, or ``auto``: RMPCA when the site has landmarks; always the
+    swing plane for a swinging hand). The direction along it is the one within 90 degrees of the previous heading
+    turned by the device's rotation about the vertical since then (the prior turn), reversed when the vote
+    (:class:`pdr.phone.heading.DirectionVote`) refutes it: the thigh's fast swing in a pocket
+    (:func:`pdr.phone.heading.thigh_swing_evidence`), the centripetal acceleration in turns for a swinging hand
+    (:func:`pdr.phone.walking_direction.turn_evidence`). The RMPCA heading passes the second UKF
+    (:func:`pdr.phone.heading.improved_rmpca_ut`, eq. 41).
+    """
+
+    def __init__(self, rate_hz: float, pocket_axis: str, process_var: float, attitude: AttitudeConfig,
+                 site_has_landmarks: bool, placement: str | None) -> None:
+        self.rate_hz = rate_hz
+        self.pocket_axis = pocket_axis
+        self.process_var = process_var
+        self.attitude = attitude
+        self.site_has_landmarks = site_has_landmarks
+        self.prev_yaw: float | None = None
+        self.prev_q: list[float] | None = None
+        self.prev_step_start: int | None = None
+        self.direction_vote = direction_vote(placement)
+
+    def reset(self, placement: str | None) -> None:
+        """Forget the walking direction's continuity and vote (the placement changed)."""
+        self.prev_yaw = self.prev_q = self.prev_step_start = None
+        self.direction_vote = direction_vote(placement)
+
+    def estimate(self, win: StepWindow, placement: str) -> StepHeading:
+        h, s, e = win.history, win.s, win.e
+        q, f_n = win.q, win.f_n
+        ps = self.prev_step_start
+        s0 = ps if ps is not None and 0 < s - ps <= 2 * (e - s) else s - (e - s)
+        self.prev_step_start = s
+        stride = h.sl(s0, e)
+        q_str, f_str = h.q[stride], h.f_n[stride]
+        if not (np.all(np.isfinite(q_str)) and np.all(np.isfinite(f_str))):
+            q_str, f_str = q, f_n
+        swing_axis = placement == "swinging" or self.pocket_axis == "swing" or (
+            self.pocket_axis == "auto" and not self.site_has_landmarks)
+        if swing_axis:
+            # The swing plane's axis of the thigh or arm (pdr.phone.walking_direction), not the device yaw.
+            axis, _ratio = swing_plane_axis(q_str, self.rate_hz)
+        else:
+            axis, _ratio = pca_axis(f_str[:, :2])             # RMPCA over the stride
+        q_mid = q[q.shape[0] // 2]
+        if self.prev_yaw is None or self.prev_q is None:
+            prior = axis
+        else:
+            # Previous heading turned by the device's rotation about the vertical since then.
+            turn = float(quat.to_rotvec(quat.multiply(q_mid, quat.conjugate(np.array(self.prev_q))))[2])
+            prior = self.prev_yaw + turn
+        self.prev_q = q_mid.tolist()
+        psi0 = resolve_direction(axis, prior)
+        # 180-degree rule: in a trouser pocket the thigh's fast swing (pdr.phone.heading module doc); in a
+        # swinging hand, whose swing is nearly symmetric, the centripetal acceleration in turns
+        # (pdr.phone.walking_direction).
+        if placement == "pocket":
+            evidence = thigh_swing_evidence(q_str, self.rate_hz, psi0)
+        else:
+            evidence = turn_evidence(f_str, _yaw_rate(q_str, self.rate_hz), psi0)
+        reversed_direction = self.direction_vote.update(evidence)
+        if reversed_direction:
+            psi0 = float(wrap_angle(psi0 + math.pi))
+        m1 = scatter_of(f_str, win.att_q)
+        if swing_axis:
+            est = HeadingEstimate(psi0, yaw_variance(win.att_q, win.att_p) + self.process_var)
+        else:
+            est = improved_rmpca_ut(win.att_q, win.att_p, m1, psi0, self.process_var, ut_points(self.attitude))
+        self.prev_yaw = est.yaw
+        return StepHeading(est, psi0, axis, m1, reversed_direction)
+
+    def corrected(self, step_yaw: float, corrected_yaw: float) -> None:
+        """A landmark corrected the output step's heading from ``step_yaw`` to ``corrected_yaw`` (rad). The step
+        after it is already resolved (one-step output delay): it keeps its own heading, moved by the correction
+        (replacing it by this step's would make every other step resolve against a heading two steps old).
+        """
+        if self.prev_yaw is not None:
+            self.prev_yaw = float(wrap_angle(self.prev_yaw + (corrected_yaw - step_yaw)))
+
+    def state(self) -> dict[str, Any]:
+        return {"prev_yaw": self.prev_yaw, "prev_q": self.prev_q, "prev_step_start": self.prev_step_start,
+                "direction_score": self.direction_vote.score, "direction_votes": self.direction_vote.n}
+
+    @classmethod
+    def from_state(cls, d: dict[str, Any], rate_hz: float, pocket_axis: str, process_var: float,
+                   attitude: AttitudeConfig, site_has_landmarks: bool, placement: str | None) -> PocketHeading:
+        o = cls(rate_hz, pocket_axis, process_var, attitude, site_has_landmarks, placement)
+        o.prev_yaw, o.prev_q = d["prev_yaw"], d["prev_q"]
+        o.prev_step_start = None if d["prev_step_start"] is None else int(d["prev_step_start"])
+        o.direction_vote.score = float(d["direction_score"])
+        o.direction_vote.n = int(d["direction_votes"])
+        return o
+
+
+class StairsLandmarkHeading:
+    """A site's flight of stairs as a landmark (seed 003 Sec. 5: a landmark is available while the decision tree
+    labels the steps stairs). The flight is matched at its first step, which also fixes the position; every step of
+    the flight observes the landmark's heading: the first UKF's landmark row on the attitude (eqs. 20, 32; trouser
+    pocket, within 45 degrees of the RMPCA direction) and the second UKF's (eq. 42) on the step heading.
+    """
+
+    def __init__(self, site: Site | None, attitude: AttitudeConfig) -> None:
+        self.site = site
+        self.attitude = attitude
+        self.stairs_landmark: str | None = None
+        self.updates = 0
+        self.attitude_updates = 0
+
+    def correct(self, rec: PendingStep, mode: str, prev_mode: str, est: HeadingEstimate, track: TrackState,
+                att: AttitudeState, placement: str | None) -> tuple[HeadingEstimate, LandmarkEvent | None, bool]:
+        """The step's heading after the landmark (if any), the landmark event when the flight is entered (the track
+        is then fixed at the landmark), and whether a landmark corrected the heading.
+        """
+        on_stairs = mode in ("stairs_up", "stairs_down")
+        if self.site is None or not on_stairs:
+            self.stairs_landmark = None
+            return est, None, False
+        entering = prev_mode not in ("stairs_up", "stairs_down")
+        if entering:
+            lm = self.site.match(mode, track.east_m, track.north_m, rec.floor)
+            self.stairs_landmark = None if lm is None else lm.id
+        else:
+            lm = self.site.by_id(self.stairs_landmark) if self.stairs_landmark is not None else None
+        if lm is None:
+            return est, None, False
+        yaw_lm, var_lm = lm.yaw_and_var()
+        d_uh = float(wrap_angle(yaw_lm - rec.psi0))
+        attitude_updated = False
+        if abs(d_uh) < math.pi / 4 and placement == "pocket":
+            # First UKF landmark row (eqs. 20, 32) on the current attitude. The step's scatter matrix
+            # was expressed in the device frame of the attitude q1 the filter had when the step was
+            # processed; the filter has moved on by one step since (output delay), so the samples are
+            # carried into the current device frame (eqs. 14-16 with t1 = now) before f(q) is evaluated.
+            m_now = scatter_in_frame(np.array(rec.m1), np.array(rec.q1), att.q)
+            att.q[:], att.P[:, :] = landmark_attitude_update(att.q, att.P, m_now, rec.psi0, d_uh, var_lm,
+                                                             ut_points(self.attitude))
+            attitude_updated = True
+        est = fuse_landmark(est, yaw_lm, var_lm)                 # second UKF (eq. 42)
+        event = None
+        if entering:
+            track.fix(lm.east_m, lm.north_m, 1.0)
+            event = LandmarkEvent(rec.t_start, lm.id, mode)
+        self.updates += 1
+        self.attitude_updates += int(attitude_updated)
+        return est, event, True
+
+    def state(self) -> dict[str, Any]:
+        return {"stairs_landmark": self.stairs_landmark, "landmark_updates": self.updates,
+                "landmark_attitude_updates": self.attitude_updates}
+
+    @classmethod
+    def from_state(cls, d: dict[str, Any], site: Site | None, attitude: AttitudeConfig) -> StairsLandmarkHeading:
+        o = cls(site, attitude)
+        # Absent in states saved before per-step stairs landmarks.
+        o.stairs_landmark = d.get("stairs_landmark")
+        o.updates = int(d.get("landmark_updates", 0))
+        o.attitude_updates = int(d.get("landmark_attitude_updates", 0))
+        return o
+
+
+class StepTurn:
+    """The walking direction's change since the previous step of the same walk (rad; the step length's turn factor,
+    :func:`pdr.phone.step_length.turn_factor`). Hand and torso only: there the step heading follows the device's
+    smooth yaw; a pocket phone's per-step heading jitters with the thigh (MobiFall walks: 90th percentile 9-66 deg
+    per step), which is no turn. Not on stairs, and zero after a gap longer than ``max_gap_s``.
+    """
+
+    def __init__(self, max_gap_s: float) -> None:
+        self.max_gap_s = max_gap_s
+        self.last_step: tuple[float, float] | None = None   # (raw yaw rad, end time s) of the last emitted step
+
+    def turn(self, rec: PendingStep, on_stairs: bool, placement: str | None) -> float:
+        last = self.last_step
+        turn = (abs(float(wrap_angle(rec.yaw - last[0])))
+                if last is not None and rec.t_start - last[1] < self.max_gap_s and not on_stairs
+                and placement in DEVICE_HEADING_PLACEMENTS else 0.0)
+        self.last_step = (float(rec.yaw), float(rec.t_end))
+        return turn
+
+    def state(self) -> dict[str, Any]:
+        return {"last_step": None if self.last_step is None else list(self.last_step)}
+
+    @classmethod
+    def from_state(cls, d: dict[str, Any], max_gap_s: float) -> StepTurn:
+        o = cls(max_gap_s)
+        last = d.get("last_step")             # absent in states saved before the turn factor
+        o.last_step = None if last is None else (float(last[0]), float(last[1]))
+        return o
+
+
+class DriftElimination:
+    """Heuristic drift elimination of hand-held and torso step headings towards the walk's dominant directions (or
+    the site's grid), :class:`pdr.phone.heading.StepDriftElimination`; other placements pass unchanged.
+    """
+
+    def __init__(self, enabled: bool, hde: StepDriftElimination) -> None:
+        self.enabled = enabled
+        self.hde = hde
+
+    def apply(self, est: HeadingEstimate, length_m: float, t_end_s: float, placement: str | None) -> HeadingEstimate:
+        if self.enabled and placement in DEVICE_HEADING_PLACEMENTS:
+            return HeadingEstimate(self.hde.step(est.yaw, length_m, t_end_s), est.var)
+        return est
+
+    def state(self) -> dict[str, Any]:
+        return {"hde": self.hde.to_dict()}
+
+    @classmethod
+    def from_state(cls, d: dict[str, Any], enabled: bool, hde: StepDriftElimination) -> DriftElimination:
+        """``hde``: a fresh drift elimination with the configuration, whose state ``d`` replaces (absent in states
+        saved before the drift elimination: then it starts afresh).
+        """
+        if d.get("hde") is not None:
+            hde = StepDriftElimination.from_dict(d["hde"], hde.config, hde.grid_yaw)
+        return cls(enabled, hde)
