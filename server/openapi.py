@@ -13,6 +13,7 @@ from typing import Any
 
 import pdr
 from pdr.foot.summaries import SCHEMA as FOOT_STEPS
+from pdr.recording import PLACEMENTS
 from server import schemas
 from server.api import groups
 
@@ -32,6 +33,9 @@ SINCE = {"name": "since", "in": "query", "required": False, "schema": {"type": "
 TOKEN_QUERY = {"name": "token", "in": "query", "required": False, "schema": {"type": "string"},
                "description": "API token for clients that cannot set headers (ingest endpoints only; "
                               "query strings can end up in logs)"}
+PLACEMENT_QUERY = {"name": "placement", "in": "query", "required": False, "schema": {"enum": list(PLACEMENTS)},
+                   "description": "how the phone is carried (the app does not say); without it the phone pipeline "
+                                  "detects the carriage online"}
 
 
 def _errors(*codes: int) -> dict[str, Any]:
@@ -230,7 +234,7 @@ def openapi_document() -> dict[str, Any]:
                 "post": _op("Sensor Logger HTTP push; errors the app shows its user are answered 499 (text)",
                             {"200": _ok("accepted"), "499": _ok("error shown to the user", "text/plain"),
                              "413": _errors(413)["413"]},
-                            parameters=[TOKEN_QUERY], requestBody=_json_body("SensorLoggerMessage"),
+                            parameters=[TOKEN_QUERY, PLACEMENT_QUERY], requestBody=_json_body("SensorLoggerMessage"),
                             security=[{"bearer": []}, {"queryToken": []}])},
         }),
     }
