@@ -238,6 +238,13 @@ class Store:
                                 .group_by(db.batches.c.status))
             return {str(r[0]): int(r[1]) for r in rows}
 
+    def batch_roles(self, session_id: str) -> set[str]:
+        """Device roles with at least one stored batch in the session."""
+        with self.engine.connect() as conn:
+            rows = conn.execute(select(db.batches.c.device_role).where(db.batches.c.session_id == session_id)
+                                .distinct())
+            return {str(r[0]) for r in rows}
+
     def batch_list(self, session_id: str) -> list[Row[Any]]:
         with self.engine.connect() as conn:
             return list(conn.execute(

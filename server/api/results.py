@@ -28,6 +28,7 @@ from pdr.phone.track_schema import TRACK_COLUMNS
 from server import db
 from server.api import current_user, services
 from server.errors import APIError
+from server.feet import primary_role
 
 bp = Blueprint("results", __name__, url_prefix="/api/v1/sessions")
 
@@ -46,6 +47,16 @@ def parse_since() -> float | None:
     if not math.isfinite(value):
         raise APIError(400, "'since' must be finite")
     return value
+
+
+def parse_device(session_id: str) -> str | None:
+    """The ``?device=`` query parameter: a device role, ``primary`` (the session's primary track,
+    :mod:`server.feet`), or None (every device's rows).
+    """
+    device = request.args.get("device") or None
+    if device == "primary":
+        return primary_role(services().store.track_summary(session_id)) or device
+    return device
 
 
 def parse_heading() -> str:
@@ -126,8 +137,8 @@ def _clean(v: Any) -> Any:
 
 @bp.get("/<session_id>/track")
 def track(session_id: str) -> Response:
-    """The track, one row per step: ``?format=json|csv|geojson``, ``?device=ROLE``, ``?since=T_S``,
-    ``?heading=causal|smoothed`` (module doc).
+    """The track, one row per step: ``?format=json|csv|geojson``, ``?device=ROLE|primary``, ``?since=T_S``,
+    ``?heading=causal|smoothed`` (module doc). Every form names each row's device (CSV: the last column).
     """
     user = current_user()
     svc = services()
@@ -137,14 +148,14 @@ def track(session_id: str) -> Response:
         raise APIError(400, f"unknown format '{fmt[:20]}'; use json, csv or geojson")
     heading = parse_heading()
     since = parse_since()
-    rows, smoothing = track_points(session_id, request.args.get("device"), since, heading)
+    rows, smoothing = track_points(session_id, parse_device(session_id), since, heading)
     if fmt == "csv":
         buf = io.StringIO()
         writer = csv.writer(buf, lineterminator="\n")
-        writer.writerow(TRACK_COLUMNS)
+        writer.writerow((*TRACK_COLUMNS, "device"))
         for r in rows:
             writer.writerow(["" if r[c] is None else (repr(r[c]) if isinstance(r[c], float) else r[c])
-                             for c in TRACK_COLUMNS])
+                             for c in (*TRACK_COLUMNS, "device")])
         return Response(buf.getvalue(), mimetype="text/csv",
                         headers={"Content-Disposition": f'attachment; filename="{session_id}.csv"'})
     if fmt == "geojson":
