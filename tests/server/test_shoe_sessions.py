@@ -1,0 +1,129 @@
+"""Shoe IMUs in a session as a user pairs and sends them (issue 32): live feet, the primary track, device
+columns, foot files uploaded to a paired foot, the session's duration.
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+from flask import Flask
+from flask.testing import FlaskClient
+
+from pdr.cli import main as pdr_main
+from tests.conftest import data_path
+from tests.server.conftest import bearer
+from tests.server.helpers import multipart, phone_batch
+
+FOOT_FILES = {"xio": ("xio_gait_loop", "short_walk.csv"),
+              "pyshoe": ("pyshoe_vicon", "2017-11-22-11-52-02.mat"),
+              "sensorconnect": ("foot_stride_gcp", "own", "SensorConnectData_31.csv")}
+
+
+def _session(client: FlaskClient, token: str, name: str, pair: tuple[str, ...]) -> str:
+    sid = client.post("/api/v1/sessions", json={"session_id": name}, headers=bearer(token)).get_json()["id"]
+    for role in pair:
+        assert client.post(f"/api/v1/sessions/{sid}/devices", json={"role": role},
+                           headers=bearer(token)).status_code == 201
+    return sid
+
+
+def _upload(client: FlaskClient, token: str, sid: str, role: str, path: Path) -> tuple[int, dict]:
+    body, content_type = multipart({"file": (path.read_bytes(), path.name)})
+    resp = client.post(f"/api/v1/sessions/{sid}/devices/{role}/upload", headers=bearer(token), data=body,
+                       content_type=content_type)
+    return resp.status_code, resp.get_json()
+
+
+def _pdr_foot(log: Path, out: Path) -> list[dict[str, str]]:
+    assert pdr_main(["foot", str(log), "--method", "stepwise", "--per-step", "--out", str(out)]) == 0
+    with out.open() as fh:
+        return list(csv.DictReader(fh))
+
+
+def _assert_track_is(points: list[dict], ref: list[dict[str, str]]) -> None:
+    assert len(points) == len(ref) > 10
+    for col in ("t_s", "east_m", "north_m", "up_m", "heading_deg"):   # the CLI writes 9 significant digits
+        np.testing.assert_allclose([p[col] for p in points], [float(r[col]) for r in ref], rtol=1e-8, atol=1e-8,
+                                   err_msg=col)
+
+
+@pytest.mark.data
+def test_one_live_foot_is_the_primary_track_and_is_not_halved(real_app: Flask, token: str, tmp_path: Path) -> None:
+    """Both feet paired, only the left sends (a file whose reader says right_foot): no fused track, the left
+    foot's ZUPT track stands for the session, every track form names the device."""
+    client = real_app.test_client()
+    h = bearer(token)
+    log = data_path(*FOOT_FILES["pyshoe"])
+    sid = _session(client, token, "one-foot", ("left_foot", "right_foot"))
+    status, body = _upload(client, token, sid, "left_foot", log)
+    assert status == 201 and body["device_role"] == "left_foot" and body["format"] == "pyshoe"
+    assert real_app.extensions["pdr"].worker.wait_idle(300)
+    s = client.get(f"/api/v1/sessions/{sid}", headers=h).get_json()
+    assert s["status"] == "done", s
+    assert s["feet"] == {"paired": ["left_foot", "right_foot"], "live": ["left_foot"]}
+    assert set(s["tracks"]) == {"left_foot"} and s["primary_track"] == "left_foot"
+    assert s["distance_m"] == s["tracks"]["left_foot"]["distance_m"] > 5
+    points = client.get(f"/api/v1/sessions/{sid}/track?device=left_foot", headers=h).get_json()["points"]
+    _assert_track_is(points, _pdr_foot(log, tmp_path / "steps.csv"))
+
+    text = client.get(f"/api/v1/sessions/{sid}/track?format=csv", headers=h).get_data(as_text=True)
+    rows = list(csv.DictReader(text.splitlines()))
+    assert text.splitlines()[0].endswith(",device") and {r["device"] for r in rows} == {"left_foot"}
+    primary = client.get(f"/api/v1/sessions/{sid}/track?device=primary", headers=h).get_json()["points"]
+    assert primary == points
+    columns = client.get(f"/api/v1/sessions/{sid}/track/columns?device=primary", headers=h).get_json()["columns"]
+    assert set(columns["device"]) == {"left_foot"} and columns["east_m"] == [p["east_m"] for p in points]
+    status, again = _upload(client, token, sid, "left_foot", log)
+    assert status == 200 and again["duplicate"] is True
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("fmt", ["xio", "sensorconnect"])
+def test_each_foot_format_uploads_to_the_paired_foot(real_app: Flask, token: str, tmp_path: Path, fmt: str) -> None:
+    client = real_app.test_client()
+    log = data_path(*FOOT_FILES[fmt])
+    sid = _session(client, token, f"upload-{fmt}", ("right_foot",))
+    status, body = _upload(client, token, sid, "right_foot", log)
+    assert status == 201 and body["format"] == fmt, body
+    assert real_app.extensions["pdr"].worker.wait_idle(300)
+    s = client.get(f"/api/v1/sessions/{sid}", headers=bearer(token)).get_json()
+    assert s["status"] == "done" and s["primary_track"] == "right_foot", s
+    points = client.get(f"/api/v1/sessions/{sid}/track?device=primary", headers=bearer(token)).get_json()["points"]
+    _assert_track_is(points, _pdr_foot(log, tmp_path / "steps.csv"))
+
+
+@pytest.mark.data
+def test_upload_to_a_device_refuses_what_the_pairing_does_not_allow(real_app: Flask, token: str) -> None:
+    client = real_app.test_client()
+    sid = _session(client, token, "refusals", ("left_foot",))
+    foot_log = data_path(*FOOT_FILES["xio"])
+    status, body = _upload(client, token, sid, "right_foot", foot_log)
+    assert status == 409 and "pair it first" in body["error"]["message"]
+    status, body = _upload(client, token, sid, "toe", foot_log)
+    assert status == 422 and body["error"]["details"]["field"] == "role"
+    phone_log = data_path("ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial01_repetition01.txt")
+    status, body = _upload(client, token, sid, "left_foot", phone_log)
+    assert status == 422 and "phone's log" in body["error"]["message"]
+    assert client.get(f"/api/v1/sessions/{sid}", headers=bearer(token)).get_json()["batches"] == {}
+
+
+def test_duration_spans_every_device_and_the_foot_is_primary(app: Flask, client: FlaskClient,
+                                                             tokens: dict[str, str]) -> None:
+    """A 10 s phone walk with a 3 s shoe: the session lasts 10 s; its steps and distance are the shoe's."""
+    h = bearer(tokens["alice"])
+    sid = _session(client, tokens["alice"], "mixed", ("left_foot",))
+    for i in range(10):
+        assert client.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch(f"p{i}", float(i)),
+                           headers=h).status_code == 201
+    for i in range(3):
+        body = phone_batch(f"f{i}", 4.0 + i, role="left_foot")
+        body["device"]["placement"] = "foot"
+        assert client.post(f"/api/v1/sessions/{sid}/batches", json=body, headers=h).status_code == 201
+    assert app.extensions["pdr"].worker.wait_idle(60)
+    s = client.get(f"/api/v1/sessions/{sid}", headers=h).get_json()
+    assert s["primary_track"] == "left_foot" and s["steps"] == 3
+    assert s["duration_s"] == pytest.approx(9.0, abs=0.05)      # counting processor: a row at each batch's end
+    assert s["feet"] == {"paired": ["left_foot"], "live": ["left_foot"]}
