@@ -92,13 +92,17 @@ class Store:
     # -- sessions --------------------------------------------------------------------------------
     def create_session(self, user_id: int, *, source: str, client_session_id: str | None = None, name: str = "",
                        placement: str | None = None, meta: dict[str, Any] | None = None) -> tuple[str, bool]:
-        """Create (or find, by the client's id) a session; returns (id, created)."""
+        """Create (or find, by the client's id) a session; returns (id, created).
+
+        The client's ``session_id`` is a key unique per user, whatever the source that created the session
+        (a file upload, native batches, the Sensor Logger push): the same key finds the same session.
+        """
         client_id = client_session_id or uuid.uuid4().hex
         now = db.utcnow()
         with self.engine.begin() as conn:
             existing = conn.execute(select(db.sessions.c.id).where(
-                db.sessions.c.user_id == user_id, db.sessions.c.source == source,
-                db.sessions.c.client_session_id == client_id)).first()
+                db.sessions.c.user_id == user_id, db.sessions.c.client_session_id == client_id)
+                .order_by(db.sessions.c.created_at)).first()
             if existing:
                 return str(existing.id), False
             sid = str(uuid.uuid4())
@@ -112,6 +116,13 @@ class Store:
                 return self.create_session(user_id, source=source, client_session_id=client_id, name=name,
                                            placement=placement, meta=meta)
         return sid, True
+
+    def session_by_key(self, user_id: int, client_session_id: str) -> Row[Any] | None:
+        """The user's session with that client ``session_id`` (the first made, for data stored before it was a key)."""
+        with self.engine.connect() as conn:
+            return conn.execute(select(db.sessions).where(
+                db.sessions.c.user_id == user_id, db.sessions.c.client_session_id == client_session_id)
+                .order_by(db.sessions.c.created_at)).first()
 
     def session_row(self, session_id: str, user_id: int | None = None) -> Row[Any]:
         """The session; 404 when absent or owned by another user (existence is not revealed)."""

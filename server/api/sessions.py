@@ -102,9 +102,15 @@ def _create_from_file(user_id: int) -> tuple[Response, int]:
     sid, created = svc.store.create_session(user_id, source="upload",
                                             client_session_id=request.form.get("session_id") or f"file-{digest[:24]}",
                                             name=filename, placement=placement, meta=_meta(options))
+    batch_id = f"file-{digest[:32]}"
+    if not created and batch_id not in {b.client_batch_id for b in svc.store.batch_list(sid)}:
+        raise APIError(409, f"session_id '{request.form.get('session_id')}' already names session {sid} (a "
+                            f"session_id is your key for one session): add this file to it with POST "
+                            f"/api/v1/sessions/{sid}/devices/ROLE/upload, or choose another session_id",
+                       details={"field": "session_id", "session": sid})
     dev = recording.device
     t_first, t_last = time_span_ns(recording)
-    store_batch(svc, sid, client_batch_id=f"file-{digest[:32]}", payload_format=FILE_PREFIX + descriptor,
+    store_batch(svc, sid, client_batch_id=batch_id, payload_format=FILE_PREFIX + descriptor,
                 payload=payload, t_first_ns=t_first, t_last_ns=t_last, device=replace(dev, placement=placement))
     svc.store.set_session(sid, t0_ns=recording.origin_ns)
     if recording.truth.positions is not None and recording.truth.positions.origin_lat_lon_deg:
@@ -122,8 +128,16 @@ def list_sessions() -> Response:
 
 @bp.get("/<session_id>")
 def get_session(session_id: str) -> Response:
+    """The session by its id, or by the client's ``session_id`` (a key unique per user)."""
     user = current_user()
-    return jsonify(session_json(services().store.session_row(session_id, user.id), detail=True))
+    store = services().store
+    try:
+        row = store.session_row(session_id, user.id)
+    except APIError:
+        row = store.session_by_key(user.id, session_id)
+        if row is None:
+            raise
+    return jsonify(session_json(row, detail=True))
 
 
 @bp.delete("/<session_id>")

@@ -5,6 +5,7 @@ columns, foot files uploaded to a paired foot, the session's duration.
 from __future__ import annotations
 
 import csv
+import json
 from pathlib import Path
 
 import numpy as np
@@ -127,3 +128,48 @@ def test_duration_spans_every_device_and_the_foot_is_primary(app: Flask, client:
     assert s["primary_track"] == "left_foot" and s["steps"] == 3
     assert s["duration_s"] == pytest.approx(9.0, abs=0.05)      # counting processor: a row at each batch's end
     assert s["feet"] == {"paired": ["left_foot"], "live": ["left_foot"]}
+
+
+def test_session_id_is_a_key_of_one_session(app: Flask, client: FlaskClient, tokens: dict[str, str]) -> None:
+    """A second file under an existing session_id is refused (409, naming the session); the same file again is a
+    no-op; GET /sessions/{session_id} finds the session by the client's key too."""
+    h = bearer(tokens["alice"])
+    created = client.post("/api/v1/sessions", json={"session_id": "walk-7"}, headers=h)
+    assert created.status_code == 201
+    sid = created.get_json()["id"]
+    body, content_type = multipart({"file": (json.dumps(phone_batch("b0", 0.0)).encode(), "walk.json"),
+                                    "session_id": "walk-7"})
+    resp = client.post("/api/v1/sessions", data=body, content_type=content_type, headers=h)
+    assert resp.status_code == 409 and resp.get_json()["error"]["details"]["session"] == sid
+    body, content_type = multipart({"file": (json.dumps(phone_batch("b1", 0.0)).encode(), "other.json"),
+                                    "session_id": "walk-8"})
+    first = client.post("/api/v1/sessions", data=body, content_type=content_type, headers=h)
+    again = client.post("/api/v1/sessions", data=body, content_type=content_type, headers=h)
+    assert (first.status_code, again.status_code) == (201, 200)
+    assert again.get_json()["id"] == first.get_json()["id"]
+    listed = client.get("/api/v1/sessions", headers=h).get_json()["sessions"]
+    assert sorted(s["session_id"] for s in listed) == ["walk-7", "walk-8"]
+    assert client.get("/api/v1/sessions/walk-7", headers=h).get_json()["id"] == sid
+    assert client.get("/api/v1/sessions/walk-7", headers=bearer(tokens["bob"])).status_code == 404
+
+
+@pytest.mark.data
+def test_pdr_foot_writes_step_summaries_the_service_takes(real_app: Flask, token: str, tmp_path: Path) -> None:
+    """``pdr foot LOG --per-step --format foot-steps``: the low-rate payload of a shoe unit (seed 001), with each
+    step's covariance; posted to the session's paired foot it gives the per-step track of ``pdr foot``."""
+    log = data_path(*FOOT_FILES["pyshoe"])
+    payload_path = tmp_path / "steps.json"
+    assert pdr_main(["foot", str(log), "--method", "stepwise", "--per-step", "--format", "foot-steps",
+                     "--role", "left_foot", "--out", str(payload_path)]) == 0
+    payload = json.loads(payload_path.read_text())
+    assert payload["format"] == "pdr-foot-steps/1" and payload["device"]["role"] == "left_foot"
+    covs = np.array([s["cov"] for s in payload["steps"]])
+    assert np.all(np.linalg.eigvalsh(covs) > 0)                          # real covariances, not placeholders
+    client = real_app.test_client()
+    sid = _session(client, token, "summaries", ("left_foot",))
+    resp = client.post(f"/api/v1/sessions/{sid}/steps", json=payload, headers=bearer(token))
+    assert resp.status_code == 201, resp.get_json()
+    assert real_app.extensions["pdr"].worker.wait_idle(120)
+    points = client.get(f"/api/v1/sessions/{sid}/track?device=primary", headers=bearer(token)).get_json()["points"]
+    assert {p["device"] for p in points} == {"left_foot"}
+    _assert_track_is(points, _pdr_foot(log, tmp_path / "steps.csv"))
