@@ -26,7 +26,8 @@ bp = Blueprint("sessions", __name__, url_prefix="/api/v1/sessions")
 def session_json(row: Any, detail: bool = False) -> dict[str, Any]:
     """Public representation of a session row."""
     svc = services()
-    per_role = svc.store.track_summary(row.id)
+    rebuilding = svc.store.rebuilding(row.id)   # the results from before it are served until it ends
+    per_role = svc.store.track_summary(row.id, previous=rebuilding)
     primary = primary_role(per_role)
     main = per_role.get(primary, {"steps": 0, "distance_m": 0.0})
     # The session lasts from the first to the last step of any device (a short shoe walk does not shorten it).
@@ -34,8 +35,9 @@ def session_json(row: Any, detail: bool = False) -> dict[str, Any]:
     last = max((t["last_t_s"] for t in per_role.values()), default=0.0)
     out: dict[str, Any] = {
         "id": row.id, "session_id": row.client_session_id, "name": row.name, "source": row.source,
-        "placement": row.placement, "status": row.status, "created_at": row.created_at.isoformat(),
-        "updated_at": row.updated_at.isoformat(), "primary_track": primary, "steps": int(main["steps"]),
+        "placement": row.placement, "status": row.status, "rebuilding": rebuilding,
+        "created_at": row.created_at.isoformat(), "updated_at": row.updated_at.isoformat(),
+        "primary_track": primary, "steps": int(main["steps"]),
         "distance_m": round(main["distance_m"], 3), "duration_s": round(last - first, 3),
         "tracks": {role: {k: round(v, 3) for k, v in summary.items()} for role, summary in per_role.items()},
         "warnings": json.loads(row.warnings or "[]"),
@@ -134,9 +136,10 @@ def get_session(session_id: str) -> Response:
     try:
         row = store.session_row(session_id, user.id)
     except APIError:
-        row = store.session_by_key(user.id, session_id)
-        if row is None:
+        by_key = store.session_by_key(user.id, session_id)
+        if by_key is None:
             raise
+        row = by_key
     return jsonify(session_json(row, detail=True))
 
 

@@ -47,7 +47,8 @@ def track_columns(session_id: str) -> Response:
         points, smoothing = track_points(session_id, parse_device(session_id), since, heading)
         columns = {name: [p["device" if name == "device_role" else name] for p in points] for name in COLUMNS}
         count = len(points)
-    elif rows := svc.store.track(session_id, parse_device(session_id), since):
+    elif rows := svc.store.track(session_id, parse_device(session_id), since,
+                                 previous=svc.store.rebuilding(session_id)):
         fields = list(rows[0]._fields)
         transposed = list(zip(*rows, strict=True))
         columns = {name: list(transposed[fields.index(name)]) for name in COLUMNS}

@@ -173,3 +173,35 @@ def test_pdr_foot_writes_step_summaries_the_service_takes(real_app: Flask, token
     points = client.get(f"/api/v1/sessions/{sid}/track?device=primary", headers=bearer(token)).get_json()["points"]
     assert {p["device"] for p in points} == {"left_foot"}
     _assert_track_is(points, _pdr_foot(log, tmp_path / "steps.csv"))
+
+
+def test_a_rebuild_keeps_serving_the_previous_results(app: Flask, client: FlaskClient, tokens: dict[str, str]) -> None:
+    """Between the start of a rebuild (reprocess, new options, a late batch) and its end the session answers with
+    the results from before it and says ``rebuilding``; a second start keeps those, the end drops them."""
+    h = bearer(tokens["alice"])
+    sid = _session(client, tokens["alice"], "rebuilt", ())
+    for i in range(5):
+        assert client.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch(f"p{i}", float(i)),
+                           headers=h).status_code == 201
+    assert app.extensions["pdr"].worker.wait_idle(60)
+
+    def results() -> tuple[dict, list, list, dict]:
+        s = client.get(f"/api/v1/sessions/{sid}", headers=h).get_json()
+        track = client.get(f"/api/v1/sessions/{sid}/track", headers=h).get_json()["points"]
+        steps = client.get(f"/api/v1/sessions/{sid}/steps", headers=h).get_json()["steps"]
+        columns = client.get(f"/api/v1/sessions/{sid}/track/columns", headers=h).get_json()["columns"]
+        return s, track, steps, columns
+
+    before = results()
+    assert before[0]["rebuilding"] is False and len(before[1]) == 5
+    processing = app.extensions["pdr"].processing
+    processing.clear(sid)                    # what POST .../reprocess does before the worker runs the rebuild
+    during = results()
+    assert during[0]["rebuilding"] is True and during[0]["tracks"] == before[0]["tracks"]
+    assert during[1:] == before[1:]
+    processing.clear(sid)
+    assert results()[1:] == before[1:]
+    processing.process_session(sid)
+    after = results()
+    assert after[0]["rebuilding"] is False and after[0]["status"] == "done" and after[1:] == before[1:]
+    assert processing.store.rebuilding(sid) is False

@@ -1,5 +1,5 @@
 """Issue 32 against the real ``pdr serve`` process: a user pairs shoes, uploads a shoe file to a paired foot,
-sends step summaries, names sessions by their key, and gives a bad calibration.
+sends step summaries, names sessions by their key, reprocesses, and gives a bad calibration.
 """
 
 from __future__ import annotations
@@ -71,6 +71,17 @@ def test_shoes_paired_uploaded_and_summarised_through_the_real_service(tmp_path:
         body, content_type = multipart({"file": (log.read_bytes(), log.name), "session_id": "hall-walk"})
         r = c.request("POST", "/api/v1/sessions", raw=body, content_type=content_type)
         assert r.status == 409 and r.json()["error"]["details"]["session"] == sid
+        # Item 10: while the session is rebuilt it keeps answering with the results from before.
+        assert c.request("POST", f"/api/v1/sessions/{sid}/reprocess").status == 202
+        seen, deadline = [], time.monotonic() + 300
+        while True:
+            now = c.request("GET", f"/api/v1/sessions/{sid}").json()
+            seen.append((now["rebuilding"], now["tracks"]))
+            if not now["rebuilding"] and now["status"] == "done" and not now["batches"].get("pending"):
+                break
+            assert time.monotonic() < deadline, now
+            time.sleep(0.05)
+        assert all(tracks == s["tracks"] for _, tracks in seen), seen
         # Item 9: a calibration that clamps every step is refused, naming the field.
         r = c.request("PUT", f"/api/v1/sessions/{sid}/processing", {"calibration": {"step_length": {"k": -1}}})
         assert r.status == 422 and "step_length.k" in r.json()["error"]["message"]
