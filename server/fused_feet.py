@@ -1,7 +1,8 @@
 """The session's fused dual-foot track (device role ``fused``) from its left and right shoe IMUs.
 
-After each pass of :class:`server.processing.SessionProcessing` over a session's pending batches, when the
-session has both a ``left_foot`` and a ``right_foot`` device, :func:`fuse_session` reads the foot step events
+After each pass of :class:`server.processing.SessionProcessing` over a session's pending batches, when both the
+session's ``left_foot`` and ``right_foot`` are live (:mod:`server.feet`: data stored) and have stepped,
+:func:`fuse_session` reads the foot step events
 committed since it last ran (final rows only; each carries its step increment, see
 :mod:`server.foot_processor`) and feeds them to :class:`pdr.foot.dual.DualFootFusion`, whose state is kept in
 ``processor_states`` under the role ``fused``. The fusion consumes steps only up to the time both feet have
@@ -24,10 +25,11 @@ from pdr.errors import InputError
 from pdr.foot.dual import DualFootFusion, FusedStep
 from pdr.frames import yaw_to_heading_deg
 from pdr.step_increment import StepIncrement
+from server.feet import FUSED, session_feet
 from server.foot_steps import MODE, increment_from_json
 from server.store import Store, TrackRow
 
-ROLE = "fused"
+ROLE = FUSED
 #: Device roles of the two feet, in the order of :data:`pdr.foot.dual.SIDES`.
 FEET = {"left": "left_foot", "right": "right_foot"}
 FEET_INDEX = {side: i for i, side in enumerate(FEET)}
@@ -52,8 +54,8 @@ def fuse_session(store: Store, session_id: str) -> bool:
     InputError
         Foot step events that cannot be fused (without increments, or out of time order).
     """
-    if not set(FEET.values()) <= {d.role for d in store.devices(session_id)}:
-        return False
+    if set(session_feet(store, session_id).live) != set(FEET.values()):
+        return False        # a paired foot without data is not fused in (it would hold the midpoint at its start)
     state, _ = store.load_state(session_id, ROLE)
     fusion = DualFootFusion.from_dict(json.loads(state)) if state else DualFootFusion()
     last = dict(zip(FEET, fusion.last_t_s, strict=True))
@@ -61,6 +63,8 @@ def fuse_session(store: Store, session_id: str) -> bool:
     # Only the rows after the older of the two feet's last fused steps (cost proportional to what is new).
     since = min(known) if len(known) == 2 else None
     rows = store.events(session_id, "step", since_s=since)
+    if state is None and not set(FEET.values()) <= {r.device_role for r in rows}:
+        return False        # both feet live, but one has not taken a step yet
     out: list[FusedStep] = []
     for side, role in FEET.items():
         out += fusion.add_steps(side, _steps(rows, role, last[side], provisional=False))

@@ -13,6 +13,7 @@ from typing import Any
 
 import pdr
 from pdr.foot.summaries import SCHEMA as FOOT_STEPS
+from pdr.recording import DEVICE_ROLES, PLACEMENTS
 from server import schemas
 from server.api import groups
 
@@ -32,6 +33,9 @@ SINCE = {"name": "since", "in": "query", "required": False, "schema": {"type": "
 TOKEN_QUERY = {"name": "token", "in": "query", "required": False, "schema": {"type": "string"},
                "description": "API token for clients that cannot set headers (ingest endpoints only; "
                               "query strings can end up in logs)"}
+PLACEMENT_QUERY = {"name": "placement", "in": "query", "required": False, "schema": {"enum": list(PLACEMENTS)},
+                   "description": "how the phone is carried (the app does not say); without it the phone pipeline "
+                                  "detects the carriage online"}
 
 
 def _errors(*codes: int) -> dict[str, Any]:
@@ -53,7 +57,9 @@ def _op(summary: str, responses: dict[str, Any], **extra: Any) -> dict[str, Any]
     return {"summary": summary, "responses": responses, **extra}
 
 
-DEVICE = {"name": "device", "in": "query", "schema": {"type": "string"}, "description": "only this device role"}
+DEVICE = {"name": "device", "in": "query", "schema": {"type": "string"},
+          "description": "only this device role, or 'primary': the session's primary track (two live feet: fused, "
+                         "one: that foot, else the phone)"}
 HEADING = {"name": "heading", "in": "query", "schema": {"enum": ["causal", "smoothed"]},
            "description": "smoothed: phone headings (hand-held, torso, trouser pocket) smoothed offline over the "
                           "session so far (pdr track's default; the answer lists the smoothed devices in "
@@ -139,13 +145,25 @@ def openapi_document() -> dict[str, Any]:
                                                                        "session_id": {"type": "string"}}}}}}),
             },
             "/api/v1/sessions/{session_id}": {
-                "get": _op("session detail with processing status, batches and warnings",
+                "get": _op("session detail with processing status, batches, warnings, paired and live feet and the "
+                           "primary track; {session_id} may also be the client's session_id (a key per user)",
                            {"200": _ok("session")} | _errors(401, 404), parameters=[SESSION_ID]),
                 "delete": _op("delete the session: raw batches, results, processing state, queued work",
                               {"204": {"description": "deleted"}} | _errors(401, 404), parameters=[SESSION_ID])},
             "/api/v1/sessions/{session_id}/devices": {
                 "post": _op("pair a device (shoe IMUs: left_foot / right_foot)", {"201": _ok("paired")} | common,
                             parameters=[SESSION_ID], requestBody=_json_body("Device"))},
+            "/api/v1/sessions/{session_id}/devices/{role}/upload": {
+                "post": _op("add a log file of a paired device (any shoe IMU format: PyShoe .mat, SensorConnect "
+                            "CSV, x-io CSV, native JSON); the pairing decides the device, not the file",
+                            {"201": _ok("stored"), "200": _ok("the same file again: ignored")} | common
+                            | _errors(400, 409),
+                            parameters=[SESSION_ID, {"name": "role", "in": "path", "required": True,
+                                                     "schema": {"enum": list(DEVICE_ROLES)}}],
+                            requestBody={"required": True, "content": {"multipart/form-data": {"schema": {
+                                "type": "object", "required": ["file"],
+                                "properties": {"file": {"type": "string", "format": "binary"},
+                                               "format": {"type": "string"}}}}}})},
             "/api/v1/sessions/{session_id}/batches": {
                 "post": _op("ingest a native JSON batch (idempotent by batch_id)",
                             {"201": _ok("stored"), "200": _ok("duplicate ignored")} | common | _errors(400, 409),
@@ -230,7 +248,7 @@ def openapi_document() -> dict[str, Any]:
                 "post": _op("Sensor Logger HTTP push; errors the app shows its user are answered 499 (text)",
                             {"200": _ok("accepted"), "499": _ok("error shown to the user", "text/plain"),
                              "413": _errors(413)["413"]},
-                            parameters=[TOKEN_QUERY], requestBody=_json_body("SensorLoggerMessage"),
+                            parameters=[TOKEN_QUERY, PLACEMENT_QUERY], requestBody=_json_body("SensorLoggerMessage"),
                             security=[{"bearer": []}, {"queryToken": []}])},
         }),
     }

@@ -154,6 +154,7 @@ class SessionProcessing:
                 processed = True
             if processed:
                 self._fuse_feet(session_id)
+            self.store.end_rebuild(session_id)      # no batch pending: a rebuild's results are complete
             self.finish(session_id)
 
     def clear(self, session_id: str) -> None:

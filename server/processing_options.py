@@ -59,7 +59,11 @@ class ProcessingOptions:
             if not isinstance(cal, dict) or not isinstance(cal.get("step_length"), dict):
                 raise InputError("expected the object `pdr calibrate` writes, with a 'step_length' object",
                                  field="processing.calibration")
-            model = StepLengthModel.from_dict(cal["step_length"])
+            try:
+                model = StepLengthModel.from_dict(cal["step_length"])
+            except InputError as exc:
+                field = f"processing.calibration.step_length.{exc.field}" if exc.field else "processing.calibration"
+                raise InputError(exc.message, field=field) from None
         foot = d.get("foot") or {}
         if (not isinstance(foot, dict) or set(foot) - {"zaru", "imu_samples"}
                 or not isinstance(foot.get("zaru", False), bool)

@@ -23,6 +23,8 @@ from server.errors import APIError
 
 #: Status of a batch whose raw payload was deleted by the retention policy (its results stay).
 PURGED = "purged"
+#: Prefix of the device role under which a rebuild keeps the previous results until it ends (Store.clear_results).
+PREVIOUS = "~"
 
 SESSION_COLUMNS = ("id", "client_session_id", "source", "name", "placement", "status", "created_at", "updated_at",
                    "t0_ns", "origin_lat_deg", "origin_lon_deg")
@@ -92,13 +94,17 @@ class Store:
     # -- sessions --------------------------------------------------------------------------------
     def create_session(self, user_id: int, *, source: str, client_session_id: str | None = None, name: str = "",
                        placement: str | None = None, meta: dict[str, Any] | None = None) -> tuple[str, bool]:
-        """Create (or find, by the client's id) a session; returns (id, created)."""
+        """Create (or find, by the client's id) a session; returns (id, created).
+
+        The client's ``session_id`` is a key unique per user, whatever the source that created the session
+        (a file upload, native batches, the Sensor Logger push): the same key finds the same session.
+        """
         client_id = client_session_id or uuid.uuid4().hex
         now = db.utcnow()
         with self.engine.begin() as conn:
             existing = conn.execute(select(db.sessions.c.id).where(
-                db.sessions.c.user_id == user_id, db.sessions.c.source == source,
-                db.sessions.c.client_session_id == client_id)).first()
+                db.sessions.c.user_id == user_id, db.sessions.c.client_session_id == client_id)
+                .order_by(db.sessions.c.created_at)).first()
             if existing:
                 return str(existing.id), False
             sid = str(uuid.uuid4())
@@ -112,6 +118,13 @@ class Store:
                 return self.create_session(user_id, source=source, client_session_id=client_id, name=name,
                                            placement=placement, meta=meta)
         return sid, True
+
+    def session_by_key(self, user_id: int, client_session_id: str) -> Row[Any] | None:
+        """The user's session with that client ``session_id`` (the first made, for data stored before it was a key)."""
+        with self.engine.connect() as conn:
+            return conn.execute(select(db.sessions).where(
+                db.sessions.c.user_id == user_id, db.sessions.c.client_session_id == client_session_id)
+                .order_by(db.sessions.c.created_at)).first()
 
     def session_row(self, session_id: str, user_id: int | None = None) -> Row[Any]:
         """The session; 404 when absent or owned by another user (existence is not revealed)."""
@@ -238,6 +251,13 @@ class Store:
                                 .group_by(db.batches.c.status))
             return {str(r[0]): int(r[1]) for r in rows}
 
+    def batch_roles(self, session_id: str) -> set[str]:
+        """Device roles with at least one stored batch in the session."""
+        with self.engine.connect() as conn:
+            rows = conn.execute(select(db.batches.c.device_role).where(db.batches.c.session_id == session_id)
+                                .distinct())
+            return {str(r[0]) for r in rows}
+
     def batch_list(self, session_id: str) -> list[Row[Any]]:
         with self.engine.connect() as conn:
             return list(conn.execute(
@@ -309,37 +329,85 @@ class Store:
                     status="done", error=None, processed_at=now))
 
     def clear_results(self, session_id: str) -> None:
-        """Forget every result and processor state of a session and mark its batches pending (reprocess)."""
+        """Forget every processor state of a session and mark its batches pending (reprocess): a rebuild.
+
+        The results stay readable until the rebuild ends (:meth:`end_rebuild`): they move under the device role
+        ``PREVIOUS + role``, which :meth:`track`, :meth:`events` and :meth:`track_summary` serve with
+        ``previous=True``. A rebuild cleared again keeps the results from before the first one.
+        """
         with self.engine.begin() as conn:
-            for table in (db.track_points, db.events, db.processor_states):
-                conn.execute(delete(table).where(table.c.session_id == session_id))
+            kept = self._has_previous(conn, session_id)
+            for table in (db.track_points, db.events):
+                mine = (table.c.session_id == session_id) & ~table.c.device_role.startswith(PREVIOUS)
+                if kept:
+                    conn.execute(delete(table).where(mine))
+                else:
+                    conn.execute(update(table).where(mine).values(device_role=PREVIOUS + table.c.device_role))
+            conn.execute(delete(db.processor_states).where(db.processor_states.c.session_id == session_id))
             conn.execute(delete(db.batch_attempts).where(db.batch_attempts.c.batch_id.in_(
                 select(db.batches.c.id).where(db.batches.c.session_id == session_id))))
             conn.execute(update(db.batches).where(db.batches.c.session_id == session_id)
                          .values(status="pending", error=None, processed_at=None))
 
-    def track(self, session_id: str, role: str | None = None, since_s: float | None = None) -> list[Row[Any]]:
-        q = select(db.track_points).where(db.track_points.c.session_id == session_id)
+    @staticmethod
+    def _has_previous(conn: Connection, session_id: str) -> bool:
+        return any(conn.execute(select(table.c.id).where(
+            table.c.session_id == session_id, table.c.device_role.startswith(PREVIOUS)).limit(1)).first()
+            for table in (db.track_points, db.events))
+
+    def rebuilding(self, session_id: str) -> bool:
+        """Whether a rebuild of the session is running and its previous results are kept (:meth:`clear_results`)."""
+        with self.engine.connect() as conn:
+            return self._has_previous(conn, session_id)
+
+    def end_rebuild(self, session_id: str) -> None:
+        """Drop the results kept from before a rebuild (its own results are complete)."""
+        with self.engine.begin() as conn:
+            for table in (db.track_points, db.events):
+                conn.execute(delete(table).where(table.c.session_id == session_id,
+                                                 table.c.device_role.startswith(PREVIOUS)))
+
+    @staticmethod
+    def _role_columns(table: Any, previous: bool) -> tuple[list[Any], Any]:
+        """The table's columns with ``device_role`` as clients see it, and the condition on the role's prefix."""
+        role = table.c.device_role
+        if not previous:
+            return list(table.c), ~role.startswith(PREVIOUS)
+        shown = func.substr(role, len(PREVIOUS) + 1).label("device_role")
+        return [shown if c.name == "device_role" else c for c in table.c], role.startswith(PREVIOUS)
+
+    def track(self, session_id: str, role: str | None = None, since_s: float | None = None,
+              previous: bool = False) -> list[Row[Any]]:
+        """The track rows (of ``role``; after ``since_s``); ``previous``: those kept during a rebuild."""
+        columns, kept = self._role_columns(db.track_points, previous)
+        q = select(*columns).where(db.track_points.c.session_id == session_id, kept)
         if role:
-            q = q.where(db.track_points.c.device_role == role)
+            q = q.where(db.track_points.c.device_role == (PREVIOUS + role if previous else role))
         if since_s is not None:
             q = q.where(db.track_points.c.t_s > since_s)
         with self.engine.connect() as conn:
             return list(conn.execute(q.order_by(db.track_points.c.device_role, db.track_points.c.t_s,
                                                 db.track_points.c.id)))
 
-    def track_summary(self, session_id: str) -> dict[str, dict[str, float]]:
-        """Per device role: steps, distance (sum of step lengths, m) and first/last step time (s), by SQL."""
+    def track_summary(self, session_id: str, previous: bool = False) -> dict[str, dict[str, float]]:
+        """Per device role: steps, distance (sum of step lengths, m) and first/last step time (s), by SQL;
+        ``previous``: of the results kept during a rebuild.
+        """
         tp = db.track_points
+        kept = tp.c.device_role.startswith(PREVIOUS)
         q = (select(tp.c.device_role, func.count(), func.coalesce(func.sum(tp.c.step_length_m), 0.0),
                     func.min(tp.c.t_s), func.max(tp.c.t_s))
-             .where(tp.c.session_id == session_id).group_by(tp.c.device_role))
+             .where(tp.c.session_id == session_id, kept if previous else ~kept).group_by(tp.c.device_role))
         with self.engine.connect() as conn:
-            return {str(r[0]): {"steps": int(r[1]), "distance_m": float(r[2]), "first_t_s": float(r[3]),
-                                "last_t_s": float(r[4])} for r in conn.execute(q)}
+            return {str(r[0]).removeprefix(PREVIOUS): {"steps": int(r[1]), "distance_m": float(r[2]),
+                                                       "first_t_s": float(r[3]), "last_t_s": float(r[4])}
+                    for r in conn.execute(q)}
 
-    def events(self, session_id: str, kind: str, since_s: float | None = None) -> list[Row[Any]]:
-        q = select(db.events).where(db.events.c.session_id == session_id, db.events.c.kind == kind)
+    def events(self, session_id: str, kind: str, since_s: float | None = None,
+               previous: bool = False) -> list[Row[Any]]:
+        """The events of ``kind`` (after ``since_s``); ``previous``: those kept during a rebuild."""
+        columns, kept = self._role_columns(db.events, previous)
+        q = select(*columns).where(db.events.c.session_id == session_id, db.events.c.kind == kind, kept)
         if since_s is not None:
             q = q.where(db.events.c.t_s > since_s)
         with self.engine.connect() as conn:

@@ -1,4 +1,6 @@
-"""``pdr foot LOG --out TRACK.csv`` (foot-mounted navigation) and ``pdr eval foot`` (the three foot datasets)."""
+"""``pdr foot LOG --out TRACK.csv`` (foot-mounted navigation; ``--format foot-steps`` writes the step-summary
+payload) and ``pdr eval foot`` (the three foot datasets).
+"""
 
 from __future__ import annotations
 
@@ -130,6 +132,17 @@ def step_rows(imu: FootImu, track: ZuptTrack) -> dict[str, np.ndarray]:
     }
 
 
+def write_foot_steps(path: str | Path, imu: FootImu, track: ZuptTrack, role: str, batch_id: str) -> None:
+    """The steps as a ``pdr-foot-steps/1`` payload (:mod:`pdr.foot.summaries`): what a shoe unit's low-rate
+    interface sends (seed 001), each step's increment with its covariance (eq. 8), times on the log's clock as
+    in the per-step CSV; ``POST /api/v1/sessions/{id}/steps`` takes it.
+    """
+    from pdr.foot.summaries import steps_to_json
+
+    steps = [replace(s, t_s=float(s.t_s) + imu.clock_offset_s) for s in track.steps]
+    Path(path).write_text(json.dumps(steps_to_json(steps, role, batch_id)) + "\n")
+
+
 def write_csv(path: str | Path, columns: dict[str, np.ndarray]) -> None:
     """Write equal-length columns as CSV (integers as integers, floats with 9 significant digits)."""
     names = list(columns)
@@ -235,7 +248,11 @@ def run_foot(args: argparse.Namespace) -> int:
                           smooth=args.smoother == "on", gyro_bias=args.gyro_bias == "on")
     for w in track.warnings:
         print(f"warning: {w}", file=sys.stderr)
-    if args.per_step:
+    if args.format == "foot-steps":
+        if not (args.per_step and args.method == "stepwise"):
+            raise InputError("--format foot-steps needs --per-step and --method stepwise", field="--format")
+        write_foot_steps(args.out, imu, track, args.role or rec.device.role, Path(args.log).name)
+    elif args.per_step:
         if args.method != "stepwise":
             raise InputError("--per-step needs --method stepwise", field="--per-step")
         write_csv(args.out, step_rows(imu, track))
@@ -251,6 +268,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("log", nargs="?", help="foot IMU log (any supported format)")
     p.add_argument("--out", required=True, help="track CSV: t_s,east_m,north_m,up_m,heading_deg,zero_velocity")
     p.add_argument("--per-step", action="store_true", help="one row per step (with --method stepwise or dual-foot)")
+    p.add_argument("--format", choices=("csv", "foot-steps"), default="csv",
+                   help="csv (default), or foot-steps: with --per-step --method stepwise, the pdr-foot-steps/1 JSON "
+                        "payload of step summaries a shoe unit sends (POST /api/v1/sessions/{id}/steps)")
+    p.add_argument("--role", choices=("left_foot", "right_foot"),
+                   help="foot named in a foot-steps payload (default: the log's; the session's pairing must match)")
     p.add_argument("--plot", help="PNG of the horizontal track")
     p.add_argument("--left", help="left-foot log for dual-foot fusion (seed 001 Sec. 4.2), with --right")
     p.add_argument("--right", help="right-foot log for dual-foot fusion, with --left")

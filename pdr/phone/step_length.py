@@ -173,9 +173,17 @@ class StepLengthModel:
                                   if k in cls.__dataclass_fields__}
             # A model saved before the turn factor existed was calibrated without it.
             kw.setdefault("turn", "none")
-            return cls(**kw)
+            model = cls(**kw)
         except (TypeError, ValueError) as exc:
             raise InputError(f"bad step-length model ({exc})", source="calibration") from None
+        # A given model must lengthen the step with the pattern and keep a range of lengths; k <= 0 would clamp
+        # every step to min_m (eq. 19). The internal fits may pass through such values, a user's model may not.
+        for name, ok, why in (("k", model.k > 0, "must be positive (the step lengthens with the pattern)"),
+                              ("stairs_m", model.stairs_m > 0, "must be positive"),
+                              ("min_m", 0 <= model.min_m < model.max_m, "must be >= 0 and below max_m")):
+            if not ok:
+                raise InputError(f"{why}, got {getattr(model, name)}", field=name, source="calibration")
+        return model
 
     def save(self, path: str | Path) -> None:
         Path(path).write_text(json.dumps({"step_length": self.to_dict()}, indent=2) + "\n")

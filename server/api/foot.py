@@ -4,6 +4,7 @@ The body is a ``pdr-foot-steps/1`` payload (:mod:`pdr.foot.summaries`, JSON Sche
 document). Like native batches it is stored raw before processing and is idempotent by its ``batch_id``
 (a re-sent identical payload is a no-op, different content under the same id a 409); the session's
 ``left_foot`` / ``right_foot`` processor (:class:`server.foot_processor.FootProcessor`) composes the summaries.
+The payload's foot must be paired with the session first (``POST .../devices``), 409 otherwise.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from pdr.errors import InputError
 from pdr.foot.summaries import SCHEMA, steps_from_json
 from pdr.recording import DeviceInfo
 from server.api import current_user, json_body, services
+from server.api.sessions import require_paired
 from server.errors import APIError
 from server.ingest import store_batch
 from server.processing import FOOT_STEPS_JSON
@@ -35,6 +37,7 @@ def add_step_summaries(session_id: str) -> tuple[Response, int]:
         summaries = steps_from_json(body, source=f"batch '{batch_id}'")
     except InputError as exc:
         raise APIError(422, str(exc), details=exc.details()) from None
+    require_paired(session_id, summaries.role)
     dev = body["device"]
     accepted = store_batch(svc, session_id, client_batch_id=batch_id, payload_format=FOOT_STEPS_JSON,
                            payload=request.get_data(), t_first_ns=summaries.t_first_ns,

@@ -5,12 +5,15 @@ joins a group with its initial pose, then uploads batches of events: step-wise d
 each foot and range measurements (between agents, to anchors, position fixes, pressure differences; the JSON
 forms are those of :mod:`pdr.fusion.measurements`). The server buffers them, applies them in time order to the
 group's joint state (:class:`pdr.fusion.group.Group`) and answers each upload with the correction for the
-uploading agent. Agents that lost contact upload their buffered summaries when they return.
+uploading agent. Agents that lost contact upload their buffered summaries when they return. The upload's
+events are validated against :data:`EVENT` (the OpenAPI document's ``GroupUpload``); step events name the feet
+as sessions do (``left_foot``/``right_foot``) or as the group's ``FusionConfig.feet`` (``left``/``right``).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 from flask import Blueprint, Response, current_app, jsonify, request
@@ -54,12 +57,50 @@ JOIN_GROUP: dict[str, Any] = {
     },
 }
 
+_COV4 = {"type": "array", "items": {"type": "array", "items": _NUMBER, "minItems": 4, "maxItems": 4},
+         "minItems": 4, "maxItems": 4}
+_T = {"type": "number", "description": "time of the event (s, the group's common clock)"}
+_MODEL = {"gamma_m": {"type": "number", "minimum": 0, "description": "bounded error (m)"},
+          "sigma_m": {"type": "number", "minimum": 0, "description": "noise standard deviation (m)"}}
+#: Feet of a step event: the sessions' device roles, or the fusion centre's names (``FusionConfig.feet``).
+FOOT_NAMES = {"left_foot": "left", "right_foot": "right"}
+
+
+def _event(kind: str, description: str, required: list[str], properties: dict[str, Any]) -> dict[str, Any]:
+    """The form of one event type, applied when ``type`` is ``kind`` (errors then name the field, not the type)."""
+    return {"if": {"properties": {"type": {"const": kind}}},
+            "then": {"description": description, "additionalProperties": False, "required": ["t_s", *required],
+                     "properties": {"type": {"const": kind}, "t_s": _T, **properties}}}
+
+
+#: One event of an upload (:func:`pdr.fusion.measurements.parse_event` reads it; positions in the group's
+#: local east/north/up frame, m).
+EVENT: dict[str, Any] = {"type": "object", "required": ["type"], "properties": {"type": {"enum": [
+    "step", "range", "anchor_range", "position_fix", "height_difference"]}}, "allOf": [
+    _event("step", "a foot's step-wise dead-reckoning summary (seed 001 eq. 7-8): displacement dp (m, the "
+           "step's frame), heading change dpsi (rad), their 4x4 covariance", ["agent", "foot", "dp", "dpsi", "cov"],
+           {"agent": _NAME, "foot": {"type": "string", "description": "left_foot or right_foot (as in sessions), "
+                                                                     "or the group's own foot names (left, right)"},
+            "dp": _VEC3, "dpsi": _NUMBER, "cov": _COV4, "index": {"type": "integer"}}),
+    _event("range", "a range between two agents (m)", ["agent_a", "agent_b", "range_m"],
+           {"agent_a": _NAME, "agent_b": _NAME, "range_m": {"type": "number", "minimum": 0}}),
+    _event("anchor_range", "a range from an agent to an anchor at a known position (m)",
+           ["agent", "anchor_n", "range_m"],
+           {"agent": _NAME, "anchor_n": _VEC3, "range_m": {"type": "number", "minimum": 0}, **_MODEL}),
+    _event("position_fix", "a position of an agent (2 or 3 coordinates, m)", ["agent", "pos_n", *_MODEL],
+           {"agent": _NAME, "pos_n": {"type": "array", "items": _NUMBER, "minItems": 2, "maxItems": 3}, **_MODEL}),
+    _event("height_difference", "a height difference between two agents or an agent and a reference: dh_m (m), "
+           "or barometric pressures (hPa)", ["agent_a", *_MODEL],
+           {"agent_a": _NAME, "agent_b": _NAME, "dh_m": _NUMBER, "pressure_hpa": _NUMBER,
+            "reference_pressure_hpa": _NUMBER, "reference_height_m": _NUMBER, **_MODEL}),
+]}
+
 UPLOAD: dict[str, Any] = {
     "type": "object", "additionalProperties": False, "required": ["batch_id", "agent", "events"],
     "properties": {
         "batch_id": _NAME,
         "agent": _NAME,
-        "events": {"type": "array", "maxItems": 100_000, "items": {"type": "object"}},
+        "events": {"type": "array", "maxItems": 100_000, "items": EVENT},
     },
 }
 
@@ -168,6 +209,8 @@ def upload(group_id: str) -> tuple[Response, int]:
         raise APIError(422, f"agent '{agent}' has not joined the group", details={"field": "agent"})
     events = [parse_event(e, f"events[{i}]") for i, e in enumerate(body["events"])]   # 422 naming the event
     feet = repo.state(group_id).centre.config.feet
+    events = [replace(ev, foot=FOOT_NAMES[ev.foot]) if isinstance(ev, StepSummary) and ev.foot in FOOT_NAMES
+              and ev.foot not in feet else ev for ev in events]              # one foot vocabulary with sessions
     for i, ev in enumerate(events):                  # everything checked before the raw upload is stored
         unknown = [a for a in ev.agents if a not in members]
         if unknown:

@@ -4,6 +4,11 @@ The app shows the body of a 499 answer to its user, so every error the user must
 data) is answered 499 with a short text; everything else 200. Sessions are created from the message's
 ``sessionId``/``deviceId``; a re-sent ``messageId`` is ignored; messages may arrive out of order (they
 are processed in time order). The token may be passed as ``?token=`` because the app cannot set headers.
+
+The app's messages do not say how the phone is carried, so the push URL may: ``?placement=hand`` (one of
+:data:`pdr.recording.PLACEMENTS`) is the session's and the phone's placement, which the phone pipeline takes as
+``pdr track`` takes a log's placement; without it the pipeline detects the carriage online
+(:mod:`pdr.phone.placement_detect`), and its first steps then differ from a log whose reader knew the placement.
 """
 
 from __future__ import annotations
@@ -14,6 +19,7 @@ from dataclasses import replace
 from flask import Blueprint, Response, jsonify, request
 
 from pdr.errors import InputError
+from pdr.recording import PLACEMENTS
 from server import plausibility
 from server.api import current_user, services
 from server.api.sessions import time_span_ns
@@ -58,14 +64,31 @@ def _ingest() -> Response:
     message_id = str(message["messageId"])
     if not message["payload"]:
         return jsonify({"status": "ok", "stored": False, "reason": "empty payload"})
+    placement = _placement()
     recording = parse_push_message(message, source=f"message {message_id}")
     plausibility.check_units(recording)
-    sid, _ = svc.store.create_session(user.id, source="sensor_logger", client_session_id=str(message["sessionId"]),
-                                      name=f"Sensor Logger {message['sessionId']}")
+    sid, created = svc.store.create_session(user.id, source="sensor_logger",
+                                            client_session_id=str(message["sessionId"]),
+                                            name=f"Sensor Logger {message['sessionId']}", placement=placement)
+    known = None if created else svc.store.session_row(sid).placement
+    if not created and known != placement:
+        raise APIError(422, f"placement '{placement}' differs from the session's ('{known}'): use one push URL "
+                            f"for the whole session",
+                       details={"field": "placement"})
     t_first, t_last = time_span_ns(recording)
     plausibility.check_time(svc.store.engine, sid, "phone", SENSOR_LOGGER_JSON, t_first, t_last)
     accepted = store_batch(svc, sid, client_batch_id=f"msg-{message_id}", payload_format=SENSOR_LOGGER_JSON,
                            payload=raw, t_first_ns=t_first, t_last_ns=t_last,
-                           device=replace(recording.device, role="phone", device_id=str(message["deviceId"])),
+                           device=replace(recording.device, role="phone", device_id=str(message["deviceId"]),
+                                          placement=placement),
                            content=message)
     return jsonify({"status": "ok", "session": sid, "duplicate": not accepted.created})
+
+
+def _placement() -> str | None:
+    """The phone's placement named by the push URL (``?placement=``), ``None`` when not given."""
+    placement = request.args.get("placement") or None
+    if placement is not None and placement not in PLACEMENTS:
+        raise APIError(422, f"unknown placement '{placement}' in the push URL; expected one of {', '.join(PLACEMENTS)}",
+                       details={"field": "placement"})
+    return placement

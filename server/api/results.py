@@ -4,8 +4,10 @@
 steps' headings smoothed over the whole session so far (:mod:`pdr.phone.heading_smoother`) and the positions
 re-integrated. Smoothing moves earlier rows too, so a poller asking with ``since`` gets the rows after it of the
 track smoothed over everything received. ``heading=causal`` (the default) is the track as it was streamed.
-A smoothed answer names the devices whose headings the smoother changed (``smoothed_devices``; foot sensors and
-phones without its inputs keep their tracks) and gives its note per device (``heading_notes``).
+While a rebuild runs (reprocessing, new processing options, a late batch) every answer is the results from
+before it, until it ends. A smoothed answer names the devices whose headings the smoother changed
+(``smoothed_devices``; foot sensors and phones without its inputs keep their tracks) and gives its note per
+device (``heading_notes``).
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from pdr.phone.track_schema import TRACK_COLUMNS
 from server import db
 from server.api import current_user, services
 from server.errors import APIError
+from server.feet import primary_role
 
 bp = Blueprint("results", __name__, url_prefix="/api/v1/sessions")
 
@@ -46,6 +49,17 @@ def parse_since() -> float | None:
     if not math.isfinite(value):
         raise APIError(400, "'since' must be finite")
     return value
+
+
+def parse_device(session_id: str) -> str | None:
+    """The ``?device=`` query parameter: a device role, ``primary`` (the session's primary track,
+    :mod:`server.feet`), or None (every device's rows).
+    """
+    device = request.args.get("device") or None
+    if device == "primary":
+        store = services().store
+        return primary_role(store.track_summary(session_id, previous=store.rebuilding(session_id))) or device
+    return device
 
 
 def parse_heading() -> str:
@@ -75,15 +89,17 @@ def track_points(session_id: str, device: str | None, since: float | None, headi
     ``heading="smoothed"`` smooths the whole stored track before taking the rows after ``since`` (module doc).
     """
     store = services().store
+    previous = store.rebuilding(session_id)   # results from before a running rebuild (Store.clear_results)
     if heading != "smoothed":
-        return _rows(store.track(session_id, device, since)), None
-    key = (str(store.engine.url), session_id, device, _results_version(store.engine, session_id))
+        return _rows(store.track(session_id, device, since, previous=previous)), None
+    key = (str(store.engine.url), session_id, device, previous, _results_version(store.engine, session_id))
     with _SMOOTHED_LOCK:
         hit = _SMOOTHED.get(key)
         if hit is not None:
             _SMOOTHED.move_to_end(key)
     if hit is None:
-        hit = _smoothed(_rows(store.track(session_id, device, None)), store.events(session_id, "step"))
+        hit = _smoothed(_rows(store.track(session_id, device, None, previous=previous)),
+                        store.events(session_id, "step", previous=previous))
         with _SMOOTHED_LOCK:
             _SMOOTHED[key] = hit
             while len(_SMOOTHED) > SMOOTHED_CACHE_SIZE:
@@ -126,8 +142,8 @@ def _clean(v: Any) -> Any:
 
 @bp.get("/<session_id>/track")
 def track(session_id: str) -> Response:
-    """The track, one row per step: ``?format=json|csv|geojson``, ``?device=ROLE``, ``?since=T_S``,
-    ``?heading=causal|smoothed`` (module doc).
+    """The track, one row per step: ``?format=json|csv|geojson``, ``?device=ROLE|primary``, ``?since=T_S``,
+    ``?heading=causal|smoothed`` (module doc). Every form names each row's device (CSV: the last column).
     """
     user = current_user()
     svc = services()
@@ -137,14 +153,14 @@ def track(session_id: str) -> Response:
         raise APIError(400, f"unknown format '{fmt[:20]}'; use json, csv or geojson")
     heading = parse_heading()
     since = parse_since()
-    rows, smoothing = track_points(session_id, request.args.get("device"), since, heading)
+    rows, smoothing = track_points(session_id, parse_device(session_id), since, heading)
     if fmt == "csv":
         buf = io.StringIO()
         writer = csv.writer(buf, lineterminator="\n")
-        writer.writerow(TRACK_COLUMNS)
+        writer.writerow((*TRACK_COLUMNS, "device"))
         for r in rows:
             writer.writerow(["" if r[c] is None else (repr(r[c]) if isinstance(r[c], float) else r[c])
-                             for c in TRACK_COLUMNS])
+                             for c in (*TRACK_COLUMNS, "device")])
         return Response(buf.getvalue(), mimetype="text/csv",
                         headers={"Content-Disposition": f'attachment; filename="{session_id}.csv"'})
     if fmt == "geojson":
@@ -203,7 +219,7 @@ def _events(session_id: str, what: str) -> Response:
     user = current_user()
     svc = services()
     svc.store.session_row(session_id, user.id)
-    rows = svc.store.events(session_id, EVENT_KINDS[what], parse_since())
+    rows = svc.store.events(session_id, EVENT_KINDS[what], parse_since(), previous=svc.store.rebuilding(session_id))
     items = [{"t_s": r.t_s, "t_end_s": r.t_end_s, "label": r.label, "value": _clean(r.value),
               "device": r.device_role, "provisional": r.provisional, **json.loads(r.data or "{}")} for r in rows]
     return jsonify({"session": session_id, what: items, "count": len(items),

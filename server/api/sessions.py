@@ -10,10 +10,11 @@ from typing import Any
 from flask import Blueprint, Response, jsonify, request
 
 from pdr.errors import InputError
-from pdr.recording import Recording
+from pdr.recording import DEVICE_ROLES, FOOT_ROLES, Recording
 from server import plausibility
 from server.api import current_user, json_body, services, uploaded_log
 from server.errors import APIError
+from server.feet import primary_role, session_feet
 from server.ingest import store_batch
 from server.processing import FILE_PREFIX, NATIVE_JSON
 from server.processing_options import META_KEY, ProcessingOptions
@@ -22,30 +23,28 @@ from server.schemas import CREATE_SESSION, PAIR_DEVICE, PROCESSING, validate
 bp = Blueprint("sessions", __name__, url_prefix="/api/v1/sessions")
 
 
-#: Which device's track summarises a session: the fused foot track, else the phone, else a foot.
-ROLE_PRIORITY = ("fused", "phone", "left_foot", "right_foot")
-
-
-def primary_role(roles: Any) -> str:
-    """The role whose track stands for the session in lists (steps, distance, duration)."""
-    return next((r for r in ROLE_PRIORITY if r in roles), next(iter(sorted(roles)), ""))
-
-
 def session_json(row: Any, detail: bool = False) -> dict[str, Any]:
     """Public representation of a session row."""
     svc = services()
-    per_role = svc.store.track_summary(row.id)
-    main = per_role.get(primary_role(per_role), {"steps": 0, "distance_m": 0.0, "first_t_s": 0.0, "last_t_s": 0.0})
+    rebuilding = svc.store.rebuilding(row.id)   # the results from before it are served until it ends
+    per_role = svc.store.track_summary(row.id, previous=rebuilding)
+    primary = primary_role(per_role)
+    main = per_role.get(primary, {"steps": 0, "distance_m": 0.0})
+    # The session lasts from the first to the last step of any device (a short shoe walk does not shorten it).
+    first = min((t["first_t_s"] for t in per_role.values()), default=0.0)
+    last = max((t["last_t_s"] for t in per_role.values()), default=0.0)
     out: dict[str, Any] = {
         "id": row.id, "session_id": row.client_session_id, "name": row.name, "source": row.source,
-        "placement": row.placement, "status": row.status, "created_at": row.created_at.isoformat(),
-        "updated_at": row.updated_at.isoformat(), "steps": int(main["steps"]),
-        "distance_m": round(main["distance_m"], 3), "duration_s": round(main["last_t_s"] - main["first_t_s"], 3),
+        "placement": row.placement, "status": row.status, "rebuilding": rebuilding,
+        "created_at": row.created_at.isoformat(), "updated_at": row.updated_at.isoformat(),
+        "primary_track": primary, "steps": int(main["steps"]),
+        "distance_m": round(main["distance_m"], 3), "duration_s": round(last - first, 3),
         "tracks": {role: {k: round(v, 3) for k, v in summary.items()} for role, summary in per_role.items()},
         "warnings": json.loads(row.warnings or "[]"),
         "batches": svc.store.batch_summary(row.id),
         "devices": [{"role": d.role, "device_id": d.device_id, "platform": d.platform, "model": d.model,
                      "placement": d.placement} for d in svc.store.devices(row.id)],
+        "feet": session_feet(svc.store, row.id).to_json(),
         "origin": ({"lat_deg": row.origin_lat_deg, "lon_deg": row.origin_lon_deg}
                    if row.origin_lat_deg is not None else None),
         "processing": json.loads(row.meta or "{}").get(META_KEY, {}),
@@ -105,9 +104,15 @@ def _create_from_file(user_id: int) -> tuple[Response, int]:
     sid, created = svc.store.create_session(user_id, source="upload",
                                             client_session_id=request.form.get("session_id") or f"file-{digest[:24]}",
                                             name=filename, placement=placement, meta=_meta(options))
+    batch_id = f"file-{digest[:32]}"
+    if not created and batch_id not in {b.client_batch_id for b in svc.store.batch_list(sid)}:
+        raise APIError(409, f"session_id '{request.form.get('session_id')}' already names session {sid} (a "
+                            f"session_id is your key for one session): add this file to it with POST "
+                            f"/api/v1/sessions/{sid}/devices/ROLE/upload, or choose another session_id",
+                       details={"field": "session_id", "session": sid})
     dev = recording.device
     t_first, t_last = time_span_ns(recording)
-    store_batch(svc, sid, client_batch_id=f"file-{digest[:32]}", payload_format=FILE_PREFIX + descriptor,
+    store_batch(svc, sid, client_batch_id=batch_id, payload_format=FILE_PREFIX + descriptor,
                 payload=payload, t_first_ns=t_first, t_last_ns=t_last, device=replace(dev, placement=placement))
     svc.store.set_session(sid, t0_ns=recording.origin_ns)
     if recording.truth.positions is not None and recording.truth.positions.origin_lat_lon_deg:
@@ -125,8 +130,17 @@ def list_sessions() -> Response:
 
 @bp.get("/<session_id>")
 def get_session(session_id: str) -> Response:
+    """The session by its id, or by the client's ``session_id`` (a key unique per user)."""
     user = current_user()
-    return jsonify(session_json(services().store.session_row(session_id, user.id), detail=True))
+    store = services().store
+    try:
+        row = store.session_row(session_id, user.id)
+    except APIError:
+        by_key = store.session_by_key(user.id, session_id)
+        if by_key is None:
+            raise
+        row = by_key
+    return jsonify(session_json(row, detail=True))
 
 
 @bp.delete("/<session_id>")
@@ -151,6 +165,50 @@ def pair_device(session_id: str) -> tuple[Response, int]:
                             platform=body.get("platform", "imu" if body["role"] != "phone" else "unknown"),
                             model=body.get("model", ""), placement=body.get("placement"))
     return jsonify(session_json(svc.store.session_row(session_id, user.id))), 201
+
+
+@bp.post("/<session_id>/devices/<role>/upload")
+def upload_device_file(session_id: str, role: str) -> tuple[Response, int]:
+    """Add a log file of one paired device to an existing session (multipart ``file``, optional ``format``).
+
+    Any format the readers know (a shoe IMU: PyShoe ``.mat``, SensorConnect CSV, x-io CSV, native JSON); the
+    pairing decides the device, not the file (a reader's default ``right_foot`` becomes the paired
+    ``left_foot``). 409 when ``role`` is not paired with the session, 422 when the file is not that kind of
+    device's (a phone log for a foot). Re-sending the same file is a no-op (200).
+    """
+    user = current_user(scope="ingest")
+    svc = services()
+    svc.store.session_row(session_id, user.id)
+    require_paired(session_id, role)
+    upload = uploaded_log(read=True)
+    recording = upload.recording
+    assert recording is not None
+    if (role in FOOT_ROLES) != recording.device.is_foot:
+        kind = "a shoe IMU's" if recording.device.is_foot else "a phone's"
+        raise APIError(422, f"'{upload.filename}' ({upload.format}) is {kind} log; the session's {role} needs "
+                            f"{'a shoe IMU' if role in FOOT_ROLES else 'a phone'} log", details={"field": "file"})
+    foot = role in FOOT_ROLES
+    device = replace(recording.device, role=role, placement="foot" if foot else recording.device.placement)
+    t_first, t_last = time_span_ns(recording)
+    fmt = FILE_PREFIX + upload.descriptor
+    plausibility.check_units(recording)
+    plausibility.check_time(svc.store.engine, session_id, role, fmt, t_first, t_last)
+    digest = hashlib.sha256(upload.payload).hexdigest()
+    accepted = store_batch(svc, session_id, client_batch_id=f"file-{role}-{digest[:32]}", payload_format=fmt,
+                           payload=upload.payload, t_first_ns=t_first, t_last_ns=t_last, device=device)
+    return (jsonify({"id": accepted.id, "device_role": role, "format": upload.format, "file": upload.filename,
+                     "duplicate": not accepted.created}), 201 if accepted.created else 200)
+
+
+def require_paired(session_id: str, role: str) -> None:
+    """409 unless a device of ``role`` is paired with the session (``POST .../devices``); 422 for no known role."""
+    if role not in DEVICE_ROLES:
+        raise APIError(422, f"unknown device role '{role[:40]}'; expected one of {', '.join(DEVICE_ROLES)}",
+                       details={"field": "role"})
+    if role not in {d.role for d in services().store.devices(session_id)}:
+        raise APIError(409, f"no {role} is paired with this session: pair it first with POST "
+                            f"/api/v1/sessions/{session_id}/devices {{\"role\": \"{role}\"}}",
+                       details={"field": "role"})
 
 
 @bp.post("/<session_id>/batches")

@@ -1,6 +1,6 @@
 """The track as columns: ``GET /api/v1/sessions/{id}/track/columns`` (compact and fast, for the web page).
 
-The same rows as ``/track`` (``?device=ROLE``, ``?since=T_S``, ``?heading=causal|smoothed``, with its
+The same rows as ``/track`` (``?device=ROLE|primary``, ``?since=T_S``, ``?heading=causal|smoothed``, with its
 ``smoothed_devices`` and ``heading_notes``), laid out as one
 array per column instead of
 one object per row: for a 2-hour walk (10 000+ steps) that halves the body and the server's time, which is
@@ -13,11 +13,11 @@ import json
 import math
 from typing import Any
 
-from flask import Blueprint, Response, request
+from flask import Blueprint, Response
 
 from pdr.phone.track_schema import TRACK_COLUMNS
 from server.api import current_user, services
-from server.api.results import parse_heading, parse_since, track_points
+from server.api.results import parse_device, parse_heading, parse_since, track_points
 
 bp = Blueprint("track_columns", __name__, url_prefix="/api/v1/sessions")
 
@@ -44,10 +44,11 @@ def track_columns(session_id: str) -> Response:
     since = parse_since()
     smoothing = None
     if heading == "smoothed":
-        points, smoothing = track_points(session_id, request.args.get("device"), since, heading)
+        points, smoothing = track_points(session_id, parse_device(session_id), since, heading)
         columns = {name: [p["device" if name == "device_role" else name] for p in points] for name in COLUMNS}
         count = len(points)
-    elif rows := svc.store.track(session_id, request.args.get("device"), since):
+    elif rows := svc.store.track(session_id, parse_device(session_id), since,
+                                 previous=svc.store.rebuilding(session_id)):
         fields = list(rows[0]._fields)
         transposed = list(zip(*rows, strict=True))
         columns = {name: list(transposed[fields.index(name)]) for name in COLUMNS}

@@ -23,8 +23,12 @@ from tests.server.conftest import bearer
 from tests.server.helpers import one_second_batches
 
 
-def _session(client: FlaskClient, token: str, name: str) -> str:
-    return client.post("/api/v1/sessions", json={"session_id": name}, headers=bearer(token)).get_json()["id"]
+def _session(client: FlaskClient, token: str, name: str, pair: tuple[str, ...] = ()) -> str:
+    sid = client.post("/api/v1/sessions", json={"session_id": name}, headers=bearer(token)).get_json()["id"]
+    for role in pair:
+        assert client.post(f"/api/v1/sessions/{sid}/devices", json={"role": role},
+                           headers=bearer(token)).status_code == 201
+    return sid
 
 
 def _upload(app: Flask, client: FlaskClient, token: str, sid: str, batches: list[dict]) -> None:
@@ -75,6 +79,10 @@ def test_step_summaries_endpoint_is_idempotent_and_dead_reckons(real_app: Flask,
     sid = _session(client, token, "shoe-summaries")
     first, second = steps_to_json(steps[:5], "right_foot", "s1"), steps_to_json(steps[5:], "right_foot", "s2")
     url = f"/api/v1/sessions/{sid}/steps"
+    unpaired = client.post(url, json=second, headers=h)      # summaries do not pair a foot by themselves
+    assert unpaired.status_code == 409 and "pair it first" in unpaired.get_json()["error"]["message"]
+    assert client.get(f"/api/v1/sessions/{sid}", headers=h).get_json()["devices"] == []
+    client.post(f"/api/v1/sessions/{sid}/devices", json={"role": "right_foot"}, headers=h)
     assert client.post(url, json=second, headers=h).status_code == 201
     assert client.post(url, json=first, headers=h).status_code == 201          # late: rebuilt in time order
     dup = client.post(url, json=first, headers=h)
@@ -108,7 +116,7 @@ def test_raw_batches_after_summaries_fail_visibly(real_app: Flask, token: str) -
     client = real_app.test_client()
     rec = gait_recording(role="right_foot")
     _, track = navigate(rec, "stepwise")
-    sid = _session(client, token, "mixed")
+    sid = _session(client, token, "mixed", pair=("right_foot",))
     client.post(f"/api/v1/sessions/{sid}/steps", json=steps_to_json(list(track.steps[:3]), "right_foot", "s1"),
                 headers=bearer(token))
     real_app.extensions["pdr"].worker.wait_idle(60)

@@ -94,7 +94,8 @@ def test_both_shoes_give_one_fused_track_whatever_the_upload_order(real_app: Fla
     # The session summary stands for the fused track.
     listed = client.get("/api/v1/sessions", headers=bearer(token)).get_json()["sessions"]
     mine = next(s for s in listed if s["id"] == sid)
-    assert mine["steps"] == len(points)
+    assert mine["steps"] == len(points) and mine["primary_track"] == "fused"
+    assert mine["feet"] == {"paired": ["left_foot", "right_foot"], "live": ["left_foot", "right_foot"]}
 
     # The stored rows are the library's DualFootFusion over the feet's stored step increments, exactly.
     steps = client.get(f"/api/v1/sessions/{sid}/steps", headers=bearer(token)).get_json()["steps"]

@@ -55,7 +55,10 @@ def events_json(sc: Any, agent: str, t0: float, t1: float) -> list[dict[str, Any
     return out
 
 
-def test_group_fuses_uploads_like_the_library(gclient: FlaskClient, tokens: dict[str, str]) -> None:
+@pytest.mark.parametrize("foot_names", ["group", "sessions"])
+def test_group_fuses_uploads_like_the_library(gclient: FlaskClient, tokens: dict[str, str], foot_names: str) -> None:
+    """The same fusion whether the step events name the feet as the group does (left, right) or as sessions do
+    (left_foot, right_foot)."""
     tok = tokens["alice"]
     r = gclient.post("/api/v1/groups", headers=bearer(tok), json={"name": "team", "contact_timeout_s": 30})
     assert r.status_code == 201
@@ -64,8 +67,11 @@ def test_group_fuses_uploads_like_the_library(gclient: FlaskClient, tokens: dict
     join_all(gclient, tok, gid, sc)
     for t0 in range(0, 31, 10):
         for a in sc.agents:
+            events = events_json(sc, a, t0, t0 + 10)
+            if foot_names == "sessions":
+                events = [e | ({"foot": f"{e['foot']}_foot"} if "foot" in e else {}) for e in events]
             r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=bearer(tok),
-                             json={"batch_id": f"{a}-{t0}", "agent": a, "events": events_json(sc, a, t0, t0 + 10)})
+                             json={"batch_id": f"{a}-{t0}", "agent": a, "events": events})
             assert r.status_code == 201, r.get_json()
             assert r.get_json()["correction"]["agent"] == a
     again = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=bearer(tok),
@@ -114,7 +120,10 @@ def test_access_control_and_errors(gclient: FlaskClient, tokens: dict[str, str])
                                                          "dp": [1, 0], "dpsi": 0, "cov": []}]}, "events[0]"),
            ({"batch_id": "b", "agent": "x", "events": [{"type": "step", "agent": "x", "foot": "hand", "t_s": 1,
                                                          "dp": [1, 0, 0], "dpsi": 0,
-                                                         "cov": np.eye(4).tolist()}]}, "foot must be")]
+                                                         "cov": np.eye(4).tolist()}]}, "foot must be"),
+           ({"batch_id": "b", "agent": "x", "events": [{"type": "range", "agent_a": "x", "agent_b": "x",
+                                                         "t_s": 1}]}, "events[0]: 'range_m' is a required"),
+           ({"batch_id": "b", "agent": "x", "events": [{"type": "walk", "t_s": 1}]}, "events[0].type")]
     for body, message in bad:
         r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=alice, json=body)
         assert r.status_code == 422 and message in r.get_json()["error"]["message"], r.get_json()

@@ -58,7 +58,7 @@ def test_since_returns_only_new_rows(app, client, tokens):
     later = client.get(f"/api/v1/sessions/{sid}/track?since={full['points'][0]['t_s']}", headers=h).get_json()
     assert later["points"] == full["points"][1:]
     csv_text = client.get(f"/api/v1/sessions/{sid}/track?format=csv", headers=h).get_data(as_text=True)
-    assert csv_text.splitlines()[0] == "t_s,east_m,north_m,up_m,floor,heading_deg,step_length_m,mode"
+    assert csv_text.splitlines()[0] == "t_s,east_m,north_m,up_m,floor,heading_deg,step_length_m,mode,device"
     assert len(csv_text.splitlines()) == 4
     geo = client.get(f"/api/v1/sessions/{sid}/track?format=geojson", headers=h).get_json()
     assert len(geo["features"][0]["geometry"]["coordinates"]) == 3

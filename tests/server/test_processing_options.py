@@ -79,7 +79,16 @@ def test_bad_options_are_refused_and_nothing_is_created(real_app: Flask, token: 
     resp = client.post("/api/v1/sessions", json={"session_id": "s", "processing": {"site": {
         "landmarks": [], "grid_deg": 400}}}, headers=bearer(token))
     assert resp.status_code == 422 and "grid_deg" in resp.get_json()["error"]["message"]
+    for bad, field in (({"k": -1}, "k"), ({"k": 0}, "k"), ({"min_m": 1.5}, "min_m"), ({"stairs_m": 0}, "stairs_m")):
+        resp = client.post("/api/v1/sessions", json={"session_id": "s", "processing": {
+            "calibration": {"step_length": bad}}}, headers=bearer(token))
+        error = resp.get_json()["error"]
+        assert resp.status_code == 422 and f"processing.calibration.step_length.{field}" in error["message"], error
     assert client.get("/api/v1/sessions", headers=bearer(token)).get_json()["sessions"] == []
+    sid = client.post("/api/v1/sessions", json={"session_id": "later"}, headers=bearer(token)).get_json()["id"]
+    resp = client.put(f"/api/v1/sessions/{sid}/processing", json={"calibration": {"step_length": {"k": -1}}},
+                      headers=bearer(token))
+    assert resp.status_code == 422 and "step_length.k" in resp.get_json()["error"]["message"]
 
 
 @pytest.mark.timeout(300)

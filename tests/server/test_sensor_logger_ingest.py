@@ -2,10 +2,17 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
+from pdr.io import read_recording
 from pdr.io.sensor_logger_writer import to_push_messages
+from pdr.phone.configure import pipeline_config
+from pdr.phone.pipeline import PdrPipeline, track_rows
 from pdr.recording import DeviceInfo, Recording, SensorStream
+from server import auth
+from tests.conftest import data_path
 from tests.server.conftest import bearer
 
 URL = "/api/v1/ingest/sensor-logger"
@@ -53,3 +60,49 @@ def test_empty_payload_is_accepted_without_a_session(client, tokens):
     resp = client.post(f"{URL}?token={tokens['alice']}",
                        json={"messageId": 1, "sessionId": "s", "deviceId": "d", "payload": []})
     assert resp.status_code == 200 and resp.get_json()["stored"] is False
+
+
+def _ipin_walk_start() -> Recording:
+    """The first 20 s of a real hand-held IPIN log, whose reader knows the placement (``hand``)."""
+    rec = read_recording(data_path("ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial01_repetition01.txt"))
+    return rec.slice_time(0.0, 20.0)
+
+
+def _pushed_track(app, client, token: str, rec: Recording, query: str) -> tuple[dict, list[dict]]:
+    for m in to_push_messages(rec, session_id="ipin", device_id="phone"):
+        r = client.post(f"{URL}?token={token}{query}", json=m)
+        assert r.status_code == 200, r.get_data(as_text=True)
+    app.extensions["pdr"].worker.wait_idle()
+    session = client.get("/api/v1/sessions", headers=bearer(token)).get_json()["sessions"][0]
+    pts = client.get(f"/api/v1/sessions/{session['id']}/track", headers=bearer(token)).get_json()["points"]
+    return session, pts
+
+
+def test_push_url_placement_gives_the_track_of_the_log_with_that_placement(real_app, token):
+    """Push messages carry no placement: the URL's ``?placement=`` reaches the phone pipeline as a log reader's
+    does, so the streamed track is ``pdr track``'s on the log; without it, the pipeline's own detection's."""
+    rec = _ipin_walk_start()
+    assert rec.device.placement == "hand"
+    client = real_app.test_client()
+    session, pts = _pushed_track(real_app, client, token, rec, "&placement=hand")
+    assert session["placement"] == "hand" and session["devices"][0]["placement"] == "hand"
+    offline = track_rows(PdrPipeline(pipeline_config()).run(rec))
+    assert len(offline) > 10 and len(pts) == len(offline)
+    assert [(p["east_m"], p["north_m"]) for p in pts] == [(r["east_m"], r["north_m"]) for r in offline]
+
+    with real_app.extensions["pdr"].store.engine.begin() as conn:
+        other = auth.add_user(conn, "other")
+    _, detected = _pushed_track(real_app, client, other, rec, "")
+    unknown = replace(rec, device=replace(rec.device, placement=None))
+    assert [(p["east_m"], p["north_m"]) for p in detected] == [
+        (r["east_m"], r["north_m"]) for r in track_rows(PdrPipeline(pipeline_config()).run(unknown))]
+    assert detected[0]["east_m"] != pts[0]["east_m"]  # the regression's cause: the placement was lost on the way
+
+
+def test_unknown_or_changed_push_placement_is_a_user_error(client, tokens):
+    msgs = _messages(2)
+    bad = client.post(f"{URL}?token={tokens['alice']}&placement=pocket", json=msgs[0])
+    assert bad.status_code == 499 and "placement" in bad.get_data(as_text=True)
+    assert client.post(f"{URL}?token={tokens['alice']}&placement=hand", json=msgs[0]).status_code == 200
+    changed = client.post(f"{URL}?token={tokens['alice']}&placement=bag", json=msgs[1])
+    assert changed.status_code == 499 and "differs from the session's" in changed.get_data(as_text=True)

@@ -265,8 +265,9 @@ def test_csv_and_geojson_downloads(page: Any, live: LiveService) -> None:
     assert download.suggested_filename == f"{live.foot_id}.csv"
     text = Path(download.path()).read_text()
     table = list(csv.reader(io.StringIO(text)))
-    assert table[0] == ["t_s", "east_m", "north_m", "up_m", "floor", "heading_deg", "step_length_m", "mode"]
+    assert table[0] == ["t_s", "east_m", "north_m", "up_m", "floor", "heading_deg", "step_length_m", "mode", "device"]
     assert len(table) == 1 + 3 * live.foot_steps
+    assert sorted({row[-1] for row in table[1:]}) == ["fused", "left_foot", "right_foot"]
     with page.expect_download() as info:
         page.click("#dl-geojson")
     geo = json.loads(Path(info.value.path()).read_text())

@@ -82,6 +82,17 @@ def test_calibrate_scales_to_the_known_distance(tmp_path):
     assert dist == pytest.approx(walked, rel=0.01)
 
 
+@pytest.mark.parametrize("bad", [{"k": -1}, {"k": 0}])
+def test_calibration_that_would_clamp_every_step_is_refused(tmp_path, capsys, bad):
+    cal = tmp_path / "cal.json"
+    cal.write_text(json.dumps({"step_length": bad}))
+    out = tmp_path / "t.csv"
+    assert main(["track", str(SIM / "hand_escalator.zip"), "--calibration", str(cal), "--out", str(out)]) != 0
+    err = capsys.readouterr().err
+    assert "k" in err and "must be positive" in err, err
+    assert not out.exists()
+
+
 def _ipin_ref():
     path = SHARED_DATA.parent / "tools" / "ipin_ref.py"
     if not path.exists():

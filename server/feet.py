@@ -1,0 +1,45 @@
+"""A session's shoe IMUs and the track that stands for the session (its *primary* track).
+
+*Paired* feet are the session's devices of a foot role (``POST .../devices``, or a foot batch's device);
+*live* feet are the paired feet with stored data (raw IMU batches, uploaded files or step summaries). The
+fused dual-foot track (:mod:`server.fused_feet`) needs two live feet that have taken steps: a paired foot that
+never sends data is not fused in (it would hold the midpoint at its start). The primary track follows the
+shoes when they are paired and live (the mission: the track comes from the shoes): two feet, the ``fused``
+track; one foot, that foot's ZUPT track; no foot, the phone's. The phone still gives the motion modes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+from pdr.recording import FOOT_ROLES
+from server.store import Store
+
+FUSED = "fused"
+#: Which device's track stands for the session, first present wins (module doc).
+ROLE_PRIORITY = (FUSED, *FOOT_ROLES, "phone")
+
+
+@dataclass(frozen=True)
+class Feet:
+    """The session's paired foot roles and those of them with stored data (both sorted)."""
+
+    paired: tuple[str, ...]
+    live: tuple[str, ...]
+
+    def to_json(self) -> dict[str, list[str]]:
+        return {"paired": list(self.paired), "live": list(self.live)}
+
+
+def session_feet(store: Store, session_id: str) -> Feet:
+    """Paired and live feet of a session (module doc)."""
+    paired = sorted(d.role for d in store.devices(session_id) if d.role in FOOT_ROLES)
+    with_data = store.batch_roles(session_id)
+    return Feet(tuple(paired), tuple(r for r in paired if r in with_data))
+
+
+def primary_role(roles: Iterable[str]) -> str:
+    """The role, among those with a track, whose track stands for the session ('' when there is none)."""
+    present = set(roles)
+    return next((r for r in ROLE_PRIORITY if r in present), min(present, default=""))

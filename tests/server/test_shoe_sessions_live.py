@@ -1,0 +1,88 @@
+"""Issue 32 against the real ``pdr serve`` process: a user pairs shoes, uploads a shoe file to a paired foot,
+sends step summaries, names sessions by their key, reprocesses, and gives a bad calibration.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import time
+from pathlib import Path
+
+import pytest
+
+from pdr.cli import main as pdr_main
+from server.client import Client, add_user, running_server
+from tests.conftest import data_path
+from tests.server.helpers import multipart
+
+pytestmark = [pytest.mark.data, pytest.mark.timeout(600)]
+
+
+def _wait_done(c: Client, sid: str) -> dict:
+    deadline = time.monotonic() + 300
+    while True:
+        s = c.request("GET", f"/api/v1/sessions/{sid}").json()
+        if s["status"] in ("done", "failed") and not s["batches"].get("pending"):
+            return s
+        assert time.monotonic() < deadline, s
+        time.sleep(0.3)
+
+
+def test_shoes_paired_uploaded_and_summarised_through_the_real_service(tmp_path: Path) -> None:
+    log = data_path("pyshoe_vicon", "2017-11-22-11-52-02.mat")
+    with running_server(tmp_path / "srv") as (url, env, _):
+        c = Client(url, add_user(env, "walker"))
+        sid = c.request("POST", "/api/v1/sessions", {"session_id": "hall-walk"}).json()["id"]
+        for role in ("left_foot", "right_foot"):
+            assert c.request("POST", f"/api/v1/sessions/{sid}/devices", {"role": role}).status == 201
+        body, content_type = multipart({"file": (log.read_bytes(), log.name)})
+        r = c.request("POST", f"/api/v1/sessions/{sid}/devices/left_foot/upload", raw=body, content_type=content_type)
+        assert r.status == 201 and r.json()["device_role"] == "left_foot", r.body[:300]
+
+        # Items 1 and 3: the silent right foot is not fused in; the left foot's track is the session's.
+        s = _wait_done(c, sid)
+        assert s["status"] == "done" and s["feet"]["live"] == ["left_foot"] and "fused" not in s["tracks"]
+        assert s["primary_track"] == "left_foot" and s["distance_m"] == s["tracks"]["left_foot"]["distance_m"]
+        # Item 7: the client's key finds the session.
+        assert c.request("GET", "/api/v1/sessions/hall-walk").json()["id"] == sid
+        # Item 2: every CSV row names its device; ?device=primary is the left foot's track.
+        rows = list(csv.DictReader(c.request("GET", f"/api/v1/sessions/{sid}/track?format=csv").body
+                                   .decode().splitlines()))
+        assert rows and {r["device"] for r in rows} == {"left_foot"}
+        primary = c.request("GET", f"/api/v1/sessions/{sid}/track?device=primary").json()["points"]
+        assert [p["east_m"] for p in primary] == [float(r["east_m"]) for r in rows]
+
+        # Item 5: summaries of an unpaired foot are refused; pdr foot's payload for the paired one is taken.
+        payload = tmp_path / "steps.json"
+        assert pdr_main(["foot", str(log), "--method", "stepwise", "--per-step", "--format", "foot-steps",
+                         "--role", "right_foot", "--out", str(payload)]) == 0
+        other = c.request("POST", "/api/v1/sessions", {"session_id": "summaries"}).json()["id"]
+        steps = json.loads(payload.read_text())
+        assert c.request("POST", f"/api/v1/sessions/{other}/steps", steps).status == 409
+        assert c.request("POST", f"/api/v1/sessions/{other}/devices", {"role": "right_foot"}).status == 201
+        assert c.request("POST", f"/api/v1/sessions/{other}/steps", steps).status == 201
+        summarised = _wait_done(c, other)
+        assert summarised["primary_track"] == "right_foot" and summarised["steps"] == len(steps["steps"])
+        # Summaries and the raw file give the same track (eq. 7 composition of the same increments).
+        assert summarised["distance_m"] == pytest.approx(s["distance_m"], abs=1e-6)
+
+        # Item 7: another file under an existing session_id is refused with the session it names.
+        body, content_type = multipart({"file": (log.read_bytes(), log.name), "session_id": "hall-walk"})
+        r = c.request("POST", "/api/v1/sessions", raw=body, content_type=content_type)
+        assert r.status == 409 and r.json()["error"]["details"]["session"] == sid
+        # Item 10: while the session is rebuilt it keeps answering with the results from before.
+        assert c.request("POST", f"/api/v1/sessions/{sid}/reprocess").status == 202
+        seen, deadline = [], time.monotonic() + 300
+        while True:
+            now = c.request("GET", f"/api/v1/sessions/{sid}").json()
+            seen.append((now["rebuilding"], now["tracks"]))
+            if not now["rebuilding"] and now["status"] == "done" and not now["batches"].get("pending"):
+                break
+            assert time.monotonic() < deadline, now
+            time.sleep(0.05)
+        assert all(tracks == s["tracks"] for _, tracks in seen), seen
+        # Item 9: a calibration that clamps every step is refused, naming the field.
+        r = c.request("PUT", f"/api/v1/sessions/{sid}/processing", {"calibration": {"step_length": {"k": -1}}})
+        assert r.status == 422 and "step_length.k" in r.json()["error"]["message"]
+        c.close()
