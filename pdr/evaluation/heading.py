@@ -17,6 +17,15 @@ Attitude (per mocap frame)
     valid mocap frame (within :data:`MAX_MATCH_S`), against the mocap ``q_nb``. Error rotation
     ``q_e = q_est q_true^-1`` (navigation frame): yaw error = its twist about the vertical, tilt error = the angle
     between the estimated and true up directions in the device frame. Mean and median over frames.
+Disturbed stretches (attitude yaw split)
+    The field at each mocap frame is the calibrated magnetometer sample nearest to it rotated into the world by the
+    mocap attitude, its magnitude and dip (seed 003 eq. 13's quantities) smoothed by a running median over
+    :data:`FIELD_SMOOTH_S` (the sampling and alignment jitter of a fast-turning phone). The local reference is the
+    median of both over the frames of the same walker's recordings without deliberate disturbance (``NoDist``; the
+    room's field; the recording's own frames if the walker has none). A frame is in a disturbed stretch where its
+    field departs from the reference by more than :data:`DISTURBED_FIELD_UT` or :data:`DISTURBED_DIP_DEG`. The
+    attitude yaw errors of ours and of the rotation vector are reported inside (``*_yaw_dist``) and outside
+    (``*_yaw_clean``) these stretches (:func:`split_disturbed`).
 Rotation vector as walking direction
     The step's mean horizontal direction of the device +y axis by the rotation vector: the walking direction of
     a phone held in reading position (texting). Scored like the steps above.
@@ -42,6 +51,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.ndimage import median_filter
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
@@ -58,6 +68,11 @@ MIN_STEP_M = 0.15
 MAX_MATCH_S = 0.05
 #: Carriages in report order (the folder names' motion).
 CARRIAGES = ("FrontPocket", "BackPocket", "Swinging", "Texting", "RunningPocket")
+#: A frame's field departs from the reference by more than these to count as disturbed: magnitude (uT) and dip
+#: (deg). 5 uT across the ~22 uT horizontal field of the room turns north by up to ~13 deg.
+DISTURBED_FIELD_UT, DISTURBED_DIP_DEG = 5.0, 5.0
+#: Running-median window (s) of the field's magnitude and dip at the mocap frames.
+FIELD_SMOOTH_S = 1.0
 #: Walker of each protocol half.
 TUNING_WALKER, CONFIRMATION_WALKER = "Guillaume", "Jakob"
 
@@ -81,7 +96,8 @@ class ErrorSet:
 
 
 #: Error sets kept per recording: walking direction (causal, smoothed, rotation vector +y) and attitude.
-ERROR_SETS = ("walk_causal", "walk_smoothed", "walk_rv_y", "att_yaw", "att_tilt", "rv_yaw", "rv_tilt")
+ERROR_SETS = ("walk_causal", "walk_smoothed", "walk_rv_y", "att_yaw", "att_tilt", "rv_yaw", "rv_tilt",
+              "att_yaw_dist", "att_yaw_clean", "rv_yaw_dist", "rv_yaw_clean")
 
 
 @dataclass
@@ -102,6 +118,9 @@ class RecordingScore:
     step_table: dict[str, Any] = field(default_factory=dict)
     #: Azimuth (deg) of magnetic north from the mocap Y axis (:func:`pdr.io.tyrex.field_azimuth_deg`), if known.
     field_azimuth_deg: float | None = None
+    #: Per mocap frame: the smoothed field magnitude (uT) and dip (deg) (:func:`frame_field`), and the attitude yaw
+    #: errors (deg) of ours and of the rotation vector (:func:`frame_yaw_errors`); NaN where undefined.
+    frames: dict[str, FloatArray] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         return {"recording": self.name, "walker": self.walker, "carriage": self.carriage,
@@ -186,6 +205,82 @@ def attitude_errors(t_est_s: FloatArray, q_est: FloatArray, rec: Recording, decl
         qe_m = quat.multiply(np.array([math.cos(half), 0.0, 0.0, math.sin(half)]), qe_m)
     yaw, tilt = yaw_tilt_error(qe_m, qt_m)
     return ErrorSet(np.degrees(yaw)), ErrorSet(np.degrees(tilt))
+
+
+def frame_yaw_errors(t_est_s: FloatArray, q_est: FloatArray, rec: Recording, declination_deg: float = 0.0,
+                     max_match_s: float = MAX_MATCH_S) -> FloatArray:
+    """(frames,) yaw errors (deg) of ``q_est`` at every mocap frame as :func:`attitude_errors` scores them; NaN at
+    frames it does not score.
+    """
+    ex = rec.truth.extra
+    tt = rec.origin_ns / 1e9 + np.asarray(ex["trajectory_t_s"], dtype=np.float64)
+    out = np.full(tt.size, np.nan)
+    ok_est = np.all(np.isfinite(q_est), axis=1)
+    te, qe = np.asarray(t_est_s, dtype=np.float64)[ok_est], np.asarray(q_est, dtype=np.float64)[ok_est]
+    if te.size == 0:
+        return out
+    qt = np.asarray(ex["q_nb"], dtype=np.float64)
+    j = np.clip(np.searchsorted(te, tt), 1, max(te.size - 1, 1))
+    j = np.where(np.abs(te[j - 1] - tt) < np.abs(te[np.minimum(j, te.size - 1)] - tt), j - 1, j)
+    j = np.minimum(j, te.size - 1)
+    use = np.all(np.isfinite(qt), axis=1) & (np.abs(te[j] - tt) <= max_match_s)
+    qe_m = qe[j[use]]
+    if declination_deg:
+        half = math.radians(declination_deg) / 2
+        qe_m = quat.multiply(np.array([math.cos(half), 0.0, 0.0, math.sin(half)]), qe_m)
+    out[use] = np.degrees(yaw_tilt_error(qe_m, qt[use])[0])
+    return out
+
+
+def frame_field(rec: Recording, max_match_s: float = MAX_MATCH_S) -> tuple[FloatArray, FloatArray]:
+    """(frames,) magnitude (uT) and dip (deg, down positive) of the measured field in the world at each mocap frame
+    (nearest calibrated magnetometer sample rotated by the mocap attitude), each smoothed by a running median over
+    :data:`FIELD_SMOOTH_S`; NaN where the field or the attitude is unknown.
+    """
+    ex = rec.truth.extra
+    tt = rec.origin_ns / 1e9 + np.asarray(ex["trajectory_t_s"], dtype=np.float64)
+    qt = np.asarray(ex["q_nb"], dtype=np.float64)
+    mag, dip = np.full(tt.size, np.nan), np.full(tt.size, np.nan)
+    if not rec.has("mag") or rec.t_s("mag").size < 2:
+        return mag, dip
+    tm = rec.origin_ns / 1e9 + rec.t_s("mag")
+    j = np.clip(np.searchsorted(tm, tt), 1, tm.size - 1)
+    j = np.where(np.abs(tm[j - 1] - tt) < np.abs(tm[j] - tt), j - 1, j)
+    ok = np.all(np.isfinite(qt), axis=1) & (np.abs(tm[j] - tt) <= max_match_s)
+    if not ok.any():
+        return mag, dip
+    h = quat.rotate(qt[ok], rec.values("mag")[j[ok]])
+    rate = (tt.size - 1) / max(tt[-1] - tt[0], 1e-9)
+    win = max(1, int(round(FIELD_SMOOTH_S * rate)) | 1)
+    mag[ok] = median_filter(np.linalg.norm(h, axis=1), win, mode="nearest")
+    dip[ok] = median_filter(np.degrees(np.arctan2(-h[:, 2], np.hypot(h[:, 0], h[:, 1]))), win, mode="nearest")
+    return mag, dip
+
+
+def split_disturbed(scores: list[RecordingScore]) -> None:
+    """Fill each score's ``*_yaw_dist`` and ``*_yaw_clean`` error sets (module doc), in place: the reference field
+    of a walker is the median over the frames of the walker's ``NoDist`` recordings.
+    """
+    refs: dict[str, tuple[float, float]] = {}
+    for w in {s.walker for s in scores}:
+        clean = [s for s in scores if s.walker == w and not s.disturbed and s.frames]
+        if clean:
+            refs[w] = (float(np.nanmedian(np.concatenate([s.frames["field_uT"] for s in clean]))),
+                       float(np.nanmedian(np.concatenate([s.frames["dip_deg"] for s in clean]))))
+    for s in scores:
+        if not s.frames or not np.isfinite(s.frames["field_uT"]).any():
+            for k in ("att_yaw_dist", "att_yaw_clean", "rv_yaw_dist", "rv_yaw_clean"):
+                s.errors[k] = ErrorSet()
+            continue
+        f, d = s.frames["field_uT"], s.frames["dip_deg"]
+        ref_f, ref_d = refs.get(s.walker, (float(np.nanmedian(f)), float(np.nanmedian(d))))
+        known = np.isfinite(f)
+        dist = known & ((np.abs(f - ref_f) > DISTURBED_FIELD_UT) | (np.abs(d - ref_d) > DISTURBED_DIP_DEG))
+        clean_frames = known & ~dist
+        for who in ("att", "rv"):
+            e = s.frames[f"{who}_yaw_deg"]
+            s.errors[f"{who}_yaw_dist"] = ErrorSet(e[dist & np.isfinite(e)])
+            s.errors[f"{who}_yaw_clean"] = ErrorSet(e[clean_frames & np.isfinite(e)])
 
 
 def yaw_tilt_error(q_est: FloatArray, q_true: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -291,11 +386,17 @@ def score_recording(rec: Recording, cfg: PipelineConfig,
     errors = {"walk_causal": abs_errors(causal, truth), "walk_smoothed": abs_errors(smooth_yaw, truth),
               "walk_rv_y": abs_errors(rv_y, truth)}
     errors["att_yaw"], errors["att_tilt"] = attitude_errors(t_att, q_att, rec, decl)
+    field_ut, dip_deg = frame_field(rec)
+    frames = {"field_uT": field_ut, "dip_deg": dip_deg, "att_yaw_deg": frame_yaw_errors(t_att, q_att, rec, decl),
+              "rv_yaw_deg": np.full(field_ut.size, np.nan)}
     if rec.has("orientation"):
-        errors["rv_yaw"], errors["rv_tilt"] = attitude_errors(rec.origin_ns / 1e9 + rec.t_s("orientation"),
-                                                              rec.values("orientation"), rec)
+        t_rv, q_rv = rec.origin_ns / 1e9 + rec.t_s("orientation"), rec.values("orientation")
+        errors["rv_yaw"], errors["rv_tilt"] = attitude_errors(t_rv, q_rv, rec)
+        frames["rv_yaw_deg"] = frame_yaw_errors(t_rv, q_rv, rec)
     else:
         errors["rv_yaw"], errors["rv_tilt"] = ErrorSet(), ErrorSet()
+    for k in ("att_yaw_dist", "att_yaw_clean", "rv_yaw_dist", "rv_yaw_clean"):
+        errors[k] = ErrorSet()                  # filled by split_disturbed over all the recordings
     placements = Counter(str(r.get("placement")) for r in rows)
     used = placements.most_common(1)[0][0] if placements else str(cfg.placement)
     table = {"t_start_s": t0, "t_s": t1, "placement": [str(r.get("placement")) for r in rows],
@@ -305,7 +406,7 @@ def score_recording(rec: Recording, cfg: PipelineConfig,
     return RecordingScore(name=Path(rec.source).name.removesuffix(".zip"), walker=str(m.get("walker", "")),
                           carriage=str(m.get("carriage", "")), disturbed=bool(m.get("disturbed", False)),
                           placement=used, steps=len(rows), errors=errors, notices=notices, step_table=table,
-                          field_azimuth_deg=m.get("field_azimuth_mocap_deg"))
+                          field_azimuth_deg=m.get("field_azimuth_mocap_deg"), frames=frames)
 
 
 def recordings_in(root: str | Path) -> list[Path]:
@@ -412,7 +513,24 @@ def report_lines(scores: list[RecordingScore], agg: dict[str, Any]) -> list[str]
         out.append(_line(f"{name} ({d['recordings']} rec.)", d, str(d["walk_causal"]["n"]), False))
     out += ["", HEADER, _line(f"ALL ({agg['all']['recordings']} rec.)", agg["all"], str(agg["all"]["walk_causal"]["n"]),
                               False)]
+    out += ["", "attitude yaw (mean, deg) inside and outside disturbed stretches (field off the walker's NoDist "
+            f"median by > {DISTURBED_FIELD_UT:g} uT or > {DISTURBED_DIP_DEG:g} deg dip)", DIST_HEADER]
+    out += [_dist_line(s.name, s.to_dict()) for s in scores]
+    out += [_dist_line(f"{name} ({d['recordings']} rec.)", d) for name, d in agg["by_field"].items()]
+    out += [_dist_line(f"{name} ({d['recordings']} rec.)", d) for name, d in agg["by_walker"].items()]
+    out.append(_dist_line(f"ALL ({agg['all']['recordings']} rec.)", agg["all"]))
     return out
+
+
+DIST_HEADER = (f"{'':<48} | {'disturbed frames':<25} | clean frames\n"
+               f"{'':<48} | {'share   ours  rot.vector':<25} | ours  rot.vector")
+
+
+def _dist_line(label: str, d: dict[str, Any]) -> str:
+    nd, nc = d["att_yaw_dist"]["n"], d["att_yaw_clean"]["n"]
+    share = 100.0 * nd / (nd + nc) if nd + nc else math.nan
+    return (f"{label:<48} | {_f(share, '4.0f')}% {_f(d['att_yaw_dist']['mean_deg'])} {_f(d['rv_yaw_dist']['mean_deg'])}"
+            f"       | {_f(d['att_yaw_clean']['mean_deg'])} {_f(d['rv_yaw_clean']['mean_deg'])}")
 
 
 def evaluate(root: str | Path, cfg_for: Callable[[Recording], PipelineConfig],
@@ -435,4 +553,5 @@ def evaluate(root: str | Path, cfg_for: Callable[[Recording], PipelineConfig],
         scores.append(score_recording(rec, cfg_for(rec), smooth))
         if progress:
             progress(f"{f.name}: done")
+    split_disturbed(scores)
     return scores, protocol(scores)

@@ -93,6 +93,37 @@ def test_protocol_pools_steps_by_carriage_walker_and_field():
     assert any(line.startswith("ALL (3 rec.)") for line in ev.report_lines(scores, agg))
 
 
+def test_disturbed_stretches_split_the_attitude_yaw_against_the_walkers_clean_field():
+    def score(walker, dist, field_ut, dip_deg, att, rv):
+        e = {k: ev.ErrorSet() for k in ev.ERROR_SETS}
+        frames = {"field_uT": np.array(field_ut, float), "dip_deg": np.array(dip_deg, float),
+                  "att_yaw_deg": np.array(att, float), "rv_yaw_deg": np.array(rv, float)}
+        return ev.RecordingScore(f"{walker}_{dist}", walker, "Texting", dist, "hand", 0, e, [], frames=frames)
+
+    # Walker A's clean recording sets the reference (44 uT, 59 deg); its disturbed one is mostly off it. Walker B
+    # has no clean recording: its own median is the reference.
+    clean = score("A", False, [44, 44, 44, 45], [59, 59, 60, 59], [1, 2, 3, 4], [5, 6, 7, 8])
+    disturbed = score("A", True, [44, 60, 70, 44, np.nan], [59, 59, 59, 70, 59], [1, 20, 30, 40, 9], [2, 3, 4, 5, 6])
+    other = score("B", True, [80, 80, 80, 90], [40, 40, 40, 40], [1, 2, 3, 4], [np.nan, 1, 1, 1])
+    ev.split_disturbed([clean, disturbed, other])
+    assert clean.errors["att_yaw_dist"].deg.size == 0 and clean.errors["att_yaw_clean"].deg.tolist() == [1, 2, 3, 4]
+    assert disturbed.errors["att_yaw_dist"].deg.tolist() == [20, 30, 40]       # magnitude, magnitude, dip
+    assert disturbed.errors["att_yaw_clean"].deg.tolist() == [1]               # the unknown field is in neither
+    assert disturbed.errors["rv_yaw_dist"].deg.tolist() == [3, 4, 5]
+    assert other.errors["att_yaw_dist"].deg.tolist() == [4] and other.errors["rv_yaw_clean"].deg.tolist() == [1, 1]
+    agg = ev.protocol([clean, disturbed, other])
+    assert agg["all"]["att_yaw_dist"]["n"] == 4
+    assert any("disturbed stretches" in line for line in ev.report_lines([clean, disturbed, other], agg))
+
+
+def test_the_field_at_the_frames_is_the_world_field(synthetic):
+    f, d = ev.frame_field(synthetic)
+    ok = np.isfinite(f)
+    assert ok.mean() > 0.9
+    # The synthetic recording's field is fixed in the world: one magnitude and dip at every frame.
+    assert np.nanstd(f) < 0.5 and np.nanstd(d) < 0.5
+
+
 def test_placement_label_and_bad_folders(synthetic, tmp_path):
     assert ev.placement_for(synthetic, "label") == "pocket"
     assert ev.placement_for(synthetic, "auto") == "auto"
