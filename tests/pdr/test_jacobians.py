@@ -66,7 +66,9 @@ def test_range_update_is_the_ekf_update_with_the_range_jacobian(seed):
     H = _fd_jacobian(lambda z: np.array([np.linalg.norm(z)]), z1)
     s = H @ cov @ H.T + var
     k = cov @ H.T / s
-    mean, new_cov = kalman_range_moments(z1, cov, r, var)
+    out = kalman_range_moments(z1, cov, r, var)
+    assert out is not None
+    mean, new_cov = out
     np.testing.assert_allclose(mean, z1 + (k * (r - np.linalg.norm(z1))).ravel(), rtol=1e-7, atol=1e-9)
     np.testing.assert_allclose(new_cov, cov - k @ s @ k.T, rtol=1e-7, atol=1e-9)
 

@@ -19,7 +19,8 @@ def _lin(kind: str, t: np.ndarray) -> np.ndarray:
 
 
 def _feed(grid: OnlineGrid, rec: Recording, cuts: list[float]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    ts, vs = [], {k: [] for k in grid.kinds}
+    ts: list[np.ndarray] = []
+    vs: dict[str, list[np.ndarray]] = {k: [] for k in grid.kinds}
     edges = [-np.inf, *cuts, np.inf]
     for a, b in zip(edges[:-1], edges[1:], strict=True):
         part = Recording({k: SensorStream(k, s.t_ns[(s.t_ns / 1e9 >= a) & (s.t_ns / 1e9 < b)],

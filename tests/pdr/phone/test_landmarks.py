@@ -13,6 +13,7 @@ from pdr.phone.landmarks import (
     ElevatorDetector,
     LandmarkConfig,
     Site,
+    SiteLandmark,
     StepModeLabeller,
     classify_step,
     neighbour_correction,
@@ -81,21 +82,27 @@ SITE = {"name": "museum", "floor_height_m": 3.5, "declination_deg": 2.0, "grid_d
     {"id": "E1", "type": "elevator", "east_m": 0.0, "north_m": 30.0, "floor": 1, "heading_deg": [0, 90]}]}
 
 
+def _id(lm: SiteLandmark | None) -> str | None:
+    return None if lm is None else lm.id
+
+
 def test_site_round_trip_match_and_landmark_heading():
     site = Site.from_dict(SITE)
     assert Site.from_dict(site.to_dict()) == site
     assert site.floor_height_m == 3.5 and site.declination_deg == 2.0 and site.grid_deg == 69.5
-    assert site.match("stairs_up", 13.0, 0.0, 0.0).id == "S2"             # nearer; "stairs" takes both ways
-    assert site.match("stairs_down", 11.0, 0.0, 0.0).id == "S2"
+    assert _id(site.match("stairs_up", 13.0, 0.0, 0.0)) == "S2"             # nearer; "stairs" takes both ways
+    assert _id(site.match("stairs_down", 11.0, 0.0, 0.0)) == "S2"
     assert site.match("stairs_down", 5.0, 0.0, 0.0) is None               # S2 only within 3 m
-    assert site.match("stairs_up", 5.0, 0.0, 0.0).id == "S1"
+    assert _id(site.match("stairs_up", 5.0, 0.0, 0.0)) == "S1"
     assert site.match("stairs_up", 10.0, 0.0, 2.0) is None                # another floor
-    assert site.match("elevator", 1.0, 29.0, math.nan).id == "E1"         # unknown floor: any
-    assert site.by_id("E1").type == "elevator" and site.by_id("X") is None
-    yaw, var = site.by_id("S1").yaw_and_var()
+    assert _id(site.match("elevator", 1.0, 29.0, math.nan)) == "E1"         # unknown floor: any
+    e1, s1, s2 = site.by_id("E1"), site.by_id("S1"), site.by_id("S2")
+    assert e1 is not None and s1 is not None and s2 is not None and site.by_id("X") is None
+    assert e1.type == "elevator"
+    yaw, var = s1.yaw_and_var()
     assert yaw == pytest.approx(0.0, abs=1e-12)                           # heading 90 deg = east = yaw 0
     assert math.sqrt(var) == pytest.approx(math.radians(20.0) / 6.0)      # three-sigma interval
-    yaw2, var2 = site.by_id("S2").yaw_and_var()                           # an interval across north
+    yaw2, var2 = s2.yaw_and_var()                           # an interval across north
     assert yaw2 == pytest.approx(math.pi / 2) and math.sqrt(var2) == pytest.approx(math.radians(20.0) / 6.0)
 
 
