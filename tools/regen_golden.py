@@ -25,8 +25,11 @@ import argparse
 import gzip
 import json
 import runpy
+import shutil
 import subprocess
 import sys
+import tempfile
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -54,9 +57,19 @@ def regen_sim() -> list[Path]:
     out = []
     for scenario in sorted(SIM.glob("*.json")):
         target = scenario.with_suffix(".zip")
-        native.write(simulate(load_scenario(scenario), 1), target)
+        with tempfile.TemporaryDirectory() as tmp:
+            fresh = Path(tmp) / target.name
+            native.write(simulate(load_scenario(scenario), 1), fresh)
+            # A zip records when it was written: keep the old file when every member is the same.
+            if not target.exists() or _members(fresh) != _members(target):
+                shutil.copyfile(fresh, target)
         out.append(target)
     return out
+
+
+def _members(path: Path) -> dict[str, bytes]:
+    with zipfile.ZipFile(path) as z:
+        return {n: z.read(n) for n in z.namelist()}
 
 
 def _walk(name: str) -> Any:

@@ -309,6 +309,31 @@ def _skew(x: Array) -> Array:  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def _imu_rows(c: Array, s_n: Array, bf: Array, w: Array, bw: Array, f_k: Array,
+              w_k: Array) -> tuple[Array, Array]:  # pragma: no cover - compiled
+    # Rows of the IMU measurement (eqs. 5-6) and their residuals y - h: the accelerometer h_f = C^T s_n + b_f with
+    # s_n = a - g_n the specific force in the navigation frame (d h_f / d dtheta = C^T [s_n]x, true C = exp(dtheta)
+    # est), the gyroscope h_w = omega + b_omega.
+    e = np.zeros(6)
+    H = np.zeros((6, N_ERR))
+    ct = c.T
+    h_f = ct @ s_n + bf
+    for i in range(3):
+        e[i] = f_k[i] - h_f[i]
+        e[3 + i] = w_k[i] - (w[i] + bw[i])
+    sk = _skew(s_n)
+    cts = ct @ sk
+    for i in range(3):
+        for j in range(3):
+            H[i, A_ + j] = ct[i, j]
+            H[i, TH + j] = cts[i, j]
+        H[i, BF + i] = 1.0
+        H[3 + i, W_ + i] = 1.0
+        H[3 + i, BW + i] = 1.0
+    return H, e
+
+
+@njit(cache=True)
 def _bc_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Array, P0: Array,
                jerk: float, squat: float, somega: float, sbias: float, sbias_w: float, r_f: float, r_w: float,
                alpha: Array, mu: Array, var: Array, logc: Array, stance: int,
@@ -368,24 +393,7 @@ def _bc_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Arr
             # Clipped gyroscope axes (pdr.foot.saturation): the unknown excess rate turns the attitude.
             add_clip_attitude_noise(P, TH, c_old, sat_var[k], dt)
         # --- measurement update f(y_k | x_k), linearised (eqs. 5-6) ---
-        c = rotmat(q)
-        s_n = a - g_n                                   # specific force in the navigation frame
-        e = np.zeros(6)
-        H = np.zeros((6, N_ERR))
-        ct = c.T
-        h_f = ct @ s_n + bf
-        for i in range(3):
-            e[i] = f_b[k, i] - h_f[i]
-            e[3 + i] = w_b[k, i] - (w[i] + bw[i])
-        sk = _skew(s_n)
-        cts = ct @ sk
-        for i in range(3):
-            for j in range(3):
-                H[i, A_ + j] = ct[i, j]
-                H[i, TH + j] = cts[i, j]
-            H[i, BF + i] = 1.0
-            H[3 + i, W_ + i] = 1.0
-            H[3 + i, BW + i] = 1.0
+        H, e = _imu_rows(rotmat(q), a - g_n, bf, w, bw, f_b[k], w_b[k])
         S = congruence(H, P)
         for i in range(3):
             S[i, i] += r_f

@@ -17,8 +17,18 @@ from pdr.errors import InputError
 EventRow = dict[str, Any]
 
 
+class _Event:
+    """What every event has: its kind (the row's ``type``) and its row form."""
+
+    KIND: ClassVar[str]
+
+    def to_row(self) -> EventRow:
+        """``{"type": KIND, field: value, ...}`` in declaration order."""
+        return {"type": self.KIND, **{f.name: getattr(self, f.name) for f in fields(self)}}  # type: ignore[arg-type]
+
+
 @dataclass(frozen=True)
-class StepEvent:
+class StepEvent(_Event):
     """One step of the track.
 
     Attributes
@@ -81,12 +91,9 @@ class StepEvent:
     position_fix: bool
     landmark_heading: bool
 
-    def to_row(self) -> EventRow:
-        return _row(self)
-
 
 @dataclass(frozen=True)
-class FloorChangeEvent:
+class FloorChangeEvent(_Event):
     """The floor number changed at ``t_s`` (s) from ``from_floor`` to ``floor``."""
 
     KIND: ClassVar[str] = "floor_change"
@@ -94,12 +101,9 @@ class FloorChangeEvent:
     floor: float
     from_floor: float
 
-    def to_row(self) -> EventRow:
-        return _row(self)
-
 
 @dataclass(frozen=True)
-class LandmarkEvent:
+class LandmarkEvent(_Event):
     """A site landmark (id ``landmark``) was matched at ``t_s`` (s, start of its first step) in motion ``mode``."""
 
     KIND: ClassVar[str] = "landmark"
@@ -107,12 +111,9 @@ class LandmarkEvent:
     landmark: str
     mode: str
 
-    def to_row(self) -> EventRow:
-        return _row(self)
-
 
 @dataclass(frozen=True)
-class ElevatorEvent:
+class ElevatorEvent(_Event):
     """An elevator ride from ``t_start_s`` to ``t_end_s`` (s): direction ``up``/``down``, barometric height change
     (m), the magnetic field's range over the ride (uT, None without magnetometer) and the site landmark that fixed
     the position (None: no match; then absent from the row).
@@ -127,30 +128,23 @@ class ElevatorEvent:
     site_landmark: str | None = None
 
     def to_row(self) -> EventRow:
-        row = _row(self)
+        row = super().to_row()
         if self.site_landmark is None:
             del row["site_landmark"]
         return row
 
 
 @dataclass(frozen=True)
-class NoticeEvent:
+class NoticeEvent(_Event):
     """A degraded input or a decision the user should know of (``message``, one sentence)."""
 
     KIND: ClassVar[str] = "notice"
     message: str
 
-    def to_row(self) -> EventRow:
-        return _row(self)
-
 
 PipelineEvent = StepEvent | FloorChangeEvent | LandmarkEvent | ElevatorEvent | NoticeEvent
 _KINDS: dict[str, type[PipelineEvent]] = {c.KIND: c for c in (StepEvent, FloorChangeEvent, LandmarkEvent,
                                                                 ElevatorEvent, NoticeEvent)}
-
-
-def _row(ev: PipelineEvent) -> EventRow:
-    return {"type": ev.KIND, **{f.name: getattr(ev, f.name) for f in fields(ev)}}
 
 
 def event_from_row(row: EventRow) -> PipelineEvent:

@@ -1,0 +1,85 @@
+"""The scorers of pdr.evaluation.scoring on tracks whose errors are known by construction."""
+
+import math
+
+import numpy as np
+import pytest
+
+from pdr.errors import InputError
+from pdr.evaluation.scoring import (
+    bounce_free_step_count,
+    distance_ratio,
+    distance_ratio_same_floor,
+    landmark_errors,
+    plain_step_count,
+    step_count_error_pct,
+    waypoint_errors,
+)
+
+# An L-shaped route through four landmarks at t = 0, 10, 20, 30 s: 10 m east, 10 m north, 10 m east.
+TRUTH_T = np.array([0.0, 10.0, 20.0, 30.0])
+TRUTH_EN = np.array([[5.0, 5.0], [15.0, 5.0], [15.0, 15.0], [25.0, 15.0]])
+
+
+def _track(rotate_deg: float = 0.0, scale: float = 1.0, offset=(0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    """The true route sampled every 0.5 s, rotated about its start, scaled and shifted."""
+    t = np.arange(0.0, 30.01, 0.5)
+    en = np.column_stack([np.interp(t, TRUTH_T, TRUTH_EN[:, 0]), np.interp(t, TRUTH_T, TRUTH_EN[:, 1])])
+    a = math.radians(rotate_deg)
+    r = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+    return t, (en - TRUTH_EN[0]) @ r.T * scale + TRUTH_EN[0] + np.asarray(offset)
+
+
+def test_a_perfect_track_anywhere_scores_zero():
+    t, en = _track(offset=(100.0, -40.0))                 # translation to the first landmark is part of the score
+    np.testing.assert_allclose(landmark_errors(t, en, TRUTH_T, TRUTH_EN), 0.0, atol=1e-12)
+    np.testing.assert_allclose(waypoint_errors(t, en, TRUTH_T, TRUTH_EN), 0.0, atol=1e-12)
+    assert distance_ratio(t, en, TRUTH_T, TRUTH_EN) == pytest.approx(1.0)
+
+
+def test_a_rotated_track_costs_the_chord_unless_aligned():
+    t, en = _track(rotate_deg=10.0)
+    err = landmark_errors(t, en, TRUTH_T, TRUTH_EN)
+    dist = np.linalg.norm(TRUTH_EN[1:] - TRUTH_EN[0], axis=1)
+    np.testing.assert_allclose(err, 2 * dist * math.sin(math.radians(5.0)), rtol=1e-9)   # chord of 10 deg
+    np.testing.assert_allclose(landmark_errors(t, en, TRUTH_T, TRUTH_EN, align="first-segment"), 0.0, atol=1e-9)
+    np.testing.assert_allclose(waypoint_errors(t, en, TRUTH_T, TRUTH_EN), 0.0, atol=1e-9)   # least-squares rotation
+    with pytest.raises(InputError, match="align must be"):
+        landmark_errors(t, en, TRUTH_T, TRUTH_EN, align="best")
+
+
+def test_scale_shows_in_the_distance_ratios_and_floor_changes_are_left_out():
+    t, en = _track(scale=1.1)
+    assert distance_ratio(t, en, TRUTH_T, TRUTH_EN) == pytest.approx(1.1)
+    floors = np.array([0.0, 0.0, 1.0, 1.0])                # the middle interval climbs a floor
+    assert distance_ratio_same_floor(t, en, TRUTH_T, TRUTH_EN, floors) == pytest.approx(1.1)
+    # A detour inside the floor-changing interval does not count; one on a floor does.
+    wiggle = en.copy()
+    mid = (t > 10.0) & (t < 20.0)
+    wiggle[mid, 0] += np.where(np.arange(mid.sum()) % 2 == 0, 1.0, -1.0)
+    assert distance_ratio_same_floor(t, wiggle, TRUTH_T, TRUTH_EN, floors) == pytest.approx(1.1)
+    assert distance_ratio(t, wiggle, TRUTH_T, TRUTH_EN) > 1.5
+    assert math.isnan(distance_ratio_same_floor(t, en, TRUTH_T, TRUTH_EN, np.arange(4.0)))
+    with pytest.raises(InputError, match="zero length"):
+        distance_ratio(t, en, TRUTH_T, np.zeros((4, 2)))
+    with pytest.raises(InputError, match="fewer than two positions"):
+        landmark_errors(t[:1], en[:1], TRUTH_T, TRUTH_EN)
+
+
+def test_contact_bounces_are_removed_and_the_step_count_error_is_in_percent():
+    left = np.arange(0.0, 20.0, 1.0)
+    right = np.concatenate([np.arange(0.5, 20.0, 1.0), [3.7, 9.62]])     # two bounces 0.2 and 0.12 s late
+    assert bounce_free_step_count([left, np.sort(right)]) == 40
+    assert bounce_free_step_count([np.array([1.0, 1.1])]) == 2          # too few edges to judge: all kept
+    assert step_count_error_pct(103, 100) == pytest.approx(3.0)
+    assert step_count_error_pct(95, 100) == pytest.approx(-5.0)
+    with pytest.raises(InputError, match="must be positive"):
+        step_count_error_pct(3, 0)
+
+
+def test_the_plain_peak_counter_counts_a_clean_gait_signal():
+    rate = 100.0
+    t = np.arange(0.0, 20.0, 1.0 / rate)
+    acc = np.column_stack([np.zeros(t.size), np.zeros(t.size), 9.81 + 2.0 * np.sin(2 * np.pi * 1.8 * t)])
+    assert abs(plain_step_count(t, acc) - 36) <= 1
+    assert plain_step_count(t[:1], acc[:1]) == 0

@@ -1,0 +1,160 @@
+"""Landmarks (seed 003 Sec. 3): the step label (eqs. 1-3), the neighbour correction, the elevator impulses, the
+site description and its matching, the pipeline's label stage."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from pdr.errors import InputError
+from pdr.phone.history import SampleHistory
+from pdr.phone.landmarks import (
+    ElevatorDetector,
+    LandmarkConfig,
+    Site,
+    SiteLandmark,
+    StepModeLabeller,
+    classify_step,
+    neighbour_correction,
+)
+
+CFG = LandmarkConfig()
+BASE = (40.0, 25.0, -15.0)            # flat walking: opening, Pitch_max, Pitch_min (deg)
+
+
+@pytest.mark.parametrize(("rate", "pmax", "pmin", "mode"), [
+    (0.3, None, None, "stairs_up"), (-0.3, 50.0, -10.0, "stairs_down"),        # the barometer decides when present
+    (0.05, 60.0, -15.0, "walking"),
+    (None, 45.0, -15.0, "stairs_up"),           # opening 60 > 1.25 * 40 and Pitch_max 45 > 25 + 8 (eqs. 2-3)
+    (None, 45.0, -2.0, "walking"),              # opening 47 < 50: not up
+    (None, 20.0, -5.0, "stairs_down"),          # opening 25 < 0.8 * 40 and Pitch_min -5 > -15 + 8
+    (None, 20.0, -8.0, "walking"),              # Pitch_min -8 is not above -7
+    (math.nan, 45.0, -15.0, "stairs_up"),       # a NaN rate is no barometer
+])
+def test_classify_step_follows_the_rate_or_the_pitch_pattern(rate, pmax, pmin, mode):
+    assert classify_step(rate, pmax, pmin, BASE, CFG) == mode
+
+
+def test_without_baseline_or_pitch_a_step_is_walking_and_neighbours_correct_an_isolated_label():
+    assert classify_step(None, 45.0, -15.0, None, CFG) == "walking"
+    assert classify_step(None, None, None, BASE, CFG) == "walking"
+    assert neighbour_correction("walking", "stairs_up", "walking") == "walking"
+    assert neighbour_correction("stairs_up", "walking", "stairs_up") == "stairs_up"
+    assert neighbour_correction("walking", "stairs_up", "stairs_up") == "stairs_up"
+
+
+def _impulses(rate: float, gap_s: float, first: float) -> np.ndarray:
+    n = int(rate)
+    pulse = np.full(n, first * 0.5)
+    return np.concatenate([np.zeros(n), pulse, np.zeros(int(gap_s * rate)), -pulse, np.zeros(n)])
+
+
+@pytest.mark.parametrize("first", [1.0, -1.0])
+def test_elevator_is_a_pair_of_opposite_impulses_in_any_batching(first):
+    rate = 50.0
+    dv = _impulses(rate, 10.0, first)
+    one = ElevatorDetector(rate).update(dv, np.zeros(dv.size, dtype=bool))
+    assert len(one) == 1 and one[0][2] == int(first)
+    s, e, _ = one[0]
+    assert s == 50 and e == 50 + 50 + 500 + 50 - 1 + 1        # from the first impulse's start to the second's end
+    det, got = ElevatorDetector(rate), []
+    for part in np.array_split(dv, 7):
+        got += det.update(part, np.zeros(part.size, dtype=bool))
+        det = ElevatorDetector.from_state(json.loads(json.dumps(det.state())))
+    assert got == one
+
+
+def test_impulses_too_short_too_far_apart_or_of_one_sign_are_no_elevator():
+    rate = 50.0
+    short_pulses = np.concatenate([np.zeros(50), np.full(20, 0.5), np.zeros(200), np.full(20, -0.5)])
+    assert ElevatorDetector(rate).update(short_pulses, np.zeros(short_pulses.size, dtype=bool)) == []
+    far = _impulses(rate, 70.0, 1.0)                            # longer than elevator_max_ride_s
+    assert ElevatorDetector(rate).update(far, np.zeros(far.size, dtype=bool)) == []
+    same = np.concatenate([np.zeros(50), np.full(50, 0.5), np.zeros(100), np.full(50, 0.5)])
+    assert ElevatorDetector(rate).update(same, np.zeros(same.size, dtype=bool)) == []
+
+
+SITE = {"name": "museum", "floor_height_m": 3.5, "declination_deg": 2.0, "grid_deg": 69.5, "landmarks": [
+    {"id": "S1", "type": "stairs_up", "east_m": 10.0, "north_m": 0.0, "floor": 0, "heading_deg": [80, 100]},
+    {"id": "S2", "type": "stairs", "east_m": 14.0, "north_m": 0.0, "floor": 0, "heading_deg": [350, 10],
+     "radius_m": 3.0},
+    {"id": "E1", "type": "elevator", "east_m": 0.0, "north_m": 30.0, "floor": 1, "heading_deg": [0, 90]}]}
+
+
+def _id(lm: SiteLandmark | None) -> str | None:
+    return None if lm is None else lm.id
+
+
+def test_site_round_trip_match_and_landmark_heading():
+    site = Site.from_dict(SITE)
+    assert Site.from_dict(site.to_dict()) == site
+    assert site.floor_height_m == 3.5 and site.declination_deg == 2.0 and site.grid_deg == 69.5
+    assert _id(site.match("stairs_up", 13.0, 0.0, 0.0)) == "S2"             # nearer; "stairs" takes both ways
+    assert _id(site.match("stairs_down", 11.0, 0.0, 0.0)) == "S2"
+    assert site.match("stairs_down", 5.0, 0.0, 0.0) is None               # S2 only within 3 m
+    assert _id(site.match("stairs_up", 5.0, 0.0, 0.0)) == "S1"
+    assert site.match("stairs_up", 10.0, 0.0, 2.0) is None                # another floor
+    assert _id(site.match("elevator", 1.0, 29.0, math.nan)) == "E1"         # unknown floor: any
+    e1, s1, s2 = site.by_id("E1"), site.by_id("S1"), site.by_id("S2")
+    assert e1 is not None and s1 is not None and s2 is not None and site.by_id("X") is None
+    assert e1.type == "elevator"
+    yaw, var = s1.yaw_and_var()
+    assert yaw == pytest.approx(0.0, abs=1e-12)                           # heading 90 deg = east = yaw 0
+    assert math.sqrt(var) == pytest.approx(math.radians(20.0) / 6.0)      # three-sigma interval
+    yaw2, var2 = s2.yaw_and_var()                           # an interval across north
+    assert yaw2 == pytest.approx(math.pi / 2) and math.sqrt(var2) == pytest.approx(math.radians(20.0) / 6.0)
+
+
+@pytest.mark.parametrize(("edit", "match"), [
+    (lambda d: d["landmarks"][0].update(type="lift"), "type must be one of"),
+    (lambda d: d["landmarks"][0].update(heading_deg=90), "heading_deg must be"),
+    (lambda d: d["landmarks"][0].pop("east_m"), "missing field 'east_m'"),
+    (lambda d: d["landmarks"][0].update(north_m="north"), "bad value"),
+    (lambda d: d.update(floor_height_m="high"), "floor_height_m must be a number"),
+    (lambda d: d.update(grid_deg=400), r"grid_deg must be a number of degrees in \[-180, 180\]"),
+    (lambda d: d.pop("landmarks"), "'landmarks' list"),
+])
+def test_bad_site_descriptions_name_the_field(edit, match):
+    d = json.loads(json.dumps(SITE))
+    edit(d)
+    with pytest.raises(InputError, match=match):
+        Site.from_dict(d)
+
+
+def test_site_load_names_an_unreadable_file(tmp_path):
+    bad = tmp_path / "site.json"
+    bad.write_text("{not json")
+    with pytest.raises(InputError, match="cannot read site description") as exc:
+        Site.load(bad)
+    assert str(bad) in str(exc.value)
+
+
+def _history(y_up: np.ndarray, up: np.ndarray, rate: float) -> SampleHistory:
+    n = y_up.size
+    h = SampleHistory(n)
+    h.append(0, np.arange(n) / rate, np.zeros((n, 3)), np.zeros(n), np.zeros(n), up, np.zeros(n))
+    h.y_up[:] = y_up
+    return h
+
+
+def test_the_label_stage_learns_the_flat_pitch_baseline_and_labels_a_steeper_step_stairs():
+    rate = 50.0
+    flat = np.sin(np.radians(25.0 * np.sin(np.linspace(0, 2 * np.pi, 30))))       # pitch -25..25 deg
+    steep = np.sin(np.radians(np.concatenate([np.linspace(-15, 50, 15), np.linspace(50, -15, 15)])))
+    y_up = np.concatenate([np.tile(flat, 4), steep])
+    h = _history(y_up, np.zeros(y_up.size), rate)
+    lab = StepModeLabeller(CFG, rate)
+    modes = [lab.label(h, 30 * k, 30 * (k + 1), "pocket", has_baro=False) for k in range(5)]
+    assert modes == ["walking"] * 4 + ["stairs_up"]
+    assert lab.pitch_baseline == pytest.approx([50.0, 25.0, -25.0], abs=0.5)
+    # A hand-held phone's pitch does not follow the leg: without barometer every step is walking.
+    assert StepModeLabeller(CFG, rate).label(h, 120, 150, "hand", has_baro=False) == "walking"
+    # With a barometer the vertical rate over the last 2 s decides (0.2 m/s up).
+    hb = _history(y_up, 0.2 * np.arange(y_up.size) / rate, rate)
+    assert StepModeLabeller(CFG, rate).label(hb, 120, 150, "hand", has_baro=True) == "stairs_up"
+    # Output: the neighbour correction against the last output label; state round trip.
+    lab.prev_mode = "walking"
+    assert lab.corrected("stairs_up", "walking") == "walking" and lab.corrected("stairs_up", None) == "stairs_up"
+    again = StepModeLabeller.from_state(json.loads(json.dumps(lab.state())), CFG, rate)
+    assert again.prev_mode == "walking" and again.pitch_baseline == lab.pitch_baseline
