@@ -24,6 +24,10 @@ keeps ``min_peak``. It goes with ``slow_missed_steps``: such walkers step every 
 gap longer than ``max_step_s``, which must not end the walk. Both are off: they cost the Oxford figure (walk-end
 handling after a loud pocket walk passes the lowered floor) and add steps at a landmark stop of a hand-held walk.
 
+Optionally (``gait_min_corr`` above 0, with ``floor_gain``) the automatic gain applies only while the signal is
+periodic at a stride lag (walking repeats itself every stride; putting a phone away, handling it after a walk or
+standing does not): the kernel keeps running lagged products of ``a_n - reference`` at every lag of one stride.
+
 The reference level is not the constant g but a slow causal low-pass of ``a_n`` (``reference_hz``), which
 absorbs accelerometer scale and bias errors. The peak-height limit adapts to the carriage: it is the
 larger of ``min_peak`` and ``peak_ratio`` times a running mean of accepted peak heights (a phone in a
@@ -209,6 +213,13 @@ class StepConfig:
         MobiFall standing: 0.19 m/s^2). ``floor_gain`` 0 (the default) turns it off (``min_peak`` alone): with 1.0
         the gentle hand-held and texting walks count, but Oxford's error rises and a hand-held walk with stops
         (IPIN trial 21) gains steps while turning at a landmark; figures in the commit that added it.
+    gait_min_corr
+        Gait periodicity gate of the automatic gain: the gain lowers the floor only while the normalised
+        autocorrelation of ``a_n - reference`` (exponential window ``floor_tau_s``) at some lag of one stride (two
+        steps of ``min_interval_s`` to two of ``max_step_s``) is at least this. 0 (the default) turns the gate off.
+        0.5 keeps the gain's Oxford cost away (phone put away before a walk, handled after it: aperiodic) and still
+        counts the gentle Sensor Logger walks; 0.4 lets one Oxford walk's handling through, 0.6 loses the 20-step
+        walk. Off by default: with the gain on, IPIN trial 21's two 4-step runs between landmarks are lost.
     """
 
     cutoff_hz: float = 3.0
@@ -243,6 +254,7 @@ class StepConfig:
     slow_missed_steps: bool = False
     floor_tau_s: float = 3.0
     noise_peak: float = 0.25
+    gait_min_corr: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("cutoff_hz", "reference_hz", "max_rise_s", "min_interval_s", "max_step_s",
@@ -303,6 +315,9 @@ class Steps:
 _S_REF_INIT, _S_PREV_D, _S_CAND, _S_CAND_START, _S_CAND_PEAK, _S_CAND_PEAK_I, _S_AMP, _S_LAST, _S_INDEX, \
     _S_LAST2, _S_MS = range(11)
 _S_SIZE = 11
+#: After the fixed slots: the ring position, a ring of the last ``max_lag + 1`` values of ``a_n - reference`` and the
+#: running lagged products at lags ``min_lag..max_lag`` (gait periodicity, :func:`_gait_lags`).
+_S_RING = _S_SIZE
 #: Starts kept of a confirmed bout (stride and peak medians, last step duration) and of a candidate bout.
 _BOUT_HISTORY = 10
 _CANDIDATE_HISTORY = 12
@@ -315,6 +330,16 @@ _SHORT_HISTORY = 4
 _Start = tuple[int, float, int, float, float, float, float]
 #: A doubtful step held back: (start index, end index, peak, phone turned, stride RMS).
 _Held = tuple[int, int, float, bool, float]
+
+
+def _gait_lags(c: StepConfig, fs: float) -> tuple[int, int]:
+    """Lag range (samples) searched for the stride period: two shortest steps to two longest steps."""
+    return max(1, int(round(2 * c.min_interval_s * fs))), int(round(2 * c.max_step_s * fs))
+
+
+def _kernel_size(c: StepConfig, fs: float) -> int:
+    lo, hi = _gait_lags(c, fs)
+    return _S_RING + 1 + (hi + 1) + (hi - lo + 1)
 
 
 def _median(values: Sequence[float]) -> float:
@@ -342,7 +367,8 @@ def _detect_kernel(d: FloatArray, st: FloatArray, fs: float, min_peak: float, pe
                    min_rate: float, max_rise: int, min_interval: int,
                    amp_tau: float, beat_peak: float, beat_tol: float,
                    max_step: int, floor_gain: float, floor_tau: float,
-                   noise_peak: float) -> tuple[IntArray, FloatArray, IntArray]:
+                   noise_peak: float, min_corr: float, min_lag: int,
+                   max_lag: int) -> tuple[IntArray, FloatArray, IntArray]:
     """Crossing/peak state machine over ``d = a_n - reference``; returns accepted (start, peak, decided_at).
 
     A crossing on the beat (its interval from the last accepted start within ``beat_tol`` of the interval
@@ -352,8 +378,16 @@ def _detect_kernel(d: FloatArray, st: FloatArray, fs: float, min_peak: float, pe
     Automatic gain: the floor (``min_peak``, or ``beat_peak`` on the beat) is lowered to ``floor_gain`` times the
     running RMS of ``d`` (exponential window ``floor_tau`` s, state ``_S_MS``), but not below ``noise_peak``; the
     rise-rate limit scales with the floor.
+
+    Gait periodicity (``min_corr`` above 0): the gain applies only while the walk is periodic, i.e. the normalised
+    autocorrelation of ``d`` (the same exponential window) at some lag of one stride (``min_lag..max_lag``) is at
+    least ``min_corr``. Walking repeats itself every stride; putting a phone away or standing does not.
     """
     n = d.size
+    ring_n = max_lag + 1
+    ring0 = _S_RING + 1
+    sums0 = ring0 + ring_n
+    gated = min_corr > 0.0 and floor_gain > 0.0
     starts = np.empty(n, dtype=np.int64)
     peaks = np.empty(n)
     decided = np.empty(n, dtype=np.int64)
@@ -366,6 +400,17 @@ def _detect_kernel(d: FloatArray, st: FloatArray, fs: float, min_peak: float, pe
         x = d[i]
         st[_S_AMP] *= decay
         st[_S_MS] += ms_alpha * (x * x - st[_S_MS])
+        corr = 0.0
+        if gated:
+            pos = int(st[_S_RING])
+            st[ring0 + pos] = x
+            for lag in range(min_lag, max_lag + 1):
+                k = sums0 + lag - min_lag
+                st[k] += ms_alpha * (x * st[ring0 + (pos - lag) % ring_n] - st[k])
+                if st[k] > corr:
+                    corr = st[k]
+            corr /= max(st[_S_MS], 1e-12)
+            st[_S_RING] = (pos + 1) % ring_n
         if st[_S_CAND] == 1.0:
             cs = int(st[_S_CAND_START])
             if x > st[_S_CAND_PEAK] and gi - cs <= max_rise:
@@ -379,7 +424,7 @@ def _detect_kernel(d: FloatArray, st: FloatArray, fs: float, min_peak: float, pe
                 prev_step = st[_S_LAST] - st[_S_LAST2]
                 if prev_step <= max_step and abs(cs - st[_S_LAST] - prev_step) <= beat_tol * prev_step:
                     thr = beat_peak
-                if floor_gain > 0.0:
+                if floor_gain > 0.0 and (not gated or corr >= min_corr):
                     # Automatic gain: a gentle walk's own amplitude sets its floor (above the noise).
                     thr = min(thr, max(noise_peak, floor_gain * math.sqrt(st[_S_MS])))
                 rate_thr = min_rate * thr / min_peak
@@ -438,7 +483,7 @@ class StepDetector:
         self._rzi: FloatArray | None = None     # (1,) reference filter state
         self._gzi: FloatArray | None = None     # (3, 1) gravity filter states
         self._energy = 0.0                      # running sum of (a_n - reference)^2 over every sample seen
-        self._kernel = np.zeros(_S_SIZE)
+        self._kernel = np.zeros(_kernel_size(c, self.rate_hz))
         self._kernel[_S_LAST] = -1e12
         self._kernel[_S_LAST2] = -2e12
         self._kernel[_S_MS] = _initial_ms(c)
@@ -477,6 +522,8 @@ class StepDetector:
                 kernel = np.r_[kernel, -2e12]
             if kernel.size == _S_MS:             # saved before the automatic gain: start it as a new detector
                 kernel = np.r_[kernel, _initial_ms(det.config)]
+            if kernel.size == _S_SIZE:           # saved before gait periodicity: no history of it yet
+                kernel = np.r_[kernel, np.zeros(_kernel_size(det.config, det.rate_hz) - _S_SIZE)]
             det._kernel = kernel
             det._bout = [(int(s), float(p), int(a), float(e), float(gx), float(gy), float(gz))
                          for s, p, a, e, gx, gy, gz in d["bout"]]
@@ -709,7 +756,7 @@ class StepDetector:
                 d, self._kernel, fs, c.min_peak, c.peak_ratio, c.min_rise_rate,
                 int(round(c.max_rise_s * fs)), int(round(c.min_interval_s * fs)), c.amplitude_tau_s,
                 c.beat_min_peak, c.beat_tolerance, int(round(c.max_step_s * fs)), c.floor_gain, c.floor_tau_s,
-                c.noise_peak)
+                c.noise_peak, c.gait_min_corr, *_gait_lags(c, fs))
             energy = self._energy + np.cumsum(d * d)
             self._energy = float(energy[-1])
             grav = self._gravity_dir(acc)
