@@ -250,11 +250,13 @@ class StepConfig:
     beat_min_peak: float = 0.6
     beat_tolerance: float = 0.2
     min_bout_step_s: float = 0.38
-    floor_gain: float = 0.0
-    slow_missed_steps: bool = False
+    floor_gain: float = 1.0
+    slow_missed_steps: bool = True
     floor_tau_s: float = 3.0
     noise_peak: float = 0.25
-    gait_min_corr: float = 0.0
+    gait_min_corr: float = 0.5
+    gait_confirm_corr: float = 0.7
+    gait_confirm_steps: int = 4
 
     def __post_init__(self) -> None:
         for name in ("cutoff_hz", "reference_hz", "max_rise_s", "min_interval_s", "max_step_s",
@@ -324,6 +326,8 @@ _CANDIDATE_HISTORY = 12
 #: Recent starts whose strides give the bout's rhythm, and recent peaks that give its strength.
 _STRIDE_HISTORY = 8
 _PEAK_HISTORY = 10
+#: Soft starts kept (passed the automatic gain's floor before the walk was periodic), waiting for a bout.
+_SOFT_HISTORY = 4
 #: Short regular runs kept, waiting for a bout to confirm after them.
 _SHORT_HISTORY = 4
 #: A start of a walking bout: (start index, peak, decided at, running energy and unit gravity (x, y, z) there).
@@ -359,7 +363,7 @@ def _initial_ms(c: StepConfig) -> float:
     learns the walk's amplitude over ``floor_tau_s`` (a detector that has heard nothing yet does not trust
     small peaks: putting the phone away before a walk gives them).
     """
-    return (c.min_peak / c.floor_gain) ** 2 if c.floor_gain > 0 else 0.0
+    return (c.min_peak / c.floor_gain) ** 2 if c.floor_gain > 0 and not c.gait_min_corr > 0 else 0.0
 
 
 @numba.njit(cache=True)
@@ -367,8 +371,8 @@ def _detect_kernel(d: FloatArray, st: FloatArray, fs: float, min_peak: float, pe
                    min_rate: float, max_rise: int, min_interval: int,
                    amp_tau: float, beat_peak: float, beat_tol: float,
                    max_step: int, floor_gain: float, floor_tau: float,
-                   noise_peak: float, min_corr: float, min_lag: int,
-                   max_lag: int) -> tuple[IntArray, FloatArray, IntArray]:
+                   noise_peak: float, track_corr: bool, min_corr: float, min_lag: int,
+                   max_lag: int) -> tuple[IntArray, FloatArray, IntArray, FloatArray, NDArray[np.bool_], IntArray]:
     """Crossing/peak state machine over ``d = a_n - reference``; returns accepted (start, peak, decided_at).
 
     A crossing on the beat (its interval from the last accepted start within ``beat_tol`` of the interval
@@ -387,7 +391,10 @@ def _detect_kernel(d: FloatArray, st: FloatArray, fs: float, min_peak: float, pe
     ring_n = max_lag + 1
     ring0 = _S_RING + 1
     sums0 = ring0 + ring_n
-    gated = min_corr > 0.0 and floor_gain > 0.0
+    gated = min_corr > 0.0
+    corrs = np.empty(n)
+    softs = np.zeros(n, dtype=np.bool_)
+    lags = np.zeros(n, dtype=np.int64)
     starts = np.empty(n, dtype=np.int64)
     peaks = np.empty(n)
     decided = np.empty(n, dtype=np.int64)
@@ -401,7 +408,8 @@ def _detect_kernel(d: FloatArray, st: FloatArray, fs: float, min_peak: float, pe
         st[_S_AMP] *= decay
         st[_S_MS] += ms_alpha * (x * x - st[_S_MS])
         corr = 0.0
-        if gated:
+        best_lag = 0
+        if track_corr:
             pos = int(st[_S_RING])
             st[ring0 + pos] = x
             for lag in range(min_lag, max_lag + 1):
@@ -409,6 +417,7 @@ def _detect_kernel(d: FloatArray, st: FloatArray, fs: float, min_peak: float, pe
                 st[k] += ms_alpha * (x * st[ring0 + (pos - lag) % ring_n] - st[k])
                 if st[k] > corr:
                     corr = st[k]
+                    best_lag = lag
             corr /= max(st[_S_MS], 1e-12)
             st[_S_RING] = (pos + 1) % ring_n
         if st[_S_CAND] == 1.0:
@@ -424,18 +433,34 @@ def _detect_kernel(d: FloatArray, st: FloatArray, fs: float, min_peak: float, pe
                 prev_step = st[_S_LAST] - st[_S_LAST2]
                 if prev_step <= max_step and abs(cs - st[_S_LAST] - prev_step) <= beat_tol * prev_step:
                     thr = beat_peak
-                if floor_gain > 0.0 and (not gated or corr >= min_corr):
+                gain_thr = thr
+                if floor_gain > 0.0:
                     # Automatic gain: a gentle walk's own amplitude sets its floor (above the noise).
-                    thr = min(thr, max(noise_peak, floor_gain * math.sqrt(st[_S_MS])))
+                    gain_thr = min(thr, max(noise_peak, floor_gain * math.sqrt(st[_S_MS])))
+                periodic = not gated or corr >= min_corr
+                if periodic:
+                    thr = gain_thr
                 rate_thr = min_rate * thr / min_peak
+                gain_rate_thr = min_rate * gain_thr / min_peak
                 if st[_S_AMP] > 1e-9 and peak_ratio * st[_S_AMP] > thr:
                     thr = peak_ratio * st[_S_AMP]
-                accepted = h >= thr and h / rise >= rate_thr and cs - st[_S_LAST] >= min_interval
-                if accepted:
+                if st[_S_AMP] > 1e-9 and peak_ratio * st[_S_AMP] > gain_thr:
+                    gain_thr = peak_ratio * st[_S_AMP]
+                spaced = cs - st[_S_LAST] >= min_interval
+                accepted = h >= thr and h / rise >= rate_thr and spaced
+                # A soft start: it passes the gain's floor but the walk is not (yet) periodic. Reported as such; the
+                # bout that confirms right after it may take it as a first step (gait initiation).
+                soft = (gated and not periodic and not accepted and spaced and h >= gain_thr
+                        and h / rise >= gain_rate_thr)
+                if accepted or soft:
                     starts[m] = cs
+                    corrs[m] = corr
+                    lags[m] = best_lag
                     peaks[m] = h
                     decided[m] = gi
+                    softs[m] = soft
                     m += 1
+                if accepted:
                     st[_S_LAST2] = st[_S_LAST]
                     st[_S_LAST] = cs
                     st[_S_AMP] = h if st[_S_AMP] <= 1e-9 else 0.8 * st[_S_AMP] + 0.2 * h
@@ -451,7 +476,7 @@ def _detect_kernel(d: FloatArray, st: FloatArray, fs: float, min_peak: float, pe
             st[_S_CAND_PEAK_I] = gi
         st[_S_PREV_D] = x
     st[_S_INDEX] = base + n
-    return starts[:m], peaks[:m], decided[:m]
+    return starts[:m], peaks[:m], decided[:m], corrs[:m], softs[:m], lags[:m]
 
 
 class StepDetector:
@@ -495,6 +520,7 @@ class StepDetector:
         self._steady_rms: list[float] = []
         self._held: list[_Held] = []
         self._short: list[list[tuple[int, float]]] = []   # short regular runs of (start, peak), oldest first
+        self._soft: list[_Start] = []           # recent soft starts (gait periodicity not yet established)
         self._n_seen = 0
 
     # -- state -------------------------------------------------------------------------------------
@@ -507,7 +533,7 @@ class StepDetector:
                 "bout_confirmed": self._bout_confirmed, "reanchored": self._reanchored,
                 "steady_rms": list(self._steady_rms),
                 "held": [list(h) for h in self._held], "n_seen": self._n_seen,
-                "short": [[list(r) for r in run] for run in self._short]}
+                "short": [[list(r) for r in run] for run in self._short], "soft": [list(b) for b in self._soft]}
 
     @classmethod
     def from_state_dict(cls, d: dict[str, Any]) -> StepDetector:
@@ -534,6 +560,8 @@ class StepDetector:
             det._n_seen = int(d["n_seen"])
             # Absent in states saved before short walks were kept.
             det._short = [[(int(s), float(p)) for s, p in run] for run in d.get("short", [])]
+            det._soft = [(int(s), float(p), int(a), float(e), float(gx), float(gy), float(gz))    # absent before
+                         for s, p, a, e, gx, gy, gz in d.get("soft", [])]                          # gait periodicity
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"bad step detector state ({exc})", source="step detector state") from None
         return det
@@ -585,7 +613,12 @@ class StepDetector:
         max_step = int(round(c.max_step_s * self.rate_hz))
         if not c.slow_missed_steps or not self._bout_confirmed or len(self._bout) < 3:
             return max_step
-        return max(max_step, int(c.max_missed_ratio * self._rhythm_stride()))
+        stride = self._rhythm_stride()
+        if c.min_missed_ratio * stride <= max_step:
+            # Not a slow walker: a missed step's gap can stay within max_step_s (the plain missed-step rule); a
+            # longer gap at this pace is a stop.
+            return max_step
+        return max(max_step, int(c.max_missed_ratio * stride))
 
     def _missed_start(self, s: int, p: float) -> int | None:
         """Start of a step missed just before start ``s`` in a confirmed bout, or None (module docstring)."""
@@ -609,13 +642,28 @@ class StepDetector:
             missed = (last + s) // 2
         return missed
 
-    def _confirmed_from(self) -> int | None:
-        """Index in the candidate bout of its first step if the bout is now confirmed, else None."""
+    def _confirmed_from(self, corr: float = 0.0, lag: int = 0) -> int | None:
+        """Index in the candidate bout of its first step if the bout is now confirmed, else None.
+
+        ``corr`` is the gait periodicity when the latest start was decided and ``lag`` (samples) the stride lag where
+        it peaks: at or above ``gait_confirm_corr`` (when that is on) the signal repeats itself every stride, and
+        ``gait_confirm_steps`` starts whose own stride is that lag or twice it (within ``short_bout_spread``) confirm
+        the bout.
+        The signal's period must be the starts' own: the window still holds the walk before a stop, and handling the
+        phone after it must not confirm on that walk's periodicity.
+        """
         c = self.config
         n = len(self._bout)
-        if n < c.min_bout_steps:
+        need = c.min_bout_steps
+        if 0.0 < c.gait_confirm_corr <= corr and n >= max(c.gait_confirm_steps, 3):
+            recent = [b[0] for b in self._bout[-c.gait_confirm_steps:]]
+            own = _median(_strides(recent))
+            # The period is a stride, or a step when the legs look alike (a hand-held phone).
+            if own > 0 and any(1.0 / c.short_bout_spread <= k * lag / own <= c.short_bout_spread for k in (1, 2)):
+                need = c.gait_confirm_steps
+        if n < need:
             return None
-        first = n - c.min_bout_steps
+        first = n - need
         st = np.array([b[0] for b in self._bout], dtype=np.float64)
         window = st[first:]
         if window.size < 3:
@@ -632,13 +680,29 @@ class StepDetector:
             return None
         ref = float(np.median(strides))
         # Take earlier starts (gait initiation) while their strides stay in the band of the bout's rhythm
-        # and each step agrees with the same leg's step one stride later.
-        while first > 0 and c.min_stride_ratio * ref <= st[first + 1] - st[first - 1] <= c.max_stride_ratio * ref:
-            same_leg_ratio = (st[first] - st[first - 1]) / (st[first + 2] - st[first + 1])
-            if not 1.0 / c.step_spread <= same_leg_ratio <= c.step_spread:
+        # and each step agrees with the same leg's step one stride later. Soft starts (the gain's floor passed before
+        # the walk was periodic) are candidates too; one that does not fit is skipped.
+        head = self._bout[first:]
+        # A soft start is a first step only if as strong as the bout's steps (putting a phone away is softer).
+        strong = c.short_bout_peak_ratio * _median([b[1] for b in head])
+        soft = [b for b in self._soft
+                if head[0][0] - 2 * c.max_step_s * self.rate_hz < b[0] < head[0][0] and b[1] >= strong]
+        self._soft = []
+        rest = sorted(self._bout[:first] + soft)
+        while rest:
+            cand = rest[-1]
+            stride = head[1][0] - cand[0]
+            leg = (head[0][0] - cand[0]) / max(head[2][0] - head[1][0], 1)
+            if (c.min_stride_ratio * ref <= stride <= c.max_stride_ratio * ref
+                    and 1.0 / c.step_spread <= leg <= c.step_spread
+                    and head[0][0] - cand[0] >= c.min_interval_s * self.rate_hz):
+                head.insert(0, rest.pop())
+            elif cand in soft:
+                rest.pop()
+            else:
                 break
-            first -= 1
-        return first
+        self._bout = rest + head
+        return len(rest)
 
     def _short_run(self) -> list[tuple[int, float]] | None:
         """The unconfirmed candidate bout as a short walk if its strides are regular (module docstring), else None."""
@@ -746,17 +810,20 @@ class StepDetector:
         an = np.zeros(0)
         starts = np.zeros(0, dtype=np.int64)
         peaks = np.zeros(0)
+        corrs = np.zeros(0)
+        softs = np.zeros(0, dtype=bool)
+        lags = np.zeros(0, dtype=np.int64)
         decided = np.zeros(0, dtype=np.int64)
         energy = np.zeros(0)
         grav = np.zeros((0, 3))
         if acc.shape[0]:
             an, ref = self.filtered_norm(acc)
             d = an - ref
-            starts, peaks, decided = _detect_kernel(
+            starts, peaks, decided, corrs, softs, lags = _detect_kernel(
                 d, self._kernel, fs, c.min_peak, c.peak_ratio, c.min_rise_rate,
                 int(round(c.max_rise_s * fs)), int(round(c.min_interval_s * fs)), c.amplitude_tau_s,
                 c.beat_min_peak, c.beat_tolerance, int(round(c.max_step_s * fs)), c.floor_gain, c.floor_tau_s,
-                c.noise_peak, c.gait_min_corr, *_gait_lags(c, fs))
+                c.noise_peak, c.gait_min_corr > 0.0 or c.gait_confirm_corr > 0.0, c.gait_min_corr, *_gait_lags(c, fs))
             energy = self._energy + np.cumsum(d * d)
             self._energy = float(energy[-1])
             grav = self._gravity_dir(acc)
@@ -830,9 +897,14 @@ class StepDetector:
                 report(self._bout[i][0], self._bout[i + 1][0], self._bout[i][1], at,
                        weak or (turned and bool(self._held)), turned, rms)
 
-        for s, p, at in zip(starts.tolist(), peaks.tolist(), decided.tolist(), strict=True):
+        for s, p, at, corr, soft, lag in zip(starts.tolist(), peaks.tolist(), decided.tolist(), corrs.tolist(),
+                                             softs.tolist(), lags.tolist(), strict=True):
             k = at - n0
             row: _Start = (s, p, at, float(energy[k]), float(grav[k, 0]), float(grav[k, 1]), float(grav[k, 2]))
+            if soft:
+                # Kept a while: the bout that confirms next may take it as its first step (gait initiation).
+                self._soft = (self._soft + [row])[-_SOFT_HISTORY:]
+                continue
             missed = self._missed_start(s, p)
             if missed is not None:
                 # One step of the bout was not detected: infer it from the rhythm (module docstring). Its
@@ -855,7 +927,7 @@ class StepDetector:
                 emit(len(self._bout) - 2, at)
                 self._bout = self._bout[-_BOUT_HISTORY:]
                 continue
-            first = self._confirmed_from()
+            first = self._confirmed_from(corr, lag)
             if first is not None:
                 self._bout_confirmed = True
                 if self._short:
