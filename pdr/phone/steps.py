@@ -710,10 +710,12 @@ class StepDetector:
         rest = sorted(self._bout[:first] + soft)
         while rest:
             cand = rest[-1]
-            stride = head[1][0] - cand[0]
+            stride = (head[1][0] - cand[0]) / ref
             leg = (head[0][0] - cand[0]) / max(head[2][0] - head[1][0], 1)
-            if (c.min_stride_ratio * ref <= stride <= c.max_stride_ratio * ref
-                    and 1.0 / c.step_spread <= leg <= c.step_spread
+            # A soft start is weaker evidence: its stride and step must agree as closely as a short walk's.
+            lo, hi, spread = ((1.0 / c.short_bout_spread, c.short_bout_spread, c.short_bout_spread) if cand in soft
+                              else (c.min_stride_ratio, c.max_stride_ratio, c.step_spread))
+            if (lo <= stride <= hi and 1.0 / spread <= leg <= spread
                     and head[0][0] - cand[0] >= c.min_interval_s * self.rate_hz):
                 head.insert(0, rest.pop())
             elif cand in soft:
