@@ -162,7 +162,8 @@ def _register_eval(targets: argparse._SubParsersAction, name: str, helptext: str
     else:
         p.add_argument("--step", metavar="JSON", default="{}",
                        help="step detector parameters (pdr.phone.steps.StepConfig fields) as a JSON object, e.g. "
-                            "'{\"floor_gain\": 1.0, \"slow_missed_steps\": true}' (the automatic peak-floor gain)")
+                            "'{\"floor_gain\": 1.0, \"slow_missed_steps\": true, \"gait_min_corr\": 0.5}'"
+                            " (the automatic peak-floor gain, gated by gait periodicity)")
     if name == "ipin":
         p.add_argument("--calibrate", default="none", choices=("none", "cross", "cross-rep"),
                        help="also score each log after recalibrating the step-length scale K (pdr calibrate) "

@@ -294,10 +294,11 @@ def test_gyro_heading_follows_the_turns_of_the_walk(hand_walk):
     raw = heading_deg_to_yaw(np.array([r["heading_raw_deg"] for r in rows]))
     assert np.all(np.isfinite(raw)) and not any(r["position_fix"] for r in rows)
     # up_time_s integrates the device-frame up direction, a unit vector: it grows by the elapsed time, and its
-    # direction is the device's up (the phone is held face up, z towards the sky).
+    # direction is the device's up (the phone is held face up, z towards the sky). A row's value is the mean over its
+    # step, so it grows with the steps' mid-times (a walk's first step can be longer than the next).
     up_time = np.array([r["up_time_s"] for r in rows])
     t = np.array([r["t_s"] for r in rows])
-    rate = np.linalg.norm(np.diff(up_time, axis=0), axis=1) / np.diff(t)
+    rate = np.linalg.norm(np.diff(up_time, axis=0), axis=1) / np.diff(tm)
     assert np.median(rate) == pytest.approx(1.0, abs=0.01) and rate.max() <= 1.05
     assert (up_time[-1] - up_time[0])[2] > 0.7 * (t[-1] - t[0])
     # The walk opens with a stand: the stationary gyro bias estimate is known from the first step on.
