@@ -129,11 +129,13 @@ def run_track(args: argparse.Namespace) -> int:
     floor0 = 0.0
     cfg = config_from_args(args, floor0)
     plan = _site_plan(args)
+    if plan is not None:
+        start, floor = _start(args.start, plan)
+        plan.check_walkable(start, floor, "--start")
     rows, notices = run_pipeline(rec, cfg, site)
     if args.smoother == "on":
         rows = smoothed_rows(rows, notices)
     if plan is not None:
-        start, floor = _start(args.start, plan)
         rows, more = match_rows(rows, plan, start, floor, MapMatchConfig(), smooth=args.smoother == "on",
                                 source="--start")
         notices = [*notices, *more]

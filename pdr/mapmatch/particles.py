@@ -111,11 +111,8 @@ class MapMatcher:
                  config: MapMatchConfig | None = None, source: str = "start") -> None:
         self.site = site
         self.config = c = config or MapMatchConfig()
-        plan = site.floor(floor, source)
+        site.check_walkable(start_en, floor, source)
         start = np.array([start_en], dtype=np.float64)
-        if not plan.contains(start)[0]:
-            raise InputError(f"start ({start_en[0]:.2f}, {start_en[1]:.2f}) m is outside floor {floor}'s walkable "
-                             "area", source=source, field="start")
         self.rng = np.random.Generator(np.random.PCG64(c.seed))
         self.floor = int(floor)
         self.pos = self._draw_about(start[0], c.start_sigma_m)
@@ -224,7 +221,8 @@ class MapMatcher:
 
     def _draw_about(self, centre: FloatArray, sigma_m: float) -> FloatArray:
         """``particles`` positions about ``centre`` (m, walkable): a draw behind a wall seen from the centre is
-        replaced by the centre (one wall-index query instead of a point-in-polygon test per particle)."""
+        replaced by the centre (one wall-index query instead of a point-in-polygon test per particle).
+        """
         n = self.config.particles
         pts = centre[None, :] + self.rng.normal(0.0, sigma_m, (n, 2))
         c = np.broadcast_to(centre, pts.shape)

@@ -110,6 +110,14 @@ class SitePlan:
                              source=source, field="floors")
         return plan
 
+    def check_walkable(self, point_en: tuple[float, float], floor: int, source: str = "start") -> FloorPlan:
+        """The plan of ``floor`` if ``point_en`` (m) is walkable on it; else a refusal naming ``source``'s start."""
+        plan = self.floor(floor, source)
+        if not plan.contains(np.array([point_en], dtype=np.float64))[0]:
+            raise InputError(f"start ({point_en[0]:.2f}, {point_en[1]:.2f}) m is outside floor {floor}'s walkable "
+                             "area", source=source, field="start")
+        return plan
+
     def altitude_m(self, floor: int) -> float:
         """Altitude of ``floor`` (m): the site's per-floor altitude, else ``floor * floor_height_m``."""
         plan = self.floors.get(int(floor))
