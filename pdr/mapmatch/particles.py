@@ -10,8 +10,10 @@ step events (the pipeline's floor estimate), whose plan they walk on. Per step `
     l_i = L_k * scale_i + N(0, length_sigma^2)
     p_i += l_i (cos psi_i, sin psi_i)
 
-A particle whose step crosses a wall dies (its likelihood is zero, the others' equal), and the survivors are
-resampled systematically back to the full count. When every particle dies, the step is retried once with three
+A particle whose step crosses a wall dies (its likelihood is zero, the others' equal), and each dead particle is
+replaced by a copy of a survivor drawn uniformly: every survivor is kept and gets ``N / survivors`` copies on
+average, as in multinomial resampling, but the lineages of the survivors are not resampled away (the smoother's
+ancestry stays diverse). When every particle dies, the step is retried once with three
 times the heading and length noise; if they die again, map matching is suspended with a notice and the track
 goes on as PDR (the last estimate walked with the mean offset and scale) until it is back in the walkable area,
 where the particles are drawn again about it.
@@ -82,8 +84,8 @@ class MapMatchConfig:
     heading_offset_sigma_deg: float = 20.0
     heading_offset_walk_deg: float = 2.0
     heading_step_sigma_deg: float = 3.0
-    scale_sigma: float = 0.12
-    scale_walk: float = 0.005
+    scale_sigma: float = 0.06
+    scale_walk: float = 0.001
     scale_bounds: tuple[float, float] = (0.6, 1.6)
     length_sigma_m: float = 0.05
     reseed_sigma_m: float = 1.0
@@ -198,7 +200,9 @@ class MapMatcher:
             return MatchedStep(s.t_s, float(self.dr[0]), float(self.dr[1]), self.floor, False, 0.0,
                                math.degrees(_circ_mean(self.offset)), float(np.mean(self.scale)))
         survivors = np.flatnonzero(alive)
-        pick = survivors[((self.rng.random() + np.arange(n)) * (survivors.size / n)).astype(np.int64)]
+        pick = np.arange(n)
+        dead = np.flatnonzero(~alive)
+        pick[dead] = survivors[self.rng.integers(0, survivors.size, dead.size)]
         self.pos, self.offset, self.scale = new[pick], self.offset[pick], self.scale[pick]
         self._record(pick)
         return self._estimate(s.t_s)
