@@ -73,3 +73,16 @@ def test_track_with_a_floor_plan_and_a_known_start(tmp_path: Path) -> None:
     assert main(["track", str(trace), "--start", f"{e},{n}", "--out", str(out)]) == 2
     assert main(["track", str(trace), "--site", str(site), "--start", "a,b", "--out", str(out)]) == 2
     assert main(["track", str(trace), "--site", str(site), "--start", f"{e},{n},7", "--out", str(out)]) == 2
+
+
+@pytest.mark.data
+def test_eval_ms_map_scores_absolutely_from_the_first_waypoint(capsys: pytest.CaptureFixture[str]) -> None:
+    floor = data_path("ms_indoor_location", "site2", "F3")
+    assert main(["eval", "ms", str(floor), "--map", "--limit", "2", "--json",
+                 "--map-config", '{"particles": 300}']) == 0
+    res = json.loads(capsys.readouterr().out)
+    m = res["overall"]["map"]
+    assert m["traces"] == 2 and m["speed"]["particles"] == 300 and m["speed"]["steps"] > 20
+    for name in ("pdr", "online", "smoothed"):
+        assert 0 < m[name]["median_m"] <= m[name]["p75_m"] <= m[name]["worst_p75_m"] < 50
+    assert main(["eval", "ms", str(floor), "--map", "--map-config", '{"walls": 1}']) == 2
