@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.frames import heading_deg_to_yaw
+from pdr.mapmatch.kernel import cloud_summary, move_particles
 from pdr.site.plan import SitePlan
 from pdr.site.wall_index import WallIndex
 
@@ -172,33 +173,27 @@ class MapMatcher:
                 self._suspend(notices, f"floor {s.floor} has no floor plan")
         walls = self._walls(self.floor)
         if self.suspended:
-            self.dr = self.dr + s.length_m * float(np.mean(self.scale)) * np.array(
-                [math.cos(yaw + _circ_mean(self.offset)), math.sin(yaw + _circ_mean(self.offset))])
+            self.dr = self._dead_reckon(self.dr, yaw, s.length_m)
             plan = self.site.floors.get(self.floor)
             if plan is not None and plan.contains(self.dr[None, :])[0]:
                 self._reseed(notices, s.t_s)
                 return self._estimate(s.t_s)
-            self._record(None)
-            return MatchedStep(s.t_s, float(self.dr[0]), float(self.dr[1]), self.floor, False, 0.0,
-                               math.degrees(_circ_mean(self.offset)), float(np.mean(self.scale)))
+            return self._unmatched(s.t_s)
         assert walls is not None
         n = c.particles
-        self.offset = self.offset + self.rng.normal(0.0, math.radians(c.heading_offset_walk_deg), n)
-        self.scale = np.clip(self.scale + self.rng.normal(0.0, c.scale_walk, n), *c.scale_bounds)
+        noise = self.rng.standard_normal((4, n))
+        self.offset = self.offset + math.radians(c.heading_offset_walk_deg) * noise[0]
+        self.scale = np.clip(self.scale + c.scale_walk * noise[1], *c.scale_bounds)
         for inflate in (1.0, 3.0):
-            psi = yaw + self.offset + self.rng.normal(0.0, inflate * math.radians(c.heading_step_sigma_deg), n)
-            length = np.maximum(s.length_m * self.scale + self.rng.normal(0.0, inflate * c.length_sigma_m, n), 0.0)
-            new = self.pos + length[:, None] * np.column_stack([np.cos(psi), np.sin(psi)])
-            alive = ~walls.crosses(self.pos[:, 0], self.pos[:, 1], new[:, 0], new[:, 1])
+            new, alive = move_particles(self.pos, self.offset, self.scale, noise[2:], yaw, s.length_m,
+                                        inflate * math.radians(c.heading_step_sigma_deg),
+                                        inflate * c.length_sigma_m, walls)
             if alive.any():
                 break
         else:
-            self.dr = np.mean(self.pos, axis=0) + s.length_m * float(np.mean(self.scale)) * np.array(
-                [math.cos(yaw + _circ_mean(self.offset)), math.sin(yaw + _circ_mean(self.offset))])
+            self.dr = self._dead_reckon(np.mean(self.pos, axis=0), yaw, s.length_m)
             self._suspend(notices, f"every particle crossed a wall at t = {s.t_s:.2f} s")
-            self._record(None)
-            return MatchedStep(s.t_s, float(self.dr[0]), float(self.dr[1]), self.floor, False, 0.0,
-                               math.degrees(_circ_mean(self.offset)), float(np.mean(self.scale)))
+            return self._unmatched(s.t_s)
         survivors = np.flatnonzero(alive)
         pick = np.arange(n)
         dead = np.flatnonzero(~alive)
@@ -207,11 +202,20 @@ class MapMatcher:
         self._record(pick)
         return self._estimate(s.t_s)
 
-    def _estimate(self, t_s: float) -> MatchedStep:
-        m = np.mean(self.pos, axis=0)
-        spread = math.sqrt(float(np.mean(np.sum((self.pos - m) ** 2, axis=1))))
-        return MatchedStep(t_s, float(m[0]), float(m[1]), self.floor, True, spread,
+    def _dead_reckon(self, pos: FloatArray, yaw: float, length_m: float) -> FloatArray:
+        """``pos`` (m) walked one step with the particles' mean heading offset and step-length scale."""
+        psi = yaw + _circ_mean(self.offset)
+        return np.asarray(pos + length_m * float(np.mean(self.scale)) * np.array([math.cos(psi), math.sin(psi)]))
+
+    def _unmatched(self, t_s: float) -> MatchedStep:
+        """The dead-reckoned estimate of a step the map does not constrain (recorded for the smoother)."""
+        self._record(None)
+        return MatchedStep(t_s, float(self.dr[0]), float(self.dr[1]), self.floor, False, 0.0,
                            math.degrees(_circ_mean(self.offset)), float(np.mean(self.scale)))
+
+    def _estimate(self, t_s: float) -> MatchedStep:
+        mx, my, spread, off, scale = cloud_summary(self.pos, self.offset, self.scale)
+        return MatchedStep(t_s, mx, my, self.floor, True, spread, math.degrees(off), scale)
 
     def _suspend(self, notices: list[str], why: str) -> None:
         self.suspended = True

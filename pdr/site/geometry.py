@@ -18,15 +18,12 @@ def ring_edges(ring: FloatArray) -> FloatArray:
     return np.hstack([r[:-1], r[1:]])
 
 
-def points_in_rings(points: FloatArray, rings: list[FloatArray]) -> NDArray[np.bool_]:
-    """Crossing-number test of ``points`` ``(k, 2)`` against each of ``rings``: a ``(k, len(rings))`` matrix."""
+def points_in_rings(points: FloatArray, edges: FloatArray, first: NDArray[np.int64]) -> BoolArray:
+    """Crossing-number test of ``points`` ``(k, 2)`` against rings whose edges ``(m, 4)`` are concatenated, ring
+    ``j``'s from row ``first[j]`` on (:func:`ring_edges`): a ``(k, rings)`` matrix (boundary points: either side)."""
     p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-    if not rings:
-        return np.zeros((len(p), 0), dtype=bool)
-    e = np.vstack([ring_edges(r) for r in rings])
-    first = np.cumsum([0] + [len(r) - 1 for r in rings[:-1]])
-    x0, y0, x1, y1 = e[:, 0], e[:, 1], e[:, 2], e[:, 3]
-    out = np.zeros((len(p), len(rings)), dtype=bool)
+    x0, y0, x1, y1 = edges[:, 0], edges[:, 1], edges[:, 2], edges[:, 3]
+    out = np.zeros((len(p), len(first)), dtype=bool)
     for lo in range(0, len(p), 128):
         px, py = p[lo:lo + 128, 0:1], p[lo:lo + 128, 1:2]
         with np.errstate(divide="ignore", invalid="ignore"):

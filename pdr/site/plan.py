@@ -46,10 +46,6 @@ class WalkablePolygon:
     outer: FloatArray
     holes: tuple[FloatArray, ...]
 
-    def contains(self, points: FloatArray) -> BoolArray:
-        inside = points_in_rings(points, [self.outer, *self.holes])
-        return np.asarray(inside[:, 0] & ~inside[:, 1:].any(axis=1))
-
 
 @dataclass(frozen=True)
 class FloorPlan:
@@ -60,12 +56,25 @@ class FloorPlan:
     altitude_m: float | None = None
 
     def contains(self, points: FloatArray) -> BoolArray:
-        """Whether each of ``points`` ``(k, 2)`` (m) is walkable."""
+        """Whether each of ``points`` ``(k, 2)`` (m) is walkable: inside a polygon's outer ring, in none of its
+        holes."""
         p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        edges, first, polygon, outer = self._rings
+        inside = points_in_rings(p, edges, first)
         out = np.zeros(len(p), dtype=bool)
-        for poly in self.polygons:
-            out |= poly.contains(p)
+        for k in range(len(self.polygons)):
+            mine = polygon == k
+            out |= inside[:, mine & outer].any(axis=1) & ~inside[:, mine & ~outer].any(axis=1)
         return out
+
+    @cached_property
+    def _rings(self) -> tuple[FloatArray, NDArray[np.int64], NDArray[np.int64], BoolArray]:
+        """All rings' edges, each ring's first edge, its polygon and whether it is an outer ring."""
+        rings = [(k, r == 0, ring) for k, p in enumerate(self.polygons) for r, ring in enumerate((p.outer, *p.holes))]
+        edges = np.vstack([ring_edges(ring) for _, _, ring in rings])
+        first = np.cumsum([0] + [len(ring) - 1 for _, _, ring in rings[:-1]]).astype(np.int64)
+        return (edges, first, np.array([k for k, _, _ in rings], dtype=np.int64),
+                np.array([o for _, o, _ in rings], dtype=bool))
 
     def walls(self) -> FloatArray:
         """Every ring edge as ``(m, 4)`` ``x0, y0, x1, y1`` (m)."""

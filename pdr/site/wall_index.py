@@ -79,23 +79,27 @@ def _segment_hits(ax0: float, ay0: float, ax1: float, ay1: float, w: FloatArray,
 
 
 @njit(cache=True)
+def step_crosses(x0: float, y0: float, x1: float, y1: float, walls: FloatArray, start: IntArray, wall_ids: IntArray,
+                 ox: float, oy: float, cell: float, reach: float, nx: int, ny: int) -> bool:
+    """Compiled test of one step against the indexed walls (the arrays of a :class:`WallIndex`)."""
+    gx = int(math.floor((x0 - ox) / cell))
+    gy = int(math.floor((y0 - oy) / cell))
+    if math.hypot(x1 - x0, y1 - y0) > reach or gx < 0 or gy < 0 or gx >= nx or gy >= ny:
+        for k in range(walls.shape[0]):
+            if _segment_hits(x0, y0, x1, y1, walls, k):
+                return True
+        return False
+    c = gy * nx + gx
+    for j in range(start[c], start[c + 1]):
+        if _segment_hits(x0, y0, x1, y1, walls, wall_ids[j]):
+            return True
+    return False
+
+
+@njit(cache=True)
 def _crosses(x0: FloatArray, y0: FloatArray, x1: FloatArray, y1: FloatArray, walls: FloatArray, start: IntArray,
              wall_ids: IntArray, ox: float, oy: float, cell: float, reach: float, nx: int, ny: int) -> BoolArray:
-    n = x0.shape[0]
-    out = np.zeros(n, dtype=np.bool_)
-    for i in range(n):
-        gx = int(math.floor((x0[i] - ox) / cell))
-        gy = int(math.floor((y0[i] - oy) / cell))
-        long_step = math.hypot(x1[i] - x0[i], y1[i] - y0[i]) > reach
-        if long_step or gx < 0 or gy < 0 or gx >= nx or gy >= ny:
-            for k in range(walls.shape[0]):
-                if _segment_hits(x0[i], y0[i], x1[i], y1[i], walls, k):
-                    out[i] = True
-                    break
-            continue
-        c = gy * nx + gx
-        for j in range(start[c], start[c + 1]):
-            if _segment_hits(x0[i], y0[i], x1[i], y1[i], walls, wall_ids[j]):
-                out[i] = True
-                break
+    out = np.zeros(x0.shape[0], dtype=np.bool_)
+    for i in range(x0.shape[0]):
+        out[i] = step_crosses(x0[i], y0[i], x1[i], y1[i], walls, start, wall_ids, ox, oy, cell, reach, nx, ny)
     return out

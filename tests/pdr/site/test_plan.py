@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pdr.errors import InputError
-from pdr.site.geometry import points_in_rings, segments_cross
+from pdr.site.geometry import points_in_rings, ring_edges, segments_cross
 from pdr.site.plan import SitePlan
 from pdr.site.wall_index import WallIndex
 from tests.conftest import data_path
@@ -30,8 +30,9 @@ def test_walkable_is_inside_the_outer_ring_and_outside_the_holes() -> None:
     pts = np.array([[1, 1], [5, 5], [11, 5], [4.5, 7]])
     assert plan.contains(pts).tolist() == [True, False, False, True]
     assert plan.walls().shape == (8, 4)
-    inside = points_in_rings(pts, [np.array(square(0, 0, 10, 10), float)])
-    assert inside[:, 0].tolist() == [True, True, False, True]
+    rings = [np.array(square(0, 0, 10, 10), float), np.array(square(4, 4, 6, 6), float)]
+    inside = points_in_rings(pts, np.vstack([ring_edges(r) for r in rings]), np.array([0, 4]))
+    assert inside.tolist() == [[True, False], [True, True], [False, False], [True, False]]
 
 
 def test_segment_crossings_including_touching_and_collinear() -> None:
