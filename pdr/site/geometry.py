@@ -20,7 +20,8 @@ def ring_edges(ring: FloatArray) -> FloatArray:
 
 def points_in_rings(points: FloatArray, edges: FloatArray, first: NDArray[np.int64]) -> BoolArray:
     """Crossing-number test of ``points`` ``(k, 2)`` against rings whose edges ``(m, 4)`` are concatenated, ring
-    ``j``'s from row ``first[j]`` on (:func:`ring_edges`): a ``(k, rings)`` matrix (boundary points: either side)."""
+    ``j``'s from row ``first[j]`` on (:func:`ring_edges`): a ``(k, rings)`` matrix (boundary points: either side).
+    """
     p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     x0, y0, x1, y1 = edges[:, 0], edges[:, 1], edges[:, 2], edges[:, 3]
     out = np.zeros((len(p), len(first)), dtype=bool)

@@ -57,7 +57,8 @@ class FloorPlan:
 
     def contains(self, points: FloatArray) -> BoolArray:
         """Whether each of ``points`` ``(k, 2)`` (m) is walkable: inside a polygon's outer ring, in none of its
-        holes."""
+        holes.
+        """
         p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
         edges, first, polygon, outer = self._rings
         inside = points_in_rings(p, edges, first)
