@@ -44,7 +44,8 @@ def run_check(args: argparse.Namespace) -> int:
         doc = json.loads(Path(args.site).read_text())
     except (OSError, json.JSONDecodeError) as exc:
         raise InputError(f"cannot read site description ({exc})", source=args.site) from None
-    Site.from_dict(doc, source=args.site)              # the landmark section
+    if isinstance(doc, dict) and "landmarks" in doc:
+        Site.from_dict(doc, source=args.site)          # the landmark section, when there is one
     plan = SitePlan.from_dict(doc, source=args.site)
     for f in plan.floors.values():
         x0, y0, x1, y1 = f.bounds()

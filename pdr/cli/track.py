@@ -507,7 +507,8 @@ def eval_ms(args: argparse.Namespace) -> int:
                        f"{s['worst_p75_m']:.2f} m; {s['traces_over_5m']} traces over 5 m p75")
             sp = m["speed"]
             yield (f"MAP speed: {sp['particles']} particles, {sp['steps']} steps in {sp['wall_s']:.3f} s = "
-                   f"{sp['steps_per_s']:.0f} steps/s, {sp['times_real_time']:.0f}x real time (online filter)")
+                   f"{sp['steps_per_s']:.0f} steps/s, {sp['times_real_time']:.0f}x real time (online filter, "
+                   "warm: kernels loaded before the first timed trace)")
     _emit(summary, per, args.json, lines())
     return 0
 
@@ -538,6 +539,7 @@ class _MapScores:
         self.wall_s = 0.0
         self.walk_s = 0.0
         self.steps = 0
+        self.warm = False
 
     def _plan(self, trace: Path) -> tuple[SitePlan, int]:
         from pdr.site.ms import ms_floor_number, site_from_ms_floor
@@ -556,6 +558,9 @@ class _MapScores:
         xy = np.array([[r["east_m"], r["north_m"]] for r in rows])
         at0 = np.array([np.interp(truth_t[0], t, xy[:, 0]), np.interp(truth_t[0], t, xy[:, 1])])
         tracks = {"pdr": (t, xy - at0 + truth_xy[0])}
+        if not self.warm:       # load the compiled kernels and build the wall grid outside the timing
+            match_rows(after[:3], plan, start, floor, self.config)
+            self.warm = True
         tic = time.perf_counter()
         online, notices = match_rows(after, plan, start, floor, self.config, source=f"{trace.name} first waypoint")
         self.wall_s += time.perf_counter() - tic
