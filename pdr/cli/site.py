@@ -76,17 +76,15 @@ def _plot(plan: SitePlan, path: str) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.patches import PathPatch
-    from matplotlib.path import Path as MplPath
+    from matplotlib.patches import Polygon
     floors = sorted(plan.floors)
     fig, axes = plt.subplots(1, len(floors), figsize=(6 * len(floors), 6), squeeze=False)
     for ax, fl in zip(axes[0], floors, strict=True):
         f = plan.floors[fl]
-        for poly in f.polygons:
-            rings = [poly.outer, *poly.holes]
-            verts = [v for r in rings for v in r]
-            codes = [c for r in rings for c in [MplPath.MOVETO] + [MplPath.LINETO] * (len(r) - 1)]
-            ax.add_patch(PathPatch(MplPath(verts, codes), facecolor="#dde8f0", edgecolor="k", lw=0.4))
+        for poly in f.polygons:       # walkable: the outer ring filled, its holes drawn over it in white
+            ax.add_patch(Polygon(poly.outer, closed=True, facecolor="#dde8f0", edgecolor="k", lw=0.5))
+            for h in poly.holes:
+                ax.add_patch(Polygon(h, closed=True, facecolor="white", edgecolor="k", lw=0.4))
         ax.autoscale_view()
         ax.set_aspect("equal")
         ax.set_title(f"floor {fl}")
