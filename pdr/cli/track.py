@@ -17,6 +17,7 @@ from pdr.cli import progress
 from pdr.errors import InputError
 from pdr.evaluation.error_budget import BUDGET_TRACKS, budget_tracks
 from pdr.evaluation.scoring import (
+    absolute_waypoint_errors,
     bounce_free_step_count,
     distance_ratio,
     distance_ratio_same_floor,
@@ -26,6 +27,8 @@ from pdr.evaluation.scoring import (
     waypoint_errors,
 )
 from pdr.io import read_recording
+from pdr.mapmatch.particles import MapMatchConfig
+from pdr.mapmatch.rows import match_rows
 from pdr.phone.configure import pipeline_config
 from pdr.phone.heading_smoother import smoothed_rows
 from pdr.phone.landmarks import Site
@@ -34,6 +37,7 @@ from pdr.phone.step_length import StepLengthModel
 from pdr.phone.steps import StepConfig
 from pdr.phone.track_schema import write_csv
 from pdr.recording import Recording
+from pdr.site.plan import SitePlan
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -44,6 +48,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                                "step_length_m,mode) on the log's clock")
     p.add_argument("--geojson", help="also write the track as GeoJSON (local metres unless the log has an origin)")
     p.add_argument("--plot", help="also write a PNG plot of the track")
+    p.add_argument("--start", metavar="E,N[,FLOOR]",
+                   help="known start (m, the site's frame) and its floor (default: the site's only floor): with a "
+                        "--site that has floor plans, the track is map-matched (particle filter, pdr.mapmatch; "
+                        "unknown heading, the magnetometer's as a prior) and the CSV is in the site's frame")
     p.add_argument("--smoother", default="on", choices=("on", "off"),
                    help="OFFLINE: smooth the step headings over the whole walk (gyro yaw with its "
                         "bias learnt from the magnetometer, pdr.phone.heading_smoother); off: the causal track the "
@@ -120,9 +128,17 @@ def run_track(args: argparse.Namespace) -> int:
     site = Site.load(args.site) if args.site else None
     floor0 = 0.0
     cfg = config_from_args(args, floor0)
+    plan = _site_plan(args)
+    if plan is not None:
+        start, floor = _start(args.start, plan)
+        plan.check_walkable(start, floor, "--start")
     rows, notices = run_pipeline(rec, cfg, site)
     if args.smoother == "on":
         rows = smoothed_rows(rows, notices)
+    if plan is not None:
+        rows, more = match_rows(rows, plan, start, floor, MapMatchConfig(), smooth=args.smoother == "on",
+                                source="--start")
+        notices = [*notices, *more]
     for n in notices:
         print(f"note: {n}", file=sys.stderr)
     write_csv(rows, args.out)
@@ -133,6 +149,39 @@ def run_track(args: argparse.Namespace) -> int:
     dist = sum(r["step_length_m"] for r in rows)
     print(f"{len(rows)} steps, {dist:.1f} m walked -> {args.out}")
     return 0
+
+
+def _site_plan(args: argparse.Namespace) -> SitePlan | None:
+    """The site's floor plans when ``--start`` asks for map matching (refused without a site that has them)."""
+    if args.start is None:
+        return None
+    if not args.site:
+        raise InputError("--start needs --site SITE.json with floor plans", source="command line", field="start")
+    return SitePlan.load(args.site)
+
+
+def _start(text: str, plan: SitePlan) -> tuple[tuple[float, float], int]:
+    """``E,N[,FLOOR]`` (m, site frame): the start and its floor (default: the site's only floor)."""
+    parts = text.split(",")
+    try:
+        vals = [float(v) for v in parts]
+    except ValueError:
+        vals = []
+    if len(vals) not in (2, 3) or not all(math.isfinite(v) for v in vals):
+        raise InputError(f"--start must be E,N or E,N,FLOOR in metres, not {text!r}", source="command line",
+                         field="start")
+    if len(vals) == 3:
+        if not vals[2].is_integer():
+            raise InputError(f"--start floor must be an integer, not {vals[2]}", source="command line",
+                             field="start")
+        floor = int(vals[2])
+    elif len(plan.floors) == 1:
+        floor = next(iter(plan.floors))
+    else:
+        raise InputError(f"--start needs a floor (E,N,FLOOR): the site has floors {sorted(plan.floors)}",
+                         source="command line", field="start")
+    plan.floor(floor, "--start")
+    return (vals[0], vals[1]), floor
 
 
 # -- evaluation ------------------------------------------------------------------------------------
@@ -164,6 +213,14 @@ def _register_eval(targets: argparse._SubParsersAction, name: str, helptext: str
                        help="step detector parameters (pdr.phone.steps.StepConfig fields) as a JSON object, e.g. "
                             "'{\"floor_gain\": 1.0, \"slow_missed_steps\": true, \"gait_min_corr\": 0.5}'"
                             " (the automatic peak-floor gain, gated by gait periodicity)")
+    if name == "ms":
+        p.add_argument("--map", action="store_true",
+                       help="also map-match each trace on its floor's plan (pdr.site.ms: the floor folder's "
+                            "geojson_map.json), starting at its first waypoint with the heading unknown, and score "
+                            "it absolutely (no rotation): online and offline-smoothed, beside PDR from the same "
+                            "start")
+        p.add_argument("--map-config", metavar="JSON", default="{}",
+                       help="particle filter parameters (pdr.mapmatch.particles.MapMatchConfig fields) as JSON")
     if name == "ipin":
         p.add_argument("--calibrate", default="none", choices=("none", "cross", "cross-rep"),
                        help="also score each log after recalibrating the step-length scale K (pdr calibrate) "
@@ -392,11 +449,13 @@ def _public(d: dict[str, Any]) -> dict[str, Any]:
 
 
 def eval_ms(args: argparse.Namespace) -> int:
+    """Waypoint errors after start and rotation alignment; with ``--map`` also absolute, map-matched errors."""
     files = _files(args.dir, ("*.txt", "*.txt.gz"))
     if args.limit:
         files = files[:args.limit]
     per: list[dict[str, Any]] = []
     errs: list[np.ndarray] = []
+    mapped = _MapScores(_map_config(args.map_config)) if args.map else None
     for f in progress.each(files, "eval ms"):
         try:
             rec = read_recording(f)
@@ -417,20 +476,126 @@ def eval_ms(args: argparse.Namespace) -> int:
         xy = np.array([[r["east_m"], r["north_m"]] for r in rows])
         e = waypoint_errors(t, xy, rec.origin_ns / 1e9 + pt.t_s, pt.pos_m)
         errs.append(e)
-        per.append({"file": f.name, "steps": len(rows), "waypoints": int(e.size), "median_m": _pct(e, 50),
-                    "p75_m": _pct(e, 75)})
+        p = {"file": f.name, "steps": len(rows), "waypoints": int(e.size), "median_m": _pct(e, 50),
+             "p75_m": _pct(e, 75)}
+        if mapped is not None:
+            p["map"] = mapped.score(f, rows, rec.origin_ns / 1e9 + pt.t_s, pt.pos_m[:, :2])
+        per.append(p)
     a = np.concatenate(errs) if errs else np.zeros(0)
     summary: dict[str, Any] = {"traces": len(errs), "median_m": _pct(a, 50), "p75_m": _pct(a, 75)}
+    if mapped is not None:
+        summary["map"] = mapped.summary()
 
     def lines() -> Iterator[str]:
         for p in per:
             if "error" in p:
                 yield f"{p['file']}: {p['error']}"
-            else:
-                yield f"{p['file']}: median {p['median_m']:.2f} p75 {p['p75_m']:.2f} m, {p['steps']} steps"
+                continue
+            line = f"{p['file']}: median {p['median_m']:.2f} p75 {p['p75_m']:.2f} m, {p['steps']} steps"
+            if "map" in p:
+                m = p["map"]
+                line += (f" | absolute from the start: PDR p75 {m['pdr']['p75_m']:.2f}, map online "
+                         f"{m['online']['p75_m']:.2f}, map smoothed {m['smoothed']['p75_m']:.2f} m"
+                         + (f" ({len(m['notices'])} notices)" if m["notices"] else ""))
+            yield line
         yield f"ALL: median {summary['median_m']:.2f} p75 {summary['p75_m']:.2f} m over {summary['traces']} traces"
+        if "map" in summary:
+            m = summary["map"]
+            for name in _MapScores.TRACKS:
+                s = m[name]
+                yield (f"MAP {name} (absolute, from the first waypoint, {m['traces']} traces): median "
+                       f"{s['median_m']:.2f} p75 {s['p75_m']:.2f} m; worst trace {s['worst_file']} p75 "
+                       f"{s['worst_p75_m']:.2f} m; {s['traces_over_5m']} traces over 5 m p75")
+            sp = m["speed"]
+            yield (f"MAP speed: {sp['particles']} particles, {sp['steps']} steps in {sp['wall_s']:.3f} s = "
+                   f"{sp['steps_per_s']:.0f} steps/s, {sp['times_real_time']:.0f}x real time (online filter, "
+                   f"warm: kernels loaded before the first timed trace); CPU time {sp['cpu_s']:.3f} s = "
+                   f"{sp['times_real_time_cpu']:.0f}x real time (without the wait for other processes on the cores)")
     _emit(summary, per, args.json, lines())
     return 0
+
+
+def _map_config(text: str) -> MapMatchConfig:
+    """``--map-config JSON`` as a :class:`MapMatchConfig` (unknown fields and bad JSON are refused naming them)."""
+    try:
+        fields = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"--map-config: not JSON ({exc})", field="map_config", source="command line") from None
+    if not isinstance(fields, dict):
+        raise InputError("--map-config must be a JSON object", field="map_config", source="command line")
+    try:
+        return MapMatchConfig(**fields)
+    except TypeError as exc:
+        raise InputError(f"--map-config: {exc}", field="map_config", source="command line") from None
+
+
+class _MapScores:
+    """``pdr eval ms --map``: each trace on its own floor's plan from its first waypoint, scored absolutely."""
+
+    TRACKS = ("pdr", "online", "smoothed")
+
+    def __init__(self, config: MapMatchConfig) -> None:
+        self.config = config
+        self.plans: dict[Path, SitePlan] = {}
+        self.errors: dict[str, list[tuple[str, np.ndarray]]] = {k: [] for k in self.TRACKS}
+        self.wall_s = 0.0
+        self.cpu_s = 0.0
+        self.walk_s = 0.0
+        self.steps = 0
+        self.warm = False
+
+    def _plan(self, trace: Path) -> tuple[SitePlan, int]:
+        from pdr.site.ms import ms_floor_number, site_from_ms_floor
+        floor_dir = trace.parent.parent if trace.parent.name == "path_data_files" else trace.parent
+        if floor_dir not in self.plans:
+            self.plans[floor_dir] = SitePlan.from_dict(site_from_ms_floor(floor_dir), source=str(floor_dir))
+        return self.plans[floor_dir], ms_floor_number(floor_dir.name)
+
+    def score(self, trace: Path, rows: list[dict[str, Any]], truth_t: np.ndarray, truth_xy: np.ndarray
+              ) -> dict[str, Any]:
+        import time
+        plan, floor = self._plan(trace)
+        after = [r for r in rows if r["t_s"] > truth_t[0]]
+        start = (float(truth_xy[0, 0]), float(truth_xy[0, 1]))
+        t = np.array([r["t_s"] for r in rows])
+        xy = np.array([[r["east_m"], r["north_m"]] for r in rows])
+        at0 = np.array([np.interp(truth_t[0], t, xy[:, 0]), np.interp(truth_t[0], t, xy[:, 1])])
+        tracks = {"pdr": (t, xy - at0 + truth_xy[0])}
+        if not self.warm:       # load the compiled kernels and build the wall grid outside the timing
+            match_rows(after[:3], plan, start, floor, self.config)
+            self.warm = True
+        tic, cpu = time.perf_counter(), time.process_time()
+        online, notices = match_rows(after, plan, start, floor, self.config, source=f"{trace.name} first waypoint")
+        self.wall_s += time.perf_counter() - tic
+        self.cpu_s += time.process_time() - cpu
+        self.steps += len(after)
+        self.walk_s += (after[-1]["t_s"] - float(truth_t[0])) if after else 0.0
+        smoothed, _ = match_rows(after, plan, start, floor, self.config, smooth=True)
+        for name, track in (("online", online), ("smoothed", smoothed)):
+            tracks[name] = (np.array([r["t_s"] for r in track]),
+                            np.array([[r["east_m"], r["north_m"]] for r in track]).reshape(-1, 2))
+        out: dict[str, Any] = {"notices": notices}
+        for name, (tt, txy) in tracks.items():
+            e = (absolute_waypoint_errors(tt, txy, truth_t, truth_xy) if name == "pdr" or len(tt) else
+                 np.linalg.norm(truth_xy[1:] - truth_xy[0], axis=1))     # no step after the start: still there
+            self.errors[name].append((trace.name, e))
+            out[name] = {"median_m": _pct(e, 50), "p75_m": _pct(e, 75)}
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"traces": len(self.errors["pdr"])}
+        for name, per in self.errors.items():
+            a = np.concatenate([e for _, e in per]) if per else np.zeros(0)
+            p75 = [(_pct(e, 75), f) for f, e in per]
+            worst = max(p75) if p75 else (math.nan, "")
+            out[name] = {"median_m": _pct(a, 50), "p75_m": _pct(a, 75), "worst_p75_m": worst[0],
+                         "worst_file": worst[1], "traces_over_5m": sum(1 for v, _ in p75 if v > 5.0)}
+        out["speed"] = {"particles": self.config.particles, "steps": self.steps, "wall_s": self.wall_s,
+                        "steps_per_s": self.steps / self.wall_s if self.wall_s else math.nan,
+                        "times_real_time": self.walk_s / self.wall_s if self.wall_s else math.nan,
+                        "cpu_s": self.cpu_s,
+                        "times_real_time_cpu": self.walk_s / self.cpu_s if self.cpu_s else math.nan}
+        return out
 
 
 #: A walk folder named by its truth: ``<carriage>-<N>-steps-<walker>`` (the sensor_logger_walks dataset).

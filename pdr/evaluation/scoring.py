@@ -61,6 +61,18 @@ def waypoint_errors(track_t: FloatArray, track_xy: FloatArray, truth_t: FloatArr
     return np.asarray(np.linalg.norm(est[1:] - gt[1:], axis=1))
 
 
+def absolute_waypoint_errors(track_t: FloatArray, track_xy: FloatArray, truth_t: FloatArray, truth_xy: FloatArray
+                             ) -> FloatArray:
+    """Errors (m) at waypoints 2..K of a track that starts at the first waypoint (its time and position are
+    prepended to the track), without any alignment.
+    """
+    gt = np.asarray(truth_xy, dtype=np.float64)[:, :2]
+    t = np.r_[float(truth_t[0]), np.asarray(track_t, dtype=np.float64)]
+    xy = np.vstack([gt[:1], np.asarray(track_xy, dtype=np.float64)[:, :2]])
+    est = _interp(t, xy, np.asarray(truth_t, dtype=np.float64))
+    return np.asarray(np.linalg.norm(est[1:] - gt[1:], axis=1))
+
+
 def distance_ratio(track_t: FloatArray, track_en: FloatArray, truth_t: FloatArray, truth_en: FloatArray) -> float:
     """Track path length between the first and last landmark times over the true path length."""
     t = np.asarray(track_t)

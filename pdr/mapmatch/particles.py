@@ -1,0 +1,274 @@
+"""Particle filter over step events: walls kill the hypotheses of heading and step length they contradict.
+
+Each particle holds a position (m, site frame), a heading offset (rad, added to the step's magnetometer-based
+heading: that heading is a prior, not a truth) and a step-length scale. All particles share the floor of the
+step events (the pipeline's floor estimate), whose plan they walk on. Per step ``k`` with length ``L_k`` and yaw
+``psi_k`` (rad, counter-clockwise from the frame's x axis)::
+
+    offset_i += N(0, offset_walk^2)            scale_i += N(0, scale_walk^2)
+    psi_i = psi_k + offset_i + N(0, heading_step^2)
+    l_i = L_k * scale_i + N(0, length_sigma^2)
+    p_i += l_i (cos psi_i, sin psi_i)
+
+A particle whose step crosses a wall dies (its likelihood is zero, the others' equal), and each dead particle is
+replaced by a copy of a survivor drawn uniformly: every survivor is kept and gets ``N / survivors`` copies on
+average, as in multinomial resampling, but the lineages of the survivors are not resampled away (the smoother's
+ancestry stays diverse). When every particle dies, the step is retried once with three
+times the heading and length noise; if they die again, map matching is suspended with a notice and the track
+goes on as PDR (the last estimate walked with the mean offset and scale) until it is back in the walkable area,
+where the particles are drawn again about it.
+
+Online: :meth:`MapMatcher.update` takes a batch of steps and returns one :class:`MatchedStep` each; its
+:meth:`~MapMatcher.state` (particle arrays, the random generator's state and a few scalars: size independent of
+the walk's length) resumes bit-identically with :meth:`~MapMatcher.from_state`. Offline: :func:`smooth_walk` runs
+the same filter with its ancestry and returns each step's position averaged over the lineages of the final
+particles (the genealogy of a particle filter as a fixed-interval smoother, Kitagawa 1996).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pdr.errors import InputError
+from pdr.frames import heading_deg_to_yaw
+from pdr.mapmatch.kernel import cloud_summary, move_particles
+from pdr.site.plan import SitePlan
+from pdr.site.wall_index import WallIndex
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+STATE_VERSION = 1
+
+
+@dataclass(frozen=True)
+class StepInput:
+    """One step of the pipeline: end time (s, log clock), length (m), compass heading (deg) and floor."""
+
+    t_s: float
+    length_m: float
+    heading_deg: float
+    floor: int
+
+
+@dataclass(frozen=True)
+class MatchedStep:
+    """One map-matched step: position (m, site frame), floor, whether the map constrained it, and the spread.
+
+    ``spread_m``: root mean square distance of the particles from their mean (m; 0 while suspended);
+    ``heading_offset_deg``, ``scale``: the particles' mean heading offset (deg, counter-clockwise) and
+    step-length scale.
+    """
+
+    t_s: float
+    east_m: float
+    north_m: float
+    floor: int
+    matched: bool
+    spread_m: float
+    heading_offset_deg: float
+    scale: float
+
+
+@dataclass(frozen=True)
+class MapMatchConfig:
+    """Noise of the particle filter (module doc). Angles in degrees, lengths in metres."""
+
+    particles: int = 1000
+    start_sigma_m: float = 0.3
+    heading_offset_sigma_deg: float = 20.0
+    heading_offset_walk_deg: float = 2.0
+    heading_step_sigma_deg: float = 3.0
+    scale_sigma: float = 0.06
+    scale_walk: float = 0.001
+    scale_bounds: tuple[float, float] = (0.6, 1.6)
+    length_sigma_m: float = 0.05
+    reseed_sigma_m: float = 1.0
+    seed: int = 0
+
+
+def steps_from_rows(rows: Sequence[dict[str, Any]]) -> list[StepInput]:
+    """The pipeline's step events (or track rows) as :class:`StepInput`."""
+    return [StepInput(float(r["t_s"]), float(r["step_length_m"]), float(r["heading_deg"]),
+                      int(round(float(r["floor"])))) for r in rows]
+
+
+@dataclass
+class _History:
+    """Per step of a walk: particle positions after resampling and each one's parent index (-1: reseeded)."""
+
+    pos: list[NDArray[np.float32]] = field(default_factory=list)
+    parent: list[NDArray[np.int32]] = field(default_factory=list)
+
+
+class MapMatcher:
+    """Online particle filter on a site's floor plans (module doc)."""
+
+    def __init__(self, site: SitePlan, start_en: tuple[float, float], floor: int,
+                 config: MapMatchConfig | None = None, source: str = "start") -> None:
+        self.site = site
+        self.config = c = config or MapMatchConfig()
+        site.check_walkable(start_en, floor, source)
+        start = np.array([start_en], dtype=np.float64)
+        self.rng = np.random.Generator(np.random.PCG64(c.seed))
+        self.floor = int(floor)
+        self.pos = self._draw_about(start[0], c.start_sigma_m)
+        self.offset = self.rng.normal(0.0, math.radians(c.heading_offset_sigma_deg), c.particles)
+        self.scale = np.clip(self.rng.normal(1.0, c.scale_sigma, c.particles), *c.scale_bounds)
+        self.suspended = False
+        self.dr = start[0].copy()               # the estimate while suspended (m)
+        self.history: _History | None = None
+        self._grid_rad = math.radians(site.frame_bearing_deg or 0.0)
+
+    # -- state ------------------------------------------------------------------------------------
+    def state(self) -> dict[str, Any]:
+        """Everything :meth:`from_state` needs to go on bit-identically (size independent of the walk)."""
+        return {"version": STATE_VERSION, "floor": self.floor, "pos": self.pos.copy(), "offset": self.offset.copy(),
+                "scale": self.scale.copy(), "suspended": self.suspended, "dr": self.dr.copy(),
+                "rng": self.rng.bit_generator.state}
+
+    @classmethod
+    def from_state(cls, site: SitePlan, state: dict[str, Any], config: MapMatchConfig | None = None) -> MapMatcher:
+        if not isinstance(state, dict) or state.get("version") != STATE_VERSION:
+            raise InputError(f"map matcher state of another version (expected {STATE_VERSION})",
+                             source="map matcher state", field="version")
+        self = cls.__new__(cls)
+        self.site, self.config, self.history = site, config or MapMatchConfig(), None
+        self.floor = int(state["floor"])
+        self.pos = np.array(state["pos"], dtype=np.float64).reshape(-1, 2)
+        self.offset = np.array(state["offset"], dtype=np.float64)
+        self.scale = np.array(state["scale"], dtype=np.float64)
+        self.suspended = bool(state["suspended"])
+        self.dr = np.array(state["dr"], dtype=np.float64)
+        self.rng = np.random.Generator(np.random.PCG64())
+        self.rng.bit_generator.state = state["rng"]
+        self._grid_rad = math.radians(site.frame_bearing_deg or 0.0)
+        return self
+
+    # -- filter -----------------------------------------------------------------------------------
+    def update(self, steps: Sequence[StepInput]) -> tuple[list[MatchedStep], list[str]]:
+        """Match a batch of steps; returns one :class:`MatchedStep` per step and the notices raised."""
+        out: list[MatchedStep] = []
+        notices: list[str] = []
+        for s in steps:
+            out.append(self._step(s, notices))
+        return out, notices
+
+    def _walls(self, floor: int) -> WallIndex | None:
+        plan = self.site.floors.get(floor)
+        return None if plan is None else plan.wall_index
+
+    def _step(self, s: StepInput, notices: list[str]) -> MatchedStep:
+        c = self.config
+        yaw = float(heading_deg_to_yaw(s.heading_deg)) + self._grid_rad
+        if s.floor != self.floor:
+            self.floor = s.floor
+            if not self.suspended and self.site.floors.get(s.floor) is None:
+                self._suspend(notices, f"floor {s.floor} has no floor plan")
+        walls = self._walls(self.floor)
+        if self.suspended:
+            self.dr = self._dead_reckon(self.dr, yaw, s.length_m)
+            plan = self.site.floors.get(self.floor)
+            if plan is not None and plan.contains(self.dr[None, :])[0]:
+                self._reseed(notices, s.t_s)
+                return self._estimate(s.t_s)
+            return self._unmatched(s.t_s)
+        assert walls is not None
+        n = c.particles
+        noise = self.rng.standard_normal((4, n))
+        self.offset = self.offset + math.radians(c.heading_offset_walk_deg) * noise[0]
+        self.scale = np.clip(self.scale + c.scale_walk * noise[1], *c.scale_bounds)
+        for inflate in (1.0, 3.0):
+            new, alive = move_particles(self.pos, self.offset, self.scale, noise[2:], yaw, s.length_m,
+                                        inflate * math.radians(c.heading_step_sigma_deg),
+                                        inflate * c.length_sigma_m, walls)
+            if alive.any():
+                break
+        else:
+            self.dr = self._dead_reckon(np.mean(self.pos, axis=0), yaw, s.length_m)
+            self._suspend(notices, f"every particle crossed a wall at t = {s.t_s:.2f} s")
+            return self._unmatched(s.t_s)
+        survivors = np.flatnonzero(alive)
+        pick = np.arange(n)
+        dead = np.flatnonzero(~alive)
+        pick[dead] = survivors[self.rng.integers(0, survivors.size, dead.size)]
+        self.pos, self.offset, self.scale = new[pick], self.offset[pick], self.scale[pick]
+        self._record(pick)
+        return self._estimate(s.t_s)
+
+    def _dead_reckon(self, pos: FloatArray, yaw: float, length_m: float) -> FloatArray:
+        """``pos`` (m) walked one step with the particles' mean heading offset and step-length scale."""
+        psi = yaw + _circ_mean(self.offset)
+        return np.asarray(pos + length_m * float(np.mean(self.scale)) * np.array([math.cos(psi), math.sin(psi)]))
+
+    def _unmatched(self, t_s: float) -> MatchedStep:
+        """The dead-reckoned estimate of a step the map does not constrain (recorded for the smoother)."""
+        self._record(None)
+        return MatchedStep(t_s, float(self.dr[0]), float(self.dr[1]), self.floor, False, 0.0,
+                           math.degrees(_circ_mean(self.offset)), float(np.mean(self.scale)))
+
+    def _estimate(self, t_s: float) -> MatchedStep:
+        mx, my, spread, off, scale = cloud_summary(self.pos, self.offset, self.scale)
+        return MatchedStep(t_s, mx, my, self.floor, True, spread, math.degrees(off), scale)
+
+    def _suspend(self, notices: list[str], why: str) -> None:
+        self.suspended = True
+        notices.append(f"map matching suspended ({why}); the track goes on as PDR")
+
+    def _reseed(self, notices: list[str], t_s: float) -> None:
+        self.suspended = False
+        self.pos = self._draw_about(self.dr, self.config.reseed_sigma_m)
+        notices.append(f"map matching resumed at t = {t_s:.2f} s (back in floor {self.floor}'s walkable area)")
+        self._record(None)
+
+    def _draw_about(self, centre: FloatArray, sigma_m: float) -> FloatArray:
+        """``particles`` positions about ``centre`` (m, walkable): a draw behind a wall seen from the centre is
+        replaced by the centre (one wall-index query instead of a point-in-polygon test per particle).
+        """
+        n = self.config.particles
+        pts = centre[None, :] + self.rng.normal(0.0, sigma_m, (n, 2))
+        c = np.broadcast_to(centre, pts.shape)
+        behind = self.site.floor(self.floor).wall_index.crosses(c[:, 0], c[:, 1], pts[:, 0], pts[:, 1])
+        pts[behind] = centre
+        return pts
+
+    def _record(self, parent: IntArray | None) -> None:
+        if self.history is None:
+            return
+        self.history.pos.append(self.pos.astype(np.float32) if not self.suspended else
+                                np.repeat(self.dr[None, :], 1, axis=0).astype(np.float32))
+        self.history.parent.append(np.full(1, -1, np.int32) if parent is None else parent.astype(np.int32))
+
+
+def _circ_mean(a: FloatArray) -> float:
+    return math.atan2(float(np.mean(np.sin(a))), float(np.mean(np.cos(a))))
+
+
+def smooth_walk(site: SitePlan, steps: Sequence[StepInput], start_en: tuple[float, float], floor: int,
+                config: MapMatchConfig | None = None, source: str = "start") -> tuple[list[MatchedStep], list[str]]:
+    """Offline: the filter over the whole walk, each step's position averaged over the final lineages."""
+    mm = MapMatcher(site, start_en, floor, config, source)
+    mm.history = _History()
+    online, notices = mm.update(steps)
+    hist = mm.history
+    out = list(online)
+    lineage: IntArray | None = None
+    for k in range(len(online) - 1, -1, -1):
+        if not online[k].matched:
+            lineage = None
+            continue
+        pos = hist.pos[k]
+        if lineage is None:
+            lineage = np.arange(len(pos))
+        m = pos[lineage].astype(np.float64).mean(axis=0)
+        out[k] = MatchedStep(online[k].t_s, float(m[0]), float(m[1]), online[k].floor, True, online[k].spread_m,
+                             online[k].heading_offset_deg, online[k].scale)
+        parent = hist.parent[k]
+        lineage = None if parent[0] < 0 else parent[lineage].astype(np.int64)
+    return out, notices

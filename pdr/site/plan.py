@@ -1,0 +1,289 @@
+"""Floor plans of a site description: walkable areas per floor, floor altitudes, geographic north.
+
+The ``floors`` section of a site JSON (the landmarks of the same file are :class:`pdr.phone.landmarks.Site`)::
+
+    {"name": "...", "floor_height_m": 4.0,            # still accepted: altitude of floor k is k * floor_height_m
+     "origin": {"lat": 30.30, "lon": 120.13},         # needed by floors in the "lonlat" frame
+     "frame_bearing_deg": 0.0,                        # optional: compass bearing of the frame's +y axis
+     "floors": [{"floor": 3, "altitude_m": 12.0,      # optional altitude (m) of the floor
+                 "frame": "metric" | "lonlat",        # metric (default): site east/north metres
+                 "walkable": <GeoJSON Polygon | MultiPolygon | Feature | FeatureCollection of them>}]}
+
+A polygon's first ring bounds walkable area and its further rings are holes (shops, voids, walls). A point is
+walkable when it lies inside some polygon's outer ring and inside none of its holes. Every ring edge is a wall.
+Site frame: x east, y north (metres) unless ``frame_bearing_deg`` says the frame's y axis points elsewhere (it is
+not the landmark section's ``grid_deg``, a main axis of the building for the heading's drift elimination);
+``lonlat`` floors are projected about ``origin`` (:func:`pdr.frames.geodetic_to_local_enu`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pdr.errors import InputError
+from pdr.frames import geodetic_to_local_enu
+from pdr.site.geometry import points_in_rings, ring_area, ring_edges, ring_self_intersection
+from pdr.site.wall_index import WallIndex
+
+FloatArray = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
+
+FRAMES: tuple[str, ...] = ("metric", "lonlat")
+
+
+@dataclass(frozen=True)
+class WalkablePolygon:
+    """One walkable polygon (metres, site frame): its outer ring and holes, each closed ``(n, 2)``."""
+
+    outer: FloatArray
+    holes: tuple[FloatArray, ...]
+
+
+@dataclass(frozen=True)
+class FloorPlan:
+    """The walkable area of one floor (metres, site frame) and its altitude (m, None when not given)."""
+
+    floor: int
+    polygons: tuple[WalkablePolygon, ...]
+    altitude_m: float | None = None
+
+    def contains(self, points: FloatArray) -> BoolArray:
+        """Whether each of ``points`` ``(k, 2)`` (m) is walkable: inside a polygon's outer ring, in none of its
+        holes.
+        """
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        edges, first, polygon, outer = self._rings
+        inside = points_in_rings(p, edges, first)
+        out = np.zeros(len(p), dtype=bool)
+        for k in range(len(self.polygons)):
+            mine = polygon == k
+            out |= inside[:, mine & outer].any(axis=1) & ~inside[:, mine & ~outer].any(axis=1)
+        return out
+
+    @cached_property
+    def _rings(self) -> tuple[FloatArray, NDArray[np.int64], NDArray[np.int64], BoolArray]:
+        """All rings' edges, each ring's first edge, its polygon and whether it is an outer ring."""
+        rings = [(k, r == 0, ring) for k, p in enumerate(self.polygons) for r, ring in enumerate((p.outer, *p.holes))]
+        edges = np.vstack([ring_edges(ring) for _, _, ring in rings])
+        first = np.cumsum([0] + [len(ring) - 1 for _, _, ring in rings[:-1]]).astype(np.int64)
+        return (edges, first, np.array([k for k, _, _ in rings], dtype=np.int64),
+                np.array([o for _, o, _ in rings], dtype=bool))
+
+    def walls(self) -> FloatArray:
+        """Every ring edge as ``(m, 4)`` ``x0, y0, x1, y1`` (m)."""
+        rings = [r for p in self.polygons for r in (p.outer, *p.holes)]
+        return np.vstack([ring_edges(r) for r in rings]) if rings else np.zeros((0, 4))
+
+    @cached_property
+    def wall_index(self) -> WallIndex:
+        """The walls bucketed in a grid (built once per plan, :mod:`pdr.site.wall_index`)."""
+        return WallIndex.build(self.walls())
+
+    def bounds(self) -> tuple[float, float, float, float]:
+        """``(min_x, min_y, max_x, max_y)`` of the outer rings (m)."""
+        pts = np.vstack([p.outer for p in self.polygons])
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
+
+    def to_geojson(self) -> dict[str, Any]:
+        """The walkable area as a GeoJSON MultiPolygon in the site's metric frame."""
+        return {"type": "MultiPolygon", "coordinates": [[p.outer.tolist(), *(h.tolist() for h in p.holes)]
+                                                        for p in self.polygons]}
+
+
+@dataclass(frozen=True)
+class SitePlan:
+    """The floor plans of a site, the floor height and the bearing of the frame's north axis.
+
+    ``frame_bearing_deg`` (deg clockwise from geographic north, of the frame's +y axis): None or 0 when the frame
+    is east/north.
+    """
+
+    floors: dict[int, FloorPlan]
+    floor_height_m: float = 4.0
+    frame_bearing_deg: float | None = None
+    origin: tuple[float, float] | None = None
+
+    def floor(self, floor: int, source: str = "site") -> FloorPlan:
+        """The plan of ``floor``; a floor the site does not describe is refused naming the known ones."""
+        plan = self.floors.get(int(floor))
+        if plan is None:
+            raise InputError(f"no floor plan for floor {floor} (the site has floors {sorted(self.floors)})",
+                             source=source, field="floors")
+        return plan
+
+    def check_walkable(self, point_en: tuple[float, float], floor: int, source: str = "start") -> FloorPlan:
+        """The plan of ``floor`` if ``point_en`` (m) is walkable on it; else a refusal naming ``source``'s start."""
+        plan = self.floor(floor, source)
+        if not plan.contains(np.array([point_en], dtype=np.float64))[0]:
+            raise InputError(f"start ({point_en[0]:.2f}, {point_en[1]:.2f}) m is outside floor {floor}'s walkable "
+                             "area", source=source, field="start")
+        return plan
+
+    def altitude_m(self, floor: int) -> float:
+        """Altitude of ``floor`` (m): the site's per-floor altitude, else ``floor * floor_height_m``."""
+        plan = self.floors.get(int(floor))
+        if plan is not None and plan.altitude_m is not None:
+            return plan.altitude_m
+        return float(floor) * self.floor_height_m
+
+    @classmethod
+    def from_dict(cls, d: Any, source: str = "site") -> SitePlan:
+        """Parse and validate a site description's floors (errors name the floor, polygon, ring and field)."""
+        if not isinstance(d, dict):
+            raise InputError("a site description is a JSON object", source=source)
+        floors_raw = d.get("floors")
+        if not isinstance(floors_raw, list) or not floors_raw:
+            raise InputError("expected a non-empty 'floors' list of floor plans", source=source, field="floors")
+        origin = _origin(d.get("origin"), source)
+        try:
+            fh = float(d.get("floor_height_m", 4.0))
+        except (TypeError, ValueError):
+            raise InputError("floor_height_m must be a number", source=source, field="floor_height_m") from None
+        if not (math.isfinite(fh) and fh > 0):
+            raise InputError("floor_height_m must be positive", source=source, field="floor_height_m")
+        grid = d.get("frame_bearing_deg")
+        if grid is not None and not (isinstance(grid, int | float) and math.isfinite(grid)):
+            raise InputError("frame_bearing_deg must be a number of degrees", source=source,
+                             field="frame_bearing_deg")
+        floors: dict[int, FloorPlan] = {}
+        for i, f in enumerate(floors_raw):
+            plan = _floor(f, origin, f"{source} floors[{i}]")
+            if plan.floor in floors:
+                raise InputError(f"floor {plan.floor} is described twice", source=f"{source} floors[{i}]",
+                                 field="floor")
+            floors[plan.floor] = plan
+        for j, lm in enumerate(d.get("landmarks") or []):
+            if isinstance(lm, dict) and "floor" in lm and int(float(lm["floor"])) not in floors:
+                raise InputError(f"landmark on floor {lm['floor']}, which has no floor plan (floors "
+                                 f"{sorted(floors)})", source=f"{source} landmark {j}", field="floor")
+        return cls(floors, fh, None if grid is None else float(grid), origin)
+
+    @classmethod
+    def load(cls, path: str | Path) -> SitePlan:
+        try:
+            d = json.loads(Path(path).read_text())
+        except (OSError, json.JSONDecodeError) as exc:
+            raise InputError(f"cannot read site description ({exc})", source=str(path)) from None
+        return cls.from_dict(d, source=str(path))
+
+    def to_dict(self) -> dict[str, Any]:
+        """The floors section in the metric frame (merge it into a site description with landmarks)."""
+        out: dict[str, Any] = {"floor_height_m": self.floor_height_m}
+        if self.frame_bearing_deg is not None:
+            out["frame_bearing_deg"] = self.frame_bearing_deg
+        if self.origin is not None:
+            out["origin"] = {"lat": self.origin[0], "lon": self.origin[1]}
+        out["floors"] = [{"floor": p.floor, **({"altitude_m": p.altitude_m} if p.altitude_m is not None else {}),
+                          "frame": "metric", "walkable": p.to_geojson()} for p in self.floors.values()]
+        return out
+
+
+def _origin(o: Any, source: str) -> tuple[float, float] | None:
+    if o is None:
+        return None
+    try:
+        lat, lon = float(o["lat"]), float(o["lon"])
+    except (TypeError, KeyError, ValueError):
+        raise InputError("origin must be {\"lat\": deg, \"lon\": deg}", source=source, field="origin") from None
+    if not (-90 <= lat <= 90 and -180 <= lon <= 180):
+        raise InputError(f"origin ({lat}, {lon}) is not a latitude/longitude", source=source, field="origin")
+    return lat, lon
+
+
+def _floor(f: Any, origin: tuple[float, float] | None, where: str) -> FloorPlan:
+    if not isinstance(f, dict):
+        raise InputError("a floor plan is an object", source=where)
+    try:
+        number = float(f["floor"])
+    except KeyError:
+        raise InputError("missing field 'floor'", source=where, field="floor") from None
+    except (TypeError, ValueError):
+        raise InputError("floor must be an integer", source=where, field="floor") from None
+    if not number.is_integer():
+        raise InputError(f"floor must be an integer, not {number}", source=where, field="floor")
+    alt = f.get("altitude_m")
+    if alt is not None and not (isinstance(alt, int | float) and math.isfinite(alt)):
+        raise InputError("altitude_m must be a number of metres", source=where, field="altitude_m")
+    frame = f.get("frame", "metric")
+    if frame not in FRAMES:
+        raise InputError(f"frame must be one of {FRAMES}, not {frame!r}", source=where, field="frame")
+    if frame == "lonlat" and origin is None:
+        raise InputError("a lonlat floor needs the site's origin {\"lat\", \"lon\"} to resolve its frame",
+                         source=where, field="origin")
+    if "walkable" not in f:
+        raise InputError("missing field 'walkable' (GeoJSON polygons)", source=where, field="walkable")
+    polys = [_polygon(p, frame, origin, f"{where} walkable polygon {k}")
+             for k, p in enumerate(_geojson_polygons(f["walkable"], f"{where} walkable"))]
+    if not polys:
+        raise InputError("no polygon in 'walkable'", source=where, field="walkable")
+    return FloorPlan(int(number), tuple(polys), None if alt is None else float(alt))
+
+
+def _geojson_polygons(g: Any, where: str) -> list[Any]:
+    """The polygon coordinate lists of a GeoJSON geometry, feature or feature collection."""
+    if not isinstance(g, dict) or "type" not in g:
+        raise InputError("not a GeoJSON object (no 'type')", source=where, field="walkable")
+    t = g["type"]
+    if t == "FeatureCollection":
+        feats = g.get("features")
+        if not isinstance(feats, list):
+            raise InputError("FeatureCollection without a 'features' list", source=where, field="features")
+        return [p for k, ft in enumerate(feats) for p in _geojson_polygons(ft, f"{where} feature {k}")]
+    if t == "Feature":
+        return _geojson_polygons(g.get("geometry"), f"{where} geometry")
+    coords = g.get("coordinates")
+    if t == "Polygon":
+        return [coords]
+    if t == "MultiPolygon":
+        if not isinstance(coords, list):
+            raise InputError("MultiPolygon coordinates must be a list of polygons", source=where,
+                             field="coordinates")
+        return list(coords)
+    raise InputError(f"geometry type {t!r}: expected Polygon or MultiPolygon", source=where, field="type")
+
+
+def _polygon(coords: Any, frame: str, origin: tuple[float, float] | None, where: str) -> WalkablePolygon:
+    if not isinstance(coords, list) or not coords:
+        raise InputError("a polygon is a non-empty list of rings", source=where, field="coordinates")
+    rings = []
+    for r, ring in enumerate(coords):
+        rw = f"{where} ring {r}"
+        try:
+            a = np.asarray(ring, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise InputError("ring is not a list of [x, y] positions", source=rw, field="coordinates") from None
+        if a.ndim != 2 or a.shape[1] < 2 or a.shape[0] < 4:
+            raise InputError("a ring needs at least 4 [x, y] positions", source=rw, field="coordinates")
+        a = a[:, :2]
+        if not np.isfinite(a).all():
+            raise InputError("ring has a non-finite coordinate", source=rw, field="coordinates")
+        if not np.array_equal(a[0], a[-1]):
+            raise InputError("ring is not closed (its last position must repeat the first)", source=rw,
+                             field="coordinates")
+        if frame == "lonlat":
+            assert origin is not None
+            if (np.abs(a[:, 1]) > 90).any() or (np.abs(a[:, 0]) > 180).any():
+                raise InputError("lonlat ring has a position outside [-180, 180] x [-90, 90]", source=rw,
+                                 field="coordinates")
+            a = geodetic_to_local_enu(a[:, 1], a[:, 0], origin[0], origin[1])
+        keep = np.r_[True, np.any(np.diff(a, axis=0) != 0, axis=1)]     # repeated positions: one vertex
+        a = a[keep]
+        if a.shape[0] < 4:
+            raise InputError("a ring needs at least 3 distinct positions", source=rw, field="coordinates")
+        bad = ring_self_intersection(a)
+        if bad is not None:
+            raise InputError(f"ring intersects itself (edges {bad[0]} and {bad[1]})", source=rw,
+                             field="coordinates")
+        if abs(ring_area(a)) <= 0:
+            raise InputError("ring encloses no area", source=rw, field="coordinates")
+        rings.append(a)
+    return WalkablePolygon(rings[0], tuple(rings[1:]))

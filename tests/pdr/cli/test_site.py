@@ -1,0 +1,88 @@
+"""``pdr site from-ms|check`` and ``pdr track --site --start`` (map matching) on the MS floor folders."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pdr.cli import main
+from pdr.cli import site as site_cli
+from pdr.errors import InputError
+from tests.conftest import data_path
+
+
+def site_command(argv: list[str]) -> int:
+    """The ``site`` command's parser alone (its entry point appears once the package metadata is reinstalled)."""
+    p = argparse.ArgumentParser(prog="pdr")
+    site_cli.register(p.add_subparsers(dest="command"))
+    args = p.parse_args(["site", *argv])
+    return int(args.func(args))
+
+
+@pytest.mark.data
+def test_from_ms_writes_a_site_that_checks_and_draws(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    floor = data_path("ms_indoor_location", "site2", "F4")
+    out, png, pts = tmp_path / "f4.json", tmp_path / "f4.png", tmp_path / "pts.json"
+    assert site_command(["from-ms", str(floor), "--out", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert [f["floor"] for f in doc["floors"]] == [4]
+    from pdr.io import read_recording
+    truth = read_recording(sorted((floor / "path_data_files").iterdir())[0]).truth.positions
+    assert truth is not None
+    pts.write_text(json.dumps([[*truth.pos_m[0, :2].tolist(), 4], [0.5, 0.5, 4]]))
+    assert site_command(["check", str(out), "--plot", str(png), "--points", str(pts)]) == 1
+    text = capsys.readouterr().out
+    assert "point 1 (0.50, 0.50) on floor 4 is outside" in text and "1 of 2 points walkable" in text
+    assert site_command(["check", str(out), "--plot", str(png)]) == 0
+    assert png.stat().st_size > 10_000
+
+
+def test_check_refuses_a_self_intersecting_site(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"landmarks": [], "floors": [{"floor": 0, "walkable": {
+        "type": "Polygon", "coordinates": [[[0, 0], [4, 4], [4, 0], [0, 4], [0, 0]]]}}]}))
+    with pytest.raises(InputError, match="ring 0.*intersects itself"):
+        site_command(["check", str(bad)])
+
+
+@pytest.mark.data
+def test_track_with_a_floor_plan_and_a_known_start(tmp_path: Path) -> None:
+    from pdr.io import read_recording
+    from pdr.site.ms import site_from_ms_floor
+    floor = data_path("ms_indoor_location", "site2", "F3")
+    trace = sorted((floor / "path_data_files").iterdir())[3]
+    site = tmp_path / "f3.json"
+    site.write_text(json.dumps(site_from_ms_floor(floor)))
+    truth = read_recording(trace).truth.positions
+    assert truth is not None
+    e, n = truth.pos_m[0, :2]
+    out = tmp_path / "t.csv"
+    assert main(["track", str(trace), "--site", str(site), "--start", f"{e},{n}", "--out", str(out)]) == 0
+    with out.open() as fh:
+        rows = list(csv.DictReader(fh))
+    xy = np.array([[float(r["east_m"]), float(r["north_m"])] for r in rows])
+    assert len(rows) > 10 and {r["floor"] for r in rows} == {"3"}
+    assert np.linalg.norm(xy[0] - [e, n]) < 2.0             # in the site's frame, from the start
+    # a start inside a shop, a start without a floor plan and a malformed start are refused (exit code 2)
+    assert main(["track", str(trace), "--site", str(site), "--start", "0.5,0.5", "--out", str(out)]) == 2
+    assert main(["track", str(trace), "--start", f"{e},{n}", "--out", str(out)]) == 2
+    assert main(["track", str(trace), "--site", str(site), "--start", "a,b", "--out", str(out)]) == 2
+    assert main(["track", str(trace), "--site", str(site), "--start", f"{e},{n},7", "--out", str(out)]) == 2
+
+
+@pytest.mark.data
+def test_eval_ms_map_scores_absolutely_from_the_first_waypoint(capsys: pytest.CaptureFixture[str]) -> None:
+    floor = data_path("ms_indoor_location", "site2", "F3")
+    assert main(["eval", "ms", str(floor), "--map", "--limit", "2", "--json",
+                 "--map-config", '{"particles": 300}']) == 0
+    res = json.loads(capsys.readouterr().out)
+    m = res["overall"]["map"]
+    assert m["traces"] == 2 and m["speed"]["particles"] == 300 and m["speed"]["steps"] > 20
+    for name in ("pdr", "online", "smoothed"):
+        assert 0 < m[name]["median_m"] <= m[name]["p75_m"] <= m[name]["worst_p75_m"] < 50
+    assert main(["eval", "ms", str(floor), "--map", "--map-config", '{"walls": 1}']) == 2
