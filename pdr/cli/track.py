@@ -7,7 +7,7 @@ import json
 import math
 import re
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -29,10 +29,12 @@ from pdr.evaluation.scoring import (
 from pdr.io import read_recording
 from pdr.mapmatch.particles import MapMatchConfig
 from pdr.mapmatch.rows import match_rows
+from pdr.mapmatch.stage import MapMatchStage
 from pdr.phone.configure import pipeline_config
 from pdr.phone.heading_smoother import smoothed_rows
 from pdr.phone.landmarks import Site
 from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
+from pdr.phone.stage import StepStage
 from pdr.phone.step_length import StepLengthModel
 from pdr.phone.steps import StepConfig
 from pdr.phone.track_schema import write_csv
@@ -77,10 +79,10 @@ def config_from_args(args: argparse.Namespace, initial_floor: float = 0.0) -> Pi
                            floor_height_m=getattr(args, "floor_height", None) or None)
 
 
-def run_pipeline(rec: Recording, cfg: PipelineConfig, site: Site | None = None) -> tuple[list[dict[str, Any]],
-                                                                                        list[str]]:
-    """Track rows and notices of a whole recording."""
-    events = PdrPipeline(cfg, site).run(rec)
+def run_pipeline(rec: Recording, cfg: PipelineConfig, site: Site | None = None,
+                 stages: Sequence[StepStage] = ()) -> tuple[list[dict[str, Any]], list[str]]:
+    """Track rows and notices of a whole recording (``stages``: plugged-in step stages, e.g. the map matcher)."""
+    events = PdrPipeline(cfg, site, stages=stages).run(rec)
     notices = [str(e["message"]) for e in events if e.get("type") == "notice"]
     return track_rows(events), notices
 
@@ -132,13 +134,17 @@ def run_track(args: argparse.Namespace) -> int:
     if plan is not None:
         start, floor = _start(args.start, plan)
         plan.check_walkable(start, floor, "--start")
-    rows, notices = run_pipeline(rec, cfg, site)
+    if plan is not None and args.smoother == "off":
+        # Online: the map matcher is a stage of the pipeline, as in a live session.
+        rows, notices = run_pipeline(rec, cfg, site, [MapMatchStage(plan, start, floor, source="--start")])
+    else:
+        rows, notices = run_pipeline(rec, cfg, site)
     if args.smoother == "on":
         rows = smoothed_rows(rows, notices)
-    if plan is not None:
-        rows, more = match_rows(rows, plan, start, floor, MapMatchConfig(), smooth=args.smoother == "on",
-                                source="--start")
-        notices = [*notices, *more]
+        if plan is not None:
+            # Offline: the smoothed track matched with the matcher's own smoother over the whole walk.
+            rows, more = match_rows(rows, plan, start, floor, MapMatchConfig(), smooth=True, source="--start")
+            notices = [*notices, *more]
     for n in notices:
         print(f"note: {n}", file=sys.stderr)
     write_csv(rows, args.out)

@@ -68,6 +68,12 @@ def test_track_with_a_floor_plan_and_a_known_start(tmp_path: Path) -> None:
     xy = np.array([[float(r["east_m"]), float(r["north_m"])] for r in rows])
     assert len(rows) > 10 and {r["floor"] for r in rows} == {"3"}
     assert np.linalg.norm(xy[0] - [e, n]) < 2.0             # in the site's frame, from the start
+    # Causal: the map matcher runs online as a pipeline stage (pdr.mapmatch.stage).
+    assert main(["track", str(trace), "--site", str(site), "--start", f"{e},{n}", "--smoother", "off",
+                 "--out", str(out)]) == 0
+    with out.open() as fh:
+        online = list(csv.DictReader(fh))
+    assert len(online) == len(rows) and {r["floor"] for r in online} == {"3"}
     # a start inside a shop, a start without a floor plan and a malformed start are refused (exit code 2)
     assert main(["track", str(trace), "--site", str(site), "--start", "0.5,0.5", "--out", str(out)]) == 2
     assert main(["track", str(trace), "--start", f"{e},{n}", "--out", str(out)]) == 2
