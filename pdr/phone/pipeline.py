@@ -80,7 +80,7 @@ from pdr.phone.placement_detect import PlacementDetectConfig, PlacementDetector,
 from pdr.phone.step_length import StepLengthModel, step_patterns
 from pdr.phone.steps import StepConfig, StepDetector
 from pdr.phone.track import TrackState
-from pdr.phone.walking_direction import swing_plane_axis, turn_evidence
+from pdr.phone.walking_direction import DeviceSwingAxis, swing_plane_axis
 from pdr.recording import Recording
 
 FloatArray = NDArray[np.float64]
@@ -315,6 +315,7 @@ class PdrPipeline:
         self.prev_q: list[float] | None = None
         self.prev_step_start: int | None = None
         self.direction_vote = _direction_vote(self.placement)
+        self.swing_axis = DeviceSwingAxis()      # swinging hand's walking direction (pdr.phone.walking_direction)
         self.prev_mode = ""
         self.last_step: tuple[float, float] | None = None   # (raw yaw rad, end time s) of the last emitted step
         self.stairs_landmark: str | None = None
@@ -391,7 +392,7 @@ class PdrPipeline:
             "stairs_landmark": self.stairs_landmark, "landmark_updates": self.landmark_updates,
             "landmark_attitude_updates": self.landmark_attitude_updates,
             "prev_step_start": self.prev_step_start, "direction_score": self.direction_vote.score,
-            "direction_votes": self.direction_vote.n,
+            "direction_votes": self.direction_vote.n, "swing_axis": self.swing_axis.to_dict(),
             "pending": _jsonable(self.pending),
             "pitch_baseline": self.pitch_baseline, "last_floor": self.last_floor, "notices": self.notices,
             "av_zi": None if self._av_zi is None else self._av_zi.tolist(), "n_input_samples": self.n_input_samples,
@@ -428,6 +429,8 @@ class PdrPipeline:
             p.landmark_updates = int(d.get("landmark_updates", 0))
             p.landmark_attitude_updates = int(d.get("landmark_attitude_updates", 0))
             p.prev_step_start = None if d["prev_step_start"] is None else int(d["prev_step_start"])
+            if d.get("swing_axis") is not None:     # absent in states saved before the device-frame swing axis
+                p.swing_axis = DeviceSwingAxis.from_dict(d["swing_axis"])
             p.direction_vote = _direction_vote(p.placement)
             p.direction_vote.score = float(d["direction_score"])
             p.direction_vote.n = int(d["direction_votes"])
@@ -584,6 +587,7 @@ class PdrPipeline:
         self.placement = new
         self.prev_yaw = self.prev_q = self.prev_step_start = None
         self.direction_vote = _direction_vote(new)
+        self.swing_axis = DeviceSwingAxis()
 
     def _step(self, s: int, e: int, peak: float) -> list[Event]:
         h = self.history
@@ -615,37 +619,38 @@ class PdrPipeline:
             q_str, f_str = h.q[stride], h.f_n[stride]
             if not (np.all(np.isfinite(q_str)) and np.all(np.isfinite(f_str))):
                 q_str, f_str = q, f_n
-            swing_axis = self.placement == "swinging" or c.pocket_axis == "swing" or (
+            swing_axis = c.pocket_axis == "swing" or (
                 c.pocket_axis == "auto" and (self.site is None or not self.site.landmarks))
-            if swing_axis:
-                # The swing plane's axis of the thigh or arm (pdr.phone.walking_direction), not the device yaw.
+            if self.placement == "swinging":
+                # The arm's swing axis, fixed in the device frame while the grip holds, with its sign decided
+                # by the turns (pdr.phone.walking_direction.DeviceSwingAxis): no per-stride continuity or vote.
+                axis = self.swing_axis.update(q_str, f_str, c.rate_hz)
+            elif swing_axis:
+                # The swing plane's axis of the thigh (pdr.phone.walking_direction), not the device yaw.
                 axis, _ratio = swing_plane_axis(q_str, c.rate_hz)
             else:
                 axis, _ratio = pca_axis(f_str[:, :2])             # RMPCA over the stride
-            q_mid = q[q.shape[0] // 2]
-            if self.prev_yaw is None or self.prev_q is None:
-                prior = axis
+            if self.placement == "swinging":
+                psi0 = axis
             else:
-                # Previous heading turned by the device's rotation about the vertical since then.
-                turn = float(quat.to_rotvec(quat.multiply(q_mid, quat.conjugate(np.array(self.prev_q))))[2])
-                prior = self.prev_yaw + turn
-            self.prev_q = q_mid.tolist()
-            psi0 = resolve_direction(axis, prior)
-            # 180-degree rule: in a trouser pocket the thigh's fast swing (pdr.phone.heading module doc); in a
-            # swinging hand, whose swing is nearly symmetric, the centripetal acceleration in turns
-            # (pdr.phone.walking_direction).
-            if self.placement == "pocket":
-                evidence = thigh_swing_evidence(q_str, c.rate_hz, psi0)
-            else:
-                evidence = turn_evidence(f_str, _yaw_rate(q_str, c.rate_hz), psi0)
-            if self.direction_vote.update(evidence):
-                psi0 = float(wrap_angle(psi0 + math.pi))
-                if self.pending is not None:
-                    # The step waiting for output was resolved by the refuted direction: reverse it too.
-                    self.pending["yaw"] = float(wrap_angle(self.pending["yaw"] + math.pi))
-                    self.pending["psi0"] = float(wrap_angle(self.pending["psi0"] + math.pi))
+                q_mid = q[q.shape[0] // 2]
+                if self.prev_yaw is None or self.prev_q is None:
+                    prior = axis
+                else:
+                    # Previous heading turned by the device's rotation about the vertical since then.
+                    turn = float(quat.to_rotvec(quat.multiply(q_mid, quat.conjugate(np.array(self.prev_q))))[2])
+                    prior = self.prev_yaw + turn
+                self.prev_q = q_mid.tolist()
+                psi0 = resolve_direction(axis, prior)
+                # 180-degree rule in a trouser pocket: the thigh's fast swing (pdr.phone.heading module doc).
+                if self.direction_vote.update(thigh_swing_evidence(q_str, c.rate_hz, psi0)):
+                    psi0 = float(wrap_angle(psi0 + math.pi))
+                    if self.pending is not None:
+                        # The step waiting for output was resolved by the refuted direction: reverse it too.
+                        self.pending["yaw"] = float(wrap_angle(self.pending["yaw"] + math.pi))
+                        self.pending["psi0"] = float(wrap_angle(self.pending["psi0"] + math.pi))
             m1 = scatter_of(f_str, st.q)
-            if swing_axis:
+            if swing_axis or self.placement == "swinging":
                 est = HeadingEstimate(psi0, yaw_variance(st.q, st.P) + c.heading_process_var)
             else:
                 est = improved_rmpca_ut(st.q, st.P, m1, psi0, c.heading_process_var, self._ut_points())
@@ -787,17 +792,10 @@ class PdrPipeline:
 
 
 def _direction_vote(placement: str | None) -> DirectionVote:
-    """The forward/backward vote of a placement. A hand holds the phone the same way for minutes and its
-    evidence (the centripetal acceleration, pdr.phone.walking_direction) comes only in turns: a longer memory and a
-    larger margin than the pocket's, whose thigh evidence comes every stride.
+    """The trouser pocket's forward/backward vote (the swinging hand decides its sign in
+    :class:`pdr.phone.walking_direction.DeviceSwingAxis`).
     """
-    return DirectionVote(decay=0.97, margin=2.0) if placement == "swinging" else DirectionVote()
-
-
-def _yaw_rate(q_nb: FloatArray, rate_hz: float) -> float:
-    """Mean rotation rate about the vertical (rad/s) over attitudes ``q_nb`` (N, 4) at ``rate_hz``."""
-    dyaw = float(quat.to_rotvec(quat.multiply(q_nb[-1], quat.conjugate(q_nb[0])))[2])
-    return dyaw * rate_hz / max(q_nb.shape[0] - 1, 1)
+    return DirectionVote()
 
 
 def _mean_finite(x: FloatArray) -> Any:

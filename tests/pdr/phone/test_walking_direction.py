@@ -8,7 +8,7 @@ import pytest
 from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.frames import GRAVITY_MPS2, wrap_angle
-from pdr.phone.walking_direction import swing_plane_axis, turn_evidence
+from pdr.phone.walking_direction import DeviceSwingAxis, body_angular_rate, swing_plane_axis, turn_evidence
 
 RATE = 100.0
 
@@ -48,6 +48,62 @@ def test_turn_evidence_points_forward_from_the_centripetal_acceleration():
     f_r = -centripetal + gait + np.array([0.0, 0.0, GRAVITY_MPS2])
     assert turn_evidence(f_r, -0.4, f) > 0.5
     assert turn_evidence(f_n, 0.0, f) == 0.0                        # a straight stride says nothing
+
+
+def _turning_swing_walk(mount: np.ndarray, start_yaw: float, strides: int, rng: np.random.Generator
+                        ) -> tuple[list[np.ndarray], list[np.ndarray], list[float]]:
+    """Strides of a hand swinging with a fixed grip while the walker turns at +/-0.35 rad/s in alternate legs of 6
+    strides and walks at 1.2 m/s: per stride the attitudes, the specific force (gravity, centripetal, gait noise)
+    and the walking yaw at mid-stride.
+    """
+    qs, fs, yaws = [], [], []
+    t = np.arange(110) / RATE
+    yaw0 = start_yaw
+    for k in range(strides):
+        omega = 0.35 if (k // 6) % 2 == 0 else -0.35
+        yaw = yaw0 + omega * t
+        theta = math.radians(30.0) * np.sin(2 * math.pi * t / 1.1)
+        walker = quat.from_rotvec(yaw[:, None] * np.array([0.0, 0.0, 1.0]))
+        arm = quat.from_rotvec(theta[:, None] * np.array([0.0, -1.0, 0.0]))     # about the walker's f x u
+        qs.append(quat.multiply(quat.multiply(walker, arm), np.broadcast_to(mount, walker.shape)))
+        centripetal = 1.2 * omega * np.column_stack([-np.sin(yaw), np.cos(yaw), np.zeros_like(yaw)])
+        gait = rng.normal(0.0, 1.5, (t.size, 3))
+        fs.append(centripetal + gait - gait.mean(axis=0) + np.array([0.0, 0.0, GRAVITY_MPS2]))
+        yaws.append(float(yaw[t.size // 2]))
+        yaw0 = float(yaw[-1] + omega / RATE)
+    return qs, fs, yaws
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_device_swing_axis_recovers_direction_and_sign_with_any_grip(seed):
+    rng = np.random.default_rng(seed)
+    qs, fs, yaws = _turning_swing_walk(quat.from_rotvec(rng.normal(0, 1.5, 3)), rng.uniform(-3, 3), 30, rng)
+    tracker = DeviceSwingAxis()
+    errs = []
+    for k, (q, f, y) in enumerate(zip(qs, fs, yaws, strict=True)):
+        out = tracker.update(q, f, RATE)
+        if k == 14:                              # the state survives a round trip
+            tracker = DeviceSwingAxis.from_dict(tracker.to_dict())
+        errs.append(abs(math.degrees(float(wrap_angle(out - y)))))
+    assert max(errs[6:]) < 8.0                   # forward, not backward, once a turn has been seen
+
+
+def test_device_swing_axis_restarts_the_sign_on_a_new_grip():
+    rng = np.random.default_rng(7)
+    tracker = DeviceSwingAxis()
+    for q, f, _ in zip(*_turning_swing_walk(quat.from_rotvec([0.3, 1.2, -0.4]), 0.5, 20, rng)[:2], range(20),
+                       strict=True):
+        tracker.update(q, f, RATE)
+    qs, fs, yaws = _turning_swing_walk(quat.from_rotvec([1.4, -0.2, 0.9]), 2.0, 20, rng)
+    outs = [tracker.update(q, f, RATE) for q, f in zip(qs, fs, strict=True)]
+    assert abs(math.degrees(float(wrap_angle(outs[-1] - yaws[-1])))) < 8.0
+
+
+def test_body_angular_rate_of_a_constant_rotation():
+    w_b = np.array([0.3, -0.2, 1.0])
+    q = quat.multiply(np.broadcast_to(quat.from_rotvec([0.2, 0.5, -1.0]), (50, 4)),
+                      quat.from_rotvec(np.arange(50)[:, None] / RATE * w_b))
+    assert np.allclose(body_angular_rate(q, RATE), w_b, atol=1e-9)
 
 
 def test_bad_input_is_refused():
