@@ -20,9 +20,23 @@ Forward or backward (:func:`turn_evidence`; which rule decides and why)
     stride (``Omega`` near 0) carries no evidence and a clear turn one full vote. It needs no assumption on the
     arm's or thigh's swing, which is why it decides for the swinging hand, whose swing is nearly symmetric
     (the thigh-swing skewness of :func:`pdr.phone.heading.thigh_swing_evidence` picks the right direction in only
-    53-65 % of its strides on the motion-capture benchmark). In a trouser pocket the skewness decides
-    (76-97 % right per stride there) and the turn cue is not used (below). The decision is carried between
-    strides by the gyro's rotation about the vertical and accumulated by :class:`pdr.phone.heading.DirectionVote`.
+    53-65 % of its strides on the motion-capture benchmark). In a trouser pocket the skewness decides and the
+    turn cue is not used (below). The decision is carried between strides by the gyro's rotation about the
+    vertical and accumulated by :class:`pdr.phone.heading.DirectionVote`.
+
+    Per-stride cues on the benchmark's pocket walks with the pipeline's own attitude
+    (each cue evaluated with the motion-capture walking yaw as the candidate): thigh-swing skewness right in 88-92 %
+    of strides in a front pocket, but 48-69 % in a back pocket and 56-57 % running (chance: the back of the
+    thigh and a running thigh do not have the slow-stance/fast-swing asymmetry at the pocket); the turn cue
+    right in 77-98 % (front), 89-100 % (back) and 90-96 % (running) of turning strides (|yaw rate| > 14 deg/s);
+    the correlation of vertical and forward acceleration over the stride is consistent within a carriage but
+    of opposite sign in front (positive in 90-99 %) and back pockets (negative in 65-97 %), so it cannot decide
+    without knowing which pocket. Adding the turn cue to the skewness in the pipeline's vote did not help
+    (``--placement pocket``, causal mean of the 10 pocket walks' means 25.3 -> 25.5 deg: back pockets of the
+    tuning walker worse by 11-13 deg, most others better by 5-12 deg); why a cue that is right per stride
+    loses there, through the vote and the continuity rule, is not found yet.
+    The turn cue decides the swinging hand's sign through :class:`DeviceSwingAxis`; in a pocket the same
+    device-frame axis is not a fixed-axis swing (below), which is what is left to solve for the back pocket.
 
     What limits it: a tilt error ``d`` of the attitude adds ``g d`` (0.17 m/s^2 per degree) to the mean
     horizontal acceleration, against a centripetal term of about 0.5 m/s^2 (1.2 m/s turning 23 deg/s). With the
@@ -59,6 +73,19 @@ Device-frame swing axis of a swinging hand (:class:`DeviceSwingAxis`; item 5 of 
     2-12 deg of the walking direction on average (signed median per walk); with the attitude filter's it is
     off by +19/+24 deg on the tuning walker (the filter's yaw, 6.3/22.9 deg mean error there) and -3/+3 deg on
     the other walker: the rest of the error is the attitude's yaw, not the direction method.
+
+Trouser pocket: what limits the walking line
+    Even with the motion-capture attitude the thigh's swing plane is not square to the walking direction: the
+    per-stride swing-plane line is off by a signed median of -17/-22 deg (front pocket, tuning walker NoDist/
+    Dist), -9/-17 deg (back pocket), +13/+5 deg (front pocket, other walker), also on straight strides (not a
+    lag in turns), and the thigh's long axis (the device's mean up direction) swings in a plane off by about the
+    same. RMPCA of the specific force is off the other way on the tuning walker (+14 to +26 deg) but not on the
+    other (+4 to +55 deg), so no fixed combination cancels it. A walker- and leg-specific angle (toe-out, hip
+    rotation) is the likely cause; the only unbiased cue here, the centripetal acceleration, gives the
+    direction itself only to 29-37 deg per turning stride with the filter's tilt (12-15 deg biased over a
+    walk), too coarse to learn that angle online. Seed 003's 6.85 deg (the issue's 7.0 deg on the third
+    walker) is not reached on these two walkers with either line: the front-pocket figure on main was 27-35 deg
+    causal with ``--placement pocket`` for ``pocket_axis`` swing and rmpca alike, so nothing regressed.
 """
 
 from __future__ import annotations
