@@ -624,7 +624,7 @@ class PdrPipeline:
             if self.placement == "swinging":
                 # The arm's swing axis, fixed in the device frame while the grip holds, with its sign decided
                 # by the turns (pdr.phone.walking_direction.DeviceSwingAxis): no per-stride continuity or vote.
-                axis = self.swing_axis.update(q_str, f_str, c.rate_hz)
+                axis = self.swing_axis.update(q_str, f_str, c.rate_hz, q_str.shape[0] - q.shape[0])
             elif swing_axis:
                 # The swing plane's axis of the thigh (pdr.phone.walking_direction), not the device yaw.
                 axis, _ratio = swing_plane_axis(q_str, c.rate_hz)

@@ -8,7 +8,7 @@ import pytest
 from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.frames import GRAVITY_MPS2, wrap_angle
-from pdr.phone.walking_direction import DeviceSwingAxis, body_angular_rate, swing_plane_axis, turn_evidence
+from pdr.phone.walking_direction import DeviceSwingAxis, body_angular_rate, step_lead, swing_plane_axis, turn_evidence
 
 RATE = 100.0
 
@@ -51,12 +51,12 @@ def test_turn_evidence_points_forward_from_the_centripetal_acceleration():
 
 
 def _turning_swing_walk(mount: np.ndarray, start_yaw: float, strides: int, rng: np.random.Generator
-                        ) -> tuple[list[np.ndarray], list[np.ndarray], list[float]]:
+                        ) -> tuple[list[np.ndarray], list[np.ndarray], list[float], list[float]]:
     """Strides of a hand swinging with a fixed grip while the walker turns at +/-0.35 rad/s in alternate legs of 6
     strides and walks at 1.2 m/s: per stride the attitudes, the specific force (gravity, centripetal, gait noise)
-    and the walking yaw at mid-stride.
+    and the walking yaw at mid-stride and at the centre of the stride's second step (samples 55-109).
     """
-    qs, fs, yaws = [], [], []
+    qs, fs, yaws, step_yaws = [], [], [], []
     t = np.arange(110) / RATE
     yaw0 = start_yaw
     for k in range(strides):
@@ -70,22 +70,29 @@ def _turning_swing_walk(mount: np.ndarray, start_yaw: float, strides: int, rng: 
         gait = rng.normal(0.0, 1.5, (t.size, 3))
         fs.append(centripetal + gait - gait.mean(axis=0) + np.array([0.0, 0.0, GRAVITY_MPS2]))
         yaws.append(float(yaw[t.size // 2]))
+        step_yaws.append(float(0.5 * (yaw[82] + yaw[83])))                     # centre of the second step
         yaw0 = float(yaw[-1] + omega / RATE)
-    return qs, fs, yaws
+    return qs, fs, yaws, step_yaws
 
 
 @pytest.mark.parametrize("seed", range(3))
 def test_device_swing_axis_recovers_direction_and_sign_with_any_grip(seed):
     rng = np.random.default_rng(seed)
-    qs, fs, yaws = _turning_swing_walk(quat.from_rotvec(rng.normal(0, 1.5, 3)), rng.uniform(-3, 3), 30, rng)
-    tracker = DeviceSwingAxis()
-    errs = []
-    for k, (q, f, y) in enumerate(zip(qs, fs, yaws, strict=True)):
+    qs, fs, yaws, step_yaws = _turning_swing_walk(quat.from_rotvec(rng.normal(0, 1.5, 3)), rng.uniform(-3, 3), 30,
+                                                  rng)
+    tracker, led = DeviceSwingAxis(), DeviceSwingAxis()
+    errs, lag, lead = [], [], []
+    for k, (q, f, y, ys) in enumerate(zip(qs, fs, yaws, step_yaws, strict=True)):
         out = tracker.update(q, f, RATE)
         if k == 14:                              # the state survives a round trip
             tracker = DeviceSwingAxis.from_dict(tracker.to_dict())
         errs.append(abs(math.degrees(float(wrap_angle(out - y)))))
+        out_step = led.update(q, f, RATE, step_start=55)
+        lag.append(abs(math.degrees(float(wrap_angle(out - ys)))))
+        lead.append(abs(math.degrees(float(wrap_angle(out_step - ys)))))
     assert max(errs[6:]) < 8.0                   # forward, not backward, once a turn has been seen
+    # At the second step's centre, 0.28 s after the stride's: 5.5 deg behind at 0.35 rad/s unless led.
+    assert min(lag[6:]) > 4.0 and np.mean(lead[6:]) < np.mean(lag[6:]) - 3.0
 
 
 def test_device_swing_axis_restarts_the_sign_on_a_new_grip():
@@ -94,9 +101,17 @@ def test_device_swing_axis_restarts_the_sign_on_a_new_grip():
     for q, f, _ in zip(*_turning_swing_walk(quat.from_rotvec([0.3, 1.2, -0.4]), 0.5, 20, rng)[:2], range(20),
                        strict=True):
         tracker.update(q, f, RATE)
-    qs, fs, yaws = _turning_swing_walk(quat.from_rotvec([1.4, -0.2, 0.9]), 2.0, 20, rng)
+    qs, fs, yaws, _ = _turning_swing_walk(quat.from_rotvec([1.4, -0.2, 0.9]), 2.0, 20, rng)
     outs = [tracker.update(q, f, RATE) for q, f in zip(qs, fs, strict=True)]
     assert abs(math.degrees(float(wrap_angle(outs[-1] - yaws[-1])))) < 8.0
+
+
+def test_step_lead_is_the_turn_from_stride_centre_to_step_centre():
+    q = quat.from_rotvec(np.arange(101)[:, None] / RATE * np.array([0.0, 0.0, 0.4]))
+    assert step_lead(q, RATE, 50) == pytest.approx(0.4 * 0.25, rel=1e-9)
+    assert step_lead(q, RATE, 0) == 0.0
+    with pytest.raises(InputError, match="step start"):
+        step_lead(q, RATE, 101)
 
 
 def test_body_angular_rate_of_a_constant_rotation():
