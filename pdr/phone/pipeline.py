@@ -48,7 +48,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.filters import iir
 from pdr.filters.ukf import SigmaPoints
@@ -68,7 +67,6 @@ from pdr.phone.heading import (
     landmark_attitude_update,
     mean_yaw,
     pca_axis,
-    resolve_direction,
     scatter_in_frame,
     scatter_of,
     thigh_swing_evidence,
@@ -80,7 +78,13 @@ from pdr.phone.placement_detect import PlacementDetectConfig, PlacementDetector,
 from pdr.phone.step_length import StepLengthModel, step_patterns
 from pdr.phone.steps import StepConfig, StepDetector
 from pdr.phone.track import TrackState
-from pdr.phone.walking_direction import DeviceSwingAxis, swing_plane_axis
+from pdr.phone.walking_direction import (
+    DeviceFrameDirection,
+    DeviceSwingAxis,
+    swing_plane_axis,
+    turn_evidence,
+    yaw_rate,
+)
 from pdr.recording import Recording
 
 FloatArray = NDArray[np.float64]
@@ -316,6 +320,7 @@ class PdrPipeline:
         self.prev_step_start: int | None = None
         self.direction_vote = _direction_vote(self.placement)
         self.swing_axis = DeviceSwingAxis()      # swinging hand's walking direction (pdr.phone.walking_direction)
+        self.pocket_direction = DeviceFrameDirection()   # pocket's forward/backward continuity (same module)
         self.prev_mode = ""
         self.last_step: tuple[float, float] | None = None   # (raw yaw rad, end time s) of the last emitted step
         self.stairs_landmark: str | None = None
@@ -393,6 +398,7 @@ class PdrPipeline:
             "landmark_attitude_updates": self.landmark_attitude_updates,
             "prev_step_start": self.prev_step_start, "direction_score": self.direction_vote.score,
             "direction_votes": self.direction_vote.n, "swing_axis": self.swing_axis.to_dict(),
+            "pocket_direction": self.pocket_direction.to_dict(),
             "pending": _jsonable(self.pending),
             "pitch_baseline": self.pitch_baseline, "last_floor": self.last_floor, "notices": self.notices,
             "av_zi": None if self._av_zi is None else self._av_zi.tolist(), "n_input_samples": self.n_input_samples,
@@ -431,6 +437,8 @@ class PdrPipeline:
             p.prev_step_start = None if d["prev_step_start"] is None else int(d["prev_step_start"])
             if d.get("swing_axis") is not None:     # absent in states saved before the device-frame swing axis
                 p.swing_axis = DeviceSwingAxis.from_dict(d["swing_axis"])
+            if d.get("pocket_direction") is not None:   # absent in states saved before the device-frame continuity
+                p.pocket_direction = DeviceFrameDirection.from_dict(d["pocket_direction"])
             p.direction_vote = _direction_vote(p.placement)
             p.direction_vote.score = float(d["direction_score"])
             p.direction_vote.n = int(d["direction_votes"])
@@ -588,6 +596,7 @@ class PdrPipeline:
         self.prev_yaw = self.prev_q = self.prev_step_start = None
         self.direction_vote = _direction_vote(new)
         self.swing_axis = DeviceSwingAxis()
+        self.pocket_direction = DeviceFrameDirection()
 
     def _step(self, s: int, e: int, peak: float) -> list[Event]:
         h = self.history
@@ -633,18 +642,14 @@ class PdrPipeline:
             if self.placement == "swinging":
                 psi0 = axis
             else:
-                q_mid = q[q.shape[0] // 2]
-                if self.prev_yaw is None or self.prev_q is None:
-                    prior = axis
-                else:
-                    # Previous heading turned by the device's rotation about the vertical since then.
-                    turn = float(quat.to_rotvec(quat.multiply(q_mid, quat.conjugate(np.array(self.prev_q))))[2])
-                    prior = self.prev_yaw + turn
-                self.prev_q = q_mid.tolist()
-                psi0 = resolve_direction(axis, prior)
-                # 180-degree rule in a trouser pocket: the thigh's fast swing (pdr.phone.heading module doc).
-                if self.direction_vote.update(thigh_swing_evidence(q_str, c.rate_hz, psi0)):
+                # Continuity in the device frame, and the 180-degree rule from the thigh's fast swing
+                # (pdr.phone.heading module doc) and the centripetal acceleration in turns
+                # (pdr.phone.walking_direction module doc, "Trouser pocket: continuity").
+                psi0 = self.pocket_direction.resolve(axis, q_str)
+                turn = turn_evidence(f_str, yaw_rate(q_str, c.rate_hz), psi0, speed_range_mps=POCKET_TURN_SPEED_MPS)
+                if self.direction_vote.update(thigh_swing_evidence(q_str, c.rate_hz, psi0) + POCKET_TURN_WEIGHT * turn):
                     psi0 = float(wrap_angle(psi0 + math.pi))
+                    self.pocket_direction.reverse()
                     if self.pending is not None:
                         # The step waiting for output was resolved by the refuted direction: reverse it too.
                         self.pending["yaw"] = float(wrap_angle(self.pending["yaw"] + math.pi))
@@ -654,6 +659,8 @@ class PdrPipeline:
                 est = HeadingEstimate(psi0, yaw_variance(st.q, st.P) + c.heading_process_var)
             else:
                 est = improved_rmpca_ut(st.q, st.P, m1, psi0, c.heading_process_var, self._ut_points())
+            if self.placement == "pocket":
+                self.pocket_direction.update(est.yaw, q_str)
             self.prev_yaw = est.yaw
         else:
             dev = mean_yaw(h.yaw_z[sl] if self.placement == "torso" else h.yaw_y[sl])   # seed 004 eq. 21
@@ -825,3 +832,10 @@ def _from_jsonable(d: dict[str, Any] | None) -> dict[str, Any] | None:
 def track_rows(events: list[Event]) -> list[Event]:
     """The step events of an event list, in order."""
     return [e for e in events if e.get("type") == "step"]
+
+
+#: Walking speeds (m/s) whose centripetal acceleration is taken as turn evidence in a pocket (walking to running),
+#: and the weight of that evidence in the pocket's vote beside the thigh-swing skewness
+#: (pdr.phone.walking_direction module doc, "Trouser pocket: continuity").
+POCKET_TURN_SPEED_MPS = (0.4, 4.0)
+POCKET_TURN_WEIGHT = 0.1

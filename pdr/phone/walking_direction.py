@@ -20,9 +20,9 @@ Forward or backward (:func:`turn_evidence`; which rule decides and why)
     stride (``Omega`` near 0) carries no evidence and a clear turn one full vote. It needs no assumption on the
     arm's or thigh's swing, which is why it decides for the swinging hand, whose swing is nearly symmetric
     (the thigh-swing skewness of :func:`pdr.phone.heading.thigh_swing_evidence` picks the right direction in only
-    53-65 % of its strides on the motion-capture benchmark). In a trouser pocket the skewness decides and the
-    turn cue is not used (below). The decision is carried between strides by the gyro's rotation about the
-    vertical and accumulated by :class:`pdr.phone.heading.DirectionVote`.
+    53-65 % of its strides on the motion-capture benchmark). In a trouser pocket the skewness decides, with
+    the turn cue as a light second vote (below, "Trouser pocket: continuity"), accumulated by
+    :class:`pdr.phone.heading.DirectionVote`.
 
     Per-stride cues on the benchmark's pocket walks with the pipeline's own attitude
     (each cue evaluated with the motion-capture walking yaw as the candidate): thigh-swing skewness right in 88-92 %
@@ -31,19 +31,15 @@ Forward or backward (:func:`turn_evidence`; which rule decides and why)
     right in 77-98 % (front), 89-100 % (back) and 90-96 % (running) of turning strides (|yaw rate| > 14 deg/s);
     the correlation of vertical and forward acceleration over the stride is consistent within a carriage but
     of opposite sign in front (positive in 90-99 %) and back pockets (negative in 65-97 %), so it cannot decide
-    without knowing which pocket. Adding the turn cue to the skewness in the pipeline's vote did not help
-    (``--placement pocket``, causal mean of the 10 pocket walks' means 25.3 -> 25.5 deg: back pockets of the
-    tuning walker worse by 11-13 deg, most others better by 5-12 deg); why a cue that is right per stride
-    loses there, through the vote and the continuity rule, is not found yet.
-    The turn cue decides the swinging hand's sign through :class:`DeviceSwingAxis`; in a pocket the same
-    device-frame axis is not a fixed-axis swing (below), which is what is left to solve for the back pocket.
+    without knowing which pocket.
 
     What limits it: a tilt error ``d`` of the attitude adds ``g d`` (0.17 m/s^2 per degree) to the mean
     horizontal acceleration, against a centripetal term of about 0.5 m/s^2 (1.2 m/s turning 23 deg/s). With the
     motion-capture attitude the cue is right in 86-98 % of the benchmark's strides in every carriage; with the
     attitude filter's, whose accelerometer rows take a pendulum's specific force (along the arm) for gravity,
-    in 57-75 % of the swinging hand's turning strides, and added to the skewness in a pocket it raised the flips
-    of the MobiFall pocket walks from 5 to 124 in 2510 steps.
+    in 57-75 % of the swinging hand's turning strides. Added at full weight to the skewness in a pocket it
+    raised the flips of the MobiFall pocket walks from 5 to 124 in 2510 steps (straight walks whose few turns
+    are pivots, not the steady turn the cue assumes); hence the gate and the weight below.
 
 Device-frame swing axis of a swinging hand (:class:`DeviceSwingAxis`; item 5 of issue 25)
     A hand's grip holds the phone still relative to the forearm for minutes, and the arm swings about the
@@ -84,6 +80,28 @@ Turns
     but not the other (25.0 -> 25.1 deg) and made the smoothed heading worse (17.0 -> 20.4 deg on the tuning
     walker): the pocket's swing plane is dominated by the fast swing of the pocket's thigh, which falls in one
     of the stride's two steps, so its time is not the stride's centre. It is applied to the swinging hand only.
+
+Trouser pocket: continuity (:class:`DeviceFrameDirection`; item 4 of issue 25)
+    The pocket's walking line is re-measured every stride (swing plane or RMPCA), and one of its two
+    directions must be picked. That choice used to follow the previous step's heading turned by the device's
+    rotation about the vertical between the two steps' mid-points, which in a pocket include opposite phases
+    of the thigh's swing: in the benchmark's continuous turns it chose the wrong direction for blocks of 8-18
+    steps until the vote undid it. What stays fixed while the phone stays in the pocket is the walking direction
+    in the device frame averaged over a stride (the thigh swings about its mean attitude): ``d_b``, the
+    stride-mean ``C_nb^T p`` of the chosen direction, blended over about five strides. Each stride takes the
+    direction nearer ``d_b``; a reversal by the vote reverses ``d_b`` too. The vote then adds to the skewness
+    the turn cue, only for strides whose implied speed ``|a_lat / Omega|`` is a walking or running speed
+    (0.4-4 m/s: not a pivot on the spot or a tilt error), at weight 0.1.
+
+    Why 0.1: on the benchmark the turn cue is right in 77-100 % of turning strides where the skewness is at
+    chance (back pocket, running), but on straight walks with pivots and on the simulator it costs. Measured
+    with the device-frame continuity (``pdr eval pocket-heading``: simulated flat pocket walks mean error,
+    landmark walks with landmarks, MobiFall and Oxford reversed steps; baseline 8.7 deg, 4.55 deg, 5, 10):
+    weight 1 with the speed gate 19.5 deg, 10.05 deg, 35, 23; 0.25: 11.6, 4.91, 7, 15; 0.1: 9.9, 4.62, 5, 15;
+    0 (skewness only): 8.7, 4.55, 5, 15, but then both clean back-pocket walks of the benchmark come out
+    backwards from start to end (98-99 % of steps), the skewness there being at chance. The benchmark's pocket
+    walks (``pdr eval heading ...``, causal mean per walk summed over each walker's 5 pocket walks) with 0.25 /
+    0.1: tuning walker 128.3 -> 93.3 / 91.4 deg, confirmation walker 124.8 -> 107.0 / 111.1 deg.
 
 Trouser pocket: what limits the walking line
     Even with the motion-capture attitude the thigh's swing plane is not square to the walking direction: the
@@ -143,8 +161,11 @@ def swing_plane_axis(q_nb: FloatArray, rate_hz: float) -> tuple[float, float]:
 
 
 def turn_evidence(f_n: FloatArray, yaw_rate_rps: float, yaw: float, v_ref_mps: float = V_REF_MPS,
-                  omega_ref_rps: float = OMEGA_REF_RPS) -> float:
+                  omega_ref_rps: float = OMEGA_REF_RPS, speed_range_mps: tuple[float, float] | None = None) -> float:
     """Evidence in [-1, 1] that ``yaw`` (rad) is the walking direction, from the centripetal acceleration.
+
+    With ``speed_range_mps`` (m/s) a stride counts only as a steady turn at a walking speed: the implied speed
+    ``|a_lat / Omega|`` within the range and the mean acceleration along ``yaw`` no larger than across it.
 
     Parameters
     ----------
@@ -160,6 +181,13 @@ def turn_evidence(f_n: FloatArray, yaw_rate_rps: float, yaw: float, v_ref_mps: f
         raise InputError("need (N >= 1, 3) specific forces", source="walking direction")
     mean_h = f[:, :2].sum(axis=0) / f.shape[0]
     lateral = float(-mean_h[0] * math.sin(yaw) + mean_h[1] * math.cos(yaw))   # a . (u x p)
+    if speed_range_mps is not None:
+        along = float(mean_h[0] * math.cos(yaw) + mean_h[1] * math.sin(yaw))
+        if abs(along) > abs(lateral) or not (
+                speed_range_mps[0] * abs(yaw_rate_rps) <= abs(lateral) <= speed_range_mps[1] * abs(yaw_rate_rps)):
+            # Not a steady turn at a walking speed: speeding up or slowing down (a walk's start), turning on
+            # the spot, or a tilt error.
+            return 0.0
     return float(np.clip(yaw_rate_rps * lateral / (v_ref_mps * omega_ref_rps ** 2), -1.0, 1.0))
 
 
@@ -177,8 +205,15 @@ def step_lead(q_nb: FloatArray, rate_hz: float, step_start: int) -> float:
     if q.ndim != 2 or q.shape[1] != 4 or q.shape[0] < 2 or not 0 <= step_start < q.shape[0]:
         raise InputError("need (N >= 2, 4) attitude quaternions and a step start inside them",
                          source="walking direction")
-    dyaw = float(quat.to_rotvec(quat.multiply(q[-1], quat.conjugate(q[0])))[2])
-    return dyaw / (q.shape[0] - 1) * step_start / 2.0
+    return yaw_rate(q, 1.0) * step_start / 2.0
+
+
+def yaw_rate(q_nb: FloatArray, rate_hz: float) -> float:
+    """Mean rotation rate about the vertical (rad/s) over attitudes ``q_nb`` (N >= 2, 4) at ``rate_hz`` (Hz):
+    the vertical component of the rotation from the first to the last, over the time between them.
+    """
+    dyaw = float(quat.to_rotvec(quat.multiply(q_nb[-1], quat.conjugate(q_nb[0])))[2])
+    return dyaw * rate_hz / max(q_nb.shape[0] - 1, 1)
 
 
 def body_angular_rate(q_nb: FloatArray, rate_hz: float) -> FloatArray:
@@ -222,9 +257,7 @@ class DeviceSwingAxis:
                 self.score = 0.0                                     # a new grip: decide the sign again
         r_n = quat.rotate(q_nb, np.tile(r, (q_nb.shape[0], 1))).sum(axis=0)
         yaw = math.atan2(float(r_n[0]), float(-r_n[1]))              # f = u x r_n = (-r_y, r_x)
-        dyaw = float(quat.to_rotvec(quat.multiply(q_nb[-1], quat.conjugate(q_nb[0])))[2])
-        yaw_rate = dyaw * rate_hz / max(q_nb.shape[0] - 1, 1)
-        self.score = self.sign_decay * self.score + turn_evidence(f_n, yaw_rate, yaw)
+        self.score = self.sign_decay * self.score + turn_evidence(f_n, yaw_rate(q_nb, rate_hz), yaw)
         if self.score < 0.0:
             r, self.score = -r, -self.score
             yaw = float(math.atan2(math.sin(yaw + math.pi), math.cos(yaw + math.pi)))
@@ -240,3 +273,54 @@ class DeviceSwingAxis:
         return cls(float(d["decay"]), float(d["sign_decay"]), float(d["regrip_deg"]),
                    [float(v) for v in d["scatter"]], None if d["axis_b"] is None else [float(v) for v in d["axis_b"]],
                    float(d["score"]))
+
+
+@dataclass
+class DeviceFrameDirection:
+    """Continuity of a pocket phone's walking direction in the device frame (module doc, "Trouser pocket:
+    continuity").
+
+    :meth:`resolve` picks, of the two directions along a stride's walking line, the one whose stride-mean
+    device-frame vector ``mean C_nb^T p`` points like the stored ``d_b``; :meth:`update` blends the chosen
+    direction into ``d_b`` (weight ``1 - decay``); :meth:`reverse` turns ``d_b`` round when the forward/backward
+    vote refutes it.
+    """
+
+    decay: float = 0.8
+    d_b: list[float] | None = None
+
+    @staticmethod
+    def _in_device(yaw: float, q_nb: FloatArray) -> FloatArray:
+        p = np.array([math.cos(yaw), math.sin(yaw), 0.0])
+        v = quat.rotate(quat.conjugate(np.asarray(q_nb, dtype=np.float64)), np.tile(p, (len(q_nb), 1))).sum(axis=0)
+        n = float(np.linalg.norm(v))
+        return v / n if n > 0.0 else v
+
+    def resolve(self, line_yaw: float, q_nb: FloatArray) -> float:
+        """The direction (rad) along ``line_yaw`` (a line, rad) nearest ``d_b`` over the stride's attitudes
+        ``q_nb`` (N, 4); the line's own angle before the first stride.
+        """
+        a = math.remainder(line_yaw, 2 * math.pi)
+        if self.d_b is None or float(self._in_device(a, q_nb) @ np.array(self.d_b)) >= 0.0:
+            return a
+        return math.remainder(a + math.pi, 2 * math.pi)
+
+    def update(self, yaw: float, q_nb: FloatArray) -> None:
+        """Blend the stride's chosen direction ``yaw`` (rad) into ``d_b``."""
+        v = self._in_device(yaw, q_nb)
+        if self.d_b is not None:
+            v = self.decay * np.array(self.d_b) + (1.0 - self.decay) * v
+        n = float(np.linalg.norm(v))
+        if n > 0.0:
+            self.d_b = (v / n).tolist()
+
+    def reverse(self) -> None:
+        if self.d_b is not None:
+            self.d_b = [-x for x in self.d_b]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"decay": self.decay, "d_b": self.d_b}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> DeviceFrameDirection:
+        return cls(float(d["decay"]), None if d["d_b"] is None else [float(v) for v in d["d_b"]])

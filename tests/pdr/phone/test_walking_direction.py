@@ -8,7 +8,15 @@ import pytest
 from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.frames import GRAVITY_MPS2, wrap_angle
-from pdr.phone.walking_direction import DeviceSwingAxis, body_angular_rate, step_lead, swing_plane_axis, turn_evidence
+from pdr.phone.walking_direction import (
+    DeviceFrameDirection,
+    DeviceSwingAxis,
+    body_angular_rate,
+    step_lead,
+    swing_plane_axis,
+    turn_evidence,
+    yaw_rate,
+)
 
 RATE = 100.0
 
@@ -119,6 +127,54 @@ def test_body_angular_rate_of_a_constant_rotation():
     q = quat.multiply(np.broadcast_to(quat.from_rotvec([0.2, 0.5, -1.0]), (50, 4)),
                       quat.from_rotvec(np.arange(50)[:, None] / RATE * w_b))
     assert np.allclose(body_angular_rate(q, RATE), w_b, atol=1e-9)
+
+
+def test_turn_evidence_speed_gate_drops_pivots_on_the_spot():
+    f = math.radians(45.0)
+    lateral = np.array([-math.sin(f), math.cos(f), 0.0])
+    walking = np.tile(1.2 * 0.4 * lateral + np.array([0.0, 0.0, GRAVITY_MPS2]), (110, 1))   # 1.2 m/s
+    pivot = np.tile(0.05 * 1.5 * lateral + np.array([0.0, 0.0, GRAVITY_MPS2]), (110, 1))    # 0.05 m/s, 1.5 rad/s
+    assert turn_evidence(walking, 0.4, f, speed_range_mps=(0.4, 4.0)) > 0.5
+    assert turn_evidence(pivot, 1.5, f) > 0.0                                # ungated: a full vote
+    assert turn_evidence(pivot, 1.5, f, speed_range_mps=(0.4, 4.0)) == 0.0
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_device_frame_direction_keeps_the_direction_through_turns(seed):
+    # A thigh swinging about the lateral axis of a walker who turns 40 deg per stride; the line alone says nothing
+    # about forward or backward, the stored device-frame direction does once set.
+    rng = np.random.default_rng(seed)
+    mount = quat.from_rotvec(rng.normal(0, 1.5, 3))
+
+    def _swing(walk_yaw: float, mount: np.ndarray) -> np.ndarray:     # the thigh turns with the walker
+        t = np.arange(110) / RATE
+        theta = math.radians(30.0) * np.sin(2 * math.pi * t / 1.1)
+        walker = quat.from_rotvec(np.tile([0.0, 0.0, walk_yaw], (t.size, 1)))
+        thigh = quat.from_rotvec(theta[:, None] * np.array([0.0, -1.0, 0.0]))
+        return quat.multiply(quat.multiply(walker, thigh), np.broadcast_to(mount, walker.shape))
+
+    cont = DeviceFrameDirection()
+    yaw0 = rng.uniform(-3, 3)
+    for k in range(12):
+        walk = yaw0 + math.radians(40.0) * k
+        q = _swing(walk, mount)
+        line, _ = swing_plane_axis(q, RATE)
+        out = cont.resolve(line, q)
+        if k == 0:                                   # the first stride: set the right direction
+            out = float(wrap_angle(walk))
+        assert abs(float(wrap_angle(out - walk))) < math.radians(3.0)
+        cont.update(out, q)
+        if k == 6:
+            cont = DeviceFrameDirection.from_dict(cont.to_dict())
+    cont.reverse()                                   # a reversal by the vote turns the stored direction round
+    q = _swing(yaw0 + math.radians(40.0) * 12, mount)
+    assert abs(float(wrap_angle(cont.resolve(swing_plane_axis(q, RATE)[0], q) - (yaw0 + math.radians(40.0) * 12 +
+                                                                                   math.pi)))) < math.radians(3.0)
+
+
+def test_yaw_rate_of_a_turn():
+    q = quat.from_rotvec(np.arange(101)[:, None] / RATE * np.array([0.0, 0.0, -0.3]))
+    assert yaw_rate(q, RATE) == pytest.approx(-0.3)
 
 
 def test_bad_input_is_refused():
