@@ -35,6 +35,12 @@ and the pipeline applies no declination unless configured (``attitude.mag_declin
 all three are compared in that frame as they are. A declination configured in the pipeline is reported in the
 output (``declination_deg``) and removed from the estimates before scoring.
 
+Placement (per step)
+    The placement the pipeline used for each step (detected online unless ``--placement`` names one) against the
+    carriage: :data:`EXPECTED_PLACEMENT` (a trouser pocket front, back or running is ``pocket``, a swinging hand
+    ``swinging``, texting ``hand``). Confusion matrix in steps, per carriage and per walker, and the share right
+    (:func:`placement_confusion`).
+
 Protocol: the recordings of Guillaume are the tuning half, Jakob's the confirmation half (per-walker
 aggregates); aggregates over steps (walking direction) and frames (attitude) per carriage, per walker,
 disturbed against clean, and over all.
@@ -73,6 +79,9 @@ CARRIAGES = ("FrontPocket", "BackPocket", "Swinging", "Texting", "RunningPocket"
 DISTURBED_FIELD_UT, DISTURBED_DIP_DEG = 5.0, 5.0
 #: Running-median window (s) of the field's magnitude and dip at the mocap frames.
 FIELD_SMOOTH_S = 1.0
+#: The pipeline placement each carriage should be detected as.
+EXPECTED_PLACEMENT = {"FrontPocket": "pocket", "BackPocket": "pocket", "RunningPocket": "pocket",
+                      "Swinging": "swinging", "Texting": "hand"}
 #: Walker of each protocol half.
 TUNING_WALKER, CONFIRMATION_WALKER = "Guillaume", "Jakob"
 
@@ -465,7 +474,33 @@ def protocol(scores: list[RecordingScore]) -> dict[str, Any]:
         "by_field": {"NoDist": aggregate(s for s in scores if not s.disturbed),
                      "Dist": aggregate(s for s in scores if s.disturbed)},
         "all": aggregate(scores),
+        "placement_confusion": placement_confusion(scores),
     }
+
+
+def placement_confusion(scores: list[RecordingScore]) -> dict[str, Any]:
+    """Steps per (carriage, placement used) over all recordings and per walker, and per walker the share of steps
+    whose placement is the carriage's :data:`EXPECTED_PLACEMENT`.
+    """
+    def matrix(sel: list[RecordingScore]) -> dict[str, dict[str, int]]:
+        m: dict[str, Counter[str]] = {}
+        for s in sel:
+            m.setdefault(s.carriage, Counter()).update(str(p) for p in s.step_table.get("placement", []))
+        return {c: dict(sorted(n.items())) for c, n in m.items()}
+
+    def right(sel: list[RecordingScore]) -> float:
+        n = ok = 0
+        for s in sel:
+            want = EXPECTED_PLACEMENT.get(s.carriage)
+            used = [str(p) for p in s.step_table.get("placement", [])]
+            n += len(used) if want else 0
+            ok += sum(p == want for p in used) if want else 0
+        return ok / n if n else math.nan
+
+    walkers = sorted({s.walker for s in scores})
+    return {"all": {"matrix": matrix(scores), "right": right(scores)},
+            **{w: {"half": _half(w), "matrix": matrix([s for s in scores if s.walker == w]),
+                   "right": right([s for s in scores if s.walker == w])} for w in walkers}}
 
 
 # -- text report --------------------------------------------------------------------------------------------
@@ -511,6 +546,16 @@ def report_lines(scores: list[RecordingScore], agg: dict[str, Any]) -> list[str]
     out += ["", "disturbed against clean field", HEADER]
     for name, d in agg["by_field"].items():
         out.append(_line(f"{name} ({d['recordings']} rec.)", d, str(d["walk_causal"]["n"]), False))
+    out += ["", "placement used (steps) per carriage: rows carriage, columns placement"]
+    conf = agg["placement_confusion"]
+    cols = sorted({p for m in conf["all"]["matrix"].values() for p in m})
+    expected = ", ".join(f"{c} -> {p}" for c, p in EXPECTED_PLACEMENT.items())
+    for name, d in conf.items():
+        out.append(f"  {name}{'' if name == 'all' else ' (' + d['half'] + ')'}: "
+                   f"{100 * d['right']:.1f} % of steps as expected ({expected})")
+        out.append(f"    {'':<14}" + "".join(f"{c:>10}" for c in cols))
+        for c, m in d["matrix"].items():
+            out.append(f"    {c:<14}" + "".join(f"{m.get(p, 0):>10d}" for p in cols))
     out += ["", HEADER, _line(f"ALL ({agg['all']['recordings']} rec.)", agg["all"], str(agg["all"]["walk_causal"]["n"]),
                               False)]
     out += ["", "attitude yaw (mean, deg) inside and outside disturbed stretches (field off the walker's NoDist "

@@ -26,8 +26,9 @@ Second UKF (eqs. 41-42)
 180-degree ambiguity (documented rule)
     The principal axis is a line. Hand-held/torso: the direction within 90 degrees of the device's
     forward axis. Trouser pocket: the direction in which the thigh's swing is fast (:func:`thigh_swing_evidence`),
-    decided by evidence accumulated over the strides (:class:`DirectionVote`) and carried between steps by the
-    device's rotation about the vertical.
+    decided by evidence accumulated over the strides (:class:`DirectionVote`, with the centripetal turn cue as a
+    light second vote) and carried between steps in the device frame
+    (:class:`pdr.phone.walking_direction.DeviceFrameDirection`).
 
     Physics: a pocket phone rotates with the thigh about the hip's lateral axis. Seen from the walker's
     right, flexion (knee moving forward) is a positive rotation about ``r = f x u`` (f: walking direction,

@@ -22,7 +22,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pdr import quaternion as quat
 from pdr.filters.ukf import SigmaPoints
 from pdr.frames import wrap_angle
 from pdr.phone.attitude import AttitudeConfig, AttitudeState
@@ -37,7 +36,6 @@ from pdr.phone.heading import (
     landmark_attitude_update,
     mean_yaw,
     pca_axis,
-    resolve_direction,
     scatter_in_frame,
     scatter_of,
     thigh_swing_evidence,
@@ -46,7 +44,13 @@ from pdr.phone.heading import (
 from pdr.phone.landmarks import Site
 from pdr.phone.stage import PendingStep, StepHeading, StepWindow
 from pdr.phone.track import TrackState
-from pdr.phone.walking_direction import swing_plane_axis, turn_evidence
+from pdr.phone.walking_direction import (
+    DeviceFrameDirection,
+    DeviceSwingAxis,
+    swing_plane_axis,
+    turn_evidence,
+    yaw_rate,
+)
 
 FloatArray = NDArray[np.float64]
 
@@ -54,6 +58,11 @@ FloatArray = NDArray[np.float64]
 DEVICE_HEADING_PLACEMENTS = ("hand", "torso")
 #: Placements whose walking direction comes from the stride's motion (swing plane or RMPCA, 180-degree vote).
 STRIDE_HEADING_PLACEMENTS = ("pocket", "swinging")
+#: Walking speeds (m/s) whose centripetal acceleration is taken as turn evidence in a pocket (walking to running),
+#: and the weight of that evidence in the pocket's vote beside the thigh-swing skewness
+#: (pdr.phone.walking_direction module doc, "Trouser pocket: continuity").
+POCKET_TURN_SPEED_MPS = (0.4, 4.0)
+POCKET_TURN_WEIGHT = 0.1
 
 
 def ut_points(config: AttitudeConfig) -> SigmaPoints:
@@ -96,17 +105,10 @@ class DeviceHeading:
 
 
 def direction_vote(placement: str | None) -> DirectionVote:
-    """The forward/backward vote of a placement. A hand holds the phone the same way for minutes and its
-    evidence (the centripetal acceleration, pdr.phone.walking_direction) comes only in turns: a longer memory and a
-    larger margin than the pocket's, whose thigh evidence comes every stride.
+    """The trouser pocket's forward/backward vote (the swinging hand decides its sign in
+    :class:`pdr.phone.walking_direction.DeviceSwingAxis`).
     """
-    return DirectionVote(decay=0.97, margin=2.0) if placement == "swinging" else DirectionVote()
-
-
-def _yaw_rate(q_nb: FloatArray, rate_hz: float) -> float:
-    """Mean rotation rate about the vertical (rad/s) over attitudes ``q_nb`` (N, 4) at ``rate_hz``."""
-    dyaw = float(quat.to_rotvec(quat.multiply(q_nb[-1], quat.conjugate(q_nb[0])))[2])
-    return dyaw * rate_hz / max(q_nb.shape[0] - 1, 1)
+    return DirectionVote()
 
 
 class PocketHeading:
@@ -114,14 +116,16 @@ class PocketHeading:
 
     A pocket phone moves with one thigh, whose stance and swing halves of the gait cycle differ: the walking axis and
     the 180-degree rule use the stride made of this step and the one before it (a step's length before it after a
-    pause). The axis is the swing plane's (:func:`pdr.phone.walking_direction.swing_plane_axis`) or seed 003's RMPCA
-    of the stride (``pocket_axis``: ``swing``, ``rmpca``, or ``auto``: RMPCA when the site has landmarks; always the
-    swing plane for a swinging hand). The direction along it is the one within 90 degrees of the previous heading
-    turned by the device's rotation about the vertical since then (the prior turn), reversed when the vote
-    (:class:`pdr.phone.heading.DirectionVote`) refutes it: the thigh's fast swing in a pocket
-    (:func:`pdr.phone.heading.thigh_swing_evidence`), the centripetal acceleration in turns for a swinging hand
-    (:func:`pdr.phone.walking_direction.turn_evidence`). The RMPCA heading passes the second UKF
-    (:func:`pdr.phone.heading.improved_rmpca_ut`, eq. 41).
+    pause). In a pocket the axis is the swing plane's (:func:`pdr.phone.walking_direction.swing_plane_axis`) or seed
+    003's RMPCA of the stride (``pocket_axis``: ``swing``, ``rmpca``, or ``auto``: RMPCA when the site has landmarks);
+    the direction along it is carried from stride to stride in the device frame
+    (:class:`pdr.phone.walking_direction.DeviceFrameDirection`) and reversed when the vote
+    (:class:`pdr.phone.heading.DirectionVote`) refutes it: the thigh's fast swing
+    (:func:`pdr.phone.heading.thigh_swing_evidence`) plus, at a small weight, the centripetal acceleration in steady
+    turns (:func:`pdr.phone.walking_direction.turn_evidence`). A swinging hand's direction is the arm's swing axis,
+    fixed in the device frame while the grip holds, its sign decided by the turns
+    (:class:`pdr.phone.walking_direction.DeviceSwingAxis`): no per-stride continuity or vote. The RMPCA heading passes
+    the second UKF (:func:`pdr.phone.heading.improved_rmpca_ut`, eq. 41).
     """
 
     def __init__(self, rate_hz: float, pocket_axis: str, process_var: float, attitude: AttitudeConfig,
@@ -132,14 +136,17 @@ class PocketHeading:
         self.attitude = attitude
         self.site_has_landmarks = site_has_landmarks
         self.prev_yaw: float | None = None
-        self.prev_q: list[float] | None = None
         self.prev_step_start: int | None = None
         self.direction_vote = direction_vote(placement)
+        self.swing_axis = DeviceSwingAxis()              # swinging hand's walking direction
+        self.pocket_direction = DeviceFrameDirection()   # pocket's forward/backward continuity
 
     def reset(self, placement: str | None) -> None:
         """Forget the walking direction's continuity and vote (the placement changed)."""
-        self.prev_yaw = self.prev_q = self.prev_step_start = None
+        self.prev_yaw = self.prev_step_start = None
         self.direction_vote = direction_vote(placement)
+        self.swing_axis = DeviceSwingAxis()
+        self.pocket_direction = DeviceFrameDirection()
 
     def estimate(self, win: StepWindow, placement: str) -> StepHeading:
         h, s, e = win.history, win.s, win.e
@@ -151,37 +158,36 @@ class PocketHeading:
         q_str, f_str = h.q[stride], h.f_n[stride]
         if not (np.all(np.isfinite(q_str)) and np.all(np.isfinite(f_str))):
             q_str, f_str = q, f_n
-        swing_axis = placement == "swinging" or self.pocket_axis == "swing" or (
-            self.pocket_axis == "auto" and not self.site_has_landmarks)
-        if swing_axis:
-            # The swing plane's axis of the thigh or arm (pdr.phone.walking_direction), not the device yaw.
-            axis, _ratio = swing_plane_axis(q_str, self.rate_hz)
+        swing_axis = self.pocket_axis == "swing" or (self.pocket_axis == "auto" and not self.site_has_landmarks)
+        reversed_direction = False
+        if placement == "swinging":
+            # The arm's swing axis, fixed in the device frame while the grip holds, with its sign decided by the
+            # turns (pdr.phone.walking_direction.DeviceSwingAxis): no per-stride continuity or vote.
+            axis = self.swing_axis.update(q_str, f_str, self.rate_hz, q_str.shape[0] - q.shape[0])
+            psi0 = axis
         else:
-            axis, _ratio = pca_axis(f_str[:, :2])             # RMPCA over the stride
-        q_mid = q[q.shape[0] // 2]
-        if self.prev_yaw is None or self.prev_q is None:
-            prior = axis
-        else:
-            # Previous heading turned by the device's rotation about the vertical since then.
-            turn = float(quat.to_rotvec(quat.multiply(q_mid, quat.conjugate(np.array(self.prev_q))))[2])
-            prior = self.prev_yaw + turn
-        self.prev_q = q_mid.tolist()
-        psi0 = resolve_direction(axis, prior)
-        # 180-degree rule: in a trouser pocket the thigh's fast swing (pdr.phone.heading module doc); in a
-        # swinging hand, whose swing is nearly symmetric, the centripetal acceleration in turns
-        # (pdr.phone.walking_direction).
-        if placement == "pocket":
-            evidence = thigh_swing_evidence(q_str, self.rate_hz, psi0)
-        else:
-            evidence = turn_evidence(f_str, _yaw_rate(q_str, self.rate_hz), psi0)
-        reversed_direction = self.direction_vote.update(evidence)
-        if reversed_direction:
-            psi0 = float(wrap_angle(psi0 + math.pi))
+            if swing_axis:
+                # The swing plane's axis of the thigh (pdr.phone.walking_direction), not the device yaw.
+                axis, _ratio = swing_plane_axis(q_str, self.rate_hz)
+            else:
+                axis, _ratio = pca_axis(f_str[:, :2])             # RMPCA over the stride
+            # Continuity in the device frame, and the 180-degree rule from the thigh's fast swing (pdr.phone.heading
+            # module doc) and the centripetal acceleration in turns (pdr.phone.walking_direction module doc,
+            # "Trouser pocket: continuity").
+            psi0 = self.pocket_direction.resolve(axis, q_str)
+            turn = turn_evidence(f_str, yaw_rate(q_str, self.rate_hz), psi0, speed_range_mps=POCKET_TURN_SPEED_MPS)
+            reversed_direction = self.direction_vote.update(thigh_swing_evidence(q_str, self.rate_hz, psi0)
+                                                            + POCKET_TURN_WEIGHT * turn)
+            if reversed_direction:
+                psi0 = float(wrap_angle(psi0 + math.pi))
+                self.pocket_direction.reverse()
         m1 = scatter_of(f_str, win.att_q)
-        if swing_axis:
+        if swing_axis or placement == "swinging":
             est = HeadingEstimate(psi0, yaw_variance(win.att_q, win.att_p) + self.process_var)
         else:
             est = improved_rmpca_ut(win.att_q, win.att_p, m1, psi0, self.process_var, ut_points(self.attitude))
+        if placement == "pocket":
+            self.pocket_direction.update(est.yaw, q_str)
         self.prev_yaw = est.yaw
         return StepHeading(est, psi0, axis, m1, reversed_direction)
 
@@ -194,17 +200,22 @@ class PocketHeading:
             self.prev_yaw = float(wrap_angle(self.prev_yaw + (corrected_yaw - step_yaw)))
 
     def state(self) -> dict[str, Any]:
-        return {"prev_yaw": self.prev_yaw, "prev_q": self.prev_q, "prev_step_start": self.prev_step_start,
-                "direction_score": self.direction_vote.score, "direction_votes": self.direction_vote.n}
+        return {"prev_yaw": self.prev_yaw, "prev_step_start": self.prev_step_start,
+                "direction_score": self.direction_vote.score, "direction_votes": self.direction_vote.n,
+                "swing_axis": self.swing_axis.to_dict(), "pocket_direction": self.pocket_direction.to_dict()}
 
     @classmethod
     def from_state(cls, d: dict[str, Any], rate_hz: float, pocket_axis: str, process_var: float,
                    attitude: AttitudeConfig, site_has_landmarks: bool, placement: str | None) -> PocketHeading:
         o = cls(rate_hz, pocket_axis, process_var, attitude, site_has_landmarks, placement)
-        o.prev_yaw, o.prev_q = d["prev_yaw"], d["prev_q"]
+        o.prev_yaw = d["prev_yaw"]     # (states before the device-frame continuity also hold an unused prev_q)
         o.prev_step_start = None if d["prev_step_start"] is None else int(d["prev_step_start"])
         o.direction_vote.score = float(d["direction_score"])
         o.direction_vote.n = int(d["direction_votes"])
+        if d.get("swing_axis") is not None:         # absent in states saved before the device-frame swing axis
+            o.swing_axis = DeviceSwingAxis.from_dict(d["swing_axis"])
+        if d.get("pocket_direction") is not None:   # absent in states saved before the device-frame continuity
+            o.pocket_direction = DeviceFrameDirection.from_dict(d["pocket_direction"])
         return o
 
 

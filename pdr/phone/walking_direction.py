@@ -20,21 +20,110 @@ Forward or backward (:func:`turn_evidence`; which rule decides and why)
     stride (``Omega`` near 0) carries no evidence and a clear turn one full vote. It needs no assumption on the
     arm's or thigh's swing, which is why it decides for the swinging hand, whose swing is nearly symmetric
     (the thigh-swing skewness of :func:`pdr.phone.heading.thigh_swing_evidence` picks the right direction in only
-    53-65 % of its strides on the motion-capture benchmark). In a trouser pocket the skewness decides
-    (76-97 % right per stride there) and the turn cue is not used (below). The decision is carried between
-    strides by the gyro's rotation about the vertical and accumulated by :class:`pdr.phone.heading.DirectionVote`.
+    53-65 % of its strides on the motion-capture benchmark). In a trouser pocket the skewness decides, with
+    the turn cue as a light second vote (below, "Trouser pocket: continuity"), accumulated by
+    :class:`pdr.phone.heading.DirectionVote`.
+
+    Per-stride cues on the benchmark's pocket walks with the pipeline's own attitude
+    (each cue evaluated with the motion-capture walking yaw as the candidate): thigh-swing skewness right in 88-92 %
+    of strides in a front pocket, but 48-69 % in a back pocket and 56-57 % running (chance: the back of the
+    thigh and a running thigh do not have the slow-stance/fast-swing asymmetry at the pocket); the turn cue
+    right in 77-98 % (front), 89-100 % (back) and 90-96 % (running) of turning strides (|yaw rate| > 14 deg/s);
+    the correlation of vertical and forward acceleration over the stride is consistent within a carriage but
+    of opposite sign in front (positive in 90-99 %) and back pockets (negative in 65-97 %), so it cannot decide
+    without knowing which pocket.
 
     What limits it: a tilt error ``d`` of the attitude adds ``g d`` (0.17 m/s^2 per degree) to the mean
     horizontal acceleration, against a centripetal term of about 0.5 m/s^2 (1.2 m/s turning 23 deg/s). With the
     motion-capture attitude the cue is right in 86-98 % of the benchmark's strides in every carriage; with the
     attitude filter's, whose accelerometer rows take a pendulum's specific force (along the arm) for gravity,
-    in 57-75 % of the swinging hand's turning strides, and added to the skewness in a pocket it raised the flips
-    of the MobiFall pocket walks from 5 to 124 in 2510 steps.
+    in 57-75 % of the swinging hand's turning strides. Added at full weight to the skewness in a pocket it
+    raised the flips of the MobiFall pocket walks from 5 to 124 in 2510 steps (straight walks whose few turns
+    are pivots, not the steady turn the cue assumes); hence the gate and the weight below.
+
+Device-frame swing axis of a swinging hand (:class:`DeviceSwingAxis`; item 5 of issue 25)
+    A hand's grip holds the phone still relative to the forearm for minutes, and the arm swings about the
+    shoulder's lateral axis ``r``: ``r`` is the rotation's axis, so it is the same vector in the navigation frame
+    and in the device frame. The device-frame angular rate ``omega_b`` therefore scatters along one fixed device
+    axis ``r_b``, the principal axis of its 3x3 scatter accumulated over strides (memory ``1 / (1 - decay)``
+    strides, so a new grip is followed). Each stride's walking direction is ``f = u x C_nb r_b`` (horizontal
+    part, averaged over the stride). Two things follow that the per-stride swing plane lacks: the line comes
+    from tens of strides of gyro data instead of one, and the forward/backward choice is the sign of ``r_b``,
+    one bit for the whole grip: the turn evidence (above) of every turning stride is summed on that one sign
+    (memory ``1 / (1 - sign_decay)`` strides) instead of being carried from stride to stride through the
+    yaw's continuity, where a misread turn flipped the direction for several strides. When the principal axis
+    moves by more than ``regrip_deg`` between strides (the phone changed hands or grip) the sign's evidence
+    restarts.
+
+    Measured (``pdr eval heading ../shared/data/attitude_smartphones``, automatic placement, causal mean error of
+    the swinging-hand walks, Dist/NoDist): tuning walker Guillaume 40.1/30.0 -> 25.9/29.6 deg, confirmation walker
+    Jakob 51.0/43.2 -> 37.4/31.0 deg (steps reversed, more than 90 deg off: 10-33 % -> 1-16 %). On the tuning
+    walker an axis memory of 10-50 strides and a sign memory of 33 strides to unlimited give 27.7-31.8 deg (flat:
+    the values are not tuned to it). In a trouser
+    pocket the same tracker was worse than the per-stride swing plane with the thigh-swing vote (Guillaume back
+    pocket 13.6 -> 48.0, running 31.3 -> 60.2, 20-30 % of steps reversed): a thigh's rotation is not a fixed-axis
+    swing (the knee's flexion, the thigh's axial rotation and the pelvis' tilt add other device-frame axes), so
+    it is used for the swinging hand only.
+
+    What limits it: with the motion-capture attitude the per-stride swing plane of the swinging hand is within
+    2-12 deg of the walking direction on average (signed median per walk); with the attitude filter's it is
+    off by +19/+24 deg on the tuning walker (the filter's yaw, 6.3/22.9 deg mean error there) and -3/+3 deg on
+    the other walker: the rest of the error is the attitude's yaw, not the direction method.
+
+Turns
+    A direction measured over a stride is the walking direction at the stride's centre, while a step's
+    direction is wanted at the step's centre, half a step later. The benchmark's walkers turn at 23 deg/s on
+    average and up to 50 deg/s, which made the swinging hand's heading lag by a step (30-40 deg) through every
+    turn. :func:`step_lead` carries it forward by the stride's mean rate about the vertical. Swinging-hand
+    walks, causal mean (Dist/NoDist): tuning walker 25.9/29.6 -> 24.7/27.3 deg, confirmation walker 37.4/31.0 ->
+    31.0/24.1 deg. In a trouser pocket the same lead helped the tuning walker (5 walks, mean 25.7 -> 24.3 deg)
+    but not the other (25.0 -> 25.1 deg) and made the smoothed heading worse (17.0 -> 20.4 deg on the tuning
+    walker): the pocket's swing plane is dominated by the fast swing of the pocket's thigh, which falls in one
+    of the stride's two steps, so its time is not the stride's centre. It is applied to the swinging hand only.
+
+Trouser pocket: continuity (:class:`DeviceFrameDirection`; item 4 of issue 25)
+    The pocket's walking line is re-measured every stride (swing plane or RMPCA), and one of its two
+    directions must be picked. That choice used to follow the previous step's heading turned by the device's
+    rotation about the vertical between the two steps' mid-points, which in a pocket include opposite phases
+    of the thigh's swing: in the benchmark's continuous turns it chose the wrong direction for blocks of 8-18
+    steps until the vote undid it. What stays fixed while the phone stays in the pocket is the walking direction
+    in the device frame averaged over a stride (the thigh swings about its mean attitude): ``d_b``, the
+    stride-mean ``C_nb^T p`` of the chosen direction, blended over about five strides. Each stride takes the
+    direction nearer ``d_b``; a reversal by the vote reverses ``d_b`` too. The vote then adds to the skewness
+    the turn cue, only for strides whose implied speed ``|a_lat / Omega|`` is a walking or running speed
+    (0.4-4 m/s: not a pivot on the spot or a tilt error), at weight 0.1.
+
+    Why 0.1 and the gate: on the benchmark the turn cue is right in 77-100 % of turning strides where the
+    skewness is at chance (back pocket, running), but on straight walks with pivots, at a walk's start and on
+    the simulator it costs. Measured with the device-frame continuity (``pdr eval pocket-heading``: simulated
+    flat pocket walks mean error, landmark walks with landmarks, MobiFall and Oxford reversed steps; main 8.7
+    deg, 4.55 deg, 5, 10), with the speed gate only: weight 1 19.5 deg, 10.05 deg, 35, 23; 0.25: 11.6, 4.91, 7,
+    15; 0.1: 9.9, 4.62, 5, 15 (the simulated office walk's first step reversed: the walk's start); 0 (skewness
+    only): 8.7, 4.55, 5, 15, but then both clean back-pocket walks of the benchmark come out backwards from
+    start to end (98-99 % of steps), the skewness there being at chance. With 0.1 and the along-track gate as
+    well: 8.7, 4.55, 5, 15. The benchmark's pocket walks (``pdr eval heading ...``, automatic placement, causal
+    mean per walk summed over each walker's 5 pocket walks): tuning walker 128.3 -> 92.3 deg, confirmation
+    walker 124.8 -> 110.2 deg; the reversed steps left are the first 4-10 of a walk (the vote's first decision).
+
+Trouser pocket: what limits the walking line
+    Even with the motion-capture attitude the thigh's swing plane is not square to the walking direction: the
+    per-stride swing-plane line is off by a signed median of -17/-22 deg (front pocket, tuning walker NoDist/
+    Dist), -9/-17 deg (back pocket), +13/+5 deg (front pocket, other walker), also on straight strides (not a
+    lag in turns), and the thigh's long axis (the device's mean up direction) swings in a plane off by about the
+    same. RMPCA of the specific force is off the other way on the tuning walker (+14 to +26 deg) but not on the
+    other (+4 to +55 deg), so no fixed combination cancels it. A walker- and leg-specific angle (toe-out, hip
+    rotation) is the likely cause; the only unbiased cue here, the centripetal acceleration, gives the
+    direction itself only to 29-37 deg per turning stride with the filter's tilt (12-15 deg biased over a
+    walk), too coarse to learn that angle online. Seed 003's 6.85 deg (the issue's 7.0 deg on the third
+    walker) is not reached on these two walkers with either line: the front-pocket figure on main was 27-35 deg
+    causal with ``--placement pocket`` for ``pocket_axis`` swing and rmpca alike, so nothing regressed.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -74,8 +163,11 @@ def swing_plane_axis(q_nb: FloatArray, rate_hz: float) -> tuple[float, float]:
 
 
 def turn_evidence(f_n: FloatArray, yaw_rate_rps: float, yaw: float, v_ref_mps: float = V_REF_MPS,
-                  omega_ref_rps: float = OMEGA_REF_RPS) -> float:
+                  omega_ref_rps: float = OMEGA_REF_RPS, speed_range_mps: tuple[float, float] | None = None) -> float:
     """Evidence in [-1, 1] that ``yaw`` (rad) is the walking direction, from the centripetal acceleration.
+
+    With ``speed_range_mps`` (m/s) a stride counts only as a steady turn at a walking speed: the implied speed
+    ``|a_lat / Omega|`` within the range and the mean acceleration along ``yaw`` no larger than across it.
 
     Parameters
     ----------
@@ -91,4 +183,146 @@ def turn_evidence(f_n: FloatArray, yaw_rate_rps: float, yaw: float, v_ref_mps: f
         raise InputError("need (N >= 1, 3) specific forces", source="walking direction")
     mean_h = f[:, :2].sum(axis=0) / f.shape[0]
     lateral = float(-mean_h[0] * math.sin(yaw) + mean_h[1] * math.cos(yaw))   # a . (u x p)
+    if speed_range_mps is not None:
+        along = float(mean_h[0] * math.cos(yaw) + mean_h[1] * math.sin(yaw))
+        if abs(along) > abs(lateral) or not (
+                speed_range_mps[0] * abs(yaw_rate_rps) <= abs(lateral) <= speed_range_mps[1] * abs(yaw_rate_rps)):
+            # Not a steady turn at a walking speed: speeding up or slowing down (a walk's start), turning on
+            # the spot, or a tilt error.
+            return 0.0
     return float(np.clip(yaw_rate_rps * lateral / (v_ref_mps * omega_ref_rps ** 2), -1.0, 1.0))
+
+
+def step_lead(q_nb: FloatArray, rate_hz: float, step_start: int) -> float:
+    """Yaw (rad) the walker turns between the centre of a stride and the centre of its last step.
+
+    ``q_nb`` (N, 4) are the stride's attitudes and ``step_start`` the index of its last step's first sample. A
+    direction measured over the stride (its swing plane or swing axis) is the walking direction at the stride's
+    centre, half a step before the step's centre: in a turn at the yaw rate ``Omega`` it lags by
+    ``Omega * step_start / (2 rate_hz)`` (module doc, "Turns"). ``Omega`` is the stride's mean rotation rate
+    about the vertical: the limb's swing is about a horizontal axis, so over a stride the device turns as the
+    walker does.
+    """
+    q = np.asarray(q_nb, dtype=np.float64)
+    if q.ndim != 2 or q.shape[1] != 4 or q.shape[0] < 2 or not 0 <= step_start < q.shape[0]:
+        raise InputError("need (N >= 2, 4) attitude quaternions and a step start inside them",
+                         source="walking direction")
+    return yaw_rate(q, 1.0) * step_start / 2.0
+
+
+def yaw_rate(q_nb: FloatArray, rate_hz: float) -> float:
+    """Mean rotation rate about the vertical (rad/s) over attitudes ``q_nb`` (N >= 2, 4) at ``rate_hz`` (Hz):
+    the vertical component of the rotation from the first to the last, over the time between them.
+    """
+    dyaw = float(quat.to_rotvec(quat.multiply(q_nb[-1], quat.conjugate(q_nb[0])))[2])
+    return dyaw * rate_hz / max(q_nb.shape[0] - 1, 1)
+
+
+def body_angular_rate(q_nb: FloatArray, rate_hz: float) -> FloatArray:
+    """Device-frame angular rate (rad/s) between consecutive attitudes, (N - 1, 3): ``q_{k+1} = q_k exp(omega_b /
+    rate_hz)``.
+    """
+    q = np.asarray(q_nb, dtype=np.float64)
+    if q.ndim != 2 or q.shape[1] != 4 or q.shape[0] < 3:
+        raise InputError("need (N >= 3, 4) attitude quaternions", source="walking direction")
+    return np.asarray(quat.to_rotvec(quat.multiply(quat.conjugate(q[:-1]), q[1:])) * rate_hz)
+
+
+@dataclass
+class DeviceSwingAxis:
+    """Walking direction of a swinging hand from the swing axis fixed in the device frame (module doc).
+
+    Feed every stride in order with :meth:`update`; it returns the walking yaw (rad, ENU).
+    """
+
+    decay: float = 0.95
+    sign_decay: float = 0.99
+    regrip_deg: float = 45.0
+    scatter: list[float] = field(default_factory=lambda: [0.0] * 9)
+    axis_b: list[float] | None = None
+    score: float = 0.0
+
+    def update(self, q_nb: FloatArray, f_n: FloatArray, rate_hz: float, step_start: int = 0) -> float:
+        """Walking yaw (rad) of one stride from its attitudes ``q_nb`` (N, 4) and specific force ``f_n`` (N, 3,
+        m/s^2, ENU) at ``rate_hz`` (Hz): at the centre of its last step, which starts at sample ``step_start``
+        (:func:`step_lead`; 0: at the stride's centre).
+        """
+        w = body_angular_rate(q_nb, rate_hz)
+        s = self.decay * np.array(self.scatter).reshape(3, 3) + w.T @ w / w.shape[0]
+        self.scatter = s.ravel().tolist()
+        r = np.linalg.eigh(s)[1][:, -1]
+        if self.axis_b is not None:
+            prev = np.array(self.axis_b)
+            if float(r @ prev) < 0.0:
+                r = -r
+            if float(r @ prev) < math.cos(math.radians(self.regrip_deg)):
+                self.score = 0.0                                     # a new grip: decide the sign again
+        r_n = quat.rotate(q_nb, np.tile(r, (q_nb.shape[0], 1))).sum(axis=0)
+        yaw = math.atan2(float(r_n[0]), float(-r_n[1]))              # f = u x r_n = (-r_y, r_x)
+        self.score = self.sign_decay * self.score + turn_evidence(f_n, yaw_rate(q_nb, rate_hz), yaw)
+        if self.score < 0.0:
+            r, self.score = -r, -self.score
+            yaw = float(math.atan2(math.sin(yaw + math.pi), math.cos(yaw + math.pi)))
+        self.axis_b = r.tolist()
+        return float(math.remainder(yaw + step_lead(q_nb, rate_hz, step_start), 2 * math.pi))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"decay": self.decay, "sign_decay": self.sign_decay, "regrip_deg": self.regrip_deg,
+                "scatter": list(self.scatter), "axis_b": self.axis_b, "score": self.score}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> DeviceSwingAxis:
+        return cls(float(d["decay"]), float(d["sign_decay"]), float(d["regrip_deg"]),
+                   [float(v) for v in d["scatter"]], None if d["axis_b"] is None else [float(v) for v in d["axis_b"]],
+                   float(d["score"]))
+
+
+@dataclass
+class DeviceFrameDirection:
+    """Continuity of a pocket phone's walking direction in the device frame (module doc, "Trouser pocket:
+    continuity").
+
+    :meth:`resolve` picks, of the two directions along a stride's walking line, the one whose stride-mean
+    device-frame vector ``mean C_nb^T p`` points like the stored ``d_b``; :meth:`update` blends the chosen
+    direction into ``d_b`` (weight ``1 - decay``); :meth:`reverse` turns ``d_b`` round when the forward/backward
+    vote refutes it.
+    """
+
+    decay: float = 0.8
+    d_b: list[float] | None = None
+
+    @staticmethod
+    def _in_device(yaw: float, q_nb: FloatArray) -> FloatArray:
+        p = np.array([math.cos(yaw), math.sin(yaw), 0.0])
+        v = quat.rotate(quat.conjugate(np.asarray(q_nb, dtype=np.float64)), np.tile(p, (len(q_nb), 1))).sum(axis=0)
+        n = float(np.linalg.norm(v))
+        return v / n if n > 0.0 else v
+
+    def resolve(self, line_yaw: float, q_nb: FloatArray) -> float:
+        """The direction (rad) along ``line_yaw`` (a line, rad) nearest ``d_b`` over the stride's attitudes
+        ``q_nb`` (N, 4); the line's own angle before the first stride.
+        """
+        a = math.remainder(line_yaw, 2 * math.pi)
+        if self.d_b is None or float(self._in_device(a, q_nb) @ np.array(self.d_b)) >= 0.0:
+            return a
+        return math.remainder(a + math.pi, 2 * math.pi)
+
+    def update(self, yaw: float, q_nb: FloatArray) -> None:
+        """Blend the stride's chosen direction ``yaw`` (rad) into ``d_b``."""
+        v = self._in_device(yaw, q_nb)
+        if self.d_b is not None:
+            v = self.decay * np.array(self.d_b) + (1.0 - self.decay) * v
+        n = float(np.linalg.norm(v))
+        if n > 0.0:
+            self.d_b = (v / n).tolist()
+
+    def reverse(self) -> None:
+        if self.d_b is not None:
+            self.d_b = [-x for x in self.d_b]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"decay": self.decay, "d_b": self.d_b}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> DeviceFrameDirection:
+        return cls(float(d["decay"]), None if d["d_b"] is None else [float(v) for v in d["d_b"]])

@@ -124,6 +124,26 @@ def test_the_field_at_the_frames_is_the_world_field(synthetic):
     assert np.nanstd(f) < 0.5 and np.nanstd(d) < 0.5
 
 
+def test_placement_confusion_counts_steps_per_carriage_and_walker():
+    def score(walker, carriage, placements):
+        e = {k: ev.ErrorSet() for k in ev.ERROR_SETS}
+        return ev.RecordingScore(f"{walker}_{carriage}", walker, carriage, False, placements[0], len(placements), e,
+                                 [], step_table={"placement": placements})
+
+    scores = [score("Guillaume", "FrontPocket", ["hand", "pocket", "pocket", "pocket"]),
+              score("Guillaume", "Swinging", ["swinging"] * 3 + ["pocket"]),
+              score("Jakob", "Texting", ["hand", "hand"])]
+    agg = ev.protocol(scores)
+    conf = agg["placement_confusion"]
+    assert conf["all"]["matrix"] == {"FrontPocket": {"hand": 1, "pocket": 3}, "Swinging": {"pocket": 1, "swinging": 3},
+                                     "Texting": {"hand": 2}}
+    assert conf["all"]["right"] == pytest.approx(8 / 10)
+    assert conf["Guillaume"]["right"] == pytest.approx(6 / 8) and conf["Jakob"]["right"] == 1.0
+    assert conf["Jakob"]["half"] == "confirmation"
+    text = "\n".join(ev.report_lines(scores, agg))
+    assert "80.0 % of steps as expected" in text
+
+
 def test_placement_label_and_bad_folders(synthetic, tmp_path):
     assert ev.placement_for(synthetic, "label") == "pocket"
     assert ev.placement_for(synthetic, "auto") == "auto"

@@ -34,7 +34,8 @@ def test_a_format_1_state_resumes_and_gives_the_golden_rows(name):
     # Saved again, it is a current state with the same content.
     p = PdrPipeline.from_dict(old)
     again = p.to_dict()
-    assert again["format"] == STATE_FORMAT and set(old) <= set(again)
+    # prev_q (the pocket's attitude at the previous stride) is obsolete since the device-frame continuity.
+    assert again["format"] == STATE_FORMAT and set(old) - {"prev_q"} <= set(again)
 
 
 @pytest.mark.parametrize(("edit", "match"), [

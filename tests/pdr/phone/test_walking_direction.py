@@ -8,7 +8,15 @@ import pytest
 from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.frames import GRAVITY_MPS2, wrap_angle
-from pdr.phone.walking_direction import swing_plane_axis, turn_evidence
+from pdr.phone.walking_direction import (
+    DeviceFrameDirection,
+    DeviceSwingAxis,
+    body_angular_rate,
+    step_lead,
+    swing_plane_axis,
+    turn_evidence,
+    yaw_rate,
+)
 
 RATE = 100.0
 
@@ -48,6 +56,125 @@ def test_turn_evidence_points_forward_from_the_centripetal_acceleration():
     f_r = -centripetal + gait + np.array([0.0, 0.0, GRAVITY_MPS2])
     assert turn_evidence(f_r, -0.4, f) > 0.5
     assert turn_evidence(f_n, 0.0, f) == 0.0                        # a straight stride says nothing
+
+
+def _turning_swing_walk(mount: np.ndarray, start_yaw: float, strides: int, rng: np.random.Generator
+                        ) -> tuple[list[np.ndarray], list[np.ndarray], list[float], list[float]]:
+    """Strides of a hand swinging with a fixed grip while the walker turns at +/-0.35 rad/s in alternate legs of 6
+    strides and walks at 1.2 m/s: per stride the attitudes, the specific force (gravity, centripetal, gait noise)
+    and the walking yaw at mid-stride and at the centre of the stride's second step (samples 55-109).
+    """
+    qs, fs, yaws, step_yaws = [], [], [], []
+    t = np.arange(110) / RATE
+    yaw0 = start_yaw
+    for k in range(strides):
+        omega = 0.35 if (k // 6) % 2 == 0 else -0.35
+        yaw = yaw0 + omega * t
+        theta = math.radians(30.0) * np.sin(2 * math.pi * t / 1.1)
+        walker = quat.from_rotvec(yaw[:, None] * np.array([0.0, 0.0, 1.0]))
+        arm = quat.from_rotvec(theta[:, None] * np.array([0.0, -1.0, 0.0]))     # about the walker's f x u
+        qs.append(quat.multiply(quat.multiply(walker, arm), np.broadcast_to(mount, walker.shape)))
+        centripetal = 1.2 * omega * np.column_stack([-np.sin(yaw), np.cos(yaw), np.zeros_like(yaw)])
+        gait = rng.normal(0.0, 1.5, (t.size, 3))
+        fs.append(centripetal + gait - gait.mean(axis=0) + np.array([0.0, 0.0, GRAVITY_MPS2]))
+        yaws.append(float(yaw[t.size // 2]))
+        step_yaws.append(float(0.5 * (yaw[82] + yaw[83])))                     # centre of the second step
+        yaw0 = float(yaw[-1] + omega / RATE)
+    return qs, fs, yaws, step_yaws
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_device_swing_axis_recovers_direction_and_sign_with_any_grip(seed):
+    rng = np.random.default_rng(seed)
+    qs, fs, yaws, step_yaws = _turning_swing_walk(quat.from_rotvec(rng.normal(0, 1.5, 3)), rng.uniform(-3, 3), 30,
+                                                  rng)
+    tracker, led = DeviceSwingAxis(), DeviceSwingAxis()
+    errs, lag, lead = [], [], []
+    for k, (q, f, y, ys) in enumerate(zip(qs, fs, yaws, step_yaws, strict=True)):
+        out = tracker.update(q, f, RATE)
+        if k == 14:                              # the state survives a round trip
+            tracker = DeviceSwingAxis.from_dict(tracker.to_dict())
+        errs.append(abs(math.degrees(float(wrap_angle(out - y)))))
+        out_step = led.update(q, f, RATE, step_start=55)
+        lag.append(abs(math.degrees(float(wrap_angle(out - ys)))))
+        lead.append(abs(math.degrees(float(wrap_angle(out_step - ys)))))
+    assert max(errs[6:]) < 8.0                   # forward, not backward, once a turn has been seen
+    # At the second step's centre, 0.28 s after the stride's: 5.5 deg behind at 0.35 rad/s unless led.
+    assert min(lag[6:]) > 4.0 and np.mean(lead[6:]) < np.mean(lag[6:]) - 3.0
+
+
+def test_device_swing_axis_restarts_the_sign_on_a_new_grip():
+    rng = np.random.default_rng(7)
+    tracker = DeviceSwingAxis()
+    for q, f, _ in zip(*_turning_swing_walk(quat.from_rotvec([0.3, 1.2, -0.4]), 0.5, 20, rng)[:2], range(20),
+                       strict=True):
+        tracker.update(q, f, RATE)
+    qs, fs, yaws, _ = _turning_swing_walk(quat.from_rotvec([1.4, -0.2, 0.9]), 2.0, 20, rng)
+    outs = [tracker.update(q, f, RATE) for q, f in zip(qs, fs, strict=True)]
+    assert abs(math.degrees(float(wrap_angle(outs[-1] - yaws[-1])))) < 8.0
+
+
+def test_step_lead_is_the_turn_from_stride_centre_to_step_centre():
+    q = quat.from_rotvec(np.arange(101)[:, None] / RATE * np.array([0.0, 0.0, 0.4]))
+    assert step_lead(q, RATE, 50) == pytest.approx(0.4 * 0.25, rel=1e-9)
+    assert step_lead(q, RATE, 0) == 0.0
+    with pytest.raises(InputError, match="step start"):
+        step_lead(q, RATE, 101)
+
+
+def test_body_angular_rate_of_a_constant_rotation():
+    w_b = np.array([0.3, -0.2, 1.0])
+    q = quat.multiply(np.broadcast_to(quat.from_rotvec([0.2, 0.5, -1.0]), (50, 4)),
+                      quat.from_rotvec(np.arange(50)[:, None] / RATE * w_b))
+    assert np.allclose(body_angular_rate(q, RATE), w_b, atol=1e-9)
+
+
+def test_turn_evidence_speed_gate_drops_pivots_on_the_spot():
+    f = math.radians(45.0)
+    lateral = np.array([-math.sin(f), math.cos(f), 0.0])
+    walking = np.tile(1.2 * 0.4 * lateral + np.array([0.0, 0.0, GRAVITY_MPS2]), (110, 1))   # 1.2 m/s
+    pivot = np.tile(0.05 * 1.5 * lateral + np.array([0.0, 0.0, GRAVITY_MPS2]), (110, 1))    # 0.05 m/s, 1.5 rad/s
+    assert turn_evidence(walking, 0.4, f, speed_range_mps=(0.4, 4.0)) > 0.5
+    assert turn_evidence(pivot, 1.5, f) > 0.0                                # ungated: a full vote
+    assert turn_evidence(pivot, 1.5, f, speed_range_mps=(0.4, 4.0)) == 0.0
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_device_frame_direction_keeps_the_direction_through_turns(seed):
+    # A thigh swinging about the lateral axis of a walker who turns 40 deg per stride; the line alone says nothing
+    # about forward or backward, the stored device-frame direction does once set.
+    rng = np.random.default_rng(seed)
+    mount = quat.from_rotvec(rng.normal(0, 1.5, 3))
+
+    def _swing(walk_yaw: float, mount: np.ndarray) -> np.ndarray:     # the thigh turns with the walker
+        t = np.arange(110) / RATE
+        theta = math.radians(30.0) * np.sin(2 * math.pi * t / 1.1)
+        walker = quat.from_rotvec(np.tile([0.0, 0.0, walk_yaw], (t.size, 1)))
+        thigh = quat.from_rotvec(theta[:, None] * np.array([0.0, -1.0, 0.0]))
+        return quat.multiply(quat.multiply(walker, thigh), np.broadcast_to(mount, walker.shape))
+
+    cont = DeviceFrameDirection()
+    yaw0 = rng.uniform(-3, 3)
+    for k in range(12):
+        walk = yaw0 + math.radians(40.0) * k
+        q = _swing(walk, mount)
+        line, _ = swing_plane_axis(q, RATE)
+        out = cont.resolve(line, q)
+        if k == 0:                                   # the first stride: set the right direction
+            out = float(wrap_angle(walk))
+        assert abs(float(wrap_angle(out - walk))) < math.radians(3.0)
+        cont.update(out, q)
+        if k == 6:
+            cont = DeviceFrameDirection.from_dict(cont.to_dict())
+    cont.reverse()                                   # a reversal by the vote turns the stored direction round
+    q = _swing(yaw0 + math.radians(40.0) * 12, mount)
+    assert abs(float(wrap_angle(cont.resolve(swing_plane_axis(q, RATE)[0], q) - (yaw0 + math.radians(40.0) * 12 +
+                                                                                   math.pi)))) < math.radians(3.0)
+
+
+def test_yaw_rate_of_a_turn():
+    q = quat.from_rotvec(np.arange(101)[:, None] / RATE * np.array([0.0, 0.0, -0.3]))
+    assert yaw_rate(q, RATE) == pytest.approx(-0.3)
 
 
 def test_bad_input_is_refused():
