@@ -1,6 +1,6 @@
 """Command line: ``pdr train``, ``pdr classify`` and the ``pdr eval classifier`` target.
 
-``pdr train TASK --data PATH... --out models/NAME [--estimator bayes|xgboost|landmark_tree] [--cv]``
+``pdr train TASK --data PATH... --out models/NAME [--estimator bayes|xgboost|landmark_tree] [--cv] [--without G...]``
     Fit a model on every log under the paths; with ``--cv`` also run leave-one-group-out evaluation and
     put the figures, with the command line, into the model card.
 ``pdr classify LOG [--model NAME] --out MODES.csv [--online]``
@@ -11,7 +11,8 @@
     Confusion matrix, per-class precision/recall/F1, macro-F1 and calibration (JSON and PNG) of a saved
     model on held-out data, or (``--cv``) of its configuration retrained leave-one-group-out; prints the
     inference speed in windows per second on one core. With ``--timeline``: the modes timeline's figures per
-    recording instead (:mod:`classifiers.timeline_eval`).
+    recording instead (:mod:`classifiers.timeline_eval`); with ``--floors``: the step-mode timeline's stairs
+    steps and elevator rides on multi-floor walks with landmarks (:mod:`classifiers.floor_eval`).
 """
 
 from __future__ import annotations
@@ -81,6 +82,8 @@ def register_train(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--dwell-s", type=float, default=None, help="mean dwell time of the Markov smoothing (s)")
     p.add_argument("--reject", type=float, default=0.5, help="posterior below which the label is 'unknown'")
     p.add_argument("--cv", action="store_true", help="also run leave-one-group-out evaluation into the card")
+    p.add_argument("--without", nargs="*", default=[], metavar="GROUP",
+                   help="feature groups to leave out (ablation: how much a group helps)")
     p.add_argument("--note", default=None, help="free text for the model card's Notes section")
     p.set_defaults(func=run_train)
 
@@ -90,7 +93,11 @@ def run_train(args: argparse.Namespace) -> int:
     cfg = WindowConfig(length_s=args.window_s, hop_s=args.hop_s, rate_hz=args.rate_hz)
     kind = args.estimator or ("landmark_tree" if task.name == "landmark" else "bayes")
     recs = _recordings(args)
-    groups = available_groups(recs, task)
+    unknown = sorted(set(args.without) - set(task.feature_groups))
+    if unknown:
+        raise InputError(f"--without: {', '.join(unknown)} not among the task's feature groups "
+                         f"{', '.join(task.feature_groups)}", field="without")
+    groups = tuple(g for g in available_groups(recs, task) if g not in args.without)
     data = labelled_windows(recs, task, cfg, groups)
     model = fit_model(data, task, cfg, groups, kind, reject_threshold=args.reject, mean_dwell_s=args.dwell_s)
     model.info = {"train_command": _command_line(), "training_data": {
@@ -188,6 +195,9 @@ def register_eval(targets: argparse._SubParsersAction) -> None:
     p.add_argument("--timeline", action="store_true",
                    help="instead: figures of the modes timeline per recording (car/vehicle labels in walks, "
                         "vehicle fraction of car trips, IPIN stops found; classifiers.timeline_eval)")
+    p.add_argument("--floors", action="store_true",
+                   help="instead: figures of the step-mode timeline on multi-floor walks with landmarks (stairs "
+                        "steps, elevator rides and their floor count; classifiers.floor_eval)")
     p.set_defaults(func=run_eval)
 
 
@@ -253,6 +263,20 @@ def run_eval(args: argparse.Namespace) -> int:
     model = load_model(args.model)
     task = get_task(model.task)
     recs = _recordings(args)
+    if args.floors:
+        from classifiers.floor_eval import floor_figures, print_floor_figures
+
+        floors = floor_figures(recs)
+        floors["command"] = _command_line()
+        if args.out_dir:
+            out = Path(args.out_dir)
+            out.mkdir(parents=True, exist_ok=True)
+            (out / "floors.json").write_text(json.dumps(floors, indent=1) + "\n", encoding="utf-8")
+        if args.json:
+            print(json.dumps(floors, indent=1))
+        else:
+            print_floor_figures(floors)
+        return 0
     if args.timeline:
         from classifiers.timeline_eval import print_timeline, timeline_figures
 
