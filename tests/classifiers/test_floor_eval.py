@@ -38,3 +38,16 @@ def test_elevator_walk_rides_reported_without_stairs():
     fig = floor_figures([rec])
     assert fig["elevator_rides"] == 4 and fig["elevator_rides_reported"] == 4
     assert fig["elevator_walk_stairs_steps"] == 0
+
+
+@pytest.mark.data
+def test_ipin_standing_labels_the_stop_between_two_landmarks_at_one_place():
+    from classifiers.datasets import ipin_mode_labels, ipin_standing
+
+    rec = read_recording(data_path("ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial03_repetition01.txt"))
+    stands = ipin_standing(rec)
+    # The truth stop (landmarks at one place passed at 118 s and 154 s) is standing for most of its length.
+    inside = sum(max(0.0, min(b, 154.0) - max(a, 118.0)) for a, b in stands)
+    assert inside >= 0.8 * 36.0
+    labels = ipin_mode_labels(rec)
+    assert labels is not None and labels.at(np.array([136.0]))[0] == "standing"
