@@ -22,6 +22,7 @@ import json
 import os
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -40,6 +41,15 @@ MODEL_FORMAT_VERSION = 1
 MODELS_DIR = Path(os.environ.get("PDR_MODELS_DIR", Path(__file__).resolve().parents[1] / "models"))
 #: The model ``pdr classify`` uses when none is named.
 DEFAULT_MODEL = "motion_mode"
+#: Motion-mode model of each pipeline placement group (``pdr.phone.configure.placement_group``); the service
+#: applies the one installed under ``models/`` and otherwise builds the modes from the pipeline's step patterns.
+#: Only the pocket model is shipped. A hand-held model trained as ``pdr train motion_mode --data
+#: ../shared/data/ipin2023_t3 ../shared/data/ms_indoor_location --out models/motion_mode_hand --cv`` separates
+#: standing from walking (leave-one-recording-out F1 0.96/0.97) but not stairs or elevator rides (F1 <= 0.4:
+#: three multi-floor recordings, and the MS logs have no barometer, so the group is dropped), where the step
+#: patterns do better (``pdr eval classifier motion_mode --floors``); install one only when its card shows it.
+PLACEMENT_MODELS = MappingProxyType({"pocket": DEFAULT_MODEL, "hand": "motion_mode_hand",
+                                     "torso": "motion_mode_torso"})
 
 
 class IncompatibleModelError(InputError):
@@ -82,6 +92,12 @@ def resolve_model_dir(name_or_path: str | Path) -> Path:
         if MODELS_DIR.is_dir() else []
     raise InputError(f"no model '{name_or_path}' (not a folder with model.json; shipped models: "
                      f"{', '.join(available) or 'none'})", source=str(name_or_path))
+
+
+def placement_model(group: str | None) -> str | None:
+    """The installed motion-mode model for a placement group (:data:`PLACEMENT_MODELS`), or None."""
+    name = PLACEMENT_MODELS.get(group or "")
+    return name if name is not None and (MODELS_DIR / name / "model.json").is_file() else None
 
 
 def save_model(model: ContextModel, out_dir: str | Path, name: str | None = None) -> Path:
@@ -206,6 +222,13 @@ def _fmt_metrics(metrics: dict[str, Any]) -> list[str]:
         lines += ["", "| class | precision | recall | F1 | support |", "|---|---|---|---|---|"]
         for c, m in per.items():
             lines.append(f"| {c} | {m['precision']:.3f} | {m['recall']:.3f} | {m['f1']:.3f} | {m['support']} |")
+    for place, sub in metrics.get("per_placement", {}).items():
+        head = f"Placement **{place}**: {sub['n_windows']} windows, macro-F1 {sub['macro_f1']:.4f}"
+        if "macro_f1_target_classes" in sub:
+            head += f", over the target classes present {sub['macro_f1_target_classes']:.4f}"
+        lines += ["", head, "", "| class | precision | recall | F1 | support |", "|---|---|---|---|---|"]
+        for c, m in sub["per_class"].items():
+            lines.append(f"| {c} | {m['precision']:.3f} | {m['recall']:.3f} | {m['f1']:.3f} | {m['support']} |")
     return lines
 
 
@@ -251,6 +274,8 @@ def model_card(doc: dict[str, Any]) -> str:
         lines.append("Not evaluated yet.")
     for ev in evals:
         lines += ["", f"### {ev.get('title', 'evaluation')}", "", f"Command: `{ev.get('command', '')}`", ""]
+        if ev.get("protocol"):
+            lines += [f"Protocol: {ev['protocol']}.", ""]
         lines += _fmt_metrics(ev.get("metrics", {}))
     if info.get("notes"):
         lines += ["", "## Notes", str(info["notes"])]

@@ -1,6 +1,6 @@
 """Command line: ``pdr train``, ``pdr classify`` and the ``pdr eval classifier`` target.
 
-``pdr train TASK --data PATH... --out models/NAME [--estimator bayes|xgboost|landmark_tree] [--cv]``
+``pdr train TASK --data PATH... --out models/NAME [--estimator bayes|xgboost|landmark_tree] [--cv] [--without G...]``
     Fit a model on every log under the paths; with ``--cv`` also run leave-one-group-out evaluation and
     put the figures, with the command line, into the model card.
 ``pdr classify LOG [--model NAME] --out MODES.csv [--online]``
@@ -11,7 +11,8 @@
     Confusion matrix, per-class precision/recall/F1, macro-F1 and calibration (JSON and PNG) of a saved
     model on held-out data, or (``--cv``) of its configuration retrained leave-one-group-out; prints the
     inference speed in windows per second on one core. With ``--timeline``: the modes timeline's figures per
-    recording instead (:mod:`classifiers.timeline_eval`).
+    recording instead (:mod:`classifiers.timeline_eval`); with ``--floors``: the step-mode timeline's stairs
+    steps and elevator rides on multi-floor walks with landmarks (:mod:`classifiers.floor_eval`).
 """
 
 from __future__ import annotations
@@ -49,9 +50,34 @@ def _command_line() -> str:
     return "pdr " + " ".join(shlex.quote(a) for a in sys.argv[1:])
 
 
-def _training_summary(data: LabelledWindows) -> dict[str, Any]:
-    return {"recordings": len(set(data.recording.tolist())), "windows": len(data),
+def _training_summary(data: LabelledWindows, recs: list[Recording]) -> dict[str, Any]:
+    used = sorted(set(data.recording.tolist()))
+    placements: dict[str, int] = {}
+    for i in used:
+        key = recs[i].device.placement or "unknown"
+        placements[key] = placements.get(key, 0) + 1
+    return {"recordings": len(used), "windows": len(data), "placements": placements,
             "groups": sorted(set(data.groups.astype(str).tolist())), "class_windows": data.class_counts()}
+
+
+#: How the cross-validation figures are made (stated in every model card evaluation it makes).
+CV_PROTOCOL = ("leave-one-group-out: each group (a subject where the source names one, else a recording) is held "
+               "out in turn, the model is refitted on the others and applied to the held-out recordings in time "
+               "order (Markov smoothing over each recording); windows are never shuffled across groups")
+
+
+def _per_placement(data: LabelledWindows, recs: list[Recording], label: np.ndarray, confidence: np.ndarray,
+                   classes: list[str], targets: list[str] | None) -> dict[str, Any]:
+    """Classification figures of each placement group (device placement of the window's recording)."""
+    place = np.array([recs[i].device.placement or "unknown" for i in data.recording.tolist()], dtype=object)
+    out: dict[str, Any] = {}
+    for p in sorted(set(place.tolist())):
+        m = place == p
+        present = [t for t in (targets or []) if t in set(data.y[m].astype(str).tolist())]
+        sub = classification_metrics(data.y[m], label[m], confidence[m], classes, present or None)
+        out[p] = {k: sub[k] for k in ("macro_f1", "macro_f1_target_classes", "accuracy", "n_windows") if k in sub}
+        out[p]["per_class"] = {c: v for c, v in sub["per_class"].items() if v["support"] > 0}
+    return out
 
 
 def _recordings(args: argparse.Namespace) -> list[Recording]:
@@ -81,6 +107,8 @@ def register_train(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--dwell-s", type=float, default=None, help="mean dwell time of the Markov smoothing (s)")
     p.add_argument("--reject", type=float, default=0.5, help="posterior below which the label is 'unknown'")
     p.add_argument("--cv", action="store_true", help="also run leave-one-group-out evaluation into the card")
+    p.add_argument("--without", nargs="*", default=[], metavar="GROUP",
+                   help="feature groups to leave out (ablation: how much a group helps)")
     p.add_argument("--note", default=None, help="free text for the model card's Notes section")
     p.set_defaults(func=run_train)
 
@@ -90,20 +118,25 @@ def run_train(args: argparse.Namespace) -> int:
     cfg = WindowConfig(length_s=args.window_s, hop_s=args.hop_s, rate_hz=args.rate_hz)
     kind = args.estimator or ("landmark_tree" if task.name == "landmark" else "bayes")
     recs = _recordings(args)
-    groups = available_groups(recs, task)
+    unknown = sorted(set(args.without) - set(task.feature_groups))
+    if unknown:
+        raise InputError(f"--without: {', '.join(unknown)} not among the task's feature groups "
+                         f"{', '.join(task.feature_groups)}", field="without")
+    groups = tuple(g for g in available_groups(recs, task) if g not in args.without)
     data = labelled_windows(recs, task, cfg, groups)
     model = fit_model(data, task, cfg, groups, kind, reject_threshold=args.reject, mean_dwell_s=args.dwell_s)
     model.info = {"train_command": _command_line(), "training_data": {
         "paths": [str(p) for p in args.data], "simulated_logs": args.sim, "simulation_seed": args.sim_seed,
-        **_training_summary(data)},
+        **_training_summary(data, recs)},
         "estimator_params": {k: (v if isinstance(v, int | float | str | type(None)) else str(v))
                              for k, v in model.estimator.get_params().items() if k != "columns"},
         "evaluations": []}
     if args.note:
         model.info["notes"] = args.note
     if args.cv:
-        metrics = _cv_metrics(data, model, task.name)
+        metrics = _cv_metrics(data, model, task.name, recs=recs)
         model.info["evaluations"].append({"title": "leave-one-group-out cross-validation on the training data",
+                                          "protocol": CV_PROTOCOL,
                                           "command": _command_line(), "metrics": _card_metrics(metrics)})
     out = save_model(model, args.out)
     print(f"wrote {out} ({kind}, {len(model.classes)} classes, {len(data)} windows, "
@@ -118,21 +151,25 @@ def run_train(args: argparse.Namespace) -> int:
 
 
 def _cv_metrics(data: LabelledWindows, model: ContextModel, task_name: str,
-                targets: list[str] | None = None) -> dict[str, Any]:
+                targets: list[str] | None = None, recs: list[Recording] | None = None) -> dict[str, Any]:
+    """Leave-one-group-out figures (:data:`CV_PROTOCOL`); per placement too when ``recs`` has several."""
     task = get_task(task_name)
     params = {k: v for k, v in model.estimator.get_params().items() if k != "columns"}
     res, classes = cross_validate(data, task, model.window, model.feature_groups, model.estimator_kind, params,
                                   model.reject_threshold, model.mean_dwell_s)
-    metrics = classification_metrics(data.y, res.label, res.confidence, classes,
-                                     targets if targets is not None else DEFAULT_TARGETS.get(task_name))
+    targets = targets if targets is not None else DEFAULT_TARGETS.get(task_name)
+    metrics = classification_metrics(data.y, res.label, res.confidence, classes, targets)
     metrics["n_groups"] = len(set(data.groups.astype(str).tolist()))
+    if recs is not None and task.label_source != "placement":
+        metrics["per_placement"] = _per_placement(data, recs, np.asarray(res.label, dtype=object),
+                                                  np.asarray(res.confidence, dtype=np.float64), classes, targets)
     return metrics
 
 
 def _card_metrics(metrics: dict[str, Any]) -> dict[str, Any]:
     keep = ("macro_f1", "macro_f1_target_classes", "target_classes", "accuracy", "coverage", "ece", "n_windows",
             "n_groups", "per_class", "confusion_matrix", "windows_per_s", "classifier_windows_per_s",
-            "features_and_classifier_windows_per_s", "end_to_end_windows_per_s")
+            "features_and_classifier_windows_per_s", "end_to_end_windows_per_s", "per_placement")
     return {k: metrics[k] for k in keep if k in metrics}
 
 
@@ -188,6 +225,9 @@ def register_eval(targets: argparse._SubParsersAction) -> None:
     p.add_argument("--timeline", action="store_true",
                    help="instead: figures of the modes timeline per recording (car/vehicle labels in walks, "
                         "vehicle fraction of car trips, IPIN stops found; classifiers.timeline_eval)")
+    p.add_argument("--floors", action="store_true",
+                   help="instead: figures of the step-mode timeline on multi-floor walks with landmarks (stairs "
+                        "steps, elevator rides and their floor count; classifiers.floor_eval)")
     p.set_defaults(func=run_eval)
 
 
@@ -253,6 +293,20 @@ def run_eval(args: argparse.Namespace) -> int:
     model = load_model(args.model)
     task = get_task(model.task)
     recs = _recordings(args)
+    if args.floors:
+        from classifiers.floor_eval import floor_figures, print_floor_figures
+
+        floors = floor_figures(recs)
+        floors["command"] = _command_line()
+        if args.out_dir:
+            out = Path(args.out_dir)
+            out.mkdir(parents=True, exist_ok=True)
+            (out / "floors.json").write_text(json.dumps(floors, indent=1) + "\n", encoding="utf-8")
+        if args.json:
+            print(json.dumps(floors, indent=1))
+        else:
+            print_floor_figures(floors)
+        return 0
     if args.timeline:
         from classifiers.timeline_eval import print_timeline, timeline_figures
 
@@ -273,7 +327,7 @@ def run_eval(args: argparse.Namespace) -> int:
     data = labelled_windows(recs, task, model.window, model.feature_groups)
     targets = args.target_classes if args.target_classes is not None else DEFAULT_TARGETS.get(task.name)
     if args.cv:
-        metrics = _cv_metrics(data, model, task.name, targets)
+        metrics = _cv_metrics(data, model, task.name, targets, recs)
         title = "leave-one-group-out cross-validation"
     else:
         res = predict_sequences(model, data)
@@ -319,6 +373,9 @@ def _append_card(model_name: str, title: str, metrics: dict[str, Any]) -> None:
     d = resolve_model_dir(model_name)
     doc = json.loads((d / "model.json").read_text(encoding="utf-8"))
     evals = doc.setdefault("info", {}).setdefault("evaluations", [])
-    evals.append({"title": title, "command": metrics["command"], "metrics": _card_metrics(metrics)})
+    entry = {"title": title, "command": metrics["command"], "metrics": _card_metrics(metrics)}
+    if title.startswith("leave-one-group-out"):
+        entry["protocol"] = CV_PROTOCOL
+    evals.append(entry)
     (d / "model.json").write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
     (d / "MODEL_CARD.md").write_text(model_card(doc), encoding="utf-8")

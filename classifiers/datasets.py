@@ -10,7 +10,9 @@ logs). Labels per window come from the task's source:
   (horizontal distance under ``ELEVATOR_MAX_DISTANCE_M``) and the person does not step while the pressure
   changes (standard deviation of the specific-force norm over the interval under ``STEPPING_ACC_STD``; a
   switchback staircase also ends above where it started), ``elevator_up/down``; between two landmarks on
-  the same floor passed at a walking pace the windows are ``walking``. Everything else stays unlabelled.
+  the same floor passed at a walking pace the windows are ``walking``; the stops of
+  :func:`classifiers.stops.stop_intervals` (no step and a still device for 2 s or more) outside the floor
+  changes are ``standing`` (:func:`ipin_standing`). Everything else stays unlabelled.
 * ``placement``: ``device.placement`` for every window.
 
 A window gets a label when one label covers at least ``MIN_LABEL_COVERAGE`` of it; other windows are
@@ -29,6 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from classifiers.features import context_margin_s, extract_features
+from classifiers.stops import step_intervals, stop_intervals, subtract
 from classifiers.tasks import Task
 from classifiers.windows import WindowConfig, make_windows
 from pdr.errors import InputError, UnknownFormatError
@@ -200,8 +203,31 @@ def ipin_mode_labels(rec: Recording) -> Labels | None:
             merged[-1] = (merged[-1][0], b, name)
         else:
             merged.append((a, b, name))
+    # A stop wins over the walking leg around it.
+    standing = ipin_standing(rec)
+    pieces: list[tuple[float, float, str]] = [(a, b, "standing") for a, b in standing]
+    for a, b, name in merged:
+        rest = [(a, b)]
+        for cut in standing:
+            rest = subtract(rest, cut)
+        pieces += [(x, y, name) for x, y in rest]
+    merged = sorted(pieces)
     return Labels(np.asarray([m[0] for m in merged], dtype=np.float64),
                   np.asarray([m[1] for m in merged], dtype=np.float64), tuple(m[2] for m in merged))
+
+
+def ipin_standing(rec: Recording) -> list[tuple[float, float]]:
+    """Standing intervals ``(t0_s, t1_s)`` of a landmark walk: the stops of :func:`classifiers.stops.stop_intervals`
+    (no step and a still device for ``MIN_STOP_S`` or more; its docstring states the rule) that overlap no
+    interval between two landmarks on different floors (a still rider in an elevator cabin is not standing).
+    """
+    pos = rec.truth.positions
+    if pos is None or pos.floor is None or not rec.has("acc"):
+        return []
+    legs = [(float(pos.t_s[i]), float(pos.t_s[i + 1])) for i in range(len(pos) - 1)
+            if np.isfinite(pos.floor[i]) and np.isfinite(pos.floor[i + 1]) and pos.floor[i] != pos.floor[i + 1]]
+    return [(s.t_start_s, s.t_end_s) for s in stop_intervals(rec, step_intervals(rec))
+            if not any(s.t_end_s > a and s.t_start_s < b for a, b in legs)]
 
 
 def _acc_norm_std(rec: Recording, t0: float, t1: float) -> float:

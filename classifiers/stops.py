@@ -31,6 +31,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
+from pdr.phone.steps import detect_steps
+from pdr.preprocess import resample
 from pdr.recording import Recording
 
 FloatArray = NDArray[np.float64]
@@ -251,3 +253,20 @@ def stop_intervals(rec: Recording, steps: Iterable[tuple[float, float]]) -> list
     """Offline: the stops of a whole recording given its step (and busy) intervals in seconds."""
     det = StopDetector()
     return det.update(rec, list(steps)) + det.finish()
+
+
+#: Rate (Hz) the accelerometer is resampled to for :func:`step_intervals`.
+STEP_RATE_HZ = 50.0
+
+
+def step_intervals(rec: Recording) -> list[tuple[float, float]]:
+    """Step intervals ``(t_start_s, t_end_s)`` of the step detector (:func:`pdr.phone.steps.detect_steps`) on the
+    recording's accelerometer resampled to ``STEP_RATE_HZ`` (offline; the service uses its pipeline's steps).
+    """
+    out: list[tuple[float, float]] = []
+    for seg in resample(rec, STEP_RATE_HZ, ["acc"]):
+        st = detect_steps(seg.data["acc"], STEP_RATE_HZ)
+        t = seg.t_s
+        for a, b in zip(st.start_idx, st.end_idx, strict=True):
+            out.append((float(t[min(int(a), t.size - 1)]), float(t[min(int(b), t.size) - 1])))
+    return out

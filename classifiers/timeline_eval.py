@@ -10,8 +10,8 @@
 * **Stops**: in recordings with surveyed landmarks (IPIN), a truth stop is two consecutive landmarks at the same
   place (under ``SAME_PLACE_M`` apart horizontally) passed at least ``MIN_TRUTH_STOP_S`` apart; on the same floor
   it is standing, on different floors an elevator ride (the rider stands in the cabin). A stop *appears* when the
-  stop rule (:mod:`classifiers.stops`, with the step detector :func:`pdr.phone.steps.detect_steps` on the
-  accelerometer resampled to 50 Hz, not the whole phone pipeline) covers at least ``MIN_COVERAGE`` of it.
+  stop rule (:func:`classifiers.stops.stop_intervals` with :func:`classifiers.stops.step_intervals`, not the
+  whole phone pipeline) covers at least ``MIN_COVERAGE`` of it.
 """
 
 from __future__ import annotations
@@ -23,12 +23,10 @@ from typing import Any
 import numpy as np
 
 from classifiers.model import ContextModel
-from classifiers.stops import Stop, stop_intervals
+from classifiers.stops import Stop, step_intervals, stop_intervals
 from classifiers.transitions import TRANSITIONS
 from classifiers.windows import make_windows
 from pdr.errors import InputError
-from pdr.phone.steps import detect_steps
-from pdr.preprocess import resample
 from pdr.recording import Recording
 
 #: Landmarks closer than this (m) horizontally are the same place.
@@ -37,20 +35,8 @@ SAME_PLACE_M = 1.0
 MIN_TRUTH_STOP_S = 5.0
 #: Fraction of a truth stop the detected stops must cover for it to count as found.
 MIN_COVERAGE = 0.5
-STEP_RATE_HZ = 50.0
 
 VEHICLE_LABELS = ("vehicle", *TRANSITIONS)
-
-
-def step_intervals(rec: Recording) -> list[tuple[float, float]]:
-    """Step intervals ``(t_start_s, t_end_s)`` of the step detector on the recording's accelerometer."""
-    out: list[tuple[float, float]] = []
-    for seg in resample(rec, STEP_RATE_HZ, ["acc"]):
-        st = detect_steps(seg.data["acc"], STEP_RATE_HZ)
-        t = seg.t_s
-        for a, b in zip(st.start_idx, st.end_idx, strict=True):
-            out.append((float(t[min(int(a), t.size - 1)]), float(t[min(int(b), t.size) - 1])))
-    return out
 
 
 def truth_stops(rec: Recording) -> list[tuple[float, float, str]]:

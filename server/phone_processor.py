@@ -4,9 +4,10 @@ Pipeline events become result rows: each ``step`` a track row (the columns of ``
 ``step`` event (whose ``smoother`` data keeps the step's inputs of the offline heading smoother,
 :mod:`pdr.phone.heading_smoother`, for ``GET .../track?heading=smoothed``); ``elevator`` and site ``landmark``
 events ``landmark`` events; ``floor_change`` a ``floor`` event; ``notice`` a session warning. Motion modes
-come from the shipped streaming classifier (:class:`classifiers.streaming.StreamingClassifier`, one ``mode``
-event per window with its confidence) once the pipeline has found the phone in a trouser pocket (the model's
-training placement); for other placements, or when the recording lacks a sensor the model needs, from the
+come from the streaming classifier (:class:`classifiers.streaming.StreamingClassifier`, one ``mode`` event per
+window with its confidence) of the model for the placement the pipeline has found
+(:func:`classifiers.artifacts.placement_model`: the shipped pocket model, or a hand-held/torso model when one is
+installed); for placements without a model, or when the recording lacks a sensor the model needs, from the
 pipeline's per-step modes, with the stops and elevator rides of :class:`classifiers.timeline.StopTimeline`
 (``standing`` for 2 s or more without a step and with a still phone; ``elevator_up/down`` with the floor change).
 The provisional tail (:meth:`PhoneProcessor.tail`) is what :meth:`PdrPipeline.finish` would add if the
@@ -20,6 +21,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from classifiers.artifacts import PLACEMENT_MODELS, placement_model
 from classifiers.streaming import StreamingClassifier
 from classifiers.timeline import ModeEntry, StepModes, StopTimeline
 from pdr import state_codec
@@ -30,10 +32,6 @@ from pdr.recording import Recording
 from server.processing import ProcessorOutput, SessionContext
 from server.processing_options import session_options
 from server.store import EventRow, TrackRow
-
-#: Placement (pipeline group) the shipped motion-mode model was trained for (MobiFall: trouser pocket).
-MODEL_PLACEMENT = "pocket"
-
 
 #: Step event fields the offline heading smoother needs besides the track row (pdr.phone.heading_smoother.smooth_track).
 SMOOTHER_INPUTS = ("placement", "heading_sigma_deg", "heading_raw_deg", "gyro_heading_deg", "up_time_s",
@@ -81,13 +79,16 @@ class PhoneProcessor:
         """Mode events of the windows this batch completes; a notice when the classifier is turned off."""
         if self.classifier_status == "off" or self.pipeline.placement is None:
             return [], ""
-        if self.pipeline.placement != MODEL_PLACEMENT:
+        name = placement_model(self.pipeline.placement)
+        if name is None:
             self.classifier, self.classifier_status = None, "off"
-            return [], (f"motion modes from step patterns only: the mode classifier is trained for a phone in a "
-                        f"trouser pocket, this one is carried in the {self.pipeline.placement}")
+            wanted = PLACEMENT_MODELS.get(self.pipeline.placement)
+            return [], (f"motion modes from step patterns only: no mode classifier is installed for a phone "
+                        f"carried in the {self.pipeline.placement}"
+                        + (f" (models/{wanted}; its model card says how to build it)" if wanted else ""))
         try:
             if self.classifier is None:
-                self.classifier = StreamingClassifier()
+                self.classifier = StreamingClassifier(name)
             results = self.classifier.update(recording)
         except InputError as exc:
             self.classifier, self.classifier_status = None, "off"

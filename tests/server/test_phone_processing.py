@@ -55,7 +55,7 @@ def test_hand_held_walk_uses_step_modes_and_says_so(real_app):
     log = data_path("ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial01_repetition01.txt")
     session = _upload(app, token, log)
     assert session["status"] == "done" and session["steps"] > 100
-    assert any("trained for a phone in a trouser pocket" in w for w in session["warnings"])
+    assert any("no mode classifier is installed for a phone carried in the hand" in w for w in session["warnings"])
 
 
 def test_smoothed_track_equals_pdr_tracks_default(real_app):
