@@ -12,7 +12,7 @@ import pytest
 from pdr.cli import build_parser, main
 
 COMMANDS = {"allan", "bench", "calibrate", "classify", "convert", "eval", "foot", "inspect", "serve", "simulate",
-            "track", "train", "users", "worker"}
+            "site", "track", "train", "users", "worker"}
 EVAL_TARGETS = {"classifier", "coop", "foot", "heading", "ipin", "ms", "pocket-heading", "steps"}
 BENCH_TARGETS = {"faults", "load", "phone", "processor", "server", "track"}
 
