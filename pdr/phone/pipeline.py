@@ -506,7 +506,7 @@ class PdrPipeline:
                 a, b = pos - g0, cut - g0 + 1
                 qs, _ = self.attitude.run(acc[a:b], None if gyro is None else gyro[a:b],
                                           None if mag is None else mag[a:b])
-                if q_phone is not None:
+                if q_phone is not None and qs.shape[0]:
                     if self.config.attitude_source == "phone":
                         # The phone's attitude where it has one (the grid holds its last sample at the end).
                         ok = np.isfinite(q_phone[a:b, 0])
@@ -514,10 +514,11 @@ class PdrPipeline:
                     elif cut in by_confirm:
                         # At a confirmed step (a sample that does not depend on the batching): the phone's yaw.
                         st = self.attitude.state
-                        st.q, st.P, used = phone_yaw_update(st.q, st.P, q_phone[b - 1], self._phone_yaw_var,
+                        st.q, st.P, used = phone_yaw_update(st.q, st.P, q_phone[a:b][-1], self._phone_yaw_var,
                                                             self.config.phone_yaw_gate_sigma)
                         self.phone_yaw_updates += int(used)
-                self.att_q_now = qs[-1].copy()
+                if qs.shape[0]:
+                    self.att_q_now = qs[-1].copy()
                 hs = self.history.sl(pos, cut + 1)
                 self.history.q[hs] = qs
                 f_n, yy, yz, yu = _derived(qs, acc[a:b])
