@@ -545,17 +545,19 @@ def eval_ms(args: argparse.Namespace) -> int:
         ref = summary["reference"]
         if ref["traces"]:
             yield _ms_line("REFERENCE (phone's own attitude)", ref)
-            yield _ms_line("ours on the same traces", summary["ours_on_reference_traces"])
+            if ref["traces"] != summary["traces"]:
+                yield _ms_line("ours on the same traces", summary["ours_on_reference_traces"])
             worse = summary["worse_than_reference"]
             yield (f"ours worse than the reference by more than {REFERENCE_MARGIN_M:.0f} m p75: {len(worse)} of "
                    f"{ref['traces']} traces" + (f" ({', '.join(worse)})" if worse else ""))
         else:
             yield "REFERENCE (phone's own attitude): n/a (no trace with an orientation stream)"
         for floor, d in summary["floors"].items():
+            same = d["reference"]["traces"] == d["ours"]["traces"]
             yield _ms_line(f"FLOOR {floor} ours", d["ours"]) + (
-                "; " + _ms_line("reference", d["reference"]) + " (" +
-                _ms_line("ours on them", d["ours_with_reference"]) + ")" if d["reference"]["traces"] else
-                "; reference n/a")
+                "; reference n/a" if not d["reference"]["traces"] else
+                "; " + _ms_line("reference", d["reference"]) + (
+                    "" if same else " (" + _ms_line("ours on them", d["ours_with_reference"]) + ")"))
     _emit(summary, per, args.json, lines())
     return 0
 
