@@ -272,3 +272,14 @@ def test_ms_eval_per_floor_with_reference(tmp_path, capsys):
     assert main(["eval", "ms", str(picked)]) == 0
     text = capsys.readouterr().out
     assert "FLOOR F3 ours" in text and "FLOOR F4 ours" in text and "REFERENCE (phone's own attitude)" in text
+
+
+def test_reference_is_none_without_an_orientation_stream():
+    from pdr.cli.track import _reference_lines, reference_rows
+    from pdr.io import read_recording
+    from pdr.phone.pipeline import PipelineConfig
+
+    rec = read_recording(SIM / "hand_escalator.zip")
+    assert not rec.has("orientation")
+    assert reference_rows(rec, PipelineConfig()) is None
+    assert "REFERENCE (phone's own attitude): n/a" in "\n".join(_reference_lines({"without_reference": 2}))
