@@ -42,6 +42,9 @@ def register_eval(targets: argparse._SubParsersAction) -> None:
                         "Swinging -> swinging, Texting -> hand)")
     p.add_argument("--calibration", help="step-length calibration JSON from `pdr calibrate`")
     p.add_argument("--method", default="ukf", choices=("ukf", "ekf"), help="attitude filter")
+    p.add_argument("--use-phone-orientation", action="store_true",
+                   help="ours WITH the phone's rotation vector as a gated yaw measurement of our attitude filter "
+                        "(as pdr track --use-phone-orientation); the headline figures are without it")
     p.set_defaults(func=run)
 
 
@@ -63,8 +66,11 @@ def run(args: argparse.Namespace) -> int:
             write_step_table(s.step_table, out / f"{s.name}.csv")
     if args.json:
         print(json.dumps({"placement": args.placement, "declination_deg": base.attitude.mag_declination_deg,
+                          "use_phone_orientation": base.use_phone_orientation,
                           "recordings": [s.to_dict() for s in scores], **agg}, indent=2))
     else:
+        if base.use_phone_orientation:
+            print("ours WITH --use-phone-orientation (the phone's rotation vector as a yaw measurement of our filter)")
         for line in report_lines(scores, agg):
             print(line)
     return 0

@@ -70,13 +70,17 @@ def _common_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--calibration", help="step-length calibration JSON from `pdr calibrate`")
     p.add_argument("--method", default="ukf", choices=("ukf", "ekf"), help="attitude filter")
     p.add_argument("--floor-height", type=float, default=None, help="floor height in m (default 4)")
+    p.add_argument("--use-phone-orientation", action="store_true",
+                   help="use the phone's own fused attitude (rotation vector / AHRS in the log) as an extra, gated "
+                        "measurement of yaw in our attitude filter")
 
 
 def config_from_args(args: argparse.Namespace, initial_floor: float = 0.0) -> PipelineConfig:
     calibration = getattr(args, "calibration", None)
     return pipeline_config(args.placement, attitude_method=args.method, initial_floor=initial_floor,
                            step_length=StepLengthModel.load(calibration) if calibration else None,
-                           floor_height_m=getattr(args, "floor_height", None) or None)
+                           floor_height_m=getattr(args, "floor_height", None) or None,
+                           use_phone_orientation=bool(getattr(args, "use_phone_orientation", False)))
 
 
 def run_pipeline(rec: Recording, cfg: PipelineConfig, site: Site | None = None,
@@ -85,6 +89,17 @@ def run_pipeline(rec: Recording, cfg: PipelineConfig, site: Site | None = None,
     events = PdrPipeline(cfg, site, stages=stages).run(rec)
     notices = [str(e["message"]) for e in events if e.get("type") == "notice"]
     return track_rows(events), notices
+
+
+def reference_rows(rec: Recording, cfg: PipelineConfig, site: Site | None = None) -> list[dict[str, Any]] | None:
+    """Track rows of the same pipeline with the phone's own attitude in place of ours (``attitude_source="phone"``):
+    the reference of the evaluations; None when the log has no ``orientation`` stream.
+    """
+    from dataclasses import replace
+
+    if not rec.has("orientation"):
+        return None
+    return run_pipeline(rec, replace(cfg, attitude_source="phone", use_phone_orientation=False), site)[0]
 
 
 def write_geojson(rows: list[dict[str, Any]], path: str | Path, origin: tuple[float, float] | None) -> None:
@@ -368,6 +383,11 @@ def eval_ipin(args: argparse.Namespace) -> int:
              "truth_m_per_step": walk.length_m / walk.patterns.shape[0] if walk is not None else math.nan}
         if smoothed is not None:
             p["smoothed"] = _ipin_scores(smoothed, t_truth, pt)
+        ref = reference_rows(rec, cfg, site)
+        if ref is not None and len(ref) >= 2:
+            p["reference"] = _ipin_scores(ref, t_truth, pt)
+            if args.smoother == "both":
+                p["reference"]["smoothed"] = _ipin_scores(smoothed_rows(ref, []), t_truth, pt)
         if args.budget:
             p["budget"] = {name: _ipin_scores(track, t_truth, pt) for name, track in
                            budget_tracks(smoothed or rows, t_truth, pt.pos_m, pt.floor).items()}
@@ -377,6 +397,7 @@ def eval_ipin(args: argparse.Namespace) -> int:
     summary = _ipin_summary([d["per"] for d in done])
     if args.smoother == "both":
         summary["smoothed"] = _ipin_summary([d["per"]["smoothed"] for d in done])
+    summary["reference"] = _reference_summary([d["per"] for d in done], args.smoother == "both")
     if args.budget:
         summary["budget"] = {"of": "smoothed" if args.smoother == "both" else "causal",
                              **{name: _ipin_summary([d["per"]["budget"][name] for d in done])
@@ -422,6 +443,11 @@ def eval_ipin(args: argparse.Namespace) -> int:
             sm = p.get("smoothed")
             if sm is not None:
                 line += (f" | smoothed p75 {sm['p75_abs_m']:.2f} m absolute, {sm['p75_aligned_m']:.2f} m aligned")
+            ref = p.get("reference")
+            line += (" | reference n/a" if ref is None else
+                     f" | p75 ours {p['p75_abs_m']:.2f} reference {ref['p75_abs_m']:.2f} m" + (
+                         f", smoothed ours {sm['p75_abs_m']:.2f} reference {ref['smoothed']['p75_abs_m']:.2f} m"
+                         if sm is not None and "smoothed" in ref else ""))
             c = p.get("calibrated")
             if c is not None:
                 line += (f" | {c['error']}" if "error" in c else
@@ -433,6 +459,7 @@ def eval_ipin(args: argparse.Namespace) -> int:
         yield _ipin_summary_line("ALL", summary)
         if "smoothed" in summary:
             yield _ipin_summary_line("SMOOTHED (offline, pdr track's default)", summary["smoothed"])
+        yield from _reference_lines(summary["reference"])
         if "calibrated" in summary:
             m = summary["calibrated"]
             yield _ipin_summary_line(f"CALIBRATED --calibrate {m['mode']}", m) + (
@@ -449,19 +476,86 @@ def eval_ipin(args: argparse.Namespace) -> int:
     return 0
 
 
+#: Ours loses to the reference on a walk when its p75 is larger by more than this (m; issue 25's target).
+REFERENCE_MARGIN_M = 1.0
+
+
+def _reference_summary(per: list[dict[str, Any]], smoothed: bool) -> dict[str, Any]:
+    """The phone's-attitude reference over the walks that have one (:func:`reference_rows`), and the walks where
+    ours is worse than it by more than :data:`REFERENCE_MARGIN_M` p75 (causal, and smoothed against smoothed).
+    """
+    have = [p for p in per if "reference" in p]
+    out: dict[str, Any] = {"without_reference": len(per) - len(have)}
+    if not have:
+        return out
+    out.update(_ipin_summary([p["reference"] for p in have]))
+    out["worse_than_reference"] = [p["file"] for p in have
+                                   if p["p75_abs_m"] > p["reference"]["p75_abs_m"] + REFERENCE_MARGIN_M]
+    if smoothed:
+        out["smoothed"] = _ipin_summary([p["reference"]["smoothed"] for p in have])
+        out["smoothed_worse_than_reference"] = [
+            p["file"] for p in have
+            if p["smoothed"]["p75_abs_m"] > p["reference"]["smoothed"]["p75_abs_m"] + REFERENCE_MARGIN_M]
+    return out
+
+
+def _reference_lines(ref: dict[str, Any]) -> Iterator[str]:
+    if "files" not in ref:
+        yield f"REFERENCE (phone's own attitude): n/a ({ref['without_reference']} files without orientation stream)"
+        return
+    n = ref["files"]
+    yield _ipin_summary_line("REFERENCE (phone's own attitude)", ref)
+    if "smoothed" in ref:
+        yield _ipin_summary_line("REFERENCE SMOOTHED", ref["smoothed"])
+    for key, what in (("worse_than_reference", "causal"), ("smoothed_worse_than_reference", "smoothed")):
+        if key in ref:
+            yield (f"ours worse than the reference by more than {REFERENCE_MARGIN_M:.0f} m p75 ({what}): "
+                   f"{len(ref[key])} of {n} walks" + (f" ({', '.join(ref[key])})" if ref[key] else ""))
+    if ref["without_reference"]:
+        yield f"{ref['without_reference']} files without orientation stream: reference n/a"
+
+
 def _public(d: dict[str, Any]) -> dict[str, Any]:
     """``d`` and its nested dicts without the private (``_``-prefixed) arrays, for JSON output."""
     return {k: _public(v) if isinstance(v, dict) else v for k, v in d.items() if not k.startswith("_")}
 
 
+def _ms_floor(path: Path) -> str:
+    """The floor folder (``F3``, ``B1``, ...) in a MS trace's path, or ``?``."""
+    for part in reversed(path.parts[:-1]):
+        if re.fullmatch(r"[FB]\d+", part):
+            return part
+    return "?"
+
+
+def _ms_scores(rows: list[dict[str, Any]], rec: Recording, pt: Any) -> np.ndarray:
+    t = np.array([r["t_s"] for r in rows])
+    xy = np.array([[r["east_m"], r["north_m"]] for r in rows])
+    return waypoint_errors(t, xy, rec.origin_ns / 1e9 + pt.t_s, pt.pos_m)
+
+
+def _ms_summary(errs: list[np.ndarray]) -> dict[str, Any]:
+    a = np.concatenate(errs) if errs else np.zeros(0)
+    return {"traces": len(errs), "median_m": _pct(a, 50), "p75_m": _pct(a, 75)}
+
+
+def _ms_line(label: str, m: dict[str, Any]) -> str:
+    return f"{label}: median {m['median_m']:.2f} p75 {m['p75_m']:.2f} m over {m['traces']} traces"
+
+
 def eval_ms(args: argparse.Namespace) -> int:
-    """Waypoint errors after start and rotation alignment; with ``--map`` also absolute, map-matched errors."""
+    """Per trace and overall waypoint errors, ours and the reference (the phone's own attitude,
+    :func:`reference_rows`) side by side, and per floor folder; with ``--map`` also absolute, map-matched errors.
+    """
     files = _files(args.dir, ("*.txt", "*.txt.gz"))
     if args.limit:
         files = files[:args.limit]
     per: list[dict[str, Any]] = []
     errs: list[np.ndarray] = []
     mapped = _MapScores(_map_config(args.map_config)) if args.map else None
+    ours_ref: list[np.ndarray] = []         # ours on the traces that have a reference
+    ref_errs: list[np.ndarray] = []
+    by_floor: dict[str, dict[str, list[np.ndarray]]] = {}
     for f in progress.each(files, "eval ms"):
         try:
             rec = read_recording(f)
@@ -471,24 +565,39 @@ def eval_ms(args: argparse.Namespace) -> int:
         pt = rec.truth.positions
         if pt is None or len(pt) < 3:
             continue
-        rows, notices = run_pipeline(rec, config_from_args(args))
+        cfg = config_from_args(args)
+        rows, notices = run_pipeline(rec, cfg)
         if args.tracks:
             Path(args.tracks).mkdir(parents=True, exist_ok=True)
             write_csv(rows, Path(args.tracks) / (f.name + ".csv"))
         if len(rows) < 2:
             per.append({"file": f.name, "steps": len(rows), "error": "empty track"})
             continue
-        t = np.array([r["t_s"] for r in rows])
-        xy = np.array([[r["east_m"], r["north_m"]] for r in rows])
-        e = waypoint_errors(t, xy, rec.origin_ns / 1e9 + pt.t_s, pt.pos_m)
+        e = _ms_scores(rows, rec, pt)
         errs.append(e)
-        p = {"file": f.name, "steps": len(rows), "waypoints": int(e.size), "median_m": _pct(e, 50),
-             "p75_m": _pct(e, 75)}
+        floor = _ms_floor(f)
+        fl = by_floor.setdefault(floor, {"ours": [], "ours_with_reference": [], "reference": []})
+        fl["ours"].append(e)
+        p: dict[str, Any] = {"file": f.name, "floor": floor, "steps": len(rows), "waypoints": int(e.size),
+                             "median_m": _pct(e, 50), "p75_m": _pct(e, 75), "reference": None}
+        ref = reference_rows(rec, cfg)
+        if ref is not None and len(ref) >= 2:
+            er = _ms_scores(ref, rec, pt)
+            p["reference"] = {"median_m": _pct(er, 50), "p75_m": _pct(er, 75)}
+            ours_ref.append(e)
+            ref_errs.append(er)
+            fl["ours_with_reference"].append(e)
+            fl["reference"].append(er)
         if mapped is not None:
             p["map"] = mapped.score(f, rows, rec.origin_ns / 1e9 + pt.t_s, pt.pos_m[:, :2])
         per.append(p)
-    a = np.concatenate(errs) if errs else np.zeros(0)
-    summary: dict[str, Any] = {"traces": len(errs), "median_m": _pct(a, 50), "p75_m": _pct(a, 75)}
+    summary: dict[str, Any] = {**_ms_summary(errs), "reference": _ms_summary(ref_errs),
+                               "ours_on_reference_traces": _ms_summary(ours_ref),
+                               "worse_than_reference": [
+                                   p["file"] for p in per if p.get("reference")
+                                   and p["p75_m"] > p["reference"]["p75_m"] + REFERENCE_MARGIN_M],
+                               "floors": {k: {n: _ms_summary(v) for n, v in d.items()}
+                                          for k, d in sorted(by_floor.items())}}
     if mapped is not None:
         summary["map"] = mapped.summary()
 
@@ -497,14 +606,33 @@ def eval_ms(args: argparse.Namespace) -> int:
             if "error" in p:
                 yield f"{p['file']}: {p['error']}"
                 continue
-            line = f"{p['file']}: median {p['median_m']:.2f} p75 {p['p75_m']:.2f} m, {p['steps']} steps"
+            r = p["reference"]
+            line = (f"{p['file']} ({p['floor']}): median {p['median_m']:.2f} p75 {p['p75_m']:.2f} m, {p['steps']} steps"
+                    + (" | reference n/a" if r is None else
+                       f" | p75 ours {p['p75_m']:.2f} reference {r['p75_m']:.2f} m"))
             if "map" in p:
                 m = p["map"]
                 line += (f" | absolute from the start: PDR p75 {m['pdr']['p75_m']:.2f}, map online "
                          f"{m['online']['p75_m']:.2f}, map smoothed {m['smoothed']['p75_m']:.2f} m"
                          + (f" ({len(m['notices'])} notices)" if m["notices"] else ""))
             yield line
-        yield f"ALL: median {summary['median_m']:.2f} p75 {summary['p75_m']:.2f} m over {summary['traces']} traces"
+        yield _ms_line("ALL", summary)
+        ref = summary["reference"]
+        if ref["traces"]:
+            yield _ms_line("REFERENCE (phone's own attitude)", ref)
+            if ref["traces"] != summary["traces"]:
+                yield _ms_line("ours on the same traces", summary["ours_on_reference_traces"])
+            worse = summary["worse_than_reference"]
+            yield (f"ours worse than the reference by more than {REFERENCE_MARGIN_M:.0f} m p75: {len(worse)} of "
+                   f"{ref['traces']} traces" + (f" ({', '.join(worse)})" if worse else ""))
+        else:
+            yield "REFERENCE (phone's own attitude): n/a (no trace with an orientation stream)"
+        for floor, d in summary["floors"].items():
+            same = d["reference"]["traces"] == d["ours"]["traces"]
+            yield _ms_line(f"FLOOR {floor} ours", d["ours"]) + (
+                "; reference n/a" if not d["reference"]["traces"] else
+                "; " + _ms_line("reference", d["reference"]) + (
+                    "" if same else " (" + _ms_line("ours on them", d["ours_with_reference"]) + ")"))
         if "map" in summary:
             m = summary["map"]
             for name in _MapScores.TRACKS:

@@ -18,7 +18,8 @@ def placement_group(placement: str | None) -> str:
 
 
 def pipeline_config(placement: str = "auto", *, attitude_method: str = "ukf", initial_floor: float = 0.0,
-                    step_length: StepLengthModel | None = None, floor_height_m: float | None = None) -> PipelineConfig:
+                    step_length: StepLengthModel | None = None, floor_height_m: float | None = None,
+                    use_phone_orientation: bool = False, attitude_source: str = "filter") -> PipelineConfig:
     """The pipeline's configuration: the defaults with what the user chose.
 
     Parameters
@@ -33,8 +34,13 @@ def pipeline_config(placement: str = "auto", *, attitude_method: str = "ukf", in
         A calibrated step-length model (``pdr calibrate``); default: the uncalibrated one.
     floor_height_m
         Height of a floor (m); default: :class:`pdr.phone.floors.FloorConfig`'s.
+    use_phone_orientation
+        Use the phone's own attitude (``orientation`` stream) as a yaw measurement of our attitude filter.
+    attitude_source
+        ``filter`` (ours) or ``phone`` (the phone's attitude in place of ours: the evaluations' reference).
     """
-    cfg = PipelineConfig(placement=placement, attitude_method=attitude_method, initial_floor=initial_floor)
+    cfg = PipelineConfig(placement=placement, attitude_method=attitude_method, initial_floor=initial_floor,
+                         use_phone_orientation=use_phone_orientation, attitude_source=attitude_source)
     if step_length is not None:
         cfg = replace(cfg, step_length=step_length)
     if floor_height_m is not None:

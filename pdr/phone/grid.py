@@ -9,6 +9,10 @@ the fastest-ending stream are emitted, later streams hold their last value.
 
 Unlike :func:`pdr.preprocess.resample` (zero-phase filtering for offline use) there is no anti-alias
 filter: the consumers low-pass what they need (the step detector at a few Hz).
+
+Quaternion streams (``orientation``) are made sign-continuous as they arrive
+(:func:`pdr.phone.phone_orientation.sign_continuous`, against the last buffered sample), so their interpolation,
+renormalised by the consumer, is the nlerp of the attitudes.
 """
 
 from __future__ import annotations
@@ -20,7 +24,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
+from pdr.phone.phone_orientation import sign_continuous
 from pdr.recording import Recording
+
+#: Streams of quaternions (sign-continuous in the buffer).
+QUATERNION_KINDS = ("orientation",)
 
 FloatArray = NDArray[np.float64]
 
@@ -52,6 +60,8 @@ class OnlineGrid:
                 t, v = t[keep], v[keep]
                 if t.size == 0:
                     continue
+            if k in QUATERNION_KINDS:
+                v = sign_continuous(v, self.buf_v[k][-1] if self.buf_v[k].size else None)
             self.buf_t[k] = np.concatenate([bt, t])
             self.buf_v[k] = v.copy() if self.buf_v[k].size == 0 else np.concatenate([self.buf_v[k], v])
 

@@ -69,6 +69,7 @@ from pdr.phone.heading_stages import (
 from pdr.phone.history import SampleHistory
 from pdr.phone.landmarks import ElevatorDetector, LandmarkConfig, Site, StepModeLabeller
 from pdr.phone.magcal import HardIronEstimator, MagCalConfig
+from pdr.phone.phone_orientation import grid_attitudes, phone_yaw_update
 from pdr.phone.placement_detect import PlacementDetectConfig, PlacementDetector, stride_cues
 from pdr.phone.stage import PendingStep, StepStage, StepWindow
 from pdr.phone.step_length import StepLengthModel, step_patterns
@@ -130,6 +131,22 @@ class PipelineConfig:
     drift_elimination
         Hand/torso: heuristic drift elimination of the step heading towards dominant directions learnt
         from the walk (:class:`pdr.phone.heading.StepDriftElimination`, parameters ``hde``).
+    attitude_source
+        ``filter``: the attitude ``q_nb`` of every stage is our attitude filter's (``attitude_method``);
+        ``phone``: the phone's own fused attitude, the log's ``orientation`` stream on the grid (nlerp,
+        :mod:`pdr.phone.phone_orientation`), everything else unchanged (our filter still runs for the gyro bias, the
+        hard-iron calibration and the attitude covariance): the phone's heading as a reference in the evaluations.
+        A recording without an ``orientation`` stream is refused.
+    use_phone_orientation
+        Use the ``orientation`` stream's yaw as a measurement of our attitude filter at every confirmed step
+        (:func:`pdr.phone.phone_orientation.phone_yaw_update`, variance ``phone_yaw_sigma_deg``^2, gated at
+        ``phone_yaw_gate_sigma`` standard deviations of the predicted innovation). Ignored (with a notice) when the
+        log has no such stream.
+    phone_yaw_sigma_deg, phone_yaw_gate_sigma
+        Standard deviation (deg) of the phone's yaw and the gate of its row. 10 deg: the rotation vector's yaw error
+        against motion capture is about 4 deg on clean walks and 11-29 deg in a disturbed field
+        (``../shared/data/attitude_smartphones``, issue 25); the gate keeps the disturbed stretches out once ours
+        is confident.
     """
 
     rate_hz: float = 50.0
@@ -152,6 +169,10 @@ class PipelineConfig:
     magcal: MagCalConfig = field(default_factory=MagCalConfig)
     hde: DriftEliminationConfig = field(default_factory=DriftEliminationConfig)
     placement_detect: PlacementDetectConfig = field(default_factory=PlacementDetectConfig)
+    attitude_source: str = "filter"
+    use_phone_orientation: bool = False
+    phone_yaw_sigma_deg: float = 10.0
+    phone_yaw_gate_sigma: float = 3.0
 
     def __post_init__(self) -> None:
         if self.placement not in ("auto", *PIPELINE_PLACEMENTS):
@@ -161,6 +182,11 @@ class PipelineConfig:
             raise InputError("attitude_method must be ukf or ekf", field="attitude_method", source="config")
         if self.pocket_axis not in ("auto", "swing", "rmpca"):
             raise InputError("pocket_axis must be auto, swing or rmpca", field="pocket_axis", source="config")
+        if self.attitude_source not in ("filter", "phone"):
+            raise InputError("attitude_source must be filter or phone", field="attitude_source", source="config")
+        if not (self.phone_yaw_sigma_deg > 0 and self.phone_yaw_gate_sigma > 0):
+            raise InputError("phone_yaw_sigma_deg and phone_yaw_gate_sigma must be positive",
+                             field="phone_yaw_sigma_deg", source="config")
         if self.heading_offset not in ("zero", "pca"):
             raise InputError("heading_offset must be zero or pca", field="heading_offset", source="config")
         if not self.rate_hz >= 10:
@@ -258,6 +284,8 @@ class PdrPipeline:
         self._av_ba = (b, a)
         self.n_input_samples = 0
         self.gyro_yaw = GyroYaw(c.rate_hz)      # the gyro's rotation about the vertical since the start
+        self.att_q_now: FloatArray | None = None    # attitude at the last sample (the phone's when it is the source)
+        self.phone_yaw_updates = 0                  # phone yaw rows used by the attitude filter
 
     # -- public API --------------------------------------------------------------------------------
     def update(self, batch: Recording) -> list[Event]:
@@ -338,7 +366,8 @@ class PdrPipeline:
             "pending": None if self.pending is None else self.pending.state(),
             "last_floor": self.last_floor, "notices": self.notices,
             "av_zi": None if self._av_zi is None else self._av_zi.tolist(), "n_input_samples": self.n_input_samples,
-            "gyro_yaw": self.gyro_yaw.state(),
+            "gyro_yaw": self.gyro_yaw.state(), "phone_yaw_updates": self.phone_yaw_updates,
+            "att_q_now": None if self.att_q_now is None else self.att_q_now.tolist(),
         }
         if self.stages:
             d["stages"] = {st.name: st.state() for st in self.stages}
@@ -392,6 +421,8 @@ class PdrPipeline:
             p.n_input_samples = int(d["n_input_samples"])
             if isinstance(d.get("gyro_yaw"), dict):      # older states kept a plain integral (restarted here)
                 p.gyro_yaw = GyroYaw.from_state(d["gyro_yaw"], c.rate_hz)
+            p.phone_yaw_updates = int(d.get("phone_yaw_updates", 0))
+            p.att_q_now = None if d.get("att_q_now") is None else np.array(d["att_q_now"], dtype=np.float64)
             saved = d.get("stages") or {}
             p.stages = [st.from_state(saved[st.name]) if st.name in saved else st for st in stages]
             if p.pending is not None or p.track.n_steps:      # a step was processed (see _placement_known)
@@ -415,6 +446,18 @@ class PdrPipeline:
             else:
                 self.notices.append(msg)
                 events.append(NoticeEvent(msg))
+        c = self.config
+        if c.attitude_source == "phone" or c.use_phone_orientation:
+            if batch.has("orientation"):
+                kinds.append("orientation")
+            elif c.attitude_source == "phone":
+                raise InputError("attitude_source 'phone' needs the phone's orientation stream (rotation vector or "
+                                 "AHRS), which this log does not have", source=batch.source or None,
+                                 field="orientation")
+            else:
+                msg = "no orientation stream: the phone's heading is not used (--use-phone-orientation)"
+                self.notices.append(msg)
+                events.append(NoticeEvent(msg))
         self.grid = OnlineGrid(self.config.rate_hz, tuple(kinds))
         self.t0_ns = 0
         if self.placement is None:
@@ -434,6 +477,7 @@ class PdrPipeline:
         steps, an = self.steps.update(acc, final=final)
         kinds = self.grid.kinds
         gyro = vals["gyro"] if "gyro" in kinds and n else None
+        q_phone = grid_attitudes(vals["orientation"]) if "orientation" in kinds and n else None
         mag = vals["mag"] if "mag" in kinds and n else None
         if mag is not None and gyro is not None:
             # Hard-iron offset learnt online from the rotation (pdr.phone.magcal); applied only once significant.
@@ -462,6 +506,19 @@ class PdrPipeline:
                 a, b = pos - g0, cut - g0 + 1
                 qs, _ = self.attitude.run(acc[a:b], None if gyro is None else gyro[a:b],
                                           None if mag is None else mag[a:b])
+                if q_phone is not None and qs.shape[0]:
+                    if self.config.attitude_source == "phone":
+                        # The phone's attitude where it has one (the grid holds its last sample at the end).
+                        ok = np.isfinite(q_phone[a:b, 0])
+                        qs = np.where(ok[:, None], q_phone[a:b], qs)
+                    elif cut in by_confirm:
+                        # At a confirmed step (a sample that does not depend on the batching): the phone's yaw.
+                        st = self.attitude.state
+                        st.q, st.P, used = phone_yaw_update(st.q, st.P, q_phone[a:b][-1], self._phone_yaw_var,
+                                                            self.config.phone_yaw_gate_sigma)
+                        self.phone_yaw_updates += int(used)
+                if qs.shape[0]:
+                    self.att_q_now = qs[-1].copy()
                 hs = self.history.sl(pos, cut + 1)
                 self.history.q[hs] = qs
                 f_n, yy, yz, yu = _derived(qs, acc[a:b])
@@ -558,7 +615,8 @@ class PdrPipeline:
         f_n = h.f_n[sl]
         pats = step_patterns(h.an[sl], f_n[:, 2], c.rate_hz)
         st = self.attitude.state
-        win = StepWindow(s, e, h, q, f_n, pca_axis(f_n[:, :2])[0], st.q, st.P)   # RMPCA axis of the step
+        att_q = st.q if c.attitude_source == "filter" or self.att_q_now is None else self.att_q_now
+        win = StepWindow(s, e, h, q, f_n, pca_axis(f_n[:, :2])[0], att_q, st.P)   # RMPCA axis of the step
         if self.placement in STRIDE_HEADING_PLACEMENTS:
             head = self.pocket_heading.estimate(win, self.placement)
             if head.reversed_direction and self.pending is not None:
@@ -569,7 +627,7 @@ class PdrPipeline:
         mode = self.modes.label(h, s, e, self.placement, self._has_baro())
         rec = PendingStep(s, e, float(h.t[sl][0]), float(h.t[sl][-1]) + 1.0 / c.rate_hz, pats.tolist(),
                           head.est.yaw, head.est.var, head.psi0, head.axis, mode, float(h.up[sl][-1]),
-                          float(h.floor[sl][-1]), head.m1.tolist(), st.q.tolist(), peak,
+                          float(h.floor[sl][-1]), head.m1.tolist(), att_q.tolist(), peak,
                           _mean_finite(h.gyro_yaw[sl]), _mean_finite(h.up_time[sl]),
                           st.bias.tolist() if self.attitude.bias_known else None)
         events: list[PipelineEvent] = []
@@ -615,6 +673,10 @@ class PdrPipeline:
             step, more = stage.step(step, self.track)
             extra += more
         return [*events, step, *extra]
+
+    @property
+    def _phone_yaw_var(self) -> float:
+        return math.radians(self.config.phone_yaw_sigma_deg) ** 2
 
     def _has_baro(self) -> bool:
         return self.grid is not None and "baro" in self.grid.kinds

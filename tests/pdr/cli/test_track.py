@@ -3,6 +3,7 @@
 import csv
 import importlib.util
 import json
+import math
 
 import numpy as np
 import pytest
@@ -228,3 +229,57 @@ def test_steps_eval_on_sensor_logger_walks_with_plain_detector_beside(capsys):
     # The early-2021 pocket export, once refused, and its handling before the walk (60 steps before the
     # cadence limit): within one step.
     assert abs(files["inpocket-27-steps-Matan"]["count_error"]) <= 1
+
+
+@pytest.mark.data
+def test_ipin_eval_scores_the_phones_own_attitude_as_reference(tmp_path, capsys):
+    """The reference (the same pipeline on the log's AHRS attitude) is scored next to ours and counted."""
+    src = data_path("ipin2023_t3", "logfiles") / "IPIN2023_T3_TrainingTrial22_repetition01.txt"
+    one = tmp_path / "logs"
+    one.mkdir()
+    (one / src.name).symlink_to(src)
+    assert main(["eval", "ipin", str(one), "--placement", "hand", "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    f = res["files"][0]
+    ref = f["reference"]
+    assert ref["steps"] == f["steps"]                     # the same steps: only the attitude differs
+    assert ref["p75_abs_m"] != f["p75_abs_m"] and math.isfinite(ref["p75_abs_m"])
+    o = res["overall"]["reference"]
+    assert o["files"] == 1 and o["without_reference"] == 0
+    assert o["worse_than_reference"] == ([src.name] if f["p75_abs_m"] > ref["p75_abs_m"] + 1.0 else [])
+    assert "smoothed" in o
+    assert main(["eval", "ipin", str(one), "--placement", "hand", "--smoother", "off"]) == 0
+    text = capsys.readouterr().out
+    assert f"p75 ours {f['p75_abs_m']:.2f} reference {ref['p75_abs_m']:.2f} m" in text
+    assert "REFERENCE (phone's own attitude) (1 files)" in text and "of 1 walks" in text
+
+
+@pytest.mark.data
+def test_ms_eval_per_floor_with_reference(tmp_path, capsys):
+    root = data_path("ms_indoor_location", "site2")
+    picked = tmp_path / "site2"
+    for floor in ("F3", "F4"):
+        src = sorted((root / floor / "path_data_files").glob("*.txt*"))[0]
+        d = picked / floor / "path_data_files"
+        d.mkdir(parents=True)
+        (d / src.name).symlink_to(src)
+    assert main(["eval", "ms", str(picked), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert sorted(res["overall"]["floors"]) == ["F3", "F4"]
+    assert res["overall"]["reference"]["traces"] == 2
+    for p in res["files"]:
+        assert p["reference"] is not None and math.isfinite(p["reference"]["p75_m"])
+    assert main(["eval", "ms", str(picked)]) == 0
+    text = capsys.readouterr().out
+    assert "FLOOR F3 ours" in text and "FLOOR F4 ours" in text and "REFERENCE (phone's own attitude)" in text
+
+
+def test_reference_is_none_without_an_orientation_stream():
+    from pdr.cli.track import _reference_lines, reference_rows
+    from pdr.io import read_recording
+    from pdr.phone.pipeline import PipelineConfig
+
+    rec = read_recording(SIM / "hand_escalator.zip")
+    assert not rec.has("orientation")
+    assert reference_rows(rec, PipelineConfig()) is None
+    assert "REFERENCE (phone's own attitude): n/a" in "\n".join(_reference_lines({"without_reference": 2}))
