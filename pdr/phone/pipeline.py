@@ -232,7 +232,7 @@ class PdrPipeline:
         self.attitude = AttitudeFilter(c.rate_hz, att, c.attitude_method)
         self.magcal = HardIronEstimator(c.rate_hz, c.magcal)
         self.floors = FloorTracker(c.rate_hz, c.floors if site is None else replace(
-            c.floors, floor_height_m=site.floor_height_m), c.initial_floor)
+            c.floors, floor_height_m=site.floor_height_m, altitudes_m=site.floor_altitudes_m), c.initial_floor)
         self.elevator = ElevatorDetector(c.rate_hz, c.landmarks)
         self.track = TrackState(float(start_en_m[0]), float(start_en_m[1]))
         self.history = SampleHistory(int(c.history_s * c.rate_hz))
