@@ -158,7 +158,7 @@ def _track_floors(h: FloatArray, acc: FloatArray, flat: NDArray[np.bool_], ks: f
         v += ks * ((alt - prev) * rate_hz - v)
         if math.isnan(am):
             am = acc[i]
-        else:
+        elif not math.isnan(acc[i]):
             am += ks * (acc[i] - am)
             av += ks * ((acc[i] - am) ** 2 - av)
         k = min(max(n + mid, 1), levels.size - 2)
@@ -169,7 +169,7 @@ def _track_floors(h: FloatArray, acc: FloatArray, flat: NDArray[np.bool_], ks: f
             n -= 1
         elif flat[i]:
             ref += kd * rel
-        if abs(v) < settle_mps or not av <= walking_var:     # settled, or walking (NaN: no accelerometer)
+        if abs(v) < settle_mps or av > walking_var or math.isnan(acc[i]):   # settled, walking, no accelerometer
             shown = n
         up[i] = alt - ref
         fl[i] = floor0 + shown
