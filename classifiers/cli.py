@@ -228,6 +228,8 @@ def register_eval(targets: argparse._SubParsersAction) -> None:
     p.add_argument("--floors", action="store_true",
                    help="instead: figures of the step-mode timeline on multi-floor walks with landmarks (stairs "
                         "steps, elevator rides and their floor count; classifiers.floor_eval)")
+    p.add_argument("--site", default=None, metavar="SITE.json",
+                   help="with --floors: the building's site description (floor height or floor altitudes)")
     p.set_defaults(func=run_eval)
 
 
@@ -295,8 +297,9 @@ def run_eval(args: argparse.Namespace) -> int:
     recs = _recordings(args)
     if args.floors:
         from classifiers.floor_eval import floor_figures, print_floor_figures
+        from pdr.phone.landmarks import Site
 
-        floors = floor_figures(recs)
+        floors = floor_figures(recs, Site.load(args.site) if args.site else None)
         floors["command"] = _command_line()
         if args.out_dir:
             out = Path(args.out_dir)

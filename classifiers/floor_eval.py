@@ -37,6 +37,7 @@ import numpy as np
 from classifiers.datasets import ELEVATOR_MAX_DISTANCE_M, ipin_mode_labels
 from classifiers.timeline import STAIRS_MODES, ModeEntry, StepModes, StopTimeline
 from pdr.phone.configure import pipeline_config, placement_group
+from pdr.phone.landmarks import Site
 from pdr.phone.pipeline import PdrPipeline
 from pdr.recording import Recording
 
@@ -88,9 +89,11 @@ class StepTimeline:
     entries: tuple[ModeEntry, ...]
 
 
-def step_timeline(rec: Recording) -> StepTimeline:
-    """Run the pipeline over ``rec`` in one batch and build its step-mode timeline (module docstring)."""
-    pipe = PdrPipeline(pipeline_config(placement_group(rec.device.placement)))
+def step_timeline(rec: Recording, site: Site | None = None) -> StepTimeline:
+    """Run the pipeline over ``rec`` in one batch and build its step-mode timeline (module docstring); ``site``:
+    the building's floor height or floor altitudes (None: the default floor height).
+    """
+    pipe = PdrPipeline(pipeline_config(placement_group(rec.device.placement)), site)
     stops = StopTimeline()
     events = pipe.update(rec)
     entries = list(stops.update(rec, events))
@@ -114,8 +117,10 @@ def step_timeline(rec: Recording) -> StepTimeline:
     return StepTimeline(t0, t1, label, tuple(sorted(entries, key=lambda m: m.t_start_s)))
 
 
-def floor_figures(recs: Sequence[Recording]) -> dict[str, Any]:
-    """Per-leg and per-recording figures over the recordings with floor legs (module docstring)."""
+def floor_figures(recs: Sequence[Recording], site: Site | None = None) -> dict[str, Any]:
+    """Per-leg and per-recording figures over the recordings with floor legs (module docstring); ``site``: as for
+    :func:`step_timeline`.
+    """
     legs_out: list[dict[str, Any]] = []
     elevator_walks: list[dict[str, Any]] = []
     for rec in recs:
@@ -123,7 +128,7 @@ def floor_figures(recs: Sequence[Recording]) -> dict[str, Any]:
         if not legs:
             continue
         name = Path(rec.source).name if rec.source else "?"
-        tl = step_timeline(rec)
+        tl = step_timeline(rec, site)
         vertical = ipin_mode_labels(rec)
         mid = 0.5 * (tl.step_t0_s + tl.step_t1_s)
         on_stairs = (np.asarray(vertical.at(mid), dtype=object) if vertical is not None

@@ -96,6 +96,8 @@ class StopTimeline:
                 a, b = float(e["t_start_s"]), float(e["t_end_s"])
                 busy.append((a, b))
                 data = {"altitude_change_m": e.get("altitude_change_m"), "source": "impulses"}
+                if e.get("floors") is not None:
+                    data["floors"] = e["floors"]
                 rides.append(ModeEntry(a, b, f"elevator_{e.get('direction', 'up')}", data))
         self.floor_changes = self.floor_changes[-KEEP_FLOOR_CHANGES:]
         self.step_up = self.step_up[-KEEP_STEPS:]

@@ -21,6 +21,7 @@ from pdr.evaluation.scoring import (
     bounce_free_step_count,
     distance_ratio,
     distance_ratio_same_floor,
+    floors_at,
     landmark_errors,
     plain_step_count,
     step_count_error_pct,
@@ -86,7 +87,11 @@ def config_from_args(args: argparse.Namespace, initial_floor: float = 0.0) -> Pi
 def run_pipeline(rec: Recording, cfg: PipelineConfig, site: Site | None = None,
                  stages: Sequence[StepStage] = ()) -> tuple[list[dict[str, Any]], list[str]]:
     """Track rows and notices of a whole recording (``stages``: plugged-in step stages, e.g. the map matcher)."""
-    events = PdrPipeline(cfg, site, stages=stages).run(rec)
+    return _rows_notices(PdrPipeline(cfg, site, stages=stages).run(rec))
+
+
+def _rows_notices(events: list[dict[str, Any]]) -> tuple[list[dict[str, Any]], list[str]]:
+    """The step rows and the notices' messages of a pipeline's events."""
     notices = [str(e["message"]) for e in events if e.get("type") == "notice"]
     return track_rows(events), notices
 
@@ -283,8 +288,17 @@ def _emit(summary: dict[str, Any], per_file: list[dict[str, Any]], as_json: bool
             print(line)
 
 
-def _ipin_scores(rows: list[dict[str, Any]], t_truth: np.ndarray, pt: Any) -> dict[str, Any]:
-    """Landmark errors, distance ratios and floor agreement of one track (see :mod:`pdr.evaluation.scoring`)."""
+def _floor_changes(events: list[dict[str, Any]]) -> tuple[np.ndarray, np.ndarray]:
+    """Times (s) and new floors of the pipeline's floor changes."""
+    ch = [(float(e["t_s"]), float(e["floor"])) for e in events if e.get("type") == "floor_change"]
+    return np.array([c[0] for c in ch]), np.array([c[1] for c in ch])
+
+
+def _ipin_scores(rows: list[dict[str, Any]], t_truth: np.ndarray, pt: Any,
+                 changes: tuple[np.ndarray, np.ndarray] = (np.zeros(0), np.zeros(0))) -> dict[str, Any]:
+    """Landmark errors, distance ratios and floor agreement of one track (see :mod:`pdr.evaluation.scoring`;
+    ``changes``: the times (s) and floors of the pipeline's floor changes, for the floor at each landmark).
+    """
     t = np.array([r["t_s"] for r in rows])
     en = np.array([[r["east_m"], r["north_m"]] for r in rows])
     e_abs = landmark_errors(t, en, t_truth, pt.pos_m, "none")
@@ -292,13 +306,12 @@ def _ipin_scores(rows: list[dict[str, Any]], t_truth: np.ndarray, pt: Any) -> di
     floors = pt.floor if pt.floor is not None else np.zeros(len(t_truth))
     floors_ok = None
     if pt.floor is not None and np.isfinite(pt.floor).all():
-        est_floor = np.array([r["floor"] for r in rows])
-        floors_ok = float(np.mean(est_floor[np.clip(np.searchsorted(t, t_truth), 0, len(rows) - 1)] == pt.floor))
+        floors_ok = int(np.sum(floors_at(t_truth, float(pt.floor[0]), *changes) == pt.floor))
     return {"steps": len(rows), "landmarks": int(e_abs.size), "p75_abs_m": _pct(e_abs, 75),
             "median_abs_m": _pct(e_abs, 50), "p75_aligned_m": _pct(e_al, 75),
             "distance_ratio": distance_ratio(t, en, t_truth, pt.pos_m),
             "distance_ratio_same_floor": distance_ratio_same_floor(t, en, t_truth, pt.pos_m, floors),
-            "floor_correct": floors_ok, "_abs": e_abs, "_aligned": e_al}
+            "floors_right": floors_ok, "floor_landmarks": len(t_truth), "_abs": e_abs, "_aligned": e_al}
 
 
 def _ipin_summary(scores: list[dict[str, Any]]) -> dict[str, Any]:
@@ -307,7 +320,10 @@ def _ipin_summary(scores: list[dict[str, Any]]) -> dict[str, Any]:
     r = np.array([p["distance_ratio"] for p in scores])
     rf = np.array([p["distance_ratio_same_floor"] for p in scores])
     rf = rf[np.isfinite(rf)]
+    with_floor = [p for p in scores if p["floors_right"] is not None]
     return {"files": len(scores), "median_abs_m": _pct(a, 50), "p75_abs_m": _pct(a, 75),
+            "floors_right": sum(p["floors_right"] for p in with_floor),
+            "floor_landmarks": sum(p["floor_landmarks"] for p in with_floor),
             "median_aligned_m": _pct(s, 50), "p75_aligned_m": _pct(s, 75),
             "distance_ratio_median": _pct(r, 50), "distance_ratio_iqr": [_pct(r, 25), _pct(r, 75)],
             "abs_ratio_minus_1_median": _pct(np.abs(r - 1), 50), "abs_ratio_minus_1_max": _pct(np.abs(r - 1), 100),
@@ -324,7 +340,14 @@ def _ipin_summary_line(label: str, m: dict[str, Any]) -> str:
             f"max |ratio-1| {m['abs_ratio_minus_1_max']:.3f}; same-floor distance ratio median "
             f"{m['same_floor_ratio_median']:.3f} (IQR {m['same_floor_ratio_iqr'][0]:.3f}-"
             f"{m['same_floor_ratio_iqr'][1]:.3f}), max |ratio-1| "
-            f"{m['same_floor_abs_ratio_minus_1_max']:.3f}, {m['same_floor_outside_3pct']} outside 3 %")
+            f"{m['same_floor_abs_ratio_minus_1_max']:.3f}, {m['same_floor_outside_3pct']} outside 3 %; floors-right "
+            f"{_floors_right(m)}")
+
+
+def _floors_right(m: dict[str, Any]) -> str:
+    """``right/landmarks (percent)`` of the landmarks on the right floor, or ``n/a`` without floor truth."""
+    n = m["floor_landmarks"] if m["floors_right"] is not None else 0
+    return f"{m['floors_right']}/{n} ({100.0 * m['floors_right'] / n:.1f} %)" if n else "n/a"
 
 
 def _trim_start(rec: Recording, trim_s: float, first_landmark_s: float) -> Recording:
@@ -366,7 +389,9 @@ def eval_ipin(args: argparse.Namespace) -> int:
         rec = _trim_start(rec, args.trim_start, float(t_truth[0]))
         floor0 = float(pt.floor[0]) if pt.floor is not None and np.isfinite(pt.floor[0]) else 0.0
         cfg = config_from_args(args, floor0)
-        rows, notices = run_pipeline(rec, cfg, site)
+        events = PdrPipeline(cfg, site).run(rec)
+        rows, notices = _rows_notices(events)
+        changes = _floor_changes(events)
         name = f.name[:-4] if f.name.endswith(".txt") else f.name
         smoothed = smoothed_rows(rows, notices) if args.smoother == "both" else None
         if args.tracks:
@@ -379,15 +404,15 @@ def eval_ipin(args: argparse.Namespace) -> int:
             continue
         walk = landmark_walk(rows, t_truth, pt.pos_m, pt.floor)
         # Metres per detected step the truth implies on one floor (the walker's stride, if no step is missed).
-        p = {"file": f.name, "phone": rec.device.model, **_ipin_scores(rows, t_truth, pt),
+        p = {"file": f.name, "phone": rec.device.model, **_ipin_scores(rows, t_truth, pt, changes),
              "truth_m_per_step": walk.length_m / walk.patterns.shape[0] if walk is not None else math.nan}
         if smoothed is not None:
-            p["smoothed"] = _ipin_scores(smoothed, t_truth, pt)
+            p["smoothed"] = _ipin_scores(smoothed, t_truth, pt, changes)
         ref = reference_rows(rec, cfg, site)
         if ref is not None and len(ref) >= 2:
-            p["reference"] = _ipin_scores(ref, t_truth, pt)
+            p["reference"] = _ipin_scores(ref, t_truth, pt, changes)   # floors: the same barometer
             if args.smoother == "both":
-                p["reference"]["smoothed"] = _ipin_scores(smoothed_rows(ref, []), t_truth, pt)
+                p["reference"]["smoothed"] = _ipin_scores(smoothed_rows(ref, []), t_truth, pt, changes)
         if args.budget:
             p["budget"] = {name: _ipin_scores(track, t_truth, pt) for name, track in
                            budget_tracks(smoothed or rows, t_truth, pt.pos_m, pt.floor).items()}
@@ -417,12 +442,13 @@ def eval_ipin(args: argparse.Namespace) -> int:
             truth = rec.truth.positions
             assert truth is not None   # scored in the first pass
             rec = _trim_start(rec, args.trim_start, rec.origin_ns / 1e9 + float(truth.t_s[0]))
-            rows, _ = run_pipeline(rec, replace(d["cfg"], step_length=model), site)
+            events = PdrPipeline(replace(d["cfg"], step_length=model), site).run(rec)
+            rows, changes = _rows_notices(events)[0], _floor_changes(events)
             t_truth = rec.origin_ns / 1e9 + truth.t_s
             c = {"k": model.k, "calibrated_on": [o["path"].name for o in partners],
-                 **_ipin_scores(rows, t_truth, truth)}
+                 **_ipin_scores(rows, t_truth, truth, changes)}
             if args.smoother == "both":
-                c["smoothed"] = _ipin_scores(smoothed_rows(rows, []), t_truth, truth)
+                c["smoothed"] = _ipin_scores(smoothed_rows(rows, []), t_truth, truth, changes)
                 calibrated_smoothed.append(c["smoothed"])
             d["per"]["calibrated"] = c
             calibrated.append(c)
@@ -439,7 +465,7 @@ def eval_ipin(args: argparse.Namespace) -> int:
             line = (f"{p['file']}: p75 {p['p75_abs_m']:.2f} m absolute, {p['p75_aligned_m']:.2f} m aligned, "
                     f"ratio {p['distance_ratio']:.3f} (same floor {p['distance_ratio_same_floor']:.3f}), "
                     f"{p['steps']} steps ({p['truth_m_per_step']:.3f} m/step on one floor by truth, "
-                    f"{p['phone'] or 'phone ?'})")
+                    f"{p['phone'] or 'phone ?'}), floors-right {_floors_right(p)}")
             sm = p.get("smoothed")
             if sm is not None:
                 line += (f" | smoothed p75 {sm['p75_abs_m']:.2f} m absolute, {sm['p75_aligned_m']:.2f} m aligned")

@@ -11,7 +11,10 @@ The conventions of ``../shared/data/README.md`` and its independent reference ``
 * distance ratio: path length of the track between the first and last landmark times over the true path
   length through the landmarks; :func:`distance_ratio_same_floor` keeps only the landmark intervals on one
   floor (the straight line across a floor change is not the walked path);
-* step-count error: ``100 (detected - true) / true`` percent.
+* step-count error: ``100 (detected - true) / true`` percent;
+* floors right (IPIN multi-floor walks): the landmarks whose true floor is the track's floor at the landmark time,
+  the floor in effect then (the start floor and the floor changes up to that time, :func:`floors_at`), not the floor
+  of the next step, which after a stop (an elevator ride, waiting at a door) may be minutes later.
 """
 
 from __future__ import annotations
@@ -112,6 +115,15 @@ def distance_ratio_same_floor(track_t: FloatArray, track_en: FloatArray, truth_t
         est += float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
         true += float(np.linalg.norm(gt[k + 1] - gt[k]))
     return est / true if true > 0 else math.nan
+
+
+def floors_at(t: FloatArray, floor0: float, change_t: FloatArray, change_floor: FloatArray) -> FloatArray:
+    """The floor in effect at times ``t`` (s): ``floor0`` until the first change, then the floor of the last change
+    at or before each time (``change_t`` (K,) s, increasing; ``change_floor`` (K,) the floor after each change).
+    """
+    levels = np.concatenate([[float(floor0)], np.asarray(change_floor, dtype=np.float64)])
+    return levels[np.searchsorted(np.asarray(change_t, dtype=np.float64), np.asarray(t, dtype=np.float64),
+                                  side="right")]
 
 
 def bounce_free_step_count(edges_per_foot: list[FloatArray], min_fraction: float = 0.5) -> int:

@@ -115,8 +115,10 @@ class LandmarkEvent(_Event):
 @dataclass(frozen=True)
 class ElevatorEvent(_Event):
     """An elevator ride from ``t_start_s`` to ``t_end_s`` (s): direction ``up``/``down``, barometric height change
-    (m), the magnetic field's range over the ride (uT, None without magnetometer) and the site landmark that fixed
-    the position (None: no match; then absent from the row).
+    (m), the magnetic field's range over the ride (uT, None without magnetometer), the site landmark that fixed
+    the position (None: no match; then absent from the row) and the floors the ride crossed (the floors nearest the
+    barometric altitudes at its start and end, with the site's floor altitudes or floor height; None without a
+    barometer).
     """
 
     KIND: ClassVar[str] = "elevator"
@@ -126,6 +128,7 @@ class ElevatorEvent(_Event):
     altitude_change_m: float
     mag_change_uT: float | None
     site_landmark: str | None = None
+    floors: int | None = None
 
     def to_row(self) -> EventRow:
         row = super().to_row()

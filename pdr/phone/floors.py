@@ -2,9 +2,16 @@
 
 Altitude from pressure with the standard atmosphere (:func:`pdr.frames.pressure_to_altitude_m`),
 low-passed causally (first order, ``smooth_s``). The floor is ``floor0 + n`` where ``n`` changes by one
-when the altitude relative to the reference moves more than ``hysteresis`` floor heights past the
-current floor's level. While the user walks on the flat (no stairs, elevator or escalator) the reference
-follows the altitude slowly (``drift_tau_s``) so weather and ventilation drift do not count as floors.
+when the altitude relative to the reference moves more than ``hysteresis`` of the gap to the next floor's level
+past the current floor's level. A floor's level is its altitude from the site (``altitudes_m``, e.g. a mezzanine
+half a storey down) relative to ``floor0``'s, else ``n * floor_height_m`` (floors beyond the site's list continue
+from the nearest listed one by ``floor_height_m``). While the user walks on the flat (no stairs, elevator or
+escalator) the reference follows the altitude slowly (``drift_tau_s``)
+so weather and ventilation drift do not count as floors. A floor is a level one stays on: the floor output changes
+only once the altitude has settled (its rate, low-passed with ``smooth_s``, below ``settle_mps``) or the user walks
+(the standard deviation of the specific-force magnitude over about ``smooth_s`` above ``walking_acc_std_mps2``: a
+rider stands still in the cabin). An elevator ride thus changes the floor once, when the cabin stops or the rider
+walks out, by the floors it crossed, and not at each floor passed on the way; on stairs the floor changes at once.
 """
 
 from __future__ import annotations
@@ -25,16 +32,52 @@ FloatArray = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class FloorConfig:
-    """Floor height (m), hysteresis (fraction of a floor), smoothing and drift time constants (s)."""
+    """Floor height (m), hysteresis (fraction of a floor), smoothing and drift time constants (s), the vertical
+    speed (m/s) below which the altitude has settled on a floor (an elevator moves at 0.3-2 m/s, a walker on stairs
+    at about 0.3 m/s), the specific-force standard deviation (m/s^2) above which the user walks, and the site's
+    per-floor altitudes ``altitudes_m``: ``(floor, altitude m)`` pairs (empty: every floor ``floor_height_m`` apart).
+    """
 
     floor_height_m: float = 4.0
     hysteresis: float = 0.6
     smooth_s: float = 1.0
     drift_tau_s: float = 120.0
+    settle_mps: float = 0.2
+    walking_acc_std_mps2: float = 1.0
+    altitudes_m: tuple[tuple[float, float], ...] = ()
 
     def __post_init__(self) -> None:
         if not self.floor_height_m > 0:
             raise InputError("floor height must be positive", field="floor_height_m", source="floor config")
+        try:
+            alts = tuple(sorted((float(f), float(a)) for f, a in self.altitudes_m))
+        except (TypeError, ValueError):
+            raise InputError("altitudes_m must be [floor, altitude_m] pairs", field="altitudes_m",
+                             source="floor config") from None
+        if any(b[0] == a[0] or not b[1] > a[1] for a, b in zip(alts, alts[1:], strict=False)):
+            raise InputError("floor altitudes must rise with the floor number, one altitude per floor",
+                             field="altitudes_m", source="floor config")
+        object.__setattr__(self, "altitudes_m", alts)
+
+    def assumes_default_height(self) -> bool:
+        """True when neither floor altitudes nor another floor height than the default were given."""
+        return not self.altitudes_m and self.floor_height_m == FloorConfig.floor_height_m
+
+    def altitude_m(self, floor: float) -> float:
+        """Altitude of ``floor`` (m): the site's, else continued from the nearest listed floor by the floor height."""
+        if not self.altitudes_m:
+            return floor * self.floor_height_m
+        f0, a0 = min(self.altitudes_m, key=lambda fa: abs(fa[0] - floor))
+        return a0 + (floor - f0) * self.floor_height_m
+
+    def levels(self, floor0: float) -> FloatArray:
+        """Level (m) of floors ``floor0 + n`` above ``floor0``'s for ``n = -LEVEL_SPAN .. LEVEL_SPAN``."""
+        n = np.arange(-LEVEL_SPAN, LEVEL_SPAN + 1)
+        return np.array([self.altitude_m(floor0 + k) for k in n]) - self.altitude_m(floor0)
+
+
+#: Floors tracked above and below the start floor.
+LEVEL_SPAN = 100
 
 
 class FloorTracker:
@@ -46,52 +89,89 @@ class FloorTracker:
         self.floor0 = float(floor0)
         self.alt = math.nan          # smoothed altitude (m)
         self.ref = math.nan          # altitude of floor0 (m)
-        self.n = 0                   # floors above floor0
+        self.n = 0                   # floors above floor0 by altitude
+        self.shown = 0               # floors above floor0 output: n once the altitude settled
+        self.v = 0.0                 # low-passed vertical speed (m/s)
+        self.acc_mean = math.nan     # low-passed specific-force magnitude (m/s^2)
+        self.acc_var = 0.0           # its low-passed variance (m^2/s^4)
+        self.levels = self.config.levels(self.floor0)
 
-    def update(self, p_hpa: FloatArray, flat: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Smoothed altitude above the start (m) and floor per sample; ``flat`` (bool) allows re-anchoring."""
+    def update(self, p_hpa: FloatArray, flat: FloatArray, acc_norm: FloatArray | None = None
+               ) -> tuple[FloatArray, FloatArray]:
+        """Smoothed altitude above the start (m) and floor per sample; ``flat`` (bool) allows re-anchoring;
+        ``acc_norm``: the specific-force magnitude (m/s^2) on the same samples (None: the user is taken as walking,
+        the floor changes as soon as it is passed).
+        """
+        a = np.full(len(p_hpa), np.nan) if acc_norm is None else np.asarray(acc_norm, dtype=np.float64)
         h = pressure_to_altitude_m(np.asarray(p_hpa, dtype=np.float64))
         c = self.config
         ks = 1.0 / (1.0 + c.smooth_s * self.rate_hz)
         kd = 1.0 / (1.0 + c.drift_tau_s * self.rate_hz)
         up = np.empty(h.size)
         fl = np.empty(h.size)
-        self.alt, self.ref, self.n = _track_floors(h, np.asarray(flat, dtype=np.bool_), ks, kd, c.floor_height_m,
-                                                   c.hysteresis, self.floor0, self.alt, self.ref, self.n, up, fl)
+        st = np.array([self.alt, self.ref, self.v, self.acc_mean, self.acc_var])
+        self.n, self.shown = _track_floors(
+            h, a, np.asarray(flat, dtype=np.bool_), ks, kd, self.levels, c.hysteresis, c.settle_mps,
+            c.walking_acc_std_mps2 ** 2, self.rate_hz, self.floor0, st, self.n, self.shown, up, fl)
+        self.alt, self.ref, self.v, self.acc_mean, self.acc_var = (float(x) for x in st)
         return up, fl
+
+    def floors_between(self, up0_m: float, up1_m: float) -> int:
+        """Floors between the levels nearest two altitudes above the start (m, as :meth:`update` gives them)."""
+        return abs(int(np.argmin(np.abs(self.levels - up1_m))) - int(np.argmin(np.abs(self.levels - up0_m))))
 
     def state(self) -> dict[str, Any]:
         return {"rate_hz": self.rate_hz, "config": asdict(self.config), "floor0": self.floor0, "alt": self.alt,
-                "ref": self.ref, "n": self.n}
+                "ref": self.ref, "n": self.n, "v": self.v, "shown": self.shown, "acc_mean": self.acc_mean,
+                "acc_var": self.acc_var}
 
     @classmethod
     def from_state(cls, d: dict[str, Any]) -> FloorTracker:
         try:
             t = cls(float(d["rate_hz"]), FloorConfig(**d["config"]), float(d["floor0"]))
             t.alt, t.ref, t.n = float(d["alt"]), float(d["ref"]), int(d["n"])
+            # States saved before the settling rule showed n at once.
+            t.v, t.shown = float(d.get("v", 0.0)), int(d.get("shown", t.n))
+            t.acc_mean, t.acc_var = float(d.get("acc_mean", math.nan)), float(d.get("acc_var", 0.0))
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"bad floor state ({exc})", source="floor state") from None
         return t
 
 
 @njit(cache=True)
-def _track_floors(h: FloatArray, flat: NDArray[np.bool_], ks: float, kd: float, height: float, hysteresis: float,
-                  floor0: float, alt: float, ref: float, n: int, up: FloatArray,
-                  fl: FloatArray) -> tuple[float, float, int]:  # pragma: no cover - compiled
+def _track_floors(h: FloatArray, acc: FloatArray, flat: NDArray[np.bool_], ks: float, kd: float, levels: FloatArray,
+                  hysteresis: float, settle_mps: float, walking_var: float, rate_hz: float, floor0: float,
+                  st: FloatArray, n: int, shown: int, up: FloatArray,
+                  fl: FloatArray) -> tuple[int, int]:  # pragma: no cover - compiled
     """The per-sample loop of :meth:`FloorTracker.update` (module doc): altitudes ``h`` (m) in, the smoothed
-    altitude above the reference ``up`` (m) and the floor ``fl`` out; returns the state ``(alt, ref, n)``.
+    altitude above the reference ``up`` (m) and the floor ``fl`` out; ``st`` is the state ``(alt, ref, v, acc_mean,
+    acc_var)``, updated in place; returns ``(n, shown)``. ``acc``: the specific-force magnitude (m/s^2; NaN: walking).
+    ``levels[k]``: the level (m) of floor ``floor0 + k - (levels.size - 1) // 2`` (:meth:`FloorConfig.levels`).
     """
+    mid = (levels.size - 1) // 2
+    alt, ref, v, am, av = st[0], st[1], st[2], st[3], st[4]
     for i in range(h.size):
         if math.isnan(alt):
             alt = ref = h[i]
+        prev = alt
         alt += ks * (h[i] - alt)
-        rel = alt - ref - n * height
-        if rel > hysteresis * height:
+        v += ks * ((alt - prev) * rate_hz - v)
+        if math.isnan(am):
+            am = acc[i]
+        elif not math.isnan(acc[i]):
+            am += ks * (acc[i] - am)
+            av += ks * ((acc[i] - am) ** 2 - av)
+        k = min(max(n + mid, 1), levels.size - 2)
+        rel = alt - ref - levels[k]
+        if rel > hysteresis * (levels[k + 1] - levels[k]):
             n += 1
-        elif rel < -hysteresis * height:
+        elif rel < -hysteresis * (levels[k] - levels[k - 1]):
             n -= 1
         elif flat[i]:
             ref += kd * rel
+        if abs(v) < settle_mps or av > walking_var or math.isnan(acc[i]):   # settled, walking, no accelerometer
+            shown = n
         up[i] = alt - ref
-        fl[i] = floor0 + n
-    return alt, ref, n
+        fl[i] = floor0 + shown
+    st[0], st[1], st[2], st[3], st[4] = alt, ref, v, am, av
+    return n, shown

@@ -201,6 +201,9 @@ class Site:
     ``grid_deg`` (deg, compass bearing clockwise from north of one of the building's main axes, optional): when
     given, the heuristic drift elimination of hand-held and torso headings snaps to this grid instead of learning
     the walk's dominant directions (:class:`pdr.phone.heading.StepDriftElimination`).
+    ``floor_altitudes_m``: ``(floor, altitude m)`` of the floors whose entry in the ``floors`` list (the floor-plan
+    layout of :mod:`pdr.site.plan`) states an ``altitude_m``; the floor tracker uses them instead of
+    ``floor_height_m`` (which still counts floors beyond them).
     """
 
     name: str
@@ -208,6 +211,7 @@ class Site:
     floor_height_m: float = 4.0
     declination_deg: float | None = None
     grid_deg: float | None = None
+    floor_altitudes_m: tuple[tuple[float, float], ...] = ()
 
     @classmethod
     def from_dict(cls, d: Any, source: str = "site") -> Site:
@@ -235,7 +239,7 @@ class Site:
         except (TypeError, ValueError):
             raise InputError("floor_height_m must be a number", source=source, field="floor_height_m") from None
         decl, grid = (_site_angle(d, name, source) for name in ("declination_deg", "grid_deg"))
-        return cls(str(d.get("name", "")), tuple(out), fh, decl, grid)
+        return cls(str(d.get("name", "")), tuple(out), fh, decl, grid, _floor_altitudes(d.get("floors"), source))
 
     @classmethod
     def load(cls, path: str | Path) -> Site:
@@ -246,8 +250,10 @@ class Site:
         return cls.from_dict(d, source=str(path))
 
     def to_dict(self) -> dict[str, Any]:
-        extra = {k: v for k, v in (("declination_deg", self.declination_deg), ("grid_deg", self.grid_deg))
-                 if v is not None}
+        extra: dict[str, Any] = {k: v for k, v in (("declination_deg", self.declination_deg),
+                                                   ("grid_deg", self.grid_deg)) if v is not None}
+        if self.floor_altitudes_m:
+            extra["floors"] = [{"floor": f, "altitude_m": a} for f, a in self.floor_altitudes_m]
         return {"name": self.name, "floor_height_m": self.floor_height_m, **extra,
                 "landmarks": [{"id": lm.id, "type": lm.type, "east_m": lm.east_m, "north_m": lm.north_m,
                                "floor": lm.floor, "heading_deg": list(lm.heading_deg), "radius_m": lm.radius_m}
@@ -346,3 +352,24 @@ class ElevatorDetector:
         e.first = (int(f[0]), int(f[1]), int(f[2])) if f else None
         e.index = int(d["index"])
         return e
+
+
+def _floor_altitudes(floors: Any, source: str) -> tuple[tuple[float, float], ...]:
+    """``(floor, altitude m)`` of the ``floors`` entries that state ``altitude_m`` (None: no ``floors`` list)."""
+    if floors is None:
+        return ()
+    if not isinstance(floors, list):
+        raise InputError("floors must be a list", source=source, field="floors")
+    out = []
+    for i, f in enumerate(floors):
+        if not isinstance(f, dict) or f.get("altitude_m") is None:
+            continue
+        try:
+            fl, alt = float(f["floor"]), float(f["altitude_m"])
+        except (KeyError, TypeError, ValueError) as exc:
+            raise InputError(f"floor and altitude_m must be numbers ({exc})", source=f"{source} floor {i}",
+                             field="altitude_m") from None
+        if not (math.isfinite(fl) and math.isfinite(alt)):
+            raise InputError("floor and altitude_m must be finite", source=f"{source} floor {i}", field="altitude_m")
+        out.append((fl, alt))
+    return tuple(sorted(out))

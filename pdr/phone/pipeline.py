@@ -258,7 +258,7 @@ class PdrPipeline:
         self.attitude = AttitudeFilter(c.rate_hz, att, c.attitude_method)
         self.magcal = HardIronEstimator(c.rate_hz, c.magcal)
         self.floors = FloorTracker(c.rate_hz, c.floors if site is None else replace(
-            c.floors, floor_height_m=site.floor_height_m), c.initial_floor)
+            c.floors, floor_height_m=site.floor_height_m, altitudes_m=site.floor_altitudes_m), c.initial_floor)
         self.elevator = ElevatorDetector(c.rate_hz, c.landmarks)
         self.track = TrackState(float(start_en_m[0]), float(start_en_m[1]))
         self.history = SampleHistory(int(c.history_s * c.rate_hz))
@@ -458,6 +458,11 @@ class PdrPipeline:
                 msg = "no orientation stream: the phone's heading is not used (--use-phone-orientation)"
                 self.notices.append(msg)
                 events.append(NoticeEvent(msg))
+        if "baro" in kinds and self.floors.config.assumes_default_height():
+            msg = (f"no site with the building's floor height or floor altitudes: floor numbers assume floors "
+                   f"{self.floors.config.floor_height_m:g} m apart (the default floor height)")
+            self.notices.append(msg)
+            events.append(NoticeEvent(msg))
         self.grid = OnlineGrid(self.config.rate_hz, tuple(kinds))
         self.t0_ns = 0
         if self.placement is None:
@@ -484,7 +489,7 @@ class PdrPipeline:
             mag = self.magcal.update(mag, gyro, self.attitude.state.bias)
         mag_n = np.linalg.norm(mag, axis=1) if mag is not None else np.full(n, np.nan)
         if "baro" in kinds and n:
-            up, floor = self.floors.update(vals["baro"][:, 0], np.ones(n, dtype=bool))
+            up, floor = self.floors.update(vals["baro"][:, 0], np.ones(n, dtype=bool), np.linalg.norm(acc, axis=1))
             changes = np.flatnonzero(np.diff(np.concatenate([[self.last_floor], floor])) != 0)
             for i in changes:
                 events.append(FloorChangeEvent(float(t[i]), float(floor[i]),
@@ -557,7 +562,9 @@ class PdrPipeline:
                 float(self.history.t[sl][0]) if mags.size else float(t[0]),
                 float(self.history.t[sl][-1]) if mags.size else float(t[-1]),
                 "up" if direction > 0 else "down", dh,
-                float(np.nanmax(mags) - np.nanmin(mags)) if np.isfinite(mags).any() else None, site_landmark))
+                float(np.nanmax(mags) - np.nanmin(mags)) if np.isfinite(mags).any() else None, site_landmark,
+                self.floors.floors_between(float(self.history.up[sl][0]), float(self.history.up[sl][-1]))
+                if self._has_baro() and self.history.up[sl].size else None))
         return out
 
     def _placement_known(self) -> None:

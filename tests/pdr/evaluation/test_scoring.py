@@ -10,6 +10,7 @@ from pdr.evaluation.scoring import (
     bounce_free_step_count,
     distance_ratio,
     distance_ratio_same_floor,
+    floors_at,
     landmark_errors,
     plain_step_count,
     step_count_error_pct,
@@ -83,3 +84,8 @@ def test_the_plain_peak_counter_counts_a_clean_gait_signal():
     acc = np.column_stack([np.zeros(t.size), np.zeros(t.size), 9.81 + 2.0 * np.sin(2 * np.pi * 1.8 * t)])
     assert abs(plain_step_count(t, acc) - 36) <= 1
     assert plain_step_count(t[:1], acc[:1]) == 0
+
+
+def test_floors_at_is_the_floor_in_effect_at_each_time():
+    got = floors_at(np.array([0.0, 9.9, 10.0, 30.0, 50.0]), 0.0, np.array([10.0, 40.0]), np.array([-2.0, 0.0]))
+    np.testing.assert_array_equal(got, [0.0, 0.0, -2.0, -2.0, 0.0])

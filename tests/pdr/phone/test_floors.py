@@ -61,3 +61,54 @@ def test_bad_configuration_and_state_are_named():
         FloorConfig(floor_height_m=0.0)
     with pytest.raises(InputError, match="bad floor state"):
         FloorTracker.from_state({"rate_hz": 10.0})
+
+
+def _ride(alt_from: float, alt_to: float, speed_mps: float) -> np.ndarray:
+    """30 s at ``alt_from``, a ride at ``speed_mps``, 30 s at ``alt_to`` (m)."""
+    n = int(abs(alt_to - alt_from) / speed_mps * RATE_HZ)
+    return np.concatenate([np.full(300, alt_from), np.linspace(alt_from, alt_to, n), np.full(300, alt_to)])
+
+
+MUSEUM = FloorConfig(floor_height_m=2.85, altitudes_m=((0, 0.0), (-1, -3.1), (-2, -5.7)))
+
+
+def test_site_floor_altitudes_count_a_mezzanine_and_continue_by_the_floor_height():
+    # Down the stairs from floor 0 to the mezzanine (-3.1 m), then to floor -2 (-5.7 m), walking all the way.
+    alt = np.concatenate([_ride(0.0, -3.1, 0.3), _ride(-3.1, -5.7, 0.3)])
+    walking = 9.81 + 2.0 * np.sin(np.arange(alt.size) * 2 * np.pi * 2.0 / RATE_HZ)
+    flat = np.ones(alt.size, dtype=bool)
+    _, floor = FloorTracker(RATE_HZ, MUSEUM).update(pressures(alt), flat, walking)
+    half = _ride(0.0, -3.1, 0.3).size
+    assert floor[half - 1] == -1.0 and floor[-1] == -2.0
+    # Floors beyond the listed ones continue from the nearest by the floor height.
+    assert MUSEUM.altitude_m(1) == pytest.approx(2.85) and MUSEUM.altitude_m(-3) == pytest.approx(-8.55)
+    # Uniform 3.1 m floors put -5.7 m on floor -2 as well, but 2.6 m (the mezzanine gap) at 0.6 floor hysteresis
+    # would not reach floor -1 from 0 at 1.8 m: the site's levels decide, not the default height.
+    _, floor4 = FloorTracker(RATE_HZ).update(pressures(alt), flat, walking)
+    assert floor4[-1] == -1.0
+
+
+def test_an_elevator_ride_changes_the_floor_once_when_it_ends():
+    alt = _ride(0.0, -5.7, 1.0)
+    still = np.full(alt.size, 9.81)                      # a rider standing in the cabin
+    up, floor = FloorTracker(RATE_HZ, MUSEUM).update(pressures(alt), np.ones(alt.size, dtype=bool), still)
+    changes = np.flatnonzero(np.diff(floor))
+    assert changes.size == 1 and floor[-1] == -2.0       # 0 -> -2 at once, never through the mezzanine
+    arrived = 300 + int(5.7 * RATE_HZ)
+    assert arrived <= changes[0] <= arrived + 5 * RATE_HZ
+    # Walking (no accelerometer given: taken as walking), the floors passed show as they are passed.
+    _, walked = FloorTracker(RATE_HZ, MUSEUM).update(pressures(alt), np.ones(alt.size, dtype=bool))
+    assert np.flatnonzero(np.diff(walked)).size == 2 and np.flatnonzero(np.diff(walked))[0] < arrived
+    tracker = FloorTracker(RATE_HZ, MUSEUM)
+    tracker.update(pressures(alt), np.ones(alt.size, dtype=bool), still)
+    assert tracker.floors_between(0.0, float(up[-1])) == 2 and tracker.floors_between(-3.0, -0.2) == 1
+
+
+def test_floor_altitudes_are_checked():
+    with pytest.raises(InputError, match="rise with the floor number"):
+        FloorConfig(altitudes_m=((0, 0.0), (1, -3.0)))
+    with pytest.raises(InputError, match="pairs"):
+        FloorConfig(altitudes_m=(("ground", 0.0),))  # type: ignore[arg-type]
+    # Saved states keep the altitudes and resume with them.
+    t = FloorTracker(RATE_HZ, MUSEUM)
+    assert FloorTracker.from_state(t.state()).config == MUSEUM

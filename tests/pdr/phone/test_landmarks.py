@@ -114,12 +114,24 @@ def test_site_round_trip_match_and_landmark_heading():
     (lambda d: d.update(floor_height_m="high"), "floor_height_m must be a number"),
     (lambda d: d.update(grid_deg=400), r"grid_deg must be a number of degrees in \[-180, 180\]"),
     (lambda d: d.pop("landmarks"), "'landmarks' list"),
+    (lambda d: d.update(floors={"floor": 0}), "floors must be a list"),
+    (lambda d: d.update(floors=[{"floor": "ground", "altitude_m": 0.0}]), "floor and altitude_m must be numbers"),
 ])
 def test_bad_site_descriptions_name_the_field(edit, match):
     d = json.loads(json.dumps(SITE))
     edit(d)
     with pytest.raises(InputError, match=match):
         Site.from_dict(d)
+
+
+def test_site_floor_altitudes_from_the_floor_plan_layout():
+    # The floors list of a floor-plan site (pdr.site.plan): only the entries with an altitude count.
+    d = {**SITE, "floors": [{"floor": -2, "altitude_m": -5.7, "walkable": []}, {"floor": 0, "altitude_m": 0.0},
+                            {"floor": -1, "altitude_m": -3.1}, {"floor": 1}]}
+    site = Site.from_dict(d)
+    assert site.floor_altitudes_m == ((-2.0, -5.7), (-1.0, -3.1), (0.0, 0.0))
+    assert Site.from_dict(site.to_dict()) == site
+    assert Site.from_dict(SITE).floor_altitudes_m == ()
 
 
 def test_site_load_names_an_unreadable_file(tmp_path):

@@ -9,6 +9,7 @@ from pdr import quaternion as quat
 from pdr import state_codec
 from pdr.frames import heading_deg_to_yaw, wrap_angle
 from pdr.io.registry import read_recording
+from pdr.phone.landmarks import Site
 from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
 from pdr.recording import Recording, SensorStream
 from pdr.sim import load_scenario, simulate
@@ -79,6 +80,19 @@ def test_missing_sensors_degrade_with_notices(hand_walk):
     notes = " ".join(e["message"] for e in events if e["type"] == "notice")
     assert "no gyroscope" in notes and "no magnetometer" in notes and "no barometer" in notes
     assert abs(len(track_rows(events)) - hand_walk.truth.step_count) <= 1
+
+
+def test_floors_without_a_site_say_they_assume_the_default_height_and_a_ride_changes_the_floor_once(hand_walk):
+    events = PdrPipeline(PipelineConfig(initial_floor=1.0)).run(hand_walk)
+    notes = [e["message"] for e in events if e["type"] == "notice"]
+    assert any("floor numbers assume floors 4 m apart" in n for n in notes)
+    # The escalator one floor down (the rider stands on it): one floor change, 1 -> 0.
+    changes = [e for e in events if e["type"] == "floor_change"]
+    assert [(c["from_floor"], c["floor"]) for c in changes] == [(1.0, 0.0)]
+    site = Site("shop", (), floor_height_m=3.0, floor_altitudes_m=((0.0, 0.0), (1.0, 3.0)))
+    events = PdrPipeline(PipelineConfig(initial_floor=1.0), site).run(hand_walk)
+    assert not any("floor numbers assume" in e["message"] for e in events if e["type"] == "notice")
+    assert [(e["from_floor"], e["floor"]) for e in events if e["type"] == "floor_change"] == [(1.0, 0.0)]
 
 
 def test_standing_gives_empty_track_and_message():
