@@ -9,7 +9,7 @@ import re
 import sys
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -41,6 +41,8 @@ from pdr.phone.steps import StepConfig
 from pdr.phone.track_schema import write_csv
 from pdr.recording import Recording
 from pdr.site.plan import SitePlan
+
+T = TypeVar("T")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -677,16 +679,24 @@ def eval_ms(args: argparse.Namespace) -> int:
 
 def _map_config(text: str) -> MapMatchConfig:
     """``--map-config JSON`` as a :class:`MapMatchConfig` (unknown fields and bad JSON are refused naming them)."""
+    return _json_config(text, MapMatchConfig, "map-config")
+
+
+def _json_config(text: str, cls: Callable[..., T], option: str) -> T:
+    """``--OPTION JSON`` (a JSON object of ``cls``'s fields) as a ``cls``; bad JSON and unknown fields are refused
+    naming the option.
+    """
+    field = option.replace("-", "_")
     try:
         fields = json.loads(text)
     except json.JSONDecodeError as exc:
-        raise InputError(f"--map-config: not JSON ({exc})", field="map_config", source="command line") from None
+        raise InputError(f"--{option}: not JSON ({exc})", field=field, source="command line") from None
     if not isinstance(fields, dict):
-        raise InputError("--map-config must be a JSON object", field="map_config", source="command line")
+        raise InputError(f"--{option} must be a JSON object", field=field, source="command line")
     try:
-        return MapMatchConfig(**fields)
+        return cls(**fields)
     except TypeError as exc:
-        raise InputError(f"--map-config: {exc}", field="map_config", source="command line") from None
+        raise InputError(f"--{option}: {exc}", field=field, source="command line") from None
 
 
 class _MapScores:
@@ -764,16 +774,7 @@ _STEPS_IN_NAME = re.compile(r"^(?P<carriage>[a-z]+)-(?P<n>\d+)-steps-")
 
 def _step_config(text: str) -> StepConfig:
     """``--step JSON`` as a :class:`StepConfig` (unknown fields and bad JSON are refused naming them)."""
-    try:
-        fields = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"--step: not JSON ({exc})", field="step", source="command line") from None
-    if not isinstance(fields, dict):
-        raise InputError("--step must be a JSON object", field="step", source="command line")
-    try:
-        return StepConfig(**fields)
-    except TypeError as exc:
-        raise InputError(f"--step: {exc}", field="step", source="command line") from None
+    return _json_config(text, StepConfig, "step")
 
 
 def eval_steps(args: argparse.Namespace) -> int:

@@ -35,7 +35,6 @@ description of a simulated scenario.
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -47,6 +46,7 @@ from numpy.typing import NDArray
 from pdr.errors import InputError
 from pdr.frames import heading_deg_to_yaw
 from pdr.phone.history import SampleHistory
+from pdr.site.document import read_site_document
 
 FloatArray = NDArray[np.float64]
 
@@ -243,11 +243,7 @@ class Site:
 
     @classmethod
     def load(cls, path: str | Path) -> Site:
-        try:
-            d = json.loads(Path(path).read_text())
-        except (OSError, json.JSONDecodeError) as exc:
-            raise InputError(f"cannot read site description ({exc})", source=str(path)) from None
-        return cls.from_dict(d, source=str(path))
+        return cls.from_dict(read_site_document(path), source=str(path))
 
     def to_dict(self) -> dict[str, Any]:
         extra: dict[str, Any] = {k: v for k, v in (("declination_deg", self.declination_deg),

@@ -18,7 +18,6 @@ not the landmark section's ``grid_deg``, a main axis of the building for the hea
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from functools import cached_property
@@ -30,6 +29,7 @@ from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.frames import geodetic_to_local_enu
+from pdr.site.document import read_site_document
 from pdr.site.geometry import points_in_rings, ring_area, ring_edges, ring_self_intersection
 from pdr.site.wall_index import WallIndex
 
@@ -169,11 +169,7 @@ class SitePlan:
 
     @classmethod
     def load(cls, path: str | Path) -> SitePlan:
-        try:
-            d = json.loads(Path(path).read_text())
-        except (OSError, json.JSONDecodeError) as exc:
-            raise InputError(f"cannot read site description ({exc})", source=str(path)) from None
-        return cls.from_dict(d, source=str(path))
+        return cls.from_dict(read_site_document(path), source=str(path))
 
     def to_dict(self) -> dict[str, Any]:
         """The floors section in the metric frame (merge it into a site description with landmarks)."""

@@ -1,0 +1,21 @@
+"""Reading a site description file (JSON): one place for the error a user sees when it cannot be read.
+
+Both halves of a site parse the same document: the landmarks (:class:`pdr.phone.landmarks.Site`) and the floor plans
+(:class:`pdr.site.plan.SitePlan`).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from pdr.errors import InputError
+
+
+def read_site_document(path: str | Path) -> Any:
+    """The parsed JSON of the site description at ``path``; :class:`InputError` naming the file if unreadable."""
+    try:
+        return json.loads(Path(path).read_text())
+    except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read site description ({exc})", source=str(path)) from None
