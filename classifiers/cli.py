@@ -23,6 +23,7 @@ import json
 import shlex
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -291,6 +292,22 @@ def benchmark(model: ContextModel, X: np.ndarray, recs: list[Recording] | None =
     return out
 
 
+def _report_figures(args: argparse.Namespace, fig: dict[str, Any], name: str,
+                    print_text: Callable[[dict[str, Any]], None]) -> None:
+    """Figures with the command line that made them: into ``--out-dir``/``name`` if given, then as JSON
+    (``--json``) or text.
+    """
+    fig["command"] = _command_line()
+    if args.out_dir:
+        out = Path(args.out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / name).write_text(json.dumps(fig, indent=1) + "\n", encoding="utf-8")
+    if args.json:
+        print(json.dumps(fig, indent=1))
+    else:
+        print_text(fig)
+
+
 def run_eval(args: argparse.Namespace) -> int:
     model = load_model(args.model)
     task = get_task(model.task)
@@ -300,29 +317,12 @@ def run_eval(args: argparse.Namespace) -> int:
         from pdr.phone.landmarks import Site
 
         floors = floor_figures(recs, Site.load(args.site) if args.site else None)
-        floors["command"] = _command_line()
-        if args.out_dir:
-            out = Path(args.out_dir)
-            out.mkdir(parents=True, exist_ok=True)
-            (out / "floors.json").write_text(json.dumps(floors, indent=1) + "\n", encoding="utf-8")
-        if args.json:
-            print(json.dumps(floors, indent=1))
-        else:
-            print_floor_figures(floors)
+        _report_figures(args, floors, "floors.json", print_floor_figures)
         return 0
     if args.timeline:
         from classifiers.timeline_eval import print_timeline, timeline_figures
 
-        fig = timeline_figures(model, recs)
-        fig["command"] = _command_line()
-        if args.out_dir:
-            out = Path(args.out_dir)
-            out.mkdir(parents=True, exist_ok=True)
-            (out / "timeline.json").write_text(json.dumps(fig, indent=1) + "\n", encoding="utf-8")
-        if args.json:
-            print(json.dumps(fig, indent=1))
-        else:
-            print_timeline(fig)
+        _report_figures(args, timeline_figures(model, recs), "timeline.json", print_timeline)
         return 0
     missing = [s for s in model.required_streams if not all(r.has(s) for r in recs)]
     if missing:
