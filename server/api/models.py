@@ -35,7 +35,7 @@ CARD_METRICS = ("macro_f1", "macro_f1_target_classes", "accuracy", "balanced_acc
 def _card(name: str, d: Path) -> dict[str, Any]:
     """The model card of one artifact: what a user needs to judge the model, without its fitted internals.
 
-    Task, classes, the metrics of every recorded evaluation with its protocol (title and command), the
+    Task, classes, the metrics of every recorded evaluation with its title, protocol and command, the
     training data, the feature list, the library versions and the date of the artifact (its file's
     modification time, UTC: the artifact records none). The raw ``model.json`` is served by
     ``GET /models/NAME/model.json``.
@@ -51,7 +51,9 @@ def _card(name: str, d: Path) -> dict[str, Any]:
             continue
         metrics: dict[str, Any] = ev["metrics"] if isinstance(ev.get("metrics"), dict) else {}
         scalars = {k: metrics[k] for k in CARD_METRICS if isinstance(metrics.get(k), int | float)}
-        evaluations.append({"protocol": ev.get("title"), "command": ev.get("command"),
+        # The protocol as the evaluation states it (newer artifacts), else its title.
+        evaluations.append({"title": ev.get("title"), "protocol": ev.get("protocol") or ev.get("title"),
+                            "command": ev.get("command"),
                             "target_classes": metrics.get("target_classes"), "metrics": scalars})
     names = doc.get("feature_names") if isinstance(doc.get("feature_names"), list) else []
     card: dict[str, Any] = {

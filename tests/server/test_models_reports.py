@@ -91,6 +91,9 @@ def test_model_cards_carry_no_fitted_internals_and_the_artifact_downloads(client
     card = next(m for m in models.get_json()["models"] if m["name"] == "motion_mode")
     assert card["task"] == "motion_mode" and card["estimator"] == "bayes" and "walking" in card["classes"]
     assert card["evaluations"][0]["protocol"].startswith("leave-one-group-out")
+    # The protocol as the evaluation states it (held-out groups, windows never shuffled), not only its title.
+    assert any("never shuffled" in ev["protocol"] for ev in card["evaluations"])
+    assert all(ev["title"] for ev in card["evaluations"])
     assert 0 < card["evaluations"][0]["metrics"]["macro_f1"] <= 1
     assert card["features"]["count"] == len(card["features"]["names"]) > 0
     assert card["training"]["recordings"] > 0 and "numpy" in card["versions"] and card["date"]
