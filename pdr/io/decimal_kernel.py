@@ -28,6 +28,18 @@ MAX_EXACT_POWER = 22
 
 
 @njit(cache=True)
+def _end_of_field(buf: NDArray[np.uint8], p: int, end: int, sep: int) -> int:  # pragma: no cover - compiled
+    """Index after the blanks at ``buf[p]`` that end a field (at the separator or the line's ``end``); -1 when
+    anything else follows them (a blank inside a number).
+    """
+    while p < end and buf[p] == _SPACE:
+        p += 1
+    if p < end and buf[p] != sep:
+        return -1
+    return p
+
+
+@njit(cache=True)
 def parse_lines(buf: NDArray[np.uint8], start: NDArray[np.int64], length: NDArray[np.int64], ncol: int,
                 trailing_separator: bool, sep: int, out: NDArray[np.float64]) -> int:  # pragma: no cover - compiled
     """Parse line ``i`` (``buf[start[i]:start[i] + length[i]]``, ``ncol`` fields separated by ``sep``) into
@@ -60,9 +72,8 @@ def parse_lines(buf: NDArray[np.uint8], start: NDArray[np.int64], length: NDArra
             while p < end and buf[p] != sep:
                 ch = buf[p]
                 if ch == _SPACE:
-                    while p < end and buf[p] == _SPACE:
-                        p += 1
-                    if p < end and buf[p] != sep:
+                    p = _end_of_field(buf, p, end, sep)
+                    if p < 0:
                         return i
                     break
                 if _ZERO <= ch <= _NINE:
@@ -82,9 +93,8 @@ def parse_lines(buf: NDArray[np.uint8], start: NDArray[np.int64], length: NDArra
                     while p < end and buf[p] != sep and exp_digits <= 3:
                         ch = buf[p]
                         if ch == _SPACE:
-                            while p < end and buf[p] == _SPACE:
-                                p += 1
-                            if p < end and buf[p] != sep:
+                            p = _end_of_field(buf, p, end, sep)
+                            if p < 0:
                                 return i
                             break
                         if not _ZERO <= ch <= _NINE:
