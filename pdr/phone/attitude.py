@@ -139,6 +139,18 @@ class AttitudeConfig:
         low-pass time constant of the vectors (s), ridge weight towards zero bias (s of data), and the
         length of the blocks of rows held back (s): a block enters only once another block of
         stationary samples has followed it.
+    compensated_bias_prior_s
+        The ridge ``bias_prior_s`` used instead when the gyro stream is the operating system's bias-compensated
+        one (:func:`gyro_compensated`): a Bayesian prior on the residual bias. The ridge equals ``N^2 / sigma0^2``,
+        with ``N`` the noise density of the bias rows at a stand and ``sigma0`` the prior's spread. ``N``, measured
+        at the stands of ``../shared/data`` (residual of the rows around the final bias, times the square root of its
+        correlation time), is 1.1-1.6 deg/s sqrt(s) at the IPIN stands and 2.3-3.0 at the motion-capture walkers'
+        (a hand that turns slowly while the walker pauses); with ``N = 2`` and ``sigma0 = 1`` deg/s (an
+        OS-compensated gyro's residual; 0.1-0.5 deg/s on the Nexus 5 walks) it is 4 s: a stand of 4 s moves the
+        estimate half way. Without the prior, one 1.7 s stand of a turning hand set the bias to (-1.6, 0.8, -3.5)
+        deg/s, 10x the true residual, and the yaw drifted by 120 deg over the walk. A gyro the OS does not
+        compensate can be biased by several deg/s (IPIN trial 27: 2.9 deg/s), where such a prior would hold the
+        estimate back for the first minute (IPIN p75 3.79 -> 4.44 m with it), so it keeps ``bias_prior_s``.
     gravity_tau_s
         Time constant of the local gravity magnitude estimate during stationary periods (s).
     mag_ref_tau_s
@@ -172,6 +184,7 @@ class AttitudeConfig:
     bias_tau_s: float = 300.0
     bias_smooth_s: float = 0.25
     bias_prior_s: float = 0.02
+    compensated_bias_prior_s: float = 4.0
     bias_hold_s: float = 1.0
     gravity_tau_s: float = 5.0
     mag_ref_tau_s: float = 5.0
@@ -192,6 +205,24 @@ class AttitudeConfig:
 
 
 GRAVITY = GRAVITY_MPS2
+
+#: Smallest median difference (rad/s, norm) between the uncalibrated and the calibrated gyro streams that shows the
+#: OS applying a bias estimate (one LSB of a phone gyro is about 1e-3 rad/s; equal streams differ by 0).
+OS_BIAS_MIN = 1e-5
+
+
+def gyro_compensated(t_gyro_s: FloatArray, gyro: FloatArray, t_uncal_s: FloatArray, gyro_uncal: FloatArray) -> bool:
+    """Whether a log's ``gyro`` stream (N, 3, rad/s, at times ``t_gyro_s``) is the OS's bias-compensated one: at the
+    sample times the two streams share (the same sensor events), its ``gyro_uncal`` stream (M, 3) differs from it by
+    a bias estimate (median norm of the difference above :data:`OS_BIAS_MIN`). Android's TYPE_GYROSCOPE subtracts
+    the estimate that TYPE_GYROSCOPE_UNCALIBRATED reports beside its raw rates; a phone without an estimate gives
+    equal streams, and streams with no common sample time give no evidence (False).
+    """
+    _, ia, ib = np.intersect1d(np.asarray(t_gyro_s), np.asarray(t_uncal_s), return_indices=True)
+    if ia.size == 0:
+        return False
+    d = np.asarray(gyro_uncal, dtype=np.float64)[ib] - np.asarray(gyro, dtype=np.float64)[ia]
+    return bool(np.median(np.linalg.norm(d, axis=1)) > OS_BIAS_MIN)
 
 
 @numba.njit(cache=True)

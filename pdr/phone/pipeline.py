@@ -44,7 +44,7 @@ from numpy.typing import NDArray
 from pdr.errors import InputError
 from pdr.filters import iir
 from pdr.frames import GRAVITY_MPS2, heading_deg_to_yaw, yaw_to_heading_deg
-from pdr.phone.attitude import AttitudeConfig, AttitudeFilter, AttitudeState
+from pdr.phone.attitude import AttitudeConfig, AttitudeFilter, AttitudeState, gyro_compensated
 from pdr.phone.events import (
     ElevatorEvent,
     EventRow,
@@ -285,6 +285,8 @@ class PdrPipeline:
         self.n_input_samples = 0
         self.gyro_yaw = GyroYaw(c.rate_hz)      # the gyro's rotation about the vertical since the start
         self.att_q_now: FloatArray | None = None    # attitude at the last sample (the phone's when it is the source)
+        #: Whether the gyro stream is the OS's bias-compensated one (:func:`pdr.phone.attitude.gyro_compensated`).
+        self.gyro_compensated = False
         self.phone_yaw_updates = 0                  # phone yaw rows used by the attitude filter
 
     # -- public API --------------------------------------------------------------------------------
@@ -368,6 +370,7 @@ class PdrPipeline:
             "av_zi": None if self._av_zi is None else self._av_zi.tolist(), "n_input_samples": self.n_input_samples,
             "gyro_yaw": self.gyro_yaw.state(), "phone_yaw_updates": self.phone_yaw_updates,
             "att_q_now": None if self.att_q_now is None else self.att_q_now.tolist(),
+            "gyro_compensated": self.gyro_compensated,
         }
         if self.stages:
             d["stages"] = {st.name: st.state() for st in self.stages}
@@ -423,6 +426,10 @@ class PdrPipeline:
                 p.gyro_yaw = GyroYaw.from_state(d["gyro_yaw"], c.rate_hz)
             p.phone_yaw_updates = int(d.get("phone_yaw_updates", 0))
             p.att_q_now = None if d.get("att_q_now") is None else np.array(d["att_q_now"], dtype=np.float64)
+            # Absent in states saved before the compensated gyro's prior: their bias estimate goes on as it was.
+            p.gyro_compensated = bool(d.get("gyro_compensated", False))
+            if p.gyro_compensated:
+                p._use_compensated_prior()
             saved = d.get("stages") or {}
             p.stages = [st.from_state(saved[st.name]) if st.name in saved else st for st in stages]
             if p.pending is not None or p.track.n_steps:      # a step was processed (see _placement_known)
@@ -463,6 +470,10 @@ class PdrPipeline:
                    f"{self.floors.config.floor_height_m:g} m apart (the default floor height)")
             self.notices.append(msg)
             events.append(NoticeEvent(msg))
+        if "gyro" in kinds and batch.has("gyro_uncal") and gyro_compensated(
+                batch.t_s("gyro"), batch.values("gyro"), batch.t_s("gyro_uncal"), batch.values("gyro_uncal")):
+            self.gyro_compensated = True
+            self._use_compensated_prior()
         self.grid = OnlineGrid(self.config.rate_hz, tuple(kinds))
         self.t0_ns = 0
         if self.placement is None:
@@ -566,6 +577,13 @@ class PdrPipeline:
                 self.floors.floors_between(float(self.history.up[sl][0]), float(self.history.up[sl][-1]))
                 if self._has_baro() and self.history.up[sl].size else None))
         return out
+
+    def _use_compensated_prior(self) -> None:
+        """The gyro is the OS's bias-compensated stream (:func:`pdr.phone.attitude.gyro_compensated`): its residual bias
+        is small, so the stands' bias estimate starts from the prior ``compensated_bias_prior_s``.
+        """
+        att = self.attitude.config
+        self.attitude.set_config(replace(att, bias_prior_s=att.compensated_bias_prior_s))
 
     def _placement_known(self) -> None:
         """Attitude parameters of the placement: ``device_heading_sigma_gyro`` for hand and torso, from the first

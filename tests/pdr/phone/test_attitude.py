@@ -1,6 +1,7 @@
 """Attitude filters: analytic truth (stationary, constant rate), UKF vs EKF, generic UKF vs filterpy."""
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -9,7 +10,7 @@ from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.filters.ukf import SigmaPoints, UnscentedKalmanFilter, unscented_transform
 from pdr.frames import GRAVITY_MPS2
-from pdr.phone.attitude import AttitudeConfig, AttitudeFilter, AttitudeState, yaw_of_axis
+from pdr.phone.attitude import AttitudeConfig, AttitudeFilter, AttitudeState, gyro_compensated, yaw_of_axis
 
 FS = 50.0
 H_ENU = np.array([0.0, 20.0, -44.0])  # magnetic field (uT), north and down
@@ -238,3 +239,36 @@ def test_yaw_reopens_after_the_first_stand_that_gives_the_bias_not_after_a_short
     stand(6.0)
     var_before = yaw_variance(f.state.q, f.state.P)
     assert move(0.1) < max(2 * var_before, 0.02 * sigma_reopen**2)   # only once
+
+
+def test_gyro_compensated_needs_an_os_bias_estimate_at_shared_sample_times():
+    rng = np.random.default_rng(3)
+    t = np.arange(200) / FS
+    gyro = rng.normal(0, 0.3, (200, 3))
+    estimate = np.array([0.0085, -0.004, 0.069])          # the Nexus 5's OS estimate (rad/s)
+    assert gyro_compensated(t, gyro, t, gyro + estimate)
+    assert not gyro_compensated(t, gyro, t, gyro.copy())   # a phone that reports no estimate
+    assert not gyro_compensated(t, gyro, t + 0.5 / FS, gyro + estimate)   # no common sample: no evidence
+
+
+def test_compensated_prior_holds_a_short_stand_back_and_yields_to_a_long_one():
+    """The ridge of a compensated gyro is a prior on its residual bias: a stand as long as the ridge moves the
+    estimate part of the way, a long stand all the way (the prior weighs a few seconds of rows)."""
+    rng = np.random.default_rng(5)
+    bias = np.array([0.01, -0.02, 0.015])
+    cfg = AttitudeConfig()
+    cfg = replace(cfg, bias_prior_s=cfg.compensated_bias_prior_s)
+    est = {}
+    for seconds in (4, 60):
+        n = int(seconds * FS)
+        _, omega, acc, mag = trembling_hand(n, rng)
+        walk = int(2 * FS)           # a step-like shake ends the stand, so its last complete block enters
+        acc = np.vstack([acc, acc[-1] + rng.normal(0, 3.0, (walk, 3))])
+        gyro = np.vstack([omega, np.zeros((walk, 3))]) + bias + rng.normal(0, 0.005, (n + walk, 3))
+        mag = np.vstack([mag, np.tile(mag[-1], (walk, 1))])
+        f = AttitudeFilter(FS, cfg)
+        f.run(acc, gyro, mag)
+        est[seconds] = f.state.bias.copy()
+    short, long_ = np.linalg.norm(est[4]) / np.linalg.norm(bias), np.linalg.norm(est[60]) / np.linalg.norm(bias)
+    assert 0.05 < short < 0.75
+    assert abs(long_ - 1) < 0.15
