@@ -5,6 +5,8 @@ are refused with a message saying to reprocess."""
 import gzip
 import importlib.util
 import json
+import math
+from typing import Any
 
 import pytest
 
@@ -19,6 +21,28 @@ regen_golden = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(regen_golden)
 
 
+def same_rows(a: Any, b: Any, rel: float = 1e-9) -> bool:
+    """Equal event rows, numbers to within floating-point rounding (``rel``): the frozen rows were written with
+    the numpy/numba of their day, and a later release may round the last bit of a sum differently."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(same_rows(a[k], b[k], rel) for k in a)
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(same_rows(x, y, rel) for x, y in zip(a, b, strict=True))
+    if isinstance(a, float) or isinstance(b, float):
+        numbers = all(isinstance(x, int | float) and not isinstance(x, bool) for x in (a, b))
+        if not numbers:
+            return False
+        return (math.isnan(a) and math.isnan(b)) or math.isclose(a, b, rel_tol=rel, abs_tol=rel)
+    return bool(a == b)
+
+
+def test_same_rows_tolerates_rounding_only():
+    assert same_rows([{"t": 1.0630590752148663, "m": "walk"}], [{"t": 1.063059075215051, "m": "walk"}])
+    assert not same_rows([{"t": 1.0631}], [{"t": 1.0630}])
+    assert not same_rows([{"m": "walk"}], [{"m": "stand"}])
+    assert not same_rows([{"t": 1.0}], [{"t": 1.0, "u": 2.0}])
+
+
 def _old_state(name: str) -> dict:
     return state_codec.loads(gzip.decompress(regen_golden.state_path(name).read_bytes()))
 
@@ -30,7 +54,7 @@ def test_a_format_1_state_resumes_and_gives_the_golden_rows(name):
     rows = regen_golden.resumed_rows(name)
     golden = json.loads(regen_golden.rows_path(name).read_text())
     assert sum(r["type"] == "step" for r in golden) >= 10
-    assert rows == golden
+    assert same_rows(rows, golden)
     # Saved again, it is a current state with the same content.
     p = PdrPipeline.from_dict(old)
     again = p.to_dict()
