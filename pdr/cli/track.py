@@ -9,7 +9,7 @@ import re
 import sys
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -28,9 +28,6 @@ from pdr.evaluation.scoring import (
     waypoint_errors,
 )
 from pdr.io import read_recording
-from pdr.mapmatch.particles import MapMatchConfig
-from pdr.mapmatch.rows import match_rows
-from pdr.mapmatch.stage import MapMatchStage
 from pdr.phone.configure import pipeline_config
 from pdr.phone.heading_smoother import smoothed_rows
 from pdr.phone.landmarks import Site
@@ -40,7 +37,11 @@ from pdr.phone.step_length import StepLengthModel
 from pdr.phone.steps import StepConfig
 from pdr.phone.track_schema import write_csv
 from pdr.recording import Recording
-from pdr.site.plan import SitePlan
+
+if TYPE_CHECKING:
+    # The map matcher (its compiled kernels, the site's plans) is imported where a command line asks for it.
+    from pdr.mapmatch.particles import MapMatchConfig
+    from pdr.site.plan import SitePlan
 
 T = TypeVar("T")
 
@@ -158,6 +159,7 @@ def run_track(args: argparse.Namespace) -> int:
         plan.check_walkable(start, floor, "--start")
     if plan is not None and args.smoother == "off":
         # Online: the map matcher is a stage of the pipeline, as in a live session.
+        from pdr.mapmatch.stage import MapMatchStage
         rows, notices = run_pipeline(rec, cfg, site, [MapMatchStage(plan, start, floor, source="--start")])
     else:
         rows, notices = run_pipeline(rec, cfg, site)
@@ -165,6 +167,8 @@ def run_track(args: argparse.Namespace) -> int:
         rows = smoothed_rows(rows, notices)
         if plan is not None:
             # Offline: the smoothed track matched with the matcher's own smoother over the whole walk.
+            from pdr.mapmatch.particles import MapMatchConfig
+            from pdr.mapmatch.rows import match_rows
             rows, more = match_rows(rows, plan, start, floor, MapMatchConfig(), smooth=True, source="--start")
             notices = [*notices, *more]
     for n in notices:
@@ -185,6 +189,7 @@ def _site_plan(args: argparse.Namespace) -> SitePlan | None:
         return None
     if not args.site:
         raise InputError("--start needs --site SITE.json with floor plans", source="command line", field="start")
+    from pdr.site.plan import SitePlan
     return SitePlan.load(args.site)
 
 
@@ -679,6 +684,7 @@ def eval_ms(args: argparse.Namespace) -> int:
 
 def _map_config(text: str) -> MapMatchConfig:
     """``--map-config JSON`` as a :class:`MapMatchConfig` (unknown fields and bad JSON are refused naming them)."""
+    from pdr.mapmatch.particles import MapMatchConfig
     return _json_config(text, MapMatchConfig, "map-config")
 
 
@@ -716,6 +722,7 @@ class _MapScores:
 
     def _plan(self, trace: Path) -> tuple[SitePlan, int]:
         from pdr.site.ms import ms_floor_number, site_from_ms_floor
+        from pdr.site.plan import SitePlan
         floor_dir = trace.parent.parent if trace.parent.name == "path_data_files" else trace.parent
         if floor_dir not in self.plans:
             self.plans[floor_dir] = SitePlan.from_dict(site_from_ms_floor(floor_dir), source=str(floor_dir))
@@ -724,6 +731,8 @@ class _MapScores:
     def score(self, trace: Path, rows: list[dict[str, Any]], truth_t: np.ndarray, truth_xy: np.ndarray
               ) -> dict[str, Any]:
         import time
+
+        from pdr.mapmatch.rows import match_rows
         plan, floor = self._plan(trace)
         after = [r for r in rows if r["t_s"] > truth_t[0]]
         start = (float(truth_xy[0, 0]), float(truth_xy[0, 1]))
