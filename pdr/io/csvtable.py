@@ -135,7 +135,7 @@ def _fast(data_lines: list[str], header: tuple[str, ...], delimiter: str, decima
     dtypes = {i: (str if h in ints else np.float64) for i, h in enumerate(header)}
     frame = pd.read_csv(io.StringIO("\n".join(data_lines)), sep=delimiter, header=None, dtype=dtypes,
                         engine="c", skip_blank_lines=False, decimal=decimal, na_filter=True, keep_default_na=True,
-                        float_precision=_float_precision(pd.__version__))
+                        float_precision=float_precision_option(pd.__version__))
     if frame.shape[1] != len(header):
         return None
     out: dict[str, np.ndarray] = {}
@@ -151,7 +151,7 @@ def _fast(data_lines: list[str], header: tuple[str, ...], delimiter: str, decima
     return out
 
 
-def _float_precision(version: str) -> Literal["round_trip"] | None:
+def float_precision_option(version: str) -> Literal["round_trip"] | None:
     """The ``read_csv`` option for the values :func:`float` gives: ``"round_trip"`` before pandas 3.1; None (the
     default) from 3.1, where every mode uses that converter and the option is deprecated (a warning, which sent
     every table to the slow path here).

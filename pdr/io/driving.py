@@ -22,6 +22,13 @@ last collection). The driving events go into :attr:`GroundTruth.landmarks` as la
 names (:data:`EVENT_NAMES`; unknown names are kept verbatim), sorted by start time; the raw Portuguese
 names are in ``meta["events_raw"]``.
 
+Reading: a sensor file of the plain form (UTF-8, LF or CR LF line breaks, five fields on every non-blank line) is
+parsed in one pass by pandas' C parser (:func:`_numbers_fast`, the values :func:`float` gives: the files' 16-17 digit
+decimals need its exact converter); anything else, and every bad input, takes the line-by-line path
+(:func:`_numbers_exact`), which names the line and field. Pandas is loaded only for a file of at least
+:data:`PANDAS_MIN_BYTES` or when it is already loaded (its import costs about as much as the line-by-line path saves
+on a whole trip).
+
 Repeated timestamps: the magnetometer file of the upstream trips lists most samples twice with the same
 ``uptimeNanos`` and slightly different values (two rotations of one reading into the Earth frame). Rows that
 share a timestamp are averaged into one sample, with a warning. A timestamp going backwards is an error.
@@ -29,7 +36,11 @@ share a timestamp are averaged into one sample, with a warning. A timestamp goin
 
 from __future__ import annotations
 
+import csv
+import io
 import json
+import sys
+import warnings as warning_filters
 from pathlib import Path
 from typing import Any
 
@@ -37,7 +48,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
-from pdr.io.text import find_member, head, parse_float_rows, read_text, strip_gz, timestamps_ns
+from pdr.io.text import (
+    decode_text,
+    find_member,
+    head,
+    parse_float_rows,
+    read_bytes,
+    read_text,
+    strip_gz,
+    timestamps_ns,
+    utf8_lines,
+)
 from pdr.recording import DeviceInfo, GroundTruth, Labels, Recording, SensorStream
 
 FORMAT = "driving"
@@ -117,9 +138,36 @@ def read(path: str | Path) -> Recording:
                      source=str(folder), format=FORMAT, warnings=tuple(warnings), meta=meta)
 
 
+#: Size of a sensor file from which a process that has not loaded pandas yet parses it with pandas (module doc):
+#: loading pandas costs about 0.5 s once, the line-by-line path about 50 ms/MB more than pandas' parser.
+PANDAS_MIN_BYTES = 10_000_000
+_COMMA = ord(",")
+
+
 def _read_sensor(p: Path, kind: str, warnings: list[str]) -> SensorStream:
     source = str(p)
-    lines = read_text(p).splitlines()
+    raw = read_bytes(p)
+    fast = _numbers_fast(raw) if len(raw) >= PANDAS_MIN_BYTES or "pandas" in sys.modules else None
+    arr, numbers = fast if fast is not None else _numbers_exact(raw, source)
+    t = arr[:, 0]
+    back = np.flatnonzero(np.diff(t) < 0)
+    if back.size:
+        i = int(back[0]) + 1
+        raise InputError(f"time goes backwards ({t[i - 1]:.0f} then {t[i]:.0f})", source=source, line=numbers[i],
+                         field="uptimeNanos")
+    t_ns, values, merged = average_repeated_times(timestamps_ns(t, source, "uptimeNanos", line_numbers=numbers),
+                                                      arr[:, 1:4])
+    if merged:
+        warnings.append(f"{p.name}: averaged {merged} row(s) that repeat the previous timestamp into one sample "
+                        "each")
+    return SensorStream(kind, t_ns, values)
+
+
+def _numbers_exact(raw: bytes, source: str) -> tuple[NDArray[np.float64], list[int]]:
+    """(N, 4) uptimeNanos, x, y, z of a sensor file's non-blank rows and their 1-based line numbers, read line by
+    line: :class:`InputError` naming the line (and field) of bad input.
+    """
+    lines = decode_text(raw, source).splitlines()
     if not lines or not lines[0].strip():
         raise InputError("empty file: no header line", source=source, line=1)
     if tuple(f.strip() for f in lines[0].split(",")) != HEADER:
@@ -139,19 +187,40 @@ def _read_sensor(p: Path, kind: str, warnings: list[str]) -> SensorStream:
         numbers.append(number)
     if not rows:
         raise InputError("no samples after the header", source=source)
-    arr = parse_float_rows(rows, numbers, source, HEADER[1:])
-    t = arr[:, 0]
-    back = np.flatnonzero(np.diff(t) < 0)
-    if back.size:
-        i = int(back[0]) + 1
-        raise InputError(f"time goes backwards ({t[i - 1]:.0f} then {t[i]:.0f})", source=source, line=numbers[i],
-                         field="uptimeNanos")
-    t_ns, values, merged = average_repeated_times(timestamps_ns(t, source, "uptimeNanos", line_numbers=numbers),
-                                                      arr[:, 1:4])
-    if merged:
-        warnings.append(f"{p.name}: averaged {merged} row(s) that repeat the previous timestamp into one sample "
-                        "each")
-    return SensorStream(kind, t_ns, values)
+    return parse_float_rows(rows, numbers, source, HEADER[1:]), numbers
+
+
+def _numbers_fast(raw: bytes) -> tuple[NDArray[np.float64], list[int]] | None:
+    """What :func:`_numbers_exact` returns, by pandas' C parser (module doc), or None when the file is not of the
+    plain form or a value is not a finite number: the line-by-line path then reads it or names the bad line.
+    """
+    lines = utf8_lines(raw)
+    if lines is None or lines.start.size < 2:
+        return None
+    if tuple(f.strip() for f in lines.text(0).decode("utf-8").split(",")) != HEADER:
+        return None
+    rows = np.flatnonzero(lines.length > 0)
+    rows = rows[rows > 0]
+    commas = np.bincount(np.searchsorted(lines.start, np.flatnonzero(lines.buf == _COMMA), side="right") - 1,
+                         minlength=lines.start.size)
+    if rows.size == 0 or np.any(commas[rows] != len(HEADER) - 1):
+        return None         # a row with another number of fields, a blank-only line: the exact path decides
+    import pandas as pd  # half a second of imports (module doc)
+
+    from pdr.io.csvtable import float_precision_option
+    body = lines.buf[lines.start[1]:].tobytes()
+    try:
+        with warning_filters.catch_warnings():
+            warning_filters.simplefilter("error")
+            frame = pd.read_csv(io.BytesIO(body), sep=",", header=None, usecols=[1, 2, 3, 4], dtype=np.float64,
+                                engine="c", skip_blank_lines=True, na_filter=False, quoting=csv.QUOTE_NONE,
+                                float_precision=float_precision_option(pd.__version__))
+    except (ValueError, TypeError, OverflowError, Warning):   # pandas' ParserError is a ValueError
+        return None
+    arr = np.ascontiguousarray(frame.to_numpy(dtype=np.float64))
+    if arr.shape != (rows.size, 4) or not np.all(np.isfinite(arr)):
+        return None
+    return arr, (rows + 1).tolist()
 
 
 def average_repeated_times(t_ns: NDArray[np.int64], values: NDArray[np.float64]

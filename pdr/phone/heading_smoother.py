@@ -383,7 +383,7 @@ def chi2_quantile(q: float, dof: float) -> float:
     The value ``scipy.stats.chi2.ppf(q, dof)`` gives, bit for bit (it computes the same expression), without
     importing :mod:`scipy.stats` (about 2 s of a ``pdr track`` process's CPU).
     """
-    from scipy.special import gammaincinv   # imported when a walk is smoothed (about 0.3 s)
+    from scipy.special import gammaincinv  # imported when a walk is smoothed (about 0.3 s)
     return float(2.0 * gammaincinv(dof / 2.0, q))
 
 

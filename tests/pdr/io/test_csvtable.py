@@ -27,9 +27,9 @@ def test_good_table_takes_the_fast_path_with_exact_values(monkeypatch: pytest.Mo
 
 
 def test_float_precision_option_by_pandas_version() -> None:
-    assert csvtable._float_precision("2.2.3") == "round_trip"
-    assert csvtable._float_precision("3.0.1") == "round_trip"
-    assert csvtable._float_precision("3.1.1") is None and csvtable._float_precision("4.0.0.dev0+12") is None
+    assert csvtable.float_precision_option("2.2.3") == "round_trip"
+    assert csvtable.float_precision_option("3.0.1") == "round_trip"
+    assert csvtable.float_precision_option("3.1.1") is None and csvtable.float_precision_option("4.0.0.dev0+12") is None
 
 
 def test_bad_value_still_named_by_the_line_by_line_path() -> None:

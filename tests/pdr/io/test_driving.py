@@ -133,11 +133,48 @@ def test_without_trip_json_or_events(tmp_path):
     ([*_rows(2), "14/05/2016 11:17:09,12892000000000,0.1,0.0,9.8"],
      r"line 4, field 'uptimeNanos': time goes backwards"),
 ])
-def test_bad_sensor_rows_name_file_and_line(tmp_path, acc, match):
+@pytest.mark.parametrize("pandas_path", [False, True])
+def test_bad_sensor_rows_name_file_and_line(tmp_path, monkeypatch, acc, match, pandas_path):
+    if pandas_path:
+        monkeypatch.setattr(driving, "PANDAS_MIN_BYTES", 0)
     folder = _trip(tmp_path, acc)
     with pytest.raises(InputError, match=match) as info:
         driving.read(folder)
     assert "acelerometro_terra.csv" in str(info.value)
+
+
+def _both_paths(raw: bytes) -> tuple[tuple[np.ndarray, list[int]], tuple[np.ndarray, list[int]] | None]:
+    return driving._numbers_exact(raw, "f.csv"), driving._numbers_fast(raw)
+
+
+def test_pandas_path_gives_the_line_by_line_values_bit_for_bit():
+    """17-digit decimals (as the trips write them), exponents, CR LF, blank lines: the same float64 bits and line
+    numbers by both paths; a file of another form is left to the line-by-line path (None).
+    """
+    rng = np.random.default_rng(5)
+    v = rng.normal(0.0, 10.0, (500, 3)) * 10.0 ** rng.integers(-8, 3, (500, 3))
+    rows = [f"14/05/2016 11:17:09,{T0 + 19_624_599 * i},{a!r},{b!r},{c!r}" for i, (a, b, c) in enumerate(v.tolist())]
+    rows[10] = rows[10].replace(",", ", ", 1)            # a blank before a number, as float() allows
+    text = "\n".join([HEADER, *rows[:200], "", *rows[200:]]) + "\n"
+    for raw in (text.encode(), text.replace("\n", "\r\n").encode()):
+        (exact, lines), fast = _both_paths(raw)
+        assert fast is not None
+        assert fast[0].tobytes() == exact.tobytes() and fast[1] == lines
+        assert lines[199:201] == [201, 203]
+    assert driving._numbers_fast((HEADER + "\n" + rows[0] + ",1\n").encode()) is None      # six fields
+    assert driving._numbers_fast((HEADER + "\n  \n" + rows[0] + "\n").encode()) is None   # a blank-only line
+    quoted = f'14/05/2016 11:17:09,{T0},"0.5",0.0,9.8'       # float() refuses the quotes: the exact path names it
+    assert driving._numbers_fast((HEADER + "\n" + quoted + "\n").encode()) is None
+
+
+@pytest.mark.data
+def test_pandas_path_on_trip_17_is_the_line_by_line_path():
+    for name in driving.SENSOR_FILES:
+        member = Path(sample_path("driving:folder")) / name
+        if not member.is_file():
+            continue
+        (exact, lines), fast = _both_paths(member.read_bytes())
+        assert fast is not None and fast[0].tobytes() == exact.tobytes() and fast[1] == lines
 
 
 def test_bad_files(tmp_path):
