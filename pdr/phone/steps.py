@@ -39,8 +39,8 @@ together by the walk's periodicity (the first two on by default, the third off, 
   (``min_missed_ratio`` strides) exceeds ``max_step_s`` infers the step in a gap of up to ``max_missed_ratio``
   strides. At a faster pace such a gap is a stop (IPIN hand-held walkers stop at landmarks). Off by default: on the
   IPIN repetition-02 walks (the held-out half) it raised the hand-held leg-direction error with drift elimination
-  from 7.9 to 8.8 deg (the drift elimination's benefit fell from 1.0 to 0.2 deg) and p75 from 3.83 to 3.89 m, while
-  it brings the 20-step Sensor Logger walk from 16 to 22 steps (true 20).
+  from 7.9 to 8.8 deg (the drift elimination's benefit fell from 1.0 to 0.2 deg) and p75 from 3.83 to 3.89 m. The
+  short walks after a walk (below) keep the steps after such a gap without inferring the missed one.
 
 The reference level is not the constant g but a slow causal low-pass of ``a_n`` (``reference_hz``), which
 absorbs accelerometer scale and bias errors. The peak-height limit adapts to the carriage: it is the
@@ -84,6 +84,16 @@ back pocket) while the stride stays regular.
   ``short_bout_peak_ratio`` of the bout's). Putting a phone away before a walk fails the last test (softer
   peaks) or the stride test. On the IPIN 2023 hand-held logs this recovers the 8 steps of IPIN trial 21
   repetition 1 between its first three landmarks; the Oxford counts are unchanged.
+* Short walks after a walk (the mirror of the rule above): a confirmed bout ends at a gap longer than
+  ``max_step_s``, which a gentle walker's one soft missed step makes (0.9 s steps leave 1.6-1.8 s), or at a brief
+  stop; the steps after it are too few to confirm a bout of their own when the walk ends soon after (a short test
+  walk's last steps). When such a regular run (as above) breaks off or the recording ends, it is steps if it walks
+  on from the last confirmed bout by the same three tests: it starts between half a stride and
+  ``short_bout_gap_s`` after that bout's last start, at its rhythm and with its strength. Starts between them
+  that form no such run, or a bout that ended in handling (the phone turned among its held steps, walk-end rule
+  below), end the walk for good. Unlike the slow walker's rule the missed step itself is not inferred, and a
+  confirmed bout still ends at the gap. The run is reported when it closes (at most ``max_step_s`` after its last
+  start), like every bout's confirming steps.
 * A step too soft to pass the peak rules (a hand-held phone damps some steps to a flat hump) leaves a
   gap of about one stride between two starts of a confirmed bout. When the gap is within
   ``[min_missed_ratio, max_missed_ratio]`` times the median stride and the start after it is not weak,
@@ -109,9 +119,8 @@ back pocket) while the stride stays regular.
   pocket to the hand while walking): it is reported and becomes the bout's strength reference, so a
   long walk is never held back.
 
-With the gentle-walker rules (defaults): sensor_logger_walks 22/20, 30/30, 30/30, 28/27 (0, 28, 28, 28 without);
-Oxford pocket/hand/bag/armband 1.07 % (0.60 % bounce-free; unmatched edges+starts 231), IPIN 2023 same-floor
-distance ratio median 1.008 as without them. The figures below are those of the fixed floor alone.
+``pdr eval steps`` prints the figures of the defaults per walk, with a plain peak detector's count beside each. The
+figures below are those of the fixed floor alone, before the gentle-walker rules.
 
 Measured with ``pdr eval steps`` on the Oxford step-counter walks: 1.06 % mean absolute count error over
 the pocket, hand, bag and armband walks (1.08 % with re-anchoring alone, 1.09 % before it, 1.14 % without
@@ -202,13 +211,15 @@ class StepConfig:
         and their strength becomes the bout's reference).
     min_short_bout_steps, short_bout_gap_s
         A run of at least this many regular starts too short to confirm a bout, ending at most this long
-        (s) before the next run of starts, is a short walk when that next run confirms with the same rhythm.
+        (s) before the next run of starts, is a short walk when that next run confirms with the same rhythm; so is
+        one starting at most this long after the last start of a confirmed bout, with its rhythm and strength.
     short_bout_spread
         Largest ratio of the longest to the shortest stride of a short walk (tighter than ``bout_spread``:
         two or three strides are weaker evidence of walking than a confirmed bout's).
     short_bout_peak_ratio
-        A short walk is as strong as the walk after it: its median peak is at least this fraction of the
-        median peak of the bout that confirms after it (putting a phone away gives softer peaks).
+        A short walk is as strong as the walk next to it: its median peak is at least this fraction of the
+        median peak of the bout that confirms after it or that it follows (putting a phone away, or handling it
+        after a walk, gives softer peaks).
     step_spread
         Largest ratio between a step (start to next start) and the same leg's step one stride later, in the
         starts that confirm a bout and in the gait-initiation starts it takes before them.
@@ -543,6 +554,8 @@ class StepDetector:
         self._held: list[_Held] = []
         self._short: list[list[tuple[int, float]]] = []   # short regular runs of (start, peak), oldest first
         self._soft: list[_Start] = []           # recent soft starts (gait periodicity not yet established)
+        # The last confirmed bout, while a short run after it may walk on: (last start, stride (samples), median peak).
+        self._walked: tuple[int, float, float] | None = None
         self._n_seen = 0
 
     # -- state -------------------------------------------------------------------------------------
@@ -560,7 +573,8 @@ class StepDetector:
                 "bout_confirmed": self._bout_confirmed, "reanchored": self._reanchored,
                 "steady_rms": list(self._steady_rms),
                 "held": [list(h) for h in self._held], "n_seen": self._n_seen,
-                "short": [[list(r) for r in run] for run in self._short], "soft": [list(b) for b in self._soft]}
+                "short": [[list(r) for r in run] for run in self._short], "soft": [list(b) for b in self._soft],
+                "walked": None if self._walked is None else list(self._walked)}
 
     @classmethod
     def from_state_dict(cls, d: dict[str, Any]) -> StepDetector:
@@ -587,6 +601,8 @@ class StepDetector:
             det._n_seen = int(d["n_seen"])
             # Absent in states saved before short walks were kept.
             det._short = [[(int(s), float(p)) for s, p in run] for run in d.get("short", [])]
+            walked = d.get("walked")            # absent in states saved before short walks after a bout
+            det._walked = None if walked is None else (int(walked[0]), float(walked[1]), float(walked[2]))
             det._soft = [(int(s), float(p), int(a), float(e), float(gx), float(gy), float(gz))    # absent before
                          for s, p, a, e, gx, gy, gz in d.get("soft", [])]                          # gait periodicity
         except (KeyError, TypeError, ValueError) as exc:
@@ -744,37 +760,55 @@ class StepDetector:
             return None
         return [(b[0], b[1]) for b in self._bout]
 
+    def _walks_on(self, run: list[tuple[int, float]], pause: int, ref: float, peak: float) -> bool:
+        """True if the regular run ``run`` of (start, peak) walks on with a bout of stride ``ref`` (samples) and median
+        peak ``peak`` (m/s^2) across a pause of ``pause`` samples between them: the pause is at least one step
+        (``min_stride_ratio`` times half the stride) and at most ``short_bout_gap_s``, the run's median stride is within
+        ``[min_stride_ratio, max_stride_ratio]`` times ``ref`` and its median peak at least ``short_bout_peak_ratio``
+        times ``peak``.
+        """
+        c = self.config
+        stride = _median(_strides([r[0] for r in run]))
+        pause_ok = 0.5 * c.min_stride_ratio * ref <= pause <= c.short_bout_gap_s * self.rate_hz
+        rhythm_ok = c.min_stride_ratio * ref <= stride <= c.max_stride_ratio * ref
+        return pause_ok and rhythm_ok and _median([r[1] for r in run]) >= c.short_bout_peak_ratio * peak
+
+    def _run_steps(self, run: list[tuple[int, float]]) -> list[tuple[int, int, float]]:
+        """Steps (start, end, peak) of a regular run: each ends where the next starts, the last after the run's median
+        step (at most ``max_step_s``).
+        """
+        starts = [r[0] for r in run]
+        dur = min(int(np.median(np.diff(starts))), int(round(self.config.max_step_s * self.rate_hz)))
+        ends = starts[1:] + [starts[-1] + dur]
+        return [(s0, e0, p0) for (s0, p0), e0 in zip(run, ends, strict=True)]
+
     def _claim_short(self, first_start: int, ref: float, peak: float) -> list[tuple[int, int, float]]:
         """Steps (start, end, peak) of the short walks just before a bout confirmed at ``first_start``.
 
-        Runs are taken newest first while each ends at least one step (``min_stride_ratio`` times half the
-        bout's stride ``ref``) and at most ``short_bout_gap_s`` before the start after it, its median stride is
-        within ``[min_stride_ratio, max_stride_ratio]`` times ``ref`` and its median peak at least
-        ``short_bout_peak_ratio`` times the bout's median peak ``peak``.
+        Runs are taken newest first while each walks on with the bout (:meth:`_walks_on`: ``ref`` is the bout's
+        stride, ``peak`` its median peak) across the pause to the start after it.
         """
-        c = self.config
-        gap = int(round(c.short_bout_gap_s * self.rate_hz))
-        max_step = int(round(c.max_step_s * self.rate_hz))
         taken: list[list[tuple[int, float]]] = []
         nxt = first_start
         for run in reversed(self._short):
-            st = np.array([r[0] for r in run], dtype=np.float64)
-            stride = float(np.median(st[2:] - st[:-2]))
-            pause_ok = 0.5 * c.min_stride_ratio * ref <= nxt - run[-1][0] <= gap
-            rhythm_ok = c.min_stride_ratio * ref <= stride <= c.max_stride_ratio * ref
-            strong = float(np.median([r[1] for r in run])) >= c.short_bout_peak_ratio * peak
-            if not (pause_ok and rhythm_ok and strong):
+            if not self._walks_on(run, nxt - run[-1][0], ref, peak):
                 break
             taken.append(run)
             nxt = run[0][0]
         self._short = []
-        out: list[tuple[int, int, float]] = []
-        for run in reversed(taken):
-            starts = [r[0] for r in run]
-            dur = min(int(np.median(np.diff(starts))), max_step)
-            ends = starts[1:] + [starts[-1] + dur]
-            out += [(s0, e0, p0) for (s0, p0), e0 in zip(run, ends, strict=True)]
-        return out
+        return [step for run in reversed(taken) for step in self._run_steps(run)]
+
+    def _claim_after(self, run: list[tuple[int, float]]) -> list[tuple[int, int, float]]:
+        """Steps of the short regular ``run`` if it walks on after the last confirmed bout (:meth:`_walks_on` across
+        the pause from that bout's last start), else none. A claimed run becomes the walk's end for the next one.
+        """
+        if self._walked is None:
+            return []
+        last, ref, peak = self._walked
+        if not self._walks_on(run, run[0][0] - last, ref, peak):
+            return []
+        self._walked = (run[-1][0], ref, peak)
+        return self._run_steps(run)
 
     def _stride(self, i: int) -> tuple[float, float]:
         """RMS of ``a_n - reference`` (m/s^2) and gravity turn (deg) over the stride around step ``bout[i]``.
@@ -890,9 +924,21 @@ class StepDetector:
         def close_bout(at: int) -> None:
             # The bout's last step ends at its start plus the bout's median step duration (<= max_step).
             run = self._short_run()
-            if run is not None:
+            tail = self._claim_after(run) if run is not None else []
+            for s0, e0, p0 in tail:
+                # A short walk right after a confirmed bout, at its rhythm and strength: the walk went on after a
+                # missed step or a brief stop (the mirror of the short walks claimed by a bout after them).
+                report(s0, e0, p0, at)
+            if run is not None and not tail:
                 self._short = (self._short + [run])[-_SHORT_HISTORY:]
+            if not self._bout_confirmed and not tail and self._bout:
+                self._walked = None             # starts between a walk and a later run: the walk does not go on
             if self._bout_confirmed and self._bout:
+                # The walk may go on after a pause (a missed soft step, a brief stop): kept for the next short run,
+                # unless it ended in handling (the phone turned among its held steps).
+                ended_in_handling = any(h[3] for h in self._held)
+                self._walked = None if ended_in_handling or len(self._bout) < 3 else (
+                    self._bout[-1][0], self._rhythm_stride(), self._rhythm_peak())
                 s, p = self._bout[-1][0], self._bout[-1][1]
                 durs = np.diff([b[0] for b in self._bout]) if len(self._bout) > 1 else np.zeros(0)
                 dur = int(np.median(durs)) if durs.size else max_step
