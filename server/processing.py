@@ -75,7 +75,12 @@ def decode_payload(batch: BatchRecord) -> Recording | StepSummaryBatch:
 
 
 def decode_batch(batch: BatchRecord) -> Recording:
-    """The :class:`Recording` stored in a raw batch; :class:`InputError` if it cannot be read."""
+    """The :class:`Recording` stored in a batch: the one decoded at ingest, else read from the raw payload (rows
+    stored before decoded forms were); :class:`InputError` if it cannot be read.
+    """
+    if batch.decoded is not None:
+        from pdr import recording_codec
+        return recording_codec.loads(batch.decoded)
     fmt = batch.payload_format
     source = f"batch '{batch.client_batch_id}'"
     if fmt == NATIVE_JSON:

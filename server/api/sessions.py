@@ -113,7 +113,8 @@ def _create_from_file(user_id: int) -> tuple[Response, int]:
     dev = recording.device
     t_first, t_last = time_span_ns(recording)
     store_batch(svc, sid, client_batch_id=batch_id, payload_format=FILE_PREFIX + descriptor,
-                payload=payload, t_first_ns=t_first, t_last_ns=t_last, device=replace(dev, placement=placement))
+                payload=payload, t_first_ns=t_first, t_last_ns=t_last, device=replace(dev, placement=placement),
+                recording=recording)
     svc.store.set_session(sid, t0_ns=recording.origin_ns)
     if recording.truth.positions is not None and recording.truth.positions.origin_lat_lon_deg:
         lat, lon = recording.truth.positions.origin_lat_lon_deg
@@ -195,7 +196,8 @@ def upload_device_file(session_id: str, role: str) -> tuple[Response, int]:
     plausibility.check_time(svc.store.engine, session_id, role, fmt, t_first, t_last)
     digest = hashlib.sha256(upload.payload).hexdigest()
     accepted = store_batch(svc, session_id, client_batch_id=f"file-{role}-{digest[:32]}", payload_format=fmt,
-                           payload=upload.payload, t_first_ns=t_first, t_last_ns=t_last, device=device)
+                           payload=upload.payload, t_first_ns=t_first, t_last_ns=t_last, device=device,
+                           recording=recording)
     return (jsonify({"id": accepted.id, "device_role": role, "format": upload.format, "file": upload.filename,
                      "duplicate": not accepted.created}), 201 if accepted.created else 200)
 
@@ -232,7 +234,7 @@ def add_native_batch(session_id: str) -> tuple[Response, int]:
     plausibility.check_batch(svc.store.engine, session_id, NATIVE_JSON, recording, t_first, t_last)
     accepted = store_batch(svc, session_id, client_batch_id=batch_id, payload_format=NATIVE_JSON,
                            payload=request.get_data(), t_first_ns=t_first, t_last_ns=t_last,
-                           device=recording.device, content=body)
+                           device=recording.device, content=body, recording=recording)
     return (jsonify({"batch_id": batch_id, "id": accepted.id, "duplicate": not accepted.created}),
             201 if accepted.created else 200)
 
