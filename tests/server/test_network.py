@@ -403,6 +403,80 @@ def test_postgres_delete_session_and_user(tmp_path, pg_database):  # noqa: F811
         app.extensions["pdr"].store.engine.dispose()
 
 
+@pytest.mark.slow
+def test_deletion_and_retention_on_postgres_with_redis_workers(tmp_path, pg_database,  # noqa: F811
+                                                               redis_namespace):  # noqa: F811
+    """PDR_WORKER=redis on PostgreSQL: a session deleted while its job waits in Redis, a processed session and a
+    report are deleted with all their rows; the worker takes the orphan job without an error; retention purges raw
+    batches there too; ``pdr users delete`` removes the user."""
+    from server.bench.cluster import running_cluster
+    from server.config import REPO_ROOT
+    from server.db import make_engine
+    from server.jobs import RetentionSweeper
+    from server.store import Store
+    from tests.server.test_models_reports import _static_npz
+
+    redis_url, ns = redis_namespace
+    env = {"PDR_PROCESSOR": "tests.server.conftest:CountingProcessor", "PYTHONPATH": str(REPO_ROOT)}
+    engine = make_engine(pg_database.replace("postgresql://", "postgresql+psycopg://", 1))
+
+    def rows_of(sid: str) -> dict[str, int]:
+        with engine.connect() as conn:
+            return {t.name: len(conn.execute(select(t).where(t.c.session_id == sid)).all())
+                    for t in (db.batches, db.track_points, db.events, db.processor_states,
+                              db.devices, db.session_leases)}
+
+    with running_cluster(tmp_path, pg_database, redis_url, ns, webs=1, workers=0, extra_env=env,
+                         worker_args=["--reconcile-s", "1", "-v"]) as cluster:
+        token = add_user(cluster.env, "dora")
+        c = Client(cluster.urls[0], token)
+        sids = {}
+        for name, n in (("kept", 3), ("queued", 2), ("old", 1)):
+            sids[name] = c.request("POST", "/api/v1/sessions", {"session_id": name}).json()["id"]
+            for i in range(n):
+                assert c.request("POST", f"/api/v1/sessions/{sids[name]}/batches",
+                                 phone_batch(f"b{i}", float(i))).status == 201
+        body, ctype = multipart({"file": (_static_npz(seconds=60.0), "static.npz")})
+        rid = c.request("POST", "/api/v1/reports/allan", raw=body, content_type=ctype).json()["id"]
+        assert c.request("DELETE", f"/api/v1/sessions/{sids['queued']}").status == 204  # its job waits in Redis
+        assert all(v == 0 for v in rows_of(sids["queued"]).values())
+        cluster.start_worker(f"{ns}-w0")
+        deadline = time.monotonic() + 240
+        while (c.request("GET", f"/api/v1/reports/{rid}").json()["status"] == "pending"
+               or {c.request("GET", f"/api/v1/sessions/{sids[k]}").json()["status"] for k in ("kept", "old")}
+               != {"done"}):
+            assert time.monotonic() < deadline
+            time.sleep(0.5)
+        assert rows_of(sids["kept"])["track_points"] == 3
+        assert c.request("DELETE", f"/api/v1/sessions/{sids['kept']}").status == 204
+        assert c.request("GET", f"/api/v1/sessions/{sids['kept']}").status == 404
+        assert all(v == 0 for v in rows_of(sids["kept"]).values()), rows_of(sids["kept"])
+        assert c.request("DELETE", f"/api/v1/reports/{rid}").status == 204
+        assert c.request("GET", f"/api/v1/reports/{rid}").status == 404
+        with engine.connect() as conn:
+            for t in (db.reports, db.report_files, db.report_uploads):
+                assert conn.execute(select(t)).first() is None, t.name
+        # retention: the old session's raw batch goes, its results stay
+        track = c.request("GET", f"/api/v1/sessions/{sids['old']}/track").json()["points"]
+        with engine.begin() as conn:
+            conn.execute(update(db.batches).values(received_at=db.utcnow() - timedelta(days=40)))
+        assert RetentionSweeper(Store(engine), days=30).sweep() == 1
+        detail = c.request("GET", f"/api/v1/sessions/{sids['old']}").json()
+        assert [b["status"] for b in detail["batch_list"]] == ["purged"]
+        assert c.request("GET", f"/api/v1/sessions/{sids['old']}/track").json()["points"] == track
+        with engine.connect() as conn:
+            purged = conn.execute(select(db.batches.c.payload, db.batches.c.decoded)).one()
+        assert purged.decoded is None and len(purged.payload) < 20  # the empty payload, compressed
+        assert _cli(cluster.env, "delete", "dora", "--yes").returncode == 0
+        assert c.request("GET", "/api/v1/sessions").status == 401
+        c.close()
+        worker_log = (tmp_path / f"{ns}-w0.log").read_text()
+    with engine.connect() as conn:
+        assert conn.execute(select(db.sessions)).first() is None and conn.execute(select(db.users)).first() is None
+    engine.dispose()
+    assert "Traceback" not in worker_log and "Job OK" in worker_log
+
+
 # -- 10. Allan reports survive a restart -----------------------------------------------------------------------------
 def test_allan_report_interrupted_by_a_restart_is_finished_after_it(tmp_path):
     from server.report_jobs import ReportRunner
