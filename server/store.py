@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
 
-from sqlalchemy import Connection, Engine, Row, case, delete, func, insert, null, select, update
+from sqlalchemy import ColumnElement, Connection, Engine, Row, case, delete, func, insert, null, select, update
 from sqlalchemy.exc import IntegrityError
 
 from server import db
@@ -247,8 +247,8 @@ class Store:
         processing reads, the decoded form, or the raw payload of a batch that has none (:class:`BatchRecord`).
         """
         b = db.batches
-        cols = [b.c.id, b.c.session_id, b.c.device_role, b.c.client_batch_id, b.c.payload_format, b.c.t_first_ns,
-                b.c.t_last_ns, b.c.status]
+        cols: list[ColumnElement[Any]] = [b.c.id, b.c.session_id, b.c.device_role, b.c.client_batch_id,
+                                          b.c.payload_format, b.c.t_first_ns, b.c.t_last_ns, b.c.status]
         if with_payload:
             cols += [b.c.decoded, case((b.c.decoded.is_(None), b.c.payload), else_=null()).label("payload")]
         q = select(*cols).where(b.c.session_id == session_id)

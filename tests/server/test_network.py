@@ -562,7 +562,7 @@ def test_allan_reports_run_as_worker_jobs_and_recover_on_the_redis_back_end(tmp_
         conn_redis = redis_client(redis_url)
         for lost in ids[1:]:  # the flag holds the id of the report's queued job
             job_id = conn_redis.getdel(f"{ns}:report:{lost}")
-            assert job_id and conn_redis.lrem(f"rq:queue:{ns}", 0, job_id) == 1
+            assert isinstance(job_id, bytes) and conn_redis.lrem(f"rq:queue:{ns}", 0, job_id.decode()) == 1
         with engine.begin() as conn:
             conn.execute(update(db.reports).where(db.reports.c.id == ids[2]).values(
                 attempts=1, started_at=db.utcnow() - timedelta(minutes=5)))
