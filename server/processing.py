@@ -110,9 +110,7 @@ def read_uploaded_file(payload: bytes, descriptor: str) -> Recording:
     from server.sandbox import read_isolated
 
     fmt, _, filename = descriptor.partition("/")
-    _, recording = read_isolated(payload, filename, fmt or None)
-    assert recording is not None
-    return recording
+    return read_isolated(payload, filename, fmt or None)[1]
 
 
 class SessionLocks:

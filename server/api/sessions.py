@@ -94,9 +94,8 @@ def _meta(options: ProcessingOptions) -> dict[str, Any] | None:
 
 def _create_from_file(user_id: int) -> tuple[Response, int]:
     svc = services()
-    upload = uploaded_log(read=True)  # validated before accepting
+    upload = uploaded_log()  # validated before accepting
     payload, filename, descriptor, recording = upload.payload, upload.filename, upload.descriptor, upload.recording
-    assert recording is not None
     options = ProcessingOptions.from_text(request.form.get("processing"))
     placement = request.form.get("placement") or recording.device.placement
     plausibility.check_device(replace(recording.device, placement=placement))
@@ -181,9 +180,8 @@ def upload_device_file(session_id: str, role: str) -> tuple[Response, int]:
     svc = services()
     svc.store.session_row(session_id, user.id)
     require_paired(session_id, role)
-    upload = uploaded_log(read=True)
+    upload = uploaded_log()
     recording = upload.recording
-    assert recording is not None
     if (role in FOOT_ROLES) != recording.device.is_foot:
         kind = "a shoe IMU's" if recording.device.is_foot else "a phone's"
         raise APIError(422, f"'{upload.filename}' ({upload.format}) is {kind} log; the session's {role} needs "
