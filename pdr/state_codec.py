@@ -24,7 +24,8 @@ from pdr.errors import InputError
 
 MAGIC = b"PDRSTATE1\n"
 _TAG = "__ndarray__"
-_DTYPES = {"f8": np.float64, "f4": np.float32, "i8": np.int64, "i4": np.int32, "u8": np.uint64, "b1": np.bool_}
+_DTYPES = {"f8": np.float64, "f4": np.float32, "f2": np.float16, "i8": np.int64, "i4": np.int32, "i2": np.int16,
+           "i1": np.int8, "u8": np.uint64, "u4": np.uint32, "u2": np.uint16, "u1": np.uint8, "b1": np.bool_}
 _CODES = {np.dtype(v): k for k, v in _DTYPES.items()}
 _LEN = struct.Struct("<I")
 

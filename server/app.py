@@ -58,7 +58,8 @@ def create_app(test_config: dict[str, Any] | None = None) -> Flask:
     # A non-file form field (e.g. ``processing`` with a site description) may be as large as a batch.
     app.config["MAX_FORM_MEMORY_SIZE"] = settings.max_batch_bytes
     app.config["JSON_SORT_KEYS"] = False
-    report_runner = ReportRunner(store)
+    # Reports run where sessions are processed: on this process's thread, or as RQ jobs of ``pdr worker``.
+    report_runner = ReportRunner(store, enqueue=getattr(worker, "submit_report", None))
     app.extensions["pdr"] = Services(settings, store, processing, worker,
                                      scaleout.failure_limiter(settings), report_runner)
     register_error_handlers(app)
@@ -78,7 +79,8 @@ def create_app(test_config: dict[str, Any] | None = None) -> Flask:
 
     worker.start()
     worker.recover()
-    report_runner.recover(every_interrupted=settings.worker == "inprocess")  # the only web process: all are its own
+    if report_runner.runs_here:  # embedded: the only process, so every started report was interrupted
+        report_runner.recover(every_interrupted=settings.worker == "inprocess")
     if settings.retention_days > 0:
         sweeper = RetentionSweeper(store, settings.retention_days)
         sweeper.start()

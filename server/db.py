@@ -105,6 +105,9 @@ batches = Table(
     Column("status", String(16), nullable=False),
     Column("error", Text),
     Column("processed_at", DateTime(timezone=True)),
+    # Migration 0007_decoded: the payload as its reader decoded it at ingest (pdr.recording_codec, zlib), read by
+    # processing instead of the raw payload; NULL for rows stored before it and for step summaries.
+    Column("decoded", LargeBinary),
     UniqueConstraint("session_id", "client_batch_id", name="uq_batches_client"),
 )
 
@@ -168,6 +171,7 @@ report_uploads = Table(
     Column("report_id", String(36), ForeignKey("reports.id", ondelete="CASCADE"), primary_key=True),
     Column("descriptor", String(300), nullable=False),
     Column("payload", LargeBinary, nullable=False),  # zlib-compressed upload, deleted once the report is done
+    Column("decoded", LargeBinary),  # migration 0007_decoded: the upload's recording as read at ingest, zlib
 )
 
 report_files = Table(

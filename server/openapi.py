@@ -207,7 +207,9 @@ def openapi_document() -> dict[str, Any]:
                             | common, requestBody=_json_body("ClassifyWindow"))},
             "/api/v1/reports": {"get": _op("the user's reports", {"200": _ok("reports")} | _errors(401))},
             "/api/v1/reports/allan": {
-                "post": _op("Allan-variance report of a static log (multipart 'file')",
+                "post": _op("Allan-variance report of a static log (multipart 'file'): the log is read in the request "
+                            "(422 if it cannot be), then characterised by a recoverable job (the embedded worker, "
+                            "or pdr worker with PDR_WORKER=redis)",
                             {"202": _ok("queued")} | common | _errors(400),
                             requestBody={"required": True, "content": {"multipart/form-data": {"schema": {
                                 "type": "object", "required": ["file"],

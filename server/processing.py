@@ -75,7 +75,12 @@ def decode_payload(batch: BatchRecord) -> Recording | StepSummaryBatch:
 
 
 def decode_batch(batch: BatchRecord) -> Recording:
-    """The :class:`Recording` stored in a raw batch; :class:`InputError` if it cannot be read."""
+    """The :class:`Recording` stored in a batch: the one decoded at ingest, else read from the raw payload (rows
+    stored before decoded forms were); :class:`InputError` if it cannot be read.
+    """
+    if batch.decoded is not None:
+        from pdr import recording_codec
+        return recording_codec.loads(batch.decoded)
     fmt = batch.payload_format
     source = f"batch '{batch.client_batch_id}'"
     if fmt == NATIVE_JSON:
@@ -105,9 +110,7 @@ def read_uploaded_file(payload: bytes, descriptor: str) -> Recording:
     from server.sandbox import read_isolated
 
     fmt, _, filename = descriptor.partition("/")
-    _, recording = read_isolated(payload, filename, fmt or None)
-    assert recording is not None
-    return recording
+    return read_isolated(payload, filename, fmt or None)[1]
 
 
 class SessionLocks:

@@ -89,21 +89,32 @@ class SessionQueue:
     def flag_key(self, session_id: str) -> str:
         return f"{self.namespace}:queued:{session_id}"
 
+    def report_flag_key(self, report_id: str) -> str:
+        return f"{self.namespace}:report:{report_id}"
+
     def enqueue(self, session_id: str, verify: bool = False) -> bool:
         """Queue a job for the session unless one is already waiting; True if a job was queued.
 
         With ``verify`` (the reconciler), an existing flag is trusted only if its job is still queued or
         running in RQ; a flag whose job was lost (Redis restart, failed enqueue) is replaced.
         """
+        return self._enqueue(self.flag_key(session_id), process_session_job, session_id,
+                             f"process session {session_id}", verify)
+
+    def enqueue_report(self, report_id: str, verify: bool = False) -> bool:
+        """Queue a job running the Allan report (:mod:`server.report_jobs`) unless one waits, as :meth:`enqueue`."""
+        return self._enqueue(self.report_flag_key(report_id), run_report_job, report_id,
+                             f"Allan report {report_id}", verify)
+
+    def _enqueue(self, key: str, job: Callable[[str], str], arg: str, description: str, verify: bool) -> bool:
         job_id = f"{self.namespace}-{uuid.uuid4().hex}"
-        key = self.flag_key(session_id)
         if not self.redis.set(key, job_id, nx=True, ex=FLAG_TTL_S):
             if not verify or self._flag_job_active(key):
                 return False
             self.redis.set(key, job_id, ex=FLAG_TTL_S)
         try:
-            self.queue.enqueue_call(process_session_job, args=(session_id,), job_id=job_id, timeout=JOB_TIMEOUT_S,
-                                    result_ttl=0, failure_ttl=7 * 86400, description=f"process session {session_id}")
+            self.queue.enqueue_call(job, args=(arg,), job_id=job_id, timeout=JOB_TIMEOUT_S,
+                                    result_ttl=0, failure_ttl=7 * 86400, description=description)
         except Exception:
             try:
                 self.redis.delete(key)
@@ -122,9 +133,9 @@ class SessionQueue:
             return False
         return status in ACTIVE_JOB_STATES
 
-    def started(self, session_id: str, job_id: str) -> None:
-        """Clear the session's queued-flag if it is this job's: uploads from now on queue a new job."""
-        key = self.flag_key(session_id)
+    def started(self, session_id: str, job_id: str, key: str | None = None) -> None:
+        """Clear the session's queued-flag (or ``key``) if it is this job's: uploads from now on queue a new job."""
+        key = key or self.flag_key(session_id)
         raw = self.redis.get(key)
         if raw is not None and (raw.decode() if isinstance(raw, bytes) else str(raw)) == job_id:
             self.redis.delete(key)
@@ -145,6 +156,13 @@ class RedisEnqueuer(NoWorker):
             self.queue.enqueue(session_id)
         except redis.exceptions.RedisError as exc:
             log.warning("could not queue session %s (%s); a worker's reconciler will pick it up", session_id, exc)
+
+    def submit_report(self, report_id: str) -> None:
+        """Queue an Allan report's job (stored before: a failed enqueue is repaired by the reconciler)."""
+        try:
+            self.queue.enqueue_report(report_id)
+        except redis.exceptions.RedisError as exc:
+            log.warning("could not queue report %s (%s); a worker's reconciler will pick it up", report_id, exc)
 
     def stop(self) -> None:
         self.queue.redis.close()
@@ -179,6 +197,9 @@ class WorkerRuntime:
 
     def __init__(self, processing: SessionProcessing, leases: Leases, queue: SessionQueue,
                  retry: RetryPolicy | None = None, sleep: Callable[[float], None] = time.sleep) -> None:
+        from server.report_jobs import ReportRunner
+
+        self.reports = ReportRunner(processing.store, enqueue=queue.enqueue_report)
         self.leases = leases
         self.queue = queue
         self.retry = retry or RetryPolicy()
@@ -235,14 +256,17 @@ class WorkerRuntime:
         return "done"
 
     def reconcile(self) -> int:
-        """Queue every session with pending or interrupted batches and no live lease; returns how many."""
+        """Queue every session with pending or interrupted batches and no live lease, and every Allan report never
+        started or whose run stopped (:meth:`server.report_jobs.ReportRunner.interrupted`); returns how many.
+        """
         queued = 0
         for session_id in self.leases.orphaned_sessions():
             if self.queue.enqueue(session_id, verify=True):
                 queued += 1
-        if queued:
-            log.info("reconciler queued %d session(s) with unprocessed batches", queued)
-        return queued
+        reports = sum(self.queue.enqueue_report(report_id, verify=True) for report_id in self.reports.interrupted())
+        if queued or reports:
+            log.info("reconciler queued %d session(s) with unprocessed batches and %d report(s)", queued, reports)
+        return queued + reports
 
     def start_reconciler(self, period_s: float) -> threading.Event:
         """Run :meth:`reconcile` now and every ``period_s`` on a daemon thread; set the event to stop."""
@@ -281,6 +305,20 @@ def process_session_job(session_id: str) -> str:
         except redis.exceptions.RedisError:
             pass
     return _runtime.run_session(session_id)
+
+
+def run_report_job(report_id: str) -> str:
+    """The RQ job of an Allan report (runs in a ``pdr worker`` process): claim it, characterise, store the files."""
+    if _runtime is None:
+        raise RuntimeError("no worker runtime in this process; start workers with 'pdr worker'")
+    job = get_current_job()
+    if job is not None:
+        try:  # from now on the reconciler watches the report's heartbeat, not the flag
+            _runtime.queue.started(report_id, job.id, key=_runtime.queue.report_flag_key(report_id))
+        except redis.exceptions.RedisError:
+            pass
+    _runtime.reports.run(report_id)
+    return "done"
 
 
 def purge_namespace(connection: redis.Redis, namespace: str) -> int:

@@ -1,12 +1,17 @@
 """Allan-variance reports as recoverable jobs.
 
-``POST /api/v1/reports/allan`` stores the report (status ``pending``) and its upload (``report_uploads``) in one
-transaction before answering 202, then queues it here. A job *claims* the report (sets ``started_at`` and counts
-an attempt) so that only one process runs it, characterises the log, stores the files and drops the upload.
-On start-up, :meth:`ReportRunner.recover` queues every pending report again: those never started, and those
-whose run was interrupted (in the embedded default every interrupted run; with several web processes, those
-started more than ``stale_s`` ago). A report interrupted :data:`MAX_ATTEMPTS` times fails with that reason
-instead of crashing the service again.
+``POST /api/v1/reports/allan`` reads the upload once, then stores the report (status ``pending``), the upload and
+the recording read (``report_uploads``) in one transaction before answering 202, and queues it: on a thread of
+the web process in the embedded default, as an RQ job for ``pdr worker`` with ``PDR_WORKER=redis``
+(:mod:`server.queue`). A job *claims* the report (sets ``started_at`` and counts an attempt) so that only one
+process runs it, keeps ``started_at`` fresh while it runs (a heartbeat every ``stale_s / 3``), characterises the
+recording, stores the files and drops the upload.
+
+Recovery: :meth:`ReportRunner.interrupted` lists the pending reports never started and those whose heartbeat
+stopped more than ``stale_s`` ago (their process is gone). The embedded service queues them all again on start-up
+(it is the only process, so every started report was interrupted); ``pdr worker``'s reconciler queues them
+periodically. A report interrupted :data:`MAX_ATTEMPTS` times fails with that reason instead of crashing the
+service again.
 """
 
 from __future__ import annotations
@@ -14,16 +19,20 @@ from __future__ import annotations
 import dataclasses
 import logging
 import tempfile
+import threading
 import zlib
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from datetime import timedelta
+from datetime import datetime, timedelta
 from pathlib import Path
 
-from sqlalchemy import delete, insert, or_, select, update
+from sqlalchemy import ColumnElement, and_, delete, insert, or_, select, true, update
 
+from pdr import recording_codec
 from pdr.errors import InputError
+from pdr.recording import Recording
 from server import db
-from server.store import Store
+from server.store import DECODED_ZLIB_LEVEL, Store
 
 log = logging.getLogger(__name__)
 
@@ -31,80 +40,138 @@ MEDIA_TYPES = {".png": "image/png", ".html": "text/html; charset=utf-8", ".yaml"
                ".json": "application/json"}
 #: Interrupted runs of one report before it is failed.
 MAX_ATTEMPTS = 3
+#: Seconds without a heartbeat after which a started report counts as interrupted.
+STALE_S = 60.0
 
 
 class ReportRunner:
-    """Runs report jobs on one background thread of this process."""
+    """Claims and runs report jobs; ``enqueue`` queues one (default: a background thread of this process).
 
-    def __init__(self, store: Store, stale_s: float = 900.0) -> None:
+    Parameters
+    ----------
+    store
+        The service's storage.
+    enqueue
+        Called with a report id to have :meth:`run` called on it somewhere (an RQ job); ``None``: on this process's
+        own report thread.
+    stale_s
+        Heartbeat age, s, after which a started report is taken as interrupted.
+    """
+
+    def __init__(self, store: Store, enqueue: Callable[[str], object] | None = None, stale_s: float = STALE_S) -> None:
         self.store = store
         self.stale_s = stale_s
-        self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pdr-reports")
+        self._enqueue = enqueue
+        self._executor: ThreadPoolExecutor | None = (
+            ThreadPoolExecutor(max_workers=1, thread_name_prefix="pdr-reports") if enqueue is None else None)
 
-    def create(self, report_id: str, user_id: int, source_name: str, payload: bytes, descriptor: str) -> None:
-        """Store a pending Allan report with its upload (committed before the client is answered), and queue it."""
+    def create(self, report_id: str, user_id: int, source_name: str, payload: bytes, descriptor: str,
+               recording: Recording) -> None:
+        """Store a pending Allan report with its upload and the recording read from it (committed before the
+        client is answered), and queue it.
+        """
         with self.store.engine.begin() as conn:
             conn.execute(insert(db.reports).values(id=report_id, user_id=user_id, kind="allan", status="pending",
                                                    source_name=source_name[:300], created_at=db.utcnow()))
-            conn.execute(insert(db.report_uploads).values(report_id=report_id, descriptor=descriptor[:300],
-                                                          payload=zlib.compress(payload, 6)))
+            conn.execute(insert(db.report_uploads).values(
+                report_id=report_id, descriptor=descriptor[:300], payload=zlib.compress(payload, 6),
+                decoded=zlib.compress(recording_codec.dumps(recording), DECODED_ZLIB_LEVEL)))
         self.submit(report_id)
 
-    def submit(self, report_id: str) -> None:
-        self._executor.submit(self.run, report_id)
+    @property
+    def runs_here(self) -> bool:
+        """Whether reports run on this process's own thread (not as jobs of other processes)."""
+        return self._executor is not None
+
+    def submit(self, report_id: str, take_over: bool = False) -> None:
+        """Queue a run of the report; ``take_over``: even if a run of it started recently (this process is the only
+        one and has just started, so that run is gone).
+        """
+        if self._executor is not None:
+            self._executor.submit(self.run, report_id, take_over)
+        else:
+            assert self._enqueue is not None
+            self._enqueue(report_id)
+
+    def interrupted(self, every_started: bool = False) -> list[str]:
+        """Pending reports never started or whose heartbeat stopped ``stale_s`` ago (``every_started``: all)."""
+        r = db.reports
+        with self.store.engine.connect() as conn:
+            return [str(row.id) for row in conn.execute(select(r.c.id).where(
+                r.c.status == "pending", self._claimable(every_started)).order_by(r.c.created_at))]
 
     def recover(self, every_interrupted: bool) -> list[str]:
-        """Queue the pending reports again; ``every_interrupted``: also those started by a process that is gone
-        (true when this is the only process). Returns their ids.
+        """Queue the :meth:`interrupted` reports again (``every_interrupted``: every started one too, true when this
+        is the only process and it has just started). Returns their ids.
         """
-        r = db.reports
-        started_before = db.utcnow() - timedelta(seconds=0 if every_interrupted else self.stale_s)
-        with self.store.engine.connect() as conn:
-            ids = [str(row.id) for row in conn.execute(select(r.c.id).where(
-                r.c.status == "pending", or_(r.c.started_at.is_(None), r.c.started_at <= started_before)))]
+        ids = self.interrupted(every_started=every_interrupted)
         for report_id in ids:
-            self.submit(report_id)
+            self.submit(report_id, take_over=every_interrupted)
         return ids
 
     def stop(self) -> None:
-        self._executor.shutdown(wait=True, cancel_futures=True)
+        if self._executor is not None:
+            self._executor.shutdown(wait=True, cancel_futures=True)
 
-    def _claim(self, report_id: str) -> tuple[bytes, str] | None:
-        """Take the report (one more attempt) and return its upload; None if it is done, gone or failed now."""
+    def _claimable(self, take_over: bool) -> ColumnElement[bool]:
+        if take_over:
+            return true()
+        started = db.reports.c.started_at
+        return or_(started.is_(None), started <= self._stale_before())
+
+    def _stale_before(self) -> datetime:
+        return db.utcnow() - timedelta(seconds=self.stale_s)
+
+    def _claim(self, report_id: str, take_over: bool = False) -> tuple[bytes, str, bytes | None] | None:
+        """Take the report (one more attempt) and return its upload (raw, descriptor, decoded recording); ``None``
+        if it is done, gone, failed now, or run by another process (its heartbeat is fresh; ``take_over`` ignores it).
+        """
         r, u = db.reports, db.report_uploads
         with self.store.engine.begin() as conn:
-            row = conn.execute(select(r.c.status, r.c.attempts, u.c.payload, u.c.descriptor)
+            row = conn.execute(select(r.c.status, r.c.attempts, u.c.descriptor, u.c.report_id.label("upload"))
                                .select_from(r.outerjoin(u, u.c.report_id == r.c.id)).where(r.c.id == report_id)
                                ).first()
             if row is None or row.status != "pending":
                 return None
-            if row.payload is None or row.attempts >= MAX_ATTEMPTS:
-                why = ("its upload is missing" if row.payload is None
+            if row.upload is None or row.attempts >= MAX_ATTEMPTS:
+                why = ("its upload is missing" if row.upload is None
                        else f"its processing was interrupted {row.attempts} times (a crash or a restart)")
                 conn.execute(update(r).where(r.c.id == report_id).values(status="failed",
                                                                          error=f"report failed: {why}"))
                 conn.execute(delete(u).where(u.c.report_id == report_id))
                 return None
-            conn.execute(update(r).where(r.c.id == report_id).values(attempts=row.attempts + 1,
-                                                                      started_at=db.utcnow()))
-            return zlib.decompress(row.payload), str(row.descriptor)
+            # One statement decides who runs it: another process's fresh claim makes this one match no row.
+            claimed = conn.execute(update(r).where(and_(r.c.id == report_id, r.c.status == "pending",
+                                                        r.c.attempts == row.attempts, self._claimable(take_over)))
+                                   .values(attempts=row.attempts + 1, started_at=db.utcnow())).rowcount
+            if not claimed:
+                return None
+            up = conn.execute(select(u.c.payload, u.c.decoded).where(u.c.report_id == report_id)).one()
+            return (zlib.decompress(up.payload), str(row.descriptor),
+                    None if up.decoded is None else zlib.decompress(up.decoded))
 
-    def run(self, report_id: str) -> None:
+    def run(self, report_id: str, take_over: bool = False) -> None:
         """Run one report job; failures are stored on the report, never raised."""
         try:
-            claimed = self._claim(report_id)
+            claimed = self._claim(report_id, take_over)
             if claimed is not None:
-                self._characterise(report_id, *claimed)
+                with self._heartbeat(report_id):
+                    self._characterise(report_id, *claimed)
         except Exception:  # the thread must survive; the report stays pending and is recovered on restart
             log.exception("Allan report %s could not be run", report_id)
 
-    def _characterise(self, report_id: str, payload: bytes, descriptor: str) -> None:
+    def _heartbeat(self, report_id: str) -> _Heartbeat:
+        return _Heartbeat(self.store, report_id, self.stale_s / 3.0)
+
+    def _characterise(self, report_id: str, payload: bytes, descriptor: str, decoded: bytes | None) -> None:
         from pdr.allan.characterise import characterise_recording
         from pdr.allan.report import write_report
         from server.processing import read_uploaded_file
 
         try:
-            recording = read_uploaded_file(payload, descriptor)
+            # What the upload's reader returned at ingest; reports stored before that was kept are read now.
+            recording = (recording_codec.loads(decoded) if decoded is not None
+                         else read_uploaded_file(payload, descriptor))
             # The report names the uploaded file, never the server's temporary copy that the reader was given.
             result = dataclasses.replace(characterise_recording(recording),
                                          source=descriptor.partition("/")[2] or "upload")
@@ -133,3 +200,32 @@ class ReportRunner:
                 conn.execute(update(db.reports).where(db.reports.c.id == report_id).values(status="failed",
                                                                                           error=error))
             conn.execute(delete(db.report_uploads).where(db.report_uploads.c.report_id == report_id))
+
+
+class _Heartbeat:
+    """Keeps a claimed report's ``started_at`` fresh every ``period_s`` while its run lasts (a context manager)."""
+
+    def __init__(self, store: Store, report_id: str, period_s: float) -> None:
+        self.store = store
+        self.report_id = report_id
+        self.period_s = period_s
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._beat, name=f"pdr-report-heartbeat-{report_id[:8]}", daemon=True)
+
+    def __enter__(self) -> _Heartbeat:
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        self._thread.join()
+
+    def _beat(self) -> None:
+        while not self._stop.wait(self.period_s):
+            try:
+                with self.store.engine.begin() as conn:
+                    conn.execute(update(db.reports).where(db.reports.c.id == self.report_id,
+                                                          db.reports.c.status == "pending")
+                                 .values(started_at=db.utcnow()))
+            except Exception as exc:  # the database may be down for a moment; the next beat tries again
+                log.warning("heartbeat of report %s: %s", self.report_id, exc)

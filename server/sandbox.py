@@ -16,7 +16,6 @@ service.
 
 from __future__ import annotations
 
-import copyreg
 import io
 import os
 import pickle
@@ -28,9 +27,9 @@ import tempfile
 import threading
 import zipfile
 from pathlib import Path
-from types import MappingProxyType
 from typing import Any
 
+from pdr import recording_codec
 from pdr.errors import InputError
 from pdr.io import format_names
 from pdr.recording import Recording
@@ -69,9 +68,8 @@ def safe_filename(name: str | None) -> str:
     return base
 
 
-def read_isolated(payload: bytes, filename: str, fmt: str | None = None,
-                  detect_only: bool = False) -> tuple[str, Recording | None]:
-    """(format, recording) of an uploaded file, read in a child process; ``detect_only`` skips reading.
+def read_isolated(payload: bytes, filename: str, fmt: str | None = None) -> tuple[str, Recording]:
+    """(format, recording) of an uploaded file, detected (unless ``fmt`` is given) and read in one child process.
 
     Raises
     ------
@@ -87,7 +85,7 @@ def read_isolated(payload: bytes, filename: str, fmt: str | None = None,
         path = Path(tmp) / safe_name
         path.write_bytes(payload)
         out = Path(tmp) / "result.pickle"
-        cmd = [sys.executable, "-m", "server.sandbox", str(path), fmt or "", "1" if detect_only else "0", str(out)]
+        cmd = [sys.executable, "-m", "server.sandbox", str(path), fmt or "", str(out)]
         try:
             proc = subprocess.run(cmd, capture_output=True, timeout=WALL_LIMIT_S, check=False)
         except subprocess.TimeoutExpired:
@@ -99,7 +97,7 @@ def read_isolated(payload: bytes, filename: str, fmt: str | None = None,
                              "it is corrupt or not a supported log", source=safe_name)
         result: tuple[Any, ...] = pickle.loads(out.read_bytes())  # written by our own child process
     if result[0] == "ok":
-        return result[1], result[2]
+        return result[1], recording_codec.loads(result[2])
     if result[0] == "input_error":
         _, message, source, line, field, code = result
         err = InputError(message, source=source, line=line, field=field)
@@ -133,15 +131,7 @@ def check_compressed(payload: bytes, source: str) -> None:
                              source=source)
 
 
-def _proxy(d: dict[Any, Any]) -> MappingProxyType[Any, Any]:
-    """Rebuild a read-only mapping (recordings hold them; pickle cannot by default)."""
-    return MappingProxyType(d)
-
-
-def _child(path: str, fmt: str, detect_only: bool, out: str) -> None:
-    from server import sandbox  # this module by its import name (not __main__), so the parent finds _proxy
-
-    copyreg.pickle(MappingProxyType, lambda m: (sandbox._proxy, (dict(m),)))
+def _child(path: str, fmt: str, out: str) -> None:
     memory = int(os.environ.get("PDR_READER_MEMORY_MB", MEMORY_LIMIT_MB)) * 1024**2
     resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
     resource.setrlimit(resource.RLIMIT_CPU, (CPU_LIMIT_S, CPU_LIMIT_S))
@@ -149,7 +139,9 @@ def _child(path: str, fmt: str, detect_only: bool, out: str) -> None:
 
     try:
         name = fmt or detect_format(path)
-        result: tuple[Any, ...] = ("ok", name, None if detect_only else read_recording(path, format=name))
+        # The recording as recording_codec bytes, which the parent decodes (no pickle of reader objects) and the
+        # service stores with the upload, so that nothing reads the file again.
+        result: tuple[Any, ...] = ("ok", name, recording_codec.dumps(read_recording(path, format=name)))
     except InputError as exc:
         source = None if exc.source is None else str(exc.source).replace(str(Path(path).parent) + "/", "")
         result = ("input_error", exc.message, source, exc.line, exc.field, exc.code)
@@ -162,4 +154,4 @@ def _child(path: str, fmt: str, detect_only: bool, out: str) -> None:
 
 
 if __name__ == "__main__":
-    _child(sys.argv[1], sys.argv[2], sys.argv[3] == "1", sys.argv[4])
+    _child(sys.argv[1], sys.argv[2], sys.argv[3])

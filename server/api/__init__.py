@@ -83,13 +83,13 @@ def json_body() -> Any:
 @dataclass(frozen=True)
 class Upload:
     """A log file from a multipart request: its bytes, safe file name, detected (or given) format, and the
-    recording read from it (``None`` when only the format was detected).
+    recording read from it.
     """
 
     payload: bytes
     filename: str
     format: str
-    recording: Recording | None = None
+    recording: Recording
 
     @property
     def descriptor(self) -> str:
@@ -97,9 +97,9 @@ class Upload:
         return f"{self.format}/{self.filename}"
 
 
-def uploaded_log(what: str = "log", read: bool = False) -> Upload:
-    """The multipart ``file`` field (400 if missing, 422 if empty) and its format (field ``format`` or detected);
-    with ``read``, also its recording, detected and read by one sandboxed reader (:mod:`server.sandbox`).
+def uploaded_log(what: str = "log") -> Upload:
+    """The multipart ``file`` field (400 if missing, 422 if empty), its format (field ``format`` or detected) and
+    its recording, detected and read by one sandboxed reader (:mod:`server.sandbox`): the only read of the upload.
     """
     from server.sandbox import read_isolated, safe_filename
 
@@ -111,5 +111,5 @@ def uploaded_log(what: str = "log", read: bool = False) -> Upload:
     if not payload:
         raise APIError(422, "uploaded file is empty", details={"field": "file"})
     filename = safe_filename(upload.filename)
-    fmt, recording = read_isolated(payload, filename, request.form.get("format") or None, detect_only=not read)
+    fmt, recording = read_isolated(payload, filename, request.form.get("format") or None)
     return Upload(payload, filename, fmt, recording)

@@ -81,7 +81,7 @@ def _ingest() -> Response:
                            payload=raw, t_first_ns=t_first, t_last_ns=t_last,
                            device=replace(recording.device, role="phone", device_id=str(message["deviceId"]),
                                           placement=placement),
-                           content=message)
+                           content=message, recording=recording)
     return jsonify({"status": "ok", "session": sid, "duplicate": not accepted.created})
 
 

@@ -1,8 +1,9 @@
 """Allan-variance sensor reports: upload a static log, then fetch the report as JSON, HTML and PNG plots.
 
-``POST /api/v1/reports/allan`` (multipart ``file``, optional ``format``) stores the report and its upload and
-answers 202 with the report id; the characterisation runs as a recoverable job (:mod:`server.report_jobs`; a
-2.8 h 100 Hz record takes seconds), resumed after a restart. ``GET /api/v1/reports/{id}`` gives the status
+``POST /api/v1/reports/allan`` (multipart ``file``, optional ``format``) reads the log once (422 if it cannot
+be read), stores the report with the upload and the recording read, and answers 202 with the report id; the
+characterisation runs as a recoverable job (:mod:`server.report_jobs`; a 2.8 h 100 Hz record takes seconds),
+resumed after a restart. ``GET /api/v1/reports/{id}`` gives the status
 and, when done, every number; ``/report.html``, ``/files/{name}`` (``gyro.png``, ``acc.png``, ``imu.yaml``,
 ``filter_params.json``).
 """
@@ -28,9 +29,9 @@ bp = Blueprint("reports", __name__, url_prefix="/api/v1/reports")
 def create_allan_report() -> tuple[Response, int]:
     user = current_user()
     svc = services()
-    upload = uploaded_log("static log")
+    upload = uploaded_log("static log")  # read once, here: the job characterises what was read
     report_id = str(uuid.uuid4())
-    svc.reports.create(report_id, user.id, upload.filename, upload.payload, upload.descriptor)
+    svc.reports.create(report_id, user.id, upload.filename, upload.payload, upload.descriptor, upload.recording)
     return jsonify({"id": report_id, "status": "pending"}), 202
 
 

@@ -94,9 +94,8 @@ def _meta(options: ProcessingOptions) -> dict[str, Any] | None:
 
 def _create_from_file(user_id: int) -> tuple[Response, int]:
     svc = services()
-    upload = uploaded_log(read=True)  # validated before accepting
+    upload = uploaded_log()  # validated before accepting
     payload, filename, descriptor, recording = upload.payload, upload.filename, upload.descriptor, upload.recording
-    assert recording is not None
     options = ProcessingOptions.from_text(request.form.get("processing"))
     placement = request.form.get("placement") or recording.device.placement
     plausibility.check_device(replace(recording.device, placement=placement))
@@ -113,7 +112,8 @@ def _create_from_file(user_id: int) -> tuple[Response, int]:
     dev = recording.device
     t_first, t_last = time_span_ns(recording)
     store_batch(svc, sid, client_batch_id=batch_id, payload_format=FILE_PREFIX + descriptor,
-                payload=payload, t_first_ns=t_first, t_last_ns=t_last, device=replace(dev, placement=placement))
+                payload=payload, t_first_ns=t_first, t_last_ns=t_last, device=replace(dev, placement=placement),
+                recording=recording)
     svc.store.set_session(sid, t0_ns=recording.origin_ns)
     if recording.truth.positions is not None and recording.truth.positions.origin_lat_lon_deg:
         lat, lon = recording.truth.positions.origin_lat_lon_deg
@@ -180,9 +180,8 @@ def upload_device_file(session_id: str, role: str) -> tuple[Response, int]:
     svc = services()
     svc.store.session_row(session_id, user.id)
     require_paired(session_id, role)
-    upload = uploaded_log(read=True)
+    upload = uploaded_log()
     recording = upload.recording
-    assert recording is not None
     if (role in FOOT_ROLES) != recording.device.is_foot:
         kind = "a shoe IMU's" if recording.device.is_foot else "a phone's"
         raise APIError(422, f"'{upload.filename}' ({upload.format}) is {kind} log; the session's {role} needs "
@@ -195,7 +194,8 @@ def upload_device_file(session_id: str, role: str) -> tuple[Response, int]:
     plausibility.check_time(svc.store.engine, session_id, role, fmt, t_first, t_last)
     digest = hashlib.sha256(upload.payload).hexdigest()
     accepted = store_batch(svc, session_id, client_batch_id=f"file-{role}-{digest[:32]}", payload_format=fmt,
-                           payload=upload.payload, t_first_ns=t_first, t_last_ns=t_last, device=device)
+                           payload=upload.payload, t_first_ns=t_first, t_last_ns=t_last, device=device,
+                           recording=recording)
     return (jsonify({"id": accepted.id, "device_role": role, "format": upload.format, "file": upload.filename,
                      "duplicate": not accepted.created}), 201 if accepted.created else 200)
 
@@ -232,7 +232,7 @@ def add_native_batch(session_id: str) -> tuple[Response, int]:
     plausibility.check_batch(svc.store.engine, session_id, NATIVE_JSON, recording, t_first, t_last)
     accepted = store_batch(svc, session_id, client_batch_id=batch_id, payload_format=NATIVE_JSON,
                            payload=request.get_data(), t_first_ns=t_first, t_last_ns=t_last,
-                           device=recording.device, content=body)
+                           device=recording.device, content=body, recording=recording)
     return (jsonify({"batch_id": batch_id, "id": accepted.id, "duplicate": not accepted.created}),
             201 if accepted.created else 200)
 

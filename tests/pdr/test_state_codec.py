@@ -56,3 +56,10 @@ def test_unsupported_objects_are_refused_when_writing():
         state_codec.dumps({"x": object()})
     with pytest.raises(TypeError, match="dtype"):
         state_codec.dumps({"x": np.array(["a"])})
+
+
+@pytest.mark.parametrize("dtype", [np.int8, np.int16, np.uint8, np.uint16, np.uint32, np.float16])
+def test_small_integer_and_half_float_arrays_round_trip(dtype):
+    a = np.arange(-3, 9).reshape(3, 4).astype(dtype)
+    back = state_codec.loads(state_codec.dumps({"a": a}))["a"]
+    assert back.dtype == a.dtype and back.tobytes() == a.tobytes()

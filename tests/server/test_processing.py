@@ -88,7 +88,12 @@ def test_processing_failure_keeps_raw_batch_and_is_visible(tmp_path, tokens):  #
         detail = c.get(f"/api/v1/sessions/{sid}", headers=bearer(token)).get_json()
         assert detail["status"] == "failed"
         assert "algorithm bug" in detail["batch_list"][0]["error"]
-        assert app.extensions["pdr"].store.batches(sid)[0].payload  # raw data kept
+        from sqlalchemy import select
+
+        from server import db
+        with app.extensions["pdr"].store.engine.connect() as conn:  # raw data kept, and what was decoded at ingest
+            row = conn.execute(select(db.batches.c.payload, db.batches.c.decoded)).one()
+        assert row.payload and row.decoded
     finally:
         app.extensions["pdr"].worker.stop()
 

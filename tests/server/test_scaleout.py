@@ -30,9 +30,14 @@ class FakeQueue:
 
     def __init__(self) -> None:
         self.enqueued: list[str] = []
+        self.reports: list[str] = []
 
     def enqueue(self, session_id: str, verify: bool = False) -> bool:
         self.enqueued.append(session_id)
+        return True
+
+    def enqueue_report(self, report_id: str, verify: bool = False) -> bool:
+        self.reports.append(report_id)
         return True
 
 
