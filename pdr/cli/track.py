@@ -207,13 +207,7 @@ def _start(text: str, plan: SitePlan) -> tuple[tuple[float, float], int]:
         if not vals[2].is_integer():
             raise InputError(f"--start floor must be an integer, not {vals[2]}", source="command line",
                              field="start")
-        floor = int(vals[2])
-    elif len(plan.floors) == 1:
-        floor = next(iter(plan.floors))
-    else:
-        raise InputError(f"--start needs a floor (E,N,FLOOR): the site has floors {sorted(plan.floors)}",
-                         source="command line", field="start")
-    plan.floor(floor, "--start")
+    floor = plan.start_floor(int(vals[2]) if len(vals) == 3 else None, "--start")
     return (vals[0], vals[1]), floor
 
 
