@@ -201,3 +201,41 @@ def test_a_session_naming_a_site_and_start_is_map_matched_online(real_app: Flask
     again = client.get(f"/api/v1/sessions/{sid}/track?device=phone", headers=bearer(token)).get_json()["points"]
     assert again == points
     assert client.get(f"/api/v1/sessions/{sid}/site", headers=bearer(token)).get_json()["site_id"] == site_id
+
+
+@pytest.mark.timeout(400)
+def test_the_real_service_process_map_matches_a_session_on_an_uploaded_site(tmp_path) -> None:
+    """`pdr serve` as deployed: upload the site, name it with a start, stream the walk, read the matched track."""
+    import time
+
+    from server.client import Client, add_user, running_server
+
+    rec = _walk()
+    with running_server(tmp_path) as (url, env, _):
+        c = Client(url, add_user(env, "walker"), timeout_s=120.0)
+        bad = c.request("POST", "/api/v1/sites", _bad(lambda s: s["floors"][0].pop("walkable")))
+        assert bad.status == 422 and bad.json()["error"]["details"]["field"] == "walkable"
+        site_id = c.request("POST", "/api/v1/sites", HALL).json()["id"]
+        made = c.request("POST", "/api/v1/sessions", {"session_id": "live", "placement": "hand", "processing": {
+            "site_id": site_id, "start": [5.0, 6.0, 0]}})
+        assert made.status == 201, made.body
+        sid = made.json()["id"]
+        for batch in one_second_batches(rec, "live"):
+            assert c.request("POST", f"/api/v1/sessions/{sid}/batches", batch).status == 201
+        deadline = time.monotonic() + 300
+        while True:
+            detail = c.request("GET", f"/api/v1/sessions/{sid}").json()
+            if detail["status"] == "done" and not detail["batches"].get("pending"):
+                break
+            assert time.monotonic() < deadline, detail["batches"]
+            time.sleep(0.5)
+        points = c.request("GET", f"/api/v1/sessions/{sid}/track?device=phone").json()["points"]
+        floors = c.request("GET", f"/api/v1/sessions/{sid}/site").json()
+        c.close()
+    plan = SitePlan.from_dict(HALL)
+    cfg = pipeline_config(placement_group("hand"))
+    want = track_rows(PdrPipeline(cfg, Site.from_dict(HALL), stages=[MapMatchStage(plan, (5.0, 6.0), 0)]).run(rec))
+    assert len(points) == len(want) > 15
+    np.testing.assert_allclose([[p["east_m"], p["north_m"]] for p in points],
+                               [[r["east_m"], r["north_m"]] for r in want], atol=1e-6)
+    assert [f["floor"] for f in floors["floors"]] == [0, 1] and floors["start"]["floor"] == 0
