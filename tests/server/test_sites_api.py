@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import json
+from typing import Any
 
 import numpy as np
 import pytest
@@ -29,7 +30,7 @@ def _rect(x0: float, y0: float, x1: float, y1: float) -> list[list[float]]:
 
 
 #: A hall 60 m x 20 m with a shop (a hole) on two floors 3.5 m apart (metres, east/north).
-HALL = {"name": "hall", "floor_height_m": 3.5, "landmarks": [],
+HALL: dict[str, Any] = {"name": "hall", "floor_height_m": 3.5, "landmarks": [],
         "floors": [{"floor": f, "altitude_m": 3.5 * f,
                     "walkable": {"type": "Polygon", "coordinates": [_rect(0, 0, 60, 20), _rect(10, 12, 20, 18)]}}
                    for f in (0, 1)]}
