@@ -153,3 +153,9 @@ def site_id_of(meta: dict[str, Any]) -> str | None:
     """The uploaded site a session's ``meta`` names (its processor then needs the session's copy of it)."""
     opts = meta.get(META_KEY)
     return opts.get("site_id") if isinstance(opts, dict) and isinstance(opts.get("site_id"), str) else None
+
+
+def map_matched(meta: dict[str, Any]) -> bool:
+    """Whether a session's ``meta`` asks for online map matching (an uploaded site and a start)."""
+    opts = meta.get(META_KEY)
+    return site_id_of(meta) is not None and isinstance(opts, dict) and opts.get("start") is not None

@@ -195,6 +195,10 @@ def test_a_session_naming_a_site_and_start_is_map_matched_online(real_app: Flask
     assert np.linalg.norm(xy[0] - [5.0, 6.0]) < 2.0 and xy[:, 0].max() > 20.0
     session = client.get(f"/api/v1/sessions/{sid}", headers=bearer(token)).get_json()
     assert session["processing"] == {"site_id": site_id, "start": [5.0, 6.0, 0]}
+    # The smoothed track would re-integrate headings off the plan: it is the matched track, with the reason.
+    smoothed = client.get(f"/api/v1/sessions/{sid}/track?device=phone&heading=smoothed", headers=bearer(token))
+    assert smoothed.get_json()["points"] == points and smoothed.get_json()["smoothed_devices"] == []
+    assert "map-matched online" in smoothed.get_json()["heading_notes"][0]
     # The session keeps its copy of the site: deleting the site changes nothing, even on a rebuild.
     assert client.delete(f"/api/v1/sites/{site_id}", headers=bearer(token)).status_code == 204
     assert client.post(f"/api/v1/sessions/{sid}/reprocess", headers=bearer(token)).status_code == 202
