@@ -907,6 +907,7 @@ def run_bench(args: argparse.Namespace) -> int:
         print(f"with map matching ({m['site']}, {m['walls']} walls, {m['particles']} particles): "
               f"{m['samples_per_s']:.0f} time steps/s ({m['times_real_time']:.0f}x real time; without the stage "
               f"{pl['samples_per_s']:.0f} above); the stage: {m['stage_steps']} step events in "
-              f"{m['stage_wall_s']:.2f} s = {m['stage_steps_per_s']:.0f} steps/s, "
+              f"{m['stage_wall_s']:.2f} s = {m['stage_steps_per_s']:.0f} steps/s (CPU time {m['stage_cpu_s']:.2f} s = "
+              f"{m['stage_steps_per_cpu_s']:.0f} steps/s, {m['stage_times_real_time_cpu']:.0f}x real time), "
               f"{m['map_notices']} map-matching notices")
     return 0
