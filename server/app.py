@@ -73,8 +73,20 @@ def create_app(test_config: dict[str, Any] | None = None) -> Flask:
     reliability.install(app, settings)  # data quota (507) after the size check; database down -> 503
 
     from server import web
-    from server.api import foot, groups, ingest, meta, models, reports, results, sessions, track_columns, truth
-    for module in (meta, sessions, results, ingest, truth, track_columns, models, reports, groups, foot, web):
+    from server.api import (
+        foot,
+        groups,
+        ingest,
+        meta,
+        models,
+        reports,
+        results,
+        sessions,
+        sites,
+        track_columns,
+        truth,
+    )
+    for module in (meta, sessions, results, ingest, truth, track_columns, models, reports, groups, foot, sites, web):
         app.register_blueprint(module.bp)
 
     worker.start()

@@ -28,6 +28,15 @@ NAME = {"name": "name", "in": "path", "required": True, "schema": {"type": "stri
 REPORT_ID = {"name": "report_id", "in": "path", "required": True, "schema": {"type": "string"}}
 AGENT = {"name": "agent", "in": "path", "required": True, "schema": {"type": "string"}}
 GROUP_ID = {"name": "group_id", "in": "path", "required": True, "schema": {"type": "string"}}
+SITE_ID = {"name": "site_id", "in": "path", "required": True, "schema": {"type": "string"}}
+#: A site description (``pdr track --site``, ``pdr site from-ms``): floor plans per floor, altitudes, landmarks.
+SITE = {"type": "object", "required": ["floors"],
+        "description": "site description with floor plans (pdr.site.plan): floors [{floor, altitude_m, frame, "
+                       "walkable: GeoJSON Polygon/MultiPolygon/Feature(Collection), metres in the site frame or "
+                       "lon/lat with the site's origin}], floor_height_m, origin, frame_bearing_deg, landmarks",
+        "properties": {"name": {"type": "string"}, "floor_height_m": {"type": "number"},
+                       "floors": {"type": "array", "items": {"type": "object"}},
+                       "landmarks": {"type": "array", "items": {"type": "object"}}}}
 SINCE = {"name": "since", "in": "query", "required": False, "schema": {"type": "number"},
          "description": "only rows with t_s greater than this (incremental polling)"}
 TOKEN_QUERY = {"name": "token", "in": "query", "required": False, "schema": {"type": "string"},
@@ -120,7 +129,7 @@ def openapi_document() -> dict[str, Any]:
                         "NativeBatch": batch_schema, "SensorLoggerMessage": schemas.SENSOR_LOGGER_MESSAGE,
                         "ClassifyWindow": schemas.CLASSIFY_WINDOW, "CreateGroup": groups.CREATE_GROUP,
                         "JoinGroup": groups.JOIN_GROUP, "GroupUpload": groups.UPLOAD,
-                        "FootSteps": FOOT_STEPS},
+                        "FootSteps": FOOT_STEPS, "Site": SITE},
         },
         "security": [{"bearer": []}],
         "paths": _scoped({
@@ -172,6 +181,10 @@ def openapi_document() -> dict[str, Any]:
             "/api/v1/sessions/{session_id}/processing": {
                 "put": _op("replace the processing options and rebuild all results", {"202": _ok("queued")} | common,
                            parameters=[SESSION_ID], requestBody=_json_body("Processing"))},
+            "/api/v1/sessions/{session_id}/site": {
+                "get": _op("the floor plans (metric frame, per floor) and start of the uploaded site the session is "
+                           "processed with (its own copy); 404 when it names none",
+                           {"200": _ok("floor plans")} | _errors(401, 404), parameters=[SESSION_ID])},
             "/api/v1/sessions/{session_id}/reprocess": {
                 "post": _op("rebuild all results from the raw batches", {"202": _ok("queued")} | _errors(401, 404),
                             parameters=[SESSION_ID])},
@@ -196,6 +209,23 @@ def openapi_document() -> dict[str, Any]:
             "/api/v1/sessions/{session_id}/truth": {
                 "get": _op("ground truth positions of uploaded logs", {"200": _ok("truth")} | _errors(401, 404),
                            parameters=[SESSION_ID])},
+            "/api/v1/sites": {
+                "get": _op("the user's sites (summaries: floors, altitudes, polygons, bounds)",
+                           {"200": _ok("sites")} | _errors(401)),
+                "post": _op("upload a site (JSON body, or multipart 'file' with an optional 'name'); checked as "
+                            "`pdr site check` checks it: 422 naming the floor, polygon, ring and field",
+                            {"201": _ok("created")} | common | _errors(400),
+                            requestBody={"required": True, "content": {
+                                "application/json": {"schema": {"$ref": "#/components/schemas/Site"}},
+                                "multipart/form-data": {"schema": {"type": "object", "required": ["file"],
+                                                                   "properties": {
+                                                                       "file": {"type": "string", "format": "binary"},
+                                                                       "name": {"type": "string"}}}}}})},
+            "/api/v1/sites/{site_id}": {
+                "get": _op("the site: summary, its floor plans in the metric frame ('plan') and the document as "
+                           "uploaded ('site')", {"200": _ok("site")} | _errors(401, 404), parameters=[SITE_ID]),
+                "delete": _op("delete the site (sessions that name it keep their copy)",
+                              {"204": {"description": "deleted"}} | _errors(401, 404), parameters=[SITE_ID])},
             "/api/v1/models": {"get": _op("classifier models", {"200": _ok("models")} | _errors(401))},
             "/api/v1/models/{name}": {
                 "get": _op("model card", {"200": _ok("card")} | _errors(401, 404), parameters=[NAME])},

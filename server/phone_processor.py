@@ -13,7 +13,9 @@ pipeline's per-step modes, with the stops and elevator rides of :class:`classifi
 The provisional tail (:meth:`PhoneProcessor.tail`) is what :meth:`PdrPipeline.finish` would add if the
 session ended now, so a session's track equals ``pdr track --smoother off`` on the same data at any time, and
 ``?heading=smoothed`` equals ``pdr track`` -- with the session's processing options
-(:mod:`server.processing_options`) as ``--site`` and ``--calibration``.
+(:mod:`server.processing_options`) as ``--site`` and ``--calibration``; a session naming an uploaded site with a
+start (:mod:`server.sites`) runs the map matcher as a pipeline stage, as ``pdr track --site S --start E,N
+--smoother off``.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from pdr.phone.pipeline import PdrPipeline
 from pdr.recording import Recording
 from server.processing import ProcessorOutput, SessionContext
 from server.processing_options import session_options
+from server.sites import session_site
 from server.store import EventRow, TrackRow
 
 #: Step event fields the offline heading smoother needs besides the track row (pdr.phone.heading_smoother.smooth_track).
@@ -47,9 +50,12 @@ class PhoneProcessor:
 
     def __init__(self, ctx: SessionContext, state: bytes | None) -> None:
         self.classifier: StreamingClassifier | None = None
+        options = session_options(ctx.meta)
+        named = session_site(options, ctx.site)
+        self.stages = [] if named is None else named.stages()   # the map matcher when the session has a start
         if state:
             d = state_codec.loads(state)
-            self.pipeline = PdrPipeline.from_dict(d["pipeline"])
+            self.pipeline = PdrPipeline.from_dict(d["pipeline"], stages=self.stages)
             self.step_modes = (StepModes.from_state(d["step_modes"]) if d.get("step_modes")
                                else StepModes(str(d.get("last_mode", ""))))
             self.classifier_status: str = d.get("classifier_status", "pending")
@@ -58,9 +64,9 @@ class PhoneProcessor:
             self.stops = StopTimeline.from_state(d["stops"]) if d.get("stops") else StopTimeline()
         else:
             self.stops = StopTimeline()
-            options = session_options(ctx.meta)
             config = pipeline_config(placement_group(ctx.placement), step_length=options.step_length)
-            self.pipeline = PdrPipeline(config, options.site)
+            site = options.site if named is None else named.checked.site
+            self.pipeline = PdrPipeline(config, site, stages=self.stages)
             self.step_modes = StepModes()
             self.classifier_status = "pending"
 
@@ -98,7 +104,7 @@ class PhoneProcessor:
                          data={"window_mode": r.window_mode}) for r in results], ""
 
     def tail(self) -> ProcessorOutput:
-        copy = PdrPipeline.from_dict(self.pipeline.to_dict())
+        copy = PdrPipeline.from_dict(self.pipeline.to_dict(), stages=self.stages)
         events = copy.finish()
         step_modes = self.classifier_status != "active"
         out = convert_events(events, StepModes.from_state(self.step_modes.state()), step_modes=step_modes,

@@ -20,6 +20,8 @@ from pdr.errors import InputError
 from pdr.foot.summaries import StepSummaryBatch
 from pdr.recording import Recording
 from server.errors import APIError
+from server.processing_options import site_id_of
+from server.site_store import SiteDocument, SiteStore
 from server.store import PURGED, BatchRecord, EventRow, Store, TrackRow
 
 log = logging.getLogger(__name__)
@@ -60,6 +62,8 @@ class SessionContext:
     role: str
     placement: str | None
     meta: dict[str, Any]
+    #: The session's copy of the uploaded site its options name (server.sites), or None.
+    site: SiteDocument | None = None
 
 
 ProcessorFactory = Callable[[SessionContext, bytes | None], Processor]
@@ -195,7 +199,9 @@ class SessionProcessing:
         for dev in self.store.devices(session_id):
             if dev.role == role and dev.placement:
                 placement = dev.placement
-        return SessionContext(session_id, role, placement, json.loads(row.meta or "{}"))
+        meta = json.loads(row.meta or "{}")
+        site = SiteStore(self.store.engine).session_site(session_id) if site_id_of(meta) else None
+        return SessionContext(session_id, role, placement, meta, site)
 
     def _process_batch(self, session_id: str, batch: BatchRecord, with_tail: bool = True,
                        live: dict[str, Processor] | None = None) -> None:

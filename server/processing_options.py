@@ -9,6 +9,9 @@ processor of the session reads them from its :class:`~server.processing.SessionC
 
 * ``site``: the site description of ``pdr track --site`` (landmarks in the track's local east/north frame,
   floor height, optional declination and building grid); detected landmarks then correct heading and position;
+* ``site_id``: a site uploaded with ``POST /api/v1/sites`` (:mod:`server.sites`): its floor altitudes and landmarks
+  as ``site`` gives them, and with ``start`` (``[E, N]`` or ``[E, N, FLOOR]``, m in the site's frame; the floor
+  defaults to the site's only one) the map matcher on its floor plans, online, as ``pdr track --site --start``;
 * ``calibration``: the file ``pdr calibrate`` writes (``{"step_length": {...}}``), the walker's step-length
   model;
 * ``foot``: ``{"zaru": true}`` turns on the zero angular-rate update of the shoe IMUs' gyroscope bias,
@@ -19,6 +22,7 @@ processor of the session reads them from its :class:`~server.processing.SessionC
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -41,6 +45,8 @@ class ProcessingOptions:
     step_length: StepLengthModel | None = None
     foot_zaru: bool = False
     foot_interval_samples: bool = False
+    site_id: str | None = None
+    start: tuple[float, ...] | None = None
 
     @classmethod
     def from_json(cls, d: Any) -> ProcessingOptions:
@@ -49,9 +55,17 @@ class ProcessingOptions:
             return cls()
         if not isinstance(d, dict):
             raise InputError("must be an object", field="processing")
-        unknown = sorted(set(d) - {"site", "calibration", "foot"})
+        unknown = sorted(set(d) - {"site", "site_id", "start", "calibration", "foot"})
         if unknown:
-            raise InputError(f"unknown option(s) {unknown}; expected site, calibration, foot", field="processing")
+            raise InputError(f"unknown option(s) {unknown}; expected site, site_id, start, calibration, foot",
+                             field="processing")
+        site_id, start = _site_id(d.get("site_id")), _start(d.get("start"))
+        if site_id is not None and d.get("site") is not None:
+            raise InputError("give either 'site' (a description) or 'site_id' (an uploaded site), not both",
+                             field="processing.site_id")
+        if start is not None and site_id is None:
+            raise InputError("a start needs 'site_id', the uploaded site whose frame it is in",
+                             field="processing.start")
         site = Site.from_dict(d["site"], source="processing.site") if d.get("site") is not None else None
         model = None
         cal = d.get("calibration")
@@ -70,7 +84,7 @@ class ProcessingOptions:
                 or foot.get("imu_samples", "instant") not in IMU_SAMPLES):
             raise InputError("expected {\"zaru\": true|false, \"imu_samples\": \"instant\"|\"interval\"}",
                              field="processing.foot")
-        return cls(site, model, bool(foot.get("zaru", False)), foot.get("imu_samples") == "interval")
+        return cls(site, model, bool(foot.get("zaru", False)), foot.get("imu_samples") == "interval", site_id, start)
 
     @classmethod
     def from_text(cls, text: str | None) -> ProcessingOptions:
@@ -89,6 +103,10 @@ class ProcessingOptions:
         out: dict[str, Any] = {}
         if self.site is not None:
             out["site"] = self.site.to_dict()
+        if self.site_id is not None:
+            out["site_id"] = self.site_id
+        if self.start is not None:
+            out["start"] = [*self.start[:2], int(self.start[2])] if len(self.start) == 3 else list(self.start)
         if self.step_length is not None:
             out["calibration"] = {"step_length": self.step_length.to_dict()}
         foot: dict[str, Any] = {}
@@ -108,3 +126,36 @@ class ProcessingOptions:
 def session_options(meta: dict[str, Any]) -> ProcessingOptions:
     """The options kept in a session's ``meta`` (none when absent)."""
     return ProcessingOptions.from_json(meta.get(META_KEY))
+
+
+def _site_id(v: Any) -> str | None:
+    if v is None:
+        return None
+    if not isinstance(v, str) or not 0 < len(v) <= 64:
+        raise InputError("site_id must be the id string POST /api/v1/sites answered", field="processing.site_id")
+    return v
+
+
+def _start(v: Any) -> tuple[float, ...] | None:
+    """``[E, N]`` or ``[E, N, FLOOR]`` (m, site frame; an integer floor)."""
+    if v is None:
+        return None
+    ok = (isinstance(v, list) and len(v) in (2, 3)
+          and all(isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x) for x in v)
+          and (len(v) == 2 or float(v[2]).is_integer()))
+    if not ok:
+        raise InputError("start must be [E, N] or [E, N, FLOOR]: metres in the site's frame and an integer floor",
+                         field="processing.start")
+    return tuple(float(x) for x in v)
+
+
+def site_id_of(meta: dict[str, Any]) -> str | None:
+    """The uploaded site a session's ``meta`` names (its processor then needs the session's copy of it)."""
+    opts = meta.get(META_KEY)
+    return opts.get("site_id") if isinstance(opts, dict) and isinstance(opts.get("site_id"), str) else None
+
+
+def map_matched(meta: dict[str, Any]) -> bool:
+    """Whether a session's ``meta`` asks for online map matching (an uploaded site and a start)."""
+    opts = meta.get(META_KEY)
+    return site_id_of(meta) is not None and isinstance(opts, dict) and opts.get("start") is not None

@@ -29,6 +29,12 @@ PROCESSING = {
     "description": "processing options (server.processing_options)",
     "properties": {
         "site": {"type": "object", "description": "site description, as `pdr track --site`"},
+        "site_id": {"type": "string", "maxLength": 64,
+                    "description": "a site uploaded with POST /api/v1/sites: its floor altitudes and landmarks"},
+        "start": {"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 3,
+                  "description": "[E, N] or [E, N, FLOOR]: the walk's start in the site's frame (m) and its floor "
+                                 "(default: the site's only floor); with site_id, the track is map-matched on the "
+                                 "site's floor plans online and is in the site's frame"},
         "calibration": {"type": "object", "description": "step-length calibration `pdr calibrate` wrote"},
         "foot": {"type": "object", "additionalProperties": False, "properties": {
             "zaru": {"type": "boolean"}, "imu_samples": {"enum": ["instant", "interval"]}}},

@@ -78,3 +78,52 @@ def ring_area(ring: FloatArray) -> float:
     """Signed shoelace area of a closed ring (m^2, positive counter-clockwise)."""
     r = np.asarray(ring, dtype=np.float64)
     return float(0.5 * np.sum(r[:-1, 0] * r[1:, 1] - r[1:, 0] * r[:-1, 1]))
+
+
+def simplify_path(path: FloatArray, tolerance_m: float) -> FloatArray:
+    """Douglas-Peucker simplification of an open polyline ``(n, 2)`` (m): the vertices that keep every dropped one
+    within ``tolerance_m`` of the result.
+    """
+    p = np.asarray(path, dtype=np.float64).reshape(-1, 2)
+    if len(p) < 3:
+        return p.copy()
+    keep = np.zeros(len(p), dtype=bool)
+    keep[[0, -1]] = True
+    stack = [(0, len(p) - 1)]
+    while stack:
+        a, b = stack.pop()
+        if b - a < 2:
+            continue
+        d = p[b] - p[a]
+        rel = p[a + 1:b] - p[a]
+        norm = float(np.hypot(*d))
+        dist = (np.abs(d[0] * rel[:, 1] - d[1] * rel[:, 0]) / norm if norm > 0 else np.hypot(rel[:, 0], rel[:, 1]))
+        k = int(np.argmax(dist))
+        if dist[k] > tolerance_m:
+            keep[a + 1 + k] = True
+            stack += [(a, a + 1 + k), (a + 1 + k, b)]
+    return p[keep]
+
+
+def corridor_ring(path: FloatArray, half_width_m: float) -> FloatArray:
+    """A closed ring bounding a corridor of ``half_width_m`` either side of an open polyline ``(n, 2)`` (m), with
+    mitred corners (the miter is capped at twice the half width) and ends ``half_width_m`` beyond the path's.
+    Valid (not self-intersecting) when every leg is longer than the corridor is wide and the path does not come back
+    near itself.
+    """
+    p = np.asarray(path, dtype=np.float64).reshape(-1, 2)
+    seg = np.diff(p, axis=0)
+    unit = seg / np.hypot(seg[:, 0], seg[:, 1])[:, None]
+    p = p.copy()
+    p[0] -= unit[0] * half_width_m                  # end caps: the path's ends lie inside
+    p[-1] += unit[-1] * half_width_m
+    before = np.vstack([unit[:1], unit])             # direction of the leg into each vertex
+    after = np.vstack([unit, unit[-1:]])             # and of the leg out of it
+    normal_in = np.column_stack([-before[:, 1], before[:, 0]])
+    bisector = np.column_stack([-(before + after)[:, 1], (before + after)[:, 0]])
+    length = np.hypot(bisector[:, 0], bisector[:, 1])
+    bisector = np.where(length[:, None] > 1e-9, bisector / np.maximum(length, 1e-12)[:, None], normal_in)
+    cos_half = np.clip(np.sum(bisector * normal_in, axis=1), 0.5, 1.0)
+    offset = bisector * (half_width_m / cos_half)[:, None]
+    left, right = p + offset, p - offset
+    return np.vstack([left, right[::-1], left[:1]])

@@ -120,6 +120,18 @@ class SitePlan:
                              source=source, field="floors")
         return plan
 
+    def start_floor(self, floor: int | None, source: str = "start") -> int:
+        """The floor a walk starts on: ``floor`` if the site has it, else (None) the site's only floor; refused
+        naming ``source`` when the site has no such floor or several to choose from.
+        """
+        if floor is None:
+            if len(self.floors) != 1:
+                raise InputError(f"the start needs a floor: the site has floors {sorted(self.floors)}",
+                                 source=source, field="start")
+            return next(iter(self.floors))
+        self.floor(floor, source)
+        return int(floor)
+
     def check_walkable(self, point_en: tuple[float, float], floor: int, source: str = "start") -> FloorPlan:
         """The plan of ``floor`` if ``point_en`` (m) is walkable on it; else a refusal naming ``source``'s start."""
         plan = self.floor(floor, source)

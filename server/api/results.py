@@ -31,6 +31,7 @@ from server import db
 from server.api import current_user, services
 from server.errors import APIError
 from server.feet import primary_role
+from server.processing_options import map_matched
 
 bp = Blueprint("results", __name__, url_prefix="/api/v1/sessions")
 
@@ -92,6 +93,9 @@ def track_points(session_id: str, device: str | None, since: float | None, headi
     previous = store.rebuilding(session_id)   # results from before a running rebuild (Store.clear_results)
     if heading != "smoothed":
         return _rows(store.track(session_id, device, since, previous=previous)), None
+    if map_matched(json.loads(store.session_row(session_id).meta or "{}")):
+        # Re-integrating smoothed headings would undo the walls: the matched track as streamed, with the reason.
+        return _rows(store.track(session_id, device, since, previous=previous)), Smoothing((MAP_MATCHED_NOTE,))
     key = (str(store.engine.url), session_id, device, previous, _results_version(store.engine, session_id))
     with _SMOOTHED_LOCK:
         hit = _SMOOTHED.get(key)
@@ -107,6 +111,10 @@ def track_points(session_id: str, device: str | None, since: float | None, headi
     rows, smoothing = hit
     return ([r for r in rows if r["t_s"] > since] if since is not None else list(rows)), smoothing
 
+
+#: The note of ``?heading=smoothed`` on a session map-matched online (``server.sites``).
+MAP_MATCHED_NOTE = ("phone: not smoothed: the track is map-matched online on the session's site (its positions come "
+                    "from the floor plan; smoothed headings re-integrated would leave it)")
 
 #: Smoothed tracks kept (:func:`track_points`): the sessions being watched, a few thousand rows each.
 SMOOTHED_CACHE_SIZE = 8

@@ -13,6 +13,7 @@ from pdr.errors import InputError
 from pdr.recording import DEVICE_ROLES, FOOT_ROLES, Recording
 from server import plausibility
 from server.api import current_user, json_body, services, uploaded_log
+from server.api.sites import give_session_site, named_site
 from server.errors import APIError
 from server.feet import primary_role, session_feet
 from server.ingest import store_batch
@@ -74,9 +75,12 @@ def create_session() -> tuple[Response, int]:
     validate(body, CREATE_SESSION, "session")
     device = body.get("device") or {}
     options = ProcessingOptions.from_json(body.get("processing"))
+    site = named_site(options, user.id)
     sid, created = svc.store.create_session(user.id, source="native", client_session_id=body.get("session_id"),
                                             name=body.get("name", ""), placement=body.get("placement"),
                                             meta=_meta(options))
+    if created and site is not None:
+        give_session_site(sid, site)
     if device:
         svc.store.upsert_device(sid, device.get("role", "phone"), device_id=device.get("device_id", ""),
                                 platform=device.get("platform", "unknown"), model=device.get("model", ""),
@@ -97,12 +101,15 @@ def _create_from_file(user_id: int) -> tuple[Response, int]:
     upload = uploaded_log()  # validated before accepting
     payload, filename, descriptor, recording = upload.payload, upload.filename, upload.descriptor, upload.recording
     options = ProcessingOptions.from_text(request.form.get("processing"))
+    site = named_site(options, user_id)
     placement = request.form.get("placement") or recording.device.placement
     plausibility.check_device(replace(recording.device, placement=placement))
     digest = hashlib.sha256(payload).hexdigest()
     sid, created = svc.store.create_session(user_id, source="upload",
                                             client_session_id=request.form.get("session_id") or f"file-{digest[:24]}",
                                             name=filename, placement=placement, meta=_meta(options))
+    if created and site is not None:
+        give_session_site(sid, site)
     batch_id = f"file-{digest[:32]}"
     if not created and batch_id not in {b.client_batch_id for b in svc.store.batch_list(sid)}:
         raise APIError(409, f"session_id '{request.form.get('session_id')}' already names session {sid} (a "
@@ -257,7 +264,9 @@ def set_processing(session_id: str) -> tuple[Response, int]:
     body = json_body()
     validate(body, PROCESSING, "processing")
     options = ProcessingOptions.from_json(body)
+    site = named_site(options, user.id)
     meta = {k: v for k, v in json.loads(row.meta or "{}").items() if k != META_KEY} | (_meta(options) or {})
+    give_session_site(session_id, site)
     svc.store.set_session(session_id, meta=json.dumps(meta))
     svc.processing.clear(session_id)
     svc.worker.submit(session_id)

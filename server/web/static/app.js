@@ -367,9 +367,11 @@
 
   async function loadExtras(gen) {
     const id = current.id;
-    const [landmarks, truth, smoothed, modes] = await Promise.allSettled([apiJson(`${API}/sessions/${enc(id)}/landmarks`),
-      apiJson(`${API}/sessions/${enc(id)}/truth`), loadSmoothed(), apiJson(`${API}/sessions/${enc(id)}/modes`)]);
+    const [landmarks, truth, smoothed, modes, site] = await Promise.allSettled([apiJson(`${API}/sessions/${enc(id)}/landmarks`),
+      apiJson(`${API}/sessions/${enc(id)}/truth`), loadSmoothed(), apiJson(`${API}/sessions/${enc(id)}/modes`), loadSite()]);
     if (gen !== generation) return;
+    if (site.status === "fulfilled") current.site = site.value;
+    else reportError(site.reason, "Could not load the session's floor plan");
     if (landmarks.status === "fulfilled") current.landmarks = landmarks.value.landmarks || [];
     // Stops and elevator rides have no steps: the band shows them from /modes (entries with an end).
     if (modes.status === "fulfilled") {
@@ -383,6 +385,32 @@
     renderSessionHeader();
     renderSessionData(true);
     page.timings.complete = performance.now() - page.timings.start;
+  }
+
+  /** The floor plans of the uploaded site the session names, when its track is in the site's frame (the session
+   * has a start: map-matched online); null otherwise. */
+  async function loadSite() {
+    const p = current.detail && current.detail.processing;
+    if (!p || !p.site_id || !p.start) return null;
+    return apiJson(`${API}/sessions/${enc(current.id)}/site`);
+  }
+
+  /** The floor plan to draw under the track: the floor chosen in the floor filter, else the current floor (the
+   * last step's; before any step, the start's), else the site's only floor. */
+  function planLayer() {
+    const site = current.site;
+    if (!site || !site.floors || !site.floors.length) return null;
+    const sel = $("floor-filter").value;
+    let floor = sel === "" ? null : Number(sel);
+    if (floor === null) {
+      const rows = current.byDevice.get(primaryDevice([...current.byDevice.keys()])) || [];
+      const last = rows.length ? rows[rows.length - 1] : null;
+      if (last && last.floor !== null && last.floor !== undefined) floor = Math.round(last.floor);
+      else if (site.start && site.start.floor !== null) floor = site.start.floor;
+    }
+    const plan = site.floors.find((f) => f.floor === floor) || (site.floors.length === 1 ? site.floors[0] : null);
+    if (!plan) return null;
+    return { floor: plan.floor, polygons: plan.walkable.coordinates, name: site.name || "" };
   }
 
   const wantSmoothed = () => $("heading-mode").value === "smoothed";
@@ -494,6 +522,10 @@
     if (!p) return "";
     const out = [];
     if (p.site) out.push(`site ${p.site.name ? `"${p.site.name}" ` : ""}(${p.site.landmarks.length} landmarks)`);
+    if (p.site_id) {
+      out.push(p.start ? `uploaded site, map-matched from (${p.start.slice(0, 2).map((v) => fmt(v, 1)).join(", ")}) m`
+        + (p.start.length > 2 ? ` on floor ${p.start[2]}` : "") : "uploaded site (floor altitudes)");
+    }
     if (p.calibration) out.push("step-length calibration");
     if (p.foot && p.foot.zaru) out.push("gyro bias by zero angular-rate updates");
     return out.join(", ");
@@ -679,7 +711,8 @@
     }
     if (!map) map = new Plot.TrackMap($("map"), $("scale-bar"));
     const step = Math.max(1, Math.ceil(errors.length / 500));
-    map.draw({ tracks: trackLayers(drawn), truth: truth.map((p) => ({ e: p.east_m, n: p.north_m })),
+    current.plan = planLayer();
+    map.draw({ plan: current.plan, tracks: trackLayers(drawn), truth: truth.map((p) => ({ e: p.east_m, n: p.north_m })),
       errors: errors.filter((_, i) => i % step === 0), markers,
       empty: current.detail && LIVE_STATUSES.has(current.detail.status) ? "waiting for the first track points…" : "this session has no track" },
     keepView);
@@ -706,6 +739,12 @@
       for (const m of current.stopEntries || []) modes.add(m.label);
       for (const m of modes) item(Plot.modeColour(m), m);
       if (current.byDevice.size > 1) legend.appendChild(el("div", { class: "muted" }, "dashed: single foot"));
+    }
+    if (current.plan) {
+      const div = el("div", { class: "item", "data-role": "plan-legend" });
+      div.appendChild(el("span", { class: "swatch plan" }));
+      div.appendChild(el("span", {}, `walkable area, floor ${current.plan.floor}`));
+      legend.appendChild(div);
     }
     item("#12b76a", "start", true);
     item("#d92d20", "end", true);

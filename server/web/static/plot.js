@@ -314,7 +314,8 @@ const Plot = (() => {
     }
 
     /**
-     * Draw layers. tracks: [{device, foot, segments: [{colour, mode, xy: Float64Array [e0, n0, e1, n1, ...],
+     * Draw layers. plan: {floor, polygons: GeoJSON MultiPolygon coordinates (m, site frame), name} or null;
+     * tracks: [{device, foot, segments: [{colour, mode, xy: Float64Array [e0, n0, e1, n1, ...],
      * count}]}]; truth: [{e, n}]; truthKind; errors: [[e, n, e', n']]; markers: [{e, n, cls, px, title}].
      */
     draw(layers, keepView) {
@@ -350,6 +351,15 @@ const Plot = (() => {
       const gy0 = Math.floor((home[1] - span) / step) * step, gy1 = home[1] + home[3] + span;
       for (let gx = gx0; gx <= gx1; gx += step) svgEl("line", { x1: gx, x2: gx, y1: gy0, y2: gy1, class: "grid-line" }, grid);
       for (let gy = gy0; gy <= gy1; gy += step) svgEl("line", { x1: gx0, x2: gx1, y1: gy, y2: gy, class: "grid-line" }, grid);
+      if (layers.plan) { // the floor's walkable area under everything else: outer rings and holes, even-odd
+        const d = [];
+        for (const poly of layers.plan.polygons) {
+          for (const ring of poly) d.push(`M${ring.map((p) => `${p[0].toFixed(2)},${(-p[1]).toFixed(2)}`).join("L")}Z`);
+        }
+        const path = svgEl("path", { d: d.join(""), class: "floor-plan", "fill-rule": "evenodd", "data-role": "floor-plan",
+          "data-floor": layers.plan.floor, "data-rings": d.length }, svg);
+        svgEl("title", {}, path).textContent = `${layers.plan.name ? `${layers.plan.name}: ` : ""}floor ${layers.plan.floor}, walkable area`;
+      }
       if ((layers.truth || []).length) {
         const pts = layers.truth.map((p) => `${p.e.toFixed(2)},${(-p.n).toFixed(2)}`).join(" ");
         svgEl("polyline", { points: pts, class: "truth-line", "data-role": "truth" }, svg);
