@@ -1,4 +1,4 @@
-"""Storage of uploaded sites and of the copy each session is processed with (tables of migration ``0007_sites``).
+"""Storage of uploaded sites and of the copy each session is processed with (tables of migration ``0008_sites``).
 
 A site (a building: landmarks, floor height, floor plans; :mod:`server.sites`) belongs to one user. A session that
 names a site gets its own copy (``session_sites``) when its options are set: its results can be rebuilt with the

@@ -1,14 +1,14 @@
 """Sites (building descriptions with floor plans) uploaded once per user, and the copy a session is processed with.
 
-Revision ID: 0007
-Revises: 0006
+Revision ID: 0008_sites
+Revises: 0007_decoded
 """
 
 import sqlalchemy as sa
 from alembic import op
 
-revision = "0007"
-down_revision = "0006"
+revision = "0008_sites"
+down_revision = "0007_decoded"
 branch_labels = None
 depends_on = None
 
