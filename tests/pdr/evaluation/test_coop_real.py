@@ -9,7 +9,7 @@ import pytest
 
 from pdr.cli import main
 from pdr.errors import InputError
-from pdr.evaluation.coop_real import RealAgent, real_coop_experiment
+from pdr.evaluation.coop_real import RealAgent, RealCoopResult, real_coop_experiment
 from pdr.fusion.ranging import RangeModel
 from pdr.fusion.simulation import SimulationConfig, StepEvent, march_scenario
 from pdr.fusion.state import FootKey
@@ -34,12 +34,14 @@ def test_ranges_help_every_agent_of_a_march_and_share_one_agents_drift():
     3 deg/step: the ranges pull it part of the way back and pull the others off, as ranges alone (no anchor)
     only fix the group's shape, not where it is (issue 32 saw the same on real walks)."""
     agents = march_agents()
-    kw = {"runs": 3, "spacing_m": 0.0, "model": RangeModel(0.1, 0.1), "noise": "gaussian", "noise_m": 0.05,
-          "step_heading_sigma_deg": 1.0, "at_resets": True}
-    plain = real_coop_experiment(agents, **kw)
+    def experiment(biased_agent: int = -1, bias_deg_per_step: float = 0.0) -> RealCoopResult:
+        return real_coop_experiment(agents, 3, 0, RangeModel(0.1, 0.1), "gaussian", 0.05, 0.0, biased_agent,
+                                    bias_deg_per_step, step_heading_sigma_deg=1.0, at_resets=True)
+
+    plain = experiment()
     assert plain.helped == [True, True, True] and plain.steps == (60, 60, 60) and plain.ranges == 59
     assert np.all(plain.rmse_group_m < 0.6 * plain.rmse_dead_reckoning_m)
-    biased = real_coop_experiment(agents, biased_agent=0, bias_deg_per_step=3.0, **kw)
+    biased = experiment(0, 3.0)
     assert biased.rmse_dead_reckoning_m[0] > 10 * plain.rmse_dead_reckoning_m[0]
     assert biased.rmse_group_m[0] < 0.7 * biased.rmse_dead_reckoning_m[0]
     assert biased.helped == [True, False, False]
