@@ -17,6 +17,9 @@ from pdr.recording import FOOT_ROLES
 from server.store import Store
 
 FUSED = "fused"
+#: The feet as the fusion code names them (:data:`pdr.foot.dual.SIDES`, a group's ``FusionConfig.feet``) and
+#: their device roles in sessions: the one foot vocabulary of sessions, the fused track and groups.
+FOOT_SIDES = {"left": "left_foot", "right": "right_foot"}
 #: Which device's track stands for the session, first present wins (module doc).
 ROLE_PRIORITY = (FUSED, *FOOT_ROLES, "phone")
 

@@ -1,11 +1,14 @@
 """The stored form of a foot step: the mode of its track row and the step increment its event carries.
 
 Written by the foot processor (:mod:`server.foot_processor`), read back by the dual-foot fusion stage
-(:mod:`server.fused_feet`); apart from both so that neither imports the other.
+(:mod:`server.fused_feet`) and the groups' session feed (:mod:`server.group_feed`); apart from them so that
+none imports another.
 """
 
 from __future__ import annotations
 
+import json
+from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
@@ -31,3 +34,12 @@ def increment_from_json(t_s: float, data: dict[str, Any]) -> StepIncrement:
                          "session", field="increment")
     return StepIncrement(float(t_s), int(d["index"]), np.asarray(d["dp_m"], dtype=np.float64), float(d["dpsi_rad"]),
                          np.asarray(d["cov"], dtype=np.float64))
+
+
+def step_increments(rows: Iterable[Any], role: str, after_s: float | None = None,
+                    provisional: bool = False) -> list[StepIncrement]:
+    """The increments of the stored step events ``rows`` of device ``role`` after ``after_s`` (s), final ones or
+    (``provisional``) the provisional tail's.
+    """
+    return [increment_from_json(r.t_s, json.loads(r.data or "{}")) for r in rows
+            if r.device_role == role and bool(r.provisional) == provisional and (after_s is None or r.t_s > after_s)]

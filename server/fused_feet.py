@@ -19,19 +19,17 @@ session ended now: the steps it still holds back plus the feet's own provisional
 from __future__ import annotations
 
 import json
-from typing import Any
 
 from pdr.errors import InputError
 from pdr.foot.dual import DualFootFusion, FusedStep
 from pdr.frames import yaw_to_heading_deg
-from pdr.step_increment import StepIncrement
-from server.feet import FUSED, session_feet
-from server.foot_steps import MODE, increment_from_json
+from server.feet import FOOT_SIDES, FUSED, session_feet
+from server.foot_steps import MODE, step_increments
 from server.store import Store, TrackRow
 
 ROLE = FUSED
 #: Device roles of the two feet, in the order of :data:`pdr.foot.dual.SIDES`.
-FEET = {"left": "left_foot", "right": "right_foot"}
+FEET = FOOT_SIDES
 FEET_INDEX = {side: i for i, side in enumerate(FEET)}
 
 
@@ -39,11 +37,6 @@ def _row(u: FusedStep) -> TrackRow:
     mid = u.midpoint_n
     return TrackRow(u.t_s, float(mid[0]), float(mid[1]), float(mid[2]), None, float(yaw_to_heading_deg(u.body_yaw)),
                     u.midpoint_shift_m, MODE)
-
-
-def _steps(rows: list[Any], role: str, after_s: float | None, provisional: bool) -> list[StepIncrement]:
-    return [increment_from_json(r.t_s, json.loads(r.data or "{}")) for r in rows
-            if r.device_role == role and bool(r.provisional) == provisional and (after_s is None or r.t_s > after_s)]
 
 
 def fuse_session(store: Store, session_id: str) -> bool:
@@ -67,13 +60,14 @@ def fuse_session(store: Store, session_id: str) -> bool:
         return False        # both feet live, but one has not taken a step yet
     out: list[FusedStep] = []
     for side, role in FEET.items():
-        out += fusion.add_steps(side, _steps(rows, role, last[side], provisional=False))
+        out += fusion.add_steps(side, step_increments(rows, role, last[side], provisional=False))
     # The tail, on a copy: the held steps and the feet's provisional steps, as if the session ended now.
     tail_fusion = DualFootFusion.from_dict(fusion.to_dict())
     tail: list[FusedStep] = []
     try:
         for side, role in FEET.items():
-            tail += tail_fusion.add_steps(side, _steps(rows, role, tail_fusion.last_t_s[FEET_INDEX[side]], True))
+            tail += tail_fusion.add_steps(side, step_increments(rows, role, tail_fusion.last_t_s[FEET_INDEX[side]],
+                                                                provisional=True))
         tail += tail_fusion.finish()
     except InputError:          # a provisional step that the final ones have overtaken: no tail this time
         tail = []

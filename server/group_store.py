@@ -26,6 +26,7 @@ from sqlalchemy import (
     String,
     Table,
     UniqueConstraint,
+    delete,
     insert,
     select,
     update,
@@ -167,6 +168,18 @@ class GroupStore:
         with self.engine.begin() as conn:
             conn.execute(insert(group_agents).values(group_id=group_id, agent=agent, session_id=session_id,
                                                      joined_at=db.utcnow()))
+
+    def followers(self, session_id: str) -> list[Row[Any]]:
+        """The group agents that take their steps from the session (``group_id``, ``agent``)."""
+        with self.engine.connect() as conn:
+            return list(conn.execute(select(group_agents.c.group_id, group_agents.c.agent)
+                                     .where(group_agents.c.session_id == session_id)
+                                     .order_by(group_agents.c.group_id, group_agents.c.agent)))
+
+    def remove_upload(self, upload_id: int) -> None:
+        """Forget a stored upload that was refused (its ``batch_id`` may be sent again)."""
+        with self.engine.begin() as conn:
+            conn.execute(delete(group_uploads).where(group_uploads.c.id == upload_id))
 
     def add_upload(self, group_id: str, agent: str, batch_id: str, payload: bytes) -> tuple[int, bool]:
         """Store a raw upload; returns (id, created) — a repeated ``batch_id`` is not stored again."""

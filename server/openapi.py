@@ -265,8 +265,12 @@ def openapi_document() -> dict[str, Any]:
                 "post": _op("join an agent", {"201": _ok("joined")} | common, parameters=[GROUP_ID],
                             requestBody=_json_body("JoinGroup"))},
             "/api/v1/groups/{group_id}/uploads": {
-                "post": _op("step summaries and ranges of an agent (idempotent)", {"200": _ok("stored")} | common
-                            | _errors(409), parameters=[GROUP_ID], requestBody=_json_body("GroupUpload"))},
+                "post": _op("step summaries and ranges of an agent (idempotent: 200 for a batch_id already taken); "
+                            "422 code stale_range when ranges are older than the fusion horizon (details.events, "
+                            "details.reasons), 409 for steps of an agent fed from a session",
+                            {"201": _ok("applied: accepted, applied, stale_ranges, pending, dropped, correction"),
+                             "200": _ok("stored")} | common | _errors(409), parameters=[GROUP_ID],
+                            requestBody=_json_body("GroupUpload"))},
             "/api/v1/groups/{group_id}/flush": {
                 "post": _op("apply everything buffered", {"200": _ok("applied")} | _errors(401, 404),
                             parameters=[GROUP_ID])},

@@ -240,18 +240,22 @@ class SessionProcessing:
             self.store.set_batch_status(batch.id, "failed", f"internal processing error: {type(exc).__name__}: {exc}")
 
     def _fuse_feet(self, session_id: str) -> None:
-        """Session-level stage after a pass: the fused dual-foot track (role ``fused``, :mod:`server.fused_feet`)."""
+        """Session-level stages after a pass: the fused dual-foot track (role ``fused``, :mod:`server.fused_feet`),
+        then the steps of the group agents that follow the session (:mod:`server.group_feed`).
+        """
         from server.fused_feet import fuse_session  # on first use: only sessions with two feet need it
+        from server.group_feed import feed_groups
 
-        try:
-            fuse_session(self.store, session_id)
-        except self.transient:
-            raise
-        except InputError as exc:
-            self.store.add_session_warnings(session_id, [f"fused foot track: {exc}"])
-        except Exception as exc:  # a fusion bug must not stop the worker; the feet's own tracks stay
-            log.exception("fusing the feet of session %s failed", session_id)
-            self.store.add_session_warnings(session_id, [f"fused foot track: internal error: {type(exc).__name__}"])
+        for what, stage in (("fused foot track", fuse_session), ("group feed", feed_groups)):
+            try:
+                stage(self.store, session_id)
+            except self.transient:
+                raise
+            except InputError as exc:
+                self.store.add_session_warnings(session_id, [f"{what}: {exc}"])
+            except Exception as exc:  # a fusion bug must not stop the worker; the feet's own tracks stay
+                log.exception("%s of session %s failed", what, session_id)
+                self.store.add_session_warnings(session_id, [f"{what}: internal error: {type(exc).__name__}"])
 
     def finish(self, session_id: str) -> None:
         """Set the session's status from its batches' (failed if one failed or is a dead letter)."""

@@ -121,12 +121,41 @@ def _print(out: dict[str, Any]) -> None:
               f"{row['range_update_ms']:.2f} ms per range; {row['realtime_factor'] * 100:.1f} % of real time")
 
 
+def evaluate_real(args: argparse.Namespace) -> dict[str, Any]:
+    """``--real``: the group of real foot recordings with simulated ranges (:mod:`pdr.evaluation.coop_real`)."""
+    from pathlib import Path
+
+    from pdr.evaluation.coop_real import load_pyshoe_agents, real_coop_report
+
+    root = Path(args.data)
+    if not root.is_dir():
+        raise InputError(f"no folder {root} (the PyShoe VICON trials, ../shared/data/pyshoe_vicon)", field="--data")
+    if args.runs < 1 or args.real_agents < 2:
+        raise InputError("needs --runs >= 1 and --real-agents >= 2", field="--real-agents")
+    names = [n.strip() for n in args.trials.split(",") if n.strip()] if args.trials else []
+    agents = load_pyshoe_agents(root, args.real_agents, names)
+    return real_coop_report(agents, args.runs, args.seed, args.spacing, args.bias_deg_per_step)
+
+
+def _print_real(out: dict[str, Any]) -> None:
+    print(f"protocol: {out['protocol']}")
+    print(f"agents: {', '.join(f'{a} ({n} resets)' for a, n in zip(out['agents'], out['steps'], strict=True))}; "
+          f"{out['duration_s']:.1f} s together, {out['runs']} noise draws, {out['spacing_m']:g} m apart")
+    for c in out["conditions"]:
+        bias = f"; {c['biased_agent']} drifts {c['bias_deg_per_step']:g} deg/step" if c["biased_agent"] else ""
+        print(f"{c['condition']}{bias} ({c['ranges']} ranges): horizontal RMSE alone -> in the group, m:")
+        for a in out["agents"]:
+            verdict = "helped" if c["helped"][a] else ("hurt" if c["hurt"][a] else "no change")
+            print(f"  {a}: {c['rmse_dead_reckoning_m'][a]:.3f} -> {c['rmse_group_m'][a]:.3f} ({verdict})")
+
+
 def run_eval(args: argparse.Namespace) -> int:
-    out = evaluate(args)
+    real = args.real
+    out = evaluate_real(args) if real else evaluate(args)
     if args.json:
         print(json.dumps(out, indent=2))
     else:
-        _print(out)
+        (_print_real if real else _print)(out)
     return 0
 
 
@@ -143,4 +172,14 @@ def register_eval(targets: argparse._SubParsersAction) -> None:
     p.add_argument("--cost-agents", default="2,8,32", help="group sizes timed for the cost figures")
     p.add_argument("--cost-duration", type=float, default=30.0, help="simulated seconds timed per group size")
     p.add_argument("--no-cost", action="store_true", help="skip the timing")
+    p.add_argument("--real", action="store_true",
+                   help="instead: a group of real foot recordings (PyShoe VICON trials) with ranges simulated from "
+                        "their truth, dead reckoning alone vs the group, per agent (protocol in the output)")
+    p.add_argument("--data", default="../shared/data/pyshoe_vicon", help="--real: folder of the PyShoe VICON trials")
+    p.add_argument("--real-agents", type=int, default=3, help="--real: number of agents (the longest trials)")
+    p.add_argument("--trials", default="",
+                   help="--real: comma-separated trial names instead (e.g. 2017-11-27-11-18-11)")
+    p.add_argument("--spacing", type=float, default=10.0, help="--real: agents walk this far apart (m, north)")
+    p.add_argument("--bias-deg-per-step", type=float, default=3.0,
+                   help="--real: heading drift given to the first agent in the second set of conditions (0: none)")
     p.set_defaults(func=run_eval)

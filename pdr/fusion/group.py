@@ -6,16 +6,23 @@ to a *watermark*: the oldest "latest time" among the agents in contact, so an ev
 agent in contact has reported up to its time. An agent whose latest report lags the newest one by more than
 ``contact_timeout_s`` is out of contact: it no longer holds the group back, and keeps dead-reckoning locally
 (:class:`~pdr.fusion.agent.Agent`). When it returns, its buffered summaries are applied in time order (its own
-feet's dead reckoning, anchors, fixes and pressure are unaffected by the delay). Inter-agent ranges that have
-to an agent out of contact wait until it has reported up to their time; if by then an involved agent's state has
-moved on by more than ``max_range_age_s`` they are stale, dropped and counted: the positions they relate no
-longer exist in the state (seed 001 Sec. 3.3: only the dead reckoning is recovered after an outage).
+feet's dead reckoning, anchors, fixes and pressure are unaffected by the delay).
+
+The *fusion horizon* of an agent is the time of its state (its feet's latest applied step) less
+``max_range_age_s``: a range between two agents can only be fused while its time is within both agents' horizons
+(seed 001 Sec. 3.3: only the dead reckoning is recovered after an outage; the positions an older range relates
+no longer exist in the state). :meth:`Group.submit` refuses a batch with :class:`StaleRangeError` when one of its
+ranges is, or becomes once the batch is applied, older than a horizon, naming every such event and why (an agent
+out of contact that the group did not wait for). A range accepted earlier that an agent's later steps overtake
+while it waits for an agent out of contact is dropped when that happens and listed in :meth:`Group.process`'s
+answer.
 
 Repeated uploads of a step (same agent, foot and time or older) are ignored, so a client may resend a batch.
 """
 
 from __future__ import annotations
 
+import copy
 import heapq
 import math
 from collections.abc import Iterable
@@ -39,6 +46,25 @@ from pdr.fusion.measurements import (
 from pdr.fusion.state import FootKey
 
 Array = NDArray[np.float64]
+
+
+class StaleRangeError(InputError):
+    """Ranges of an upload older than the fusion horizon (module doc); ``events`` lists their indices."""
+
+    code = "stale_range"
+
+    def __init__(self, message: str, *, source: str, events: list[int], reasons: list[str]) -> None:
+        self.events = events
+        self.reasons = reasons
+        super().__init__(message, source=source, field="t_s")
+
+    def details(self) -> dict[str, object]:
+        return {**super().details(), "events": self.events, "reasons": self.reasons}
+
+
+def _two_agents(ev: Event) -> bool:
+    """Whether the event relates two agents' positions (it then needs both states at its time)."""
+    return isinstance(ev, InterAgentRange) or (isinstance(ev, HeightDifference) and ev.agent_b is not None)
 
 
 def _entry(ev: Event, seq: int) -> tuple[float, int, str, int, Event]:
@@ -109,7 +135,9 @@ class Group:
         """Buffer events (objects or their JSON form); returns how many were accepted.
 
         The whole batch is checked first: an unknown agent or foot rejects it with an InputError naming the
-        event. ``reporter`` (the uploading agent) also counts as having reported up to the batch's newest time.
+        event, and ranges older than the fusion horizon once the batch is applied reject it with a
+        :class:`StaleRangeError` (module doc). ``reporter`` (the uploading agent) also counts as having reported
+        up to the batch's newest time.
         """
         batch: list[Event] = []
         for i, e in enumerate(events):
@@ -124,8 +152,15 @@ class Group:
             batch.append(ev)
         if reporter is not None and reporter not in self.latest_s:
             raise InputError(f"agent '{reporter}' has not joined the group", field="agent")
-        accepted = 0
-        for ev in sorted(batch, key=lambda e: e.t_s):
+        if any(_two_agents(ev) for ev in batch):
+            self._refuse_stale(batch, reporter)
+        return len(self._accept(batch, reporter))
+
+    def _accept(self, batch: list[Event], reporter: str | None) -> dict[int, int]:
+        """Buffer a checked batch; returns {buffer sequence number: index in the batch} of the accepted events."""
+        accepted: dict[int, int] = {}
+        for i in sorted(range(len(batch)), key=lambda j: batch[j].t_s):
+            ev = batch[i]
             if isinstance(ev, StepSummary):
                 key = str(FootKey(ev.agent, ev.foot))
                 if ev.t_s <= self._last_step_s.get(key, -math.inf):
@@ -135,11 +170,31 @@ class Group:
             reporting = ev.agents[0]
             self.latest_s[reporting] = max(self.latest_s[reporting], ev.t_s)
             heapq.heappush(self._pending, _entry(ev, self._seq))
+            accepted[self._seq] = i
             self._seq += 1
-            accepted += 1
         if reporter is not None and batch:
             self.latest_s[reporter] = max(self.latest_s[reporter], max(e.t_s for e in batch))
         return accepted
+
+    def _refuse_stale(self, batch: list[Event], reporter: str | None) -> None:
+        """Raise StaleRangeError for the batch's ranges that could never be fused (applied on a copy)."""
+        trial = copy.deepcopy(self)
+        accepted = trial._accept(batch, reporter)
+        report = trial.process()
+        refused = {accepted[d["seq"]]: d["reason"] for d in report["dropped"] if d["seq"] in accepted}
+        for item in trial._pending:
+            reason = trial._stale_reason(item[4]) if item[3] in accepted else None
+            if reason:
+                refused[accepted[item[3]]] = reason
+        if refused:
+            order = sorted(refused)
+            first = order[0]
+            raise StaleRangeError(f"{len(order)} range(s) older than the fusion horizon, refused: {refused[first]}",
+                                  source=f"events[{first}]", events=order, reasons=[refused[i] for i in order])
+
+    def last_step_s(self, agent: str, foot: str) -> float:
+        """Time of the newest step of the agent's foot accepted so far (-inf before its first), s."""
+        return self._last_step_s.get(str(FootKey(agent, foot)), -math.inf)
 
     @property
     def pending(self) -> int:
@@ -147,12 +202,24 @@ class Group:
         return len(self._pending)
 
     # ------------------------------------------------------------------------------------------- processing
-    def _stale(self, ev: Event) -> bool:
+    def _stale_reason(self, ev: Event) -> str | None:
+        """Why a two-agent event can no longer be fused (an involved agent's state is past its horizon), or None."""
         for agent in ev.agents:
             rows = [self.centre.state.foot(k) for k in self.centre.feet_of(agent)]
-            if float(np.max(self.centre.state.t_s[rows])) > ev.t_s + self.max_range_age_s:
-                return True
-        return False
+            state_s = float(np.max(self.centre.state.t_s[rows]))
+            if state_s > ev.t_s + self.max_range_age_s:
+                why = (f"the range at {ev.t_s:g} s between {' and '.join(ev.agents)} is older than the fusion "
+                       f"horizon of agent '{agent}', whose state is at {state_s:g} s (max_range_age_s = "
+                       f"{self.max_range_age_s:g} s)")
+                lagging = [a for a in ev.agents if not self.in_contact(a)]
+                if lagging:
+                    other = lagging[0]
+                    why += (f"; agent '{other}' has reported only up to {self.latest_s[other]:g} s and is out of "
+                            f"contact (contact_timeout_s = {self.contact_timeout_s:g} s), so the group did not wait "
+                            "for it: upload every agent's events in slices shorter than contact_timeout_s, or "
+                            "create the group with a longer contact_timeout_s")
+                return why
+        return None
 
     def _apply(self, ev: Event) -> None:
         c = self.centre
@@ -169,32 +236,45 @@ class Group:
         else:
             c.apply_height_difference(ev.agent_a, ev.agent_b, ev.dh_m, ev.model, ev.reference_height_m)
 
-    def process(self, flush: bool = False) -> dict[str, int]:
+    @staticmethod
+    def _dropped(item: tuple[float, int, str, int, Event], reason: str) -> dict[str, Any]:
+        ev = item[4]
+        return {"seq": item[3], "t_s": item[0], "type": event_to_dict(ev)["type"], "agents": list(ev.agents),
+                "reason": reason}
+
+    def process(self, flush: bool = False) -> dict[str, Any]:
         """Apply the buffered events up to the watermark (all of them with ``flush``) in time order.
 
-        Returns the numbers applied and dropped in this call.
+        Returns the numbers applied, dropped (``stale_ranges``) and still pending, and ``dropped``: the events
+        dropped in this call, each ``{"seq", "t_s", "type", "agents", "reason"}``.
         """
         limit = math.inf if flush else self.watermark()
-        applied = stale = 0
+        applied = 0
+        dropped: list[dict[str, Any]] = []
         held: list[tuple[float, int, str, int, Event]] = []
         while self._pending and self._pending[0][0] <= limit:
             item = heapq.heappop(self._pending)
             t, ev = item[0], item[4]
-            two_agents = isinstance(ev, InterAgentRange) or (isinstance(ev, HeightDifference) and ev.agent_b)
-            if two_agents and not flush and any(self.latest_s[a] < t - self.max_range_age_s for a in ev.agents):
-                held.append(item)                  # an agent out of contact has not reported up to t yet
-                continue
-            if two_agents and self._stale(ev):
-                stale += 1
-                continue
+            if _two_agents(ev):
+                reason = self._stale_reason(ev)
+                if reason:                         # states only move forward: it can never be fused
+                    dropped.append(self._dropped(item, reason))
+                    continue
+                if not flush and any(self.latest_s[a] < t - self.max_range_age_s for a in ev.agents):
+                    held.append(item)              # an agent out of contact has not reported up to t yet
+                    continue
             self._apply(ev)
             applied += 1
             self.clock_s = max(self.clock_s, t)
         for item in held:
-            heapq.heappush(self._pending, item)
+            reason = self._stale_reason(item[4])           # overtaken by later steps while it waited
+            if reason:
+                dropped.append(self._dropped(item, reason))
+            else:
+                heapq.heappush(self._pending, item)
         self.counts["applied"] += applied
-        self.counts["stale_ranges"] += stale
-        return {"applied": applied, "stale_ranges": stale, "pending": len(self._pending)}
+        self.counts["stale_ranges"] += len(dropped)
+        return {"applied": applied, "stale_ranges": len(dropped), "pending": len(self._pending), "dropped": dropped}
 
     # ------------------------------------------------------------------------------------------- output
     def correction(self, agent: str) -> AgentCorrection:

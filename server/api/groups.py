@@ -1,13 +1,18 @@
 """Groups: cooperative localization of several agents by the server as fusion centre (seed 001 Sec. 3.3-4).
 
-An agent (a person with two shoe IMUs and a ranging radio, optionally linked to one of the user's sessions)
-joins a group with its initial pose, then uploads batches of events: step-wise dead-reckoning summaries of
-each foot and range measurements (between agents, to anchors, position fixes, pressure differences; the JSON
-forms are those of :mod:`pdr.fusion.measurements`). The server buffers them, applies them in time order to the
+An agent (a person with two shoe IMUs and a ranging radio) joins a group with its initial pose, then uploads
+batches of events: step-wise dead-reckoning summaries of each foot and range measurements (between agents, to
+anchors, position fixes, pressure differences). The upload's events are validated against :data:`EVENT` (the
+OpenAPI document's ``GroupUpload``); :mod:`pdr.fusion.measurements` reads them. Step events name the feet as
+sessions do (``left_foot``/``right_foot``, :data:`server.feet.FOOT_SIDES`) or as the group's
+``FusionConfig.feet`` (``left``/``right``). The server buffers the events, applies them in time order to the
 group's joint state (:class:`pdr.fusion.group.Group`) and answers each upload with the correction for the
-uploading agent. Agents that lost contact upload their buffered summaries when they return. The upload's
-events are validated against :data:`EVENT` (the OpenAPI document's ``GroupUpload``); step events name the feet
-as sessions do (``left_foot``/``right_foot``) or as the group's ``FusionConfig.feet`` (``left``/``right``).
+uploading agent. Agents that lost contact upload their buffered summaries when they return. An upload whose
+ranges are older than the fusion horizon (they could never be fused) is refused with 422 ``stale_range``,
+listing them and why; nothing of it is kept.
+
+An agent joined with a ``session_id`` takes its steps from that session as its batches are processed
+(:mod:`server.group_feed`); its uploads then carry its ranges and other measurements, not steps.
 """
 
 from __future__ import annotations
@@ -18,11 +23,14 @@ from typing import Any
 
 from flask import Blueprint, Response, current_app, jsonify, request
 
+from pdr.errors import InputError
 from pdr.fusion.centre import FusionConfig
 from pdr.fusion.group import Group
 from pdr.fusion.measurements import StepSummary, parse_event
 from server.api import current_user, json_body, services
 from server.errors import APIError
+from server.feet import FOOT_SIDES
+from server.group_feed import feed_groups
 from server.group_store import GroupStore
 from server.schemas import validate
 
@@ -47,7 +55,10 @@ JOIN_GROUP: dict[str, Any] = {
     "type": "object", "additionalProperties": False, "required": ["agent", "pos0_n"],
     "properties": {
         "agent": _NAME,
-        "session_id": {"type": "string", "maxLength": 36},
+        "session_id": {"type": "string", "maxLength": 36,
+                       "description": "the id of one of the user's sessions: the agent takes its steps from "
+                                      "its shoes as the session's batches are processed (the session's clock is "
+                                      "the group's); the agent's uploads then carry no steps"},
         "pos0_n": _VEC3,
         "heading0_deg": {"type": "number", "description": "compass heading, clockwise from north"},
         "cov0": {"type": "array", "items": {"type": "array", "items": _NUMBER, "minItems": 4, "maxItems": 4},
@@ -63,7 +74,7 @@ _T = {"type": "number", "description": "time of the event (s, the group's common
 _MODEL = {"gamma_m": {"type": "number", "minimum": 0, "description": "bounded error (m)"},
           "sigma_m": {"type": "number", "minimum": 0, "description": "noise standard deviation (m)"}}
 #: Feet of a step event: the sessions' device roles, or the fusion centre's names (``FusionConfig.feet``).
-FOOT_NAMES = {"left_foot": "left", "right_foot": "right"}
+FOOT_NAMES = {role: side for side, role in FOOT_SIDES.items()}
 
 
 def _event(kind: str, description: str, required: list[str], properties: dict[str, Any]) -> dict[str, Any]:
@@ -179,7 +190,11 @@ def join_group(group_id: str) -> tuple[Response, int]:
     validate(body, JOIN_GROUP, "agent")
     session_id = body.get("session_id")
     if session_id is not None:
-        services().store.session_row(session_id, user.id)            # 404 for a session that is not the user's
+        session_id = services().store.session_row(session_id, user.id).id   # 404 for a session not the user's
+        feet = repo.state(group_id).centre.config.feet
+        if not set(FOOT_SIDES) & set(feet):
+            raise APIError(422, f"an agent fed from a session needs a group with the feet left and/or right, this "
+                                f"group's are {', '.join(feet)}", details={"field": "session_id"})
     agent = body["agent"]
     if any(a.agent == agent for a in repo.agents(group_id)):
         raise APIError(409, f"agent '{agent}' is already in the group", details={"field": "agent"})
@@ -192,6 +207,8 @@ def join_group(group_id: str) -> tuple[Response, int]:
 
     corr = repo.modify(group_id, join)
     repo.add_agent(group_id, agent, session_id)
+    if session_id is not None and feed_groups(services().store, session_id).get(group_id):
+        corr = correction_json(repo.state(group_id), agent)        # the steps the session has already taken
     return jsonify({"agent": agent, "session_id": session_id, "correction": corr}), 201
 
 
@@ -204,7 +221,9 @@ def upload(group_id: str) -> tuple[Response, int]:
     body = json_body()
     validate(body, UPLOAD, "upload")
     agent = body["agent"]
-    members = {a.agent for a in repo.agents(group_id)}
+    agents = repo.agents(group_id)
+    members = {a.agent for a in agents}
+    fed = {a.agent: a.session_id for a in agents if a.session_id}
     if agent not in members:
         raise APIError(422, f"agent '{agent}' has not joined the group", details={"field": "agent"})
     events = [parse_event(e, f"events[{i}]") for i, e in enumerate(body["events"])]   # 422 naming the event
@@ -219,6 +238,9 @@ def upload(group_id: str) -> tuple[Response, int]:
         if isinstance(ev, StepSummary) and ev.foot not in feet:
             raise APIError(422, f"events[{i}]: foot must be one of {', '.join(feet)}",
                            details={"source": f"events[{i}]", "field": "foot"})
+        if isinstance(ev, StepSummary) and ev.agent in fed:
+            raise APIError(409, f"events[{i}]: agent '{ev.agent}' takes its steps from session '{fed[ev.agent]}'",
+                           details={"source": f"events[{i}]", "field": "agent"})
     uid, created = repo.add_upload(group_id, agent, body["batch_id"], request.get_data())
     if not created:
         return jsonify({"batch_id": body["batch_id"], "id": uid, "duplicate": True}), 200
@@ -228,7 +250,11 @@ def upload(group_id: str) -> tuple[Response, int]:
         report = group.process()
         return {"accepted": accepted, **report, "correction": correction_json(group, agent)}
 
-    result = repo.modify(group_id, apply)
+    try:
+        result = repo.modify(group_id, apply)
+    except InputError:              # e.g. ranges older than the fusion horizon: nothing of the upload is kept
+        repo.remove_upload(uid)
+        raise
     return jsonify({"batch_id": body["batch_id"], "id": uid, "duplicate": False, **result}), 201
 
 

@@ -131,3 +131,31 @@ def test_access_control_and_errors(gclient: FlaskClient, tokens: dict[str, str])
     assert gclient.get(f"/api/v1/groups/{gid}/tracks?since_s=abc", headers=alice).status_code == 422
     assert gclient.post(f"/api/v1/groups/{gid}/uploads", headers=bob,
                         json={"batch_id": "b", "agent": "x", "events": []}).status_code == 404
+
+
+def test_stale_ranges_are_refused_and_nothing_of_the_upload_is_kept(gclient: FlaskClient,
+                                                                   tokens: dict[str, str]) -> None:
+    """Issue 32: a0 uploads its whole 30 s walk with its ranges to a1, which has not reported: the group does
+    not wait for a1 (contact timeout 10 s), so those ranges could never be fused: 422 naming them and why."""
+    tok = tokens["alice"]
+    gid = gclient.post("/api/v1/groups", headers=bearer(tok), json={"name": "t"}).get_json()["id"]
+    sc = scenario()
+    join_all(gclient, tok, gid, sc)
+    events = events_json(sc, "a0", 0, 31)
+    r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=bearer(tok),
+                     json={"batch_id": "walk", "agent": "a0", "events": events})
+    err = r.get_json()["error"]
+    ranges = [i for i, e in enumerate(events) if e["type"] == "range"]
+    assert r.status_code == 422 and err["code"] == "stale_range", err
+    refused = err["details"]["events"]
+    assert set(refused) <= set(ranges) and len(err["details"]["reasons"]) == len(refused)
+    assert "agent 'a1' has reported only up to 0 s and is out of contact" in err["message"]
+    steps = [e for e in events if e["type"] == "step"]
+    r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=bearer(tok),
+                     json={"batch_id": "walk", "agent": "a0", "events": steps})
+    assert r.status_code == 201 and r.get_json()["accepted"] == len(steps)       # the refused one was not kept
+    single = gclient.post("/api/v1/groups", headers=bearer(tok), json={"config": {"feet": ["foot"]}}).get_json()
+    sid = gclient.post("/api/v1/sessions", headers=bearer(tok), json={"session_id": "k"}).get_json()["id"]
+    r = gclient.post(f"/api/v1/groups/{single['id']}/agents", headers=bearer(tok),
+                     json={"agent": "x", "pos0_n": [0, 0, 0], "session_id": sid})
+    assert r.status_code == 422 and r.get_json()["error"]["details"]["field"] == "session_id"

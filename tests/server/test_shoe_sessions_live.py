@@ -71,6 +71,20 @@ def test_shoes_paired_uploaded_and_summarised_through_the_real_service(tmp_path:
         body, content_type = multipart({"file": (log.read_bytes(), log.name), "session_id": "hall-walk"})
         r = c.request("POST", "/api/v1/sessions", raw=body, content_type=content_type)
         assert r.status == 409 and r.json()["error"]["details"]["session"] == sid
+        # Items 1 and 6: once the right foot sends data too, the fused track is the primary one, and not halved
+        # (the same walk on both feet fuses to that walk); the session lasts from the first to the last step of
+        # any of its tracks.
+        body, content_type = multipart({"file": (log.read_bytes(), log.name)})
+        r = c.request("POST", f"/api/v1/sessions/{sid}/devices/right_foot/upload", raw=body, content_type=content_type)
+        assert r.status == 201 and r.json()["device_role"] == "right_foot", r.body[:300]
+        s = _wait_done(c, sid)
+        tracks = s["tracks"]
+        assert s["feet"] == {"paired": ["left_foot", "right_foot"], "live": ["left_foot", "right_foot"]}
+        assert s["primary_track"] == "fused" and s["distance_m"] == tracks["fused"]["distance_m"]
+        assert tracks["fused"]["distance_m"] == pytest.approx(tracks["left_foot"]["distance_m"], rel=0.1)
+        first = min(t["first_t_s"] for t in tracks.values())
+        last = max(t["last_t_s"] for t in tracks.values())
+        assert s["duration_s"] == pytest.approx(last - first, abs=1e-3)
         # Item 10: while the session is rebuilt it keeps answering with the results from before.
         assert c.request("POST", f"/api/v1/sessions/{sid}/reprocess").status == 202
         seen, deadline = [], time.monotonic() + 300

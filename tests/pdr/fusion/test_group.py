@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from pdr.errors import InputError
-from pdr.fusion.group import Group
+from pdr.fusion.group import Group, StaleRangeError
 from pdr.fusion.measurements import HeightDifference, InterAgentRange, StepSummary, event_to_dict, parse_event
 from pdr.fusion.simulation import SimulationConfig, StepEvent, march_scenario, run_scenario
 from pdr.fusion.state import FootKey
@@ -61,16 +61,24 @@ def test_watermark_waits_for_agents_in_contact_only():
 def test_agent_returning_after_contact_loss_is_merged_in_time_order():
     sc, g = setup()
     events = as_events(sc)
-    lost = [e for e in events if e.agents[0] == "a2" and 5 < e.t_s <= 30]
-    others = [e for e in events if e not in lost]
+    out = [e for e in events if "a2" in e.agents and 5 < e.t_s <= 30]   # a2's radio is out of contact too
+    lost = [e for e in out if isinstance(e, StepSummary)]
+    others = [e for e in events if e not in out]
     g.submit([e for e in others if e.t_s <= 30])
     g.process()
     assert not g.in_contact("a2")
     applied_before = g.counts["applied"]
+    late_ranges = [InterAgentRange(e.t_s, "a2", next(a for a in e.agents if a != "a2"), e.range_m)
+                   for e in out if isinstance(e, InterAgentRange)]    # as a2 measured them meanwhile
+    with pytest.raises(StaleRangeError, match="older than the fusion horizon of agent 'a[01]'") as info:
+        g.submit(lost + late_ranges)                   # the ranges it measured meanwhile relate states now gone
+    # the others' states are at 30 s: every range before 28 s (max_range_age_s 2 s) is refused, the rest not
+    assert info.value.events == [len(lost) + k for k, e in enumerate(late_ranges) if e.t_s < 28.0]
+    assert g.pending == 0 and g.counts["applied"] == applied_before      # nothing of the refused batch kept
     g.submit(lost)                                     # contact restored: the buffered summaries arrive
     g.submit([e for e in others if e.t_s > 30])
     g.process(flush=True)
-    assert g.pending == 0 and g.counts["applied"] > applied_before
+    assert g.pending == 0 and g.counts["applied"] > applied_before and g.counts["stale_ranges"] == 0
     steps = g.centre.state.steps
     assert np.all(steps == steps[0])                   # every foot of every agent got all its steps
     reference = run_scenario(sc, ranging=False)
@@ -78,6 +86,49 @@ def test_agent_returning_after_contact_loss_is_merged_in_time_order():
                          - sc.truth[FootKey("a2", "left")].pos_n[-1])
     err_dr = np.linalg.norm(reference.error[FootKey("a2", "left")][-1])
     assert err < err_dr + 1.0                          # merged, and no worse than dead reckoning alone
+
+
+def test_whole_walk_uploads_refuse_ranges_the_group_cannot_wait_for():
+    """Issue 32: each agent uploading its whole 30 s walk at once; with a contact timeout shorter than the walk
+    the first upload's ranges could never be fused (the group does not wait for the silent agent): refused,
+    naming them and why. With a longer timeout the same uploads give the time-ordered result, nothing stale."""
+    sc = march_scenario(2, 30, SimulationConfig(), np.random.default_rng(3))
+    events = as_events(sc)
+    for timeout in (10.0, 60.0):
+        g = Group(contact_timeout_s=timeout, max_range_age_s=2.0)
+        for a in sc.agents:
+            left, right = (sc.truth[FootKey(a, f)].pos_n[0] for f in ("left", "right"))
+            g.join(a, left, 0.0, None, 0.0, [[0, 0, 0], right - left])
+        uploads = {a: [e for e in events if e.agents[0] == a] for a in sc.agents}
+        if timeout < 30:
+            with pytest.raises(StaleRangeError, match="agent 'a1' has reported only up to 0 s and is out of "
+                                                      "contact") as info:
+                g.submit(uploads["a0"], reporter="a0")
+            ranges = [i for i, e in enumerate(uploads["a0"]) if isinstance(e, InterAgentRange)]
+            assert set(info.value.events) <= set(ranges) and len(info.value.events) >= len(ranges) - 12
+            assert info.value.details()["events"] == info.value.events and g.pending == 0
+            continue
+        for a in sc.agents:
+            g.submit(uploads[a], reporter=a)
+            g.process()
+        assert g.pending == 0 and g.counts["stale_ranges"] == 0
+        np.testing.assert_allclose(g.centre.state.mean, run_scenario(sc).centre.state.mean, atol=1e-9)
+
+
+def test_a_range_overtaken_while_waiting_is_dropped_and_listed():
+    """A range accepted while both agents were in contact, overtaken by its reporter's steps once the other
+    agent falls out of contact: dropped at that moment, with the reason in the answer."""
+    sc, g = setup()
+    events = as_events(sc, ranging=False)
+    g.submit([e for e in events if e.t_s <= 4])
+    g.process()
+    g.submit([InterAgentRange(7.0, "a0", "a2", 10.0)] + [e for e in events if 4 < e.t_s <= 8 and e.agents[0] == "a0"])
+    report = g.process()
+    assert report["stale_ranges"] == 0 and g.pending > 0
+    g.submit([e for e in events if 6 < e.t_s <= 20 and e.agents[0] != "a2"])
+    report = g.process()
+    assert report["stale_ranges"] == 1 and report["dropped"][0]["agents"] == ["a0", "a2"]
+    assert "fusion horizon of agent 'a0'" in report["dropped"][0]["reason"]
 
 
 def test_state_round_trip_and_bad_input():
