@@ -551,7 +551,7 @@ class StepDetector:
         """Number of samples fed so far: the grid index of the next sample :meth:`update` gets."""
         return self._n_seen
 
-    def state_dict(self) -> dict[str, Any]:
+    def state(self) -> dict[str, Any]:
         return {"rate_hz": self.rate_hz, "config": asdict(self.config),
                 "zi": None if self._zi is None else self._zi.tolist(),
                 "rzi": None if self._rzi is None else self._rzi.tolist(),
@@ -563,7 +563,7 @@ class StepDetector:
                 "short": [[list(r) for r in run] for run in self._short], "soft": [list(b) for b in self._soft]}
 
     @classmethod
-    def from_state_dict(cls, d: dict[str, Any]) -> StepDetector:
+    def from_state(cls, d: dict[str, Any]) -> StepDetector:
         try:
             det = cls(float(d["rate_hz"]), StepConfig(**d["config"]))
             det._zi = None if d["zi"] is None else np.array(d["zi"], dtype=np.float64)
