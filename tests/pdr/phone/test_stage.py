@@ -18,8 +18,8 @@ from pdr.phone.events import (
     StepEvent,
     event_from_row,
 )
-from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
 from pdr.phone.history import SampleHistory
+from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
 from pdr.phone.stage import StepObserver, StepStage
 from pdr.phone.track import TrackState
 from pdr.sim import load_scenario, simulate
