@@ -135,6 +135,22 @@ track_points = Table(
     Column("mode", String(40)),
     # Rows of the processor's provisional tail (what ending the session now would add); replaced by the next batch.
     Column("provisional", Boolean, nullable=False, server_default=false()),
+    # Migration 0009_typed_steps: the step's number in its device role (0, 1, ...) and the rest of a phone's typed step event
+    # (pdr.phone.events.StepEvent; null on foot and fused rows; vectors as JSON arrays; server.store.step_values).
+    Column("step_index", Integer),
+    Column("t_start_s", Float),
+    Column("turn_deg", Float),
+    Column("placement", String(16)),
+    Column("heading_sigma_deg", Float),
+    Column("pos_sigma_m", Float),
+    Column("patterns", Text),
+    Column("heading_raw_deg", Float),
+    Column("gyro_heading_deg", Float),
+    Column("up_time_s", Text),
+    Column("gyro_bias_dps", Text),
+    Column("position_fix", Boolean),
+    Column("landmark_heading", Boolean),
+    Index("ix_track_points_step", "session_id", "device_role", "step_index"),
 )
 
 events = Table(
@@ -149,6 +165,8 @@ events = Table(
     Column("value", Float),
     Column("data", Text, nullable=False, default="{}"),
     Column("provisional", Boolean, nullable=False, server_default=false()),
+    # Migration 0009_typed_steps: a step event's track row (a foot step's increment, joined to its row by this index).
+    Column("step_index", Integer),
 )
 
 reports = Table(

@@ -38,22 +38,21 @@ from server.processing_options import session_options
 from server.store import EventRow, TrackRow
 
 
-def _rows(t_s: float, pos_n: Any, yaw: float, inc: StepIncrement) -> tuple[TrackRow, EventRow]:
+def _add_step(out: ProcessorOutput, t_s: float, pos_n: Any, yaw: float, inc: StepIncrement) -> None:
+    """Append a step's track row and its step event (the increment; joined to the row by its step index)."""
     heading = float(yaw_to_heading_deg(yaw))
     length = float(math.hypot(float(inc.dp[0]), float(inc.dp[1])))
-    track = TrackRow(float(t_s), float(pos_n[0]), float(pos_n[1]), float(pos_n[2]), None, heading, length, MODE)
-    event = EventRow("step", float(t_s), label=MODE, value=length,
-                     data={"heading_deg": heading, "dpsi_deg": math.degrees(float(inc.dpsi)), "dz_m": float(inc.dp[2]),
-                           "increment": increment_to_json(inc)})
-    return track, event
+    out.events.append(EventRow("step", float(t_s), label=MODE, value=length, step=len(out.track),
+                               data={"heading_deg": heading, "dpsi_deg": math.degrees(float(inc.dpsi)),
+                                     "dz_m": float(inc.dp[2]), "increment": increment_to_json(inc)}))
+    out.track.append(TrackRow(float(t_s), float(pos_n[0]), float(pos_n[1]), float(pos_n[2]), None, heading, length,
+                              MODE))
 
 
 def _output(steps: list[FootStep], warnings: list[str]) -> ProcessorOutput:
     out = ProcessorOutput(warnings=warnings)
     for s in steps:
-        tr, ev = _rows(s.t_s, s.pos_n, s.yaw, s.increment)
-        out.track.append(tr)
-        out.events.append(ev)
+        _add_step(out, s.t_s, s.pos_n, s.yaw, s.increment)
     return out
 
 
@@ -103,9 +102,7 @@ class FootProcessor:
                 continue
             self.dr.update(inc)
             self.last_t_s = float(inc.t_s)
-            tr, ev = _rows(inc.t_s, self.dr.pos_n, self.dr.heading, inc)
-            out.track.append(tr)
-            out.events.append(ev)
+            _add_step(out, inc.t_s, self.dr.pos_n, self.dr.heading, inc)
         return out
 
     def tail(self) -> ProcessorOutput:

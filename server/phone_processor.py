@@ -1,9 +1,9 @@
 """The phone PDR pipeline (:class:`pdr.phone.pipeline.PdrPipeline`) and motion-mode classifier as a session processor.
 
-Pipeline events become result rows: each ``step`` a track row (the columns of ``pdr track``) and a
-``step`` event (whose ``smoother`` data keeps the step's inputs of the offline heading smoother,
-:mod:`pdr.phone.heading_smoother`, for ``GET .../track?heading=smoothed``); ``elevator`` and site ``landmark``
-events ``landmark`` events; ``floor_change`` a ``floor`` event; ``notice`` a session warning. Motion modes
+Pipeline events (typed, :mod:`pdr.phone.events`) become results: each step is stored as it is, one track row
+holding the whole :class:`~pdr.phone.events.StepEvent` (its fields include the inputs of the offline heading smoother,
+:mod:`pdr.phone.heading_smoother`, for ``GET .../track?heading=smoothed``); elevator rides and site landmarks
+``landmark`` events; floor changes ``floor`` events; notices session warnings. Motion modes
 come from the streaming classifier (:class:`classifiers.streaming.StreamingClassifier`, one ``mode`` event per
 window with its confidence) of the model for the placement the pipeline has found
 (:func:`classifiers.artifacts.placement_model`: the shipped pocket model, or a hand-held/torso model when one is
@@ -21,7 +21,7 @@ start (:mod:`server.sites`) runs the map matcher as a pipeline stage, as ``pdr t
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from dataclasses import fields
 
 from classifiers.artifacts import PLACEMENT_MODELS, placement_model
 from classifiers.streaming import StreamingClassifier
@@ -29,20 +29,21 @@ from classifiers.timeline import ModeEntry, StepModes, StopTimeline
 from pdr import state_codec
 from pdr.errors import InputError
 from pdr.phone.configure import pipeline_config, placement_group
+from pdr.phone.events import (
+    ElevatorEvent,
+    FloorChangeEvent,
+    LandmarkEvent,
+    NoticeEvent,
+    PipelineEvent,
+    StepEvent,
+    to_rows,
+)
 from pdr.phone.pipeline import PdrPipeline
 from pdr.recording import Recording
 from server.processing import ProcessorOutput, SessionContext
 from server.processing_options import session_options
 from server.sites import session_site
-from server.store import EventRow, TrackRow
-
-#: Step event fields the offline heading smoother needs besides the track row (pdr.phone.heading_smoother.smooth_track).
-SMOOTHER_INPUTS = ("placement", "heading_sigma_deg", "heading_raw_deg", "gyro_heading_deg", "up_time_s",
-                   "gyro_bias_dps", "position_fix", "landmark_heading")
-
-
-def _num(x: Any) -> float | None:
-    return None if x is None else float(x)
+from server.store import EventRow
 
 
 class PhoneProcessor:
@@ -71,9 +72,9 @@ class PhoneProcessor:
             self.classifier_status = "pending"
 
     def update(self, recording: Recording) -> ProcessorOutput:
-        events = self.pipeline.update(recording)
+        events = self.pipeline.update_events(recording)
         modes, notice = self._classify(recording)
-        stops = self.stops.update(recording, events)
+        stops = self.stops.update(recording, to_rows(events))
         step_modes = self.classifier_status != "active"
         out = convert_events(events, self.step_modes, step_modes=step_modes, stops=stops if step_modes else ())
         out.events += modes
@@ -105,10 +106,10 @@ class PhoneProcessor:
 
     def tail(self) -> ProcessorOutput:
         copy = PdrPipeline.from_dict(self.pipeline.to_dict(), stages=self.stages)
-        events = copy.finish()
+        events = copy.finish_events()
         step_modes = self.classifier_status != "active"
         out = convert_events(events, StepModes.from_state(self.step_modes.state()), step_modes=step_modes,
-                             stops=self.stops.pending(events) if step_modes else ())
+                             stops=self.stops.pending(to_rows(events)) if step_modes else ())
         return out
 
     def to_bytes(self) -> bytes:
@@ -118,9 +119,10 @@ class PhoneProcessor:
                                   "stops": self.stops.state()})
 
 
-def convert_events(events: list[dict[str, Any]], modes: StepModes | None = None, step_modes: bool = True,
+def convert_events(events: Sequence[PipelineEvent], modes: StepModes | None = None, step_modes: bool = True,
                    stops: Sequence[ModeEntry] = ()) -> ProcessorOutput:
-    """Result rows of pipeline events; ``modes`` (updated) is the timeline's step-mode state.
+    """Results of pipeline events: the step events themselves (stored as they are), the other kinds as result
+    events and warnings; ``modes`` (updated) is the timeline's step-mode state.
 
     ``step_modes``: also emit a ``mode`` event where the pipeline's per-step mode changes
     (:class:`classifiers.timeline.StepModes`: a stairs entry needs a flight of steps). ``stops``: stop and
@@ -131,34 +133,31 @@ def convert_events(events: list[dict[str, Any]], modes: StepModes | None = None,
     out = ProcessorOutput()
     pending = sorted(stops, key=lambda m: m.t_start_s)
     for e in events:
-        kind = e.get("type")
-        if kind == "step":
-            while pending and pending[0].t_start_s <= float(e.get("t_start_s", e["t_s"])):
+        if isinstance(e, StepEvent):
+            while pending and pending[0].t_start_s <= e.t_start_s:
                 _stop_row(out, pending.pop(0), modes)
-            out.track.append(TrackRow(float(e["t_s"]), float(e["east_m"]), float(e["north_m"]), float(e["up_m"]),
-                                      _num(e.get("floor")), _num(e.get("heading_deg")), _num(e.get("step_length_m")),
-                                      e.get("mode")))
-            out.events.append(EventRow("step", float(e["t_s"]), t_end_s=None, label=e.get("mode"),
-                                       value=_num(e.get("step_length_m")),
-                                       data={"t_start_s": e.get("t_start_s"), "heading_deg": e.get("heading_deg"),
-                                             "floor": e.get("floor"),
-                                             "smoother": {k: e.get(k) for k in SMOOTHER_INPUTS}}))
-            for t, label in modes.step(str(e.get("mode") or ""), float(e.get("t_start_s", e["t_s"]))):
+            out.track.append(e)
+            for t, label in modes.step(e.mode, e.t_start_s):
                 if step_modes:
                     out.events.append(EventRow("mode", t, label=label))
-        elif kind in ("elevator", "landmark"):
-            t = float(e.get("t_s", e.get("t_start_s", 0.0)))
-            label = "elevator" if kind == "elevator" else str(e.get("mode") or e.get("landmark") or "landmark")
-            data = {k: v for k, v in e.items() if k not in ("type", "t_s") and isinstance(v, str | int | float)}
-            out.events.append(EventRow("landmark", float(e.get("t_start_s", t)), t_end_s=_num(e.get("t_end_s")),
-                                       label=label, data=data))
-        elif kind == "floor_change":
-            out.events.append(EventRow("floor", float(e["t_s"]), value=_num(e.get("floor")), label="floor"))
-        elif kind == "notice":
-            out.warnings.append(str(e.get("message", "")))
+        elif isinstance(e, ElevatorEvent):
+            out.events.append(EventRow("landmark", e.t_start_s, t_end_s=e.t_end_s, label="elevator",
+                                       data=_scalars(e)))
+        elif isinstance(e, LandmarkEvent):
+            out.events.append(EventRow("landmark", e.t_s, label=e.mode or e.landmark or "landmark", data=_scalars(e)))
+        elif isinstance(e, FloorChangeEvent):
+            out.events.append(EventRow("floor", e.t_s, value=float(e.floor), label="floor"))
+        elif isinstance(e, NoticeEvent):
+            out.warnings.append(e.message)
     while pending:
         _stop_row(out, pending.pop(0), modes)
     return out
+
+
+def _scalars(e: ElevatorEvent | LandmarkEvent) -> dict[str, str | int | float]:
+    """The event's fields with a value (besides ``t_s``) as a landmark event's data."""
+    values = {f.name: getattr(e, f.name) for f in fields(e) if f.name != "t_s"}
+    return {k: v for k, v in values.items() if isinstance(v, str | int | float)}
 
 
 def _stop_row(out: ProcessorOutput, m: ModeEntry, modes: StepModes) -> None:

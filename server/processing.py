@@ -22,7 +22,7 @@ from pdr.recording import Recording
 from server.errors import APIError
 from server.processing_options import site_id_of
 from server.site_store import SiteDocument, SiteStore
-from server.store import PURGED, BatchRecord, EventRow, Store, TrackRow
+from server.store import PURGED, BatchRecord, EventRow, Store, StoredStep
 
 log = logging.getLogger(__name__)
 
@@ -35,9 +35,11 @@ FILE_PREFIX = "file:"
 
 @dataclass
 class ProcessorOutput:
-    """What one processed batch adds: track rows, events and warnings for the user."""
+    """What one processed batch adds: steps (track rows, :data:`server.store.StoredStep`), events and warnings for the
+    user; a step event names its step by position in ``track`` (:class:`server.store.EventRow`).
+    """
 
-    track: list[TrackRow] = field(default_factory=list)
+    track: list[StoredStep] = field(default_factory=list)
     events: list[EventRow] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
 

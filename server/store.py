@@ -11,13 +11,15 @@ import json
 import uuid
 import zlib
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from datetime import datetime
 from typing import Any
 
 from sqlalchemy import ColumnElement, Connection, Engine, Row, case, delete, func, insert, null, select, update
 from sqlalchemy.exc import IntegrityError
 
+from pdr.phone.events import StepEvent
+from pdr.phone.track_schema import TRACK_COLUMNS
 from server import db
 from server.errors import APIError
 
@@ -82,9 +84,37 @@ class TrackRow:
     mode: str | None
 
 
+#: A stored step (a row of ``track_points``): a phone's typed step event, all its fields in columns, or the track row
+#: of a foot or fused step. The store numbers each device role's steps 0, 1, ... (``step_index``).
+StoredStep = StepEvent | TrackRow
+#: The step event's fields stored beside the track's columns (null on foot and fused rows; migration 0009_typed_steps).
+STEP_FIELDS = tuple(f.name for f in fields(StepEvent) if f.name not in TRACK_COLUMNS)
+#: Of those, the vectors (stored as JSON arrays).
+STEP_VECTORS = ("patterns", "up_time_s", "gyro_bias_dps")
+
+
+def step_values(step: StoredStep) -> dict[str, Any]:
+    """The column values of a stored step (the step event's vectors as JSON; a track row's step fields absent)."""
+    if isinstance(step, TrackRow):
+        return {c: getattr(step, c) for c in TRACK_COLUMNS}
+    values = {name: getattr(step, name) for name in (*TRACK_COLUMNS, *STEP_FIELDS)}
+    return values | {k: None if values[k] is None else json.dumps(values[k]) for k in STEP_VECTORS}
+
+
+def step_fields(row: Any) -> dict[str, Any]:
+    """The step event's fields of a stored ``track_points`` row that has them (non-null; vectors decoded): empty
+    for foot and fused rows; a phone step stored before migration 0009_typed_steps has those the heading smoother needed.
+    """
+    out = {name: getattr(row, name) for name in STEP_FIELDS if getattr(row, name) is not None}
+    return out | {k: json.loads(out[k]) for k in STEP_VECTORS if k in out}
+
+
 @dataclass(frozen=True)
 class EventRow:
-    """A result event: ``kind`` is step, mode, landmark or floor; ``label``/``value`` per kind."""
+    """A result event: ``kind`` is step (a foot step's increment), mode, landmark or floor; ``label``/``value`` per
+    kind. ``step``: for a step event, the position of its step among the same output's track rows (the store
+    gives the event that row's ``step_index``).
+    """
 
     kind: str
     t_s: float
@@ -92,6 +122,7 @@ class EventRow:
     label: str | None = None
     value: float | None = None
     data: dict[str, Any] | None = None
+    step: int | None = None
 
 
 class Store:
@@ -305,13 +336,14 @@ class Store:
         return unpack_state(row.state), row.last_t_ns
 
     def commit_results(self, session_id: str, role: str, batch_id: int | None, state: bytes, last_t_ns: int | None,
-                       track: Sequence[TrackRow], events: Sequence[EventRow],
+                       track: Sequence[StoredStep], events: Sequence[EventRow],
                        guard: Callable[[Connection], None] | None = None,
-                       tail_track: Sequence[TrackRow] = (), tail_events: Sequence[EventRow] = ()) -> None:
+                       tail_track: Sequence[StoredStep] = (), tail_events: Sequence[EventRow] = ()) -> None:
         """Atomically store a processed batch's results, the processor state after it and its status.
 
         The role's provisional rows are replaced by ``tail_track``/``tail_events``: what the processor would
-        still emit if the session ended now (e.g. the last step), flagged ``provisional``.
+        still emit if the session ended now (e.g. the last step), flagged ``provisional``. The steps are numbered
+        on from the role's last final step (``step_index``), the tail's after this batch's.
 
         ``batch_id`` is ``None`` for results derived from other roles' results (the fused foot track).
 
@@ -331,17 +363,21 @@ class Store:
             for table in (db.track_points, db.events):
                 conn.execute(delete(table).where(table.c.session_id == session_id, table.c.device_role == role,
                                                  table.c.provisional.is_(True)))
-            for rows, provisional in ((track, False), (tail_track, True)):
+            tp = db.track_points
+            last = conn.execute(select(func.max(tp.c.step_index)).where(
+                tp.c.session_id == session_id, tp.c.device_role == role)).scalar()
+            first = 0 if last is None else int(last) + 1
+            for rows, evs, start, provisional in ((track, events, first, False),
+                                                  (tail_track, tail_events, first + len(track), True)):
                 if rows:
-                    conn.execute(insert(db.track_points), [
-                        dict(session_id=session_id, device_role=role, provisional=provisional, **r.__dict__)
-                        for r in rows])
-            for evs, provisional in ((events, False), (tail_events, True)):
+                    conn.execute(insert(tp), [
+                        dict(session_id=session_id, device_role=role, provisional=provisional, step_index=start + i,
+                             **step_values(r)) for i, r in enumerate(rows)])
                 if evs:
                     conn.execute(insert(db.events), [
                         dict(session_id=session_id, device_role=role, kind=e.kind, t_s=e.t_s, t_end_s=e.t_end_s,
-                             label=e.label, value=e.value, data=json.dumps(e.data or {}), provisional=provisional)
-                        for e in evs])
+                             label=e.label, value=e.value, data=json.dumps(e.data or {}), provisional=provisional,
+                             step_index=None if e.step is None else start + e.step) for e in evs])
             if batch_id is not None:
                 conn.execute(update(db.batches).where(db.batches.c.id == batch_id).values(
                     status="done", error=None, processed_at=now))
@@ -406,6 +442,21 @@ class Store:
         with self.engine.connect() as conn:
             return list(conn.execute(q.order_by(db.track_points.c.device_role, db.track_points.c.t_s,
                                                 db.track_points.c.id)))
+
+    def steps(self, session_id: str, since_s: float | None = None, previous: bool = False) -> list[Row[Any]]:
+        """The stored steps of every device role (after ``since_s``) in time order: each track row with the ``data``
+        of its step event (a foot step's increment; null for phone and fused steps), joined by step index;
+        ``previous``: those kept during a rebuild.
+        """
+        tp, ev = db.track_points, db.events
+        columns, kept = self._role_columns(tp, previous)
+        joined = tp.outerjoin(ev, (ev.c.session_id == tp.c.session_id) & (ev.c.device_role == tp.c.device_role)
+                              & (ev.c.kind == "step") & (ev.c.step_index == tp.c.step_index))
+        q = select(*columns, ev.c.data).select_from(joined).where(tp.c.session_id == session_id, kept)
+        if since_s is not None:
+            q = q.where(tp.c.t_s > since_s)
+        with self.engine.connect() as conn:
+            return list(conn.execute(q.order_by(tp.c.t_s, tp.c.id)))
 
     def track_summary(self, session_id: str, previous: bool = False) -> dict[str, dict[str, float]]:
         """Per device role: steps, distance (sum of step lengths, m) and first/last step time (s), by SQL;

@@ -38,6 +38,7 @@ from pdr import quaternion as quat
 from pdr.frames import heading_deg_to_yaw, wrap_angle
 from pdr.io.registry import read_recording
 from pdr.phone.heading_smoother import smooth_track
+from pdr.phone.history import SampleHistory
 from pdr.phone.landmarks import Site
 from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
 from pdr.recording import Recording
@@ -48,24 +49,24 @@ TURN_RATE = 0.35
 STRAIGHT_RATE = 0.1
 
 
-class _Probe(PdrPipeline):
-    """The pipeline, recording per step the stride's mean horizontal specific force and vertical rotation rate."""
+class _Probe:
+    """A step observer (:class:`pdr.phone.stage.StepObserver`) recording per step the stride's mean horizontal
+    specific force (m/s^2, ENU) and vertical rotation rate (rad/s), keyed by the step's start time (s).
+    """
 
-    def __init__(self, config: PipelineConfig) -> None:
-        super().__init__(config)
+    def __init__(self, rate_hz: float) -> None:
+        self.rate_hz = rate_hz
         self.probe: dict[float, tuple[float, float, float]] = {}
         self._probe_prev: int | None = None
 
-    def _step(self, s: int, e: int, peak: float) -> list[Any]:
-        h = self.history
+    def confirmed(self, s: int, e: int, h: SampleHistory) -> None:
         ps = self._probe_prev
         s0 = ps if ps is not None and 0 < s - ps <= 2 * (e - s) else s - (e - s)
         self._probe_prev = s
         q, f = h.q[h.sl(s0, e)], h.f_n[h.sl(s0, e)]
         if q.shape[0] > 3 and np.all(np.isfinite(q)) and np.all(np.isfinite(f)):
-            om = quat.to_rotvec(quat.multiply(q[1:], quat.conjugate(q[:-1])))[:, 2] * self.config.rate_hz
+            om = quat.to_rotvec(quat.multiply(q[1:], quat.conjugate(q[:-1])))[:, 2] * self.rate_hz
             self.probe[float(h.t[h.sl(s, e)][0])] = (float(f[:, 0].mean()), float(f[:, 1].mean()), float(om.mean()))
-        return super()._step(s, e, peak)
 
 
 def _flips(t: np.ndarray, yaw: np.ndarray) -> int:
@@ -75,8 +76,9 @@ def _flips(t: np.ndarray, yaw: np.ndarray) -> int:
 
 def real_walk(rec: Recording, method: str = "ukf") -> dict[str, float]:
     """Flips and turn-check agreement of one real pocket walk."""
-    p = _Probe(PipelineConfig(placement="pocket", attitude_method=method))
-    rows = track_rows(p.run(rec))
+    cfg = PipelineConfig(placement="pocket", attitude_method=method)
+    p = _Probe(cfg.rate_hz)
+    rows = track_rows(PdrPipeline(cfg, observers=[p]).run(rec))
     t = np.array([r["t_start_s"] for r in rows])
     yaw = heading_deg_to_yaw(np.array([r["heading_deg"] for r in rows]))
     out: dict[str, float] = {"steps": float(len(rows)), "flips": float(_flips(t, yaw))}

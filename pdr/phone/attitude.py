@@ -57,7 +57,7 @@ The :class:`AttitudeFilter` ``method="ekf"`` runs the same models with a lineari
 as the baseline the UKF is compared with.
 
 The recursion is a numba-compiled kernel; :class:`AttitudeFilter` holds the configuration, the state
-(serialisable with :meth:`AttitudeFilter.state_dict`) and feeds uniform-rate batches.
+(serialisable with :meth:`AttitudeState.state`) and feeds uniform-rate batches.
 """
 
 from __future__ import annotations
@@ -816,11 +816,11 @@ class AttitudeState:
     bias: FloatArray = field(default_factory=lambda: np.zeros(3))
     aux: FloatArray = field(default_factory=lambda: np.zeros(_AUX_SIZE))
 
-    def to_dict(self) -> dict[str, Any]:
+    def state(self) -> dict[str, Any]:
         return {"q": self.q.tolist(), "P": self.P.tolist(), "bias": self.bias.tolist(), "aux": self.aux.tolist()}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> AttitudeState:
+    def from_state(cls, d: dict[str, Any]) -> AttitudeState:
         try:
             st = cls(np.array(d["q"], dtype=np.float64), np.array(d["P"], dtype=np.float64),
                      np.array(d["bias"], dtype=np.float64), np.array(d["aux"], dtype=np.float64))

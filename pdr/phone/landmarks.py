@@ -70,8 +70,6 @@ class LandmarkConfig:
         Vertical specific-force impulse of an elevator start/stop: magnitude (m/s^2) and minimum duration (s).
     elevator_max_ride_s
         Longest time between the two impulses (s).
-    escalator_mag_var
-        Variance of the magnetic magnitude (uT^2) above which standing still is an escalator ride.
     """
 
     stairs_rate_mps: float = 0.12
@@ -81,7 +79,6 @@ class LandmarkConfig:
     elevator_impulse_mps2: float = 0.2
     elevator_impulse_s: float = 0.8
     elevator_max_ride_s: float = 60.0
-    escalator_mag_var: float = 4.0
 
 
 def classify_step(vertical_rate_mps: float | None, pitch_max_deg: float | None, pitch_min_deg: float | None,

@@ -71,7 +71,7 @@ from pdr.phone.landmarks import ElevatorDetector, LandmarkConfig, Site, StepMode
 from pdr.phone.magcal import HardIronEstimator, MagCalConfig
 from pdr.phone.phone_orientation import grid_attitudes, phone_yaw_update
 from pdr.phone.placement_detect import PlacementDetectConfig, PlacementDetector, stride_cues
-from pdr.phone.stage import PendingStep, StepStage, StepWindow
+from pdr.phone.stage import PendingStep, StepObserver, StepStage, StepWindow
 from pdr.phone.step_length import StepLengthModel, step_patterns
 from pdr.phone.steps import StepConfig, StepDetector
 from pdr.phone.track import TrackState
@@ -197,14 +197,22 @@ class PipelineConfig:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> PipelineConfig:
+        """The configuration of :meth:`to_dict` (a saved state's); parameters of older versions that no longer
+        exist (:data:`_OBSOLETE`) are dropped.
+        """
         try:
             sub = {"step": StepConfig, "attitude": AttitudeConfig, "step_length": StepLengthModel,
                    "floors": FloorConfig, "landmarks": LandmarkConfig, "magcal": MagCalConfig,
                    "hde": DriftEliminationConfig, "placement_detect": PlacementDetectConfig}
-            kw = {k: (sub[k](**v) if k in sub else v) for k, v in d.items()}
+            kw = {k: (sub[k](**{n: x for n, x in v.items() if n not in _OBSOLETE.get(k, ())}) if k in sub else v)
+                  for k, v in d.items()}
             return cls(**kw)
         except TypeError as exc:
             raise InputError(f"bad pipeline configuration ({exc})", source="config") from None
+
+
+#: Parameters of older versions' configurations, unused and removed since, per section: dropped from saved states.
+_OBSOLETE: dict[str, tuple[str, ...]] = {"landmarks": ("escalator_mag_var",)}
 
 
 def _derived(q: FloatArray, acc: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
@@ -241,11 +249,15 @@ class PdrPipeline:
     stages
         Further per-step stages run on every step event after the PDR position update, in order (e.g. a map
         matcher).
+    observers
+        Watchers of each confirmed step's samples (:class:`pdr.phone.stage.StepObserver`), called before the step is
+        processed; not saved in the state.
     """
 
     def __init__(self, config: PipelineConfig | None = None, site: Site | None = None,
                  placement_provider: PlacementProvider | None = None,
-                 start_en_m: tuple[float, float] = (0.0, 0.0), stages: Sequence[StepStage] = ()) -> None:
+                 start_en_m: tuple[float, float] = (0.0, 0.0), stages: Sequence[StepStage] = (),
+                 observers: Sequence[StepObserver] = ()) -> None:
         self.config = config or PipelineConfig()
         self.site = site
         self.placement_provider = placement_provider
@@ -276,6 +288,7 @@ class PdrPipeline:
         self.turns = StepTurn(self._max_gap_s())
         self.drift = DriftElimination(c.drift_elimination, StepDriftElimination(c.hde, self._grid_yaw()))
         self.stages: list[StepStage] = list(stages)
+        self.observers: list[StepObserver] = list(observers)
         self.pending: PendingStep | None = None
         self.last_floor = float(c.initial_floor)
         self.notices: list[str] = []
@@ -358,11 +371,11 @@ class PdrPipeline:
         d = {
             "format": STATE_FORMAT, "config": self.config.to_dict(),
             "site": None if self.site is None else self.site.to_dict(),
-            "grid": None if self.grid is None else self.grid.state(), "steps": self.steps.state_dict(),
-            "attitude": self.attitude.state.to_dict(), "magcal": self.magcal.state(), "floors": self.floors.state(),
+            "grid": None if self.grid is None else self.grid.state(), "steps": self.steps.state(),
+            "attitude": self.attitude.state.state(), "magcal": self.magcal.state(), "floors": self.floors.state(),
             "elevator": self.elevator.state(), "track": self.track.state(), **self.device_heading.state(),
             **self.drift.state(), "history": self.history.state(), "placement": self.placement,
-            "auto_placement": self.auto_placement, "placement_detector": self.placement_detector.to_dict(),
+            "auto_placement": self.auto_placement, "placement_detector": self.placement_detector.state(),
             "t0_ns": self.t0_ns, **self.pocket_heading.state(), **self.modes.state(), **self.turns.state(),
             **self.stairs.state(),
             "pending": None if self.pending is None else self.pending.state(),
@@ -397,8 +410,8 @@ class PdrPipeline:
             p = cls(PipelineConfig.from_dict(d["config"]), site, placement_provider)
             c = p.config
             p.grid = None if d["grid"] is None else OnlineGrid.from_state(d["grid"])
-            p.steps = StepDetector.from_state_dict(d["steps"])
-            p.attitude.state = AttitudeState.from_dict(d["attitude"])
+            p.steps = StepDetector.from_state(d["steps"])
+            p.attitude.state = AttitudeState.from_state(d["attitude"])
             if d.get("magcal") is not None:
                 p.magcal = HardIronEstimator.from_state(d["magcal"], c.rate_hz, c.magcal)
             p.floors = FloorTracker.from_state(d["floors"])
@@ -411,7 +424,7 @@ class PdrPipeline:
             # Absent in states saved before the online placement detector: their placement stays as it was.
             p.auto_placement = bool(d.get("auto_placement", False))
             if d.get("placement_detector") is not None:
-                p.placement_detector = PlacementDetector.from_dict(d["placement_detector"], c.placement_detect)
+                p.placement_detector = PlacementDetector.from_state(d["placement_detector"], c.placement_detect)
             p.pocket_heading = PocketHeading.from_state(d, c.rate_hz, c.pocket_axis, c.heading_process_var,
                                                         c.attitude, p._site_has_landmarks(), p.placement)
             p.modes = StepModeLabeller.from_state(d, c.landmarks, c.rate_hz)
@@ -626,6 +639,8 @@ class PdrPipeline:
     def _step(self, s: int, e: int, peak: float) -> list[PipelineEvent]:
         """One confirmed step ``[s, e)``: its heading and label now, output one step later (:meth:`_emit_step`)."""
         h = self.history
+        for o in self.observers:
+            o.confirmed(s, e, h)
         sl = h.sl(s, e)
         q = h.q[sl]
         if q.shape[0] < 3 or not np.all(np.isfinite(q)):

@@ -195,11 +195,11 @@ class PlacementDetector:
                 self.placement, self.candidate, self.run = label, None, 0
         return self.placement
 
-    def to_dict(self) -> dict[str, Any]:
+    def state(self) -> dict[str, Any]:
         return {"placement": self.placement, "candidate": self.candidate, "run": self.run, "strides": self.strides}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any], config: PlacementDetectConfig | None = None) -> PlacementDetector:
+    def from_state(cls, d: dict[str, Any], config: PlacementDetectConfig | None = None) -> PlacementDetector:
         o = cls(config)
         o.placement, o.candidate, o.run = d["placement"], d["candidate"], int(d["run"])
         o.strides = int(d.get("strides", o.config.switch_strides))   # absent in states saved before the settling

@@ -6,6 +6,8 @@ configuration the state does not hold). The per-step stages take a :class:`StepW
 give typed results (:class:`StepHeading`, :class:`pdr.phone.heading.HeadingEstimate`,
 :class:`pdr.phone.events.StepEvent`).
 
+A :class:`StepObserver` watches the confirmed steps and their samples without changing anything.
+
 A stage that is not part of the pipeline (a map matcher, a learned step-length correction) plugs in as a
 :class:`StepStage`: ``PdrPipeline(..., stages=[stage])``. It sees every step event after the PDR position update,
 may correct the track (:class:`pdr.phone.track.TrackState`) and returns the event to emit; its state is saved under
@@ -54,6 +56,17 @@ class StepStage(Protocol):
     def state(self) -> dict[str, Any]: ...
 
     def from_state(self, d: dict[str, Any]) -> StepStage: ...
+
+
+@runtime_checkable
+class StepObserver(Protocol):
+    """A watcher of the steps the detector confirms (e.g. an evaluation's probe): ``PdrPipeline(...,
+    observers=[o])`` calls ``o.confirmed(s, e, history)`` with each step's grid indices ``[s, e)`` and the sample
+    history before the pipeline processes the step. It reads, never changes, the history; it is not part of the
+    pipeline's saved state.
+    """
+
+    def confirmed(self, s: int, e: int, history: SampleHistory) -> None: ...
 
 
 @dataclass(frozen=True)

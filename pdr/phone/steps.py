@@ -564,7 +564,7 @@ class StepDetector:
         """Number of samples fed so far: the grid index of the next sample :meth:`update` gets."""
         return self._n_seen
 
-    def state_dict(self) -> dict[str, Any]:
+    def state(self) -> dict[str, Any]:
         return {"rate_hz": self.rate_hz, "config": asdict(self.config),
                 "zi": None if self._zi is None else self._zi.tolist(),
                 "rzi": None if self._rzi is None else self._rzi.tolist(),
@@ -577,7 +577,7 @@ class StepDetector:
                 "walked": None if self._walked is None else list(self._walked)}
 
     @classmethod
-    def from_state_dict(cls, d: dict[str, Any]) -> StepDetector:
+    def from_state(cls, d: dict[str, Any]) -> StepDetector:
         try:
             det = cls(float(d["rate_hz"]), StepConfig(**d["config"]))
             det._zi = None if d["zi"] is None else np.array(d["zi"], dtype=np.float64)

@@ -32,10 +32,11 @@ from server.api import current_user, services
 from server.errors import APIError
 from server.feet import primary_role
 from server.processing_options import map_matched
+from server.store import step_fields
 
 bp = Blueprint("results", __name__, url_prefix="/api/v1/sessions")
 
-EVENT_KINDS = {"steps": "step", "modes": "mode", "landmarks": "landmark", "floors": "floor"}
+EVENT_KINDS = {"modes": "mode", "landmarks": "landmark", "floors": "floor"}
 
 
 def parse_since() -> float | None:
@@ -102,8 +103,7 @@ def track_points(session_id: str, device: str | None, since: float | None, headi
         if hit is not None:
             _SMOOTHED.move_to_end(key)
     if hit is None:
-        hit = _smoothed(_rows(store.track(session_id, device, None, previous=previous)),
-                        store.events(session_id, "step", previous=previous))
+        hit = _smoothed(store.track(session_id, device, None, previous=previous))
         with _SMOOTHED_LOCK:
             _SMOOTHED[key] = hit
             while len(_SMOOTHED) > SMOOTHED_CACHE_SIZE:
@@ -179,26 +179,26 @@ def track(session_id: str) -> Response:
     return jsonify(body | (smoothing.fields() if smoothing else {}))
 
 
-def _smoothed(rows: list[dict[str, Any]], step_events: list[Any]) -> tuple[list[dict[str, Any]], Smoothing]:
-    """``rows`` (one device or several) with each device's steps smoothed, and what the smoother did.
+def _smoothed(points: list[Any]) -> tuple[list[dict[str, Any]], Smoothing]:
+    """The stored track rows (one device or several; :func:`_rows`) with each device's steps smoothed, and what the
+    smoother did.
 
-    The smoother's inputs come from the stored ``step`` events (:mod:`server.phone_processor`); a device whose
-    steps lack them (foot sensors, sessions processed before they were stored) keeps its track.
+    The smoother's inputs are the phone steps' own fields (:func:`server.store.step_fields`); a device whose steps
+    lack them (foot sensors, the fused feet, sessions processed before they were stored) keeps its track.
     """
-    inputs = {(e.device_role, e.t_s): json.loads(e.data or "{}").get("smoother") or {} for e in step_events}
+    rows = _rows(points)
     out: list[dict[str, Any]] = []
     notes: list[str] = []
     devices: list[str] = []
     for device in dict.fromkeys(r["device"] for r in rows):
-        mine = [r for r in rows if r["device"] == device]
-        steps = [inputs.get((device, r["t_s"]), {}) | r for r in mine]
-        smoothed, note = smooth_track(steps)
+        mine = [(r, p) for r, p in zip(rows, points, strict=True) if r["device"] == device]
+        smoothed, note = smooth_track([step_fields(p) | r for r, p in mine])
         if note:
             notes.append(f"{device}: {note}")
         if smoothed and all(s.get("smoothed") for s in smoothed):
             devices.append(device)
         out += [r | {k: s[k] for k in ("east_m", "north_m", "heading_deg")}
-                for r, s in zip(mine, smoothed, strict=True)]
+                for (r, _), s in zip(mine, smoothed, strict=True)]
     return out, Smoothing(tuple(notes), tuple(devices))
 
 
@@ -236,7 +236,21 @@ def _events(session_id: str, what: str) -> Response:
 
 @bp.get("/<session_id>/steps")
 def steps(session_id: str) -> Response:
-    return _events(session_id, "steps")
+    """The stored steps of every device in time order (``?since=T_S``): the track columns, ``step_index`` (0, 1, ...
+    per device), ``device``, ``provisional``, a phone step's other fields (:class:`pdr.phone.events.StepEvent`), a
+    foot step's increment; ``label`` (the mode) and ``value`` (the step length, m) as the other event lists have.
+    """
+    user = current_user()
+    svc = services()
+    svc.store.session_row(session_id, user.id)
+    since = parse_since()
+    rows = svc.store.steps(session_id, since, previous=svc.store.rebuilding(session_id))
+    items = [{"t_s": r.t_s, "t_end_s": None, "label": r.mode, "value": _clean(r.step_length_m),
+              "device": r.device_role, "provisional": r.provisional, "step_index": r.step_index}
+             | {c: _clean(getattr(r, c)) for c in TRACK_COLUMNS} | step_fields(r) | json.loads(r.data or "{}")
+             for r in rows]
+    return jsonify({"session": session_id, "steps": items, "count": len(items),
+                    "next_since": items[-1]["t_s"] if items else since})
 
 
 @bp.get("/<session_id>/modes")

@@ -15,7 +15,7 @@ from pdr.recording import Recording
 from server import auth
 from server.app import create_app
 from server.processing import ProcessorOutput, SessionContext
-from server.store import EventRow, TrackRow
+from server.store import TrackRow
 
 
 class CountingProcessor:
@@ -28,8 +28,7 @@ class CountingProcessor:
         self.count += 1
         last_ns = max(int(s.t_ns[-1]) for s in recording.streams.values())
         t = last_ns / 1e9
-        return ProcessorOutput(track=[TrackRow(t, float(self.count), 0.0, 0.0, 0.0, 90.0, 1.0, "walking")],
-                               events=[EventRow("step", t, value=1.0)])
+        return ProcessorOutput(track=[TrackRow(t, float(self.count), 0.0, 0.0, 0.0, 90.0, 1.0, "walking")])
 
     def to_bytes(self) -> bytes:
         return json.dumps({"count": self.count}).encode()

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 from classifiers.timeline import ModeEntry, StepModes
+from pdr.phone.events import StepEvent
 from server.phone_processor import convert_events
 
 
 def test_convert_events_places_stops_among_the_steps():
-    def step(t0: float) -> dict:
-        return {"type": "step", "t_start_s": t0, "t_s": t0 + 0.5, "east_m": 0.0, "north_m": 0.0, "up_m": 0.0,
-                "mode": "walking"}
+    def step(t0: float) -> StepEvent:
+        return StepEvent(t_s=t0 + 0.5, t_start_s=t0, east_m=0.0, north_m=0.0, up_m=0.0, floor=0.0, heading_deg=0.0,
+                         step_length_m=0.7, turn_deg=0.0, mode="walking", placement="hand", heading_sigma_deg=5.0,
+                         pos_sigma_m=0.1, patterns=[], heading_raw_deg=0.0, gyro_heading_deg=None, up_time_s=None,
+                         gyro_bias_dps=None, position_fix=False, landmark_heading=False)
 
     events = [step(t) for t in (0.0, 0.5, 1.0)] + [step(t) for t in (10.0, 10.5)]
     stop = ModeEntry(1.5, 10.0, "standing", {"duration_s": 8.5})
@@ -17,6 +20,6 @@ def test_convert_events_places_stops_among_the_steps():
     out = convert_events(events, modes, stops=[stop])
     rows = [(r.t_s, r.t_end_s, r.label) for r in out.events if r.kind == "mode"]
     assert rows == [(0.0, None, "walking"), (1.5, 10.0, "standing"), (10.0, None, "walking")]
-    assert modes.last == "walking"
+    assert modes.last == "walking" and out.track == events      # the steps are stored as they are
     # The classifier's timeline (pocket phones) takes no step-mode entries.
     assert not [r for r in convert_events(events, StepModes(), step_modes=False).events if r.kind == "mode"]

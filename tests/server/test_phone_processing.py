@@ -80,6 +80,12 @@ def test_smoothed_track_equals_pdr_tracks_default(real_app):
     assert smoothed["count"] == causal["count"] == len(ours) > 100
     for key in ("east_m", "north_m", "heading_deg"):
         np.testing.assert_allclose([p[key] for p in smoothed["points"]], [r[key] for r in ours], atol=1e-9)
+    # The stored steps are the pipeline's step events, numbered per device (GET /steps).
+    steps = c.get(f"/api/v1/sessions/{session['id']}/steps", headers=bearer(token)).get_json()["steps"]
+    assert [s["step_index"] for s in steps] == list(range(len(rows)))
+    assert [s["placement"] for s in steps] == [r["placement"] for r in rows]
+    for key in ("t_start_s", "heading_raw_deg", "gyro_heading_deg", "turn_deg", "pos_sigma_m"):
+        np.testing.assert_array_equal([s[key] for s in steps], [r[key] for r in rows])
     moved = np.hypot(*(np.array([[p["east_m"], p["north_m"]] for p in smoothed["points"]])
                        - np.array([[p["east_m"], p["north_m"]] for p in causal["points"]])).T)
     assert moved.max() > 1.0                                       # the smoother changed the track

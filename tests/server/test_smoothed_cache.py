@@ -15,9 +15,9 @@ def counted(monkeypatch: pytest.MonkeyPatch) -> list[int]:
     calls: list[int] = []
     real = results._smoothed
 
-    def counting(rows, step_events):  # noqa: ANN001, ANN202
-        calls.append(len(rows))
-        return real(rows, step_events)
+    def counting(points):  # noqa: ANN001, ANN202
+        calls.append(len(points))
+        return real(points)
 
     monkeypatch.setattr(results, "_smoothed", counting)
     results._SMOOTHED.clear()

@@ -114,9 +114,8 @@ class LiveService:
                                     {"fused": short.rows(), "left_foot": short.rows(-0.12),
                                      "right_foot": short.rows(0.12)}, placement="foot",
                                     meta={"processing": {"foot": {"zaru": True}}})
-        compass_rows, compass_steps = drifting_compass_walk()
-        self.compass_id = seed_session(store, self.tokens["alice"], "compass-walk", {"phone": compass_rows},
-                                       placement="hand", step_events=tuple(compass_steps))
+        self.compass_id = seed_session(store, self.tokens["alice"], "compass-walk", {"phone": drifting_compass_walk()},
+                                       placement="hand")
         self.bob_id = seed_session(store, self.tokens["bob"], "bob-secret-walk", {"phone": short.rows()})
         alice = Client(self.url, self.tokens["alice"])
         payload = json.dumps(truth_log()).encode()

@@ -9,16 +9,18 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from pdr.io.native import batch_to_json
+from pdr.phone.events import StepEvent
 from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, SensorStream
 from server import auth
 from server.processing import NATIVE_JSON, ProcessorOutput, SessionContext
-from server.store import EventRow, Store, TrackRow
+from server.store import EventRow, Store, StoredStep, TrackRow
 
 #: Drift of the test processor's track from the truth per truth point: east 0.3 m, north 0.4 m -> 0.5 m more error
 #: at every later point (k + 1 times it at point k, counted from 0).
@@ -55,8 +57,7 @@ class WebTestProcessor:
         self.count += 1
         last_ns = max(int(s.t_ns[-1]) for s in recording.streams.values())
         t = (last_ns - recording.origin_ns) / 1e9 + self.count
-        return ProcessorOutput(track=[TrackRow(t, 0.7 * self.count, 0.0, 0.0, 0.0, 90.0, 0.7, "walking")],
-                               events=[EventRow("step", t, value=0.7)])
+        return ProcessorOutput(track=[TrackRow(t, 0.7 * self.count, 0.0, 0.0, 0.0, 90.0, 0.7, "walking")])
 
     def to_bytes(self) -> bytes:
         return json.dumps({"count": self.count}).encode()
@@ -97,10 +98,9 @@ def corridor_walk(duration_s: float, cadence_hz: float = 1.6, seed: int = 0) -> 
     return Walk(t, east, north, floor, heading, length, mode)
 
 
-def drifting_compass_walk(duration_s: float = 240.0, cadence_hz: float = 1.8,
-                          seed: int = 2) -> tuple[list[TrackRow], list[EventRow]]:
-    """A hand-held walk as the phone pipeline streams it, with the step events' smoother inputs
-    (:data:`server.phone_processor.SMOOTHER_INPUTS`), so that ``?heading=smoothed`` moves it.
+def drifting_compass_walk(duration_s: float = 240.0, cadence_hz: float = 1.8, seed: int = 2) -> list[StepEvent]:
+    """A hand-held walk as the phone pipeline streams it: typed step events with the heading smoother's inputs,
+    so that ``?heading=smoothed`` moves it.
 
     The walk goes around the corridor loop of :func:`corridor_walk`; the streamed heading follows a compass
     with noise and a 20 deg disturbance over the second minute that builds up and fades over 15 s (a
@@ -116,17 +116,16 @@ def drifting_compass_walk(duration_s: float = 240.0, cadence_hz: float = 1.8,
     yaw = np.radians(90.0 - compass)
     east = np.cumsum(walk.step_length_m * np.cos(yaw))
     north = np.cumsum(walk.step_length_m * np.sin(yaw))
-    rows, events = [], []
+    steps = []
     for k, t in enumerate(walk.t_s):
         heading = float(compass[k] % 360.0)
-        rows.append(TrackRow(float(t), float(east[k]), float(north[k]), 0.0, 0.0, heading,
-                             float(walk.step_length_m[k]), "walking"))
-        smoother = {"placement": "hand", "heading_sigma_deg": 10.0, "heading_raw_deg": heading,
-                    "gyro_heading_deg": float((walk.heading_deg[k] + 40.0) % 360.0), "up_time_s": None,
-                    "gyro_bias_dps": None, "position_fix": False, "landmark_heading": False}
-        events.append(EventRow("step", float(t), label="walking", value=float(walk.step_length_m[k]),
-                               data={"heading_deg": heading, "floor": 0.0, "smoother": smoother}))
-    return rows, events
+        steps.append(StepEvent(
+            t_s=float(t), t_start_s=float(t) - 1.0 / cadence_hz, east_m=float(east[k]), north_m=float(north[k]),
+            up_m=0.0, floor=0.0, heading_deg=heading, step_length_m=float(walk.step_length_m[k]), turn_deg=0.0,
+            mode="walking", placement="hand", heading_sigma_deg=10.0, pos_sigma_m=1.0, patterns=[],
+            heading_raw_deg=heading, gyro_heading_deg=float((walk.heading_deg[k] + 40.0) % 360.0), up_time_s=None,
+            gyro_bias_dps=None, position_fix=False, landmark_heading=False))
+    return steps
 
 
 def user_id(store: Store, token: str) -> int:
@@ -136,13 +135,11 @@ def user_id(store: Store, token: str) -> int:
     return user.id
 
 
-def seed_session(store: Store, token: str, name: str, tracks: dict[str, list[TrackRow]], *,
+def seed_session(store: Store, token: str, name: str, tracks: dict[str, Sequence[StoredStep]], *,
                  placement: str | None = "pocket", model: str = "Pixel 7", warnings: tuple[str, ...] = (),
-                 landmarks: tuple[tuple[float, str], ...] = (), meta: dict[str, Any] | None = None,
-                 step_events: tuple[EventRow, ...] = ()) -> str:
-    """A processed session of the token's user with the given track per device role; returns its id.
-
-    ``step_events`` are stored with the first device's results (e.g. :func:`drifting_compass_walk`'s).
+                 landmarks: tuple[tuple[float, str], ...] = (), meta: dict[str, Any] | None = None) -> str:
+    """A processed session of the token's user with the given steps per device role (track rows, or typed phone
+    step events such as :func:`drifting_compass_walk`'s); returns its id.
     """
     sid, _ = store.create_session(user_id(store, token), source="native", client_session_id=name, name=name,
                                   placement=placement, meta=meta)
@@ -153,7 +150,7 @@ def seed_session(store: Store, token: str, name: str, tracks: dict[str, list[Tra
         bid, _ = store.add_batch(sid, device_role=role, client_batch_id=f"seed-{role}", payload_format=NATIVE_JSON,
                                  payload=json.dumps({"seed": name, "role": role}).encode(), t_first_ns=0,
                                  t_last_ns=t_last_ns)
-        events = ([EventRow("landmark", t, label=label) for t, label in landmarks] + list(step_events)
+        events = ([EventRow("landmark", t, label=label) for t, label in landmarks]
                   if role == next(iter(tracks)) else [])
         store.commit_results(sid, role, bid, b"{}", t_last_ns, rows, events)
     store.add_session_warnings(sid, list(warnings))

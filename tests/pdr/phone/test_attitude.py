@@ -146,14 +146,14 @@ def test_state_round_trip_and_bad_input():
     f = AttitudeFilter(FS)
     acc, mag = body_measurements(quat.IDENTITY, 20)
     f.run(acc, np.zeros((20, 3)), mag)
-    st = AttitudeState.from_dict(f.state.to_dict())
+    st = AttitudeState.from_state(f.state.state())
     assert np.array_equal(st.q, f.state.q) and np.array_equal(st.P, f.state.P)
     with pytest.raises(InputError, match="acc must be"):
         f.run(np.zeros((5, 2)))
     with pytest.raises(InputError, match="method"):
         AttitudeFilter(FS, method="kalman")
     with pytest.raises(InputError, match="attitude state"):
-        AttitudeState.from_dict({"q": [1, 0, 0]})
+        AttitudeState.from_state({"q": [1, 0, 0]})
 
 
 def test_chunked_run_equals_one_batch():

@@ -7,6 +7,7 @@ import pytest
 
 from pdr import quaternion as quat
 from pdr import state_codec
+from pdr.errors import InputError
 from pdr.frames import heading_deg_to_yaw, wrap_angle
 from pdr.io.registry import read_recording
 from pdr.phone.landmarks import Site
@@ -113,7 +114,6 @@ def test_a_shoe_imu_batch_is_refused_and_changes_nothing(hand_walk, role, placem
     from dataclasses import replace
 
     from pdr.cli import main
-    from pdr.errors import InputError
     from pdr.io import native
 
     first, rest = hand_walk.slice_time(0.0, 5.0), hand_walk.slice_time(5.0, 1e9)
@@ -346,7 +346,7 @@ def test_auto_placement_follows_the_phone_from_the_pocket_to_the_hand():
     q = PdrPipeline(PipelineConfig())
     q.update(first)
     r = PdrPipeline.from_dict(state_codec.loads(state_codec.dumps(q.to_dict())))
-    assert r.auto_placement and r.placement_detector.to_dict() == q.placement_detector.to_dict()
+    assert r.auto_placement and r.placement_detector.state() == q.placement_detector.state()
 
 
 @pytest.mark.data
@@ -363,3 +363,13 @@ def test_auto_placement_finds_the_pocket_in_real_pocket_walks():
         rec = replace(rec, device=replace(rec.device, placement=None))
         seen += [r["placement"] for r in track_rows(PdrPipeline(PipelineConfig()).run(rec))]
     assert len(seen) > 2000 and seen.count("pocket") >= 0.8 * len(seen) and "swinging" not in seen
+
+
+def test_a_saved_configuration_with_a_removed_parameter_still_reads():
+    # LandmarkConfig.escalator_mag_var was never used and is gone; states saved with it resume.
+    cfg = PipelineConfig(placement="hand")
+    old = cfg.to_dict()
+    old["landmarks"] = old["landmarks"] | {"escalator_mag_var": 4.0}
+    assert PipelineConfig.from_dict(old) == cfg
+    with pytest.raises(InputError, match="bad pipeline configuration"):
+        PipelineConfig.from_dict(cfg.to_dict() | {"landmarks": {"teleport_m": 1.0}})

@@ -105,8 +105,8 @@ def test_the_detector_follows_a_change_of_place_after_agreeing_strides_only():
     assert det.update(held) == "pocket"                      # afterwards one odd stride changes nothing
     assert det.update(pocket) == "pocket"
     assert [det.update(held) for _ in range(3)] == ["pocket", "pocket", "hand"]   # taken out of the pocket
-    restored = PlacementDetector.from_dict(det.to_dict())
-    assert restored.to_dict() == det.to_dict()
+    restored = PlacementDetector.from_state(det.state())
+    assert restored.state() == det.state()
     assert [restored.update(pocket) for _ in range(3)] == ["hand", "hand", "pocket"]
 
 

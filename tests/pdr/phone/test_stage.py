@@ -18,8 +18,9 @@ from pdr.phone.events import (
     StepEvent,
     event_from_row,
 )
+from pdr.phone.history import SampleHistory
 from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
-from pdr.phone.stage import StepStage
+from pdr.phone.stage import StepObserver, StepStage
 from pdr.phone.track import TrackState
 from pdr.sim import load_scenario, simulate
 from tests.conftest import REPO_ROOT
@@ -80,6 +81,28 @@ def test_a_plugged_in_stage_corrects_every_step_and_resumes_from_a_saved_state(h
     assert b.stages[0].moved_m == a.stages[0].moved_m  # type: ignore[attr-defined]
     rest = b.update(hand_walk.slice_time(mid, t1 + 1)) + b.finish()
     assert track_rows(first + rest) == rows
+
+
+class StepTimes:
+    """A step observer: the start and end time (s) of every confirmed step, from the history it is shown."""
+
+    def __init__(self) -> None:
+        self.spans: list[tuple[float, float]] = []
+
+    def confirmed(self, s: int, e: int, history: SampleHistory) -> None:
+        t = history.t[history.sl(s, e)]
+        self.spans.append((float(t[0]), float(t[-1])))
+
+
+def test_an_observer_sees_every_confirmed_step_and_changes_nothing(hand_walk):
+    watch = StepTimes()
+    assert isinstance(watch, StepObserver)
+    free = PdrPipeline(PipelineConfig()).run(hand_walk)
+    watched = PdrPipeline(PipelineConfig(), observers=[watch]).run(hand_walk)
+    assert watched == free
+    # Every step the pipeline emits was shown to the observer, with the step's own samples.
+    assert [r["t_start_s"] for r in track_rows(free)] == [a for a, _ in watch.spans]
+    assert all(b > a for a, b in watch.spans)
 
 
 def test_a_state_without_plugged_in_stages_has_no_stages_key(hand_walk):

@@ -81,7 +81,7 @@ def test_state_round_trip():
     _, acc = walk(30)
     det = StepDetector(FS)
     a, _ = det.update(acc[:400])
-    det2 = StepDetector.from_state_dict(det.state_dict())
+    det2 = StepDetector.from_state(det.state())
     b, _ = det2.update(acc[400:], final=True)
     assert len(a) + len(b) == 30
 
@@ -243,7 +243,7 @@ def _assert_chunks_with_state_round_trips_equal_one_batch(acc, config: StepConfi
     got, conf, i = [], [], 0
     while i < len(acc):
         k = int(rng.integers(1, 90))
-        det = StepDetector.from_state_dict(json.loads(json.dumps(det.state_dict())))
+        det = StepDetector.from_state(json.loads(json.dumps(det.state())))
         s, _ = det.update(acc[i:i + k], final=i + k >= len(acc))
         got.append(s.start_idx)
         conf.append(s.confirm_idx)
@@ -324,7 +324,7 @@ def test_walk_right_after_handling_keeps_its_first_steps():
     det, got, i = StepDetector(FS), [], 0
     while i < len(acc):
         k = int(rng.integers(1, 60))
-        det = StepDetector.from_state_dict(json.loads(json.dumps(det.state_dict())))
+        det = StepDetector.from_state(json.loads(json.dumps(det.state())))
         got.append(det.update(acc[i:i + k], final=i + k >= len(acc))[0].start_idx)
         i += k
     assert np.array_equal(np.concatenate(got), steps.start_idx)
@@ -386,9 +386,9 @@ def test_state_saved_before_the_on_beat_floor_loads():
     _, acc = walk(30)
     det = StepDetector(FS)
     a, _ = det.update(acc[:400])
-    state = det.state_dict()
+    state = det.state()
     state["kernel"] = state["kernel"][:steps_mod._S_LAST2]   # the kernel state of earlier versions
-    b, _ = StepDetector.from_state_dict(state).update(acc[400:], final=True)
+    b, _ = StepDetector.from_state(state).update(acc[400:], final=True)
     assert len(a) + len(b) == 30
 
 
@@ -518,9 +518,9 @@ def test_state_saved_before_the_automatic_gain_loads():
     _, acc = walk(30)
     det = StepDetector(FS)
     a, _ = det.update(acc[:400])
-    state = det.state_dict()
+    state = det.state()
     state["kernel"] = state["kernel"][:steps_mod._S_MS]      # the kernel state before the automatic gain
-    b, _ = StepDetector.from_state_dict(state).update(acc[400:], final=True)
+    b, _ = StepDetector.from_state(state).update(acc[400:], final=True)
     assert len(a) + len(b) == 30
 
 
@@ -534,7 +534,7 @@ def test_automatic_gain_chunked_with_state_round_trip_equals_one_batch(config):
     while i < len(acc):
         s, _ = det.update(acc[i:i + 37], final=i + 37 >= len(acc))
         got.append(s.start_idx)
-        det = StepDetector.from_state_dict(json.loads(json.dumps(det.state_dict())))
+        det = StepDetector.from_state(json.loads(json.dumps(det.state())))
         i += 37
     assert np.array_equal(np.concatenate(got), one.start_idx)
 
@@ -566,9 +566,9 @@ def test_state_saved_before_gait_periodicity_loads():
     _, acc = walk(30)
     det = StepDetector(FS, GATED)
     a, _ = det.update(acc[:400])
-    state = det.state_dict()
+    state = det.state()
     state["kernel"] = state["kernel"][:steps_mod._S_SIZE]    # the kernel state before gait periodicity
-    b, _ = StepDetector.from_state_dict(state).update(acc[400:], final=True)
+    b, _ = StepDetector.from_state(state).update(acc[400:], final=True)
     assert len(a) + len(b) == 30
 
 
