@@ -135,7 +135,7 @@ track_points = Table(
     Column("mode", String(40)),
     # Rows of the processor's provisional tail (what ending the session now would add); replaced by the next batch.
     Column("provisional", Boolean, nullable=False, server_default=false()),
-    # Migration 0009_typed_steps: the step's number in its device role (0, 1, ...) and the rest of a phone's typed step event
+    # Migration 0009_typed_steps: the step's number in its device role (0, 1, ...) and the rest of a phone's step
     # (pdr.phone.events.StepEvent; null on foot and fused rows; vectors as JSON arrays; server.store.step_values).
     Column("step_index", Integer),
     Column("t_start_s", Float),

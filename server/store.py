@@ -103,7 +103,8 @@ def step_values(step: StoredStep) -> dict[str, Any]:
 
 def step_fields(row: Any) -> dict[str, Any]:
     """The step event's fields of a stored ``track_points`` row that has them (non-null; vectors decoded): empty
-    for foot and fused rows; a phone step stored before migration 0009_typed_steps has those the heading smoother needed.
+    for foot and fused rows; a phone step stored before migration 0009_typed_steps has those the heading smoother
+    needed.
     """
     out = {name: getattr(row, name) for name in STEP_FIELDS if getattr(row, name) is not None}
     return out | {k: json.loads(out[k]) for k in STEP_VECTORS if k in out}
