@@ -508,9 +508,9 @@ def test_state_saved_before_short_runs_after_a_walk_loads():
     acc, _ = _slow_walk_with_a_missed_step()
     det = StepDetector(FS, FIXED)
     a, _ = det.update(acc[:500])
-    state = det.state_dict()
+    state = det.state()
     del state["walked"]                                     # a state saved before the rule
-    b, _ = StepDetector.from_state_dict(state).update(acc[500:], final=True)
+    b, _ = StepDetector.from_state(state).update(acc[500:], final=True)
     assert len(a) + len(b) >= 11
 
 
