@@ -4,7 +4,11 @@ with the real processors (``real_app``) and its user's ``token``."""
 from __future__ import annotations
 
 import json
+import os
+import shutil
+import subprocess
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -72,3 +76,42 @@ def token(real_app: Flask) -> str:
 
 def bearer(token: str) -> dict[str, str]:
     return {"Authorization": f"Bearer {token}"}
+
+
+# -- a real headless browser for the web page's tests (Debian's chromium driven by Playwright) ---------------------
+# One session fixture for every module: Playwright's sync API cannot run two instances in one thread.
+CHROMIUM = Path("/usr/bin/chromium")
+CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                 "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+
+
+def _install_chromium() -> str | None:
+    """Install Debian's chromium when missing; returns why it is unavailable, or None when it is there."""
+    if CHROMIUM.exists():
+        return None
+    if not hasattr(os, "geteuid") or os.geteuid() != 0 or shutil.which("apt-get") is None:
+        return f"{CHROMIUM} is missing and cannot be installed here (needs root and apt-get)"
+    env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
+    for cmd in (["apt-get", "update"], ["apt-get", "install", "-y", "chromium"]):
+        try:
+            done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=1200)
+        except (OSError, subprocess.TimeoutExpired) as exc:
+            return f"'{' '.join(cmd)}' failed: {exc}"
+        if done.returncode != 0:
+            return f"'{' '.join(cmd)}' failed: {done.stderr.strip()[-300:]}"
+    return None if CHROMIUM.exists() else f"apt-get installed no {CHROMIUM}"
+
+
+@pytest.fixture(scope="session")
+def browser() -> Iterator[Any]:
+    sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed (test extra)")
+    reason = _install_chromium()
+    if reason:
+        pytest.skip(reason)
+    with sync_api.sync_playwright() as pw:
+        try:
+            b = pw.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
+        except sync_api.Error as exc:
+            pytest.skip(f"chromium does not start: {str(exc)[:300]}")
+        yield b
+        b.close()

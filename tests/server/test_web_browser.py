@@ -20,11 +20,8 @@ import dataclasses
 import io
 import json
 import math
-import os
-import shutil
 import statistics
 import struct
-import subprocess
 import threading
 import time
 import zlib
@@ -48,44 +45,9 @@ from tests.server.web_seed import (
     truth_log,
 )
 
-CHROMIUM = Path("/usr/bin/chromium")
-CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                 "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts" / "web"
 LONG_WALK_S = 2 * 3600.0
 FIRST_RENDER_LIMIT_MS = 1000.0
-
-
-def _install_chromium() -> str | None:
-    """Install Debian's chromium when missing; returns why it is unavailable, or None when it is there."""
-    if CHROMIUM.exists():
-        return None
-    if not hasattr(os, "geteuid") or os.geteuid() != 0 or shutil.which("apt-get") is None:
-        return f"{CHROMIUM} is missing and cannot be installed here (needs root and apt-get)"
-    env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
-    for cmd in (["apt-get", "update"], ["apt-get", "install", "-y", "chromium"]):
-        try:
-            done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=1200)
-        except (OSError, subprocess.TimeoutExpired) as exc:
-            return f"'{' '.join(cmd)}' failed: {exc}"
-        if done.returncode != 0:
-            return f"'{' '.join(cmd)}' failed: {done.stderr.strip()[-300:]}"
-    return None if CHROMIUM.exists() else f"apt-get installed no {CHROMIUM}"
-
-
-@pytest.fixture(scope="session")
-def browser() -> Iterator[Any]:
-    sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed (test extra)")
-    reason = _install_chromium()
-    if reason:
-        pytest.skip(reason)
-    with sync_api.sync_playwright() as pw:
-        try:
-            b = pw.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
-        except sync_api.Error as exc:
-            pytest.skip(f"chromium does not start: {str(exc)[:300]}")
-        yield b
-        b.close()
 
 
 class LiveService:

@@ -16,7 +16,7 @@ from server.client import Client
 from server.site_store import SiteStore
 from server.store import TrackRow
 from tests.server.test_sites_api import HALL
-from tests.server.test_web_browser import browser, shot  # noqa: F401  (the browser fixture)
+from tests.server.test_web_browser import shot
 from tests.server.web_seed import WebTestProcessor, seed_session, user_id
 
 START = [5.0, 6.0, 0]
@@ -63,13 +63,13 @@ class SiteService:
 
 
 @pytest.fixture(scope="module")
-def service(tmp_path_factory: pytest.TempPathFactory, browser: Any) -> Iterator[SiteService]:  # noqa: F811
+def service(tmp_path_factory: pytest.TempPathFactory, browser: Any) -> Iterator[SiteService]:
     s = SiteService(tmp_path_factory.mktemp("web-sites"))
     yield s
     s.close()
 
 
-def test_the_floor_plan_is_drawn_under_the_track_at_phone_width(browser: Any, service: SiteService) -> None:  # noqa: F811
+def test_the_floor_plan_is_drawn_under_the_track_at_phone_width(browser: Any, service: SiteService) -> None:
     context = browser.new_context(viewport={"width": 390, "height": 844})
     pg = context.new_page()
     errors: list[str] = []
