@@ -125,22 +125,15 @@ def write_geojson(rows: list[dict[str, Any]], path: str | Path, origin: tuple[fl
     Path(path).write_text(json.dumps(doc))
 
 
-def write_plot(rows: list[dict[str, Any]], path: str | Path, rec: Recording) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(6, 6))
-    if rows:
-        ax.plot([r["east_m"] for r in rows], [r["north_m"] for r in rows], "-", lw=1, label="PDR track")
-    pt = rec.truth.positions
-    if pt is not None:
-        ax.plot(pt.pos_m[:, 0], pt.pos_m[:, 1], "o--", ms=3, lw=0.8, label=f"truth ({pt.kind})")
-    ax.set_xlabel("east (m)")
-    ax.set_ylabel("north (m)")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.legend()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+def write_plot(rows: list[dict[str, Any]], path: str | Path, rec: Recording, title: str) -> None:
+    """The track's PNG (:mod:`pdr.cli.plots`): start and end marked, the truth when the log has it, with the track
+    moved to start at the first truth point as ``pdr eval`` scores it.
+    """
+    from pdr.cli.plots import plot_track, truth_of
+
+    t = np.array([r["t_s"] for r in rows], dtype=np.float64)
+    en = np.array([[r["east_m"], r["north_m"]] for r in rows], dtype=np.float64).reshape(-1, 2)
+    plot_track(path, t, en, title, truth_of(rec), label="PDR track")
 
 
 def run_track(args: argparse.Namespace) -> int:
@@ -176,9 +169,10 @@ def run_track(args: argparse.Namespace) -> int:
     write_csv(rows, args.out)
     if args.geojson:
         write_geojson(rows, args.geojson, None)
-    if args.plot:
-        write_plot(rows, args.plot, rec)
     dist = sum(r["step_length_m"] for r in rows)
+    if args.plot:
+        write_plot(rows, args.plot, rec, f"pdr track {Path(args.log).name}: {len(rows)} steps, {dist:.1f} m, "
+                                         f"heading {'smoothed' if args.smoother == 'on' else 'causal'}")
     print(f"{len(rows)} steps, {dist:.1f} m walked -> {args.out}")
     return 0
 
@@ -229,7 +223,7 @@ def _register_eval(targets: argparse._SubParsersAction, name: str, helptext: str
                    func: Callable[[argparse.Namespace], int]) -> None:
     """``pdr eval NAME`` (ipin, ms, steps): the options these phone evaluations share, and NAME's own."""
     p = targets.add_parser(name, help=helptext)
-    p.add_argument("dir", help="dataset folder")
+    p.add_argument("dir", help="dataset folder (searched recursively), or one log file")
     p.add_argument("--json", action="store_true", help="print figures as JSON")
     p.add_argument("--tracks", help="also write each track CSV into this folder (for tools/score_tracks.py)")
     p.add_argument("--limit", type=int, default=0, help="only the first N files (0: all)")
@@ -268,12 +262,22 @@ def _register_eval(targets: argparse._SubParsersAction, name: str, helptext: str
 
 
 def _files(d: str, patterns: tuple[str, ...]) -> list[Path]:
+    """The dataset's files matching ``patterns`` under folder ``d``, or ``d`` itself when it is one such file;
+    an InputError when there is none (an evaluation of nothing would print ``ALL (0 files) ... nan``).
+    """
     root = Path(d)
     if not root.exists():
-        raise InputError("no such folder", source=d)
+        raise InputError("no such file or folder", source=d)
+    if root.is_file():
+        if any(root.match(pat) for pat in patterns):
+            return [root]
+        raise InputError(f"not a log this evaluation reads: give a folder of, or one file named, "
+                         f"{' or '.join(patterns)}", source=d)
     out: list[Path] = []
     for pat in patterns:
         out += sorted(root.rglob(pat))
+    if not out:
+        raise InputError(f"no {' or '.join(patterns)} files in this folder or below it", source=d)
     return sorted(set(out))
 
 
@@ -385,6 +389,7 @@ def eval_ipin(args: argparse.Namespace) -> int:
         rec = read_recording(f)
         pt = rec.truth.positions
         if pt is None or len(pt) < 2:
+            per.append({"file": f.name, "error": "no truth to score against (fewer than 2 positions)"})
             continue
         t_truth = rec.origin_ns / 1e9 + pt.t_s
         rec = _trim_start(rec, args.trim_start, float(t_truth[0]))
@@ -420,6 +425,9 @@ def eval_ipin(args: argparse.Namespace) -> int:
         per.append(p)
         done.append({"path": f, "per": p, "cfg": cfg, "route": trial_key(f), "phone": rec.device.model,
                      "walk": walk})
+    if not done:
+        why = "; ".join(f"{p['file']}: {p['error']}" for p in per[:5])
+        raise InputError(f"none of the {len(files)} file(s) could be scored ({why})", source=args.dir)
     summary = _ipin_summary([d["per"] for d in done])
     if args.smoother == "both":
         summary["smoothed"] = _ipin_summary([d["per"]["smoothed"] for d in done])
