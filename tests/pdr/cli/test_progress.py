@@ -49,3 +49,25 @@ def test_simulate_prints_its_summary_on_stdout_and_no_bar_when_piped(tmp_path, c
     assert main(["simulate", str(scenario), "--out", str(tmp_path / "rec")]) == 0
     captured = capsys.readouterr()
     assert captured.out.startswith("wrote ") and captured.err == ""
+
+
+def test_convert_and_train_draw_their_stages_on_a_terminal(tmp_path, monkeypatch, capsys):
+    """The long commands of issue #29 besides the evaluations: a bar on a terminal's stderr, the result on stdout."""
+    from tests.conftest import REPO_ROOT
+
+    log = REPO_ROOT / "mobile_logs" / "sim" / "hand_escalator.zip"
+    assert main(["convert", str(log), "--to", "native", str(tmp_path / "piped")]) == 0
+    piped = capsys.readouterr()
+    assert piped.out.startswith("wrote ") and piped.err == ""
+    stream = Terminal()
+    monkeypatch.setattr(sys, "stderr", stream)
+    assert main(["convert", str(log), "--to", "native", str(tmp_path / "tty")]) == 0
+    drawn = stream.getvalue()
+    assert "convert [" in drawn and "reading hand_escalator.zip" in drawn and "2/2" in drawn
+    assert capsys.readouterr().out.startswith("wrote ")
+    stream.seek(0)
+    stream.truncate()
+    assert main(["train", "landmark", "--sim", "2", "--out", str(tmp_path / "lm")]) == 0
+    drawn = stream.getvalue()
+    assert "train landmark [" in drawn and "fitting on" in drawn and "3/3" in drawn
+    assert capsys.readouterr().out.startswith("wrote ")
