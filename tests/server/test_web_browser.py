@@ -28,7 +28,6 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pytest
 
 from pdr.frames import local_enu_to_geodetic
@@ -618,23 +617,13 @@ def test_the_page_is_usable_at_phone_width(browser: Any, live: LiveService) -> N
     assert not errors, errors
 
 
-def _static_npz(seconds: float = 60.0, rate_hz: float = 100.0) -> bytes:
-    """A static IMU record (gyro white noise plus a bias, acc gravity plus noise) as the NPZ ``pdr allan`` reads."""
-    rng = np.random.default_rng(3)
-    n = int(seconds * rate_hz)
-    gyro = np.radians(0.02) * rng.standard_normal((n, 3)) + 1e-3
-    acc = np.array([0.0, 0.0, 9.81]) + 0.003 * rng.standard_normal((n, 3))
-    buf = io.BytesIO()
-    np.savez(buf, data=np.c_[gyro, acc], columns=np.array(["Gyro X", "Gyro Y", "Gyro Z", "Accel X", "Accel Y",
-                                                           "Accel Z"]), fs=rate_hz)
-    return buf.getvalue()
-
-
 @pytest.mark.slow
 def test_an_allan_report_is_deleted_from_its_page(page: Any, live: LiveService) -> None:
     """A real report (uploaded, computed by the service) opened from the list and deleted with its button."""
+    from tests.server.test_models_reports import _static_npz
+
     alice = Client(live.url, live.tokens["alice"])
-    body, ctype = multipart({"file": (_static_npz(), "bench-static.npz")})
+    body, ctype = multipart({"file": (_static_npz(seconds=60.0), "bench-static.npz")})
     reply = alice.request("POST", "/api/v1/reports/allan", raw=body, content_type=ctype)
     assert reply.status == 202, reply.body
     rid = reply.json()["id"]
