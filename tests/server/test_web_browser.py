@@ -28,6 +28,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 from pdr.frames import local_enu_to_geodetic
@@ -691,3 +692,81 @@ def test_a_geo_referenced_session_is_drawn_on_a_real_map(page: Any, live: LiveSe
     page.goto(f"{live.url}/#/session/{live.compass_id}")
     page.wait_for_function("() => window.pdrPage.timings.complete !== undefined")
     assert page.is_hidden("#geo-wrap")
+
+
+@pytest.mark.slow
+@pytest.mark.data
+def test_the_pages_error_on_a_real_log_is_the_scorers(browser: Any, tmp_path_factory: pytest.TempPathFactory
+                                                       ) -> None:
+    """A real IPIN log uploaded to the service with its real processors: the mean error the page shows is the mean of
+    ``pdr.evaluation.scoring.landmark_errors`` (what ``pdr eval ipin`` reports percentiles of) on the track the page
+    draws, scored against the truth the page draws."""
+    from pdr.evaluation.scoring import landmark_errors
+    from tests.conftest import data_path
+
+    log = data_path("ipin2023_t3", "logfiles") / "IPIN2023_T3_TrainingTrial22_repetition01.txt"
+    service = LiveApp(tmp_path_factory.mktemp("web-real"), users=("alice",), processor_factory=None)
+    context = browser.new_context(viewport={"width": 1360, "height": 1000})
+    pg = context.new_page()
+    errors: list[str] = []
+    pg.on("pageerror", lambda exc: errors.append(str(exc)))
+    try:
+        alice = Client(service.url, service.tokens["alice"])
+        body, ctype = multipart({"file": (log.read_bytes(), log.name)})
+        reply = alice.request("POST", "/api/v1/sessions", raw=body, content_type=ctype)
+        assert reply.status == 201, reply.body
+        sid = reply.json()["id"]
+        assert service.app.extensions["pdr"].worker.wait_idle(timeout_s=300)
+        sign_in(pg, service)
+        pg.goto(f"{service.url}/#/session/{sid}")
+        pg.wait_for_function("() => window.pdrPage.timings.complete !== undefined")
+        heading = pg.evaluate("window.pdrPage.track.heading")
+        stats = pg.inner_text("[data-role=truth-stats]")
+        shot(pg, "19-real-ipin-truth")
+        points = alice.request("GET", f"/api/v1/sessions/{sid}/track?heading={heading}").json()["points"]
+        truth = alice.request("GET", f"/api/v1/sessions/{sid}/truth").json()["truth"]
+        alice.close()
+    finally:
+        context.close()
+        service.close()
+    assert not errors, errors
+    pts = sorted((p for s in truth for p in s.get("points", [])), key=lambda p: p["t_s"])
+    t = np.array([p["t_s"] for p in points])
+    en = np.array([[p["east_m"], p["north_m"]] for p in points])
+    tt = np.array([p["t_s"] for p in pts])
+    gt = np.array([[p["east_m"], p["north_m"]] for p in pts])
+    e = landmark_errors(t, en, tt, gt, "none")
+    print(f"\n{log.name}: page '{stats}'; scorer mean {e.mean():.2f} m over {e.size} points "
+          f"(track {t[0]:.1f}-{t[-1]:.1f} s, truth {tt[0]:.1f}-{tt[-1]:.1f} s, heading {heading})")
+    assert f"({e.size} later points)" in stats
+    assert f"mean: {e.mean():.2f} m" in stats
+
+
+def test_truth_beyond_the_tracks_ends_is_scored_as_the_scorer_does(page: Any, live: LiveService) -> None:
+    """Truth points before the first step and after the last one: the page takes the track's first and last
+    positions there (numpy's interp in ``landmark_errors``), so its mean error is still ``pdr eval``'s."""
+    from pdr.evaluation.scoring import landmark_errors
+
+    alice = Client(live.url, live.tokens["alice"])
+    rows = alice.request("GET", f"/api/v1/sessions/{live.compass_id}/track?heading=smoothed").json()["points"]
+    alice.close()
+    t = np.array([r["t_s"] for r in rows])
+    en = np.array([[r["east_m"], r["north_m"]] for r in rows])
+    tt = np.arange(t[0] - 10.0, t[-1] + 30.0, 20.0)   # from 10 s before the first step to past the last
+    gt = np.column_stack([3.0 + 0.5 * tt, 2.0 - 0.2 * tt])
+    answer = {"session": live.compass_id, "count": len(tt), "truth": [{
+        "batch_id": "seed", "device": "phone", "kind": "landmark", "frame": "enu", "t0_ns": 0, "origin": None,
+        "error": None, "points": [{"t_s": float(a), "east_m": float(e), "north_m": float(n), "up_m": 0.0, "floor": 0.0}
+                                  for a, (e, n) in zip(tt, gt, strict=True)]}]}
+    page.route(f"**/api/v1/sessions/{live.compass_id}/truth",
+               lambda route: route.fulfill(status=200, content_type="application/json", body=json.dumps(answer)))
+    sign_in(page, live)
+    page.goto(f"{live.url}/#/session/{live.compass_id}")
+    page.wait_for_function("() => window.pdrPage.timings.complete !== undefined && "
+                           "window.pdrPage.track.heading === 'smoothed'")
+    stats = page.inner_text("[data-role=truth-stats]")
+    e = landmark_errors(t, en, tt, gt, "none")
+    assert tt[0] < t[0] and tt[-1] > t[-1]
+    assert f"({e.size} later points)" in stats and f"mean: {e.mean():.2f} m" in stats, (stats, e.mean())
+    assert "starts at the first truth point (-10 s)" in stats
+    shot(page, "20-truth-beyond-the-track")

@@ -310,6 +310,15 @@
   /** Linear interpolation of a device's track (rows sorted by t_s) at time t; null outside its span. */
   function positionAt(rows, t) {
     if (!rows.length || t < rows[0].t_s || t > rows[rows.length - 1].t_s) return null;
+    return positionNear(rows, t);
+  }
+
+  /** The track's position at time ``t`` as the scorers interpolate it (numpy's interp): linear between rows, the
+   * first row's position before the track starts and the last row's after it ends; null without rows. */
+  function positionNear(rows, t) {
+    if (!rows.length) return null;
+    if (t <= rows[0].t_s) return [rows[0].east_m, rows[0].north_m];
+    if (t >= rows[rows.length - 1].t_s) return [rows[rows.length - 1].east_m, rows[rows.length - 1].north_m];
     let lo = 0, hi = rows.length - 1;
     while (hi - lo > 1) {
       const mid = (lo + hi) >> 1;
@@ -706,19 +715,19 @@
    * The tracks as the scorers of ``pdr eval`` compare them with the truth (pdr.evaluation.scoring): rows
    * before the first truth point dropped, the rest translated so that the primary track's position at that
    * time is the first truth point; in a ``map`` frame (a floor plan, not north-aligned) also rotated about
-   * it by the least-squares angle over all truth points (``waypoint_errors``). Returns null when the first
-   * truth point falls outside the primary track's time span (nothing to align on).
+   * it by the least-squares angle over all truth points (``waypoint_errors``). Positions at truth times outside
+   * the track's span are its first or last position, as numpy's interp gives the scorers. Null without a track.
    */
   function alignToTruth(primary, truth) {
     const rows = current.byDevice.get(primary) || [];
     const first = truth[0];
-    const est0 = first ? positionAt(rows, first.t_s) : null;
+    const est0 = first ? positionNear(rows, first.t_s) : null;
     if (!est0) return null;
     let angle = 0;
     if (first.frame === "map") {
       let cross = 0, dot = 0;
       for (const p of truth) {
-        const est = positionAt(rows, p.t_s);
+        const est = positionNear(rows, p.t_s);
         if (!est) continue;
         const rx = est[0] - est0[0], ry = est[1] - est0[1], gx = p.east_m - first.east_m, gy = p.north_m - first.north_m;
         cross += rx * gy - ry * gx;
@@ -734,7 +743,7 @@
     const out = new Map();
     for (const [device, list] of current.byDevice) {
       const kept = [];
-      const at = positionAt(list, first.t_s);
+      const at = positionNear(list, first.t_s);
       if (at) kept.push(move(Object.assign({}, list[0], { t_s: first.t_s, east_m: at[0], north_m: at[1] })));
       for (const r of list) if (r.t_s > first.t_s) kept.push(move(r));
       if (kept.length) out.set(device, kept);
@@ -764,7 +773,7 @@
     const errorT = [], errorM = [];
     // As the scorers: the first truth point is where the track starts, so the errors are those of points 2..K.
     for (const p of aligned ? truth.slice(1) : []) {
-      const est = positionAt(primaryRows, p.t_s);
+      const est = positionNear(primaryRows, p.t_s);
       if (!est) continue;
       errorT.push(p.t_s);
       errorM.push(Math.hypot(est[0] - p.east_m, est[1] - p.north_m));
