@@ -357,6 +357,7 @@ def test_a_session_is_deleted_from_its_page(page: Any, live: LiveService) -> Non
     page.wait_for_selector(f"#sessions-table tr[data-session='{sid}']", state="detached")
     assert page.inner_text("#message") == "Session \"to-delete\" deleted."
     assert page.locator("#sessions-table tbody tr").count() > 0
+    shot(page, "21-session-deleted")
     assert alice.request("GET", f"/api/v1/sessions/{sid}").status == 404
     alice.close()
 
@@ -555,6 +556,7 @@ def test_every_chart_is_on_the_sessions_time_axis(page: Any, live: LiveService) 
     page.wait_for_selector("#error-plot polyline")
     steps = _tick_labels(page, "#steps-plot")
     assert steps and _tick_labels(page, "#error-plot") == steps == _tick_labels(page, "#heading-plot")
+    shot(page, "22-charts-on-the-session-time-axis")
 
 
 def test_models_page_shows_model_cards(page: Any, live: LiveService) -> None:
@@ -688,6 +690,16 @@ def test_a_geo_referenced_session_is_drawn_on_a_real_map(page: Any, live: LiveSe
     csp = page.evaluate("fetch('/').then(r => r.headers.get('content-security-policy'))")
     assert "img-src 'self' blob: data: https://tiles.test;" in csp
     shot(page, "18-geo-session")
+    # At phone width the map fits the screen, and the track is fitted into the narrower map again.
+    page.set_viewport_size({"width": 390, "height": 844})
+    page.wait_for_function("""() => {
+        const m = document.querySelector('#geomap').getBoundingClientRect();
+        const l = document.querySelector('#geomap path.leaflet-interactive').getBoundingClientRect();
+        return m.width <= 390 && l.left >= m.left && l.right <= m.right + 1; }""")
+    assert page.evaluate("document.documentElement.scrollWidth") <= 390
+    box = page.locator("#geomap").bounding_box()
+    assert box is not None and box["x"] >= 0 and box["x"] + box["width"] <= 390
+    shot(page, "18b-geo-session-phone")
     # A session in local metres: the metric map only.
     page.goto(f"{live.url}/#/session/{live.compass_id}")
     page.wait_for_function("() => window.pdrPage.timings.complete !== undefined")

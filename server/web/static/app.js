@@ -449,7 +449,15 @@
       L.circleMarker([c[c.length - 1][1], c[c.length - 1][0]], { radius: 6, color: "#b42318", fillOpacity: 1,
         className: "geo-end" }).bindTooltip(`end (${f.properties.device})`).addTo(geoMap);
     }
-    if (lines.length) geoMap.fitBounds(layer.getBounds(), { padding: [24, 24], maxZoom: 21 });
+    if (lines.length) {
+      // Fitted now, and again when the map's box changes size (a phone turned, a window resized) until the user
+      // moves the map themselves.
+      const fit = () => geoMap.fitBounds(layer.getBounds(), { padding: [24, 24], maxZoom: 21 });
+      let moved = false;
+      geoMap.on("dragstart", () => { moved = true; });
+      geoMap.on("resize", () => { if (!moved) fit(); });
+      fit();
+    }
     const first = lines.length ? lines[0].geometry.coordinates[0] : null;
     page.geo = { start: first ? [first[1], first[0]] : null, features: geo.features.length };
     const el = $("geomap");
