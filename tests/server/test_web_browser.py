@@ -781,4 +781,4 @@ def test_truth_beyond_the_tracks_ends_is_scored_as_the_scorer_does(page: Any, li
     assert tt[0] < t[0] and tt[-1] > t[-1]
     assert f"({e.size} later points)" in stats and f"mean: {e.mean():.2f} m" in stats, (stats, e.mean())
     assert "starts at the first truth point (-10 s)" in stats
-    shot(page, "20-truth-beyond-the-track")
+    shot(page, "23-truth-beyond-the-track")
