@@ -3,7 +3,8 @@
 The timeline is the one the service builds for a phone the shipped mode model does not take (hand-held,
 torso): the phone pipeline (:class:`pdr.phone.pipeline.PdrPipeline`, placement from the log's metadata) gives
 per-step modes, :class:`classifiers.timeline.StepModes` turns them into entries (a stairs entry needs a flight),
-:class:`classifiers.timeline.StopTimeline` adds the stops and elevator rides. Each step takes the label of the
+:class:`classifiers.timeline.StopTimeline` adds the stops and the elevator and escalator rides, placed among the
+steps as the service places them. Each step takes the label of the
 latest entry opened at or before its start (a stop or ride covers only its own interval).
 
 A *floor leg* is the interval between two consecutive landmarks on different floors. It is a stairs leg when
@@ -103,8 +104,14 @@ def step_timeline(rec: Recording, site: Site | None = None) -> StepTimeline:
     modes = StepModes()
     steps: list[dict[str, Any]] = [dict(e) for e in events if e.get("type") == "step"]
     opened: list[tuple[float, str]] = []
-    for e in steps:
-        opened += modes.step(str(e.get("mode") or ""), float(e.get("t_start_s", e["t_s"])))
+    pending = sorted(entries, key=lambda m: m.t_start_s)
+    for e in steps:  # as server.phone_processor.convert_events: an entry placed before the step after it
+        t_start = float(e.get("t_start_s", e["t_s"]))
+        while pending and pending[0].t_start_s <= t_start:
+            en = pending.pop(0)
+            opened.append((en.t_start_s, en.label))
+            modes.entry(en.label, en.t_end_s)
+        opened += modes.step(str(e.get("mode") or ""), t_start)
     opened.sort()
     t0 = np.array([float(e.get("t_start_s", e["t_s"])) for e in steps])
     t1 = np.array([float(e["t_s"]) for e in steps])

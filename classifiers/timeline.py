@@ -5,21 +5,29 @@
 turns what it reports into timeline entries (:class:`ModeEntry`):
 
 * a stop during which the pipeline reports a floor change (``floor_change`` event between the stop's start and
-  ``FLOOR_LAG_S`` after its end: the barometric floor decision lags the pressure) is an elevator ride,
-  ``elevator_up`` or ``elevator_down``, with its floor change (``from_floor``, ``floor``, ``floors``; the floors
+  ``FLOOR_LAG_S`` after its end: the barometric floor decision lags the pressure) is a ride,
+  ``elevator_up/down`` or, when its altitude profile is an escalator's (:mod:`classifiers.rides`, from the
+  batches' barometer), ``escalator_up/down``, with its floor change (``from_floor``, ``floor``, ``floors``; the floors
   are the pipeline's, counted with its floor height unless a site gives the floors' altitudes) and the altitude
   change between the steps before and after it (``altitude_change_m``): a person
-  who takes no step and holds the phone still while the altitude changes by a floor rides a cabin;
+  who takes no step and holds the phone still while the altitude changes by a floor rides a cabin or a belt;
+  ``vertical_speed_mps`` and ``tail_s`` are the ride's profile;
 * any other stop is ``standing``;
 * an ``elevator`` event of the pipeline (vertical-acceleration impulse pair) is an ``elevator_up/down`` entry
-  with its altitude change.
+  with its altitude change, unless more than ``MAX_RIDE_STEPS`` steps start between its impulses: a rider stands
+  in the cabin (a shuffle or a turn may make a step or two), so a walk between two impulse-like jolts (a flight of
+  stairs between landings) is no ride.
 
 The state (:meth:`StopTimeline.state`) is JSON-able, for the session processor's stored state.
 
 :class:`StepModes` turns the pipeline's per-step modes into timeline entries: an entry where the mode changes,
 except that a stairs entry needs ``MIN_FLIGHT_STEPS`` consecutive stairs steps of one direction (a flight of
 stairs has at least three risers; one or two steps labelled stairs are the barometer settling after an elevator
-ride or a door's pressure change, and stay in the walking entry).
+ride or a door's pressure change, and stay in the walking entry), and that stairs steps starting less than
+``RIDE_REACH_S`` after a ride's end are not stairs: the pipeline labels a step stairs from the barometric
+vertical rate over the ``STEP_RATE_WINDOW_S`` before the step's end, of an altitude low-passed with a
+``ALTITUDE_SMOOTH_S`` time constant (:mod:`pdr.phone.landmarks`, :mod:`pdr.phone.floors`), so the first steps
+off an elevator or escalator still read the ride's climb.
 """
 
 from __future__ import annotations
@@ -29,6 +37,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from classifiers.rides import AltitudeRecord, ride_kind
 from classifiers.stops import STOP_LABEL, Stop, StopDetector
 from pdr.errors import InputError
 from pdr.recording import Recording
@@ -39,10 +48,22 @@ FLOOR_LAG_S = 3.0
 KEEP_STEPS = 64
 #: Floor changes kept in the state to label stops reported later (a stop is reported after its closing step).
 KEEP_FLOOR_CHANGES = 16
+#: Most steps between the impulses of a pipeline elevator event that is still a ride.
+MAX_RIDE_STEPS = 2
+#: Step start times kept to count the steps inside an elevator event (its longest ride at 3 steps/s).
+KEEP_STEP_STARTS = 192
 
 #: Fewest consecutive stairs steps (one direction) that open a stairs entry.
 MIN_FLIGHT_STEPS = 3
 STAIRS_MODES = ("stairs_up", "stairs_down")
+#: Window (s) before a step's end over which the pipeline takes its barometric vertical rate (pdr.phone.landmarks).
+STEP_RATE_WINDOW_S = 2.0
+#: Time constant (s) of the pipeline's altitude low-pass (pdr.phone.floors.FloorConfig.smooth_s).
+ALTITUDE_SMOOTH_S = 1.0
+#: Seconds after a ride's end within which a step's stairs label is the ride's climb (module docstring).
+RIDE_REACH_S = STEP_RATE_WINDOW_S + ALTITUDE_SMOOTH_S
+#: Labels of rides (entries the stairs rule looks back to).
+RIDE_PREFIXES = ("elevator_", "escalator_")
 
 STATE_VERSION = 1
 
@@ -62,12 +83,15 @@ class StopTimeline:
 
     def __init__(self) -> None:
         self.detector = StopDetector()
+        self.altitude = AltitudeRecord()
+        self.step_starts: list[float] = []  # start times (s) of recent steps
         self.floor_changes: list[tuple[float, float, float]] = []  # (t_s, from_floor, floor)
         self.step_up: list[tuple[float, float, float]] = []  # recent steps: (t_start_s, t_s, up_m)
 
     def update(self, batch: Recording, events: Sequence[dict[str, Any]]) -> list[ModeEntry]:
         """Entries that became final with this batch and the pipeline's events for it (time order)."""
         busy, rides = self._read(events)
+        self.altitude.update(batch)
         return rides + self._entries(self.detector.update(batch, busy))
 
     def finish(self, events: Sequence[dict[str, Any]] = ()) -> list[ModeEntry]:
@@ -83,6 +107,7 @@ class StopTimeline:
     def _read(self, events: Sequence[dict[str, Any]]) -> tuple[list[tuple[float, float]], list[ModeEntry]]:
         busy: list[tuple[float, float]] = []
         rides: list[ModeEntry] = []
+        self.step_starts += [float(e.get("t_start_s", e["t_s"])) for e in events if e.get("type") == "step"]
         for e in events:
             kind = e.get("type")
             if kind == "step":
@@ -94,6 +119,8 @@ class StopTimeline:
                                            float(e["floor"])))
             elif kind == "elevator":
                 a, b = float(e["t_start_s"]), float(e["t_end_s"])
+                if sum(1 for t in self.step_starts if a < t < b) > MAX_RIDE_STEPS:
+                    continue
                 busy.append((a, b))
                 data = {"altitude_change_m": e.get("altitude_change_m"), "source": "impulses"}
                 if e.get("floors") is not None:
@@ -101,6 +128,7 @@ class StopTimeline:
                 rides.append(ModeEntry(a, b, f"elevator_{e.get('direction', 'up')}", data))
         self.floor_changes = self.floor_changes[-KEEP_FLOOR_CHANGES:]
         self.step_up = self.step_up[-KEEP_STEPS:]
+        self.step_starts = self.step_starts[-KEEP_STEP_STARTS:]
         return busy, rides
 
     def _altitude_change(self, s: Stop) -> float | None:
@@ -117,9 +145,14 @@ class StopTimeline:
                 start, end = inside[0][1], inside[-1][2]
                 change = end - start
                 if math.isfinite(change) and change != 0:
-                    out.append(ModeEntry(s.t_start_s, s.t_end_s, "elevator_up" if change > 0 else "elevator_down",
+                    profile = self.altitude.profile(s.t_start_s, s.t_end_s)
+                    kind = ride_kind(profile)
+                    out.append(ModeEntry(s.t_start_s, s.t_end_s, f"{kind}_up" if change > 0 else f"{kind}_down",
                                          {"from_floor": start, "floor": end, "floors": abs(change),
                                           "altitude_change_m": self._altitude_change(s),
+                                          "vertical_speed_mps": None if profile is None
+                                          else profile.vertical_speed_mps,
+                                          "tail_s": None if profile is None else profile.tail_s,
                                           "source": "stop with a floor change"}))
                     continue
             out.append(ModeEntry(s.t_start_s, s.t_end_s, STOP_LABEL, {"duration_s": s.duration_s}))
@@ -127,7 +160,8 @@ class StopTimeline:
 
     def state(self) -> dict[str, Any]:
         return {"version": STATE_VERSION, "detector": self.detector.state(),
-                "floor_changes": [list(f) for f in self.floor_changes], "step_up": [list(u) for u in self.step_up]}
+                "floor_changes": [list(f) for f in self.floor_changes], "step_up": [list(u) for u in self.step_up],
+                "altitude": self.altitude.state(), "step_starts": list(self.step_starts)}
 
     @classmethod
     def from_state(cls, state: dict[str, Any]) -> StopTimeline:
@@ -139,6 +173,9 @@ class StopTimeline:
             tl.detector = StopDetector.from_state(state["detector"])
             tl.floor_changes = [(float(a), float(b), float(c)) for a, b, c in state["floor_changes"]]
             tl.step_up = [(float(a), float(b), float(c)) for a, b, c in state.get("step_up", [])]
+            tl.step_starts = [float(t) for t in state.get("step_starts", [])]
+            if state.get("altitude") is not None:  # states saved before the record existed start one
+                tl.altitude = AltitudeRecord.from_state(state["altitude"])
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"not a stop timeline state ({exc})", field="state") from None
         return tl
@@ -150,9 +187,12 @@ class StepModes:
     def __init__(self, last: str = "") -> None:
         self.last = last
         self.pending: tuple[str, float, int] | None = None  # stairs run not yet long enough: label, start, steps
+        self.ride_end_s = -math.inf  # end (s) of the latest ride entry
 
     def step(self, mode: str, t_start_s: float) -> list[tuple[float, str]]:
         """A step of ``mode`` starting at ``t_start_s`` (s); returns the entries ``(t_s, label)`` it opens."""
+        if mode in STAIRS_MODES and t_start_s < self.ride_end_s + RIDE_REACH_S:
+            mode = "walking"  # the ride's climb in the step's barometric rate window
         if not mode or mode == self.last:
             self.pending = None
             return []
@@ -168,12 +208,15 @@ class StepModes:
         self.last = mode
         return [(t_start_s, mode)]
 
-    def entry(self, label: str) -> None:
-        """Another entry (a stop, an elevator ride) now holds the timeline."""
+    def entry(self, label: str, t_end_s: float | None = None) -> None:
+        """Another entry (a stop, a ride) ending at ``t_end_s`` (s) now holds the timeline."""
         self.last, self.pending = label, None
+        if t_end_s is not None and label.startswith(RIDE_PREFIXES):
+            self.ride_end_s = max(self.ride_end_s, float(t_end_s))
 
     def state(self) -> dict[str, Any]:
-        return {"last": self.last, "pending": None if self.pending is None else list(self.pending)}
+        return {"last": self.last, "pending": None if self.pending is None else list(self.pending),
+                "ride_end_s": None if math.isinf(self.ride_end_s) else self.ride_end_s}
 
     @classmethod
     def from_state(cls, state: dict[str, Any]) -> StepModes:
@@ -181,6 +224,8 @@ class StepModes:
             m = cls(str(state["last"]))
             p = state.get("pending")
             m.pending = None if p is None else (str(p[0]), float(p[1]), int(p[2]))
+            r = state.get("ride_end_s")
+            m.ride_end_s = -math.inf if r is None else float(r)
         except (KeyError, TypeError, ValueError, IndexError) as exc:
             raise InputError(f"not a step-modes state ({exc})", field="state") from None
         return m

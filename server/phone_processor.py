@@ -163,4 +163,4 @@ def _scalars(e: ElevatorEvent | LandmarkEvent) -> dict[str, str | int | float]:
 def _stop_row(out: ProcessorOutput, m: ModeEntry, modes: StepModes) -> None:
     """Append the ``mode`` event of a stop or elevator entry, which then holds the timeline."""
     out.events.append(EventRow("mode", m.t_start_s, t_end_s=m.t_end_s, label=m.label, data=dict(m.data)))
-    modes.entry(m.label)
+    modes.entry(m.label, m.t_end_s)
