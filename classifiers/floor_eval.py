@@ -111,7 +111,7 @@ def step_timeline(rec: Recording, site: Site | None = None) -> StepTimeline:
             en = pending.pop(0)
             opened.append((en.t_start_s, en.label))
             modes.entry(en.label, en.t_end_s)
-        opened += modes.step(str(e.get("mode") or ""), t_start)
+        opened += modes.step(str(e.get("mode") or ""), t_start, float(e["t_s"]))
     opened.sort()
     t0 = np.array([float(e.get("t_start_s", e["t_s"])) for e in steps])
     t1 = np.array([float(e["t_s"]) for e in steps])

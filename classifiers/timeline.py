@@ -27,7 +27,10 @@ ride or a door's pressure change, and stay in the walking entry), and that stair
 ``RIDE_REACH_S`` after a ride's end are not stairs: the pipeline labels a step stairs from the barometric
 vertical rate over the ``STEP_RATE_WINDOW_S`` before the step's end, of an altitude low-passed with a
 ``ALTITUDE_SMOOTH_S`` time constant (:mod:`pdr.phone.landmarks`, :mod:`pdr.phone.floors`), so the first steps
-off an elevator or escalator still read the ride's climb.
+off an elevator or escalator still read the ride's climb. For the same reason an entry into or out of stairs is
+placed ``RATE_DELAY_S`` before the end of the step that shows it (the delay of that rate: half its window plus the
+low-pass time constant), but not before the latest entry: a flight's first steps, and the level steps after
+its last, show the stairs label late.
 """
 
 from __future__ import annotations
@@ -62,6 +65,8 @@ STEP_RATE_WINDOW_S = 2.0
 ALTITUDE_SMOOTH_S = 1.0
 #: Seconds after a ride's end within which a step's stairs label is the ride's climb (module docstring).
 RIDE_REACH_S = STEP_RATE_WINDOW_S + ALTITUDE_SMOOTH_S
+#: Delay (s) of the step's barometric rate behind the step's end: half its window plus the low-pass lag.
+RATE_DELAY_S = 0.5 * STEP_RATE_WINDOW_S + ALTITUDE_SMOOTH_S
 #: Labels of rides (entries the stairs rule looks back to).
 RIDE_PREFIXES = ("elevator_", "escalator_")
 
@@ -188,35 +193,46 @@ class StepModes:
         self.last = last
         self.pending: tuple[str, float, int] | None = None  # stairs run not yet long enough: label, start, steps
         self.ride_end_s = -math.inf  # end (s) of the latest ride entry
+        self.last_t_s = -math.inf    # time (s) of the latest entry
 
-    def step(self, mode: str, t_start_s: float) -> list[tuple[float, str]]:
-        """A step of ``mode`` starting at ``t_start_s`` (s); returns the entries ``(t_s, label)`` it opens."""
+    def step(self, mode: str, t_start_s: float, t_end_s: float | None = None) -> list[tuple[float, str]]:
+        """A step of ``mode`` on ``[t_start_s, t_end_s]`` (s); returns the entries ``(t_s, label)`` it opens.
+        Without ``t_end_s`` an entry into or out of stairs is placed at the step's start (no rate delay).
+        """
         if mode in STAIRS_MODES and t_start_s < self.ride_end_s + RIDE_REACH_S:
             mode = "walking"  # the ride's climb in the step's barometric rate window
         if not mode or mode == self.last:
             self.pending = None
             return []
+        t = t_start_s
+        if t_end_s is not None and (mode in STAIRS_MODES or self.last in STAIRS_MODES):
+            t = min(t_start_s, max(t_end_s - RATE_DELAY_S, self.last_t_s, self.ride_end_s))
         if mode in STAIRS_MODES:
-            label, t0, n = self.pending if self.pending and self.pending[0] == mode else (mode, t_start_s, 0)
+            label, t0, n = self.pending if self.pending and self.pending[0] == mode else (mode, t, 0)
             if n + 1 < MIN_FLIGHT_STEPS:
                 self.pending = (label, t0, n + 1)
                 return []
             self.pending = None
-            self.last = mode
-            return [(t0, mode)]
+            return self._open(t0, mode)
         self.pending = None
-        self.last = mode
-        return [(t_start_s, mode)]
+        return self._open(t, mode)
+
+    def _open(self, t_s: float, mode: str) -> list[tuple[float, str]]:
+        self.last, self.last_t_s = mode, max(self.last_t_s, t_s)
+        return [(t_s, mode)]
 
     def entry(self, label: str, t_end_s: float | None = None) -> None:
         """Another entry (a stop, a ride) ending at ``t_end_s`` (s) now holds the timeline."""
         self.last, self.pending = label, None
+        if t_end_s is not None:
+            self.last_t_s = max(self.last_t_s, float(t_end_s))
         if t_end_s is not None and label.startswith(RIDE_PREFIXES):
             self.ride_end_s = max(self.ride_end_s, float(t_end_s))
 
     def state(self) -> dict[str, Any]:
         return {"last": self.last, "pending": None if self.pending is None else list(self.pending),
-                "ride_end_s": None if math.isinf(self.ride_end_s) else self.ride_end_s}
+                "ride_end_s": None if math.isinf(self.ride_end_s) else self.ride_end_s,
+                "last_t_s": None if math.isinf(self.last_t_s) else self.last_t_s}
 
     @classmethod
     def from_state(cls, state: dict[str, Any]) -> StepModes:
@@ -226,6 +242,8 @@ class StepModes:
             m.pending = None if p is None else (str(p[0]), float(p[1]), int(p[2]))
             r = state.get("ride_end_s")
             m.ride_end_s = -math.inf if r is None else float(r)
+            lt = state.get("last_t_s")
+            m.last_t_s = -math.inf if lt is None else float(lt)
         except (KeyError, TypeError, ValueError, IndexError) as exc:
             raise InputError(f"not a step-modes state ({exc})", field="state") from None
         return m

@@ -137,7 +137,7 @@ def convert_events(events: Sequence[PipelineEvent], modes: StepModes | None = No
             while pending and pending[0].t_start_s <= e.t_start_s:
                 _stop_row(out, pending.pop(0), modes)
             out.track.append(e)
-            for t, label in modes.step(e.mode, e.t_start_s):
+            for t, label in modes.step(e.mode, e.t_start_s, e.t_s):
                 if step_modes:
                     out.events.append(EventRow("mode", t, label=label))
         elif isinstance(e, ElevatorEvent):

@@ -16,7 +16,7 @@ from classifiers.rides import (
     RideProfile,
     ride_kind,
 )
-from classifiers.timeline import RIDE_REACH_S, StepModes, StopTimeline
+from classifiers.timeline import RATE_DELAY_S, RIDE_REACH_S, StepModes, StopTimeline
 from pdr.errors import InputError
 from pdr.frames import altitude_to_pressure_hpa
 from pdr.recording import Recording, SensorStream
@@ -129,3 +129,20 @@ def test_simulated_rides_are_named_by_their_carrier(name, label):
     assert rides[0].data["floors"] == 1
     assert rides[0].t_start_s < truth[0][1] and rides[0].t_end_s > truth[0][0]
     assert not np.isin(tl.step_label, ["stairs_up", "stairs_down"]).any()  # the truth has no stairs
+
+
+def test_stairs_entries_are_placed_back_by_the_rate_delay():
+    m = StepModes()
+    assert m.step("walking", 0.0, 0.5) == [(0.0, "walking")]
+    for t in (1.0, 1.5, 2.0, 2.5):
+        assert m.step("walking", t, t + 0.5) == []
+    out = [m.step("stairs_up", t, t + 0.5) for t in (3.0, 3.5, 4.0)]
+    # The flight opens RATE_DELAY_S before the end of its first stairs-labelled step, not at that step's start.
+    assert out[-1] == [(pytest.approx(3.5 - RATE_DELAY_S), "stairs_up")]
+    assert m.step("walking", 6.0, 6.5) == [(pytest.approx(6.5 - RATE_DELAY_S), "walking")]
+    # Never before the latest entry (here a stop ending at 12 s), nor without the step's end.
+    m.entry("standing", 12.0)
+    assert m.step("stairs_down", 12.2, 12.6) == [] and m.step("stairs_down", 12.6, 13.0) == []
+    assert m.step("stairs_down", 13.0, 13.4) == [(12.0, "stairs_down")]
+    m2 = StepModes("walking")
+    assert [m2.step("stairs_up", t) for t in (1.0, 1.5, 2.0)][-1] == [(1.0, "stairs_up")]

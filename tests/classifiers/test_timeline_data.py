@@ -40,3 +40,17 @@ def test_eval_classifier_timeline_cli(tmp_path, capsys):
     assert main(["eval", "classifier", "motion_mode", "--timeline", "--data", str(log), "--json"]) == 0
     fig = json.loads(capsys.readouterr().out)
     assert fig["walk_recordings"] == 1 and fig["walk_vehicle_windows"] == 0
+
+
+def test_eval_classifier_targets_cli(capsys):
+    sim = REPO_ROOT / "mobile_logs" / "sim"
+    logs = [str(sim / "pocket_office.zip"), str(sim / "hand_escalator.zip")]
+    assert main(["eval", "classifier", "motion_mode", "--targets", "--data", *logs, "--json"]) == 0
+    fig = json.loads(capsys.readouterr().out)
+    by_name = {r["target"]: r for r in fig["targets"]}
+    walks = by_name["walking recordings with a car_*/vehicle label"]
+    assert walks["value"] == "0 of 2" and walks["met"] is True
+    # No landmarks, no car trip, no floor legs in simulated logs: those targets say so instead of passing.
+    assert by_name["stops of 5 s or more (IPIN landmarks) appearing as standing"]["met"] is None
+    assert by_name["driving windows labelled vehicle"]["met"] is None
+    assert by_name["elevator rides reported with the right floor count"]["met"] is None
