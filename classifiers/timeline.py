@@ -43,6 +43,8 @@ from typing import Any
 from classifiers.rides import AltitudeRecord, ride_kind
 from classifiers.stops import STOP_LABEL, Stop, StopDetector
 from pdr.errors import InputError
+from pdr.phone.floors import FloorConfig
+from pdr.phone.landmarks import RATE_WINDOW_S
 from pdr.recording import Recording
 
 #: Seconds after a stop's end within which a floor change still belongs to it.
@@ -60,9 +62,9 @@ KEEP_STEP_STARTS = 192
 MIN_FLIGHT_STEPS = 3
 STAIRS_MODES = ("stairs_up", "stairs_down")
 #: Window (s) before a step's end over which the pipeline takes its barometric vertical rate (pdr.phone.landmarks).
-STEP_RATE_WINDOW_S = 2.0
-#: Time constant (s) of the pipeline's altitude low-pass (pdr.phone.floors.FloorConfig.smooth_s).
-ALTITUDE_SMOOTH_S = 1.0
+STEP_RATE_WINDOW_S = RATE_WINDOW_S
+#: Time constant (s) of the pipeline's altitude low-pass (pdr.phone.floors.FloorConfig.smooth_s, its default).
+ALTITUDE_SMOOTH_S = FloorConfig().smooth_s
 #: Seconds after a ride's end within which a step's stairs label is the ride's climb (module docstring).
 RIDE_REACH_S = STEP_RATE_WINDOW_S + ALTITUDE_SMOOTH_S
 #: Delay (s) of the step's barometric rate behind the step's end: half its window plus the low-pass lag.

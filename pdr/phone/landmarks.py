@@ -54,6 +54,10 @@ MODES: tuple[str, ...] = ("walking", "stairs_up", "stairs_down", "elevator", "es
 LANDMARK_TYPES: tuple[str, ...] = ("stairs_up", "stairs_down", "stairs", "elevator", "escalator")
 
 
+#: Window (s) before a step's end over which its barometric vertical rate is taken.
+RATE_WINDOW_S = 2.0
+
+
 @dataclass(frozen=True)
 class LandmarkConfig:
     """Thresholds of the decision tree.
@@ -129,7 +133,7 @@ class StepModeLabeller:
         sl = h.sl(s, e)
         rate = None
         if has_baro:
-            back = h.sl(s - int(2.0 * self.rate_hz), e)
+            back = h.sl(s - int(RATE_WINDOW_S * self.rate_hz), e)
             tt, uu = h.t[back], h.up[back]
             if tt.size > 2 and tt[-1] > tt[0]:
                 rate = float((uu[-1] - uu[0]) / (tt[-1] - tt[0]))
