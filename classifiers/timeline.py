@@ -14,9 +14,7 @@ turns what it reports into timeline entries (:class:`ModeEntry`):
   ``vertical_speed_mps`` and ``tail_s`` are the ride's profile;
 * any other stop is ``standing``;
 * an ``elevator`` event of the pipeline (vertical-acceleration impulse pair) is an ``elevator_up/down`` entry
-  with its altitude change, unless more than ``MAX_RIDE_STEPS`` steps start between its impulses: a rider stands
-  in the cabin (a shuffle or a turn may make a step or two), so a walk between two impulse-like jolts (a flight of
-  stairs between landings) is no ride.
+  with its altitude change (the pipeline's detector drops a pair of impulses with a walk between them).
 
 The state (:meth:`StopTimeline.state`) is JSON-able, for the session processor's stored state.
 
@@ -53,10 +51,6 @@ FLOOR_LAG_S = 3.0
 KEEP_STEPS = 64
 #: Floor changes kept in the state to label stops reported later (a stop is reported after its closing step).
 KEEP_FLOOR_CHANGES = 16
-#: Most steps between the impulses of a pipeline elevator event that is still a ride.
-MAX_RIDE_STEPS = 2
-#: Step start times kept to count the steps inside an elevator event (its longest ride at 3 steps/s).
-KEEP_STEP_STARTS = 192
 
 #: Fewest consecutive stairs steps (one direction) that open a stairs entry.
 MIN_FLIGHT_STEPS = 3
@@ -91,7 +85,6 @@ class StopTimeline:
     def __init__(self) -> None:
         self.detector = StopDetector()
         self.altitude = AltitudeRecord()
-        self.step_starts: list[float] = []  # start times (s) of recent steps
         self.floor_changes: list[tuple[float, float, float]] = []  # (t_s, from_floor, floor)
         self.step_up: list[tuple[float, float, float]] = []  # recent steps: (t_start_s, t_s, up_m)
 
@@ -114,7 +107,6 @@ class StopTimeline:
     def _read(self, events: Sequence[dict[str, Any]]) -> tuple[list[tuple[float, float]], list[ModeEntry]]:
         busy: list[tuple[float, float]] = []
         rides: list[ModeEntry] = []
-        self.step_starts += [float(e.get("t_start_s", e["t_s"])) for e in events if e.get("type") == "step"]
         for e in events:
             kind = e.get("type")
             if kind == "step":
@@ -126,8 +118,6 @@ class StopTimeline:
                                            float(e["floor"])))
             elif kind == "elevator":
                 a, b = float(e["t_start_s"]), float(e["t_end_s"])
-                if sum(1 for t in self.step_starts if a < t < b) > MAX_RIDE_STEPS:
-                    continue
                 busy.append((a, b))
                 data = {"altitude_change_m": e.get("altitude_change_m"), "source": "impulses"}
                 if e.get("floors") is not None:
@@ -135,7 +125,6 @@ class StopTimeline:
                 rides.append(ModeEntry(a, b, f"elevator_{e.get('direction', 'up')}", data))
         self.floor_changes = self.floor_changes[-KEEP_FLOOR_CHANGES:]
         self.step_up = self.step_up[-KEEP_STEPS:]
-        self.step_starts = self.step_starts[-KEEP_STEP_STARTS:]
         return busy, rides
 
     def _altitude_change(self, s: Stop) -> float | None:
@@ -168,7 +157,7 @@ class StopTimeline:
     def state(self) -> dict[str, Any]:
         return {"version": STATE_VERSION, "detector": self.detector.state(),
                 "floor_changes": [list(f) for f in self.floor_changes], "step_up": [list(u) for u in self.step_up],
-                "altitude": self.altitude.state(), "step_starts": list(self.step_starts)}
+                "altitude": self.altitude.state()}
 
     @classmethod
     def from_state(cls, state: dict[str, Any]) -> StopTimeline:
@@ -180,7 +169,6 @@ class StopTimeline:
             tl.detector = StopDetector.from_state(state["detector"])
             tl.floor_changes = [(float(a), float(b), float(c)) for a, b, c in state["floor_changes"]]
             tl.step_up = [(float(a), float(b), float(c)) for a, b, c in state.get("step_up", [])]
-            tl.step_starts = [float(t) for t in state.get("step_starts", [])]
             if state.get("altitude") is not None:  # states saved before the record existed start one
                 tl.altitude = AltitudeRecord.from_state(state["altitude"])
         except (KeyError, TypeError, ValueError) as exc:

@@ -1,5 +1,4 @@
-"""Rides: elevator or escalator from the barometric altitude profile; the stairs rule after a ride; impulse
-elevator events with a walk inside them."""
+"""Rides: elevator or escalator from the barometric altitude profile; the stairs rule after a ride."""
 
 from __future__ import annotations
 
@@ -16,7 +15,7 @@ from classifiers.rides import (
     RideProfile,
     ride_kind,
 )
-from classifiers.timeline import RATE_DELAY_S, RIDE_REACH_S, StepModes, StopTimeline
+from classifiers.timeline import RATE_DELAY_S, RIDE_REACH_S, StepModes
 from pdr.errors import InputError
 from pdr.frames import altitude_to_pressure_hpa
 from pdr.recording import Recording, SensorStream
@@ -100,16 +99,6 @@ def test_stairs_steps_right_after_a_ride_read_its_climb():
     assert [m.step("stairs_up", 20.5 + 0.5 * i) for i in range(3)][-1] == [(20.5, "stairs_up")]
     s = StepModes.from_state(json.loads(json.dumps(StepModes("x").state())))
     assert s.last == "x" and s.ride_end_s == -np.inf
-
-
-def test_impulse_elevator_event_with_a_walk_inside_is_no_ride():
-    steps = [{"type": "step", "t_start_s": 5.0 + 0.5 * i, "t_s": 5.5 + 0.5 * i} for i in range(40)]
-    walk = [{"type": "elevator", "t_start_s": 4.0, "t_end_s": 26.0, "direction": "down", "altitude_change_m": -3.0}]
-    ride = [{"type": "elevator", "t_start_s": 30.0, "t_end_s": 40.0, "direction": "up", "altitude_change_m": 4.0}]
-    rec = Recording({"baro": SensorStream("baro", np.array([0, 10**9]), np.array([[1000.0], [1000.0]]))}, t0_ns=0)
-    tl = StopTimeline()
-    out = tl.update(rec, steps + walk + ride)
-    assert [e.label for e in out] == ["elevator_up"]
 
 
 @pytest.mark.slow
