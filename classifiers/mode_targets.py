@@ -2,8 +2,10 @@
 
 The figures come from :func:`classifiers.timeline_eval.timeline_figures` (stops, car/vehicle labels in walks,
 driving) and :func:`classifiers.floor_eval.floor_figures` (stairs legs, elevator rides, the elevator walk) on the
-same recordings; the module docstrings there define each one. The pocket classifier's targets (macro-F1 and
-stairs F1 on unseen subjects) come from ``pdr eval classifier motion_mode --cv``.
+same recordings, each recording's step-mode timeline computed once; the module docstrings there define each one.
+Below them, the per-class figures of that timeline per placement (:mod:`classifiers.timeline_scores`). The
+pocket classifier's targets (macro-F1 and stairs F1 on unseen subjects) come from
+``pdr eval classifier motion_mode --cv``.
 """
 
 from __future__ import annotations
@@ -11,9 +13,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from classifiers.floor_eval import floor_figures
+from classifiers.floor_eval import StepTimeline, floor_figures, step_timeline
 from classifiers.model import ContextModel
 from classifiers.timeline_eval import timeline_figures
+from classifiers.timeline_scores import print_scores, timeline_scores
 from pdr.phone.landmarks import Site
 from pdr.recording import Recording
 
@@ -29,8 +32,16 @@ def _row(name: str, value: Any, target: str, met: bool | None) -> dict[str, Any]
 
 def target_figures(model: ContextModel, recs: Sequence[Recording], site: Site | None = None) -> dict[str, Any]:
     """The timeline and floor figures and one row per target (``met`` None when the data has no case)."""
-    tl = timeline_figures(model, recs)
-    fl = floor_figures(recs, site)
+    cache: dict[int, StepTimeline] = {}
+
+    def timeline_of(rec: Recording) -> StepTimeline:
+        if id(rec) not in cache:
+            cache[id(rec)] = step_timeline(rec, site)
+        return cache[id(rec)]
+
+    tl = timeline_figures(model, recs, timeline_of)
+    fl = floor_figures(recs, site, timeline_of)
+    scores = timeline_scores(recs, site, timeline_of)
     standing = [s for s in tl["stops"] if s["kind"] == "standing"]
     rides = [s for s in tl["stops"] if s["kind"] != "standing"]
     n_st, f_st = len(standing), sum(1 for s in standing if s["found"])
@@ -58,7 +69,7 @@ def target_figures(model: ContextModel, recs: Sequence[Recording], site: Site | 
         _row("steps labelled stairs in elevator walks", fl["elevator_walk_stairs_steps"], "0",
              fl["elevator_walk_stairs_steps"] == 0 if fl["elevator_walks"] else None),
     ]
-    return {"targets": rows, "timeline": tl, "floors": fl}
+    return {"targets": rows, "timeline": tl, "floors": fl, "classes": scores}
 
 
 def print_targets(fig: dict[str, Any]) -> None:
@@ -69,3 +80,4 @@ def print_targets(fig: dict[str, Any]) -> None:
         state = "no data" if r["met"] is None else ("met" if r["met"] else "MISSED")
         print(f"{r['target']:64s} {shown:>22s}  target {r['wanted']:8s} {state}")
     print("(pocket classifier targets: pdr eval classifier motion_mode --data ... --cv)")
+    print_scores(fig["classes"])

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from classifiers.floor_eval import step_timeline
+from classifiers.floor_eval import TimelineOf, step_timeline
 from classifiers.model import ContextModel
 from classifiers.stops import Stop, step_intervals, stop_intervals
 from classifiers.transitions import TRANSITIONS
@@ -74,8 +74,9 @@ def _is_car_scene(rec: Recording) -> bool:
     return rec.truth.modes is not None and any(lab in TRANSITIONS for lab in rec.truth.modes.label)
 
 
-def timeline_figures(model: ContextModel, recs: Sequence[Recording]) -> dict[str, Any]:
-    """Per-recording figures and totals (module docstring)."""
+def timeline_figures(model: ContextModel, recs: Sequence[Recording],
+                     timeline_of: TimelineOf = step_timeline) -> dict[str, Any]:
+    """Per-recording figures and totals (module docstring); ``timeline_of``: the step-mode timeline of a recording."""
     walks: list[dict[str, Any]] = []
     driving: list[dict[str, Any]] = []
     stops_rows: list[dict[str, Any]] = []
@@ -85,7 +86,7 @@ def timeline_figures(model: ContextModel, recs: Sequence[Recording]) -> dict[str
             truth = truth_stops(rec)
             if truth:
                 found = stop_intervals(rec, step_intervals(rec))
-                entries = step_timeline(rec).entries
+                entries = timeline_of(rec).entries
                 for t0, t1, kind in truth:
                     cov = coverage([Stop(e.t_start_s, e.t_end_s) for e in entries if e.label == kind], t0, t1)
                     stops_rows.append({"recording": name, "t0_s": t0, "t1_s": t1, "kind": kind, "coverage": cov,

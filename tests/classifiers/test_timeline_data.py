@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from classifiers.artifacts import load_model
@@ -54,3 +55,24 @@ def test_eval_classifier_targets_cli(capsys):
     assert by_name["stops of 5 s or more (IPIN landmarks) appearing as standing"]["met"] is None
     assert by_name["driving windows labelled vehicle"]["met"] is None
     assert by_name["elevator rides reported with the right floor count"]["met"] is None
+
+
+def test_timeline_scores_of_a_hand_held_walk_with_a_stop():
+    from classifiers.timeline_scores import timeline_scores, truth_labels
+
+    rec = read_recording(data_path("ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial03_repetition01.txt"))
+    t = np.array([100.0, 130.0, 160.0])
+    assert list(truth_labels(rec, t)) == ["walking", "standing", "walking"]  # landmark 7 passed twice, 118-154 s
+    fig = timeline_scores([rec])
+    hand = fig["groups"]["hand"]
+    assert hand["per_class"]["standing"]["support"] == pytest.approx(154 - 118, abs=1.0)
+    assert hand["per_class"]["standing"]["recall"] > 0.7 and hand["per_class"]["walking"]["f1"] > 0.9
+
+
+def test_step_timeline_label_at():
+    from classifiers.floor_eval import StepTimeline
+
+    tl = StepTimeline(np.zeros(0), np.zeros(0), np.zeros(0, dtype=object), (),
+                      ((0.0, "walking"), (5.0, "standing"), (9.0, "walking")))
+    assert list(tl.label_at(np.array([-1.0, 0.0, 4.9, 5.0, 8.0, 20.0]))) == [
+        "", "walking", "walking", "standing", "standing", "walking"]
