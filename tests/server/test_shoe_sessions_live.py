@@ -14,19 +14,10 @@ import pytest
 from pdr.cli import main as pdr_main
 from server.client import Client, add_user, running_server
 from tests.conftest import data_path
-from tests.server.helpers import multipart
+from tests.server.helpers import multipart, wait_processed
 
 pytestmark = [pytest.mark.data, pytest.mark.timeout(600)]
 
-
-def _wait_done(c: Client, sid: str) -> dict:
-    deadline = time.monotonic() + 300
-    while True:
-        s = c.request("GET", f"/api/v1/sessions/{sid}").json()
-        if s["status"] in ("done", "failed") and not s["batches"].get("pending"):
-            return s
-        assert time.monotonic() < deadline, s
-        time.sleep(0.3)
 
 
 def test_shoes_paired_uploaded_and_summarised_through_the_real_service(tmp_path: Path) -> None:
@@ -41,7 +32,7 @@ def test_shoes_paired_uploaded_and_summarised_through_the_real_service(tmp_path:
         assert r.status == 201 and r.json()["device_role"] == "left_foot", r.body[:300]
 
         # Items 1 and 3: the silent right foot is not fused in; the left foot's track is the session's.
-        s = _wait_done(c, sid)
+        s = wait_processed(c, sid)
         assert s["status"] == "done" and s["feet"]["live"] == ["left_foot"] and "fused" not in s["tracks"]
         assert s["primary_track"] == "left_foot" and s["distance_m"] == s["tracks"]["left_foot"]["distance_m"]
         # Item 7: the client's key finds the session.
@@ -62,7 +53,7 @@ def test_shoes_paired_uploaded_and_summarised_through_the_real_service(tmp_path:
         assert c.request("POST", f"/api/v1/sessions/{other}/steps", steps).status == 409
         assert c.request("POST", f"/api/v1/sessions/{other}/devices", {"role": "right_foot"}).status == 201
         assert c.request("POST", f"/api/v1/sessions/{other}/steps", steps).status == 201
-        summarised = _wait_done(c, other)
+        summarised = wait_processed(c, other)
         assert summarised["primary_track"] == "right_foot" and summarised["steps"] == len(steps["steps"])
         # Summaries and the raw file give the same track (eq. 7 composition of the same increments).
         assert summarised["distance_m"] == pytest.approx(s["distance_m"], abs=1e-6)
@@ -77,7 +68,7 @@ def test_shoes_paired_uploaded_and_summarised_through_the_real_service(tmp_path:
         body, content_type = multipart({"file": (log.read_bytes(), log.name)})
         r = c.request("POST", f"/api/v1/sessions/{sid}/devices/right_foot/upload", raw=body, content_type=content_type)
         assert r.status == 201 and r.json()["device_role"] == "right_foot", r.body[:300]
-        s = _wait_done(c, sid)
+        s = wait_processed(c, sid)
         tracks = s["tracks"]
         assert s["feet"] == {"paired": ["left_foot", "right_foot"], "live": ["left_foot", "right_foot"]}
         assert s["primary_track"] == "fused" and s["distance_m"] == tracks["fused"]["distance_m"]
