@@ -275,10 +275,13 @@ def openapi_document() -> dict[str, Any]:
                 "post": _op("apply everything buffered", {"200": _ok("applied")} | _errors(401, 404),
                             parameters=[GROUP_ID])},
             "/api/v1/groups/{group_id}/tracks": {
-                "get": _op("fused tracks of every agent", {"200": _ok("tracks")} | _errors(401, 404),
+                "get": _op("fused tracks of every agent (query agent, repeatable, and since_s): {agents: {AGENT: "
+                           "{left_foot|right_foot: [[t_s, east_m, north_m, up_m, heading_deg]]}}}, t_s on the "
+                           "group's clock", {"200": _ok("tracks")} | _errors(401, 404),
                            parameters=[GROUP_ID])},
             "/api/v1/groups/{group_id}/agents/{agent}/correction": {
-                "get": _op("correction for an agent's local estimate", {"200": _ok("correction")}
+                "get": _op("correction for an agent's local estimate: feet (left_foot/right_foot), steps, t_s, mean "
+                           "(x, y, z m ENU and yaw rad per foot), cov, heading_deg", {"200": _ok("correction")}
                            | _errors(401, 404), parameters=[GROUP_ID, AGENT])},
             "/api/v1/ingest/sensor-logger": {
                 "post": _op("Sensor Logger HTTP push; errors the app shows its user are answered 499 (text)",
