@@ -18,6 +18,9 @@ from tests.server.helpers import multipart, wait_processed
 
 pytestmark = [pytest.mark.data, pytest.mark.timeout(600)]
 
+#: A phone walk of 34 s (simulated, hand-held, clock from 0 as the PyShoe files').
+PHONE_LOG = Path(__file__).resolve().parents[2] / "mobile_logs" / "sim" / "hand_escalator.zip"
+
 
 
 def test_shoes_paired_uploaded_and_summarised_through_the_real_service(tmp_path: Path) -> None:
@@ -63,11 +66,16 @@ def test_shoes_paired_uploaded_and_summarised_through_the_real_service(tmp_path:
         r = c.request("POST", "/api/v1/sessions", raw=body, content_type=content_type)
         assert r.status == 409 and r.json()["error"]["details"]["session"] == sid
         # Items 1 and 6: once the right foot sends data too, the fused track is the primary one, and not halved
-        # (the same walk on both feet fuses to that walk); the session lasts from the first to the last step of
-        # any of its tracks.
+        # (the same walk on both feet fuses to that walk); with a phone that walked longer than the shoes (a 34 s
+        # simulated walk on the same clock), the session lasts from the first to the last step of any of its
+        # tracks, not the fused track's span.
         body, content_type = multipart({"file": (log.read_bytes(), log.name)})
         r = c.request("POST", f"/api/v1/sessions/{sid}/devices/right_foot/upload", raw=body, content_type=content_type)
         assert r.status == 201 and r.json()["device_role"] == "right_foot", r.body[:300]
+        assert c.request("POST", f"/api/v1/sessions/{sid}/devices", {"role": "phone"}).status == 201
+        body, content_type = multipart({"file": (PHONE_LOG.read_bytes(), PHONE_LOG.name)})
+        r = c.request("POST", f"/api/v1/sessions/{sid}/devices/phone/upload", raw=body, content_type=content_type)
+        assert r.status == 201 and r.json()["device_role"] == "phone", r.body[:300]
         s = wait_processed(c, sid)
         tracks = s["tracks"]
         assert s["feet"] == {"paired": ["left_foot", "right_foot"], "live": ["left_foot", "right_foot"]}
@@ -75,6 +83,7 @@ def test_shoes_paired_uploaded_and_summarised_through_the_real_service(tmp_path:
         assert tracks["fused"]["distance_m"] == pytest.approx(tracks["left_foot"]["distance_m"], rel=0.1)
         first = min(t["first_t_s"] for t in tracks.values())
         last = max(t["last_t_s"] for t in tracks.values())
+        assert last == tracks["phone"]["last_t_s"] > tracks["fused"]["last_t_s"] + 10.0
         assert s["duration_s"] == pytest.approx(last - first, abs=1e-3)
         # Item 10: while the session is rebuilt it keeps answering with the results from before.
         assert c.request("POST", f"/api/v1/sessions/{sid}/reprocess").status == 202
