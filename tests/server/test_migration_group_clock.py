@@ -1,10 +1,8 @@
-"""Migration 0010_group_clock on a database written before it: a group agent fed from a session keeps the clock
-it was fed on (offset 0), and the downgrade removes the column again.
+"""Migration 0010_group_clock on a database written before it, in SQLite and in PostgreSQL: a group agent fed from
+a session keeps the clock it was fed on (offset 0), and the downgrade removes the column again.
 """
 
 from __future__ import annotations
-
-from pathlib import Path
 
 import sqlalchemy as sa
 from alembic import command
@@ -13,10 +11,11 @@ from pdr.fusion.group import Group
 from server import auth, db, migrations
 from server.group_store import GroupStore, encode_state
 from server.store import Store
+from tests.server.realservers import database_url, pg_database  # noqa: F401  (fixtures)
 
 
-def test_existing_session_fed_agents_get_offset_zero(tmp_path: Path) -> None:
-    url = f"sqlite:///{tmp_path / 'legacy.db'}"
+def test_existing_session_fed_agents_get_offset_zero(database_url: str) -> None:  # noqa: F811
+    url = database_url
     cfg = migrations.alembic_config(url)
     command.upgrade(cfg, "0009_typed_steps")
     engine = sa.create_engine(url)
