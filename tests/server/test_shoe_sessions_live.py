@@ -31,6 +31,10 @@ def test_shoes_paired_uploaded_and_summarised_through_the_real_service(tmp_path:
         for role in ("left_foot", "right_foot"):
             assert c.request("POST", f"/api/v1/sessions/{sid}/devices", {"role": role}).status == 201
         body, content_type = multipart({"file": (log.read_bytes(), log.name)})
+        # Item 4: the file sent to the native batch route is refused with the route that takes it; there the
+        # pairing decides the foot (a PyShoe file reads as right_foot).
+        r = c.request("POST", f"/api/v1/sessions/{sid}/batches", raw=body, content_type=content_type)
+        assert r.status == 415 and f"/sessions/{sid}/devices/ROLE/upload" in r.json()["error"]["message"], r.body
         r = c.request("POST", f"/api/v1/sessions/{sid}/devices/left_foot/upload", raw=body, content_type=content_type)
         assert r.status == 201 and r.json()["device_role"] == "left_foot", r.body[:300]
 
