@@ -89,6 +89,14 @@ def test_shoes_paired_uploaded_and_summarised_through_the_real_service(tmp_path:
         last = max(t["last_t_s"] for t in tracks.values())
         assert last == tracks["phone"]["last_t_s"] > tracks["fused"]["last_t_s"] + 10.0
         assert s["duration_s"] == pytest.approx(last - first, abs=1e-3)
+        # Items 2 and 3: with four tracks, every CSV row names its device; the phone still gives the modes.
+        rows = list(csv.DictReader(c.request("GET", f"/api/v1/sessions/{sid}/track?format=csv").body
+                                   .decode().splitlines()))
+        assert {r["device"] for r in rows} == set(tracks) == {"phone", "left_foot", "right_foot", "fused"}
+        fused_rows = c.request("GET", f"/api/v1/sessions/{sid}/track?format=csv&device=primary").body.decode()
+        assert {r["device"] for r in csv.DictReader(fused_rows.splitlines())} == {"fused"}
+        modes = c.request("GET", f"/api/v1/sessions/{sid}/modes").json()["modes"]
+        assert modes and {m["device"] for m in modes} == {"phone"}
         # Item 10: while the session is rebuilt it keeps answering with the results from before.
         assert c.request("POST", f"/api/v1/sessions/{sid}/reprocess").status == 202
         seen, deadline = [], time.monotonic() + 300
