@@ -51,14 +51,39 @@ _VEC3 = {"type": "array", "items": _NUMBER, "minItems": 3, "maxItems": 3}
 #: A foot of an agent: the sessions' device roles.
 _FOOT = {"enum": list(FOOT_SIDES.values()), "description": "left_foot or right_foot (as in sessions)"}
 
+_POSITIVE = {"type": "number", "exclusiveMinimum": 0}
+_NON_NEGATIVE = {"type": "number", "minimum": 0}
+#: The fusion parameters (:class:`pdr.fusion.centre.FusionConfig`; every field optional, defaults there).
+_CONFIG: dict[str, Any] = {
+    "type": "object", "additionalProperties": False,
+    "description": "fusion parameters (pdr.fusion.centre.FusionConfig); each omitted one takes its default",
+    "properties": {
+        "feet": {"type": "array", "items": _FOOT, "minItems": 1, "uniqueItems": True,
+                 "description": "the feet of every agent (default both)"},
+        "separation": {"type": "object", "additionalProperties": False,
+                       "description": "dual-foot separation constraint (seed 001 eq. 13)", "properties": {
+                           "gamma_xy": _POSITIVE | {"description": "largest horizontal distance of the feet, m"},
+                           "gamma_z": _POSITIVE | {"description": "largest vertical distance of the feet, m"},
+                           "eta": {"type": "number", "minimum": 3, "description": "sigma-point spread"},
+                           "speed_bound_mps": _NON_NEGATIVE | {"description": "widening for states apart in "
+                                                                              "time, m/s"},
+                           "grace_s": _NON_NEGATIVE | {"description": "time covered by gamma_xy/gamma_z, s"}}},
+        "ranging": {"type": "object", "additionalProperties": False,
+                    "description": "inter-agent range likelihood (eqs. 17-20)", "properties": {
+                        "gamma_m": _NON_NEGATIVE | {"description": "uniform half-width gamma_r, m"},
+                        "sigma_m": _POSITIVE | {"description": "Cauchy scale sigma_r, m"}}},
+        "lattice_points": {"type": "integer", "minimum": 2, "description": "lattice points per axis (Algorithm 3)"},
+        "lattice_extent": _POSITIVE | {"description": "lattice half-width in prior standard deviations"},
+        "robust": {"type": "boolean", "description": "false: the linearised Kalman range update (reference)"},
+        "kalman_range_variance_m2": _POSITIVE | {"description": "range variance of the Kalman reference, m^2"},
+    },
+}
+
 CREATE_GROUP: dict[str, Any] = {
     "type": "object", "additionalProperties": False,
     "properties": {
         "name": {"type": "string", "maxLength": 200},
-        "config": {"type": "object", "description": "pdr.fusion.centre.FusionConfig fields (separation, ranging, "
-                                                    "feet, lattice_points, lattice_extent, robust, ...)",
-                   "properties": {"feet": {"type": "array", "items": _FOOT, "minItems": 1, "uniqueItems": True,
-                                           "description": "the feet of every agent (default both)"}}},
+        "config": _CONFIG,
         "contact_timeout_s": {"type": "number", "exclusiveMinimum": 0},
         "max_range_age_s": {"type": "number", "exclusiveMinimum": 0},
     },

@@ -110,6 +110,12 @@ def test_access_control_and_errors(gclient: FlaskClient, tokens: dict[str, str])
     assert "now called 'right_foot'" in r.get_json()["error"]["message"]
     r = gclient.post("/api/v1/groups", headers=alice, json={"config": {"feet": ["hand"]}})
     assert r.status_code == 422 and "config.feet[0]" in r.get_json()["error"]["message"]
+    for config, path in (({"ranging": {"sigma_m": 0}}, "config.ranging.sigma_m"),
+                         ({"lattice_points": 2.5}, "config.lattice_points"), ({"colour": 1}, "config")):
+        r = gclient.post("/api/v1/groups", headers=alice, json={"config": config})
+        assert r.status_code == 422 and r.get_json()["error"]["details"]["path"] == path, r.get_json()
+    spec = gclient.get("/api/v1/openapi.json").get_json()["components"]["schemas"]["CreateGroup"]
+    assert spec["properties"]["config"]["properties"]["ranging"]["properties"]["sigma_m"]["exclusiveMinimum"] == 0
     one = gclient.post("/api/v1/groups", headers=alice, json={"config": {"feet": ["right_foot"]}}).get_json()
     assert one["config"]["feet"] == ["right_foot"]
     assert gclient.post(f"/api/v1/groups/{one['id']}/agents", headers=alice,
