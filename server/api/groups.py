@@ -184,7 +184,8 @@ def group_json(row: Any, detail: bool = False) -> dict[str, Any]:
     out: dict[str, Any] = {
         "id": row.id, "name": row.name, "created_at": row.created_at.isoformat(),
         "updated_at": row.updated_at.isoformat(),
-        "agents": [{"agent": a.agent, "session_id": a.session_id, "in_contact": group.in_contact(a.agent)
+        "agents": [{"agent": a.agent, "session_id": a.session_id, "clock_offset_s": a.clock_offset_s,
+                    "in_contact": group.in_contact(a.agent)
                     if a.agent in group.latest_s else False, "latest_s": group.latest_s.get(a.agent)}
                    for a in repo.agents(row.id)],
         "clock_s": _float(group.clock_s), "pending": group.pending, "counts": dict(group.counts),
@@ -265,7 +266,8 @@ def join_group(group_id: str) -> tuple[Response, int]:
     repo.add_agent(group_id, agent, session_id, float(body.get("clock_offset_s", 0.0)))
     if session_id is not None and feed_groups(services().store, session_id).get(group_id):
         corr = correction_json(repo.state(group_id), agent)        # the steps the session has already taken
-    return jsonify({"agent": agent, "session_id": session_id, "correction": corr}), 201
+    return jsonify({"agent": agent, "session_id": session_id, "clock_offset_s": float(body.get("clock_offset_s", 0.0)),
+                    "correction": corr}), 201
 
 
 @bp.post("/<group_id>/uploads")

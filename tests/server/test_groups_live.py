@@ -105,6 +105,7 @@ def test_a_group_fed_by_live_sessions_through_the_real_service(tmp_path) -> None
                 first_half = len(track)
             else:
                 assert len(track) > first_half
+        assert _agent(c, gid, "b")["clock_offset_s"] == -B_CLOCK_AHEAD_S and _agent(c, gid, "a")["clock_offset_s"] == 0
         # Every final step of the session is in the group, at its time on the group's clock, no more (the
         # provisional tail is not).
         session_steps = _final_steps(c, sb)
