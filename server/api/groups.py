@@ -252,6 +252,9 @@ def join_group(group_id: str) -> tuple[Response, int]:
     elif "clock_offset_s" in body:
         raise APIError(422, "clock_offset_s relates a session's clock to the group's: give it with session_id",
                        details={"field": "clock_offset_s"})
+    clock_offset_s = float(body.get("clock_offset_s", 0.0))
+    if not math.isfinite(clock_offset_s):
+        raise APIError(422, "clock_offset_s must be a finite time in s", details={"field": "clock_offset_s"})
     agent = body["agent"]
     if any(a.agent == agent for a in repo.agents(group_id)):
         raise APIError(409, f"agent '{agent}' is already in the group", details={"field": "agent"})
@@ -263,10 +266,10 @@ def join_group(group_id: str) -> tuple[Response, int]:
         return correction_json(group, agent)
 
     corr = repo.modify(group_id, join)
-    repo.add_agent(group_id, agent, session_id, float(body.get("clock_offset_s", 0.0)))
+    repo.add_agent(group_id, agent, session_id, clock_offset_s)
     if session_id is not None and feed_groups(services().store, session_id).get(group_id):
         corr = correction_json(repo.state(group_id), agent)        # the steps the session has already taken
-    return jsonify({"agent": agent, "session_id": session_id, "clock_offset_s": float(body.get("clock_offset_s", 0.0)),
+    return jsonify({"agent": agent, "session_id": session_id, "clock_offset_s": clock_offset_s,
                     "correction": corr}), 201
 
 

@@ -134,6 +134,10 @@ def test_access_control_and_errors(gclient: FlaskClient, tokens: dict[str, str])
     r = gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice,
                      json={"agent": "x", "pos0_n": [0, 0, 0], "clock_offset_s": 5.0})
     assert r.status_code == 422 and r.get_json()["error"]["details"]["field"] == "clock_offset_s"
+    sid = gclient.post("/api/v1/sessions", headers=alice, json={"session_id": "walk"}).get_json()["id"]
+    r = gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice, data='{"agent": "x", "pos0_n": [0, 0, 0], '
+                     f'"session_id": "{sid}", "clock_offset_s": Infinity}}', content_type="application/json")
+    assert r.status_code == 422 and "finite" in r.get_json()["error"]["message"]
     assert gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice,
                         json={"agent": "x", "pos0_n": [0, 0, 0]}).status_code == 201
     assert gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice,
