@@ -112,3 +112,25 @@ def test_shoes_paired_uploaded_and_summarised_through_the_real_service(tmp_path:
         r = c.request("PUT", f"/api/v1/sessions/{sid}/processing", {"calibration": {"step_length": {"k": -1}}})
         assert r.status == 422 and "step_length.k" in r.json()["error"]["message"]
         c.close()
+
+
+def test_every_foot_format_uploads_to_its_paired_foot_through_the_real_service(tmp_path: Path) -> None:
+    """Item 4 for the other shoe formats: an x-io CSV and a SensorConnect CSV (both read as right_foot: the files
+    do not say) each uploaded to a paired left foot, which the pairing makes them."""
+    files = {"xio": ("left_foot", data_path("xio_gait_loop", "short_walk.csv")),
+             "sensorconnect": ("left_foot", data_path("foot_stride_gcp", "own", "SensorConnectData_31.csv"))}
+    with running_server(tmp_path / "srv") as (url, env, _):
+        c = Client(url, add_user(env, "walker"))
+        sessions = {}
+        for fmt, (role, log) in files.items():
+            sid = c.request("POST", "/api/v1/sessions", {"session_id": f"walk-{fmt}"}).json()["id"]
+            assert c.request("POST", f"/api/v1/sessions/{sid}/devices", {"role": role}).status == 201
+            body, content_type = multipart({"file": (log.read_bytes(), log.name)})
+            r = c.request("POST", f"/api/v1/sessions/{sid}/devices/{role}/upload", raw=body,
+                          content_type=content_type)
+            assert r.status == 201 and r.json()["format"] == fmt and r.json()["device_role"] == role, r.body[:300]
+            sessions[fmt] = sid
+        for fmt, sid in sessions.items():
+            s = wait_processed(c, sid)
+            assert s["status"] == "done" and s["primary_track"] == files[fmt][0] and s["steps"] > 5, (fmt, s)
+        c.close()
