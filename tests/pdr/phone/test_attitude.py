@@ -187,7 +187,8 @@ def test_sigma_point_weights_sum_to_one():
 def _update_case(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """A prior attitude with a few degrees of spread, and an accelerometer + magnetometer measurement of another."""
     rng = np.random.default_rng(seed)
-    q = quat.from_euler(*rng.uniform(-0.5, 0.5, 2), rng.uniform(-math.pi, math.pi))
+    roll, pitch = rng.uniform(-0.5, 0.5, 2)
+    q = quat.from_euler(roll, pitch, rng.uniform(-math.pi, math.pi))
     a = rng.standard_normal((4, 4)) * 0.03
     p = a @ a.T + 1e-4 * np.eye(4)
     q_true = quat.multiply(q, quat.from_euler(0.05, -0.03, 0.1))
