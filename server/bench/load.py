@@ -75,10 +75,14 @@ def percentiles_ms(latencies_s: list[float]) -> dict[str, float]:
 
 def run_load(args: argparse.Namespace) -> dict[str, Any]:
     """Run the load check with the parsed command-line options; returns the figures."""
+    with Progress(5, "bench load") as bar:   # simulate, start, upload in real time, drain, check
+        return _run_load(args, bar)
+
+
+def _run_load(args: argparse.Namespace, bar: Progress) -> dict[str, Any]:
     from server.bench.cluster import ensure_services, replay_phones, running_cluster, temporary_postgres, wait_drained
     from server.queue import purge_namespace, redis_client
 
-    bar = Progress(5, "bench load")   # simulate, start, upload in real time, drain, check
     bar.set_note(f"simulating {min(args.recordings, args.phones)} walks of {args.minutes:g} min")
     t_sim = time.perf_counter()
     uploads = simulated_uploads(args.phones, args.minutes, args.batch_s, args.recordings)
@@ -132,7 +136,6 @@ def run_load(args: argparse.Namespace) -> dict[str, Any]:
                 result["first_refusal"] = replay.refused[0]
             bar.advance()
     finally:  # after the processes stopped, so that none writes to the namespace again
-        bar.close()
         purge_namespace(redis_client(args.redis_url), namespace)
     return result
 

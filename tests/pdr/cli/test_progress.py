@@ -3,6 +3,7 @@
 import io
 import json
 import sys
+import threading
 
 from pdr.cli import main, progress
 from pdr.cli.progress import BAR_WIDTH, Progress
@@ -71,3 +72,26 @@ def test_convert_and_train_draw_their_stages_on_a_terminal(tmp_path, monkeypatch
     drawn = stream.getvalue()
     assert "train landmark [" in drawn and "fitting on" in drawn and "3/3" in drawn
     assert capsys.readouterr().out.startswith("wrote ")
+
+
+def test_a_drawn_bar_keeps_its_clock_running_during_a_long_stage_and_stops_at_close():
+    stream = Terminal()
+    bar = Progress(2, "bench load", stream=stream, tick_s=0.01)
+    bar.set_note("uploading")
+    first = stream.getvalue().count("\r")
+    for _ in range(500):   # wait for the ticker's redraws (no progress is made meanwhile)
+        if stream.getvalue().count("\r") >= first + 3:
+            break
+        threading.Event().wait(0.01)
+    assert stream.getvalue().count("\r") >= first + 3
+    assert stream.getvalue().rstrip().endswith("s") and "0/2  uploading" in stream.getvalue()
+    bar.close()
+    after = stream.getvalue()
+    assert after.endswith("\r") and "pdr-progress" not in [t.name for t in threading.enumerate()]
+    threading.Event().wait(0.05)
+    assert stream.getvalue() == after   # nothing drawn after close
+    silent = io.StringIO()
+    piped = Progress(2, "piped", stream=silent, tick_s=0.01)   # not a terminal: no bar, no thread
+    assert "pdr-progress" not in [t.name for t in threading.enumerate()]
+    piped.close()
+    assert silent.getvalue() == ""
