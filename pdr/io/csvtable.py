@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.io.text import parse_float_rows
+from pdr.io.time_order import keep_increasing
 
 
 @dataclass(frozen=True)
@@ -51,16 +52,15 @@ class Table:
         return np.column_stack([np.asarray(self.column(n), dtype=np.float64) for n in names]) if names else \
             np.empty((len(self), 0))
 
-    def check_increasing(self, name: str) -> None:
-        """:class:`InputError` naming the line where column ``name`` stops strictly increasing."""
-        t = self.column(name)
-        if t.size > 1:
-            bad = np.flatnonzero(np.diff(t) <= 0)
-            if bad.size:
-                i = int(bad[0]) + 1
-                what = "repeats" if t[i] == t[i - 1] else "goes backwards"
-                raise InputError(f"time {what} ({t[i - 1]} then {t[i]})", source=self.source, line=self.line(i),
-                                 field=name)
+    def lines(self) -> NDArray[np.int64]:
+        """(N,) 1-based file line of every data row."""
+        return self.first_line + np.arange(len(self), dtype=np.int64)
+
+    def keep_increasing(self, name: str, notes: list[str]) -> NDArray[np.bool_]:
+        """Mask of the rows to keep: rows whose column ``name`` repeats or goes back are dropped with a warning
+        naming the line (:func:`pdr.io.time_order.keep_increasing`).
+        """
+        return keep_increasing(self.column(name), self.source, name, notes, lines=self.lines())
 
 
 def split_header(line: str, delimiter: str = ",", source: str | None = None) -> list[str]:

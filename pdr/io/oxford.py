@@ -20,8 +20,7 @@ Placement comes from the folder or file name: FrontPocket -> ``trouser_pocket_fr
 
 Timestamps: the phones logged at SENSOR_DELAY_FASTEST, so the rate is jittery (about 100-405 Hz). A sample
 whose timestamp repeats the previous one, or goes back before the latest kept one, is dropped with a
-warning (the first of a repeated timestamp is kept). If more than 1 % of the samples would be dropped the
-clock is considered broken and :class:`~pdr.errors.InputError` names the first offending line. ``t0_ns`` is
+warning naming the file and line, by the readers' shared rule (:mod:`pdr.io.time_order`). ``t0_ns`` is
 the first accelerometer timestamp.
 """
 
@@ -46,6 +45,7 @@ from pdr.io.text import (
     strip_gz,
     timestamps_ns,
 )
+from pdr.io.time_order import keep_increasing
 from pdr.recording import DeviceInfo, GroundTruth, Recording, SensorStream
 
 FORMAT = "oxford"
@@ -54,8 +54,6 @@ DESCRIPTION = "Oxford Step Counter trial folder / accelerometer.csv / validation
 ACC_FIELDS = ("timestamp_ns", "accuracy", "ax", "ay", "az")
 STEP_FIELDS = ("timestamp_ns", "chan1", "chan2")
 VALIDATION_FIELDS = ("timestamp_ns", "ax", "ay", "az", "steps_algo", "steps_ground_truth", "steps_hw")
-#: Largest fraction of samples that may be dropped for repeated/backward timestamps before it is an error.
-MAX_DROPPED_FRACTION = 0.01
 
 #: Lower-case name fragment -> placement (first match wins).
 PLACEMENT_BY_NAME: tuple[tuple[str, str], ...] = (
@@ -142,30 +140,11 @@ def _csv_rows(path: Path, columns: tuple[str, ...]) -> tuple[NDArray[np.float64]
     return parse_float_rows(rows, numbers, source, columns), numbers
 
 
-def _monotonic(t: NDArray[np.float64], numbers: list[int], source: str, field: str,
-               warnings: list[str]) -> NDArray[np.bool_]:
-    """Mask of samples to keep: strictly after every earlier kept sample. Warns; errors past the limit."""
-    keep = np.ones(t.size, dtype=bool)
-    if t.size > 1:
-        keep[1:] = t[1:] > np.maximum.accumulate(t)[:-1]
-    dropped = int(np.count_nonzero(~keep))
-    if dropped:
-        first = int(np.flatnonzero(~keep)[0])
-        repeats = int(np.count_nonzero(np.diff(t) == 0))
-        where = f"first at line {numbers[first]} ({t[first - 1]:.0f} then {t[first]:.0f})"
-        if dropped > MAX_DROPPED_FRACTION * t.size:
-            raise InputError(f"time goes backwards or repeats in {dropped} of {t.size} samples; {where}",
-                             source=source, line=numbers[first], field=field)
-        warnings.append(f"{Path(source).name}: dropped {dropped} sample(s) with a repeated ({repeats}) or "
-                        f"backward timestamp (jittery SENSOR_DELAY_FASTEST clock), {where}")
-    return keep
-
-
 def _read_trial(folder: Path, acc_path: Path) -> Recording:
     warnings: list[str] = []
     source = str(acc_path)
     arr, numbers = _csv_rows(acc_path, ACC_FIELDS)
-    keep = _monotonic(arr[:, 0], numbers, source, "timestamp_ns", warnings)
+    keep = keep_increasing(arr[:, 0], source, "timestamp_ns", warnings, lines=numbers)
     arr = arr[keep]
     kept_lines = [n for n, k in zip(numbers, keep, strict=True) if k]
     t_ns = timestamps_ns(arr[:, 0], source, "timestamp_ns", line_numbers=kept_lines)
@@ -206,7 +185,7 @@ def _contact_switch_truth(path: Path, t0_ns: int, warnings: list[str]) -> Ground
         r, c = divmod(int(bad[0]), 2)
         raise InputError(f"contact switch value {arr[r, 1 + c]} is not 0 or 1", source=source, line=numbers[r],
                          field=STEP_FIELDS[1 + c])
-    keep = _monotonic(arr[:, 0], numbers, source, "timestamp_ns", warnings)
+    keep = keep_increasing(arr[:, 0], source, "timestamp_ns", warnings, lines=numbers)
     arr = arr[keep]
     t_s = (timestamps_ns(arr[:, 0], source, "timestamp_ns") - np.int64(t0_ns)) / 1e9
     chan1 = rising_edges(t_s, arr[:, 1])
@@ -219,7 +198,7 @@ def _read_validation(p: Path) -> Recording:
     warnings: list[str] = []
     source = str(p)
     arr, numbers = _csv_rows(p, VALIDATION_FIELDS)
-    keep = _monotonic(arr[:, 0], numbers, source, "timestamp_ns", warnings)
+    keep = keep_increasing(arr[:, 0], source, "timestamp_ns", warnings, lines=numbers)
     arr = arr[keep]
     kept_lines = [n for n, k in zip(numbers, keep, strict=True) if k]
     t_ns = timestamps_ns(arr[:, 0], source, "timestamp_ns", line_numbers=kept_lines)

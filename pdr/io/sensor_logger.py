@@ -64,6 +64,7 @@ from pdr.frames import GRAVITY_MPS2
 from pdr.io.bundle import Bundle, is_zip
 from pdr.io.csvtable import parse_table
 from pdr.io.text import decode_text, head, read_bytes, strip_gz
+from pdr.io.time_order import keep_increasing
 from pdr.recording import DeviceInfo, Recording, SensorStream
 
 FORMAT = "sensor_logger"
@@ -363,25 +364,20 @@ def _csv_names() -> list[str]:
 # --------------------------------------------------------------------------------------------- assembly
 
 def _ordered(name: str, r: _Raw, source: str, sort: bool, warnings: list[str]) -> _Raw:
-    """Samples in time order without repeated timestamps (the first of a repeat is kept, with a warning).
+    """Samples in time order; a sample whose time repeats or goes back is dropped with a warning naming the file
+    and line (or the message field), the first of a repeat kept (:mod:`pdr.io.time_order`).
 
-    Push payloads are sorted (their order carries no meaning); files must not go backwards in time.
+    Push payloads are sorted first (their order carries no meaning), so there only repeats are dropped.
     """
     t, v, where = r.t_ns, r.values, r.where
     if sort:
         order = np.argsort(t, kind="stable")
         t, v, where = t[order], v[order], [where[i] for i in order]
-    elif t.size > 1 and np.any(np.diff(t) < 0):
-        i = int(np.flatnonzero(np.diff(t) < 0)[0]) + 1
-        loc = where[i]
-        file, _, line = loc.rpartition(", line ")
-        if line.isdigit():
-            raise InputError(f"time goes backwards ({t[i - 1]} then {t[i]})", source=file, line=int(line),
-                             field="time")
-        raise InputError(f"time goes backwards ({t[i - 1]} then {t[i]})", source=source, field=f"{loc}.time")
-    keep = np.r_[True, np.diff(t) != 0] if t.size else np.zeros(0, dtype=bool)
-    if not keep.all():
-        warnings.append(f"{name}: dropped {int((~keep).sum())} samples repeating the previous timestamp")
+    files = {w.rpartition(", line ")[0] for w in where}
+    if len(files) == 1 and "" not in files:
+        keep = keep_increasing(t, files.pop(), "time", warnings, lines=[int(w.rpartition(", line ")[2]) for w in where])
+    else:
+        keep = keep_increasing(t, source, "time", warnings, places=where, what=name)
     return _Raw(t[keep], v[keep], [where[i] for i in np.flatnonzero(keep)])
 
 

@@ -274,17 +274,6 @@ def parse_float_rows(rows: Sequence[Sequence[str]], line_numbers: Sequence[int],
     return arr
 
 
-def check_increasing_rows(t: NDArray[np.generic], line_numbers: Sequence[int], source: str, field: str) -> None:
-    """:class:`InputError` naming the line where timestamps stop strictly increasing."""
-    if t.size > 1:
-        bad = np.flatnonzero(np.diff(t) <= 0)
-        if bad.size:
-            i = int(bad[0]) + 1
-            what = "repeats" if t[i] == t[i - 1] else "goes backwards"
-            raise InputError(f"time {what} ({t[i - 1]} then {t[i]})", source=source, line=line_numbers[i],
-                             field=field)
-
-
 #: Largest magnitude of an int64 nanosecond timestamp we accept (about 292 years from the epoch or boot).
 MAX_ABS_NS = float(2**63 - 2**12)
 

@@ -126,7 +126,8 @@ def test_isolated_jitter_is_dropped_with_a_warning(tmp_path):
     rec = oxford.read(_trial(tmp_path, lines, STEPS))
     assert len(rec.stream("acc")) == 298
     (warning,) = rec.warnings
-    assert "dropped 2 sample(s)" in warning and "line 101" in warning
+    assert "dropped 2 of 300 samples whose time repeats (1) or goes backwards (1)" in warning
+    assert "accelerometer.csv" in warning and "first at line 101" in warning
 
 
 @pytest.mark.parametrize("name,placement", [

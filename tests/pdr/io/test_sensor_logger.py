@@ -149,7 +149,7 @@ def test_payload_order_and_repeats():
     msg["payload"].append(copy.deepcopy(gyro))
     rec = sensor_logger.parse_push_message(msg)
     assert np.all(np.diff(rec.stream("gyro").t_ns) > 0)
-    assert any("gyroscope: dropped 1 samples" in w for w in rec.warnings)
+    assert any("gyroscope dropped 1 of" in w and "repeats (1)" in w and "payload[" in w for w in rec.warnings)
 
 
 def test_string_times_and_ignored_readings():
@@ -230,7 +230,8 @@ def _edit_line(path: Path, line: int, new: str | None):
     (lambda p: _edit_line(p, 4, "1717000000150000000,0.03,0.1,0.2,0.3,0.4"), 4, None, "expected 5 fields"),
     (lambda p: _edit_line(p, 5, "1717000000160000000,0.04,0.1,abc,0.3"), 5, "y", "not a number"),
     (lambda p: _edit_line(p, 5, "1717000000160000000,0.04,0.1,NaN,0.3"), 5, "y", "not finite"),
-    (lambda p: _edit_line(p, 6, "1717000000000000000,0.05,0.1,0.2,0.3"), 6, "time", "backwards"),
+    (lambda p: (_edit_line(p, 6, "1717000000000000000,0.05,0.1,0.2,0.3"),
+                _edit_line(p, 7, "1717000000000000001,0.05,0.1,0.2,0.3")), 6, "time", "backwards in 2 of"),
     (lambda p: _edit_line(p, 6, "1.7e18,0.05,0.1,0.2,0.3"), 6, "time", "not an integer"),
     (lambda p: p.write_text("time,seconds_elapsed,z,y\n1,0,1,2\n"), 1, "x", "missing column 'x'"),
     (lambda p: p.write_bytes(b"\x00\x01garbage" * 30), None, None, "binary"),
@@ -258,7 +259,7 @@ def test_repeated_timestamps_in_csv_are_dropped(tmp_path):
     target.write_text("\n".join(lines) + "\n")
     rec = sensor_logger.read(folder)
     assert len(rec.stream("gyro")) == len(lines) - 2
-    assert any("gyroscope: dropped 1" in w for w in rec.warnings)
+    assert any(w.startswith("Gyroscope.csv: dropped 1 of") and "first at line 4" in w for w in rec.warnings)
 
 
 def test_missing_metadata_infers_convention(tmp_path):
