@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
-from pdr.io.text import parse_float_rows
+from pdr.io.text import drop_cut_off_last_line, parse_float_rows
 from pdr.io.time_order import keep_increasing
 
 
@@ -73,7 +73,7 @@ def split_header(line: str, delimiter: str = ",", source: str | None = None) -> 
 
 def parse_table(text: str, source: str, *, header_line: int = 1, delimiter: str = ",",
                 int_columns: Collection[str] = (), nan_columns: Collection[str] = (),
-                rename: dict[str, str] | None = None, decimal: str = ".") -> Table:
+                rename: dict[str, str] | None = None, decimal: str = ".", notes: list[str] | None = None) -> Table:
     """Parse a CSV text whose line ``header_line`` (1-based) names the columns and whose later lines are numbers.
 
     Parameters
@@ -92,6 +92,9 @@ def parse_table(text: str, source: str, *, header_line: int = 1, delimiter: str 
         Columns where an empty field or ``nan`` is allowed (NaN); elsewhere every value must be finite.
     rename
         Header name -> column name, applied before the other options.
+    notes
+        A reader's warnings: when given, a last line cut off mid-line (:func:`pdr.io.text.drop_cut_off_last_line`)
+        is dropped and reported there instead of refused.
 
     Raises
     ------
@@ -99,6 +102,8 @@ def parse_table(text: str, source: str, *, header_line: int = 1, delimiter: str 
         Empty file or no header, a row with the wrong number of fields, a non-numeric or non-finite value,
         naming file, line and column.
     """
+    if notes is not None:
+        text = drop_cut_off_last_line(text, source, delimiter, notes)
     lines = text.splitlines()
     while lines and not lines[-1].strip():
         lines.pop()

@@ -51,6 +51,7 @@ from numpy.typing import NDArray
 from pdr.errors import InputError
 from pdr.io.text import (
     decode_text,
+    drop_cut_off_last_line,
     find_member,
     head,
     parse_float_rows,
@@ -148,7 +149,7 @@ _COMMA = ord(",")
 
 def _read_sensor(p: Path, kind: str, warnings: list[str]) -> SensorStream:
     source = str(p)
-    raw = read_bytes(p)
+    raw = drop_cut_off_last_line(read_bytes(p), source, b",", warnings)
     fast = _numbers_fast(raw) if len(raw) >= PANDAS_MIN_BYTES or "pandas" in sys.modules else None
     arr, numbers = fast if fast is not None else _numbers_exact(raw, source)
     keep = keep_increasing(arr[:, 0], source, "uptimeNanos", warnings, lines=numbers, keep_repeats=True)

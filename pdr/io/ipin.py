@@ -40,6 +40,7 @@ from __future__ import annotations
 import re
 import sys
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -52,6 +53,7 @@ from pdr.io.android import rotation_vector_to_q_nb
 from pdr.io.text import (
     ascii_lines,
     decode_text,
+    drop_cut_off_last_line,
     head,
     parse_float_rows,
     read_bytes,
@@ -129,11 +131,14 @@ COMPILED_MIN_BYTES = 8_000_000
 
 
 def _read_text(p: Path) -> Recording:
-    raw = read_bytes(p)
+    cut: list[str] = []
+    raw = drop_cut_off_last_line(read_bytes(p), str(p), b";", cut)
     if len(raw) < COMPILED_MIN_BYTES and "numba" not in sys.modules:
-        return _read_text_exact(p, raw)       # `pdr inspect` of a short log: no compiler to load
-    fast = _read_text_fast(p, raw)
-    return fast if fast is not None else _read_text_exact(p, raw)
+        rec = _read_text_exact(p, raw)       # `pdr inspect` of a short log: no compiler to load
+    else:
+        fast = _read_text_fast(p, raw)
+        rec = fast if fast is not None else _read_text_exact(p, raw)
+    return replace(rec, warnings=(*cut, *rec.warnings)) if cut else rec
 
 
 def _read_text_fast(p: Path, raw: bytes) -> Recording | None:

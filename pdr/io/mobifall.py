@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 from pdr.errors import InputError
 from pdr.io.text import (
     decode_text,
+    drop_cut_off_last_line,
     find_member,
     head,
     numeric_rows,
@@ -141,7 +142,7 @@ def _activity_code(activity: str) -> str:
 
 def _read_file(p: Path, warnings: list[str]) -> tuple[str, dict[str, str], NDArray[np.int64], NDArray[np.float64]]:
     source = str(p)
-    raw = read_bytes(p)
+    raw = drop_cut_off_last_line(read_bytes(p), source, b",", warnings)
     lines = decode_text(raw, source).splitlines()
     header: dict[str, str] = {}
     data_start = None

@@ -45,6 +45,7 @@ from pdr.errors import InputError
 from pdr.io.android import rotation_vector_to_q_nb
 from pdr.io.text import (
     decode_text,
+    drop_cut_off_last_line,
     head,
     parse_float_rows,
     read_bytes,
@@ -90,9 +91,12 @@ def read(path: str | Path) -> Recording:
     p = Path(path)
     if p.is_dir():
         raise InputError("a Microsoft indoor-location trace is a single .txt file, not a folder", source=str(p))
-    raw = read_bytes(p)
+    cut: list[str] = []
+    raw = drop_cut_off_last_line(read_bytes(p), str(p), b"\t", cut)
     parsed = _parse_fast(raw)
-    return _assemble(p, parsed if parsed is not None else _parse_exact(str(p), raw))
+    parsed = parsed if parsed is not None else _parse_exact(str(p), raw)
+    parsed[3][:0] = cut
+    return _assemble(p, parsed)
 
 
 #: Per record tag: its (N, fields) numbers and the 1-based file line of every row.

@@ -558,7 +558,7 @@ def read(path: str | Path) -> Recording:
 def _read_stream(members: Bundle, kind: str, fname: str, warnings: list[str]) -> SensorStream:
     source = members.name(fname)
     cols = STREAM_KINDS[kind].columns
-    table = parse_table(members.text(fname), source, int_columns=("t_ns",))
+    table = parse_table(members.text(fname), source, int_columns=("t_ns",), notes=warnings)
     expected = ("t_ns", *cols)
     if table.header != expected:
         raise InputError(f"header must be {','.join(expected)}, found {','.join(table.header)}", source=source,

@@ -199,7 +199,7 @@ def _read_data_csv(name: str, text: str, clock: list[tuple[float, int]] | None, 
     groups = _axis_columns(header[1:] if header[:1] == [TIME_COLUMN] else [], file_kind)
     if not groups:
         return {}
-    table = parse_table(text, name, delimiter=delim, decimal=decimal)
+    table = parse_table(text, name, delimiter=delim, decimal=decimal, notes=warnings)
     if len(table) == 0:
         raise InputError("no samples after the header", source=name, line=2)
     t_ns = _epoch_ns(table.column(TIME_COLUMN), clock, name)

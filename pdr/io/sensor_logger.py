@@ -338,7 +338,7 @@ def _read_bundle(bundle: Bundle, source: str) -> Recording:
             # The app writes empty files for streams that recorded nothing (e.g. Annotation.csv).
             notes.append(f"{member}: empty file (no header, no samples): {READINGS[name][0]} skipped")
             continue
-        table = parse_table(text, fname, int_columns=("time",))
+        table = parse_table(text, fname, int_columns=("time",), notes=notes)
         comps = READINGS[name][1]
         for c in ("time", *comps):
             table.column(c)  # InputError naming the missing column

@@ -99,13 +99,13 @@ def read(path: str | Path) -> Recording:
     first_line = text.split("\n", 1)[0]
     raw_header = split_header(first_line, source=source) if first_line.strip() else []
     rename = {h: _column_name(h) for h in raw_header}
-    table = parse_table(text, source, rename=rename)
+    warnings: list[str] = []
+    table = parse_table(text, source, rename=rename, notes=warnings)
     time_col = next((n for n in _TIME_NAMES if n in table.header), None)
     if time_col is None:
         raise InputError(f"no Time column (header has {list(table.header)})", source=source, line=1, field="Time")
     if len(table) == 0:
         raise InputError("no samples after the header", source=source, line=2)
-    warnings: list[str] = []
     in_order = table.keep_increasing(time_col, warnings)
     t_s = table.column(time_col)
     t_ns = timestamps_ns(t_s, source, time_col, scale=1e9)

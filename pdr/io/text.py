@@ -10,11 +10,13 @@ import gzip
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import AnyStr
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
+from pdr.io.time_order import file_name
 
 #: Bytes read by :func:`head` for sniffing.
 SNIFF_BYTES = 4096
@@ -272,6 +274,30 @@ def parse_float_rows(rows: Sequence[Sequence[str]], line_numbers: Sequence[int],
         raise InputError(f"value {arr[r, c]} is not finite", source=source, line=line_numbers[r],
                          field=columns[c])
     return arr
+
+
+def drop_cut_off_last_line(text: AnyStr, source: str, sep: AnyStr | None, warnings: list[str]) -> AnyStr:
+    """``text`` without its last line when a phone cut the log off mid-line: the text does not end with a line
+    break and its last line has fewer ``sep``-separated fields (whitespace-separated for None) than the line before.
+    The line is reported in ``warnings`` with file and line number; any other text is returned as it is.
+    """
+    if isinstance(text, str):
+        newline, ends = "\n", ("\n", "\r")
+    else:
+        newline, ends = b"\n", (b"\n", b"\r")
+    if not text or text.endswith(ends):
+        return text
+    head, nl, last = text.rpartition(newline)
+    prev = head.rstrip().rpartition(newline)[2]
+    if not nl or not prev.strip():
+        return text
+    fields, expected = len(last.split(sep)), len(prev.split(sep))
+    if fields >= expected:
+        return text
+    line = text.count(newline) + 1
+    warnings.append(f"{file_name(source)}: dropped the cut-off last line {line} ({fields} of {expected} fields): the "
+                    "log ends mid-line")
+    return head + nl
 
 
 #: Largest magnitude of an int64 nanosecond timestamp we accept (about 292 years from the epoch or boot).

@@ -67,7 +67,7 @@ from pdr.errors import InputError
 from pdr.io import matfile
 from pdr.io.android import rotation_vector_to_q_nb
 from pdr.io.bundle import Bundle, is_zip
-from pdr.io.text import parse_float_rows, timestamps_ns
+from pdr.io.text import drop_cut_off_last_line, parse_float_rows, timestamps_ns
 from pdr.io.time_order import keep_increasing
 from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, SensorStream
 
@@ -210,6 +210,7 @@ def _table(text: str, source: str, columns: tuple[str, ...], warnings: list[str]
     """
     rows: list[list[str]] = []
     numbers: list[int] = []
+    text = drop_cut_off_last_line(text, source, None, warnings)
     for number, line in enumerate(text.splitlines(), start=1):
         if line.strip():
             rows.append(line.split())

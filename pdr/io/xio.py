@@ -59,14 +59,14 @@ def read(path: str | Path) -> Recording:
     p = Path(path)
     source = str(p)
     text = read_text(p)
-    table = parse_table(text, source)
+    warnings: list[str] = []
+    table = parse_table(text, source, notes=warnings)
     if "Time (s)" not in table.header:
         raise InputError(f"no 'Time (s)' column (header has {list(table.header)})", source=source, line=1,
                          field="Time (s)")
     if len(table) == 0:
         raise InputError("no samples after the header", source=source, line=2)
     t_ns = timestamps_ns(table.column("Time (s)"), source, "Time (s)", scale=1e9)
-    warnings: list[str] = []
     keep = keep_increasing(t_ns, source, "Time (s)", warnings, lines=table.lines())
 
     groups: dict[str, dict[str, tuple[str, str]]] = {}

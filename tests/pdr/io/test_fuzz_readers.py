@@ -297,3 +297,21 @@ def test_repeated_and_backward_times_are_dropped_with_a_warning_naming_file_and_
         assert new, (at + 1, name, rec.warnings)
         if not any(name.split(".")[0] in w and "repeat" in w for w in base_rec.warnings):  # else the first is named
             assert any(re.search(rf"\bline {at + 1}\b", w) for w in new), (at + 1, new)
+
+
+@pytest.mark.parametrize("seed_name", LINE_SEEDS)
+def test_cut_off_last_line_is_dropped_with_a_warning(seed_name, tmp_path):
+    """A log the phone cut off mid-line (its last line ends after the first field, no line break) reads as the
+    log without that line, with a warning naming the file and the line."""
+    seed = (SEEDS | DATA_SEEDS)[seed_name]()
+    member = max((n for n in seed.files if not _is_binary(n)), key=lambda n: seed.files[n].count(b"\n"))
+    content = seed.files[member].rstrip(b"\r\n")
+    body, _, last = content.rpartition(b"\n")
+    whole = _samples(seed, {**seed.files, member: body + b"\n"}, tmp_path)
+    cut = re.match(rb"[^,;\t ]+[,;\t ]", last)
+    assert cut is not None
+    rec = _samples(seed, {**seed.files, member: body + b"\n" + cut.group(0)}, tmp_path)
+    assert _count(rec) == _count(whole)
+    line = body.count(b"\n") + 2
+    name = Path(seed.root if seed.pack in ("file", "gz") else member).name.removesuffix(".gz")
+    assert any(name.split(".")[0] in w and f"cut-off last line {line}" in w for w in rec.warnings), rec.warnings

@@ -191,7 +191,7 @@ def test_rotation_vector_conversion_matches_a_known_rotation():
     ("", "no ACCE"),
     ("% only a header\n", "no ACCE"),
     ("ACCE;0.05;100.0;0.1;0.2\n", r"line 1: expected 6 fields"),
-    ("ACCE;0.05;100.0;0.1;0.2;9.8;3\nACCE;0.07;100.0", r"line 2: expected 6 fields"),
+    ("ACCE;0.05;100.0;0.1;0.2;9.8;3\nACCE;0.07;100.0\n", r"line 2: expected 6 fields"),
     ("ACCE;0.05;100.0;0.1;0.2;9.8;3;7\n", r"line 1: expected 6 fields"),
     ("ACCE;0.05;100.0;0.1;abc;9.8;3\n", r"line 1, field 'y': 'abc' is not a number"),
     ("ACCE;0.05;100.0;0.1;nan;9.8;3\n", r"line 1, field 'y': value nan is not finite"),

@@ -92,7 +92,7 @@ def _edit_line(path: Path, line: int, new: str):
 @pytest.mark.parametrize(("edit", "line", "field", "match"), [
     (lambda p: p.write_text('"Time (s)","Gyroscope x (rad/s)","Gyroscope y (rad/s)","Gyroscope z (rad/s)"\n'), 2,
      None, "no samples"),
-    (lambda p: p.write_text(p.read_text()[:-20]), None, None, "expected 4 fields"),
+    (lambda p: p.write_text(p.read_text()[:-20] + "\n"), None, None, "expected 4 fields"),  # at the end: dropped
     (lambda p: _edit_line(p, 3, "2.0E-2,1.0E-3,2.0E-3"), 3, None, "expected 4 fields"),
     (lambda p: _edit_line(p, 3, "2.0E-2,1.0E-3,2.0E-3,4.0E-3,9"), 3, None, "expected 4 fields"),
     (lambda p: _edit_line(p, 4, "3.0E-2,1.0E-3,abc,4.0E-3"), 4, "Gyroscope y (rad/s)", "not a number"),

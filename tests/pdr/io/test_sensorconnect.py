@@ -145,7 +145,7 @@ def _replace_line(text, line, new):
 @pytest.mark.parametrize(("edit", "line", "field", "match"), [
     (lambda t: "", 1, None, "empty file"),
     (lambda t: t.splitlines()[0] + "\n", 2, None, "no samples"),
-    (lambda t: t[: t.index("\n", t.index("\n", t.index("\n") + 1) + 1) - 8], 3, None, "expected 13 fields"),
+    (lambda t: t[: t.index("\n", t.index("\n", t.index("\n") + 1) + 1) - 8] + "\n", 3, None, "expected 13 fields"),
     (lambda t: _replace_line(t, 4, "0.015,1,2,3"), 4, None, "expected 13 fields"),
     (lambda t: _replace_line(t, 5, ",".join(["0.02"] + ["abc"] + ["0"] * 11)), 5, "scaledAccelX", "not a number"),
     (lambda t: _replace_line(t, 5, ",".join(["0.02"] + ["0"] * 5 + ["nan"] + ["0"] * 6)), 5, "scaledGyroZ",

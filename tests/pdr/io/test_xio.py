@@ -66,7 +66,7 @@ def test_gz(tmp_path):
 @pytest.mark.parametrize(("text", "line", "field", "match"), [
     ("", 1, None, "empty file"),
     (HEADER + "\n", 2, None, "no samples"),
-    (_text(3) + "0.01,1,2,3,0,0", 5, None, "expected 7 fields"),
+    (_text(3) + "0.01,1,2,3,0,0\n", 5, None, "expected 7 fields"),  # cut off, not at the end (at the end: dropped)
     (_text(3, ["0.01,1,2,3,0,0,1,7"]), 5, None, "expected 7 fields"),
     (_text(3, ["0.01,1,x2,3,0,0,1"]), 5, "Gyroscope Y (deg/s)", "not a number"),
     (_text(3, ["0.01,1,2,3,0,NaN,1"]), 5, "Accelerometer Y (g)", "not finite"),
