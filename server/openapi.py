@@ -117,7 +117,9 @@ def openapi_document() -> dict[str, Any]:
                                 "motion context and sensor reports. Authenticate with 'Authorization: Bearer'. "
                                 "Tokens have a scope (ingest, read, full; see each operation's x-token-scope). "
                                 "Bodies over a route's limit are refused 413 from their headers: file uploads "
-                                "PDR_MAX_UPLOAD_MB, every other write PDR_MAX_BATCH_MB."},
+                                "PDR_MAX_UPLOAD_MB, every other write PDR_MAX_BATCH_MB. Every answer carrying times "
+                                "states their clock in 'clock': t0_ns, where the session's recording starts, and "
+                                "what t_s means (seconds on the log's own clock)."},
         "components": {
             "securitySchemes": {"bearer": {"type": "http", "scheme": "bearer"},
                                 "queryToken": {"type": "apiKey", "in": "query", "name": "token"}},

@@ -32,6 +32,7 @@ from server.api import current_user, services
 from server.errors import APIError
 from server.feet import primary_role
 from server.processing_options import map_matched
+from server.session_clock import session_clock
 from server.store import step_fields
 
 bp = Blueprint("results", __name__, url_prefix="/api/v1/sessions")
@@ -172,10 +173,12 @@ def track(session_id: str) -> Response:
         return Response(buf.getvalue(), mimetype="text/csv",
                         headers={"Content-Disposition": f'attachment; filename="{session_id}.csv"'})
     if fmt == "geojson":
-        return Response(json.dumps(_geojson(rows, row)), mimetype="application/geo+json")
+        return Response(json.dumps(_geojson(rows, row) | {"clock": session_clock(svc.store, row)}),
+                        mimetype="application/geo+json")
     next_since = max(r["t_s"] for r in rows) if rows else since
     body: dict[str, Any] = {"session": session_id, "columns": list(TRACK_COLUMNS), "points": rows,
-                            "count": len(rows), "next_since": next_since, "heading": heading}
+                            "count": len(rows), "next_since": next_since, "heading": heading,
+                            "clock": session_clock(svc.store, row)}
     return jsonify(body | (smoothing.fields() if smoothing else {}))
 
 
@@ -226,12 +229,12 @@ def _geojson(rows: list[dict[str, Any]], session: Any) -> dict[str, Any]:
 def _events(session_id: str, what: str) -> Response:
     user = current_user()
     svc = services()
-    svc.store.session_row(session_id, user.id)
+    row = svc.store.session_row(session_id, user.id)
     rows = svc.store.events(session_id, EVENT_KINDS[what], parse_since(), previous=svc.store.rebuilding(session_id))
     items = [{"t_s": r.t_s, "t_end_s": r.t_end_s, "label": r.label, "value": _clean(r.value),
               "device": r.device_role, "provisional": r.provisional, **json.loads(r.data or "{}")} for r in rows]
     return jsonify({"session": session_id, what: items, "count": len(items),
-                    "next_since": items[-1]["t_s"] if items else parse_since()})
+                    "next_since": items[-1]["t_s"] if items else parse_since(), "clock": session_clock(svc.store, row)})
 
 
 @bp.get("/<session_id>/steps")
@@ -242,7 +245,7 @@ def steps(session_id: str) -> Response:
     """
     user = current_user()
     svc = services()
-    svc.store.session_row(session_id, user.id)
+    session = svc.store.session_row(session_id, user.id)
     since = parse_since()
     rows = svc.store.steps(session_id, since, previous=svc.store.rebuilding(session_id))
     items = [{"t_s": r.t_s, "t_end_s": None, "label": r.mode, "value": _clean(r.step_length_m),
@@ -250,7 +253,7 @@ def steps(session_id: str) -> Response:
              | {c: _clean(getattr(r, c)) for c in TRACK_COLUMNS} | step_fields(r) | json.loads(r.data or "{}")
              for r in rows]
     return jsonify({"session": session_id, "steps": items, "count": len(items),
-                    "next_since": items[-1]["t_s"] if items else since})
+                    "next_since": items[-1]["t_s"] if items else since, "clock": session_clock(svc.store, session)})
 
 
 @bp.get("/<session_id>/modes")

@@ -20,6 +20,7 @@ from server.ingest import store_batch
 from server.processing import FILE_PREFIX, NATIVE_JSON
 from server.processing_options import META_KEY, ProcessingOptions
 from server.schemas import CREATE_SESSION, PAIR_DEVICE, PROCESSING, validate
+from server.session_clock import session_clock
 
 bp = Blueprint("sessions", __name__, url_prefix="/api/v1/sessions")
 
@@ -49,6 +50,7 @@ def session_json(row: Any, detail: bool = False) -> dict[str, Any]:
         "origin": ({"lat_deg": row.origin_lat_deg, "lon_deg": row.origin_lon_deg}
                    if row.origin_lat_deg is not None else None),
         "processing": json.loads(row.meta or "{}").get(META_KEY, {}),
+        "clock": session_clock(svc.store, row),
     }
     if detail:
         out["batch_list"] = [{"id": b.id, "batch_id": b.client_batch_id, "device_role": b.device_role,

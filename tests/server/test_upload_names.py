@@ -38,3 +38,20 @@ def test_uploaded_log_names_no_temporary_folder(client, tokens):
     (device,) = session["devices"]
     assert device["model"] == ""
     assert Path(session["name"]).name == "accelerometer.csv"
+
+
+def test_every_answer_with_times_states_the_sessions_clock(client, tokens):
+    """An Oxford upload's track is on its phone's time since boot (25 468 s here), an IPIN one's near 0: each answer
+    says so (t0_ns, the recording's start on the log's clock, and what t_s means)."""
+    t0 = 25468484780100
+    lines = [f"{t0 + i * 5_000_000},3,0.1,0.2,9.8" for i in range(400)]
+    body, ctype = multipart({"file": ("\n".join(lines).encode() + b"\n", "accelerometer.csv")})
+    h = bearer(tokens["alice"])
+    sid = client.post("/api/v1/sessions", data=body, headers=h, content_type=ctype).get_json()["id"]
+    for path in ("", "/track", "/track?format=geojson", "/steps", "/modes", "/landmarks", "/floors", "/truth"):
+        answer = client.get(f"/api/v1/sessions/{sid}{path}", headers=h).get_json()
+        if path == "/track?format=geojson":
+            answer = json.loads(client.get(f"/api/v1/sessions/{sid}{path}", headers=h).data)
+        clock = answer["clock"]
+        assert clock["t0_ns"] == t0 and clock["t0_s"] == t0 / 1e9, path
+        assert "log's own clock" in clock["t_s"], path
