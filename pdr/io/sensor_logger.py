@@ -20,7 +20,13 @@ Readings and streams
     ``gravity``, ``gyroscope`` -> ``gyro``, ``magnetometer`` -> ``mag``, ``barometer.pressure`` -> ``baro``
     (hPa; ``relativeAltitude`` is not kept), ``orientation`` (qw, qx, qy, qz) -> ``orientation``, and
     ``accelerometeruncalibrated`` / ``gyroscopeuncalibrated`` / ``magnetometeruncalibrated`` -> ``*_uncal``.
-    Other readings (location, microphone, battery, ...) are ignored and counted in ``meta``.
+    Other readings (microphone, battery, ...) are ignored and counted in ``meta``.
+
+Location
+    ``location`` readings (``latitude``, ``longitude`` in degrees, WGS-84; ``horizontalAccuracy`` in m when given)
+    geo-reference the recording: the first fix goes to ``meta["location"]`` (:data:`LOCATION_META`:
+    ``lat_deg``, ``lon_deg``, ``t_ns``, ``horizontal_accuracy_m``, ``fixes``), which the service takes as the
+    session's origin (the track's local east/north frame starts there).
 
 Specific force
     Without ``totalacceleration`` (iOS never logs it), ``acc = accelerometer + gravity``: gravity is linearly
@@ -62,7 +68,7 @@ from pdr import quaternion
 from pdr.errors import InputError
 from pdr.frames import GRAVITY_MPS2
 from pdr.io.bundle import Bundle, is_zip
-from pdr.io.csvtable import parse_table
+from pdr.io.csvtable import parse_table, split_header
 from pdr.io.text import decode_text, head, read_bytes, strip_gz
 from pdr.io.time_order import keep_increasing
 from pdr.recording import DeviceInfo, Recording, SensorStream
@@ -84,6 +90,9 @@ READINGS: Mapping[str, tuple[str, tuple[str, ...]]] = {
     "gyroscopeuncalibrated": ("gyro_uncal", _XYZ),
     "magnetometeruncalibrated": ("mag_uncal", _XYZ),
 }
+#: Key of ``Recording.meta`` holding the first location fix (module doc, "Location").
+LOCATION_META = "location"
+_LOCATION = ("latitude", "longitude")
 #: Readings whose sign (and, uncalibrated, unit g) differ on iOS without standardisation.
 _IOS_NEGATED = ("accelerometer", "totalacceleration", "gravity")
 #: Gravity is held at its first/last value this far (s) beyond its span when recombining acc.
@@ -174,6 +183,7 @@ def _collect_push(messages: Sequence[Any], source: str, prefix: str) -> tuple[di
     """Readings of one or more push messages, in the app's convention (unsorted)."""
     rows: dict[str, tuple[list[int], list[list[float]], list[str]]] = {}
     ignored: dict[str, int] = {}
+    fixes: list[dict[str, Any]] = []
     sessions: set[str] = set()
     meta: dict[str, Any] = {}
     for m, msg in enumerate(messages):
@@ -194,7 +204,7 @@ def _collect_push(messages: Sequence[Any], source: str, prefix: str) -> tuple[di
             if not isinstance(entry, dict) or not isinstance(entry.get("name"), str):
                 raise InputError("a reading must be an object with a string 'name'", source=source, field=where)
             name = entry["name"].lower()
-            if name not in READINGS:
+            if name not in READINGS and name != "location":
                 ignored[name] = ignored.get(name, 0) + 1
                 continue
             if "time" not in entry:
@@ -203,6 +213,13 @@ def _collect_push(messages: Sequence[Any], source: str, prefix: str) -> tuple[di
             values = entry.get("values")
             if not isinstance(values, dict):
                 raise InputError("expected an object of values", source=source, field=f"{where}.values")
+            if name == "location":
+                fix = _fix(t, values, source, f"{where}.values")
+                if fix is None:
+                    ignored[name] = ignored.get(name, 0) + 1
+                else:
+                    fixes.append(fix)
+                continue
             comps = READINGS[name][1]
             missing = [c for c in comps if c not in values]
             if missing:
@@ -218,9 +235,51 @@ def _collect_push(messages: Sequence[Any], source: str, prefix: str) -> tuple[di
                          "session separately", source=source, field="sessionId")
     if ignored:
         meta["ignored_readings"] = ignored
+    if fixes:
+        meta[LOCATION_META] = _first_fix(fixes)
     out = {n: _Raw(np.array(t, dtype=np.int64), np.array(v, dtype=np.float64).reshape(len(t), -1), w)
            for n, (t, v, w) in rows.items()}
     return out, meta
+
+
+def _fix(t_ns: int, values: Mapping[str, Any], source: str, where: str) -> dict[str, Any] | None:
+    """One location fix (degrees, m) of a reading's values, or None when it holds no usable position (location is
+    optional: such a reading is counted as ignored, never refuses the data).
+    """
+    try:
+        lat, lon = (_number(values[c], source, f"{where}.{c}") for c in _LOCATION)
+        acc = values.get("horizontalAccuracy")
+        blank = acc is None or acc == "" or (isinstance(acc, float) and math.isnan(acc))
+        accuracy = None if blank else _number(acc, source, f"{where}.horizontalAccuracy")
+    except (KeyError, InputError):
+        return None
+    if abs(lat) > 90.0 or abs(lon) > 180.0:
+        return None
+    return {"lat_deg": lat, "lon_deg": lon, "t_ns": t_ns, "horizontal_accuracy_m": accuracy}
+
+
+def _csv_location(text: str, source: str, notes: list[str]) -> dict[str, Any] | None:
+    """The first fix of an export's ``Location.csv`` (None when it has none). Location is optional: a file that
+    cannot be read is reported in ``notes`` and leaves the recording without geo-reference.
+    """
+    if not text.strip():
+        return None
+    try:
+        header = split_header(text.split("\n", 1)[0].lstrip("\ufeff"), ",", source)
+        table = parse_table(text, source, int_columns=("time",), notes=notes,
+                            nan_columns=[h for h in header if h not in ("time", *_LOCATION)])
+        found = (_fix(int(t), {c: table.column(c)[i] for c in (*_LOCATION, "horizontalAccuracy") if c in table.header},
+                      source, f"line {table.line(i)}") for i, t in enumerate(table.column("time")))
+        fixes = [f for f in found if f is not None]
+    except InputError as exc:
+        notes.append(f"location not used ({exc}): the recording is not geo-referenced")
+        return None
+    return _first_fix(fixes) if fixes else None
+
+
+def _first_fix(fixes: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """The earliest fix, with the number of fixes."""
+    return {**min(fixes, key=lambda f: int(f["t_ns"])), "fixes": len(fixes)}
 
 
 def parse_push_message(obj: dict, *, source: str = "message", platform: str | None = None,
@@ -278,6 +337,7 @@ def _read_json_export(records: list[Any], source: str) -> Recording:
     """The JSON export: flat records ``{"sensor": "Accelerometer", "time": .., "x": .., ...}``."""
     rows: dict[str, tuple[list[int], list[list[float]], list[str]]] = {}
     metadata: dict[str, str] = {}
+    fixes: list[dict[str, Any]] = []
     for i, rec in enumerate(records):
         where = f"[{i}]"
         if not isinstance(rec, dict) or not isinstance(rec.get("sensor"), str):
@@ -285,6 +345,10 @@ def _read_json_export(records: list[Any], source: str) -> Recording:
         name = rec["sensor"].lower()
         if name == "metadata":
             metadata = {str(k): str(v) for k, v in rec.items()}
+            continue
+        if name == "location" and "time" in rec:
+            fix = _fix(_time_ns(rec["time"], source, f"{where}.time"), rec, source, where)
+            fixes += [] if fix is None else [fix]
             continue
         if name not in READINGS:
             continue
@@ -299,6 +363,8 @@ def _read_json_export(records: list[Any], source: str) -> Recording:
     raw = {n: _Raw(np.array(t, dtype=np.int64), np.array(v, dtype=np.float64).reshape(len(t), -1), w)
            for n, (t, v, w) in rows.items()}
     platform, standardised, meta, device_name = _metadata_fields(metadata)
+    if fixes:
+        meta[LOCATION_META] = _first_fix(fixes)
     return _assemble(raw, meta, source, platform, standardised, sort=False, device_name=device_name)
 
 
@@ -326,14 +392,18 @@ def _read_bundle(bundle: Bundle, source: str) -> Recording:
             metadata = {k.strip(): v.strip() for k, v in zip(rows[0], rows[1], strict=False)}
     raw: dict[str, _Raw] = {}
     notes: list[str] = []
+    location: dict[str, Any] | None = None
     for member in bundle.members():
         if "/" in member or not member.lower().endswith(".csv"):
             continue
         name = member[:-4].lower()
-        if name not in READINGS:
+        if name not in READINGS and name != "location":
             continue
         fname = bundle.name(member)
         text = bundle.text(member)
+        if name == "location":
+            location = _csv_location(text, fname, notes) or location
+            continue
         if not text.strip():
             # The app writes empty files for streams that recorded nothing (e.g. Annotation.csv).
             notes.append(f"{member}: empty file (no header, no samples): {READINGS[name][0]} skipped")
@@ -350,6 +420,8 @@ def _read_bundle(bundle: Bundle, source: str) -> Recording:
     platform, standardised, meta, device_name = _metadata_fields(metadata)
     if not metadata:
         meta["metadata"] = "missing"
+    if location is not None:
+        meta[LOCATION_META] = location
     return _assemble(raw, meta, source, platform, standardised, sort=False, device_name=device_name, notes=notes)
 
 

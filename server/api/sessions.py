@@ -124,10 +124,33 @@ def _create_from_file(user_id: int) -> tuple[Response, int]:
                 payload=payload, t_first_ns=t_first, t_last_ns=t_last, device=replace(dev, placement=placement),
                 recording=recording)
     svc.store.set_session(sid, t0_ns=recording.origin_ns)
-    if recording.truth.positions is not None and recording.truth.positions.origin_lat_lon_deg:
-        lat, lon = recording.truth.positions.origin_lat_lon_deg
-        svc.store.set_session(sid, origin_lat_deg=lat, origin_lon_deg=lon)
+    geo_reference(sid, recording)
     return jsonify(session_json(svc.store.session_row(sid, user_id))), 201 if created else 200
+
+
+def geo_origin(recording: Recording) -> tuple[float, float] | None:
+    """(lat, lon) in degrees where a recording's local east/north frame starts: its truth's geodetic origin, else
+    its first location fix (Sensor Logger ``location``, :data:`pdr.io.sensor_logger.LOCATION_META`), else None.
+    """
+    from pdr.io.sensor_logger import LOCATION_META
+
+    pos = recording.truth.positions
+    if pos is not None and pos.origin_lat_lon_deg:
+        return float(pos.origin_lat_lon_deg[0]), float(pos.origin_lat_lon_deg[1])
+    fix = recording.meta.get(LOCATION_META)
+    if isinstance(fix, dict) and fix.get("lat_deg") is not None and fix.get("lon_deg") is not None:
+        return float(fix["lat_deg"]), float(fix["lon_deg"])
+    return None
+
+
+def geo_reference(session_id: str, recording: Recording) -> None:
+    """Give a session without an origin the recording's (:func:`geo_origin`): its track, GeoJSON and map are then
+    geo-referenced.
+    """
+    svc = services()
+    origin = geo_origin(recording)
+    if origin is not None and svc.store.session_row(session_id).origin_lat_deg is None:
+        svc.store.set_session(session_id, origin_lat_deg=origin[0], origin_lon_deg=origin[1])
 
 
 @bp.get("")

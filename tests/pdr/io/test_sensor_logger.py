@@ -369,3 +369,26 @@ def test_real_sensor_logger_walks_are_read(walk):
         assert rec.has(kind), kind
     # at rest at the start the specific force is gravity, in m/s^2 and the Android sign
     assert np.linalg.norm(rec.values("acc")[:20].mean(axis=0)) == pytest.approx(9.81, abs=0.5)
+
+
+def test_location_fixes_geo_reference_the_recording(tmp_path):
+    """The first fix of Location.csv (the export's column set; blanks where the phone had no value) or of the
+    push's ``location`` readings goes to meta['location']; a fix without a position is ignored, never refused."""
+    folder = _copy_export(tmp_path)
+    (folder / "Location.csv").write_text(
+        "time,seconds_elapsed,bearingAccuracy,speedAccuracy,verticalAccuracy,horizontalAccuracy,speed,bearing,"
+        "altitude,longitude,latitude\n"
+        "1717000000200000000,0.2,,,3.0,4.5,0.1,,301.5,11.1110,49.4611\n"
+        "1717000000100000000,0.1,,,3.0,,0.1,,301.5,11.1109,49.4610\n")
+    loc = sensor_logger.read(folder).meta["location"]
+    assert loc == {"lat_deg": 49.4610, "lon_deg": 11.1109, "t_ns": 1717000000100000000,
+                   "horizontal_accuracy_m": None, "fixes": 2}
+    msg = _ios_message()
+    t = msg["payload"][0]["time"]
+    msg["payload"] += [{"name": "location", "time": t, "values": {"latitude": 91.0, "longitude": 0.0}},
+                       {"name": "location", "time": t, "values": {"latitude": 51.5, "longitude": -0.12,
+                                                                  "horizontalAccuracy": "7"}}]
+    rec = sensor_logger.parse_push_message(msg)
+    assert rec.meta["location"] == {"lat_deg": 51.5, "lon_deg": -0.12, "t_ns": int(t), "horizontal_accuracy_m": 7.0,
+                                    "fixes": 1}
+    assert rec.meta["ignored_readings"] == {"location": 1}
