@@ -193,9 +193,11 @@ def openapi_document() -> dict[str, Any]:
             "/api/v1/sessions/{session_id}/track": {
                 "get": _op("track, one row per step", {"200": {"description": "track", "content": {
                     "application/json": {"schema": {"type": "object"}}, "text/csv": {"schema": {"type": "string"}},
-                    "application/geo+json": {"schema": {"type": "object"}}}}} | _errors(400, 401, 404),
+                    "application/geo+json": {"schema": {"type": "object"}}}}} | _errors(400, 401, 404, 409),
                     parameters=[SESSION_ID, SINCE,
-                                {"name": "format", "in": "query", "schema": {"enum": ["json", "csv", "geojson"]}},
+                                {"name": "format", "in": "query", "schema": {"enum": ["json", "csv", "geojson"]},
+                                 "description": "geojson: RFC 7946 lon/lat, for a geo-referenced session only (409 "
+                                                "otherwise)"},
                                 DEVICE, HEADING])},
             "/api/v1/sessions/{session_id}/steps": _results_path("steps") | {
                 "post": _op("ingest a shoe unit's step-wise dead-reckoning summaries (idempotent by batch_id)",

@@ -71,7 +71,7 @@ from pdr.io.bundle import Bundle, is_zip
 from pdr.io.csvtable import parse_table, split_header
 from pdr.io.text import decode_text, head, read_bytes, strip_gz
 from pdr.io.time_order import keep_increasing
-from pdr.recording import DeviceInfo, Recording, SensorStream
+from pdr.recording import LOCATION_META, DeviceInfo, Recording, SensorStream
 
 FORMAT = "sensor_logger"
 DESCRIPTION = "Sensor Logger app: HTTP-push JSON messages, zip/folder CSV export or JSON export (iOS and Android)"
@@ -90,8 +90,6 @@ READINGS: Mapping[str, tuple[str, tuple[str, ...]]] = {
     "gyroscopeuncalibrated": ("gyro_uncal", _XYZ),
     "magnetometeruncalibrated": ("mag_uncal", _XYZ),
 }
-#: Key of ``Recording.meta`` holding the first location fix (module doc, "Location").
-LOCATION_META = "location"
 _LOCATION = ("latitude", "longitude")
 #: Readings whose sign (and, uncalibrated, unit g) differ on iOS without standardisation.
 _IOS_NEGATED = ("accelerometer", "totalacceleration", "gravity")

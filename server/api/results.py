@@ -24,8 +24,8 @@ from typing import Any
 from flask import Blueprint, Response, jsonify, request
 from sqlalchemy import func, select
 
-from pdr.frames import local_enu_to_geodetic
 from pdr.phone.heading_smoother import smooth_track
+from pdr.phone.track_geojson import NotGeoReferenced, track_geojson
 from pdr.phone.track_schema import TRACK_COLUMNS
 from server import db
 from server.api import current_user, services
@@ -206,24 +206,14 @@ def _smoothed(points: list[Any]) -> tuple[list[dict[str, Any]], Smoothing]:
 
 
 def _geojson(rows: list[dict[str, Any]], session: Any) -> dict[str, Any]:
-    """Track as a GeoJSON LineString per device: WGS-84 when the session has an origin, else local metres."""
-    geodetic = session.origin_lat_deg is not None
-    features = []
-    for device in sorted({r["device"] for r in rows}):
-        mine = [r for r in rows if r["device"] == device]
-        if geodetic:
-            lat, lon = local_enu_to_geodetic([r["east_m"] for r in mine], [r["north_m"] for r in mine],
-                                             session.origin_lat_deg, session.origin_lon_deg)
-            coords = [[float(lo), float(la), r["up_m"]] for lo, la, r in zip(lon, lat, mine, strict=True)]
-        else:
-            coords = [[r["east_m"], r["north_m"], r["up_m"]] for r in mine]
-        features.append({"type": "Feature", "geometry": {"type": "LineString", "coordinates": coords},
-                         "properties": {"device": device, "t_s": [r["t_s"] for r in mine],
-                                        "floor": [r["floor"] for r in mine], "mode": [r["mode"] for r in mine]}})
-    out: dict[str, Any] = {"type": "FeatureCollection", "features": features}
-    if not geodetic:
-        out["crs_note"] = "local ENU metres (x east, y north) from the start; the session has no geodetic origin"
-    return out
+    """The track as RFC 7946 GeoJSON (:mod:`pdr.phone.track_geojson`); 409 when the session has no origin."""
+    origin = None if session.origin_lat_deg is None else (session.origin_lat_deg, session.origin_lon_deg)
+    try:
+        return track_geojson(rows, origin, source=f"session {session.id}")
+    except NotGeoReferenced as exc:
+        raise APIError(409, f"{exc.message} (a session gets an origin from a log's surveyed origin, a Sensor Logger "
+                            f"location reading or 'origin' when it is created); use ?format=json or csv",
+                       code=NotGeoReferenced.code, details={"field": "format"}) from None
 
 
 def _events(session_id: str, what: str) -> Response:

@@ -10,7 +10,7 @@ from typing import Any
 from flask import Blueprint, Response, jsonify, request
 
 from pdr.errors import InputError
-from pdr.recording import DEVICE_ROLES, FOOT_ROLES, Recording
+from pdr.recording import DEVICE_ROLES, FOOT_ROLES, Recording, geo_origin
 from server import plausibility
 from server.api import current_user, json_body, services, uploaded_log
 from server.api.sites import give_session_site, named_site
@@ -126,21 +126,6 @@ def _create_from_file(user_id: int) -> tuple[Response, int]:
     svc.store.set_session(sid, t0_ns=recording.origin_ns)
     geo_reference(sid, recording)
     return jsonify(session_json(svc.store.session_row(sid, user_id))), 201 if created else 200
-
-
-def geo_origin(recording: Recording) -> tuple[float, float] | None:
-    """(lat, lon) in degrees where a recording's local east/north frame starts: its truth's geodetic origin, else
-    its first location fix (Sensor Logger ``location``, :data:`pdr.io.sensor_logger.LOCATION_META`), else None.
-    """
-    from pdr.io.sensor_logger import LOCATION_META
-
-    pos = recording.truth.positions
-    if pos is not None and pos.origin_lat_lon_deg:
-        return float(pos.origin_lat_lon_deg[0]), float(pos.origin_lat_lon_deg[1])
-    fix = recording.meta.get(LOCATION_META)
-    if isinstance(fix, dict) and fix.get("lat_deg") is not None and fix.get("lon_deg") is not None:
-        return float(fix["lat_deg"]), float(fix["lon_deg"])
-    return None
 
 
 def geo_reference(session_id: str, recording: Recording) -> None:
