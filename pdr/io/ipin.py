@@ -30,9 +30,9 @@ Time
     warning naming the line (:mod:`pdr.io.time_order`).
 
 Positions
-    Latitude/longitude are projected to local east/north metres around the fixed competition origin
-    (lat 49.4611, lon 11.1110) with the equirectangular projection on a sphere of the WGS-84 semi-major
-    axis, exactly as the reference scorer does; up is 0 and the floor is ``FloorID``.
+    Latitude/longitude are projected to local east/north metres around the file's first POSI (its origin, so the
+    first landmark is at (0, 0)) with the project's one Earth model (:func:`pdr.frames.geodetic_to_local_enu`), the
+    model the GeoJSON and the map project back with; up is 0 and the floor is ``FloorID``.
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
-from pdr.frames import WGS84_SEMI_MAJOR_M, geodetic_to_local_enu
+from pdr.frames import geodetic_to_local_enu
 from pdr.io.android import rotation_vector_to_q_nb
 from pdr.io.text import (
     ascii_lines,
@@ -66,8 +66,6 @@ from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, Sen
 FORMAT = "ipin"
 DESCRIPTION = "GetSensorData / IPIN competition logfile (.txt[.gz]) or its .mat export, with POSI landmarks"
 
-#: Origin (lat, lon in degrees) of the local ENU frame of the IPIN 2023 Track 3 venue (Nuremberg).
-ORIGIN_LAT_LON_DEG = (49.4611, 11.1110)
 
 _XYZ = ("AppTimestamp", "SensorTimestamp", "x", "y", "z", "Accuracy")
 #: Record tag -> (stream kind, field names after the tag).
@@ -366,7 +364,7 @@ def _landmarks(source: str, t_s: NDArray[np.float64], lat: NDArray[np.float64], 
         if out.size:
             raise InputError(f"POSI {name} {values[out[0]]} is out of range", source=source,
                              **locate(int(out[0])))
-    en = geodetic_to_local_enu(lat, lon, *ORIGIN_LAT_LON_DEG, radius_m=WGS84_SEMI_MAJOR_M)
+    origin = (float(lat[0]), float(lon[0]))  # the file's first POSI: any venue, not one hard-coded
+    en = geodetic_to_local_enu(lat, lon, *origin)
     pos = np.column_stack([en, np.zeros(t_s.size)])
-    return PositionTruth(t_s=t_s, pos_m=pos, floor=floor, kind="landmark", frame="enu",
-                         origin_lat_lon_deg=ORIGIN_LAT_LON_DEG)
+    return PositionTruth(t_s=t_s, pos_m=pos, floor=floor, kind="landmark", frame="enu", origin_lat_lon_deg=origin)
