@@ -17,7 +17,8 @@ def test_local_enu_round_trip_and_scale():
     np.testing.assert_allclose(frames.geodetic_to_local_enu(lat, lon, 49.4611, 11.1110), [25.0, -40.0], atol=1e-9)
     # the inverse is exact: the same sphere both ways (a mean-radius inverse once scaled tracks by 0.11 %)
     lat, lon = np.array([49.4611, 49.4625, 49.4590]), np.array([11.1110, 11.1131, 11.1092])
-    back = frames.local_enu_to_geodetic(*frames.geodetic_to_local_enu(lat, lon, 49.46, 11.11).T, 49.46, 11.11)
+    en = frames.geodetic_to_local_enu(lat, lon, 49.46, 11.11)
+    back = frames.local_enu_to_geodetic(en[:, 0], en[:, 1], 49.46, 11.11)
     np.testing.assert_allclose(back, (lat, lon), rtol=0, atol=1e-12)
 
 
