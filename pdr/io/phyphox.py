@@ -202,7 +202,7 @@ def _read_data_csv(name: str, text: str, clock: list[tuple[float, int]] | None, 
     table = parse_table(text, name, delimiter=delim, decimal=decimal, notes=warnings)
     if len(table) == 0:
         raise InputError("no samples after the header", source=name, line=2)
-    t_ns = _epoch_ns(table.column(TIME_COLUMN), clock, name)
+    t_ns = epoch_ns(table.column(TIME_COLUMN), clock, name)
     keep = keep_increasing(t_ns, name, TIME_COLUMN, warnings, lines=table.lines())
     out: dict[str, SensorStream] = {}
     for kind, axes in groups.items():
@@ -223,7 +223,7 @@ def _read_data_csv(name: str, text: str, clock: list[tuple[float, int]] | None, 
 MAX_EXPERIMENT_S = 3.2e8
 
 
-def _epoch_ns(t_s: np.ndarray, clock: list[tuple[float, int]] | None, source: str) -> np.ndarray:
+def epoch_ns(t_s: np.ndarray, clock: list[tuple[float, int]] | None, source: str) -> np.ndarray:
     """Experiment time (s) to int ns: epoch via the START events of ``meta/time.csv`` when known."""
     if np.any(np.abs(t_s) > MAX_EXPERIMENT_S):
         raise InputError(f"experiment time beyond {MAX_EXPERIMENT_S:g} s (found {float(np.max(np.abs(t_s))):g} s)",
