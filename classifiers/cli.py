@@ -12,7 +12,8 @@
     model on held-out data, or (``--cv``) of its configuration retrained leave-one-group-out; prints the
     inference speed in windows per second on one core. With ``--timeline``: the modes timeline's figures per
     recording instead (:mod:`classifiers.timeline_eval`); with ``--floors``: the step-mode timeline's stairs
-    steps and elevator rides on multi-floor walks with landmarks (:mod:`classifiers.floor_eval`).
+    steps and elevator rides on multi-floor walks with landmarks (:mod:`classifiers.floor_eval`); with
+    ``--targets``: both, as issue 30's targets beside their figures (:mod:`classifiers.mode_targets`).
 """
 
 from __future__ import annotations
@@ -229,8 +230,12 @@ def register_eval(targets: argparse._SubParsersAction) -> None:
     p.add_argument("--floors", action="store_true",
                    help="instead: figures of the step-mode timeline on multi-floor walks with landmarks (stairs "
                         "steps, elevator rides and their floor count; classifiers.floor_eval)")
+    p.add_argument("--targets", action="store_true",
+                   help="instead: issue 30's modes-timeline targets, each figure beside its target (the --timeline "
+                        "and --floors figures; classifiers.mode_targets)")
     p.add_argument("--site", default=None, metavar="SITE.json",
-                   help="with --floors: the building's site description (floor height or floor altitudes)")
+                   help="with --floors or --targets: the building's site description (floor height or floor "
+                        "altitudes)")
     p.set_defaults(func=run_eval)
 
 
@@ -318,6 +323,13 @@ def run_eval(args: argparse.Namespace) -> int:
 
         floors = floor_figures(recs, Site.load(args.site) if args.site else None)
         _report_figures(args, floors, "floors.json", print_floor_figures)
+        return 0
+    if args.targets:
+        from classifiers.mode_targets import print_targets, target_figures
+        from pdr.phone.landmarks import Site
+
+        fig = target_figures(model, recs, Site.load(args.site) if args.site else None)
+        _report_figures(args, fig, "targets.json", print_targets)
         return 0
     if args.timeline:
         from classifiers.timeline_eval import print_timeline, timeline_figures

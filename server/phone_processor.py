@@ -139,7 +139,7 @@ def convert_events(events: Sequence[PipelineEvent], modes: StepModes | None = No
             while pending and pending[0].t_start_s <= e.t_start_s:
                 _stop_row(out, pending.pop(0), modes)
             out.track.append(e)
-            for t, label in modes.step(e.mode, e.t_start_s):
+            for t, label in modes.step(e.mode, e.t_start_s, e.t_s):
                 if step_modes:
                     out.events.append(EventRow("mode", t, label=label))
         elif isinstance(e, ElevatorEvent):
@@ -165,4 +165,4 @@ def _scalars(e: ElevatorEvent | LandmarkEvent) -> dict[str, str | int | float]:
 def _stop_row(out: ProcessorOutput, m: ModeEntry, modes: StepModes) -> None:
     """Append the ``mode`` event of a stop or elevator entry, which then holds the timeline."""
     out.events.append(EventRow("mode", m.t_start_s, t_end_s=m.t_end_s, label=m.label, data=dict(m.data)))
-    modes.entry(m.label)
+    modes.entry(m.label, m.t_end_s)

@@ -46,6 +46,23 @@ def test_the_tool_reads_function_level_imports_and_skips_type_checking(tool: Mod
     assert tool.cycles(g) == [["pdr.a", "pdr.b", "pdr.c"]]
 
 
+def test_a_nested_package_counts_as_its_pdr_subpackage(tool: ModuleType, tmp_path: Path) -> None:
+    """``pdr.foot.zupt.kernel`` importing ``pdr.foot.drift`` while ``pdr.foot.dual`` imports ``pdr.foot.zupt`` is
+    layering inside ``pdr.foot``, not a cycle between subpackages; a real one between ``pdr.foot`` and ``pdr.phone``
+    through the nested package still is."""
+    for d in ("pdr", "classifiers", "server", "pdr/foot", "pdr/foot/zupt", "pdr/phone"):
+        (tmp_path / d).mkdir()
+        (tmp_path / d / "__init__.py").write_text("")
+    (tmp_path / "pdr" / "foot" / "drift.py").write_text("")
+    (tmp_path / "pdr" / "foot" / "zupt" / "kernel.py").write_text("from pdr.foot import drift\n")
+    (tmp_path / "pdr" / "foot" / "dual.py").write_text("from pdr.foot.zupt import kernel\n")
+    files = tool.package_graph(tool.import_graph(tmp_path), tmp_path)
+    assert files["pdr.foot"] == set() and tool.cycles(files) == []
+    (tmp_path / "pdr" / "phone" / "steps.py").write_text("from pdr.foot import dual\n")
+    (tmp_path / "pdr" / "foot" / "zupt" / "kernel.py").write_text("from pdr.foot import drift\nimport pdr.phone.steps\n")
+    assert tool.cycles(tool.package_graph(tool.import_graph(tmp_path), tmp_path)) == [["pdr.foot", "pdr.phone"]]
+
+
 def test_no_module_import_cycles(tool: ModuleType, graph: dict[str, set[str]]) -> None:
     assert "pdr.phone.pipeline" in graph and "server.processing" in graph
     assert tool.cycles(graph) == []

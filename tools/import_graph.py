@@ -5,8 +5,10 @@ Every ``import`` / ``from ... import`` statement counts, at module level and ins
 packages it names (``from a.b import c`` is an edge to ``a.b.c`` when that is a module, else to ``a.b``).
 
 A cycle is a strongly connected component of more than one node, between modules and between the subpackages of
-``pdr`` (a module counted as its package: ``pdr.foot.zupt`` -> ``pdr.foot``; a top-level module of ``pdr`` ->
-``pdr``). ``server``'s subpackages (``api``, ``web``, ``migrations``, ``bench``) are parts of one application that
+``pdr`` (a module counted as its package: ``pdr.foot.dual`` -> ``pdr.foot``; a top-level module of ``pdr`` ->
+``pdr``; a package nested in a subpackage of ``pdr``, e.g. ``pdr.foot.zupt`` or ``pdr.phone.attitude``, is a part of
+that subpackage split by layer, kernel apart from driver, and counts as it: ``pdr.foot.zupt.kernel`` ->
+``pdr.foot``; cycles between its modules are the module cycles). ``server``'s subpackages (``api``, ``web``, ``migrations``, ``bench``) are parts of one application that
 import its top-level modules and are imported by them (the app factory registers the blueprints); they are
 listed but not counted.
 
@@ -94,10 +96,12 @@ def import_graph(repo: Path) -> dict[str, set[str]]:
 
 
 def package_of(mod: str, packages: set[str]) -> str:
-    """The package a module belongs to (a package's ``__init__`` belongs to the package itself)."""
-    if mod in packages:
-        return mod
-    return mod.rsplit(".", 1)[0]
+    """The package a module belongs to (a package's ``__init__`` belongs to the package itself); within ``pdr``, the
+    subpackage ``pdr.X`` (a nested package is a part of it).
+    """
+    pkg = mod if mod in packages else mod.rsplit(".", 1)[0]
+    parts = pkg.split(".")
+    return ".".join(parts[:2]) if parts[0] == "pdr" else pkg
 
 
 def package_graph(graph: dict[str, set[str]], repo: Path) -> dict[str, set[str]]:

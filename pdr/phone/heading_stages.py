@@ -47,6 +47,7 @@ from pdr.phone.track import TrackState
 from pdr.phone.walking_direction import (
     DeviceFrameDirection,
     DeviceSwingAxis,
+    WalkingLineFilter,
     swing_plane_axis,
     turn_evidence,
     yaw_rate,
@@ -140,6 +141,7 @@ class PocketHeading:
         self.direction_vote = direction_vote(placement)
         self.swing_axis = DeviceSwingAxis()              # swinging hand's walking direction
         self.pocket_direction = DeviceFrameDirection()   # pocket's forward/backward continuity
+        self.pocket_line = WalkingLineFilter()           # pocket's walking line from stride to stride
 
     def reset(self, placement: str | None) -> None:
         """Forget the walking direction's continuity and vote (the placement changed)."""
@@ -147,6 +149,7 @@ class PocketHeading:
         self.direction_vote = direction_vote(placement)
         self.swing_axis = DeviceSwingAxis()
         self.pocket_direction = DeviceFrameDirection()
+        self.pocket_line = WalkingLineFilter()
 
     def estimate(self, win: StepWindow, placement: str) -> StepHeading:
         h, s, e = win.history, win.s, win.e
@@ -169,6 +172,8 @@ class PocketHeading:
             if swing_axis:
                 # The swing plane's axis of the thigh (pdr.phone.walking_direction), not the device yaw.
                 axis, _ratio = swing_plane_axis(q_str, self.rate_hz)
+                # Carried from stride to stride by the walker's turn (pdr.phone.walking_direction module doc).
+                axis = self.pocket_line.update(axis, h.q, h.start, s0, s, e, self.rate_hz)
             else:
                 axis, _ratio = pca_axis(f_str[:, :2])             # RMPCA over the stride
             # Continuity in the device frame, and the 180-degree rule from the thigh's fast swing (pdr.phone.heading
@@ -202,7 +207,8 @@ class PocketHeading:
     def state(self) -> dict[str, Any]:
         return {"prev_yaw": self.prev_yaw, "prev_step_start": self.prev_step_start,
                 "direction_score": self.direction_vote.score, "direction_votes": self.direction_vote.n,
-                "swing_axis": self.swing_axis.to_dict(), "pocket_direction": self.pocket_direction.to_dict()}
+                "swing_axis": self.swing_axis.to_dict(), "pocket_direction": self.pocket_direction.to_dict(),
+                "pocket_line": self.pocket_line.to_dict()}
 
     @classmethod
     def from_state(cls, d: dict[str, Any], rate_hz: float, pocket_axis: str, process_var: float,
@@ -216,6 +222,8 @@ class PocketHeading:
             o.swing_axis = DeviceSwingAxis.from_dict(d["swing_axis"])
         if d.get("pocket_direction") is not None:   # absent in states saved before the device-frame continuity
             o.pocket_direction = DeviceFrameDirection.from_dict(d["pocket_direction"])
+        if d.get("pocket_line") is not None:        # absent in states saved before the walking-line filter
+            o.pocket_line = WalkingLineFilter.from_dict(d["pocket_line"])
         return o
 
 

@@ -639,6 +639,7 @@ class PdrPipeline:
     def _step(self, s: int, e: int, peak: float) -> list[PipelineEvent]:
         """One confirmed step ``[s, e)``: its heading and label now, output one step later (:meth:`_emit_step`)."""
         h = self.history
+        self.elevator.add_step(s)
         for o in self.observers:
             o.confirmed(s, e, h)
         sl = h.sl(s, e)

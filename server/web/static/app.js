@@ -28,7 +28,7 @@
   let map = null;
   let current = null; // the open session's state
   /** /modes entries drawn over the step-mode band (they cover time without steps). */
-  const BAND_ENTRY_MODES = new Set(["standing", "elevator_up", "elevator_down"]);
+  const BAND_ENTRY_MODES = new Set(["standing", "elevator_up", "elevator_down", "escalator_up", "escalator_down"]);
 
   // -- API --------------------------------------------------------------------------------------
   class ApiError extends Error {
@@ -373,7 +373,7 @@
     if (site.status === "fulfilled") current.site = site.value;
     else reportError(site.reason, "Could not load the session's floor plan");
     if (landmarks.status === "fulfilled") current.landmarks = landmarks.value.landmarks || [];
-    // Stops and elevator rides have no steps: the band shows them from /modes (entries with an end).
+    // Stops, elevator and escalator rides have no steps: the band shows them from /modes (entries with an end).
     if (modes.status === "fulfilled") {
       current.stopEntries = (modes.value.modes || []).filter((m) => BAND_ENTRY_MODES.has(m.label) && m.t_end_s !== null);
     }

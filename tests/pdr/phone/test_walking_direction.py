@@ -11,6 +11,7 @@ from pdr.frames import GRAVITY_MPS2, wrap_angle
 from pdr.phone.walking_direction import (
     DeviceFrameDirection,
     DeviceSwingAxis,
+    WalkingLineFilter,
     body_angular_rate,
     step_lead,
     swing_plane_axis,
@@ -182,3 +183,55 @@ def test_bad_input_is_refused():
         swing_plane_axis(np.zeros((2, 4)), RATE)
     with pytest.raises(InputError, match="specific forces"):
         turn_evidence(np.zeros((4, 2)), 0.1, 0.0)
+
+
+def _continuous_thigh_walk(mount: np.ndarray, seconds: float) -> tuple[np.ndarray, np.ndarray]:
+    """A thigh swinging 25 deg about the walker's lateral axis (stride 1.1 s) while the walker turns at +/-0.4
+    rad/s in alternate 4 s legs: attitudes ``q_nb`` at :data:`RATE` and the walking yaw at each sample.
+    """
+    t = np.arange(int(seconds * RATE)) / RATE
+    omega = np.where((t // 4.0) % 2 == 0, 0.4, -0.4)
+    yaw = 0.3 + np.concatenate([[0.0], np.cumsum(omega[:-1]) / RATE])
+    walker = quat.from_rotvec(yaw[:, None] * np.array([0.0, 0.0, 1.0]))
+    thigh = quat.from_rotvec(math.radians(25.0) * np.sin(2 * math.pi * t / 1.1)[:, None] * np.array([0.0, -1.0, 0.0]))
+    return quat.multiply(quat.multiply(walker, thigh), np.broadcast_to(mount, walker.shape)), yaw
+
+
+def _line_errors(noise_deg: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per stride, the error (deg, a line: modulo 180) of the swing plane with ``noise_deg`` of added noise, and of
+    :class:`WalkingLineFilter` fed with it, against the walking yaw at the stride's centre.
+    """
+    rng = np.random.default_rng(seed)
+    q, yaw = _continuous_thigh_walk(quat.from_rotvec(rng.normal(0, 1.5, 3)), 60.0)
+    filt = WalkingLineFilter()
+    raw, filtered = [], []
+    for k, step_start in enumerate(range(55, q.shape[0] - 55, 55)):
+        s0, e = step_start - 55, step_start + 55
+        line = swing_plane_axis(q[s0:e], RATE)[0] + math.radians(rng.normal(0.0, noise_deg))
+        out = filt.update(line, q, 0, s0, step_start, e, RATE)
+        if k == 20:                                          # the state survives a round trip
+            filt = WalkingLineFilter.from_dict(filt.to_dict())
+        truth = yaw[(s0 + e) // 2]
+        raw.append(math.degrees(0.5 * float(wrap_angle(2 * (line - truth)))))
+        filtered.append(math.degrees(0.5 * float(wrap_angle(2 * (out - truth)))))
+    return np.abs(raw[5:]), np.abs(filtered[5:])
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_walking_line_filter_averages_the_stride_noise_and_follows_turns(seed):
+    raw, filtered = _line_errors(13.0, seed)
+    assert np.sqrt(np.mean(filtered ** 2)) < 0.7 * np.sqrt(np.mean(raw ** 2))
+    # Noise-free strides: the turns are followed without lag (no worse than the strides themselves, which mix
+    # the legs on either side of a change of turn).
+    raw_exact, exact = _line_errors(0.0, seed)
+    assert exact.max() < raw_exact.max() + 1.0 and np.mean(exact) < np.mean(raw_exact) + 0.5
+
+
+def test_walking_line_filter_restarts_after_a_pause():
+    q, _ = _continuous_thigh_walk(quat.from_rotvec([0.2, 1.0, 0.1]), 10.0)
+    filt = WalkingLineFilter(max_gap_s=2.0)
+    filt.update(0.1, q, 0, 0, 55, 110, RATE)
+    assert filt.update(0.5, q, 0, 110, 165, 220, RATE) != pytest.approx(0.5)      # filtered
+    # The next step starts 3 s after the last stride ended: the filter starts again from the measurement.
+    assert filt.update(0.9, q, 0, 520, 575, 630, RATE) == pytest.approx(0.9)
+    assert -math.pi / 2 < filt.update(-1.6, q, 0, 575, 630, 685, RATE) <= math.pi / 2

@@ -1,0 +1,139 @@
+"""Configuration of the attitude filters (:class:`AttitudeConfig`) and the gyro stream's kind
+(:func:`gyro_compensated`: the operating system's bias-compensated stream takes a bias prior).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class AttitudeConfig:
+    """Noise and gating parameters of the attitude filters (SI units).
+
+    Attributes
+    ----------
+    sigma_gyro
+        Gyro white noise (rad/s), ``W_gyro = sigma_gyro^2 I`` (eq. 9).
+    sigma_a, sigma_m
+        Accelerometer (m/s^2) and magnetometer (uT) measurement noise when accepted (eq. 11).
+    eps_a1, eps_a2
+        Eq. 12: maximum ``| |a| - |g| |`` (m/s^2) and variance of ``|a|`` (m^2/s^4).
+    eps_m1, eps_m2
+        Eq. 13: maximum ``| |m| - |h| |`` (uT) and variance of ``|m|`` (uT^2).
+    eps_dip_deg
+        Maximum deviation of the angle between ``a`` and ``m`` from the reference dip angle (deg).
+        ``eps_m1`` and ``eps_dip_deg`` were 10; in a steel building (IPIN 2023 museum: |m| 30-40 uT against
+        48 uT outdoors, dip -25 to -72 deg) rejecting more rows leaves the heading to the gyro for longer and
+        the deflections do not average out: 20 gives 4.87 -> 4.49 m landmark p75 on the repetition-01
+        files it was chosen on and 4.17 -> 3.86 m on the repetition-02 files.
+    var_window_s
+        Time constant of the trailing exponential windows for the variances of eqs. 12-13 (s).
+    alpha, beta, kappa
+        Unscented transform parameters (eqs. 35-37; the paper's 1e-3, 2, 0), also used by the unscented
+        transforms of the landmark row and of the second UKF (:mod:`pdr.phone.heading`). With the attitude
+        covariances met in practice (yaw sigma of a few degrees) the measurement functions are close to
+        linear over the sigma-point spread, so alpha = 0.5 or 1 gives the same headings as 1e-3, and the
+        UKF the same as the EKF (``pdr eval pocket-heading``, ``pdr eval ipin``).
+    static_gyro_std, static_acc_std, static_mag_std, static_min_s
+        Stationary detection (the user stands; the phone may tremble in the hand): trailing standard
+        deviations of the gyro (rad/s, norm over the axes), of ``|a|`` (m/s^2) and of ``|m|`` (uT) below
+        these, with the accelerometer quasi-static (eq. 12), for at least ``static_min_s`` (s).
+    bias_field_uT, bias_dip_deg
+        Largest change of the field's magnitude (uT) and dip relative to gravity (deg) within a stationary
+        period for the field's rows to enter the gyro bias (the magnetic-disturbance test of eq. 13 applied
+        to the bias rows).
+    bias_tau_s, bias_smooth_s, bias_prior_s, bias_hold_s
+        Gyro bias least squares over stationary samples: forgetting time constant (s of stationary data),
+        low-pass time constant of the vectors (s), ridge weight towards zero bias (s of data), and the
+        length of the blocks of rows held back (s): a block enters only once another block of
+        stationary samples has followed it.
+    compensated_bias_prior_s
+        The ridge ``bias_prior_s`` used instead when the gyro stream is the operating system's bias-compensated
+        one (:func:`gyro_compensated`): a Bayesian prior on the residual bias. The ridge equals ``N^2 / sigma0^2``,
+        with ``N`` the noise density of the bias rows at a stand and ``sigma0`` the prior's spread. ``N``, measured
+        at the stands of ``../shared/data`` (residual of the rows around the final bias, times the square root of its
+        correlation time), is 1.1-1.6 deg/s sqrt(s) at the IPIN stands and 2.3-3.0 at the motion-capture walkers'
+        (a hand that turns slowly while the walker pauses); with ``N = 2`` and ``sigma0 = 1`` deg/s (an
+        OS-compensated gyro's residual; 0.1-0.5 deg/s on the Nexus 5 walks) it is 4 s: a stand of 4 s moves the
+        estimate half way. Without the prior, one 1.7 s stand of a turning hand set the bias to (-1.6, 0.8, -3.5)
+        deg/s, 10x the true residual, and the yaw drifted by 120 deg over the walk. A gyro the OS does not
+        compensate can be biased by several deg/s (IPIN trial 27: 2.9 deg/s), where such a prior would hold the
+        estimate back for the first minute (IPIN p75 3.79 -> 4.44 m with it), so it keeps ``bias_prior_s``.
+    gravity_tau_s
+        Time constant of the local gravity magnitude estimate during stationary periods (s).
+    mag_ref_tau_s
+        Time constant (s) with which the reference field's magnitude and dip follow the measured field
+        (0: fixed at the first quasi-static sample).
+    mag_when_static
+        Use magnetometer rows while stationary (False: a standing user sees one, possibly disturbed,
+        field; its repeated samples are not independent measurements of north).
+    init_yaw_sigma_deg
+        Standard deviation of the initial yaw (deg) set at the magnetic alignment.
+    mag_declination_deg
+        Magnetic declination (deg, east positive): magnetic north is rotated clockwise from true north.
+    """
+
+    sigma_gyro: float = 0.01
+    sigma_a: float = 1.0
+    sigma_m: float = 15.0
+    eps_a1: float = 1.5
+    eps_a2: float = 1.0
+    eps_m1: float = 20.0
+    eps_m2: float = 20.0
+    eps_dip_deg: float = 20.0
+    var_window_s: float = 0.5
+    alpha: float = 1e-3
+    beta: float = 2.0
+    kappa: float = 0.0
+    static_gyro_std: float = 0.3
+    static_acc_std: float = 0.5
+    static_mag_std: float = 1.0
+    static_min_s: float = 1.0
+    bias_tau_s: float = 300.0
+    bias_smooth_s: float = 0.25
+    bias_prior_s: float = 0.02
+    compensated_bias_prior_s: float = 4.0
+    bias_hold_s: float = 1.0
+    gravity_tau_s: float = 5.0
+    mag_ref_tau_s: float = 5.0
+    mag_when_static: bool = False
+    init_yaw_sigma_deg: float = 60.0
+    mag_declination_deg: float = 0.0
+    bias_field_uT: float = 10.0
+    bias_dip_deg: float = 10.0
+
+    def params(self) -> FloatArray:
+        return np.array([self.sigma_gyro, self.sigma_a, self.sigma_m, self.eps_a1, self.eps_a2, self.eps_m1,
+                         self.eps_m2, math.radians(self.eps_dip_deg), self.var_window_s, self.alpha, self.beta,
+                         self.kappa, self.static_gyro_std, self.static_acc_std, self.static_min_s,
+                         self.bias_tau_s, self.bias_smooth_s, self.bias_prior_s, self.gravity_tau_s,
+                         self.mag_ref_tau_s, float(self.mag_when_static), math.radians(self.init_yaw_sigma_deg),
+                         self.static_mag_std, self.bias_hold_s, self.bias_field_uT,
+                         math.radians(self.bias_dip_deg)])
+
+
+
+#: Smallest median difference (rad/s, norm) between the uncalibrated and the calibrated gyro streams that shows the
+#: OS applying a bias estimate (one LSB of a phone gyro is about 1e-3 rad/s; equal streams differ by 0).
+OS_BIAS_MIN = 1e-5
+
+
+def gyro_compensated(t_gyro_s: FloatArray, gyro: FloatArray, t_uncal_s: FloatArray, gyro_uncal: FloatArray) -> bool:
+    """Whether a log's ``gyro`` stream (N, 3, rad/s, at times ``t_gyro_s``) is the OS's bias-compensated one: at the
+    sample times the two streams share (the same sensor events), its ``gyro_uncal`` stream (M, 3) differs from it by
+    a bias estimate (median norm of the difference above :data:`OS_BIAS_MIN`). Android's TYPE_GYROSCOPE subtracts
+    the estimate that TYPE_GYROSCOPE_UNCALIBRATED reports beside its raw rates; a phone without an estimate gives
+    equal streams, and streams with no common sample time give no evidence (False).
+    """
+    _, ia, ib = np.intersect1d(np.asarray(t_gyro_s), np.asarray(t_uncal_s), return_indices=True)
+    if ia.size == 0:
+        return False
+    d = np.asarray(gyro_uncal, dtype=np.float64)[ib] - np.asarray(gyro, dtype=np.float64)[ia]
+    return bool(np.median(np.linalg.norm(d, axis=1)) > OS_BIAS_MIN)
