@@ -16,7 +16,6 @@ service.
 
 from __future__ import annotations
 
-import dataclasses
 import io
 import os
 import pickle
@@ -33,6 +32,7 @@ from typing import Any
 from pdr import recording_codec
 from pdr.errors import InputError
 from pdr.io import format_names
+from pdr.io.registry import relocated
 from pdr.recording import Recording
 
 #: Address space a reader may use, MB (``PDR_READER_MEMORY_MB``; a 64 MB upload of any format needs far less).
@@ -112,27 +112,10 @@ def read_isolated(payload: bytes, filename: str, fmt: str | None = None) -> tupl
 def without_temp_names(recording: Recording, folder: Path, name: str) -> Recording:
     """The recording of the upload ``name`` read from the temporary ``folder``, with nothing that names the folder:
     the source is the uploaded file's name, paths inside the folder lose the folder, and a name a reader took from
-    the folder itself (e.g. a device model from a parent folder's name) is left empty.
+    the folder itself (e.g. a device model from a parent folder's name) is left empty (:func:`pdr.io.registry.
+    relocated`).
     """
-    def clean(text: str) -> str:
-        text = text.replace(f"{folder}/", "").replace(str(folder), name)
-        return "" if folder.name in text else text
-
-    def walk(value: Any) -> Any:
-        if isinstance(value, str):
-            return clean(value)
-        if isinstance(value, dict):
-            return {k: walk(v) for k, v in value.items()}
-        if isinstance(value, list | tuple):
-            return type(value)(walk(v) for v in value)
-        return value
-
-    device = recording.device
-    return dataclasses.replace(
-        recording, source=name, meta=walk(dict(recording.meta)),
-        warnings=tuple(w.replace(f"{folder}/", "").replace(str(folder), name).replace(folder.name, name)
-                       for w in recording.warnings),
-        device=dataclasses.replace(device, model=clean(device.model), device_id=clean(device.device_id)))
+    return relocated(relocated(recording, folder / name, name), folder, name, forget=folder.name)
 
 
 def check_compressed(payload: bytes, source: str) -> None:

@@ -62,7 +62,10 @@ def read_text(path: str | Path) -> str:
 
 
 def head(path: str | Path, n: int = SNIFF_BYTES) -> bytes:
-    """First ``n`` bytes of a file (gunzipped if ``.gz``); empty on any error. For sniffing only."""
+    """First ``n`` bytes of a file (gunzipped if ``.gz``); empty on any error and for a zip archive (whose stored
+    members would otherwise show their text to a text reader's sniffer: a zip is read from its members). For
+    sniffing only.
+    """
     p = Path(path)
     try:
         if not p.is_file():
@@ -71,7 +74,8 @@ def head(path: str | Path, n: int = SNIFF_BYTES) -> bytes:
             with gzip.open(p, "rb") as f:
                 return f.read(n)
         with p.open("rb") as f:
-            return f.read(n)
+            start = f.read(n)
+        return b"" if start.startswith(b"PK\x03\x04") else start
     except (OSError, EOFError):
         return b""
 
