@@ -42,6 +42,13 @@ SINCE = {"name": "since", "in": "query", "required": False, "schema": {"type": "
 TOKEN_QUERY = {"name": "token", "in": "query", "required": False, "schema": {"type": "string"},
                "description": "API token for clients that cannot set headers (ingest endpoints only; "
                               "query strings can end up in logs)"}
+#: The push URL's platform and the app's "Standardise Units & Frames" setting (server.api.ingest).
+PLATFORM_QUERY = [
+    {"name": "platform", "in": "query", "required": False, "schema": {"enum": ["ios", "android"]},
+     "description": "the phone's platform (the app's messages do not say); inferred from the data when absent"},
+    {"name": "standardised", "in": "query", "required": False, "schema": {"enum": ["0", "1", "true", "false"]},
+     "description": "the app's 'Standardise Units & Frames' setting (raw iOS data is read with Core Motion's signs)"},
+]
 PLACEMENT_QUERY = {"name": "placement", "in": "query", "required": False, "schema": {"enum": list(PLACEMENTS)},
                    "description": "how the phone is carried (the app does not say); without it the phone pipeline "
                                   "detects the carriage online"}
@@ -286,9 +293,10 @@ def openapi_document() -> dict[str, Any]:
                            | _errors(401, 404), parameters=[GROUP_ID, AGENT])},
             "/api/v1/ingest/sensor-logger": {
                 "post": _op("Sensor Logger HTTP push; errors the app shows its user are answered 499 (text)",
-                            {"200": _ok("accepted"), "499": _ok("error shown to the user", "text/plain"),
-                             "413": _errors(413)["413"]},
-                            parameters=[TOKEN_QUERY, PLACEMENT_QUERY], requestBody=_json_body("SensorLoggerMessage"),
+                            {"200": _ok("accepted"),
+                             "499": _ok("error shown to the user, an oversized message included", "text/plain")},
+                            parameters=[TOKEN_QUERY, PLACEMENT_QUERY, *PLATFORM_QUERY],
+                            requestBody=_json_body("SensorLoggerMessage"),
                             security=[{"bearer": []}, {"queryToken": []}])},
         }),
     }
