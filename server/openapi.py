@@ -28,6 +28,10 @@ NAME = {"name": "name", "in": "path", "required": True, "schema": {"type": "stri
 REPORT_ID = {"name": "report_id", "in": "path", "required": True, "schema": {"type": "string"}}
 AGENT = {"name": "agent", "in": "path", "required": True, "schema": {"type": "string"}}
 GROUP_ID = {"name": "group_id", "in": "path", "required": True, "schema": {"type": "string"}}
+AGENT_QUERY = {"name": "agent", "in": "query", "required": False, "schema": {"type": "string"},
+               "description": "only these agents (repeatable)"}
+SINCE_S_QUERY = {"name": "since_s", "in": "query", "required": False, "schema": {"type": "number"},
+                 "description": "only rows after this time (s, the group's clock)"}
 SITE_ID = {"name": "site_id", "in": "path", "required": True, "schema": {"type": "string"}}
 #: A site description (``pdr track --site``, ``pdr site from-ms``): floor plans per floor, altitudes, landmarks.
 SITE = {"type": "object", "required": ["floors"],
@@ -286,10 +290,12 @@ def openapi_document() -> dict[str, Any]:
                 "post": _op("apply everything buffered", {"200": _ok("applied")} | _errors(401, 404),
                             parameters=[GROUP_ID])},
             "/api/v1/groups/{group_id}/tracks": {
-                "get": _op("fused tracks of every agent", {"200": _ok("tracks")} | _errors(401, 404),
-                           parameters=[GROUP_ID])},
+                "get": _op("fused tracks of every agent: {agents: {AGENT: {left_foot|right_foot: [[t_s, east_m, "
+                           "north_m, up_m, heading_deg]]}}}, t_s on the group's clock", {"200": _ok("tracks")}
+                           | _errors(401, 404, 422), parameters=[GROUP_ID, AGENT_QUERY, SINCE_S_QUERY])},
             "/api/v1/groups/{group_id}/agents/{agent}/correction": {
-                "get": _op("correction for an agent's local estimate", {"200": _ok("correction")}
+                "get": _op("correction for an agent's local estimate: feet (left_foot/right_foot), steps, t_s, mean "
+                           "(x, y, z m ENU and yaw rad per foot), cov, heading_deg", {"200": _ok("correction")}
                            | _errors(401, 404), parameters=[GROUP_ID, AGENT])},
             "/api/v1/ingest/sensor-logger": {
                 "post": _op("Sensor Logger HTTP push; errors the app shows its user are answered 499 (text)",

@@ -56,7 +56,7 @@ class PhoneProcessor:
         self.stages = [] if named is None else named.stages()   # the map matcher when the session has a start
         if state:
             d = state_codec.loads(state)
-            self.pipeline = PdrPipeline.from_dict(d["pipeline"], stages=self.stages)
+            self.pipeline = PdrPipeline.from_state(d["pipeline"], stages=self.stages)
             self.step_modes = (StepModes.from_state(d["step_modes"]) if d.get("step_modes")
                                else StepModes(str(d.get("last_mode", ""))))
             self.classifier_status: str = d.get("classifier_status", "pending")
@@ -107,7 +107,7 @@ class PhoneProcessor:
                          data={"window_mode": r.window_mode}) for r in results], ""
 
     def tail(self) -> ProcessorOutput:
-        copy = PdrPipeline.from_dict(self.pipeline.to_dict(), stages=self.stages)
+        copy = PdrPipeline.from_state(self.pipeline.state(), stages=self.stages)
         events = copy.finish_events()
         step_modes = self.classifier_status != "active"
         out = convert_events(events, StepModes.from_state(self.step_modes.state()), step_modes=step_modes,
@@ -115,7 +115,7 @@ class PhoneProcessor:
         return out
 
     def to_bytes(self) -> bytes:
-        return state_codec.dumps({"pipeline": self.pipeline.to_dict(), "step_modes": self.step_modes.state(),
+        return state_codec.dumps({"pipeline": self.pipeline.state(), "step_modes": self.step_modes.state(),
                                   "classifier_status": self.classifier_status,
                                   "classifier": None if self.classifier is None else self.classifier.state(),
                                   "stops": self.stops.state()})

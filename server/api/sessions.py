@@ -170,12 +170,21 @@ def delete_session(session_id: str) -> tuple[str, int]:
     return "", 204
 
 
+def refuse_file(session_id: str) -> None:
+    """415 naming the upload route when a log file (multipart) is sent to a route that takes JSON."""
+    if request.mimetype == "multipart/form-data":
+        raise APIError(415, f"this route takes JSON; a log file of a paired device goes to POST "
+                            f"/api/v1/sessions/{session_id}/devices/ROLE/upload (multipart field 'file'), a log "
+                            "file for a new session to POST /api/v1/sessions", details={"field": "file"})
+
+
 @bp.post("/<session_id>/devices")
 def pair_device(session_id: str) -> tuple[Response, int]:
     """Pair a device (e.g. shoe IMUs with roles left_foot / right_foot) with a session."""
     user = current_user()
     svc = services()
     svc.store.session_row(session_id, user.id)
+    refuse_file(session_id)
     body = json_body()
     validate(body, PAIR_DEVICE, "device")
     svc.store.upsert_device(session_id, body["role"], device_id=body.get("device_id", ""),
@@ -236,6 +245,7 @@ def add_native_batch(session_id: str) -> tuple[Response, int]:
     user = current_user(allow_query_token=True, scope="ingest")
     svc = services()
     svc.store.session_row(session_id, user.id)
+    refuse_file(session_id)
     body = json_body()
     batch_id = body.get("batch_id") if isinstance(body, dict) else None
     if not isinstance(batch_id, str) or not batch_id:
