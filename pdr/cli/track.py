@@ -35,8 +35,9 @@ from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
 from pdr.phone.stage import StepStage
 from pdr.phone.step_length import StepLengthModel
 from pdr.phone.steps import StepConfig
+from pdr.phone.track_geojson import require_origin, track_geojson
 from pdr.phone.track_schema import write_csv
-from pdr.recording import Recording
+from pdr.recording import Recording, geo_origin
 
 if TYPE_CHECKING:
     # The map matcher (its compiled kernels, the site's plans) is imported where a command line asks for it.
@@ -52,7 +53,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     _common_options(p)
     p.add_argument("--out", required=True, help="track CSV (t_s,east_m,north_m,up_m,floor,heading_deg,"
                                                "step_length_m,mode) on the log's clock")
-    p.add_argument("--geojson", help="also write the track as GeoJSON (local metres unless the log has an origin)")
+    p.add_argument("--geojson", help="also write the track as GeoJSON (RFC 7946: lon/lat; only for a geo-referenced "
+                                     "log: a GPS fix or a surveyed origin)")
     p.add_argument("--plot", help="also write a PNG plot of the track")
     p.add_argument("--start", metavar="E,N[,FLOOR]",
                    help="known start (m, the site's frame) and its floor (default: the site's only floor): with a "
@@ -111,18 +113,8 @@ def reference_rows(rec: Recording, cfg: PipelineConfig, site: Site | None = None
 
 
 def write_geojson(rows: list[dict[str, Any]], path: str | Path, origin: tuple[float, float] | None) -> None:
-    from pdr.frames import local_enu_to_geodetic
-    coords = []
-    for r in rows:
-        if origin is not None:
-            lat, lon = local_enu_to_geodetic(r["east_m"], r["north_m"], origin[0], origin[1])
-            coords.append([float(lon), float(lat)])
-        else:
-            coords.append([r["east_m"], r["north_m"]])
-    doc = {"type": "FeatureCollection", "features": [{
-        "type": "Feature", "geometry": {"type": "LineString", "coordinates": coords},
-        "properties": {"crs": "WGS84" if origin else "local ENU metres", "steps": len(rows)}}]}
-    Path(path).write_text(json.dumps(doc))
+    """The track as RFC 7946 GeoJSON (:mod:`pdr.phone.track_geojson`); :class:`InputError` when not geo-referenced."""
+    Path(path).write_text(json.dumps(track_geojson(rows, origin, source=f"--geojson {path}")))
 
 
 def write_plot(rows: list[dict[str, Any]], path: str | Path, rec: Recording, title: str) -> None:
@@ -143,6 +135,8 @@ def run_track(args: argparse.Namespace) -> int:
         why = "; ".join(w for w in rec.warnings if "acc" in w)
         raise InputError("no accelerometer stream with gravity ('acc'): cannot track" + (f" ({why})" if why else ""),
                          source=str(args.log))
+    if args.geojson:  # refused before the work, not after it
+        require_origin(geo_origin(rec), source=f"--geojson {args.geojson}")
     site = Site.load(args.site) if args.site else None
     floor0 = 0.0
     cfg = config_from_args(args, floor0)
@@ -168,7 +162,7 @@ def run_track(args: argparse.Namespace) -> int:
         print(f"note: {n}", file=sys.stderr)
     write_csv(rows, args.out)
     if args.geojson:
-        write_geojson(rows, args.geojson, None)
+        write_geojson(rows, args.geojson, geo_origin(rec))
     dist = sum(r["step_length_m"] for r in rows)
     if args.plot:
         write_plot(rows, args.plot, rec, f"pdr track {Path(args.log).name}: {len(rows)} steps, {dist:.1f} m, "

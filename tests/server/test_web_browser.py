@@ -208,10 +208,18 @@ def test_csv_and_geojson_downloads(page: Any, live: LiveService) -> None:
     assert table[0] == ["t_s", "east_m", "north_m", "up_m", "floor", "heading_deg", "step_length_m", "mode", "device"]
     assert len(table) == 1 + 3 * live.foot_steps
     assert sorted({row[-1] for row in table[1:]}) == ["fused", "left_foot", "right_foot"]
-    with page.expect_download() as info:
-        page.click("#dl-geojson")
-    geo = json.loads(Path(info.value.path()).read_text())
-    assert geo["type"] == "FeatureCollection"
+    # GeoJSON (RFC 7946) is lon/lat: only for a geo-referenced session (the API answers 409 otherwise)
+    from tests.geojson_rfc7946 import check_rfc7946
+
+    store = live.app.extensions["pdr"].store
+    store.set_session(live.foot_id, origin_lat_deg=51.5, origin_lon_deg=-0.12)
+    try:
+        with page.expect_download() as info:
+            page.click("#dl-geojson")
+        geo = json.loads(Path(info.value.path()).read_text())
+    finally:
+        store.set_session(live.foot_id, origin_lat_deg=None, origin_lon_deg=None)
+    check_rfc7946(geo)
     assert sorted(f["properties"]["device"] for f in geo["features"]) == ["fused", "left_foot", "right_foot"]
 
 
