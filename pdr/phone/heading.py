@@ -328,11 +328,11 @@ class OffsetEstimator:
             return 0.0
         return 0.5 * math.atan2(self.s, self.c)
 
-    def to_dict(self) -> dict[str, float]:
+    def state(self) -> dict[str, float]:
         return {"weight": self.weight, "c": self.c, "s": self.s}
 
     @classmethod
-    def from_dict(cls, d: dict[str, float]) -> OffsetEstimator:
+    def from_state(cls, d: dict[str, float]) -> OffsetEstimator:
         o = cls(float(d["weight"]))
         o.c, o.s = float(d["c"]), float(d["s"])
         return o
@@ -445,12 +445,12 @@ class StepDriftElimination:
         """Number of strides that measured the heading error."""
         return int(self.hde[drift.HDE_UPDATES])
 
-    def to_dict(self) -> dict[str, object]:
+    def state(self) -> dict[str, object]:
         return {"hde": self.hde.tolist(), "correction": self.correction, "pos": list(self.pos), "raw": list(self.raw),
                 "dominant": list(self.dominant), "n_steps": self.n_steps, "last_t": self.last_t}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any], config: DriftEliminationConfig | None = None,
+    def from_state(cls, d: dict[str, Any], config: DriftEliminationConfig | None = None,
                   grid_yaw: float | None = None) -> StepDriftElimination:
         o = cls(config, grid_yaw)
         o.hde = np.array(d["hde"], dtype=np.float64)

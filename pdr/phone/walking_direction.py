@@ -263,12 +263,12 @@ class DeviceSwingAxis:
         self.axis_b = r.tolist()
         return float(math.remainder(yaw + step_lead(q_nb, rate_hz, step_start), 2 * math.pi))
 
-    def to_dict(self) -> dict[str, Any]:
+    def state(self) -> dict[str, Any]:
         return {"decay": self.decay, "sign_decay": self.sign_decay, "regrip_deg": self.regrip_deg,
                 "scatter": list(self.scatter), "axis_b": self.axis_b, "score": self.score}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> DeviceSwingAxis:
+    def from_state(cls, d: dict[str, Any]) -> DeviceSwingAxis:
         return cls(float(d["decay"]), float(d["sign_decay"]), float(d["regrip_deg"]),
                    [float(v) for v in d["scatter"]], None if d["axis_b"] is None else [float(v) for v in d["axis_b"]],
                    float(d["score"]))
@@ -320,12 +320,12 @@ class WalkingLineFilter:
         self.window = [start, end]
         return self.line
 
-    def to_dict(self) -> dict[str, Any]:
+    def state(self) -> dict[str, Any]:
         return {"line_sigma_deg": self.line_sigma_deg, "turn_sigma_deg": self.turn_sigma_deg,
                 "max_gap_s": self.max_gap_s, "line": self.line, "var": self.var, "window": self.window}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> WalkingLineFilter:
+    def from_state(cls, d: dict[str, Any]) -> WalkingLineFilter:
         return cls(float(d["line_sigma_deg"]), float(d["turn_sigma_deg"]), float(d["max_gap_s"]),
                    None if d["line"] is None else float(d["line"]), float(d["var"]),
                    None if d["window"] is None else [int(v) for v in d["window"]])
@@ -380,9 +380,9 @@ class DeviceFrameDirection:
         if self.d_b is not None:
             self.d_b = [-x for x in self.d_b]
 
-    def to_dict(self) -> dict[str, Any]:
+    def state(self) -> dict[str, Any]:
         return {"decay": self.decay, "d_b": self.d_b}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> DeviceFrameDirection:
+    def from_state(cls, d: dict[str, Any]) -> DeviceFrameDirection:
         return cls(float(d["decay"]), None if d["d_b"] is None else [float(v) for v in d["d_b"]])
