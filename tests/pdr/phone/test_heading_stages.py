@@ -27,7 +27,9 @@ def pending(t_start: float, t_end: float, yaw: float, psi0: float | None = None,
 def window(yaw_y: float, yaw_z: float, n: int = 50, axis: float = 0.0) -> StepWindow:
     """A step of ``n`` samples whose device y and z axes point at the constant yaws ``yaw_y``, ``yaw_z`` (rad)."""
     h = SampleHistory(200)
-    h.append(100, np.arange(n) * 0.01, np.zeros((n, 3)), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n))
+    t = np.arange(n, dtype=np.float64)
+    t *= 0.01                                               # s, 100 Hz
+    h.append(100, t, np.zeros((n, 3)), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n))
     h.yaw_y[:] = yaw_y
     h.yaw_z[:] = yaw_z
     p = np.diag([1e-4, 1e-4, 1e-4, 1e-4])
