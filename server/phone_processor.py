@@ -90,8 +90,10 @@ class PhoneProcessor:
         if name is None:
             self.classifier, self.classifier_status = None, "off"
             wanted = PLACEMENT_MODELS.get(self.pipeline.placement)
-            return [], (f"motion modes from step patterns only: no mode classifier is installed for a phone "
-                        f"carried in the {self.pipeline.placement}"
+            # The session may name no placement: then say that the pipeline found it, not that it was given.
+            how = ("detected as carried in the {} (the session names no placement)" if self.pipeline.auto_placement
+                   else "carried in the {}").format(self.pipeline.placement)
+            return [], (f"motion modes from step patterns only: no mode classifier is installed for a phone {how}"
                         + (f" (models/{wanted}; its model card says how to build it)" if wanted else ""))
         try:
             if self.classifier is None:

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pdr.cli.progress import Progress
 from pdr.errors import InputError
 from pdr.io import native, registry
 from pdr.recording import DEVICE_ROLES, GroundTruth, Labels, PositionTruth, Recording
@@ -126,14 +127,18 @@ def write_native(recording: Recording, out: str | Path) -> Path:
 
 
 def run(args: argparse.Namespace) -> int:
-    recording = registry.read_recording(args.log, args.format)
-    if args.role is not None:
-        recording = replace(recording, device=replace(recording.device, role=args.role))
-    if args.start is not None or args.end is not None:
-        start, end = recording.time_span_s()
-        recording = excerpt(recording, start if args.start is None else args.start,
-                            np.nextafter(end, np.inf) if args.end is None else args.end)
-    out = write_native(recording, args.out)
+    with Progress(2, "convert") as bar:   # a large log takes a while to read and to write
+        bar.set_note(f"reading {Path(args.log).name}")
+        recording = registry.read_recording(args.log, args.format)
+        if args.role is not None:
+            recording = replace(recording, device=replace(recording.device, role=args.role))
+        if args.start is not None or args.end is not None:
+            start, end = recording.time_span_s()
+            recording = excerpt(recording, start if args.start is None else args.start,
+                                np.nextafter(end, np.inf) if args.end is None else args.end)
+        bar.advance(note=f"writing {Path(args.out).name}")
+        out = write_native(recording, args.out)
+        bar.advance()
     n = sum(len(s) for s in recording.streams.values())
     print(f"wrote {out} ({len(recording.streams)} streams, {n} samples, {recording.duration_s:.3f} s)")
     return 0
