@@ -75,7 +75,7 @@ and the gyro yaw is that of a device axis (:mod:`pdr.phone.gyro_yaw`; the vertic
 the swinging thigh's geometric phase, 1-2 deg per stride). The offset is the phone's yaw in the pocket relative to the
 walking direction, fixed while the phone stays put, so the smoother mostly removes the RMPCA's lag through turns; a
 walk-long bias of the RMPCA direction stays: ``pdr eval pocket-heading --data /work/shared/data`` prints the simulated
-pocket walks' causal and smoothed errors (the smoothed mean falls, the median, that walk-long bias, does not move).
+pocket walks' causal and smoothed errors (the smoothed mean falls; the median, that walk-long bias, hardly moves).
 
 The service streams the causal track; this smoother runs where the whole walk is at hand (``pdr track``, the
 evaluations).
@@ -134,12 +134,12 @@ class HeadingSmootherConfig:
         (the IPIN walks' opening calibration motion). A deflection that changes by as much within one step is
         taken for the same: the bias is then learnt from the stretches between such places only. On the IPIN
         repetition-01 files the landmark p75 is flat from 20 to 30 deg, a little worse at 45 deg and several times
-        worse without the restart (``pdr eval ipin``).
+        worse without the restart (``pdr eval ipin`` with ``jump_deg`` changed).
     pocket_jump_deg
         ``jump_deg`` for trouser-pocket steps. Their measurement is the RMPCA walking direction, which lags through
         a turn by 30-60 deg for a step or two, so 20 deg would restart the offset at every turn; a phone turned
-        round in the pocket still restarts it. On the simulated pocket walks (``pdr eval pocket-heading``) the
-        smoothed error falls as the threshold rises from 20 to 90 deg and stays from 90 to 180 deg.
+        round in the pocket still restarts it. On the simulated pocket walks (``pdr eval pocket-heading``, with this
+        changed) the smoothed error falls as the threshold rises from 20 to 90 deg and stays from 90 to 180 deg.
     """
 
     sigma_mag_deg: float = 30.0

@@ -99,7 +99,8 @@ Trouser pocket: continuity (:class:`DeviceFrameDirection`; item 4 of issue 25)
 
     Why 0.1 and the gate: the turn cue is right where the skewness is at chance (back pocket, running), but on
     straight walks with pivots, at a walk's start and on the simulator it costs. Weights 1 and 0.25 raised the
-    simulated pocket walks' error and the MobiFall and Oxford flips (``pdr eval pocket-heading``); weight 0
+    simulated pocket walks' error and the MobiFall and Oxford flips (``pdr eval pocket-heading`` with
+    :data:`pdr.phone.heading_stages.POCKET_TURN_WEIGHT` changed); weight 0
     (skewness only) leaves the benchmark's clean back-pocket walks backwards from start to end, the skewness
     there being at chance (``pdr eval heading``, back-pocket lines); 0.1 with the speed and along-track gates
     costs nothing measurable on the first and fixes the second. The reversed steps left are the first few of a
