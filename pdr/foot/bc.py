@@ -189,13 +189,11 @@ class BCConfig:
         Attitude process noise of clipped gyroscope samples (:mod:`pdr.foot.saturation`): ``"peak"`` (default,
         :func:`~pdr.foot.saturation.clip_variance_peak`: the excess of a smooth peak cut at full scale, sized by
         the run's length and its edge slopes), ``"constant"`` (:func:`~pdr.foot.saturation.clip_variance`, an
-        excess with the standard deviation ``clip_excess * |w|`` over the whole run) or ``"off"``. Measured
-        for issue #5 (pdr eval foot /work/shared/data --method bc --hde on; PyShoe median ARMSE / largest, gcp
-        walk 35 final error): off 0.076 / 2.03 m, 3029 %; scored + off 0.076 / 1.99 m, 3030 %; scored +
-        constant 0.5: 0.073 / 47.3 m (2017-11-27-11-13-41: the attitude spread of 4 deg after a 3-sample run,
-        10-15 deg later, let the stance's 0.3 m/s^2 acceleration constraint put the running stance's
-        accelerations into the tilt, 15-40 deg off the ZUPT filter's), 3.2 %; divided + peak 0.072 / 0.76 m,
-        1173 %; scored + peak (the defaults) 0.072 / 0.73 m, 5.9 %.
+        excess with the standard deviation ``clip_excess * |w|`` over the whole run) or ``"off"``. Why ``peak``
+        (issue #5, figures from ``pdr eval foot /work/shared/data --method bc --hde on``): without clip noise the
+        fast foot_stride_gcp walk runs away; the ``constant`` excess makes a short run's attitude spread so wide that
+        a running stance's acceleration constraint pushes its accelerations into the tilt (one PyShoe running trial
+        then ends tens of metres off); the ``peak`` excess, sized by the run, keeps both in check.
     hde
         Heuristic drift elimination of the heading (:mod:`pdr.foot.drift`): its ``hde_*``, ``sigma_drift*`` and
         ``sigma_heading_rw`` settings, the same as the ZUPT INS's (``ZuptConfig(hde_directions=0)``: off). It

@@ -258,21 +258,14 @@ def stationary_gyro_bias(acc_b: ArrayLike, gyro_b: ArrayLike, rate_hz: float, th
     statistic of ``config``) the gyroscope measures only its bias. Uses the whole recording, so it is for offline
     processing. Returns zeros when fewer than ``min_s`` seconds of still samples exist.
 
-    Why it is off by default (issue #5; pdr eval foot /work/shared/data --method zupt --hde on --smoother on
-    --gyro-bias on|off). The threshold 300 still admits a root-mean-square rate of ``sqrt(300) * 0.1 deg/s =
-    1.7 deg/s``, so short "still" runs inside walking stances (the foot settling) enter with mean rates of
-    0.5-1 deg/s: on foot_stride_gcp walks 32 and 34 (no still run of 1 s) they are most of the set and the
-    walks get worse (0.28 -> 0.55 %, 0.32 -> 0.56 %). On xio_gait_loop the set is right -- 92 % of it is the
-    13.3 s rest before the walk and the 4.5 s after it, and the runs of 1 s or more alone give the same bias
-    within 0.02 deg/s (loop error 65.9 mm instead of 60.1) -- but the bias moves during the walk (sensor y:
-    -0.145 deg/s in the first rest, +0.093 in the last) and the loss is all in the sensor z axis (removing only
-    x and y: 19.3 -> 10.5 mm; only z, -0.084 deg/s: 84.4 mm), i.e. the heading: without the correction a
-    bias-driven heading drift happens to close the loop. The 400 Hz rate and the g / deg/s units are converted
-    before this point and are not the cause. Per dataset with / without: PyShoe median ARMSE 0.0432 / 0.0465 m
-    (odd 0.0438 / 0.0455, even 0.0407 / 0.0475; 6 trials better and 5 worse by more than 1 %), gcp median
-    0.56 / 0.73 % (walk 35 better 1.06 -> 0.54 %, walks 32, 34, 36 worse), xio 60.1 / 19.3 mm. Runs of 1 s or
-    more only: PyShoe 0.0465 m, gcp 0.46 % (walk 36 1.14 -> 2.68 %), xio 65.9 mm; the biases of the rests
-    interpolated in time: xio 41.5 mm. None helps all three.
+    Why it is off by default (issue #5; ``pdr eval foot /work/shared/data --method zupt --hde on --smoother on
+    --gyro-bias on|off`` prints the figures with and without it). The threshold 300 still admits a root-mean-square
+    rate of ``sqrt(300) * 0.1 deg/s = 1.7 deg/s``, so short "still" runs inside walking stances (the foot settling)
+    enter with mean rates of 0.5-1 deg/s: on walks without a still run of 1 s they are most of the set, and those
+    walks get worse. Where the set is right (the rests before and after the xio loop), the bias moves during the
+    walk and the loss is in the sensor's vertical axis, i.e. the heading: without the correction a bias-driven
+    heading drift happens to close the loop. Neither runs of 1 s or more only nor the rests' biases interpolated in
+    time helps all three datasets.
 
     Parameters
     ----------

@@ -119,8 +119,8 @@ PI_DEFAULT: dict[str, tuple[tuple[tuple[float, float, float], ...], float]] = {
 #: swing's residuals deserve (``sigma_nc`` = 1 stands for a spread of 1 m/s, 1 rad/s, 1 m/s^2, far narrower than a
 #: swing). The former height defaults (median swing q = 0.009, ``sigma_nc`` = 1) lost the stances of the PyShoe
 #: running trials. ``speed``: keeps ``ZuptConfig.sigma_acc``; its almost-stationary mode (sigma_v = 0.1 m/s)
-#: absorbs the swing error while walking (the learned q loosens the walking stances: PyShoe median ARMSE 0.069 ->
-#: 0.111 m, measured for issue #5). It shares the learned ``sigma_nc`` since the unconstrained mode is scored with
+#: absorbs the swing error while walking (the learned q loosens the walking stances and raises the PyShoe median
+#: ARMSE, issue #5). It shares the learned ``sigma_nc`` since the unconstrained mode is scored with
 #: the leaf's spread (:data:`NC_STATE_SPREAD_DEFAULT`).
 ACC_PSD_DEFAULT: dict[str, float | None] = {"speed": None, "height": 0.39}
 #: Default ``sigma_nc`` per variant (see :data:`ACC_PSD_DEFAULT`).
@@ -133,14 +133,10 @@ SIGMA_NC_DEFAULT: dict[str, float] = {"speed": 2.73, "height": 2.73}
 #: I)``: past some uncertainty no stance can win again and the bank runs away (foot_stride_gcp walk 35, several
 #: PyShoe running trials). Scoring the unconstrained mode on the same residuals with ``H P H^T + sigma_nc^2 I``
 #: keeps the comparison about the residuals, not the leaf's uncertainty, and the clipped-sample noise makes that
-#: uncertainty honest. Both together, with ``sigma_nc`` = 2.73 for both variants, measured on the three foot
-#: datasets (``pdr eval foot /work/shared/data --method filterbank|filterbank-height --hde on``), before -> after:
-#: ``speed``: PyShoe median ARMSE 0.069 -> 0.062 m, trials over 1 m 8 -> 3 (largest 213 -> 13 m; walking trials
-#: lose 5-20 mm), xio 0.07 -> 0.09 %, gcp median 0.79 -> 0.89 % (walk 35: 3099 -> 1.7 %).
-#: ``height``: PyShoe median 0.068 -> 0.066 m, over 1 m 3 -> 1 (largest 61 -> 1.6 m), xio 0.04 -> 0.17 %, gcp
-#: median 1.37 -> 1.45 % (walk 35: 33 -> 3.6 %, walk 34: 11.9 -> 9.7 %). Either part alone is worse: clip noise
-#: without the state spread leaves walk 35 running away (speed 861 %, height 141 %); the state spread without clip
-#: noise leaves 7 speed trials over 1 m.
+#: uncertainty honest. Both together, with ``sigma_nc`` = 2.73 for both variants, bring the PyShoe trials that ran
+#: away back under or near a metre and foot_stride_gcp walk 35 from thousands of percent to a few, at a cost of
+#: millimetres on the walking trials; either part alone leaves runaways (``pdr eval foot /work/shared/data --method
+#: filterbank|filterbank-height --hde on`` prints the figures per dataset and trial).
 NC_STATE_SPREAD_DEFAULT = True
 
 

@@ -38,18 +38,17 @@ Second UKF (eqs. 41-42)
     candidate direction ``p`` the flexion rate is ``omega_h . (p x u)``, which is ``+thetadot`` for ``p = f``
     and ``-thetadot`` for ``p = -f``: the sign of its third moment picks the direction. Rules that read the
     direction from the acceleration at heel strike fail in a pocket: there the thigh's own rotation adds
-    forward or backward acceleration depending on the subject (forward in 15-63 % of the norm peaks of
-    MobiFall walks).
+    forward or backward acceleration depending on the subject (on the MobiFall walks the norm peaks' forward
+    share ranges from well under to well over half).
 
     Checked on real walks without direction truth by the centripetal acceleration in turns: walking at speed
     ``V`` with yaw rate ``Omega``, the mean horizontal acceleration over a stride is ``V Omega (u x f)``, which
-    gives ``f`` with its sign from the gyro's yaw rate and no gait assumption. On the turning strides of
-    MobiFall WAL (subjects 2, 4, 5, 7) the swing evidence of a single stride agrees with it in 76-92 %; the
-    resolved heading (vote over strides) in 312 of 349; a heel-strike deceleration rule in 198 of 349.
-    Flips (consecutive steps more than 120 degrees apart): 6 in 2510 MobiFall steps and 14 in 3352 Oxford
-    front/back-pocket steps (accelerometer only: the rate comes from the tilt), against 330 and 281 with the
-    heel-strike rule; on simulated pocket walks (both thighs, random mounts) no step points backwards
-    (``tools/pocket_direction_check.py``).
+    gives ``f`` with its sign from the gyro's yaw rate and no gait assumption. On the turning strides of the
+    MobiFall walks the swing evidence agrees with it far more often than a heel-strike deceleration rule, and the
+    vote over strides more often still; ``pdr eval pocket-heading --data /work/shared/data`` prints the direction
+    flips (consecutive steps more than 120 degrees apart) of the MobiFall and Oxford front/back-pocket walks
+    (Oxford: accelerometer only, the rate comes from the tilt) and the simulated pocket walks' error (both
+    thighs, random mounts; ``tools/pocket_direction_check.py`` checks that no simulated step points backwards).
 
 Device heading (hand-held and torso)
     The yaw of the device forward axis averaged over the step (seed 004 eq. 21, on the unwrapped yaw),
@@ -67,20 +66,19 @@ Heuristic drift elimination of the step heading (:class:`StepDriftElimination`)
     (uncorrected) directions of the strides in straight runs of at least ``learn_min_strides`` strides,
     so a short stretch (or the handling before a walk) does not set them.
 
-    Measured on the IPIN 2023 track-3 hand-held walks (``pdr eval ipin ... --placement hand``; parameters
-    chosen on the repetition-01 files, where the landmark p75 is flat within 3.9-4.4 m over sigma_dir 3-8 deg,
-    random walk 0.5-2 deg/sqrt(s) and learn_min_strides 4-10): landmark median/p75 2.71/4.01 m without,
-    2.24/3.78 m with; mean absolute leg-direction error on the held-out repetition-02 files 9.3 -> 8.1 deg
-    (the phone's rotation vector: 11.1 deg). What limits it: the dominant directions come from the walk's
+    The parameters (``DriftEliminationConfig``) were chosen on the IPIN 2023 track-3 repetition-01 hand-held
+    files, where the landmark p75 is flat over a wide range of the direction sigma, the random walk and
+    ``learn_min_strides`` (not tuned to a point), and checked on the held-out repetition-02 files;
+    ``pdr eval ipin /work/shared/data/ipin2023_t3/logfiles --placement hand`` prints the landmark median and p75
+    (causal and smoothed). What limits it: the dominant directions come from the walk's
     magnetometer-referenced headings, whose mean over a walk is itself deflected (by up to 20 deg on some
-    routes); with the building's true grid direction the repetition-01 p75 would be about 1 m lower.
+    routes), so the true grid direction does better.
 
     A site description may give that grid (``Site.grid_deg``, the compass bearing of one of the building's main
-    axes): the dominant directions are then fixed to it instead of learnt. With the IPIN 2023 museum's grid
-    taken from its landmark survey (20.5 deg east of the east axis, the length-weighted circular mean of the
-    legs' directions mod 90 deg; its legs lie within 0-24 deg of it; compass bearing 69.5 deg) the 25 logs give
-    2.19/3.44 m instead of 2.38/3.83 m (``pdr eval ipin DIR --placement hand --site grid.json`` with
-    ``{"grid_deg": 69.5, "landmarks": []}``); that is a map input, so the IPIN target figures never use it.
+    axes): the dominant directions are then fixed to it instead of learnt. The IPIN 2023 museum's grid, from its
+    landmark survey (the length-weighted circular mean of the legs' directions mod 90 deg), has the compass bearing
+    69.5 deg; ``pdr eval ipin DIR --placement hand --site grid.json`` with ``{"grid_deg": 69.5, "landmarks": []}``
+    prints the figures with it. That is a map input, so the IPIN target figures never use it.
 """
 
 from __future__ import annotations
@@ -330,11 +328,11 @@ class OffsetEstimator:
             return 0.0
         return 0.5 * math.atan2(self.s, self.c)
 
-    def to_dict(self) -> dict[str, float]:
+    def state(self) -> dict[str, float]:
         return {"weight": self.weight, "c": self.c, "s": self.s}
 
     @classmethod
-    def from_dict(cls, d: dict[str, float]) -> OffsetEstimator:
+    def from_state(cls, d: dict[str, float]) -> OffsetEstimator:
         o = cls(float(d["weight"]))
         o.c, o.s = float(d["c"]), float(d["s"])
         return o
@@ -447,12 +445,12 @@ class StepDriftElimination:
         """Number of strides that measured the heading error."""
         return int(self.hde[drift.HDE_UPDATES])
 
-    def to_dict(self) -> dict[str, object]:
+    def state(self) -> dict[str, object]:
         return {"hde": self.hde.tolist(), "correction": self.correction, "pos": list(self.pos), "raw": list(self.raw),
                 "dominant": list(self.dominant), "n_steps": self.n_steps, "last_t": self.last_t}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any], config: DriftEliminationConfig | None = None,
+    def from_state(cls, d: dict[str, Any], config: DriftEliminationConfig | None = None,
                   grid_yaw: float | None = None) -> StepDriftElimination:
         o = cls(config, grid_yaw)
         o.hde = np.array(d["hde"], dtype=np.float64)

@@ -98,11 +98,11 @@ class DeviceHeading:
         return StepHeading(HeadingEstimate(psi0, var), psi0, win.axis, m1)
 
     def state(self) -> dict[str, Any]:
-        return {"offset": self.offset.to_dict()}
+        return {"offset": self.offset.state()}
 
     @classmethod
     def from_state(cls, d: dict[str, Any], heading_offset: str, process_var: float) -> DeviceHeading:
-        return cls(heading_offset, process_var, OffsetEstimator.from_dict(d["offset"]))
+        return cls(heading_offset, process_var, OffsetEstimator.from_state(d["offset"]))
 
 
 def direction_vote(placement: str | None) -> DirectionVote:
@@ -207,8 +207,8 @@ class PocketHeading:
     def state(self) -> dict[str, Any]:
         return {"prev_yaw": self.prev_yaw, "prev_step_start": self.prev_step_start,
                 "direction_score": self.direction_vote.score, "direction_votes": self.direction_vote.n,
-                "swing_axis": self.swing_axis.to_dict(), "pocket_direction": self.pocket_direction.to_dict(),
-                "pocket_line": self.pocket_line.to_dict()}
+                "swing_axis": self.swing_axis.state(), "pocket_direction": self.pocket_direction.state(),
+                "pocket_line": self.pocket_line.state()}
 
     @classmethod
     def from_state(cls, d: dict[str, Any], rate_hz: float, pocket_axis: str, process_var: float,
@@ -219,11 +219,11 @@ class PocketHeading:
         o.direction_vote.score = float(d["direction_score"])
         o.direction_vote.n = int(d["direction_votes"])
         if d.get("swing_axis") is not None:         # absent in states saved before the device-frame swing axis
-            o.swing_axis = DeviceSwingAxis.from_dict(d["swing_axis"])
+            o.swing_axis = DeviceSwingAxis.from_state(d["swing_axis"])
         if d.get("pocket_direction") is not None:   # absent in states saved before the device-frame continuity
-            o.pocket_direction = DeviceFrameDirection.from_dict(d["pocket_direction"])
+            o.pocket_direction = DeviceFrameDirection.from_state(d["pocket_direction"])
         if d.get("pocket_line") is not None:        # absent in states saved before the walking-line filter
-            o.pocket_line = WalkingLineFilter.from_dict(d["pocket_line"])
+            o.pocket_line = WalkingLineFilter.from_state(d["pocket_line"])
         return o
 
 
@@ -338,7 +338,7 @@ class DriftElimination:
         return est
 
     def state(self) -> dict[str, Any]:
-        return {"hde": self.hde.to_dict()}
+        return {"hde": self.hde.state()}
 
     @classmethod
     def from_state(cls, d: dict[str, Any], enabled: bool, hde: StepDriftElimination) -> DriftElimination:
@@ -346,5 +346,5 @@ class DriftElimination:
         saved before the drift elimination: then it starts afresh).
         """
         if d.get("hde") is not None:
-            hde = StepDriftElimination.from_dict(d["hde"], hde.config, hde.grid_yaw)
+            hde = StepDriftElimination.from_state(d["hde"], hde.config, hde.grid_yaw)
         return cls(enabled, hde)

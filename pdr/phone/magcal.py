@@ -105,7 +105,7 @@ class HardIronState:
     last_w: FloatArray | None = None
     n_seen: int = 0
 
-    def to_dict(self) -> dict[str, Any]:
+    def state(self) -> dict[str, Any]:
         return {"info": self.info.tolist(), "vec": self.vec.tolist(), "yy": self.yy, "rows": self.rows,
                 "estimate": self.estimate.tolist(), "std": [min(float(s), 1e300) for s in self.std],
                 "applied": self.applied.tolist(),
@@ -113,7 +113,7 @@ class HardIronState:
                 "last_w": None if self.last_w is None else self.last_w.tolist(), "n_seen": self.n_seen}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> HardIronState:
+    def from_state(cls, d: dict[str, Any]) -> HardIronState:
         try:
             return cls(np.array(d["info"], dtype=np.float64).reshape(3, 3), np.array(d["vec"], dtype=np.float64),
                        float(d["yy"]), float(d["rows"]), np.array(d["estimate"], dtype=np.float64),
@@ -246,11 +246,11 @@ class HardIronEstimator:
         return out
 
     def state(self) -> dict[str, Any]:
-        return self.hard_iron.to_dict()
+        return self.hard_iron.state()
 
     @classmethod
     def from_state(cls, d: dict[str, Any], rate_hz: float, config: MagCalConfig | None = None
                    ) -> HardIronEstimator:
         est = cls(rate_hz, config)
-        est.hard_iron = HardIronState.from_dict(d)
+        est.hard_iron = HardIronState.from_state(d)
         return est

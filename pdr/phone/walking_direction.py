@@ -1,7 +1,11 @@
 """Walking direction of a swinging phone (trouser pocket, swinging hand): the swing plane's axis and the
 forward/backward decision from the centripetal acceleration in turns.
 
-All angles are internal yaw (rad, counter-clockwise from east, ENU).
+All angles are internal yaw (rad, counter-clockwise from east, ENU). The figures these mechanisms achieve are
+printed by the evaluations, not kept here: ``pdr eval heading /work/shared/data/attitude_smartphones`` (the
+motion-capture benchmark: causal and smoothed walking-direction error per recording, per carriage and field,
+per walker) and ``pdr eval pocket-heading --data /work/shared/data`` (simulated pocket walks' mean error, the
+direction flips of the real MobiFall and Oxford pocket walks).
 
 Swing-plane axis (:func:`swing_plane_axis`)
     A phone in a swinging hand turns with the arm, and one in a trouser pocket with the thigh, about the
@@ -18,28 +22,21 @@ Forward or backward (:func:`turn_evidence`; which rule decides and why)
     direction ``p`` the evidence is ``Omega * (a_mean . (u x p))``: ``V Omega^2 > 0`` for ``p = f`` and the
     opposite for ``p = -f``. It is scaled by ``v_ref * omega_ref^2`` and clipped to [-1, 1], so a straight
     stride (``Omega`` near 0) carries no evidence and a clear turn one full vote. It needs no assumption on the
-    arm's or thigh's swing, which is why it decides for the swinging hand, whose swing is nearly symmetric
-    (the thigh-swing skewness of :func:`pdr.phone.heading.thigh_swing_evidence` picks the right direction in only
-    53-65 % of its strides on the motion-capture benchmark). In a trouser pocket the skewness decides, with
-    the turn cue as a light second vote (below, "Trouser pocket: continuity"), accumulated by
-    :class:`pdr.phone.heading.DirectionVote`.
-
-    Per-stride cues on the benchmark's pocket walks with the pipeline's own attitude
-    (each cue evaluated with the motion-capture walking yaw as the candidate): thigh-swing skewness right in 88-92 %
-    of strides in a front pocket, but 48-69 % in a back pocket and 56-57 % running (chance: the back of the
-    thigh and a running thigh do not have the slow-stance/fast-swing asymmetry at the pocket); the turn cue
-    right in 77-98 % (front), 89-100 % (back) and 90-96 % (running) of turning strides (|yaw rate| > 14 deg/s);
-    the correlation of vertical and forward acceleration over the stride is consistent within a carriage but
-    of opposite sign in front (positive in 90-99 %) and back pockets (negative in 65-97 %), so it cannot decide
-    without knowing which pocket.
+    arm's or thigh's swing, which is why it decides for the swinging hand, whose swing is nearly symmetric (the
+    thigh-swing skewness of :func:`pdr.phone.heading.thigh_swing_evidence` is near chance there). In a trouser
+    pocket the skewness decides, with the turn cue as a light second vote (below, "Trouser pocket: continuity"),
+    accumulated by :class:`pdr.phone.heading.DirectionVote`: the skewness is reliable in a front pocket but near
+    chance in a back pocket and when running (the back of the thigh and a running thigh lack the
+    slow-stance/fast-swing asymmetry at the pocket), where the turn cue is the one that is right. The
+    correlation of vertical and forward acceleration over the stride changes sign between front and back
+    pockets, so it cannot decide without knowing which pocket.
 
     What limits it: a tilt error ``d`` of the attitude adds ``g d`` (0.17 m/s^2 per degree) to the mean
-    horizontal acceleration, against a centripetal term of about 0.5 m/s^2 (1.2 m/s turning 23 deg/s). With the
-    motion-capture attitude the cue is right in 86-98 % of the benchmark's strides in every carriage; with the
-    attitude filter's, whose accelerometer rows take a pendulum's specific force (along the arm) for gravity,
-    in 57-75 % of the swinging hand's turning strides. Added at full weight to the skewness in a pocket it
-    raised the flips of the MobiFall pocket walks from 5 to 124 in 2510 steps (straight walks whose few turns
-    are pivots, not the steady turn the cue assumes); hence the gate and the weight below.
+    horizontal acceleration, against a centripetal term of about 0.5 m/s^2 (1.2 m/s turning 23 deg/s). The
+    attitude filter's accelerometer rows take a swinging arm's specific force (along the arm) for gravity, so
+    with our attitude the cue is right less often than with the motion-capture one. At full weight in a pocket
+    it flips the straight MobiFall pocket walks (their few turns are pivots, not the steady turn the cue
+    assumes); hence the gate and the weight below.
 
 Device-frame swing axis of a swinging hand (:class:`DeviceSwingAxis`; item 5 of issue 25)
     A hand's grip holds the phone still relative to the forearm for minutes, and the arm swings about the
@@ -53,93 +50,71 @@ Device-frame swing axis of a swinging hand (:class:`DeviceSwingAxis`; item 5 of 
     (memory ``1 / (1 - sign_decay)`` strides) instead of being carried from stride to stride through the
     yaw's continuity, where a misread turn flipped the direction for several strides. When the principal axis
     moves by more than ``regrip_deg`` between strides (the phone changed hands or grip) the sign's evidence
-    restarts.
+    restarts. The memories were checked on the benchmark's tuning walker only, where the error is flat over a
+    wide range of them; the other walker confirms (``pdr eval heading``, swinging-hand lines). In a trouser
+    pocket the same tracker reverses many steps: a thigh's rotation is not a fixed-axis swing (the knee's
+    flexion, the thigh's axial rotation and the pelvis' tilt add other device-frame axes), so it is used for
+    the swinging hand only.
 
-    Measured (``pdr eval heading ../shared/data/attitude_smartphones``, automatic placement, causal mean error of
-    the swinging-hand walks, Dist/NoDist): tuning walker Guillaume 40.1/30.0 -> 25.9/29.6 deg, confirmation walker
-    Jakob 51.0/43.2 -> 37.4/31.0 deg (steps reversed, more than 90 deg off: 10-33 % -> 1-16 %). On the tuning
-    walker an axis memory of 10-50 strides and a sign memory of 33 strides to unlimited give 27.7-31.8 deg (flat:
-    the values are not tuned to it). In a trouser
-    pocket the same tracker was worse than the per-stride swing plane with the thigh-swing vote (Guillaume back
-    pocket 13.6 -> 48.0, running 31.3 -> 60.2, 20-30 % of steps reversed): a thigh's rotation is not a fixed-axis
-    swing (the knee's flexion, the thigh's axial rotation and the pelvis' tilt add other device-frame axes), so
-    it is used for the swinging hand only.
-
-    What limits it: with the motion-capture attitude the per-stride swing plane of the swinging hand is within
-    2-12 deg of the walking direction on average (signed median per walk); with the attitude filter's it is
-    off by +19/+24 deg on the tuning walker (the filter's yaw, 6.3/22.9 deg mean error there) and -3/+3 deg on
-    the other walker: the rest of the error is the attitude's yaw, not the direction method.
+    What limits it: with the motion-capture attitude the per-stride swing plane of the swinging hand is close
+    to the walking direction; with the attitude filter's, most of what is left is the attitude's yaw error, not
+    the direction method (``pdr eval heading`` prints the attitude's own yaw error beside the walking direction's).
 
 Trouser pocket: the walking line from stride to stride (:class:`WalkingLineFilter`)
-    One stride's swing plane is a noisy measurement of the walking line: on the motion-capture benchmark's pocket
-    walks (``pdr eval heading ../shared/data/attitude_smartphones``), with the pipeline's attitude, its error about
-    each walk's own median has a robust spread (1.48 MAD) of 12.8 deg on the tuning walker Guillaume and 12.0 deg
-    on Jakob. The walker's turn between two strides is known far better: the change of the stride-mean rotation
-    about the vertical (a whole gait cycle, so the thigh's own swing averages out) differs from the true change of
-    walking direction by 5.3 deg (1.48 MAD, Guillaume; 6.0 Jakob, the truth's own step-to-step noise included).
-    A Kalman filter on the line (mod 180 deg) therefore predicts with the turn and updates with the stride:
-    ``line_sigma_deg`` 13 and ``turn_sigma_deg`` 5 are those two measured spreads, not tuned. Pocket walks, causal
-    mean error (all carriages in a pocket, automatic placement), before -> after: front pocket 23.8 -> 22.9, back
-    pocket 15.8 -> 12.6, running 16.0 -> 11.2 deg; tuning walker 20.0 -> 16.9 and confirmation walker 19.5 -> 18.5
-    over all its walks; simulated pocket walks (``pdr eval pocket-heading``) 8.7 -> 7.6 deg, and the direction
-    flips of the real MobiFall and Oxford pocket walks 5 -> 4 and 15 -> 10. It is not used for the swinging hand,
-    where :class:`DeviceSwingAxis` already pools the strides: on its per-stride swing planes (measured offline) it
-    changed the tuning walker's line error from 27.6 to 27.8 deg (Jakob 26.6 -> 24.2).
+    One stride's swing plane is a noisy measurement of the walking line. The walker's turn between two strides
+    is known far better: the change of the stride-mean rotation about the vertical (a whole gait cycle, so the
+    thigh's own swing averages out). A Kalman filter on the line (mod 180 deg) therefore predicts with the turn
+    and updates with the stride. Its two noises are properties of the data, not tuned: on the motion-capture
+    benchmark's pocket walks with the pipeline's attitude, one stride's swing-plane line scatters about each
+    walk's own median with a robust spread (1.48 MAD) of 12.8 deg (tuning walker) and 12.0 deg (the other), and
+    the stride-mean turn differs from the true change of walking direction by 5.3 and 6.0 deg (1.48 MAD, the
+    truth's own step-to-step noise included): hence ``line_sigma_deg`` 13 and ``turn_sigma_deg`` 5. It is not
+    used for the swinging hand, where :class:`DeviceSwingAxis` already pools the strides.
 
     What limits it: a constant offset per walker and pocket between the thigh's swing plane and the walking
-    direction, present with the motion-capture attitude too (median of the per-stride line error with the mocap
-    attitude: front pocket -21 and -17 deg for Guillaume, +4 and +9 deg for Jakob; back pocket -8/-14 and -14/+5).
-    The leg's rotation about its own axis and its abduction in step with the swing tilt the plane; the filter
-    averages noise, not this bias, and seed 003's acceleration PCA has a bias of its own (+14 to +60 deg here)
-    that does not cancel it on the other walker.
+    direction, present with the motion-capture attitude too, of either sign. The leg's rotation about its own
+    axis and its abduction in step with the swing tilt the plane; the filter averages noise, not this bias, and
+    seed 003's acceleration PCA has a bias of its own that does not cancel it on both walkers.
 
 Turns
     A direction measured over a stride is the walking direction at the stride's centre, while a step's
     direction is wanted at the step's centre, half a step later. The benchmark's walkers turn at 23 deg/s on
-    average and up to 50 deg/s, which made the swinging hand's heading lag by a step (30-40 deg) through every
-    turn. :func:`step_lead` carries it forward by the stride's mean rate about the vertical. Swinging-hand
-    walks, causal mean (Dist/NoDist): tuning walker 25.9/29.6 -> 24.7/27.3 deg, confirmation walker 37.4/31.0 ->
-    31.0/24.1 deg. In a trouser pocket the same lead helped the tuning walker (5 walks, mean 25.7 -> 24.3 deg)
-    but not the other (25.0 -> 25.1 deg) and made the smoothed heading worse (17.0 -> 20.4 deg on the tuning
-    walker): the pocket's swing plane is dominated by the fast swing of the pocket's thigh, which falls in one
-    of the stride's two steps, so its time is not the stride's centre. It is applied to the swinging hand only.
+    average and up to 50 deg/s, which made the swinging hand's heading lag by a step through every turn.
+    :func:`step_lead` carries it forward by the stride's mean rate about the vertical. In a trouser pocket the
+    same lead helped one walker, not the other, and made the smoothed heading worse: the pocket's swing plane is
+    dominated by the fast swing of the pocket's thigh, which falls in one of the stride's two steps, so its time
+    is not the stride's centre. It is applied to the swinging hand only.
 
 Trouser pocket: continuity (:class:`DeviceFrameDirection`; item 4 of issue 25)
     The pocket's walking line is re-measured every stride (swing plane or RMPCA), and one of its two
     directions must be picked. That choice used to follow the previous step's heading turned by the device's
     rotation about the vertical between the two steps' mid-points, which in a pocket include opposite phases
-    of the thigh's swing: in the benchmark's continuous turns it chose the wrong direction for blocks of 8-18
-    steps until the vote undid it. What stays fixed while the phone stays in the pocket is the walking direction
+    of the thigh's swing: in the benchmark's continuous turns it chose the wrong direction for blocks of steps
+    until the vote undid it. What stays fixed while the phone stays in the pocket is the walking direction
     in the device frame averaged over a stride (the thigh swings about its mean attitude): ``d_b``, the
     stride-mean ``C_nb^T p`` of the chosen direction, blended over about five strides. Each stride takes the
     direction nearer ``d_b``; a reversal by the vote reverses ``d_b`` too. The vote then adds to the skewness
     the turn cue, only for strides whose implied speed ``|a_lat / Omega|`` is a walking or running speed
     (0.4-4 m/s: not a pivot on the spot or a tilt error), at weight 0.1.
 
-    Why 0.1 and the gate: on the benchmark the turn cue is right in 77-100 % of turning strides where the
-    skewness is at chance (back pocket, running), but on straight walks with pivots, at a walk's start and on
-    the simulator it costs. Measured with the device-frame continuity (``pdr eval pocket-heading``: simulated
-    flat pocket walks mean error, landmark walks with landmarks, MobiFall and Oxford reversed steps; main 8.7
-    deg, 4.55 deg, 5, 10), with the speed gate only: weight 1 19.5 deg, 10.05 deg, 35, 23; 0.25: 11.6, 4.91, 7,
-    15; 0.1: 9.9, 4.62, 5, 15 (the simulated office walk's first step reversed: the walk's start); 0 (skewness
-    only): 8.7, 4.55, 5, 15, but then both clean back-pocket walks of the benchmark come out backwards from
-    start to end (98-99 % of steps), the skewness there being at chance. With 0.1 and the along-track gate as
-    well: 8.7, 4.55, 5, 15. The benchmark's pocket walks (``pdr eval heading ...``, automatic placement, causal
-    mean per walk summed over each walker's 5 pocket walks): tuning walker 128.3 -> 92.3 deg, confirmation
-    walker 124.8 -> 110.2 deg; the reversed steps left are the first 4-10 of a walk (the vote's first decision).
+    Why 0.1 and the gate: the turn cue is right where the skewness is at chance (back pocket, running), but on
+    straight walks with pivots, at a walk's start and on the simulator it costs. Weights 1 and 0.25 raised the
+    simulated pocket walks' error and the MobiFall and Oxford flips (``pdr eval pocket-heading`` with
+    :data:`pdr.phone.heading_stages.POCKET_TURN_WEIGHT` changed); weight 0
+    (skewness only) leaves the benchmark's clean back-pocket walks backwards from start to end, the skewness
+    there being at chance (``pdr eval heading``, back-pocket lines); 0.1 with the speed and along-track gates
+    costs nothing measurable on the first and fixes the second. The reversed steps left are the first few of a
+    walk (the vote's first decision).
 
 Trouser pocket: what limits the walking line
-    Even with the motion-capture attitude the thigh's swing plane is not square to the walking direction: the
-    per-stride swing-plane line is off by a signed median of -17/-22 deg (front pocket, tuning walker NoDist/
-    Dist), -9/-17 deg (back pocket), +13/+5 deg (front pocket, other walker), also on straight strides (not a
-    lag in turns), and the thigh's long axis (the device's mean up direction) swings in a plane off by about the
-    same. RMPCA of the specific force is off the other way on the tuning walker (+14 to +26 deg) but not on the
-    other (+4 to +55 deg), so no fixed combination cancels it. A walker- and leg-specific angle (toe-out, hip
-    rotation) is the likely cause; the only unbiased cue here, the centripetal acceleration, gives the
-    direction itself only to 29-37 deg per turning stride with the filter's tilt (12-15 deg biased over a
-    walk), too coarse to learn that angle online. Seed 003's 6.85 deg (the issue's 7.0 deg on the third
-    walker) is not reached on these two walkers with either line: the front-pocket figure on main was 27-35 deg
-    causal with ``--placement pocket`` for ``pocket_axis`` swing and rmpca alike, so nothing regressed.
+    Even with the motion-capture attitude the thigh's swing plane is not square to the walking direction, also
+    on straight strides (not a lag in turns), and the thigh's long axis (the device's mean up direction) swings
+    in a plane off by about the same. RMPCA of the specific force is off the other way on one walker but not on
+    the other, so no fixed combination cancels it. A walker- and leg-specific angle (toe-out, hip rotation) is
+    the likely cause; the only unbiased cue here, the centripetal acceleration, gives the direction itself too
+    coarsely per turning stride with the filter's tilt to learn that angle online. Seed 003's 6.85 deg (the
+    issue's 7.0 deg on the third walker) is not reached on the benchmark's two walkers with either line
+    (``pdr eval heading --placement pocket``, front-pocket lines).
 """
 
 from __future__ import annotations
@@ -289,12 +264,12 @@ class DeviceSwingAxis:
         self.axis_b = r.tolist()
         return float(math.remainder(yaw + step_lead(q_nb, rate_hz, step_start), 2 * math.pi))
 
-    def to_dict(self) -> dict[str, Any]:
+    def state(self) -> dict[str, Any]:
         return {"decay": self.decay, "sign_decay": self.sign_decay, "regrip_deg": self.regrip_deg,
                 "scatter": list(self.scatter), "axis_b": self.axis_b, "score": self.score}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> DeviceSwingAxis:
+    def from_state(cls, d: dict[str, Any]) -> DeviceSwingAxis:
         return cls(float(d["decay"]), float(d["sign_decay"]), float(d["regrip_deg"]),
                    [float(v) for v in d["scatter"]], None if d["axis_b"] is None else [float(v) for v in d["axis_b"]],
                    float(d["score"]))
@@ -346,12 +321,12 @@ class WalkingLineFilter:
         self.window = [start, end]
         return self.line
 
-    def to_dict(self) -> dict[str, Any]:
+    def state(self) -> dict[str, Any]:
         return {"line_sigma_deg": self.line_sigma_deg, "turn_sigma_deg": self.turn_sigma_deg,
                 "max_gap_s": self.max_gap_s, "line": self.line, "var": self.var, "window": self.window}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> WalkingLineFilter:
+    def from_state(cls, d: dict[str, Any]) -> WalkingLineFilter:
         return cls(float(d["line_sigma_deg"]), float(d["turn_sigma_deg"]), float(d["max_gap_s"]),
                    None if d["line"] is None else float(d["line"]), float(d["var"]),
                    None if d["window"] is None else [int(v) for v in d["window"]])
@@ -406,9 +381,9 @@ class DeviceFrameDirection:
         if self.d_b is not None:
             self.d_b = [-x for x in self.d_b]
 
-    def to_dict(self) -> dict[str, Any]:
+    def state(self) -> dict[str, Any]:
         return {"decay": self.decay, "d_b": self.d_b}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> DeviceFrameDirection:
+    def from_state(cls, d: dict[str, Any]) -> DeviceFrameDirection:
         return cls(float(d["decay"]), None if d["d_b"] is None else [float(v) for v in d["d_b"]])

@@ -7,7 +7,7 @@ leg, ``(g - 3/2) / 2`` for the left):
 
 * thigh forward angle (sagittal hip flexion) ``mean + amp s(phi)`` with ``s`` the normalised shape of the
   normative thigh angle of level walking (:data:`THIGH_SHAPE`: flexed at heel strike, extending slowly
-  through the 60 % stance, flexing fast in swing; peak angular rate about 2.7 ``amp`` rad/s per Hz of
+  through the 60 % stance, flexing fast in swing; peak angular rate about 9.7 ``amp`` rad/s per Hz of
   stride frequency). Following seed 003 eqs. 1-3, going upstairs opens the legs wider and lifts the thigh
   higher than walking; going downstairs opens them less, with a higher minimum (``thigh_amp_rad``,
   ``thigh_mean_rad`` below);

@@ -196,7 +196,7 @@ def test_drift_elimination_state_round_trip():
     steps = grid_walk(np.random.default_rng(6), error_deg=lambda t: 10.0 * math.sin(t / 20.0))
     _, whole = run_hde(steps)
     first, a = run_hde(steps[:150])
-    again = StepDriftElimination.from_dict(json.loads(json.dumps(first.to_dict())))
+    again = StepDriftElimination.from_state(json.loads(json.dumps(first.state())))
     _, b = run_hde(steps[150:], again)
     np.testing.assert_array_equal(np.concatenate([a, b]), whole)
 
@@ -212,7 +212,7 @@ def test_a_site_grid_removes_the_offset_a_learnt_grid_keeps():
     stride = err[: err.size // 2 * 2].reshape(-1, 2).mean(axis=1)
     assert hde.updates > 20
     assert np.abs(stride).mean() < 2.0                                   # raw: 7 deg
-    again = StepDriftElimination.from_dict(json.loads(json.dumps(hde.to_dict())), grid_yaw=hde.grid_yaw)
+    again = StepDriftElimination.from_state(json.loads(json.dumps(hde.state())), grid_yaw=hde.grid_yaw)
     assert again.grid_yaw == hde.grid_yaw
 
 

@@ -94,7 +94,7 @@ def test_device_swing_axis_recovers_direction_and_sign_with_any_grip(seed):
     for k, (q, f, y, ys) in enumerate(zip(qs, fs, yaws, step_yaws, strict=True)):
         out = tracker.update(q, f, RATE)
         if k == 14:                              # the state survives a round trip
-            tracker = DeviceSwingAxis.from_dict(tracker.to_dict())
+            tracker = DeviceSwingAxis.from_state(tracker.state())
         errs.append(abs(math.degrees(float(wrap_angle(out - y)))))
         out_step = led.update(q, f, RATE, step_start=55)
         lag.append(abs(math.degrees(float(wrap_angle(out - ys)))))
@@ -166,7 +166,7 @@ def test_device_frame_direction_keeps_the_direction_through_turns(seed):
         assert abs(float(wrap_angle(out - walk))) < math.radians(3.0)
         cont.update(out, q)
         if k == 6:
-            cont = DeviceFrameDirection.from_dict(cont.to_dict())
+            cont = DeviceFrameDirection.from_state(cont.state())
     cont.reverse()                                   # a reversal by the vote turns the stored direction round
     q = _swing(yaw0 + math.radians(40.0) * 12, mount)
     assert abs(float(wrap_angle(cont.resolve(swing_plane_axis(q, RATE)[0], q) - (yaw0 + math.radians(40.0) * 12 +
@@ -210,7 +210,7 @@ def _line_errors(noise_deg: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
         line = swing_plane_axis(q[s0:e], RATE)[0] + math.radians(rng.normal(0.0, noise_deg))
         out = filt.update(line, q, 0, s0, step_start, e, RATE)
         if k == 20:                                          # the state survives a round trip
-            filt = WalkingLineFilter.from_dict(filt.to_dict())
+            filt = WalkingLineFilter.from_state(filt.state())
         truth = yaw[(s0 + e) // 2]
         raw.append(math.degrees(0.5 * float(wrap_angle(2 * (line - truth)))))
         filtered.append(math.degrees(0.5 * float(wrap_angle(2 * (out - truth)))))
