@@ -71,6 +71,11 @@ class AttitudeConfig:
     mag_ref_tau_s
         Time constant (s) with which the reference field's magnitude and dip follow the measured field
         (0: fixed at the first quasi-static sample).
+    mag_yaw_only
+        The magnetometer corrects the yaw alone (:func:`pdr.phone.attitude.kernel.mag_yaw_update`) instead of the
+        three field rows of eq. 11. The tilt is observed by gravity; the field's rows also pull it wherever the field
+        is not the reference (a magnet, steel), and while the user walks the accelerometer's rows are mostly gated out
+        (eq. 12), so in a disturbed field nothing brought the tilt back. ``False``: the rows of eqs. 10-11 as printed.
     mag_when_static
         Use magnetometer rows while stationary (False: a standing user sees one, possibly disturbed,
         field; its repeated samples are not independent measurements of north).
@@ -108,6 +113,7 @@ class AttitudeConfig:
     mag_declination_deg: float = 0.0
     bias_field_uT: float = 10.0
     bias_dip_deg: float = 10.0
+    mag_yaw_only: bool = True
 
     def params(self) -> FloatArray:
         return np.array([self.sigma_gyro, self.sigma_a, self.sigma_m, self.eps_a1, self.eps_a2, self.eps_m1,
@@ -116,7 +122,7 @@ class AttitudeConfig:
                          self.bias_tau_s, self.bias_smooth_s, self.bias_prior_s, self.gravity_tau_s,
                          self.mag_ref_tau_s, float(self.mag_when_static), math.radians(self.init_yaw_sigma_deg),
                          self.static_mag_std, self.bias_hold_s, self.bias_field_uT,
-                         math.radians(self.bias_dip_deg)])
+                         math.radians(self.bias_dip_deg), float(self.mag_yaw_only)])
 
 
 

@@ -363,6 +363,7 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
     bias_tau, bias_smooth, bias_prior, gravity_tau = prm[15], prm[16], prm[17], prm[18]
     mag_ref_tau, mag_when_static, init_yaw_sigma, static_mag_std = prm[19], prm[20] > 0.5, prm[21], prm[22]
     bias_hold_s, bias_field, bias_dip = prm[23], prm[24], prm[25]
+    mag_yaw_only = prm[26] > 0.5
     n = acc.shape[0]
     out = np.empty((n, 4))
     used = np.zeros(n, dtype=np.int64)
@@ -535,6 +536,11 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
                     dd = dip_ref + k_ref * max(-3 * eps_dip, min(3 * eps_dip, dip - dip_ref))
                     aux[AUX_H_N] = nn * math.cos(dd)
                     aux[AUX_H_U] = -nn * math.sin(dd)
+        # The field's rows on the yaw alone (AttitudeConfig.mag_yaw_only), after the accelerometer's.
+        yaw_row = use_m and mag_yaw_only
+        if yaw_row:
+            use_m = False
+            used[k] |= 2
         if use_a or use_m:
             m = 3 * (int(use_a) + int(use_m))
             z = np.empty(m)
@@ -563,8 +569,39 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
                 ekf_update(q, p, z, r, g_ref, h_ref, use_a, use_m)
         else:
             _normalise(q)
+        if yaw_row:
+            mag_yaw_update(q, p, mag[k], h_east, sigma_m)
         out[k] = q
     return out, used
+
+
+@numba.njit(cache=True)
+def mag_yaw_update(q: FloatArray, p: FloatArray, m_b: FloatArray, h_east: float, sigma_m: float) -> None:
+    """The magnetometer's row on the yaw alone, in place (``AttitudeConfig.mag_yaw_only``).
+
+    The innovation is the azimuth (rad) of the measured field ``m_b`` (uT, device frame) carried into the navigation
+    frame by the current attitude, less the reference's (magnetic north turned by the declination, ``h_east`` its
+    east component); its noise is ``sigma_m`` (uT, eq. 13) over the field's horizontal magnitude. The row acts
+    along the rotation about up, ``dq = 0.5 dpsi g`` with ``g = [0, 0, 0, 1] * q`` (so ``dpsi = 2 g . dq``), a
+    linear Kalman update of ``q`` and ``P`` that leaves the tilt to gravity.
+    """
+    c = _rotmat(q)
+    hn = c @ m_b
+    hh = math.sqrt(hn[0] * hn[0] + hn[1] * hn[1])
+    if hh < 1e-6:
+        return
+    az_ref = math.atan2(h_east, math.sqrt(max(0.0, 1 - h_east * h_east)))
+    nu = (math.atan2(hn[0], hn[1]) - az_ref + math.pi) % (2 * math.pi) - math.pi
+    g = np.array([-q[3], -q[2], q[1], q[0]])
+    h = 2.0 * g
+    ph = p @ h
+    s = h @ ph + (sigma_m / hh) ** 2
+    gain = ph / s
+    for i in range(4):
+        q[i] += gain[i] * nu
+    _normalise(q)
+    pn = p - np.outer(gain, ph)
+    p[:, :] = 0.5 * (pn + pn.T)
 
 
 @numba.njit(cache=True)

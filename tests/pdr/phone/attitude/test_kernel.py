@@ -8,7 +8,7 @@ import pytest
 
 from pdr import quaternion as quat
 from pdr.frames import GRAVITY_MPS2
-from pdr.phone.attitude.kernel import ekf_update, measurement, ukf_update
+from pdr.phone.attitude.kernel import ekf_update, mag_yaw_update, measurement, ukf_update
 
 
 def _update_case(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -59,3 +59,52 @@ def test_product_ukf_update_tends_to_the_ekf_update_for_a_small_spread(seed):
         ekf_update(qe, pe, z, r * scale, g_ref, h_ref, True, True)
         assert quat.angle_between(qu, qe) < bound * quat.angle_between(qu, q)
         np.testing.assert_allclose(pu, pe, atol=bound * np.abs(p * scale).max())
+
+
+def _yaw_case(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """A true tilted attitude, an estimate 10 deg off in yaw about up (tilt exact), its covariance (yaw sigma 20 deg,
+    tilt 1 deg), and the yaw error (rad)."""
+    rng = np.random.default_rng(seed)
+    q_true = quat.from_euler(*rng.uniform(-0.6, 0.6, 2), rng.uniform(-math.pi, math.pi))
+    err = math.radians(10.0)
+    q = quat.multiply(quat.from_rotvec([0.0, 0.0, -err]), q_true)
+    g = np.array([-q[3], -q[2], q[1], q[0]])
+    p = 0.25 * math.radians(20.0) ** 2 * np.outer(g, g) + 0.25 * math.radians(1.0) ** 2 * (np.eye(4) - np.outer(g, g))
+    return q_true, q, p, err
+
+
+def _tilt_deg(q: np.ndarray, q_true: np.ndarray) -> float:
+    """Angle (deg) between the two attitudes' up directions in the device frame."""
+    up = np.array([0.0, 0.0, 1.0])
+    a, b = quat.rotate(quat.conjugate(q), up), quat.rotate(quat.conjugate(q_true), up)
+    return math.degrees(math.acos(min(1.0, float(a @ b))))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_mag_yaw_update_corrects_the_yaw_by_the_kalman_gain_and_keeps_the_tilt(seed):
+    q_true, q, p, err = _yaw_case(seed)
+    h_n = np.array([0.0, 20.0, -40.0])                       # magnetic north, dipping down
+    m_b = quat.rotate(quat.conjugate(q_true), h_n)           # a clean field measured by the true attitude
+    sigma_m = 10.0
+    mag_yaw_update(q, p, m_b, 0.0, sigma_m)
+    var_yaw, var_meas = math.radians(20.0) ** 2, (sigma_m / 20.0) ** 2
+    expected_left = err * (1.0 - var_yaw / (var_yaw + var_meas))   # linear Kalman update of the yaw error
+    left = float(quat.to_rotvec(quat.multiply(q_true, quat.conjugate(q)))[2])
+    assert left == pytest.approx(expected_left, abs=math.radians(0.3))
+    assert _tilt_deg(q, q_true) < 1e-6
+    assert 4 * (np.array([-q[3], -q[2], q[1], q[0]]) @ p @ np.array([-q[3], -q[2], q[1], q[0]])) < var_yaw
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_tilted_disturbed_field_moves_the_three_rows_tilt_but_not_the_yaw_rows(seed):
+    q_true, _q, _p, _ = _yaw_case(seed)
+    h_n = np.array([0.0, 20.0, -40.0])
+    disturbed = quat.rotate(quat.from_rotvec([math.radians(25.0), 0.0, 0.0]), h_n)   # the field tipped 25 deg
+    m_b = quat.rotate(quat.conjugate(q_true), disturbed)
+    p = 0.25 * math.radians(5.0) ** 2 * np.eye(4)
+    q_rows, p_rows = q_true.copy(), p.copy()
+    ukf_update(q_rows, p_rows, m_b, np.full(3, 10.0 ** 2), np.zeros(3), h_n, False, True, 0.5, 2.0, 1.0)
+    q_yaw, p_yaw = q_true.copy(), p.copy()
+    mag_yaw_update(q_yaw, p_yaw, m_b, 0.0, 10.0)
+    assert _tilt_deg(q_rows, q_true) > 0.5                   # eq. 11's rows take the tipped field for a tilt
+    assert _tilt_deg(q_yaw, q_true) < 1e-6                   # the yaw row cannot tilt the attitude
