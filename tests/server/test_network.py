@@ -7,6 +7,7 @@ from __future__ import annotations
 import gzip
 import io
 import json
+import re
 import socket
 import subprocess
 import time
@@ -634,3 +635,28 @@ def test_allan_reports_run_as_worker_jobs_and_recover_on_the_redis_back_end(tmp_
     assert "reconciler queued" in logs and logs.count("Successfully completed Allan report") >= 3  # the worker's jobs
     assert "Traceback" not in logs
 
+
+
+def test_every_operations_documented_scope_is_the_one_the_service_enforces(app, client, tokens):
+    """Each authenticated operation of the OpenAPI document, called with a token of each scope: refused for its scope
+    (403; the Sensor Logger route answers the app's 499) exactly when its ``x-token-scope`` is not the token's (a
+    full token may do all), whatever else the answer is (the path parameters name nothing, so allowed calls get 4xx
+    of another kind)."""
+    with app.extensions["pdr"].store.engine.begin() as conn:
+        uid = auth.user_id(conn, "alice")
+        scoped = {scope: auth.issue_token(conn, uid, scope) for scope in auth.SCOPES}
+    doc = client.get("/api/v1/openapi.json").get_json()
+    checked = 0
+    for path, ops in doc["paths"].items():
+        url = re.sub(r"\{(\w+)\}", lambda m: "left_foot" if m.group(1) == "role" else "nothing-here", path)
+        for method, op in ops.items():
+            if "x-token-scope" not in op:
+                continue
+            for scope, token in scoped.items():
+                r = client.open(url, method=method.upper(), headers=bearer(token), json={})
+                allowed = scope in ("full", op["x-token-scope"])
+                refused = r.status_code in (403, 499) and b"does not allow this request" in r.get_data()
+                assert refused is not allowed, (method, path, scope, r.status_code, r.get_data()[:200])
+                assert r.status_code < 500, (method, path, scope, r.get_data()[:300])
+            checked += 1
+    assert checked > 30
