@@ -246,13 +246,17 @@ class _Heartbeat:
         self._stop.set()
         self._thread.join()
 
+    def beat(self) -> bool:
+        """Refresh ``started_at`` once if the claim is still the latest; returns whether it was."""
+        with self.store.engine.begin() as conn:
+            return bool(conn.execute(update(db.reports).where(db.reports.c.id == self.report_id,
+                                                              db.reports.c.status == "pending",
+                                                              db.reports.c.attempts == self.attempt)
+                                     .values(started_at=db.utcnow())).rowcount)
+
     def _beat(self) -> None:
         while not self._stop.wait(self.period_s):
             try:
-                with self.store.engine.begin() as conn:
-                    conn.execute(update(db.reports).where(db.reports.c.id == self.report_id,
-                                                          db.reports.c.status == "pending",
-                                                          db.reports.c.attempts == self.attempt)
-                                 .values(started_at=db.utcnow()))
+                self.beat()
             except Exception as exc:  # the database may be down for a moment; the next beat tries again
                 log.warning("heartbeat of report %s: %s", self.report_id, exc)
