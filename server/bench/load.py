@@ -44,13 +44,18 @@ def simulated_uploads(phones: int, minutes: float, batch_s: float,
 
 
 def big_upload(megabytes: float) -> bytes:
-    """A simulated pocket walk as one native JSON log file of at least ``megabytes`` MB (about 3 MB per minute)."""
+    """A simulated pocket walk as one native JSON log file of at least ``megabytes`` MB (10^6 bytes; about 2.7 MB per
+    minute of walk).
+    """
     from pdr.io.native import batch_to_json
     from server.bench.server import simulated_phone
 
-    minutes = max(0.5, megabytes / 2.9)
-    body = json.dumps(batch_to_json(simulated_phone(minutes, seed=99), session_id="big", batch_id="big")).encode()
-    return body
+    minutes = max(0.5, megabytes / 2.7)
+    while True:
+        body = json.dumps(batch_to_json(simulated_phone(minutes, seed=99), session_id="big", batch_id="big")).encode()
+        if len(body) >= megabytes * 1e6:
+            return body
+        minutes *= 1.05 * megabytes * 1e6 / len(body)
 
 
 def multipart_file(payload: bytes, filename: str) -> tuple[bytes, str]:
