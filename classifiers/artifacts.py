@@ -47,7 +47,8 @@ DEFAULT_MODEL = "motion_mode"
 #: ../shared/data/ipin2023_t3 ../shared/data/ms_indoor_location --out models/motion_mode_hand --cv`` separates
 #: standing from walking (leave-one-recording-out F1 0.96/0.97) but not stairs or elevator rides (F1 <= 0.4:
 #: three multi-floor recordings, and the MS logs have no barometer, so the group is dropped), where the step
-#: patterns do better (``pdr eval classifier motion_mode --floors``); install one only when its card shows it.
+#: patterns do better (``pdr eval classifier motion_mode --targets``, docs/modes.md); install one only when its card
+#: shows it.
 PLACEMENT_MODELS = MappingProxyType({"pocket": DEFAULT_MODEL, "hand": "motion_mode_hand",
                                      "torso": "motion_mode_torso"})
 

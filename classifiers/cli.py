@@ -12,7 +12,8 @@
     model on held-out data, or (``--cv``) of its configuration retrained leave-one-group-out; prints the
     inference speed in windows per second on one core. With ``--timeline``: the modes timeline's figures per
     recording instead (:mod:`classifiers.timeline_eval`); with ``--floors``: the step-mode timeline's stairs
-    steps and elevator rides on multi-floor walks with landmarks (:mod:`classifiers.floor_eval`).
+    steps and elevator rides on multi-floor walks with landmarks (:mod:`classifiers.floor_eval`); with
+    ``--targets``: both, as issue 30's targets beside their figures (:mod:`classifiers.mode_targets`).
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from classifiers.simdata import simulated_recordings
 from classifiers.tasks import TASKS, get_task
 from classifiers.training import ESTIMATOR_KINDS, available_groups, cross_validate, fit_model, predict_sequences
 from classifiers.windows import WindowConfig, Windows, make_windows
+from pdr.cli.progress import Progress
 from pdr.errors import InputError
 from pdr.io import read_recording
 from pdr.recording import Recording
@@ -118,14 +120,22 @@ def run_train(args: argparse.Namespace) -> int:
     task = get_task(args.task)
     cfg = WindowConfig(length_s=args.window_s, hop_s=args.hop_s, rate_hz=args.rate_hz)
     kind = args.estimator or ("landmark_tree" if task.name == "landmark" else "bayes")
-    recs = _recordings(args)
     unknown = sorted(set(args.without) - set(task.feature_groups))
     if unknown:
         raise InputError(f"--without: {', '.join(unknown)} not among the task's feature groups "
                          f"{', '.join(task.feature_groups)}", field="without")
-    groups = tuple(g for g in available_groups(recs, task) if g not in args.without)
-    data = labelled_windows(recs, task, cfg, groups)
-    model = fit_model(data, task, cfg, groups, kind, reject_threshold=args.reject, mean_dwell_s=args.dwell_s)
+    with Progress(4 if args.cv else 3, f"train {task.name}") as bar:
+        bar.set_note("reading the logs" + (f", simulating {args.sim}" if args.sim else ""))
+        recs = _recordings(args)
+        groups = tuple(g for g in available_groups(recs, task) if g not in args.without)
+        bar.advance(note=f"windows and features of {len(recs)} recordings")
+        data = labelled_windows(recs, task, cfg, groups)
+        bar.advance(note=f"fitting on {len(data)} windows")
+        model = fit_model(data, task, cfg, groups, kind, reject_threshold=args.reject, mean_dwell_s=args.dwell_s)
+        bar.advance(note="leave-one-group-out cross-validation" if args.cv else None)
+        if args.cv:
+            metrics = _cv_metrics(data, model, task.name, recs=recs)
+            bar.advance()
     model.info = {"train_command": _command_line(), "training_data": {
         "paths": [str(p) for p in args.data], "simulated_logs": args.sim, "simulation_seed": args.sim_seed,
         **_training_summary(data, recs)},
@@ -135,7 +145,6 @@ def run_train(args: argparse.Namespace) -> int:
     if args.note:
         model.info["notes"] = args.note
     if args.cv:
-        metrics = _cv_metrics(data, model, task.name, recs=recs)
         model.info["evaluations"].append({"title": "leave-one-group-out cross-validation on the training data",
                                           "protocol": CV_PROTOCOL,
                                           "command": _command_line(), "metrics": _card_metrics(metrics)})
@@ -229,8 +238,12 @@ def register_eval(targets: argparse._SubParsersAction) -> None:
     p.add_argument("--floors", action="store_true",
                    help="instead: figures of the step-mode timeline on multi-floor walks with landmarks (stairs "
                         "steps, elevator rides and their floor count; classifiers.floor_eval)")
+    p.add_argument("--targets", action="store_true",
+                   help="instead: issue 30's modes-timeline targets, each figure beside its target (the --timeline "
+                        "and --floors figures; classifiers.mode_targets)")
     p.add_argument("--site", default=None, metavar="SITE.json",
-                   help="with --floors: the building's site description (floor height or floor altitudes)")
+                   help="with --floors or --targets: the building's site description (floor height or floor "
+                        "altitudes)")
     p.set_defaults(func=run_eval)
 
 
@@ -318,6 +331,13 @@ def run_eval(args: argparse.Namespace) -> int:
 
         floors = floor_figures(recs, Site.load(args.site) if args.site else None)
         _report_figures(args, floors, "floors.json", print_floor_figures)
+        return 0
+    if args.targets:
+        from classifiers.mode_targets import print_targets, target_figures
+        from pdr.phone.landmarks import Site
+
+        fig = target_figures(model, recs, Site.load(args.site) if args.site else None)
+        _report_figures(args, fig, "targets.json", print_targets)
         return 0
     if args.timeline:
         from classifiers.timeline_eval import print_timeline, timeline_figures

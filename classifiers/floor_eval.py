@@ -3,7 +3,8 @@
 The timeline is the one the service builds for a phone the shipped mode model does not take (hand-held,
 torso): the phone pipeline (:class:`pdr.phone.pipeline.PdrPipeline`, placement from the log's metadata) gives
 per-step modes, :class:`classifiers.timeline.StepModes` turns them into entries (a stairs entry needs a flight),
-:class:`classifiers.timeline.StopTimeline` adds the stops and elevator rides. Each step takes the label of the
+:class:`classifiers.timeline.StopTimeline` adds the stops and the elevator and escalator rides, placed among the
+steps as the service places them. Each step takes the label of the
 latest entry opened at or before its start (a stop or ride covers only its own interval).
 
 A *floor leg* is the interval between two consecutive landmarks on different floors. It is a stairs leg when
@@ -27,8 +28,8 @@ A recording whose floor legs are all elevator legs is an *elevator walk*: its st
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -81,12 +82,26 @@ def floor_legs(rec: Recording) -> list[FloorLeg]:
 
 @dataclass(frozen=True)
 class StepTimeline:
-    """The service's step-mode timeline of one recording: step intervals and the label each step shows."""
+    """The service's step-mode timeline of one recording: step intervals and the label each step shows, the stop
+    and ride entries, and every entry as ``/modes`` lists it (``opened``: ``(t_s, label)`` in time order).
+    """
 
     step_t0_s: np.ndarray
     step_t1_s: np.ndarray
     step_label: np.ndarray
     entries: tuple[ModeEntry, ...]
+    opened: tuple[tuple[float, str], ...] = ()
+
+    def label_at(self, t_s: np.ndarray) -> np.ndarray:
+        """The timeline's label at each time (s): the latest entry opened at or before it (``""`` before any)."""
+        times = np.array([t for t, _ in self.opened])
+        names = np.array([lab for _, lab in self.opened] or [""], dtype=object)
+        idx = np.searchsorted(times, np.asarray(t_s, dtype=np.float64), side="right") - 1
+        return np.where(idx >= 0, names[np.clip(idx, 0, None)], "").astype(object)
+
+
+#: A function giving a recording's step-mode timeline (to compute it once for several figures).
+TimelineOf = Callable[[Recording], StepTimeline]
 
 
 def step_timeline(rec: Recording, site: Site | None = None) -> StepTimeline:
@@ -103,23 +118,30 @@ def step_timeline(rec: Recording, site: Site | None = None) -> StepTimeline:
     modes = StepModes()
     steps: list[dict[str, Any]] = [dict(e) for e in events if e.get("type") == "step"]
     opened: list[tuple[float, str]] = []
-    for e in steps:
-        opened += modes.step(str(e.get("mode") or ""), float(e.get("t_start_s", e["t_s"])))
+    pending = sorted(entries, key=lambda m: m.t_start_s)
+    for e in steps:  # as server.phone_processor.convert_events: an entry placed before the step after it
+        t_start = float(e.get("t_start_s", e["t_s"]))
+        while pending and pending[0].t_start_s <= t_start:
+            en = pending.pop(0)
+            opened.append((en.t_start_s, en.label))
+            modes.entry(en.label, en.t_end_s)
+        opened += modes.step(str(e.get("mode") or ""), t_start, float(e["t_s"]))
+    opened += [(en.t_start_s, en.label) for en in pending]
     opened.sort()
     t0 = np.array([float(e.get("t_start_s", e["t_s"])) for e in steps])
     t1 = np.array([float(e["t_s"]) for e in steps])
-    times = np.array([t for t, _ in opened])
-    names = np.array([lab for _, lab in opened] or [""], dtype=object)
-    idx = np.searchsorted(times, t0 + 1e-9, side="right") - 1
-    label = np.where(idx >= 0, names[np.clip(idx, 0, None)], "").astype(object)
+    tl = StepTimeline(t0, t1, np.zeros(0, dtype=object), tuple(sorted(entries, key=lambda m: m.t_start_s)),
+                      tuple(opened))
+    label = tl.label_at(t0 + 1e-9)
     for en in entries:  # a step inside a stop or ride shows that entry
         label[(t0 >= en.t_start_s) & (t1 <= en.t_end_s)] = en.label
-    return StepTimeline(t0, t1, label, tuple(sorted(entries, key=lambda m: m.t_start_s)))
+    return replace(tl, step_label=label)
 
 
-def floor_figures(recs: Sequence[Recording], site: Site | None = None) -> dict[str, Any]:
+def floor_figures(recs: Sequence[Recording], site: Site | None = None,
+                  timeline_of: TimelineOf | None = None) -> dict[str, Any]:
     """Per-leg and per-recording figures over the recordings with floor legs (module docstring); ``site``: as for
-    :func:`step_timeline`.
+    :func:`step_timeline`; ``timeline_of``: the timeline of a recording (default :func:`step_timeline` with ``site``).
     """
     legs_out: list[dict[str, Any]] = []
     elevator_walks: list[dict[str, Any]] = []
@@ -128,7 +150,7 @@ def floor_figures(recs: Sequence[Recording], site: Site | None = None) -> dict[s
         if not legs:
             continue
         name = Path(rec.source).name if rec.source else "?"
-        tl = step_timeline(rec, site)
+        tl = timeline_of(rec) if timeline_of is not None else step_timeline(rec, site)
         vertical = ipin_mode_labels(rec)
         mid = 0.5 * (tl.step_t0_s + tl.step_t1_s)
         on_stairs = (np.asarray(vertical.at(mid), dtype=object) if vertical is not None

@@ -5,21 +5,30 @@
 turns what it reports into timeline entries (:class:`ModeEntry`):
 
 * a stop during which the pipeline reports a floor change (``floor_change`` event between the stop's start and
-  ``FLOOR_LAG_S`` after its end: the barometric floor decision lags the pressure) is an elevator ride,
-  ``elevator_up`` or ``elevator_down``, with its floor change (``from_floor``, ``floor``, ``floors``; the floors
+  ``FLOOR_LAG_S`` after its end: the barometric floor decision lags the pressure) is a ride,
+  ``elevator_up/down`` or, when its altitude profile is an escalator's (:mod:`classifiers.rides`, from the
+  batches' barometer), ``escalator_up/down``, with its floor change (``from_floor``, ``floor``, ``floors``; the floors
   are the pipeline's, counted with its floor height unless a site gives the floors' altitudes) and the altitude
   change between the steps before and after it (``altitude_change_m``): a person
-  who takes no step and holds the phone still while the altitude changes by a floor rides a cabin;
+  who takes no step and holds the phone still while the altitude changes by a floor rides a cabin or a belt;
+  ``vertical_speed_mps`` and ``tail_s`` are the ride's profile;
 * any other stop is ``standing``;
 * an ``elevator`` event of the pipeline (vertical-acceleration impulse pair) is an ``elevator_up/down`` entry
-  with its altitude change.
+  with its altitude change (the pipeline's detector drops a pair of impulses with a walk between them).
 
 The state (:meth:`StopTimeline.state`) is JSON-able, for the session processor's stored state.
 
 :class:`StepModes` turns the pipeline's per-step modes into timeline entries: an entry where the mode changes,
 except that a stairs entry needs ``MIN_FLIGHT_STEPS`` consecutive stairs steps of one direction (a flight of
 stairs has at least three risers; one or two steps labelled stairs are the barometer settling after an elevator
-ride or a door's pressure change, and stay in the walking entry).
+ride or a door's pressure change, and stay in the walking entry), and that stairs steps starting less than
+``RIDE_REACH_S`` after a ride's end are not stairs: the pipeline labels a step stairs from the barometric
+vertical rate over the ``STEP_RATE_WINDOW_S`` before the step's end, of an altitude low-passed with a
+``ALTITUDE_SMOOTH_S`` time constant (:mod:`pdr.phone.landmarks`, :mod:`pdr.phone.floors`), so the first steps
+off an elevator or escalator still read the ride's climb. For the same reason an entry into or out of stairs is
+placed ``RATE_DELAY_S`` before the end of the step that shows it (the delay of that rate: half its window plus the
+low-pass time constant), but not before the latest entry: a flight's first steps, and the level steps after
+its last, show the stairs label late.
 """
 
 from __future__ import annotations
@@ -29,8 +38,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from classifiers.rides import AltitudeRecord, ride_kind
 from classifiers.stops import STOP_LABEL, Stop, StopDetector
 from pdr.errors import InputError
+from pdr.phone.floors import FloorConfig
+from pdr.phone.landmarks import RATE_WINDOW_S
 from pdr.recording import Recording
 
 #: Seconds after a stop's end within which a floor change still belongs to it.
@@ -43,6 +55,16 @@ KEEP_FLOOR_CHANGES = 16
 #: Fewest consecutive stairs steps (one direction) that open a stairs entry.
 MIN_FLIGHT_STEPS = 3
 STAIRS_MODES = ("stairs_up", "stairs_down")
+#: Window (s) before a step's end over which the pipeline takes its barometric vertical rate (pdr.phone.landmarks).
+STEP_RATE_WINDOW_S = RATE_WINDOW_S
+#: Time constant (s) of the pipeline's altitude low-pass (pdr.phone.floors.FloorConfig.smooth_s, its default).
+ALTITUDE_SMOOTH_S = FloorConfig().smooth_s
+#: Seconds after a ride's end within which a step's stairs label is the ride's climb (module docstring).
+RIDE_REACH_S = STEP_RATE_WINDOW_S + ALTITUDE_SMOOTH_S
+#: Delay (s) of the step's barometric rate behind the step's end: half its window plus the low-pass lag.
+RATE_DELAY_S = 0.5 * STEP_RATE_WINDOW_S + ALTITUDE_SMOOTH_S
+#: Labels of rides (entries the stairs rule looks back to).
+RIDE_PREFIXES = ("elevator_", "escalator_")
 
 STATE_VERSION = 1
 
@@ -62,12 +84,14 @@ class StopTimeline:
 
     def __init__(self) -> None:
         self.detector = StopDetector()
+        self.altitude = AltitudeRecord()
         self.floor_changes: list[tuple[float, float, float]] = []  # (t_s, from_floor, floor)
         self.step_up: list[tuple[float, float, float]] = []  # recent steps: (t_start_s, t_s, up_m)
 
     def update(self, batch: Recording, events: Sequence[dict[str, Any]]) -> list[ModeEntry]:
         """Entries that became final with this batch and the pipeline's events for it (time order)."""
         busy, rides = self._read(events)
+        self.altitude.update(batch)
         return rides + self._entries(self.detector.update(batch, busy))
 
     def finish(self, events: Sequence[dict[str, Any]] = ()) -> list[ModeEntry]:
@@ -117,9 +141,14 @@ class StopTimeline:
                 start, end = inside[0][1], inside[-1][2]
                 change = end - start
                 if math.isfinite(change) and change != 0:
-                    out.append(ModeEntry(s.t_start_s, s.t_end_s, "elevator_up" if change > 0 else "elevator_down",
+                    profile = self.altitude.profile(s.t_start_s, s.t_end_s)
+                    kind = ride_kind(profile)
+                    out.append(ModeEntry(s.t_start_s, s.t_end_s, f"{kind}_up" if change > 0 else f"{kind}_down",
                                          {"from_floor": start, "floor": end, "floors": abs(change),
                                           "altitude_change_m": self._altitude_change(s),
+                                          "vertical_speed_mps": None if profile is None
+                                          else profile.vertical_speed_mps,
+                                          "tail_s": None if profile is None else profile.tail_s,
                                           "source": "stop with a floor change"}))
                     continue
             out.append(ModeEntry(s.t_start_s, s.t_end_s, STOP_LABEL, {"duration_s": s.duration_s}))
@@ -127,7 +156,8 @@ class StopTimeline:
 
     def state(self) -> dict[str, Any]:
         return {"version": STATE_VERSION, "detector": self.detector.state(),
-                "floor_changes": [list(f) for f in self.floor_changes], "step_up": [list(u) for u in self.step_up]}
+                "floor_changes": [list(f) for f in self.floor_changes], "step_up": [list(u) for u in self.step_up],
+                "altitude": self.altitude.state()}
 
     @classmethod
     def from_state(cls, state: dict[str, Any]) -> StopTimeline:
@@ -139,6 +169,8 @@ class StopTimeline:
             tl.detector = StopDetector.from_state(state["detector"])
             tl.floor_changes = [(float(a), float(b), float(c)) for a, b, c in state["floor_changes"]]
             tl.step_up = [(float(a), float(b), float(c)) for a, b, c in state.get("step_up", [])]
+            if state.get("altitude") is not None:  # states saved before the record existed start one
+                tl.altitude = AltitudeRecord.from_state(state["altitude"])
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"not a stop timeline state ({exc})", field="state") from None
         return tl
@@ -150,30 +182,47 @@ class StepModes:
     def __init__(self, last: str = "") -> None:
         self.last = last
         self.pending: tuple[str, float, int] | None = None  # stairs run not yet long enough: label, start, steps
+        self.ride_end_s = -math.inf  # end (s) of the latest ride entry
+        self.last_t_s = -math.inf    # time (s) of the latest entry
 
-    def step(self, mode: str, t_start_s: float) -> list[tuple[float, str]]:
-        """A step of ``mode`` starting at ``t_start_s`` (s); returns the entries ``(t_s, label)`` it opens."""
+    def step(self, mode: str, t_start_s: float, t_end_s: float | None = None) -> list[tuple[float, str]]:
+        """A step of ``mode`` on ``[t_start_s, t_end_s]`` (s); returns the entries ``(t_s, label)`` it opens.
+        Without ``t_end_s`` an entry into or out of stairs is placed at the step's start (no rate delay).
+        """
+        if mode in STAIRS_MODES and t_start_s < self.ride_end_s + RIDE_REACH_S:
+            mode = "walking"  # the ride's climb in the step's barometric rate window
         if not mode or mode == self.last:
             self.pending = None
             return []
+        t = t_start_s
+        if t_end_s is not None and (mode in STAIRS_MODES or self.last in STAIRS_MODES):
+            t = min(t_start_s, max(t_end_s - RATE_DELAY_S, self.last_t_s, self.ride_end_s))
         if mode in STAIRS_MODES:
-            label, t0, n = self.pending if self.pending and self.pending[0] == mode else (mode, t_start_s, 0)
+            label, t0, n = self.pending if self.pending and self.pending[0] == mode else (mode, t, 0)
             if n + 1 < MIN_FLIGHT_STEPS:
                 self.pending = (label, t0, n + 1)
                 return []
             self.pending = None
-            self.last = mode
-            return [(t0, mode)]
+            return self._open(t0, mode)
         self.pending = None
-        self.last = mode
-        return [(t_start_s, mode)]
+        return self._open(t, mode)
 
-    def entry(self, label: str) -> None:
-        """Another entry (a stop, an elevator ride) now holds the timeline."""
+    def _open(self, t_s: float, mode: str) -> list[tuple[float, str]]:
+        self.last, self.last_t_s = mode, max(self.last_t_s, t_s)
+        return [(t_s, mode)]
+
+    def entry(self, label: str, t_end_s: float | None = None) -> None:
+        """Another entry (a stop, a ride) ending at ``t_end_s`` (s) now holds the timeline."""
         self.last, self.pending = label, None
+        if t_end_s is not None:
+            self.last_t_s = max(self.last_t_s, float(t_end_s))
+        if t_end_s is not None and label.startswith(RIDE_PREFIXES):
+            self.ride_end_s = max(self.ride_end_s, float(t_end_s))
 
     def state(self) -> dict[str, Any]:
-        return {"last": self.last, "pending": None if self.pending is None else list(self.pending)}
+        return {"last": self.last, "pending": None if self.pending is None else list(self.pending),
+                "ride_end_s": None if math.isinf(self.ride_end_s) else self.ride_end_s,
+                "last_t_s": None if math.isinf(self.last_t_s) else self.last_t_s}
 
     @classmethod
     def from_state(cls, state: dict[str, Any]) -> StepModes:
@@ -181,6 +230,10 @@ class StepModes:
             m = cls(str(state["last"]))
             p = state.get("pending")
             m.pending = None if p is None else (str(p[0]), float(p[1]), int(p[2]))
+            r = state.get("ride_end_s")
+            m.ride_end_s = -math.inf if r is None else float(r)
+            lt = state.get("last_t_s")
+            m.last_t_s = -math.inf if lt is None else float(lt)
         except (KeyError, TypeError, ValueError, IndexError) as exc:
             raise InputError(f"not a step-modes state ({exc})", field="state") from None
         return m

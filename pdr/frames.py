@@ -41,10 +41,9 @@ Array = NDArray[np.float64]
 
 #: Standard gravity in m/s^2.
 GRAVITY_MPS2 = 9.80665
-#: Mean Earth radius in m (equirectangular local projection).
-EARTH_RADIUS_M = 6_371_008.8
-#: WGS-84 semi-major axis in m (the sphere radius some dataset scorers use for local projections).
-WGS84_SEMI_MAJOR_M = 6_378_137.0
+#: Radius in m of the one sphere of the local projection, both ways (:func:`geodetic_to_local_enu`): the WGS-84
+#: semi-major axis, as the IPIN reference scorer projects its landmarks.
+EARTH_RADIUS_M = 6_378_137.0
 #: Earth rotation rate in rad/s.
 EARTH_RATE_RADPS = 7.2921150e-5
 #: Specific force of a body at rest in ENU.
@@ -68,13 +67,14 @@ def heading_deg_to_yaw(heading_deg: ArrayLike) -> Array:
 
 
 def geodetic_to_local_enu(lat_deg: ArrayLike, lon_deg: ArrayLike, origin_lat_deg: float,
-                          origin_lon_deg: float, radius_m: float = EARTH_RADIUS_M) -> Array:
+                          origin_lon_deg: float) -> Array:
     """Latitude/longitude (deg) to local (east, north) metres around an origin.
 
-    Equirectangular projection on a sphere of radius ``radius_m`` (default the mean Earth radius;
-    a dataset's scorer may fix another, e.g. the WGS-84 semi-major axis): sub-millimetre agreement
-    with a full ENU transform over a building (a few hundred metres). Returns (..., 2).
+    Equirectangular projection on the sphere of :data:`EARTH_RADIUS_M`, the one Earth model of the project: every
+    reader projects with it and every writer (GeoJSON, the map) projects back with :func:`local_enu_to_geodetic`,
+    so a position survives the round trip exactly. Returns (..., 2).
     """
+    radius_m = EARTH_RADIUS_M
     lat = np.radians(np.asarray(lat_deg, dtype=np.float64))
     lon = np.radians(np.asarray(lon_deg, dtype=np.float64))
     lat0, lon0 = np.radians(origin_lat_deg), np.radians(origin_lon_deg)
@@ -84,8 +84,9 @@ def geodetic_to_local_enu(lat_deg: ArrayLike, lon_deg: ArrayLike, origin_lat_deg
 
 
 def local_enu_to_geodetic(east_m: ArrayLike, north_m: ArrayLike, origin_lat_deg: float,
-                          origin_lon_deg: float, radius_m: float = EARTH_RADIUS_M) -> tuple[Array, Array]:
-    """Inverse of :func:`geodetic_to_local_enu` (same ``radius_m``): (lat_deg, lon_deg)."""
+                          origin_lon_deg: float) -> tuple[Array, Array]:
+    """Inverse of :func:`geodetic_to_local_enu` (the same sphere): (lat_deg, lon_deg)."""
+    radius_m = EARTH_RADIUS_M
     lat0 = np.radians(origin_lat_deg)
     lat = origin_lat_deg + np.degrees(np.asarray(north_m, dtype=np.float64) / radius_m)
     lon = origin_lon_deg + np.degrees(np.asarray(east_m, dtype=np.float64) / (radius_m * np.cos(lat0)))

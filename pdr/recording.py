@@ -57,6 +57,11 @@ STREAM_KINDS: Mapping[str, StreamKind] = MappingProxyType({
     )
 })
 
+#: Key of :attr:`Recording.meta` holding a location fix that geo-references the recording (a phone's GNSS fix:
+#: ``{"lat_deg", "lon_deg", "t_ns", ...}``, WGS-84 degrees), as the Sensor Logger reader writes it.
+LOCATION_META = "location"
+
+
 DeviceRole = Literal["phone", "left_foot", "right_foot"]
 DEVICE_ROLES: tuple[str, ...] = ("phone", "left_foot", "right_foot")
 #: Roles of shoe IMUs: their recordings go to foot-mounted navigation (:mod:`pdr.foot`), not to phone PDR.
@@ -503,3 +508,16 @@ def truth_equal(a: GroundTruth, b: GroundTruth) -> bool:
         return False
     return (_arr_eq(a.step_times_s, b.step_times_s) and _arr_eq(a.step_lengths_m, b.step_lengths_m)
             and a.step_count == b.step_count)
+
+
+def geo_origin(recording: Recording) -> tuple[float, float] | None:
+    """(lat, lon) in WGS-84 degrees where a recording's local east/north frame starts: its truth's geodetic origin,
+    else its location fix (:data:`LOCATION_META`), else None (the recording is not geo-referenced).
+    """
+    pos = recording.truth.positions
+    if pos is not None and pos.origin_lat_lon_deg:
+        return float(pos.origin_lat_lon_deg[0]), float(pos.origin_lat_lon_deg[1])
+    fix = recording.meta.get(LOCATION_META)
+    if isinstance(fix, Mapping) and fix.get("lat_deg") is not None and fix.get("lon_deg") is not None:
+        return float(fix["lat_deg"]), float(fix["lon_deg"])
+    return None

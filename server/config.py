@@ -16,6 +16,8 @@
 | ``PDR_DATA_QUOTA_MB`` | refuse uploads (507) once the data directory holds this much; 0 = no quota | 0 |
 | ``PDR_PROCESSOR`` | ``module:callable`` processor factory (``server.processing.ProcessorFactory``) | built-in |
 | ``PDR_NATIVE_THREADS`` | threads of the BLAS/OpenMP libraries in ``pdr serve`` and ``pdr worker`` processes | 1 |
+| ``PDR_MAP_TILE_URL`` | tiles under geo-referenced sessions on the web page: ``https://HOST/{z}/{x}/{y}.png`` | none |
+| ``PDR_MAP_TILE_ATTRIBUTION`` | the tiles' attribution text shown on the map (the tile provider's terms) | none |
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from urllib.parse import urlsplit
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 
@@ -45,6 +48,8 @@ class Settings:
     max_batch_bytes: int = 8 * 1024 * 1024
     trusted_proxies: int = 0
     retention_days: float = 0.0
+    map_tile_url: str = ""
+    map_tile_attribution: str = ""
 
     @property
     def is_sqlite(self) -> bool:
@@ -85,7 +90,28 @@ def load_settings(environ: Mapping[str, str] | None = None, overrides: Mapping[s
         trusted_proxies=_non_negative_int("PDR_TRUSTED_PROXIES",
                                           o.get("trusted_proxies") or env.get("PDR_TRUSTED_PROXIES") or 0),
         retention_days=float(str(o.get("retention_days") or env.get("PDR_RETENTION_DAYS") or 0)),
+        map_tile_url=tile_url(str(o.get("map_tile_url") or env.get("PDR_MAP_TILE_URL") or "")),
+        map_tile_attribution=str(o.get("map_tile_attribution") or env.get("PDR_MAP_TILE_ATTRIBUTION") or ""),
     )
+
+
+def tile_url(url: str) -> str:
+    """A map tile URL template (``https://HOST/.../{z}/{x}/{y}.png``, ``{s}`` for subdomains allowed), or ""."""
+    if not url:
+        return ""
+    parts = urlsplit(url.replace("{s}", "a"))
+    if parts.scheme not in ("https", "http") or not parts.netloc or not all(k in url for k in ("{z}", "{x}", "{y}")):
+        raise ValueError(f"PDR_MAP_TILE_URL must be an http(s) URL template with {{z}}, {{x}} and {{y}}, got {url!r}")
+    return url
+
+
+def tile_origins(url: str) -> list[str]:
+    """The origins (``scheme://host``) the page loads tiles from, for its Content-Security-Policy."""
+    if not url:
+        return []
+    parts = urlsplit(url)
+    host = parts.netloc.replace("{s}", "*")   # subdomains a, b, c: one wildcard source
+    return [f"{parts.scheme}://{host}"]
 
 
 def _non_negative_int(name: str, raw: object) -> int:

@@ -69,7 +69,12 @@ def register_error_handlers(app: Flask) -> None:
         message = exc.description or exc.name
         details: dict[str, Any] = {}
         if status == 413:
+            from server.limits import too_large_text, user_visible
+
             message, details = _too_large(app, message)
+            if user_visible(request.path):  # the Sensor Logger app shows only a 499's text
+                return Response(too_large_text(int(details.get("limit_bytes") or 0)), status=499,
+                                mimetype="text/plain")
         resp = error_response(status, message, details=details)
         if status == 405 and exc.valid_methods:  # type: ignore[attr-defined]
             resp.headers["Allow"] = ", ".join(exc.valid_methods)  # type: ignore[attr-defined]

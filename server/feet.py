@@ -17,9 +17,12 @@ from pdr.recording import FOOT_ROLES
 from server.store import Store
 
 FUSED = "fused"
-#: The feet as the fusion code names them (:data:`pdr.foot.dual.SIDES`, a group's ``FusionConfig.feet``) and
-#: their device roles in sessions: the one foot vocabulary of sessions, the fused track and groups.
+#: The feet as the fusion library names them (:data:`pdr.foot.dual.SIDES`, a group's ``FusionConfig.feet``) and
+#: their names in the API, the sessions' device roles: the one foot vocabulary of sessions, the fused track and
+#: groups (the library's names never reach a client).
 FOOT_SIDES = {"left": "left_foot", "right": "right_foot"}
+#: The inverse of :data:`FOOT_SIDES`: the API's foot names to the library's.
+ROLE_SIDES = {role: side for side, role in FOOT_SIDES.items()}
 #: Which device's track stands for the session, first present wins (module doc).
 ROLE_PRIORITY = (FUSED, *FOOT_ROLES, "phone")
 
@@ -33,6 +36,11 @@ class Feet:
 
     def to_json(self) -> dict[str, list[str]]:
         return {"paired": list(self.paired), "live": list(self.live)}
+
+
+def foot_role(side: str) -> str:
+    """The API's name (device role) of the foot the fusion library names ``side`` (other names unchanged)."""
+    return FOOT_SIDES.get(side, side)
 
 
 def session_feet(store: Store, session_id: str) -> Feet:

@@ -55,6 +55,8 @@ group_agents = Table(
     Column("agent", String(200), primary_key=True),
     Column("session_id", String(36), ForeignKey("sessions.id", ondelete="SET NULL")),
     Column("joined_at", DateTime(timezone=True), nullable=False),
+    # group time = session time + clock_offset_s (s) for an agent fed from a session (migration 0010)
+    Column("clock_offset_s", Float, nullable=False, server_default="0"),
 )
 
 group_uploads = Table(
@@ -164,15 +166,17 @@ class GroupStore:
             raise APIError(404, f"no group '{group_id}'")
         return decode_state(row.state)
 
-    def add_agent(self, group_id: str, agent: str, session_id: str | None) -> None:
+    def add_agent(self, group_id: str, agent: str, session_id: str | None, clock_offset_s: float = 0.0) -> None:
+        """Record a member; ``clock_offset_s``: group time less session time (s) of an agent fed from a session."""
         with self.engine.begin() as conn:
             conn.execute(insert(group_agents).values(group_id=group_id, agent=agent, session_id=session_id,
-                                                     joined_at=db.utcnow()))
+                                                     joined_at=db.utcnow(), clock_offset_s=clock_offset_s))
 
     def followers(self, session_id: str) -> list[Row[Any]]:
-        """The group agents that take their steps from the session (``group_id``, ``agent``)."""
+        """The group agents that take their steps from the session (``group_id``, ``agent``, ``clock_offset_s``)."""
         with self.engine.connect() as conn:
-            return list(conn.execute(select(group_agents.c.group_id, group_agents.c.agent)
+            return list(conn.execute(select(group_agents.c.group_id, group_agents.c.agent,
+                                            group_agents.c.clock_offset_s)
                                      .where(group_agents.c.session_id == session_id)
                                      .order_by(group_agents.c.group_id, group_agents.c.agent)))
 

@@ -16,7 +16,8 @@ Three limits (bytes):
   subclassed to apply the same limit when the headers arrive (and while a chunked body streams in); the refused
   body is never buffered.
 
-The 413 body is the service's JSON error envelope and names the limit.
+The 413 body is the service's JSON error envelope and names the limit; on the Sensor Logger push route, whose app
+shows its user only the text body of a 499 answer, it is a 499 with a text body (:func:`too_large_response`).
 """
 
 from __future__ import annotations
@@ -56,6 +57,33 @@ def make_body_limit(upload_bytes: int, batch_bytes: int) -> BodyLimit:
 
 def too_large_message(limit: int, what: str = "request body") -> str:
     return f"{what} too large: the limit of this route is {limit} bytes ({limit / 1024**2:.3g} MB)"
+
+
+#: Routes whose client (the Sensor Logger app) shows its user only the text body of a 499 answer.
+USER_VISIBLE_PATHS = frozenset({"/api/v1/ingest/sensor-logger"})
+#: The status those clients display.
+USER_VISIBLE_STATUS = 499
+
+
+def user_visible(path: str) -> bool:
+    """True for a route whose errors are answered 499 with a text body (:data:`USER_VISIBLE_PATHS`)."""
+    return path.rstrip("/") in USER_VISIBLE_PATHS
+
+
+def too_large_text(limit: int) -> str:
+    """The 499 text of an oversized Sensor Logger message."""
+    return (f"pdr: {too_large_message(limit, 'message')}; lower the HTTP push batch period in Sensor Logger's "
+            "settings")
+
+
+def too_large_response(path: str, limit: int) -> tuple[str, list[tuple[str, str]], bytes]:
+    """(status line, headers, body) refusing a body over ``limit`` on ``path``: 413 with the JSON error envelope, or
+    499 with a text body on a route whose app shows only that (:data:`USER_VISIBLE_PATHS`).
+    """
+    if user_visible(path):
+        return (f"{USER_VISIBLE_STATUS} Message Too Large", [("Content-Type", "text/plain; charset=utf-8")],
+                too_large_text(limit).encode())
+    return "413 Request Entity Too Large", [("Content-Type", "application/json")], too_large_body(limit)
 
 
 def too_large_body(limit: int) -> bytes:
@@ -105,9 +133,8 @@ class BodyLimitMiddleware:
         except ValueError:
             length = None
         if length is not None and length > limit:
-            body = too_large_body(limit)
-            start_response("413 Request Entity Too Large",
-                           [("Content-Type", "application/json"), ("Content-Length", str(len(body)))])
+            status, headers, body = too_large_response(environ.get("PATH_INFO", ""), limit)
+            start_response(status, [*headers, ("Content-Length", str(len(body)))])
             return [body]
         if length is None and "wsgi.input" in environ and (
                 environ.get("wsgi.input_terminated") or "chunked" in environ.get("HTTP_TRANSFER_ENCODING", "")):
@@ -126,13 +153,13 @@ def limited_channel(body_limit: BodyLimit) -> type:
         code = 413
         reason = "Request Entity Too Large"
 
-        def __init__(self, limit: int) -> None:
+        def __init__(self, limit: int, path: str) -> None:
             super().__init__(too_large_message(limit))
             self.limit = limit
+            self.path = path
 
         def to_response(self, ident: str | None = None) -> tuple[str, list[tuple[str, str]], bytes]:
-            return (f"{self.code} {self.reason}", [("Content-Type", "application/json")],
-                    too_large_body(self.limit))
+            return too_large_response(self.path, self.limit)
 
     class LimitedParser(HTTPRequestParser):
         limit: int | None = None
@@ -157,7 +184,7 @@ def limited_channel(body_limit: BodyLimit) -> type:
             assert self.limit is not None
             log.info("%s %s: 413 before reading the body (%s, limit %d bytes)", self.command, self.path, why,
                      self.limit)
-            self.error = TooLarge(self.limit)
+            self.error = TooLarge(self.limit, self.path or "")
             self.completed = True
             self.body_rcv = None  # drop whatever was buffered
 

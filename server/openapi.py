@@ -28,6 +28,10 @@ NAME = {"name": "name", "in": "path", "required": True, "schema": {"type": "stri
 REPORT_ID = {"name": "report_id", "in": "path", "required": True, "schema": {"type": "string"}}
 AGENT = {"name": "agent", "in": "path", "required": True, "schema": {"type": "string"}}
 GROUP_ID = {"name": "group_id", "in": "path", "required": True, "schema": {"type": "string"}}
+AGENT_QUERY = {"name": "agent", "in": "query", "required": False, "schema": {"type": "string"},
+               "description": "only these agents (repeatable)"}
+SINCE_S_QUERY = {"name": "since_s", "in": "query", "required": False, "schema": {"type": "number"},
+                 "description": "only rows after this time (s, the group's clock)"}
 SITE_ID = {"name": "site_id", "in": "path", "required": True, "schema": {"type": "string"}}
 #: A site description (``pdr track --site``, ``pdr site from-ms``): floor plans per floor, altitudes, landmarks.
 SITE = {"type": "object", "required": ["floors"],
@@ -42,6 +46,13 @@ SINCE = {"name": "since", "in": "query", "required": False, "schema": {"type": "
 TOKEN_QUERY = {"name": "token", "in": "query", "required": False, "schema": {"type": "string"},
                "description": "API token for clients that cannot set headers (ingest endpoints only; "
                               "query strings can end up in logs)"}
+#: The push URL's platform and the app's "Standardise Units & Frames" setting (server.api.ingest).
+PLATFORM_QUERY = [
+    {"name": "platform", "in": "query", "required": False, "schema": {"enum": ["ios", "android"]},
+     "description": "the phone's platform (the app's messages do not say); inferred from the data when absent"},
+    {"name": "standardised", "in": "query", "required": False, "schema": {"enum": ["0", "1", "true", "false"]},
+     "description": "the app's 'Standardise Units & Frames' setting (raw iOS data is read with Core Motion's signs)"},
+]
 PLACEMENT_QUERY = {"name": "placement", "in": "query", "required": False, "schema": {"enum": list(PLACEMENTS)},
                    "description": "how the phone is carried (the app does not say); without it the phone pipeline "
                                   "detects the carriage online"}
@@ -118,7 +129,9 @@ def openapi_document() -> dict[str, Any]:
                                 "motion context and sensor reports. Authenticate with 'Authorization: Bearer'. "
                                 "Tokens have a scope (ingest, read, full; see each operation's x-token-scope). "
                                 "Bodies over a route's limit are refused 413 from their headers: file uploads "
-                                "PDR_MAX_UPLOAD_MB, every other write PDR_MAX_BATCH_MB."},
+                                "PDR_MAX_UPLOAD_MB, every other write PDR_MAX_BATCH_MB. Every answer carrying times "
+                                "states their clock in 'clock': t0_ns, where the session's recording starts, and "
+                                "what t_s means (seconds on the log's own clock)."},
         "components": {
             "securitySchemes": {"bearer": {"type": "http", "scheme": "bearer"},
                                 "queryToken": {"type": "apiKey", "in": "query", "name": "token"}},
@@ -193,9 +206,11 @@ def openapi_document() -> dict[str, Any]:
             "/api/v1/sessions/{session_id}/track": {
                 "get": _op("track, one row per step", {"200": {"description": "track", "content": {
                     "application/json": {"schema": {"type": "object"}}, "text/csv": {"schema": {"type": "string"}},
-                    "application/geo+json": {"schema": {"type": "object"}}}}} | _errors(400, 401, 404),
+                    "application/geo+json": {"schema": {"type": "object"}}}}} | _errors(400, 401, 404, 409),
                     parameters=[SESSION_ID, SINCE,
-                                {"name": "format", "in": "query", "schema": {"enum": ["json", "csv", "geojson"]}},
+                                {"name": "format", "in": "query", "schema": {"enum": ["json", "csv", "geojson"]},
+                                 "description": "geojson: RFC 7946 lon/lat, for a geo-referenced session only (409 "
+                                                "otherwise)"},
                                 DEVICE, HEADING])},
             "/api/v1/sessions/{session_id}/steps": _results_path("steps") | {
                 "post": _op("ingest a shoe unit's step-wise dead-reckoning summaries (idempotent by batch_id)",
@@ -277,16 +292,19 @@ def openapi_document() -> dict[str, Any]:
                 "post": _op("apply everything buffered", {"200": _ok("applied")} | _errors(401, 404),
                             parameters=[GROUP_ID])},
             "/api/v1/groups/{group_id}/tracks": {
-                "get": _op("fused tracks of every agent", {"200": _ok("tracks")} | _errors(401, 404),
-                           parameters=[GROUP_ID])},
+                "get": _op("fused tracks of every agent: {agents: {AGENT: {left_foot|right_foot: [[t_s, east_m, "
+                           "north_m, up_m, heading_deg]]}}}, t_s on the group's clock", {"200": _ok("tracks")}
+                           | _errors(401, 404, 422), parameters=[GROUP_ID, AGENT_QUERY, SINCE_S_QUERY])},
             "/api/v1/groups/{group_id}/agents/{agent}/correction": {
-                "get": _op("correction for an agent's local estimate", {"200": _ok("correction")}
+                "get": _op("correction for an agent's local estimate: feet (left_foot/right_foot), steps, t_s, mean "
+                           "(x, y, z m ENU and yaw rad per foot), cov, heading_deg", {"200": _ok("correction")}
                            | _errors(401, 404), parameters=[GROUP_ID, AGENT])},
             "/api/v1/ingest/sensor-logger": {
                 "post": _op("Sensor Logger HTTP push; errors the app shows its user are answered 499 (text)",
-                            {"200": _ok("accepted"), "499": _ok("error shown to the user", "text/plain"),
-                             "413": _errors(413)["413"]},
-                            parameters=[TOKEN_QUERY, PLACEMENT_QUERY], requestBody=_json_body("SensorLoggerMessage"),
+                            {"200": _ok("accepted"),
+                             "499": _ok("error shown to the user, an oversized message included", "text/plain")},
+                            parameters=[TOKEN_QUERY, PLACEMENT_QUERY, *PLATFORM_QUERY],
+                            requestBody=_json_body("SensorLoggerMessage"),
                             security=[{"bearer": []}, {"queryToken": []}])},
         }),
     }

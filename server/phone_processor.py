@@ -56,7 +56,7 @@ class PhoneProcessor:
         self.stages = [] if named is None else named.stages()   # the map matcher when the session has a start
         if state:
             d = state_codec.loads(state)
-            self.pipeline = PdrPipeline.from_dict(d["pipeline"], stages=self.stages)
+            self.pipeline = PdrPipeline.from_state(d["pipeline"], stages=self.stages)
             self.step_modes = (StepModes.from_state(d["step_modes"]) if d.get("step_modes")
                                else StepModes(str(d.get("last_mode", ""))))
             self.classifier_status: str = d.get("classifier_status", "pending")
@@ -90,8 +90,10 @@ class PhoneProcessor:
         if name is None:
             self.classifier, self.classifier_status = None, "off"
             wanted = PLACEMENT_MODELS.get(self.pipeline.placement)
-            return [], (f"motion modes from step patterns only: no mode classifier is installed for a phone "
-                        f"carried in the {self.pipeline.placement}"
+            # The session may name no placement: then say that the pipeline found it, not that it was given.
+            how = ("detected as carried in the {} (the session names no placement)" if self.pipeline.auto_placement
+                   else "carried in the {}").format(self.pipeline.placement)
+            return [], (f"motion modes from step patterns only: no mode classifier is installed for a phone {how}"
                         + (f" (models/{wanted}; its model card says how to build it)" if wanted else ""))
         try:
             if self.classifier is None:
@@ -105,7 +107,7 @@ class PhoneProcessor:
                          data={"window_mode": r.window_mode}) for r in results], ""
 
     def tail(self) -> ProcessorOutput:
-        copy = PdrPipeline.from_dict(self.pipeline.to_dict(), stages=self.stages)
+        copy = PdrPipeline.from_state(self.pipeline.state(), stages=self.stages)
         events = copy.finish_events()
         step_modes = self.classifier_status != "active"
         out = convert_events(events, StepModes.from_state(self.step_modes.state()), step_modes=step_modes,
@@ -113,7 +115,7 @@ class PhoneProcessor:
         return out
 
     def to_bytes(self) -> bytes:
-        return state_codec.dumps({"pipeline": self.pipeline.to_dict(), "step_modes": self.step_modes.state(),
+        return state_codec.dumps({"pipeline": self.pipeline.state(), "step_modes": self.step_modes.state(),
                                   "classifier_status": self.classifier_status,
                                   "classifier": None if self.classifier is None else self.classifier.state(),
                                   "stops": self.stops.state()})
@@ -137,7 +139,7 @@ def convert_events(events: Sequence[PipelineEvent], modes: StepModes | None = No
             while pending and pending[0].t_start_s <= e.t_start_s:
                 _stop_row(out, pending.pop(0), modes)
             out.track.append(e)
-            for t, label in modes.step(e.mode, e.t_start_s):
+            for t, label in modes.step(e.mode, e.t_start_s, e.t_s):
                 if step_modes:
                     out.events.append(EventRow("mode", t, label=label))
         elif isinstance(e, ElevatorEvent):
@@ -163,4 +165,4 @@ def _scalars(e: ElevatorEvent | LandmarkEvent) -> dict[str, str | int | float]:
 def _stop_row(out: ProcessorOutput, m: ModeEntry, modes: StepModes) -> None:
     """Append the ``mode`` event of a stop or elevator entry, which then holds the timeline."""
     out.events.append(EventRow("mode", m.t_start_s, t_end_s=m.t_end_s, label=m.label, data=dict(m.data)))
-    modes.entry(m.label)
+    modes.entry(m.label, m.t_end_s)

@@ -32,10 +32,13 @@ from typing import Any
 from pdr import recording_codec
 from pdr.errors import InputError
 from pdr.io import format_names
+from pdr.io.registry import relocated
 from pdr.recording import Recording
 
 #: Address space a reader may use, MB (``PDR_READER_MEMORY_MB``; a 64 MB upload of any format needs far less).
 MEMORY_LIMIT_MB = 2048
+#: Prefix of the temporary folder an upload is read from (never shown to a user: :func:`without_temp_names`).
+TEMP_PREFIX = "pdr-upload-"
 #: Readers running at once in this process (``PDR_READERS``); further uploads wait for a free one.
 READERS = 2
 #: Largest uncompressed size an archive or gzip file may declare, bytes, and its largest compression ratio:
@@ -81,7 +84,7 @@ def read_isolated(payload: bytes, filename: str, fmt: str | None = None) -> tupl
         raise InputError(f"unknown format {fmt!r} (supported: {', '.join(format_names())})", source=safe_name,
                          field="format")
     check_compressed(payload, safe_name)
-    with _readers, tempfile.TemporaryDirectory(prefix="pdr-upload-") as tmp:
+    with _readers, tempfile.TemporaryDirectory(prefix=TEMP_PREFIX) as tmp:
         path = Path(tmp) / safe_name
         path.write_bytes(payload)
         out = Path(tmp) / "result.pickle"
@@ -97,13 +100,22 @@ def read_isolated(payload: bytes, filename: str, fmt: str | None = None) -> tupl
                              "it is corrupt or not a supported log", source=safe_name)
         result: tuple[Any, ...] = pickle.loads(out.read_bytes())  # written by our own child process
     if result[0] == "ok":
-        return result[1], recording_codec.loads(result[2])
+        return result[1], without_temp_names(recording_codec.loads(result[2]), Path(tmp), safe_name)
     if result[0] == "input_error":
         _, message, source, line, field, code = result
         err = InputError(message, source=source, line=line, field=field)
         err.code = code
         raise err
     raise RuntimeError(f"{result[1]}: {result[2]}")
+
+
+def without_temp_names(recording: Recording, folder: Path, name: str) -> Recording:
+    """The recording of the upload ``name`` read from the temporary ``folder``, with nothing that names the folder:
+    the source is the uploaded file's name, paths inside the folder lose the folder, and a name a reader took from
+    the folder itself (e.g. a device model from a parent folder's name) is left empty (:func:`pdr.io.registry.
+    relocated`).
+    """
+    return relocated(relocated(recording, folder / name, name), folder, name, forget=folder.name)
 
 
 def check_compressed(payload: bytes, source: str) -> None:

@@ -69,7 +69,10 @@ SENSOR_LOGGER_MESSAGE = {
         "deviceId": {"type": "string", "minLength": 1, "maxLength": 200},
         "payload": {"type": "array", "items": {
             "type": "object", "required": ["name", "time", "values"],
-            "properties": {"name": {"type": "string"}, "time": {"type": ["integer", "number"]},
+            "properties": {"name": {"type": "string"},
+                           # epoch ns as a number or, as some app versions send it, a string of digits
+                           "time": {"anyOf": [{"type": ["integer", "number"]},
+                                              {"type": "string", "pattern": r"^\s*-?\d+\s*$"}]},
                            "values": {"type": "object"}}}},
     },
 }

@@ -302,6 +302,13 @@ class Store:
                                 .group_by(db.batches.c.status))
             return {str(r[0]): int(r[1]) for r in rows}
 
+    def first_sample_ns(self, session_id: str) -> int | None:
+        """Time of the session's first stored sample on its log's clock (ns), None before any batch."""
+        with self.engine.connect() as conn:
+            t = conn.execute(select(func.min(db.batches.c.t_first_ns)).where(
+                db.batches.c.session_id == session_id)).scalar()
+            return None if t is None else int(t)
+
     def batch_roles(self, session_id: str) -> set[str]:
         """Device roles with at least one stored batch in the session."""
         with self.engine.connect() as conn:

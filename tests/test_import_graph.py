@@ -59,8 +59,8 @@ def test_a_nested_package_counts_as_its_pdr_subpackage(tool: ModuleType, tmp_pat
     files = tool.package_graph(tool.import_graph(tmp_path), tmp_path)
     assert files["pdr.foot"] == set() and tool.cycles(files) == []
     (tmp_path / "pdr" / "phone" / "steps.py").write_text("from pdr.foot import dual\n")
-    kernel = tmp_path / "pdr" / "foot" / "zupt" / "kernel.py"
-    kernel.write_text("from pdr.foot import drift\nimport pdr.phone.steps\n")
+    (tmp_path / "pdr" / "foot" / "zupt" / "kernel.py").write_text(
+        "from pdr.foot import drift\nimport pdr.phone.steps\n")
     assert tool.cycles(tool.package_graph(tool.import_graph(tmp_path), tmp_path)) == [["pdr.foot", "pdr.phone"]]
 
 

@@ -8,9 +8,9 @@ A cycle is a strongly connected component of more than one node, between modules
 ``pdr`` (a module counted as its package: ``pdr.foot.dual`` -> ``pdr.foot``; a top-level module of ``pdr`` ->
 ``pdr``; a package nested in a subpackage of ``pdr``, e.g. ``pdr.foot.zupt`` or ``pdr.phone.attitude``, is a part of
 that subpackage split by layer, kernel apart from driver, and counts as it: ``pdr.foot.zupt.kernel`` ->
-``pdr.foot``; cycles between its modules are the module cycles). ``server``'s subpackages (``api``, ``web``, ``migrations``, ``bench``) are parts of one application that
-import its top-level modules and are imported by them (the app factory registers the blueprints); they are
-listed but not counted.
+``pdr.foot``; cycles between its modules are the module cycles). ``server``'s subpackages (``api``, ``web``,
+``migrations``, ``bench``) are parts of one application that import its top-level modules and are imported by them
+(the app factory registers the blueprints); they are listed but not counted.
 
 Run ``python tools/import_graph.py`` from the checkout: prints the cycles and the forbidden imports (product code
 importing ``pdr.cli``, ``pdr.evaluation`` or ``server.bench``); exit status 1 when there is any.

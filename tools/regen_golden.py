@@ -99,7 +99,7 @@ def resumed_rows(name: str) -> list[dict[str, Any]]:
     from pdr.phone.pipeline import PdrPipeline
 
     state = state_codec.loads(gzip.decompress(state_path(name).read_bytes()))
-    p = PdrPipeline.from_dict(state)
+    p = PdrPipeline.from_state(state)
     rows: list[dict[str, Any]] = p.update(_halves(_walk(name))[1]) + p.finish()
     return json.loads(json.dumps(rows))
 
@@ -121,7 +121,7 @@ def regen_state_v1() -> list[Path]:
     for name, (_, _, placement) in STATE_WALKS.items():
         p = PdrPipeline(PipelineConfig(placement=placement, history_s=STATE_HISTORY_S))
         p.update(_halves(_walk(name))[0])
-        state_path(name).write_bytes(gzip.compress(state_codec.dumps(p.to_dict()), mtime=0))
+        state_path(name).write_bytes(gzip.compress(state_codec.dumps(p.state()), mtime=0))
         out.append(state_path(name))
     return out
 

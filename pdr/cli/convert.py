@@ -3,7 +3,9 @@
 ``OUT`` ending in ``.zip`` gives a zip of the native folder, ``.json`` or ``.json.gz`` a ``pdr-batch/1``
 JSON document, anything else a native folder (:mod:`pdr.io.native`). ``--start``/``--end`` keep an
 excerpt: streams and ground truth are cut to the window and the time axis restarts at its beginning
-(the raw nanosecond timestamps are unchanged).
+(the raw nanosecond timestamps are unchanged). ``--role`` sets the device role written (a file that does not say
+which foot carried the IMU, such as PyShoe's, reads as ``right_foot``; a native batch's role decides the session
+device it is stored under).
 """
 
 from __future__ import annotations
@@ -14,9 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
+from pdr.cli.progress import Progress
 from pdr.errors import InputError
 from pdr.io import native, registry
-from pdr.recording import GroundTruth, Labels, PositionTruth, Recording
+from pdr.recording import DEVICE_ROLES, GroundTruth, Labels, PositionTruth, Recording
 
 TARGETS: tuple[str, ...] = ("native",)
 
@@ -124,12 +127,18 @@ def write_native(recording: Recording, out: str | Path) -> Path:
 
 
 def run(args: argparse.Namespace) -> int:
-    recording = registry.read_recording(args.log, args.format)
-    if args.start is not None or args.end is not None:
-        start, end = recording.time_span_s()
-        recording = excerpt(recording, start if args.start is None else args.start,
-                            np.nextafter(end, np.inf) if args.end is None else args.end)
-    out = write_native(recording, args.out)
+    with Progress(2, "convert") as bar:   # a large log takes a while to read and to write
+        bar.set_note(f"reading {Path(args.log).name}")
+        recording = registry.read_recording(args.log, args.format)
+        if args.role is not None:
+            recording = replace(recording, device=replace(recording.device, role=args.role))
+        if args.start is not None or args.end is not None:
+            start, end = recording.time_span_s()
+            recording = excerpt(recording, start if args.start is None else args.start,
+                                np.nextafter(end, np.inf) if args.end is None else args.end)
+        bar.advance(note=f"writing {Path(args.out).name}")
+        out = write_native(recording, args.out)
+        bar.advance()
     n = sum(len(s) for s in recording.streams.values())
     print(f"wrote {out} ({len(recording.streams)} streams, {n} samples, {recording.duration_s:.3f} s)")
     return 0
@@ -144,4 +153,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--format", metavar="F", help="force the input reader (see 'pdr inspect --formats')")
     p.add_argument("--start", type=float, metavar="S", help="keep samples from S seconds (recording time axis)")
     p.add_argument("--end", type=float, metavar="S", help="keep samples before S seconds")
+    p.add_argument("--role", choices=DEVICE_ROLES,
+                   help="device role to write (default: the log's; e.g. which foot carried a PyShoe IMU)")
     p.set_defaults(func=run)

@@ -23,6 +23,7 @@ from pdr.evaluation.foot_metrics import (
     path_length,
     pyshoe_armse,
     stride_errors,
+    stride_summary,
 )
 from pdr.foot.bc import BCTrack
 from pdr.foot.detectors import DETECTORS, DetectorConfig
@@ -153,19 +154,17 @@ def write_csv(path: str | Path, columns: dict[str, np.ndarray]) -> None:
             fh.write(",".join(str(int(v)) if isinstance(v, np.integer) else f"{float(v):.9g}" for v in row) + "\n")
 
 
-def _plot(path: str, track: ZuptTrack | FilterBankTrack | BCTrack) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(6, 6))
-    ax.plot(track.pos_n[:, 0], track.pos_n[:, 1], lw=0.8)
-    zv = track.zero_velocity
-    ax.plot(track.pos_n[zv, 0], track.pos_n[zv, 1], ".", ms=1, color="C3")
-    ax.set_xlabel("east (m)")
-    ax.set_ylabel("north (m)")
-    ax.set_aspect("equal")
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+def _method_name(method: str, args: argparse.Namespace) -> str:
+    """The method as run: ``zupt`` says whether the RTS smoother was on."""
+    if method == "zupt":
+        return "zupt (RTS-smoothed)" if args.smoother == "on" else "zupt (causal)"
+    return method
+
+
+def _summary(t_s: np.ndarray, pos_n: np.ndarray, zero_velocity: np.ndarray, method: str, out: str) -> str:
+    """``N strides, D m walked in T s (method M) -> OUT``, as ``pdr track`` prints its steps and distance."""
+    strides, dist, duration = stride_summary(t_s, pos_n, zero_velocity)
+    return f"{strides} strides, {dist:.1f} m walked in {duration:.1f} s, method {method} -> {out}"
 
 
 def dual_rows(left: FootImu, track: DualFootTrack) -> dict[str, np.ndarray]:
@@ -215,24 +214,17 @@ def run_dual(args: argparse.Namespace) -> int:
     write_csv(args.out, dual_step_rows(track) if args.per_step else dual_rows(imu_l, track))
     print(f"{track.updates} steps fused, separation constraint active at {track.constraint_active}; right foot "
           f"frame turned by {math.degrees(track.heading_offset_rad):.1f} deg", file=sys.stderr)
+    mid = dual_rows(imu_l, track)
+    mid_en = np.column_stack([mid["east_m"], mid["north_m"]])
+    line = _summary(mid["t_s"], mid_en, mid["zero_velocity"].astype(bool), "stepwise, dual-foot", args.out)
     if args.plot:
-        _plot_dual(args.plot, track)
+        from pdr.cli.plots import plot_track, truth_of
+
+        plot_track(args.plot, mid["t_s"], mid_en, f"pdr foot {Path(args.left).name} + {Path(args.right).name}: "
+                   + line.split(" ->")[0], truth_of(read_recording(args.left)), label="midpoint of the feet",
+                   extra={"left foot": track.left.pos_n[:, :2], "right foot": track.right.pos_n[:, :2]}, turn=True)
+    print(line)
     return 0
-
-
-def _plot_dual(path: str, track: DualFootTrack) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(6, 6))
-    for name, f in (("left", track.left), ("right", track.right)):
-        ax.plot(f.pos_n[:, 0], f.pos_n[:, 1], lw=0.8, label=name)
-    ax.set_xlabel("east (m)")
-    ax.set_ylabel("north (m)")
-    ax.set_aspect("equal")
-    ax.legend()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
 
 
 def run_foot(args: argparse.Namespace) -> int:
@@ -258,8 +250,14 @@ def run_foot(args: argparse.Namespace) -> int:
         write_csv(args.out, step_rows(imu, track))
     else:
         write_csv(args.out, track_rows(imu, track))
+    t = track.t_s + imu.clock_offset_s
+    line = _summary(t, track.pos_n, track.zero_velocity, _method_name(args.method, args), args.out)
     if args.plot:
-        _plot(args.plot, track)
+        from pdr.cli.plots import plot_track, truth_of
+
+        plot_track(args.plot, t, track.pos_n[:, :2], f"pdr foot {Path(args.log).name}: " + line.split(" ->")[0],
+                   truth_of(rec), label="foot track", turn=True)
+    print(line)
     return 0
 
 

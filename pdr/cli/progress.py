@@ -8,6 +8,7 @@ captured output stay clean. tqdm would do the same; the project does not depend 
 from __future__ import annotations
 
 import sys
+import threading
 import time
 from collections.abc import Iterable, Iterator
 from types import TracebackType
@@ -18,6 +19,8 @@ T = TypeVar("T")
 #: Width of the bar in characters, and the shortest interval between two redraws (s).
 BAR_WIDTH = 24
 REDRAW_S = 0.2
+#: Interval (s) at which a drawn bar is redrawn on its own, so that its clock runs during a long stage.
+TICK_S = 1.0
 
 
 class Progress:
@@ -33,9 +36,13 @@ class Progress:
         Where to draw; default ``sys.stderr`` at construction.
     enabled
         Force drawing on or off; default: only when ``stream`` is a terminal.
+    tick_s
+        A drawn bar is also redrawn every ``tick_s`` seconds by a daemon thread (its elapsed time goes on while one
+        stage takes minutes, e.g. ``pdr bench load``'s upload); 0: only when the work advances.
     """
 
-    def __init__(self, total: int, label: str, stream: TextIO | None = None, enabled: bool | None = None) -> None:
+    def __init__(self, total: int, label: str, stream: TextIO | None = None, enabled: bool | None = None,
+                 tick_s: float = TICK_S) -> None:
         self.total = max(int(total), 1)
         self.label = label
         self.stream = sys.stderr if stream is None else stream
@@ -46,7 +53,14 @@ class Progress:
         self._t0 = time.monotonic()
         self._last = -1.0
         self._width = 0
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
         self._draw(force=True)
+        self._ticker: threading.Thread | None = None
+        if self.enabled and tick_s > 0:
+            self._ticker = threading.Thread(target=self._tick, args=(float(tick_s),), name="pdr-progress",
+                                            daemon=True)
+            self._ticker.start()
 
     def advance(self, n: int = 1, note: str | None = None) -> None:
         """Count ``n`` more units done; ``note`` (e.g. the next file's name) replaces the previous one."""
@@ -61,12 +75,16 @@ class Progress:
         self._draw(force=self.done == 0)  # the first note shows at once, later ones at the redraw rate
 
     def close(self) -> None:
-        """Clear the line, so that what is printed next starts on a clean line."""
-        if self.enabled and self._width:
-            self.stream.write("\r" + " " * self._width + "\r")
-            self.stream.flush()
-            self._width = 0
-        self.enabled = False
+        """Clear the line, so that what is printed next starts on a clean line; nothing is drawn after."""
+        self._stop.set()
+        with self._lock:
+            if self.enabled and self._width:
+                self.stream.write("\r" + " " * self._width + "\r")
+                self.stream.flush()
+                self._width = 0
+            self.enabled = False
+        if self._ticker is not None and self._ticker is not threading.current_thread():
+            self._ticker.join(timeout=1.0)
 
     def line(self) -> str:
         """The text of the bar as it is drawn now."""
@@ -76,18 +94,23 @@ class Progress:
         return (f"{self.label} [{'#' * filled}{'.' * (BAR_WIDTH - filled)}] {self.done}/{self.total}{note}"
                 f"  {elapsed:.0f} s")
 
+    def _tick(self, every_s: float) -> None:
+        while not self._stop.wait(every_s):
+            self._draw(force=True)
+
     def _draw(self, force: bool) -> None:
-        if not self.enabled:
-            return
-        now = time.monotonic()
-        if not force and now - self._last < REDRAW_S:
-            return
-        self._last = now
-        text = self.line()
-        pad = max(self._width - len(text), 0)
-        self.stream.write("\r" + text + " " * pad)
-        self.stream.flush()
-        self._width = len(text)
+        with self._lock:   # the ticker thread and the worker draw the same line
+            if not self.enabled:
+                return
+            now = time.monotonic()
+            if not force and now - self._last < REDRAW_S:
+                return
+            self._last = now
+            text = self.line()
+            pad = max(self._width - len(text), 0)
+            self.stream.write("\r" + text + " " * pad)
+            self.stream.flush()
+            self._width = len(text)
 
     def __enter__(self) -> Progress:
         return self

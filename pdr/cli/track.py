@@ -35,8 +35,9 @@ from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
 from pdr.phone.stage import StepStage
 from pdr.phone.step_length import StepLengthModel
 from pdr.phone.steps import StepConfig
+from pdr.phone.track_geojson import require_origin, track_geojson
 from pdr.phone.track_schema import write_csv
-from pdr.recording import Recording
+from pdr.recording import Recording, geo_origin
 
 if TYPE_CHECKING:
     # The map matcher (its compiled kernels, the site's plans) is imported where a command line asks for it.
@@ -52,7 +53,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     _common_options(p)
     p.add_argument("--out", required=True, help="track CSV (t_s,east_m,north_m,up_m,floor,heading_deg,"
                                                "step_length_m,mode) on the log's clock")
-    p.add_argument("--geojson", help="also write the track as GeoJSON (local metres unless the log has an origin)")
+    p.add_argument("--geojson", help="also write the track as GeoJSON (RFC 7946: lon/lat; only for a geo-referenced "
+                                     "log: a GPS fix or a surveyed origin)")
     p.add_argument("--plot", help="also write a PNG plot of the track")
     p.add_argument("--start", metavar="E,N[,FLOOR]",
                    help="known start (m, the site's frame) and its floor (default: the site's only floor): with a "
@@ -111,36 +113,19 @@ def reference_rows(rec: Recording, cfg: PipelineConfig, site: Site | None = None
 
 
 def write_geojson(rows: list[dict[str, Any]], path: str | Path, origin: tuple[float, float] | None) -> None:
-    from pdr.frames import local_enu_to_geodetic
-    coords = []
-    for r in rows:
-        if origin is not None:
-            lat, lon = local_enu_to_geodetic(r["east_m"], r["north_m"], origin[0], origin[1])
-            coords.append([float(lon), float(lat)])
-        else:
-            coords.append([r["east_m"], r["north_m"]])
-    doc = {"type": "FeatureCollection", "features": [{
-        "type": "Feature", "geometry": {"type": "LineString", "coordinates": coords},
-        "properties": {"crs": "WGS84" if origin else "local ENU metres", "steps": len(rows)}}]}
-    Path(path).write_text(json.dumps(doc))
+    """The track as RFC 7946 GeoJSON (:mod:`pdr.phone.track_geojson`); :class:`InputError` when not geo-referenced."""
+    Path(path).write_text(json.dumps(track_geojson(rows, origin, source=f"--geojson {path}")))
 
 
-def write_plot(rows: list[dict[str, Any]], path: str | Path, rec: Recording) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(6, 6))
-    if rows:
-        ax.plot([r["east_m"] for r in rows], [r["north_m"] for r in rows], "-", lw=1, label="PDR track")
-    pt = rec.truth.positions
-    if pt is not None:
-        ax.plot(pt.pos_m[:, 0], pt.pos_m[:, 1], "o--", ms=3, lw=0.8, label=f"truth ({pt.kind})")
-    ax.set_xlabel("east (m)")
-    ax.set_ylabel("north (m)")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.legend()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+def write_plot(rows: list[dict[str, Any]], path: str | Path, rec: Recording, title: str) -> None:
+    """The track's PNG (:mod:`pdr.cli.plots`): start and end marked, the truth when the log has it, with the track
+    moved to start at the first truth point as ``pdr eval`` scores it.
+    """
+    from pdr.cli.plots import plot_track, truth_of
+
+    t = np.array([r["t_s"] for r in rows], dtype=np.float64)
+    en = np.array([[r["east_m"], r["north_m"]] for r in rows], dtype=np.float64).reshape(-1, 2)
+    plot_track(path, t, en, title, truth_of(rec), label="PDR track")
 
 
 def run_track(args: argparse.Namespace) -> int:
@@ -150,6 +135,8 @@ def run_track(args: argparse.Namespace) -> int:
         why = "; ".join(w for w in rec.warnings if "acc" in w)
         raise InputError("no accelerometer stream with gravity ('acc'): cannot track" + (f" ({why})" if why else ""),
                          source=str(args.log))
+    if args.geojson:  # refused before the work, not after it
+        require_origin(geo_origin(rec), source=f"--geojson {args.geojson}")
     site = Site.load(args.site) if args.site else None
     floor0 = 0.0
     cfg = config_from_args(args, floor0)
@@ -175,10 +162,11 @@ def run_track(args: argparse.Namespace) -> int:
         print(f"note: {n}", file=sys.stderr)
     write_csv(rows, args.out)
     if args.geojson:
-        write_geojson(rows, args.geojson, None)
-    if args.plot:
-        write_plot(rows, args.plot, rec)
+        write_geojson(rows, args.geojson, geo_origin(rec))
     dist = sum(r["step_length_m"] for r in rows)
+    if args.plot:
+        write_plot(rows, args.plot, rec, f"pdr track {Path(args.log).name}: {len(rows)} steps, {dist:.1f} m, "
+                                         f"heading {'smoothed' if args.smoother == 'on' else 'causal'}")
     print(f"{len(rows)} steps, {dist:.1f} m walked -> {args.out}")
     return 0
 
@@ -229,7 +217,7 @@ def _register_eval(targets: argparse._SubParsersAction, name: str, helptext: str
                    func: Callable[[argparse.Namespace], int]) -> None:
     """``pdr eval NAME`` (ipin, ms, steps): the options these phone evaluations share, and NAME's own."""
     p = targets.add_parser(name, help=helptext)
-    p.add_argument("dir", help="dataset folder")
+    p.add_argument("dir", help="dataset folder (searched recursively), or one log file")
     p.add_argument("--json", action="store_true", help="print figures as JSON")
     p.add_argument("--tracks", help="also write each track CSV into this folder (for tools/score_tracks.py)")
     p.add_argument("--limit", type=int, default=0, help="only the first N files (0: all)")
@@ -268,12 +256,22 @@ def _register_eval(targets: argparse._SubParsersAction, name: str, helptext: str
 
 
 def _files(d: str, patterns: tuple[str, ...]) -> list[Path]:
+    """The dataset's files matching ``patterns`` under folder ``d``, or ``d`` itself when it is one such file;
+    an InputError when there is none (an evaluation of nothing would print ``ALL (0 files) ... nan``).
+    """
     root = Path(d)
     if not root.exists():
-        raise InputError("no such folder", source=d)
+        raise InputError("no such file or folder", source=d)
+    if root.is_file():
+        if any(root.match(pat) for pat in patterns):
+            return [root]
+        raise InputError(f"not a log this evaluation reads: give a folder of, or one file named, "
+                         f"{' or '.join(patterns)}", source=d)
     out: list[Path] = []
     for pat in patterns:
         out += sorted(root.rglob(pat))
+    if not out:
+        raise InputError(f"no {' or '.join(patterns)} files in this folder or below it", source=d)
     return sorted(set(out))
 
 
@@ -385,6 +383,7 @@ def eval_ipin(args: argparse.Namespace) -> int:
         rec = read_recording(f)
         pt = rec.truth.positions
         if pt is None or len(pt) < 2:
+            per.append({"file": f.name, "error": "no truth to score against (fewer than 2 positions)"})
             continue
         t_truth = rec.origin_ns / 1e9 + pt.t_s
         rec = _trim_start(rec, args.trim_start, float(t_truth[0]))
@@ -420,6 +419,9 @@ def eval_ipin(args: argparse.Namespace) -> int:
         per.append(p)
         done.append({"path": f, "per": p, "cfg": cfg, "route": trial_key(f), "phone": rec.device.model,
                      "walk": walk})
+    if not done:
+        why = "; ".join(f"{p['file']}: {p['error']}" for p in per[:5])
+        raise InputError(f"none of the {len(files)} file(s) could be scored ({why})", source=args.dir)
     summary = _ipin_summary([d["per"] for d in done])
     if args.smoother == "both":
         summary["smoothed"] = _ipin_summary([d["per"]["smoothed"] for d in done])

@@ -37,6 +37,20 @@ def _rot2(a: float) -> Array:
     return np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
 
 
+def pyshoe_turn(est_en: ArrayLike, truth_en: ArrayLike) -> float:
+    """Angle (rad, counter-clockwise) that turns an estimate about its start onto the truth as PyShoe's scorer does:
+    at the first sample 0.8 m from the start (sample 300 when it never gets there) both point the same way.
+
+    ``est_en`` and ``truth_en``: (N, 2) horizontal positions (m) at the same instants, each relative to its start.
+    """
+    est = np.asarray(est_en, dtype=np.float64)[:, :2]
+    gt = np.asarray(truth_en, dtype=np.float64)[:, :2]
+    d = np.linalg.norm(est, axis=1)
+    k = int(np.argmax(d >= ALIGN_DISTANCE_M)) if d.max() >= ALIGN_DISTANCE_M else min(ALIGN_FALLBACK_SAMPLE,
+                                                                                         len(d) - 1)
+    return float(np.arctan2(gt[k, 1], gt[k, 0]) - np.arctan2(est[k, 1], est[k, 0]))
+
+
 def pyshoe_armse(est_en: ArrayLike, truth_en: ArrayLike) -> float:
     """PyShoe ARMSE in m of an estimate against truth sampled at the same instants.
 
@@ -58,11 +72,7 @@ def pyshoe_armse(est_en: ArrayLike, truth_en: ArrayLike) -> float:
                          field="positions")
     est = est - est[0]
     gt = gt - gt[0]
-    d = np.linalg.norm(est, axis=1)
-    k = int(np.argmax(d >= ALIGN_DISTANCE_M)) if d.max() >= ALIGN_DISTANCE_M else min(ALIGN_FALLBACK_SAMPLE,
-                                                                                         len(d) - 1)
-    a = np.arctan2(gt[k, 1], gt[k, 0]) - np.arctan2(est[k, 1], est[k, 0])
-    est = est @ _rot2(float(a)).T
+    est = est @ _rot2(pyshoe_turn(est, gt)).T
     return float(np.mean(np.sqrt(np.mean((est - gt) ** 2, axis=1))))
 
 
@@ -70,6 +80,26 @@ def path_length(pos: ArrayLike) -> float:
     """Horizontal length in m of a polyline (N, >=2)."""
     p = np.asarray(pos, dtype=np.float64)[:, :2]
     return float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1)))
+
+
+def stance_onsets(zero_velocity: ArrayLike) -> NDArray[np.int64]:
+    """Indices where a foot comes to rest after moving: the samples where ``zero_velocity`` (N,) turns true after a
+    false one (a record that starts at rest does not count its first stance). One per stride of that foot.
+    """
+    zv = np.asarray(zero_velocity, dtype=bool)
+    return np.flatnonzero(zv[1:] & ~zv[:-1]).astype(np.int64) + 1
+
+
+def stride_summary(t_s: ArrayLike, pos_n: ArrayLike, zero_velocity: ArrayLike) -> tuple[int, float, float]:
+    """Strides (stance onsets), horizontal distance (m) through the start, each stance onset and the end, and
+    duration (s) of a foot track (``t_s`` (N,) s, ``pos_n`` (N, >=2) m).
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    pos = np.asarray(pos_n, dtype=np.float64)
+    onsets = stance_onsets(zero_velocity)
+    through = pos[np.r_[0, onsets, pos.shape[0] - 1]] if pos.shape[0] else pos
+    distance = path_length(through) if through.shape[0] >= 2 else 0.0
+    return int(onsets.size), distance, float(t[-1] - t[0]) if t.size else 0.0
 
 
 def loop_closure_error(pos: ArrayLike, distance_m: float | None = None) -> tuple[float, float]:

@@ -35,6 +35,16 @@ def _interp(track_t: FloatArray, track_en: FloatArray, t: FloatArray) -> FloatAr
     return np.column_stack([np.interp(t, track_t, track_en[:, 0]), np.interp(t, track_t, track_en[:, 1])])
 
 
+def start_offset(track_t: FloatArray, track_en: FloatArray, truth_t0: float, truth_en0: FloatArray) -> FloatArray:
+    """(2,) translation (east, north, m) that moves the track to start at the first truth point, as the scorers do:
+    the track interpolated at the first truth time ``truth_t0`` (s, the track's clock) lands on ``truth_en0``.
+    Add it to every track position to draw the track as it is scored.
+    """
+    at = _interp(np.asarray(track_t, dtype=np.float64), np.asarray(track_en, dtype=np.float64)[:, :2],
+                 np.array([float(truth_t0)]))[0]
+    return np.asarray(np.asarray(truth_en0, dtype=np.float64)[:2] - at)
+
+
 def landmark_errors(track_t: FloatArray, track_en: FloatArray, truth_t: FloatArray, truth_en: FloatArray,
                     align: str = "none") -> FloatArray:
     """Horizontal errors (m) at landmarks 2..K (see the module doc); ``align`` is ``none`` or ``first-segment``."""
@@ -42,7 +52,7 @@ def landmark_errors(track_t: FloatArray, track_en: FloatArray, truth_t: FloatArr
         raise InputError("align must be 'none' or 'first-segment'", field="align", source="scoring")
     gt = np.asarray(truth_en, dtype=np.float64)[:, :2]
     est = _interp(np.asarray(track_t), np.asarray(track_en)[:, :2], np.asarray(truth_t))
-    est = est - est[0] + gt[0]
+    est = est + start_offset(track_t, track_en, float(truth_t[0]), gt[0])
     if align == "first-segment" and gt.shape[0] > 1:
         d_est, d_gt = est[1] - est[0], gt[1] - gt[0]
         a = math.atan2(d_gt[1], d_gt[0]) - math.atan2(d_est[1], d_est[0])

@@ -29,17 +29,17 @@ written); the context's Gaussian components are isotropic per quantity, so the f
 Noise values for real foot IMUs (issue #5; :class:`BCConfig` documents each): Table I belongs to the seed's
 100 Hz XSens walks ("dynamic-related values roughly 50 % of their maximum, measurement-related values from
 specification", Sec. VI). On the 200 Hz LORD IMUs of PyShoe and foot_stride_gcp they made the filter diverge
-(PyShoe median ARMSE 78 m): heel strikes far beyond the Table I jerk went into the tilt, a loose attitude
+(:meth:`BCConfig.table_i` on PyShoe): heel strikes far beyond the Table I jerk went into the tilt, a loose attitude
 process noise let accelerometer and context residuals re-fit the attitude at every sample, and a free gyroscope
 bias learnt the foot's rolling in stance. The defaults apply the seed's own rules to these IMUs (jerk at half
 the measured maximum, the exactly discretised white-jerk model, gyroscope noise from the data sheet, no
 gyroscope bias state as in seed 001); :meth:`BCConfig.table_i` keeps Table I.
 
-Against the ZUPT-aided INS (``pdr eval foot /work/shared/data --method all --hde on --smoother both``): the
-seed compares with a conventional ZUPT filter, whose detector has one fixed threshold (row ``zupt/plain``, the
-best single threshold for the PyShoe trials). Belief condensation ties with it on PyShoe (median ARMSE 0.072
-against 0.084 m, lower on 9 of 18 trials, Wilcoxon p 0.52) and beats it on foot_stride_gcp (median final error
-0.64 against 3.38 %); the gait-adaptive detector of :mod:`pdr.foot.detectors` beats both (0.058 m causal).
+Against the ZUPT-aided INS (``pdr eval foot /work/shared/data --method all --hde on --smoother both`` prints the
+figures): the seed compares with a conventional ZUPT filter, whose detector has one fixed threshold (row
+``zupt/plain``, the best single threshold for the PyShoe trials). Belief condensation ties with it on PyShoe (a
+lower median ARMSE, lower on half the trials, the paired test inconclusive) and beats it on foot_stride_gcp; the
+gait-adaptive detector of :mod:`pdr.foot.detectors` beats both.
 """
 
 from __future__ import annotations

@@ -24,14 +24,12 @@ RTS-smoothed ZUPT-aided INS (factors 1.5 and 2 alike, 3 before), checked on the 
 ``foot_stride_gcp``; 2 rather than 1.5 keeps the adaptation active in the simulated noisy stance of the tests.
 
 With the offline gyroscope bias and interval samples the factor matters more (issue #5, ``pdr eval foot
-/work/shared/data/pyshoe_vicon --method zupt --hde on --smoother on --gyro-bias on --imu-samples interval
---run-gain G``, median ARMSE over the 18 trials): G = 1.0 0.116 m (the walking swings become stationary),
-1.25 0.0394, 1.5 0.0409, 1.75 0.0417, 2 0.0423, 2.5 0.0442 m, against the reference oracles' 0.0415 m (best
-of five detectors) and 0.0425 m (SHOE), each with its threshold grid-searched per trial. Without the two
-switches G = 1.25-2.5 give 0.0450-0.0473 m. Chosen on the odd-numbered trials (1.25: 0.0400 m against their
-oracle's 0.0320) the even ones give 0.0379 m against 0.0490; the gain is real but the odd trials stay above
-their oracle, and gcp walks 31 and 36 lose with the bias (1.88 and 2.72 % at G = 1.5), so none of the three
-is a default.
+/work/shared/data/pyshoe_vicon --method zupt --hde on --smoother on --gyro-bias on --imu-samples interval --run-gain
+G`` prints the median ARMSE over the 18 trials): G = 1 makes the walking swings stationary; from 1.25 to 2.5 the
+error grows with G, the lower factors at or below the reference oracles (best of five detectors, and SHOE, each with
+its threshold grid-searched per trial). Without the two switches every G is worse. A factor chosen on the
+odd-numbered trials holds on the even ones, but the odd trials stay above their oracle, and two foot_stride_gcp
+walks (31 and 36) lose with the bias, so none of the three is a default.
 """
 
 from __future__ import annotations

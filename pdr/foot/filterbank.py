@@ -28,22 +28,21 @@ residuals of ``h_0`` with the spread ``H P H^T + sigma_nc^2 I`` (still no state 
 samples add attitude process noise (:mod:`pdr.foot.saturation`); with the constant density of eq. 12d an uncertain
 leaf can never re-enter a stance and the bank runs away on sprint and running recordings. A second deviation
 (:mod:`pdr.foot.lost_stance`): a merged swing longer than any foot's swing reopens the leaves' velocity variance.
-Measured on the PyShoe trials (``pdr eval foot /work/shared/data/pyshoe_vicon --method filterbank --hde on``),
-off (``max_swing_s=0``) -> on: the three trials that run away, 2017-11-27-11-18-11 13.3 -> 4.2 m,
-2017-11-27-11-24-07 13.1 -> 0.47 m, 2018-02-22-10-08-52 3.8 -> 2.6 m; the other 15 trials, the median (0.062 m),
-xio and foot_stride_gcp unchanged. Height variant: 0.72 -> 0.68 m and 1.63 -> 1.58 m on its two worst trials, the
-rest unchanged. 1 s or 2 s instead of 1.5 s, and 0.5 or 2 m/s instead of 1 m/s, give the same picture (1 s also
-changes a healthy stair trial, 0.068 -> 0.089 m). What remains on 2018-02-22-10-08-52 is the opposite failure: in
-its slow swings the almost-stationary mode (sigma_v 0.1 m/s) wins and holds the velocity near zero while the foot
-moves.
+Measured on the PyShoe trials (``pdr eval foot /work/shared/data/pyshoe_vicon --method filterbank --hde on`` with
+``max_swing_s=0`` against the default): the recovery reduces the error of the three trials that run away (one of
+them to under a metre), and leaves the other 15 trials, the median, xio and foot_stride_gcp unchanged; the height
+variant gains a little on its two worst trials. 1 s or 2 s instead of 1.5 s, and 0.5 or 2 m/s instead of 1 m/s, give
+the same picture (1 s also changes a healthy stair trial). What remains on 2018-02-22-10-08-52 is the opposite
+failure: in its slow swings the almost-stationary mode (sigma_v 0.1 m/s) wins and holds the velocity near zero while
+the foot moves.
 
-Against the ZUPT-aided INS (``pdr eval foot /work/shared/data --method all --hde on --smoother both``): seed 002
-compares with a ZUPT filter whose detector has one fixed threshold (row ``zupt/plain``, the best single threshold
-for the PyShoe trials). The ``speed`` bank has the lower PyShoe median ARMSE (0.062 against 0.084 m) and is lower
-on 13 of 18 trials, but its runaways keep the paired test inconclusive (Wilcoxon p 0.47); foot_stride_gcp median
-final error 0.89 against 3.38 %. The gait-adaptive detector of :mod:`pdr.foot.detectors` beats both (0.058 m
-causal). Scaling the constrained modes' angular-rate and acceleration variances by that detector's threshold
-factor (stiller stances needed in walking than in running) made the bank worse (median 0.062 -> 0.075 m).
+Against the ZUPT-aided INS (``pdr eval foot /work/shared/data --method all --hde on --smoother both`` prints the
+figures): seed 002 compares with a ZUPT filter whose detector has one fixed threshold (row ``zupt/plain``, the best
+single threshold for the PyShoe trials). The ``speed`` bank has the lower PyShoe median ARMSE and is lower on most
+trials, but its runaways keep the paired test inconclusive; on foot_stride_gcp its final error is several times
+smaller. The gait-adaptive detector of :mod:`pdr.foot.detectors` beats both. Scaling the constrained modes'
+angular-rate and acceleration variances by that detector's threshold factor (stiller stances needed in walking than
+in running) made the bank worse.
 
 Heading drift: as in the ZUPT INS, heuristic drift elimination (:mod:`pdr.foot.drift`, settings
 ``zupt.hde_*``, off with ``hde_directions=0``) turns every leaf's attitude by the estimated drift at every

@@ -13,10 +13,10 @@ size of a swing's velocity) at every further sample of that swing, so the next s
 again. Raising diagonal entries keeps the covariance positive semi-definite; the mean is not touched. A
 healthy walk or run never has such a swing, so its track does not change.
 
-Belief condensation (seed 000) has the same memoryless context but not this failure: its condensed velocity
-variance in a long swing is already above (0.5 m/s)^2 (0.3 or 0.5 m/s change none of the PyShoe running trials),
-and 1 m/s moves them both ways (2017-11-27-11-13-41 0.730 -> 0.369 m, but -11-14-52 0.106 -> 0.151,
--11-18-11 0.531 -> 0.566, -11-24-07 0.116 -> 0.162 m), so it keeps the seed's model.
+Belief condensation (seed 000) has the same memoryless context but not this failure: its condensed velocity variance
+in a long swing is already above (0.5 m/s)^2 (0.3 or 0.5 m/s change none of the PyShoe running trials), and 1 m/s
+moves the running trials both ways, one much better and three worse (``pdr eval foot /work/shared/data/pyshoe_vicon
+--method bc``), so it keeps the seed's model.
 """
 
 from __future__ import annotations

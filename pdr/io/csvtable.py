@@ -20,7 +20,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
-from pdr.io.text import parse_float_rows
+from pdr.io.text import drop_cut_off_last_line, parse_float_rows
+from pdr.io.time_order import keep_increasing
 
 
 @dataclass(frozen=True)
@@ -51,16 +52,15 @@ class Table:
         return np.column_stack([np.asarray(self.column(n), dtype=np.float64) for n in names]) if names else \
             np.empty((len(self), 0))
 
-    def check_increasing(self, name: str) -> None:
-        """:class:`InputError` naming the line where column ``name`` stops strictly increasing."""
-        t = self.column(name)
-        if t.size > 1:
-            bad = np.flatnonzero(np.diff(t) <= 0)
-            if bad.size:
-                i = int(bad[0]) + 1
-                what = "repeats" if t[i] == t[i - 1] else "goes backwards"
-                raise InputError(f"time {what} ({t[i - 1]} then {t[i]})", source=self.source, line=self.line(i),
-                                 field=name)
+    def lines(self) -> NDArray[np.int64]:
+        """(N,) 1-based file line of every data row."""
+        return self.first_line + np.arange(len(self), dtype=np.int64)
+
+    def keep_increasing(self, name: str, notes: list[str]) -> NDArray[np.bool_]:
+        """Mask of the rows to keep: rows whose column ``name`` repeats or goes back are dropped with a warning
+        naming the line (:func:`pdr.io.time_order.keep_increasing`).
+        """
+        return keep_increasing(self.column(name), self.source, name, notes, lines=self.lines())
 
 
 def split_header(line: str, delimiter: str = ",", source: str | None = None) -> list[str]:
@@ -73,7 +73,7 @@ def split_header(line: str, delimiter: str = ",", source: str | None = None) -> 
 
 def parse_table(text: str, source: str, *, header_line: int = 1, delimiter: str = ",",
                 int_columns: Collection[str] = (), nan_columns: Collection[str] = (),
-                rename: dict[str, str] | None = None, decimal: str = ".") -> Table:
+                rename: dict[str, str] | None = None, decimal: str = ".", notes: list[str] | None = None) -> Table:
     """Parse a CSV text whose line ``header_line`` (1-based) names the columns and whose later lines are numbers.
 
     Parameters
@@ -92,6 +92,9 @@ def parse_table(text: str, source: str, *, header_line: int = 1, delimiter: str 
         Columns where an empty field or ``nan`` is allowed (NaN); elsewhere every value must be finite.
     rename
         Header name -> column name, applied before the other options.
+    notes
+        A reader's warnings: when given, a last line cut off mid-line (:func:`pdr.io.text.drop_cut_off_last_line`)
+        is dropped and reported there instead of refused.
 
     Raises
     ------
@@ -99,6 +102,8 @@ def parse_table(text: str, source: str, *, header_line: int = 1, delimiter: str 
         Empty file or no header, a row with the wrong number of fields, a non-numeric or non-finite value,
         naming file, line and column.
     """
+    if notes is not None:
+        text = drop_cut_off_last_line(text, source, delimiter, notes)
     lines = text.splitlines()
     while lines and not lines[-1].strip():
         lines.pop()

@@ -31,7 +31,8 @@ on a whole trip).
 
 Repeated timestamps: the magnetometer file of the upstream trips lists most samples twice with the same
 ``uptimeNanos`` and slightly different values (two rotations of one reading into the Earth frame). Rows that
-share a timestamp are averaged into one sample, with a warning. A timestamp going backwards is an error.
+share a timestamp are averaged into one sample, with a warning. A row going back in time is dropped with a warning
+naming the line (:mod:`pdr.io.time_order`).
 """
 
 from __future__ import annotations
@@ -50,6 +51,7 @@ from numpy.typing import NDArray
 from pdr.errors import InputError
 from pdr.io.text import (
     decode_text,
+    drop_cut_off_last_line,
     find_member,
     head,
     parse_float_rows,
@@ -59,6 +61,7 @@ from pdr.io.text import (
     timestamps_ns,
     utf8_lines,
 )
+from pdr.io.time_order import keep_increasing, keep_lines
 from pdr.recording import DeviceInfo, GroundTruth, Labels, Recording, SensorStream
 
 FORMAT = "driving"
@@ -146,20 +149,18 @@ _COMMA = ord(",")
 
 def _read_sensor(p: Path, kind: str, warnings: list[str]) -> SensorStream:
     source = str(p)
-    raw = read_bytes(p)
+    raw = drop_cut_off_last_line(read_bytes(p), source, b",", warnings)
     fast = _numbers_fast(raw) if len(raw) >= PANDAS_MIN_BYTES or "pandas" in sys.modules else None
     arr, numbers = fast if fast is not None else _numbers_exact(raw, source)
-    t = arr[:, 0]
-    back = np.flatnonzero(np.diff(t) < 0)
-    if back.size:
-        i = int(back[0]) + 1
-        raise InputError(f"time goes backwards ({t[i - 1]:.0f} then {t[i]:.0f})", source=source, line=numbers[i],
-                         field="uptimeNanos")
-    t_ns, values, merged = average_repeated_times(timestamps_ns(t, source, "uptimeNanos", line_numbers=numbers),
+    keep = keep_increasing(arr[:, 0], source, "uptimeNanos", warnings, lines=numbers, keep_repeats=True)
+    if not keep.all():
+        arr, numbers = arr[keep], keep_lines(numbers, keep)
+    t_ns, values, merged = average_repeated_times(timestamps_ns(arr[:, 0], source, "uptimeNanos", line_numbers=numbers),
                                                       arr[:, 1:4])
     if merged:
+        first = numbers[int(np.flatnonzero(np.diff(arr[:, 0]) == 0)[0]) + 1]
         warnings.append(f"{p.name}: averaged {merged} row(s) that repeat the previous timestamp into one sample "
-                        "each")
+                        f"each, first at line {first}")
     return SensorStream(kind, t_ns, values)
 
 

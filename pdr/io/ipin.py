@@ -26,12 +26,13 @@ Time
     So each stream's sample times are ``SensorTimestamp + offset`` with ``offset = median(App - Sensor)``
     over that stream (robust to delivery bursts; recorded per stream in ``meta["sensor_to_app_offset_s"]``).
     On the competition files the spread of ``App - Sensor`` is about 20 ms, so the mapped times stay
-    within a few tens of ms of AppTimestamp.
+    within a few tens of ms of AppTimestamp. A record whose SensorTimestamp repeats or goes back is dropped with a
+    warning naming the line (:mod:`pdr.io.time_order`).
 
 Positions
-    Latitude/longitude are projected to local east/north metres around the fixed competition origin
-    (lat 49.4611, lon 11.1110) with the equirectangular projection on a sphere of the WGS-84 semi-major
-    axis, exactly as the reference scorer does; up is 0 and the floor is ``FloorID``.
+    Latitude/longitude are projected to local east/north metres around the file's first POSI (its origin, so the
+    first landmark is at (0, 0)) with the project's one Earth model (:func:`pdr.frames.geodetic_to_local_enu`), the
+    model the GeoJSON and the map project back with; up is 0 and the floor is ``FloorID``.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ from __future__ import annotations
 import re
 import sys
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -46,25 +48,24 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
-from pdr.frames import WGS84_SEMI_MAJOR_M, geodetic_to_local_enu
+from pdr.frames import geodetic_to_local_enu
 from pdr.io.android import rotation_vector_to_q_nb
 from pdr.io.text import (
     ascii_lines,
-    check_increasing_rows,
     decode_text,
+    drop_cut_off_last_line,
     head,
     parse_float_rows,
     read_bytes,
     strip_gz,
     timestamps_ns,
 )
+from pdr.io.time_order import keep_increasing
 from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, SensorStream
 
 FORMAT = "ipin"
 DESCRIPTION = "GetSensorData / IPIN competition logfile (.txt[.gz]) or its .mat export, with POSI landmarks"
 
-#: Origin (lat, lon in degrees) of the local ENU frame of the IPIN 2023 Track 3 venue (Nuremberg).
-ORIGIN_LAT_LON_DEG = (49.4611, 11.1110)
 
 _XYZ = ("AppTimestamp", "SensorTimestamp", "x", "y", "z", "Accuracy")
 #: Record tag -> (stream kind, field names after the tag).
@@ -79,6 +80,9 @@ SENSOR_RECORDS: dict[str, tuple[str, tuple[str, ...]]] = {
 POSI_FIELDS = ("AppTimestamp", "Counter", "Latitude", "Longitude", "FloorID", "BuildingID")
 #: ``.mat`` variable -> record tag.
 MAT_VARIABLES = {"Acce": "ACCE", "Gyro": "GYRO", "Magn": "MAGN", "Pres": "PRES", "Ahrs": "AHRS"}
+_MAT_VARIABLE_OF = {tag: var for var, tag in MAT_VARIABLES.items()}
+#: 1-based file line of each record of a text logfile; None for a ``.mat`` export (rows named by index).
+_Lines = NDArray[np.int64] | None
 
 _RECORD_LINE = re.compile(rb"^(ACCE|GYRO|MAGN|AHRS|PRES|POSI);[-0-9.]", re.MULTILINE)
 _HEADER_KEYS = {"Manufacturer": "manufacturer", "Model": "model", "API Android version": "android_api",
@@ -125,11 +129,14 @@ COMPILED_MIN_BYTES = 8_000_000
 
 
 def _read_text(p: Path) -> Recording:
-    raw = read_bytes(p)
+    cut: list[str] = []
+    raw = drop_cut_off_last_line(read_bytes(p), str(p), b";", cut)
     if len(raw) < COMPILED_MIN_BYTES and "numba" not in sys.modules:
-        return _read_text_exact(p, raw)       # `pdr inspect` of a short log: no compiler to load
-    fast = _read_text_fast(p, raw)
-    return fast if fast is not None else _read_text_exact(p, raw)
+        rec = _read_text_exact(p, raw)       # `pdr inspect` of a short log: no compiler to load
+    else:
+        fast = _read_text_fast(p, raw)
+        rec = fast if fast is not None else _read_text_exact(p, raw)
+    return replace(rec, warnings=(*cut, *rec.warnings)) if cut else rec
 
 
 def _read_text_fast(p: Path, raw: bytes) -> Recording | None:
@@ -178,13 +185,13 @@ def _read_text_fast(p: Path, raw: bytes) -> Recording | None:
     header: dict[str, str] = {}
     for i in np.flatnonzero(comment).tolist():
         _parse_header_line(lines.text(i).decode("ascii"), header)
-    arrays: dict[str, tuple[NDArray[np.float64], Callable[[int], dict[str, Any]]]] = {}
+    arrays: dict[str, tuple[NDArray[np.float64], _Lines]] = {}
     for tag, (_, names) in SENSOR_RECORDS.items():
         if masks[tag].any():
             arr = lines.fields(masks[tag], len(names), 5, trailing_separator=True)
-            if arr is None or (arr.shape[0] > 1 and not bool(np.all(np.diff(arr[:, 1]) > 0))):
+            if arr is None:
                 return None
-            arrays[tag] = (arr, _line_locator(np.flatnonzero(masks[tag]) + 1))
+            arrays[tag] = (arr, np.flatnonzero(masks[tag]) + 1)
     posi = None
     if masks["POSI"].any():
         arr = lines.fields(masks["POSI"], len(POSI_FIELDS), 5, trailing_separator=True)
@@ -225,12 +232,11 @@ def _read_text_exact(p: Path, raw: bytes) -> Recording:
             ignored[tag] = ignored.get(tag, 0) + 1
         elif line.strip():
             raise InputError(f"not a GetSensorData record ('{line.strip()[:40]}')", source=source, line=number)
-    arrays: dict[str, tuple[NDArray[np.float64], Callable[[int], dict[str, Any]]]] = {}
+    arrays: dict[str, tuple[NDArray[np.float64], _Lines]] = {}
     for tag, fields_ in SENSOR_RECORDS.items():
         if rows[tag]:
             arr = parse_float_rows(rows[tag], line_numbers[tag], source, fields_[1])
-            check_increasing_rows(arr[:, 1], line_numbers[tag], source, f"{tag} SensorTimestamp")
-            arrays[tag] = (arr, _line_locator(line_numbers[tag]))
+            arrays[tag] = (arr, np.asarray(line_numbers[tag], dtype=np.int64))
     posi = None
     if rows["POSI"]:
         arr = parse_float_rows(rows["POSI"], line_numbers["POSI"], source, POSI_FIELDS)
@@ -261,19 +267,14 @@ def _read_mat(p: Path) -> Recording:
         mat = loadmat(str(p))
     except Exception as exc:  # scipy raises assorted types on corrupt files
         raise InputError(f"not a readable MATLAB file ({type(exc).__name__}: {exc})", source=source) from None
-    arrays: dict[str, tuple[NDArray[np.float64], Callable[[int], dict[str, Any]]]] = {}
+    arrays: dict[str, tuple[NDArray[np.float64], _Lines]] = {}
     for var, tag in MAT_VARIABLES.items():
         names = SENSOR_RECORDS[tag][1]
         ncol = len(names) - (1 if tag in ("ACCE", "GYRO", "MAGN") else 0)  # xyz arrays lack Accuracy
         arr = _mat_array(mat, var, ncol, source)
         if arr is None:
             continue
-        locate = _row_locator(var)
-        bad = np.flatnonzero(np.diff(arr[:, 1]) <= 0)
-        if bad.size:
-            raise InputError(f"SensorTimestamp does not increase ({arr[bad[0], 1]} then {arr[bad[0] + 1, 1]})",
-                             source=source, **locate(int(bad[0]) + 1))
-        arrays[tag] = (arr, locate)
+        arrays[tag] = (arr, None)
     posi = None
     parr = _mat_array(mat, "Posi", 4, source)
     if parr is not None:
@@ -309,7 +310,7 @@ def _mat_array(mat: dict[str, Any], var: str, ncol: int, source: str) -> NDArray
 # ---------------------------------------------------------------------------------------------------------
 # shared assembly
 
-def _assemble(p: Path, arrays: dict[str, tuple[NDArray[np.float64], Callable[[int], dict[str, Any]]]],
+def _assemble(p: Path, arrays: dict[str, tuple[NDArray[np.float64], _Lines]],
               posi: tuple[Any, ...] | None, model: str, meta: dict[str, Any]) -> Recording:
     source = str(p)
     if not arrays:
@@ -317,8 +318,11 @@ def _assemble(p: Path, arrays: dict[str, tuple[NDArray[np.float64], Callable[[in
                          source=source)
     streams: dict[str, SensorStream] = {}
     offsets: dict[str, float] = {}
-    for tag, (arr, _) in arrays.items():
+    warnings: list[str] = []
+    for tag, (arr, lines) in arrays.items():
         kind = SENSOR_RECORDS[tag][0]
+        field = f"{tag} SensorTimestamp" if lines is not None else _MAT_VARIABLE_OF[tag]
+        arr = arr[keep_increasing(arr[:, 1], source, field, warnings, lines=lines, what=tag)]
         t_ns, offsets[kind] = _app_clock_ns(arr[:, 0], arr[:, 1])
         if tag == "PRES":
             values = arr[:, 2:3]  # mbar == hPa
@@ -338,7 +342,7 @@ def _assemble(p: Path, arrays: dict[str, tuple[NDArray[np.float64], Callable[[in
     })
     device = DeviceInfo(platform="android", model=model, role="phone", placement="hand")
     return Recording(streams=streams, device=device, t0_ns=0, truth=truth, source=source, format=FORMAT,
-                     meta=meta)
+                     warnings=tuple(warnings), meta=meta)
 
 
 def _app_clock_ns(app_s: NDArray[np.float64], sensor_s: NDArray[np.float64]) -> tuple[NDArray[np.int64], float]:
@@ -360,7 +364,7 @@ def _landmarks(source: str, t_s: NDArray[np.float64], lat: NDArray[np.float64], 
         if out.size:
             raise InputError(f"POSI {name} {values[out[0]]} is out of range", source=source,
                              **locate(int(out[0])))
-    en = geodetic_to_local_enu(lat, lon, *ORIGIN_LAT_LON_DEG, radius_m=WGS84_SEMI_MAJOR_M)
+    origin = (float(lat[0]), float(lon[0]))  # the file's first POSI: any venue, not one hard-coded
+    en = geodetic_to_local_enu(lat, lon, *origin)
     pos = np.column_stack([en, np.zeros(t_s.size)])
-    return PositionTruth(t_s=t_s, pos_m=pos, floor=floor, kind="landmark", frame="enu",
-                         origin_lat_lon_deg=ORIGIN_LAT_LON_DEG)
+    return PositionTruth(t_s=t_s, pos_m=pos, floor=floor, kind="landmark", frame="enu", origin_lat_lon_deg=origin)

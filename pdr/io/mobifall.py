@@ -10,6 +10,9 @@ files of exactly one trial is read the same way. ``ori`` files are not read.
 Truth: the whole file is one activity, so :attr:`GroundTruth.modes` is a single interval from the first to
 one sample period past the last sample, labelled with the motion-mode name of the activity code
 (:data:`MODE_BY_CODE`). The raw code, subject and trial go into ``meta``.
+
+A sample whose time repeats or goes back (one gyroscope file repeats a timestamp once) is dropped with a warning
+naming file and line (:mod:`pdr.io.time_order`).
 """
 
 from __future__ import annotations
@@ -23,8 +26,8 @@ from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.io.text import (
-    check_increasing_rows,
     decode_text,
+    drop_cut_off_last_line,
     find_member,
     head,
     numeric_rows,
@@ -33,6 +36,7 @@ from pdr.io.text import (
     strip_gz,
     timestamps_ns,
 )
+from pdr.io.time_order import keep_increasing, keep_lines
 from pdr.recording import DeviceInfo, GroundTruth, Labels, Recording, SensorStream
 
 FORMAT = "mobifall"
@@ -97,8 +101,9 @@ def read(path: str | Path) -> Recording:
                 files.append(sibling)
     streams: dict[str, SensorStream] = {}
     headers: dict[str, dict[str, str]] = {}
+    warnings: list[str] = []
     for f in files:
-        kind, header, t_ns, values = _read_file(f)
+        kind, header, t_ns, values = _read_file(f, warnings)
         if kind in streams:
             raise InputError(f"two {kind} files for one trial", source=str(f))
         streams[kind] = SensorStream(kind, t_ns, values)
@@ -112,7 +117,7 @@ def read(path: str | Path) -> Recording:
     elif header.get("subject_id", "").isdigit():
         meta["subject"] = int(header["subject_id"])
     rec = Recording(streams=streams, device=DeviceInfo(platform="android", role="phone", placement="trouser_pocket"),
-                    source=str(p), format=FORMAT, meta=meta)
+                    source=str(p), format=FORMAT, warnings=tuple(warnings), meta=meta)
     mode = MODE_BY_CODE.get(code)
     if mode is None:
         return _with_warning(rec, f"unknown activity code '{code}': no motion-mode label")
@@ -121,8 +126,7 @@ def read(path: str | Path) -> Recording:
     end += max(periods) if periods else 0.0
     return Recording(streams=rec.streams, device=rec.device, t0_ns=rec.t0_ns,
                      truth=GroundTruth(modes=Labels(np.array([start]), np.array([end]), (mode,))),
-                     source=rec.source, format=FORMAT,
-                     meta=meta)
+                     source=rec.source, format=FORMAT, warnings=rec.warnings, meta=meta)
 
 
 def _with_warning(rec: Recording, warning: str) -> Recording:
@@ -136,9 +140,9 @@ def _activity_code(activity: str) -> str:
     return parts[1] if len(parts) > 1 and re.fullmatch(r"[A-Z]{3}", parts[1]) else ""
 
 
-def _read_file(p: Path) -> tuple[str, dict[str, str], NDArray[np.int64], NDArray[np.float64]]:
+def _read_file(p: Path, warnings: list[str]) -> tuple[str, dict[str, str], NDArray[np.int64], NDArray[np.float64]]:
     source = str(p)
-    raw = read_bytes(p)
+    raw = drop_cut_off_last_line(read_bytes(p), source, b",", warnings)
     lines = decode_text(raw, source).splitlines()
     header: dict[str, str] = {}
     data_start = None
@@ -170,7 +174,8 @@ def _read_file(p: Path) -> tuple[str, dict[str, str], NDArray[np.int64], NDArray
         if not rows:
             raise InputError("no samples after '@DATA'", source=source)
         arr = parse_float_rows(rows, numbers, source, FIELDS)
-    check_increasing_rows(arr[:, 0], numbers, source, "timestamp_ns")
+    keep = keep_increasing(arr[:, 0], source, "timestamp_ns", warnings, lines=numbers)
+    arr, numbers = arr[keep], keep_lines(numbers, keep)
     return kind, header, timestamps_ns(arr[:, 0], source, "timestamp_ns", line_numbers=numbers), arr[:, 1:4]
 
 

@@ -24,9 +24,9 @@ Defensive parsing (known quirks of the upstream traces):
 * A line that lacks its newline runs into the next record (``...\t31574142012157\tTYPE_...``). It is split
   before every 13-digit timestamp followed by a ``TYPE_`` tag; a fragment that is still malformed
   after the split is dropped and reported in :attr:`Recording.warnings`.
-* Repeated timestamps within one sensor: the first sample at a timestamp is kept and later ones are
-  dropped with a warning (counting exact copies and conflicting values separately), since a stream's
-  timestamps must increase strictly. A timestamp that goes backwards is an error.
+* Repeated timestamps within one sensor: the first sample at a timestamp is kept and later ones, like those
+  going back in time, are dropped with a warning naming the line (:mod:`pdr.io.time_order`), since a stream's
+  timestamps must increase strictly.
 
 Any other malformed line (wrong number of fields, text or NaN in a numeric field) raises
 :class:`~pdr.errors.InputError` naming the file and line.
@@ -44,8 +44,8 @@ from numpy.typing import NDArray
 from pdr.errors import InputError
 from pdr.io.android import rotation_vector_to_q_nb
 from pdr.io.text import (
-    check_increasing_rows,
     decode_text,
+    drop_cut_off_last_line,
     head,
     parse_float_rows,
     read_bytes,
@@ -53,6 +53,7 @@ from pdr.io.text import (
     timestamps_ns,
     utf8_lines,
 )
+from pdr.io.time_order import keep_increasing, keep_lines
 from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, SensorStream
 
 FORMAT = "ms_indoor"
@@ -90,9 +91,12 @@ def read(path: str | Path) -> Recording:
     p = Path(path)
     if p.is_dir():
         raise InputError("a Microsoft indoor-location trace is a single .txt file, not a folder", source=str(p))
-    raw = read_bytes(p)
+    cut: list[str] = []
+    raw = drop_cut_off_last_line(read_bytes(p), str(p), b"\t", cut)
     parsed = _parse_fast(raw)
-    return _assemble(p, parsed if parsed is not None else _parse_exact(str(p), raw))
+    parsed = parsed if parsed is not None else _parse_exact(str(p), raw)
+    parsed[3][:0] = cut
+    return _assemble(p, parsed)
 
 
 #: Per record tag: its (N, fields) numbers and the 1-based file line of every row.
@@ -335,19 +339,8 @@ def _is_clean(numeric: list[str], expected: int) -> bool:
 
 def _drop_repeated_times(arr: NDArray[np.float64], lines: list[int], source: str, tag: str,
                          warnings: list[str]) -> tuple[NDArray[np.float64], list[int]]:
-    """Keep the first sample of each repeated timestamp (with a warning); error on time going back."""
-    t = arr[:, 0]
-    if t.size > 1:
-        back = np.flatnonzero(np.diff(t) < 0)
-        if back.size:
-            check_increasing_rows(t, lines, source, f"{tag} timestamp_ms")
-        repeat = np.flatnonzero(np.diff(t) == 0) + 1
-        if repeat.size:
-            exact = int(np.sum(np.all(arr[repeat, 1:] == arr[repeat - 1, 1:], axis=1)))
-            keep = np.ones(t.size, dtype=bool)
-            keep[repeat] = False
-            warnings.append(f"{tag}: dropped {repeat.size} sample(s) repeating the previous timestamp "
-                            f"({exact} exact copies, {repeat.size - exact} with other values; first kept), "
-                            f"first at line {lines[int(repeat[0])]}")
-            return arr[keep], [n for n, k in zip(lines, keep, strict=True) if k]
-    return arr, lines
+    """The samples whose time is strictly later than every earlier one (:mod:`pdr.io.time_order`: the first of a
+    repeat kept, the others and those going back dropped with a warning naming the line).
+    """
+    keep = keep_increasing(arr[:, 0], source, "timestamp_ms", warnings, lines=lines, what=tag)
+    return (arr, lines) if keep.all() else (arr[keep], keep_lines(lines, keep))

@@ -38,6 +38,7 @@ from pdr.errors import InputError
 from pdr.io.bundle import Bundle, is_zip
 from pdr.io.csvtable import parse_table
 from pdr.io.text import decode_text, head, read_bytes
+from pdr.io.time_order import keep_increasing
 from pdr.recording import STREAM_KINDS, DeviceInfo, GroundTruth, Labels, PositionTruth, Recording, SensorStream
 
 if TYPE_CHECKING:   # jsonschema costs about 0.5 s to import: only when a document is validated
@@ -221,11 +222,13 @@ def batch_from_json(obj: dict, *, source: str = "batch") -> Recording:
     Raises
     ------
     InputError
-        Schema violations, mismatched lengths, non-finite values or timestamps that do not increase, with
+        Schema violations, mismatched lengths, non-finite values or a broken clock (samples whose time repeats or
+        goes back are dropped with a warning, :mod:`pdr.io.time_order`), with
         ``field`` the JSON path of the offending element (e.g. ``streams.acc.values[3][1]``).
     """
     validate_batch(obj, source=source)
     streams = {}
+    warnings: list[str] = []
     for kind, s in obj["streams"].items():
         try:
             t = np.array(s["t_ns"], dtype=np.int64) if s["t_ns"] else np.empty(0, dtype=np.int64)
@@ -241,12 +244,8 @@ def batch_from_json(obj: dict, *, source: str = "batch") -> Recording:
         if bad.any():
             r, c = np.argwhere(bad)[0]
             raise InputError(f"value {v[r, c]} is not finite", source=source, field=f"streams.{kind}.values[{r}][{c}]")
-        if t.size > 1 and np.any(np.diff(t) <= 0):
-            i = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 1
-            what = "repeats" if t[i] == t[i - 1] else "goes backwards from"
-            raise InputError(f"timestamp {t[i]} {what} {t[i - 1]}; timestamps must strictly increase",
-                             source=source, field=f"streams.{kind}.t_ns[{i}]")
-        streams[kind] = SensorStream(kind, t, v)
+        keep = keep_increasing(t, source, f"streams.{kind}.t_ns", warnings)
+        streams[kind] = SensorStream(kind, t[keep], v[keep])
     if all(len(s) == 0 for s in streams.values()) and obj.get("t0_ns") is None:
         raise InputError("every stream is empty and no t0_ns is given", source=source, field="streams")
     meta = dict(obj.get("meta") or {})
@@ -255,7 +254,7 @@ def batch_from_json(obj: dict, *, source: str = "batch") -> Recording:
             meta[key] = obj[key]
     truth = _truth_from_json(obj["truth"], source) if "truth" in obj else GroundTruth()
     return _recording(streams, _device_from_json(obj.get("device", {}), source), obj.get("t0_ns"), truth, source,
-                      (), meta)
+                      tuple(warnings), meta)
 
 
 def _recording(streams: dict[str, SensorStream], device: DeviceInfo, t0_ns: int | None, truth: GroundTruth,
@@ -549,22 +548,23 @@ def read(path: str | Path) -> Recording:
         raise InputError(f"not a native recording: expected \"format\": \"{FOLDER_FORMAT}\"", source=meta_name,
                          field="format")
     validate_folder_meta(meta, source=meta_name)
-    streams = {kind: _read_stream(members, kind, fname) for kind, fname in meta["streams"].items()}
+    warnings = list(meta.get("warnings") or ())
+    streams = {kind: _read_stream(members, kind, fname, warnings) for kind, fname in meta["streams"].items()}
     truth = _read_truth(members, meta.get("truth") or {}, meta_name)
     return _recording(streams, _device_from_json(meta.get("device") or {}, meta_name), meta.get("t0_ns"), truth,
-                      str(p), tuple(meta.get("warnings") or ()), dict(meta.get("meta") or {}))
+                      str(p), tuple(warnings), dict(meta.get("meta") or {}))
 
 
-def _read_stream(members: Bundle, kind: str, fname: str) -> SensorStream:
+def _read_stream(members: Bundle, kind: str, fname: str, warnings: list[str]) -> SensorStream:
     source = members.name(fname)
     cols = STREAM_KINDS[kind].columns
-    table = parse_table(members.text(fname), source, int_columns=("t_ns",))
+    table = parse_table(members.text(fname), source, int_columns=("t_ns",), notes=warnings)
     expected = ("t_ns", *cols)
     if table.header != expected:
         raise InputError(f"header must be {','.join(expected)}, found {','.join(table.header)}", source=source,
                          line=1)
-    table.check_increasing("t_ns")
-    return SensorStream(kind, table.column("t_ns"), table.stack(cols))
+    keep = table.keep_increasing("t_ns", warnings)
+    return SensorStream(kind, table.column("t_ns")[keep], table.stack(cols)[keep])
 
 
 def _read_truth(members: Bundle, tm: Mapping[str, Any], meta_name: str) -> GroundTruth:

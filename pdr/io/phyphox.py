@@ -14,7 +14,8 @@ The unit in parentheses is honoured (m/s^2 or g, rad/s or deg/s, µT/uT, mT, hPa
 reports Android-convention specific force on both platforms, so no sign changes are made. Columns such as
 ``Absolute acceleration`` are ignored. The five CSV dialects of phyphox are read: comma, tab or semicolon
 with a decimal point, tab or semicolon with a decimal comma (the decimal mark is taken from the first data
-line). Repeated timestamps (a resaved file) are dropped with a warning, keeping the first sample of each.
+line). Samples whose time repeats (a resaved file) or goes back are dropped with a warning naming file and line,
+keeping the first of a repeat (:mod:`pdr.io.time_order`).
 
 An export of gravity-free acceleration only (the "Linear Acceleration" experiment) gives no ``acc`` stream and
 a warning naming the experiment that records acceleration with g, which the attitude and step stages need.
@@ -42,6 +43,7 @@ from pdr.errors import InputError
 from pdr.io.bundle import Bundle, is_zip
 from pdr.io.csvtable import parse_table, split_header
 from pdr.io.text import decode_text, head, read_bytes, strip_gz, timestamps_ns
+from pdr.io.time_order import keep_increasing
 from pdr.recording import DeviceInfo, Recording, SensorStream
 from pdr.units import ACC_UNITS, GYRO_UNITS, MAG_UNITS, PRESSURE_UNITS
 
@@ -197,20 +199,11 @@ def _read_data_csv(name: str, text: str, clock: list[tuple[float, int]] | None, 
     groups = _axis_columns(header[1:] if header[:1] == [TIME_COLUMN] else [], file_kind)
     if not groups:
         return {}
-    table = parse_table(text, name, delimiter=delim, decimal=decimal)
+    table = parse_table(text, name, delimiter=delim, decimal=decimal, notes=warnings)
     if len(table) == 0:
         raise InputError("no samples after the header", source=name, line=2)
-    back = np.flatnonzero(np.diff(table.column(TIME_COLUMN)) < 0)
-    if back.size:
-        i = int(back[0]) + 1
-        t = table.column(TIME_COLUMN)
-        raise InputError(f"time goes backwards ({t[i - 1]} then {t[i]})", source=name, line=table.line(i),
-                         field=TIME_COLUMN)
-    t_ns = _epoch_ns(table.column(TIME_COLUMN), clock, name)
-    keep = np.r_[True, np.diff(t_ns) > 0]
-    if not keep.all():
-        warnings.append(f"{name.rsplit('/', 1)[-1]}: dropped {int((~keep).sum())} of {keep.size} samples repeating "
-                        "the previous timestamp (a file resaved with fewer time digits?)")
+    t_ns = epoch_ns(table.column(TIME_COLUMN), clock, name)
+    keep = keep_increasing(t_ns, name, TIME_COLUMN, warnings, lines=table.lines())
     out: dict[str, SensorStream] = {}
     for kind, axes in groups.items():
         names = ("p",) if kind == "baro" else ("x", "y", "z")
@@ -230,7 +223,7 @@ def _read_data_csv(name: str, text: str, clock: list[tuple[float, int]] | None, 
 MAX_EXPERIMENT_S = 3.2e8
 
 
-def _epoch_ns(t_s: np.ndarray, clock: list[tuple[float, int]] | None, source: str) -> np.ndarray:
+def epoch_ns(t_s: np.ndarray, clock: list[tuple[float, int]] | None, source: str) -> np.ndarray:
     """Experiment time (s) to int ns: epoch via the START events of ``meta/time.csv`` when known."""
     if np.any(np.abs(t_s) > MAX_EXPERIMENT_S):
         raise InputError(f"experiment time beyond {MAX_EXPERIMENT_S:g} s (found {float(np.max(np.abs(t_s))):g} s)",

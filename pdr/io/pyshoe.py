@@ -40,6 +40,7 @@ import numpy as np
 from pdr.errors import InputError
 from pdr.io import matfile
 from pdr.io.text import timestamps_ns
+from pdr.io.time_order import keep_increasing
 from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, SensorStream
 
 FORMAT = "pyshoe"
@@ -72,21 +73,19 @@ def read(path: str | Path) -> Recording:
     if ts.size == 0:
         raise InputError("no samples", source=source, field="imu")
     t_ns = timestamps_ns(ts, source, "ts", scale=1e9)
-    bad = np.flatnonzero(np.diff(t_ns) <= 0)
-    if bad.size:
-        i = int(bad[0]) + 1
-        raise InputError(f"time {'repeats' if t_ns[i] == t_ns[i - 1] else 'goes backwards'} at sample {i + 1} "
-                         f"({ts[i - 1]} s then {ts[i]} s)", source=source, field="ts")
+    warnings: list[str] = []
+    keep = keep_increasing(t_ns, source, "ts", warnings)  # the same rows of imu, gt and the labels are dropped
+    t_ns, imu = t_ns[keep], imu[keep]
     t0 = int(t_ns[0])
     t_s = (t_ns - t0).astype(np.float64) / 1e9
     streams = {"acc": SensorStream("acc", t_ns, imu[:, :3]), "gyro": SensorStream("gyro", t_ns, imu[:, 3:])}
 
-    warnings: list[str] = []
     positions = None
     if "gt" in mat:
         gt = matfile.array(mat, "gt", source, ncol=3, finite=False)
         if gt.shape[0] != ts.size:
             raise InputError(f"{gt.shape[0]} VICON rows but {ts.size} timestamps", source=source, field="gt")
+        gt = gt[keep]
         ok = np.all(np.isfinite(gt), axis=1)
         if not ok.all():
             warnings.append(f"{int((~ok).sum())} VICON samples without a position (NaN) left out of the truth")
@@ -99,7 +98,7 @@ def read(path: str | Path) -> Recording:
             zv = matfile.array(mat, key, source, vector=True)
             if zv.size != ts.size:
                 raise InputError(f"{zv.size} labels but {ts.size} timestamps", source=source, field=key)
-            extra[f"zero_velocity_{det}"] = zv != 0
+            extra[f"zero_velocity_{det}"] = zv[keep] != 0
     best = matfile.scalar(mat, "best_detector")
     best = str(best).strip() if best is not None else None
     if best is not None and f"zero_velocity_{best}" in extra:

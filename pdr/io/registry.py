@@ -1,12 +1,25 @@
-"""Which reader takes a given path: explicit list of reader modules, tried in order."""
+"""Which reader takes a given path: explicit list of reader modules, tried in order.
+
+A zip that no reader takes as it is (a reader of folders only, such as a MobiFall trial or a driving trip, or a
+zip of one log file) is read from its content: unpacked into a temporary folder (:func:`unzipped`: the zip's one top
+folder, its files flat under the zip's name, or the one file it holds), detected and read there, and the
+recording's names then point at the zip (:func:`relocated`), never at the temporary folder.
+"""
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
+import tempfile
+import zipfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 from pdr.errors import InputError, UnknownFormatError
+from pdr.io.bundle import is_zip
 from pdr.recording import Recording
 
 #: Reader modules in the order they are sniffed (more specific formats first).
@@ -53,6 +66,11 @@ def detect_format(path: str | Path) -> str:
     for module in _modules():
         if module.sniff(p):
             return str(module.FORMAT)
+    if p.is_file() and is_zip(p):
+        with unzipped(p) as inner:
+            for module in _modules():
+                if module.sniff(inner):
+                    return str(module.FORMAT)
     raise UnknownFormatError(
         "not a supported log format (supported: " + ", ".join(format_names()) + "); "
         "pass --format to force one", source=str(p))
@@ -68,5 +86,60 @@ def read_recording(path: str | Path, format: str | None = None) -> Recording:
                                  source=str(p))
     if not p.exists():
         raise InputError("no such file or folder", source=str(p))
+    if p.is_file() and is_zip(p) and not module.sniff(p):
+        with unzipped(p) as inner:
+            if module.sniff(inner):  # a reader of folders (or of the one file zipped): read the content
+                return relocated(module.read(inner), inner, str(p))
     rec: Recording = module.read(p)
     return rec
+
+
+@contextmanager
+def unzipped(path: Path) -> Iterator[Path]:
+    """The content of a zip in a temporary folder: its one top folder, else a folder named as the zip holding its
+    files, or the one file it holds. A member whose name would leave the folder is skipped.
+    """
+    with tempfile.TemporaryDirectory(prefix="pdr-unzip-") as tmp:
+        root = Path(tmp) / (path.name[:-4] if path.name.lower().endswith(".zip") else path.stem)
+        try:
+            with zipfile.ZipFile(path) as zf:
+                for info in zf.infolist():
+                    name = info.filename
+                    if name.startswith(("__MACOSX/", "/")) or ".." in Path(name).parts:
+                        continue
+                    zf.extract(info, root)
+        except (zipfile.BadZipFile, OSError, EOFError, ValueError) as exc:
+            raise InputError(f"not a readable zip archive ({exc})", source=str(path)) from None
+        entries = list(root.iterdir()) if root.is_dir() else []
+        yield entries[0] if len(entries) == 1 else root
+
+
+def relocated(recording: Recording, folder: Path, name: str, *, forget: str | None = None) -> Recording:
+    """``recording`` read from ``folder`` with that folder's path replaced by ``name`` in its source, warnings and
+    metadata (e.g. a temporary copy of an upload or of a zip's content, named by the original).
+
+    With ``forget`` (a temporary folder's name), a metadata string or device name that still holds it after the
+    renaming (a name a reader took from the folder itself) is emptied, and a warning names ``name`` instead.
+    """
+    def rename(text: str) -> str:
+        text = text.replace(str(folder), name)
+        return "" if forget and forget in text else text
+
+    def walk(value: Any) -> Any:
+        if isinstance(value, str):
+            return rename(value)
+        if isinstance(value, dict):
+            return {k: walk(v) for k, v in value.items()}
+        if isinstance(value, list | tuple):
+            return type(value)(walk(v) for v in value)
+        return value
+
+    def warning(text: str) -> str:
+        text = text.replace(str(folder), name)
+        return text.replace(forget, name) if forget else text
+
+    device = recording.device
+    return dataclasses.replace(
+        recording, source=rename(recording.source) or name, warnings=tuple(warning(w) for w in recording.warnings),
+        meta=walk(dict(recording.meta)),
+        device=dataclasses.replace(device, model=rename(device.model), device_id=rename(device.device_id)))

@@ -20,7 +20,13 @@ Readings and streams
     ``gravity``, ``gyroscope`` -> ``gyro``, ``magnetometer`` -> ``mag``, ``barometer.pressure`` -> ``baro``
     (hPa; ``relativeAltitude`` is not kept), ``orientation`` (qw, qx, qy, qz) -> ``orientation``, and
     ``accelerometeruncalibrated`` / ``gyroscopeuncalibrated`` / ``magnetometeruncalibrated`` -> ``*_uncal``.
-    Other readings (location, microphone, battery, ...) are ignored and counted in ``meta``.
+    Other readings (microphone, battery, ...) are ignored and counted in ``meta``.
+
+Location
+    ``location`` readings (``latitude``, ``longitude`` in degrees, WGS-84; ``horizontalAccuracy`` in m when given)
+    geo-reference the recording: the first fix goes to ``meta["location"]`` (:data:`LOCATION_META`:
+    ``lat_deg``, ``lon_deg``, ``t_ns``, ``horizontal_accuracy_m``, ``fixes``), which the service takes as the
+    session's origin (the track's local east/north frame starts there).
 
 Specific force
     Without ``totalacceleration`` (iOS never logs it), ``acc = accelerometer + gravity``: gravity is linearly
@@ -62,9 +68,10 @@ from pdr import quaternion
 from pdr.errors import InputError
 from pdr.frames import GRAVITY_MPS2
 from pdr.io.bundle import Bundle, is_zip
-from pdr.io.csvtable import parse_table
+from pdr.io.csvtable import parse_table, split_header
 from pdr.io.text import decode_text, head, read_bytes, strip_gz
-from pdr.recording import DeviceInfo, Recording, SensorStream
+from pdr.io.time_order import keep_increasing
+from pdr.recording import LOCATION_META, DeviceInfo, Recording, SensorStream
 
 FORMAT = "sensor_logger"
 DESCRIPTION = "Sensor Logger app: HTTP-push JSON messages, zip/folder CSV export or JSON export (iOS and Android)"
@@ -83,6 +90,7 @@ READINGS: Mapping[str, tuple[str, tuple[str, ...]]] = {
     "gyroscopeuncalibrated": ("gyro_uncal", _XYZ),
     "magnetometeruncalibrated": ("mag_uncal", _XYZ),
 }
+_LOCATION = ("latitude", "longitude")
 #: Readings whose sign (and, uncalibrated, unit g) differ on iOS without standardisation.
 _IOS_NEGATED = ("accelerometer", "totalacceleration", "gravity")
 #: Gravity is held at its first/last value this far (s) beyond its span when recombining acc.
@@ -173,6 +181,7 @@ def _collect_push(messages: Sequence[Any], source: str, prefix: str) -> tuple[di
     """Readings of one or more push messages, in the app's convention (unsorted)."""
     rows: dict[str, tuple[list[int], list[list[float]], list[str]]] = {}
     ignored: dict[str, int] = {}
+    fixes: list[dict[str, Any]] = []
     sessions: set[str] = set()
     meta: dict[str, Any] = {}
     for m, msg in enumerate(messages):
@@ -193,7 +202,7 @@ def _collect_push(messages: Sequence[Any], source: str, prefix: str) -> tuple[di
             if not isinstance(entry, dict) or not isinstance(entry.get("name"), str):
                 raise InputError("a reading must be an object with a string 'name'", source=source, field=where)
             name = entry["name"].lower()
-            if name not in READINGS:
+            if name not in READINGS and name != "location":
                 ignored[name] = ignored.get(name, 0) + 1
                 continue
             if "time" not in entry:
@@ -202,6 +211,13 @@ def _collect_push(messages: Sequence[Any], source: str, prefix: str) -> tuple[di
             values = entry.get("values")
             if not isinstance(values, dict):
                 raise InputError("expected an object of values", source=source, field=f"{where}.values")
+            if name == "location":
+                fix = _fix(t, values, source, f"{where}.values")
+                if fix is None:
+                    ignored[name] = ignored.get(name, 0) + 1
+                else:
+                    fixes.append(fix)
+                continue
             comps = READINGS[name][1]
             missing = [c for c in comps if c not in values]
             if missing:
@@ -217,9 +233,51 @@ def _collect_push(messages: Sequence[Any], source: str, prefix: str) -> tuple[di
                          "session separately", source=source, field="sessionId")
     if ignored:
         meta["ignored_readings"] = ignored
+    if fixes:
+        meta[LOCATION_META] = _first_fix(fixes)
     out = {n: _Raw(np.array(t, dtype=np.int64), np.array(v, dtype=np.float64).reshape(len(t), -1), w)
            for n, (t, v, w) in rows.items()}
     return out, meta
+
+
+def _fix(t_ns: int, values: Mapping[str, Any], source: str, where: str) -> dict[str, Any] | None:
+    """One location fix (degrees, m) of a reading's values, or None when it holds no usable position (location is
+    optional: such a reading is counted as ignored, never refuses the data).
+    """
+    try:
+        lat, lon = (_number(values[c], source, f"{where}.{c}") for c in _LOCATION)
+        acc = values.get("horizontalAccuracy")
+        blank = acc is None or acc == "" or (isinstance(acc, float) and math.isnan(acc))
+        accuracy = None if blank else _number(acc, source, f"{where}.horizontalAccuracy")
+    except (KeyError, InputError):
+        return None
+    if abs(lat) > 90.0 or abs(lon) > 180.0:
+        return None
+    return {"lat_deg": lat, "lon_deg": lon, "t_ns": t_ns, "horizontal_accuracy_m": accuracy}
+
+
+def _csv_location(text: str, source: str, notes: list[str]) -> dict[str, Any] | None:
+    """The first fix of an export's ``Location.csv`` (None when it has none). Location is optional: a file that
+    cannot be read is reported in ``notes`` and leaves the recording without geo-reference.
+    """
+    if not text.strip():
+        return None
+    try:
+        header = split_header(text.split("\n", 1)[0].lstrip("\ufeff"), ",", source)
+        table = parse_table(text, source, int_columns=("time",), notes=notes,
+                            nan_columns=[h for h in header if h not in ("time", *_LOCATION)])
+        found = (_fix(int(t), {c: table.column(c)[i] for c in (*_LOCATION, "horizontalAccuracy") if c in table.header},
+                      source, f"line {table.line(i)}") for i, t in enumerate(table.column("time")))
+        fixes = [f for f in found if f is not None]
+    except InputError as exc:
+        notes.append(f"location not used ({exc}): the recording is not geo-referenced")
+        return None
+    return _first_fix(fixes) if fixes else None
+
+
+def _first_fix(fixes: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """The earliest fix, with the number of fixes."""
+    return {**min(fixes, key=lambda f: int(f["t_ns"])), "fixes": len(fixes)}
 
 
 def parse_push_message(obj: dict, *, source: str = "message", platform: str | None = None,
@@ -277,6 +335,7 @@ def _read_json_export(records: list[Any], source: str) -> Recording:
     """The JSON export: flat records ``{"sensor": "Accelerometer", "time": .., "x": .., ...}``."""
     rows: dict[str, tuple[list[int], list[list[float]], list[str]]] = {}
     metadata: dict[str, str] = {}
+    fixes: list[dict[str, Any]] = []
     for i, rec in enumerate(records):
         where = f"[{i}]"
         if not isinstance(rec, dict) or not isinstance(rec.get("sensor"), str):
@@ -284,6 +343,10 @@ def _read_json_export(records: list[Any], source: str) -> Recording:
         name = rec["sensor"].lower()
         if name == "metadata":
             metadata = {str(k): str(v) for k, v in rec.items()}
+            continue
+        if name == "location" and "time" in rec:
+            fix = _fix(_time_ns(rec["time"], source, f"{where}.time"), rec, source, where)
+            fixes += [] if fix is None else [fix]
             continue
         if name not in READINGS:
             continue
@@ -298,6 +361,8 @@ def _read_json_export(records: list[Any], source: str) -> Recording:
     raw = {n: _Raw(np.array(t, dtype=np.int64), np.array(v, dtype=np.float64).reshape(len(t), -1), w)
            for n, (t, v, w) in rows.items()}
     platform, standardised, meta, device_name = _metadata_fields(metadata)
+    if fixes:
+        meta[LOCATION_META] = _first_fix(fixes)
     return _assemble(raw, meta, source, platform, standardised, sort=False, device_name=device_name)
 
 
@@ -325,19 +390,23 @@ def _read_bundle(bundle: Bundle, source: str) -> Recording:
             metadata = {k.strip(): v.strip() for k, v in zip(rows[0], rows[1], strict=False)}
     raw: dict[str, _Raw] = {}
     notes: list[str] = []
+    location: dict[str, Any] | None = None
     for member in bundle.members():
         if "/" in member or not member.lower().endswith(".csv"):
             continue
         name = member[:-4].lower()
-        if name not in READINGS:
+        if name not in READINGS and name != "location":
             continue
         fname = bundle.name(member)
         text = bundle.text(member)
+        if name == "location":
+            location = _csv_location(text, fname, notes) or location
+            continue
         if not text.strip():
             # The app writes empty files for streams that recorded nothing (e.g. Annotation.csv).
             notes.append(f"{member}: empty file (no header, no samples): {READINGS[name][0]} skipped")
             continue
-        table = parse_table(text, fname, int_columns=("time",))
+        table = parse_table(text, fname, int_columns=("time",), notes=notes)
         comps = READINGS[name][1]
         for c in ("time", *comps):
             table.column(c)  # InputError naming the missing column
@@ -349,6 +418,8 @@ def _read_bundle(bundle: Bundle, source: str) -> Recording:
     platform, standardised, meta, device_name = _metadata_fields(metadata)
     if not metadata:
         meta["metadata"] = "missing"
+    if location is not None:
+        meta[LOCATION_META] = location
     return _assemble(raw, meta, source, platform, standardised, sort=False, device_name=device_name, notes=notes)
 
 
@@ -363,25 +434,20 @@ def _csv_names() -> list[str]:
 # --------------------------------------------------------------------------------------------- assembly
 
 def _ordered(name: str, r: _Raw, source: str, sort: bool, warnings: list[str]) -> _Raw:
-    """Samples in time order without repeated timestamps (the first of a repeat is kept, with a warning).
+    """Samples in time order; a sample whose time repeats or goes back is dropped with a warning naming the file
+    and line (or the message field), the first of a repeat kept (:mod:`pdr.io.time_order`).
 
-    Push payloads are sorted (their order carries no meaning); files must not go backwards in time.
+    Push payloads are sorted first (their order carries no meaning), so there only repeats are dropped.
     """
     t, v, where = r.t_ns, r.values, r.where
     if sort:
         order = np.argsort(t, kind="stable")
         t, v, where = t[order], v[order], [where[i] for i in order]
-    elif t.size > 1 and np.any(np.diff(t) < 0):
-        i = int(np.flatnonzero(np.diff(t) < 0)[0]) + 1
-        loc = where[i]
-        file, _, line = loc.rpartition(", line ")
-        if line.isdigit():
-            raise InputError(f"time goes backwards ({t[i - 1]} then {t[i]})", source=file, line=int(line),
-                             field="time")
-        raise InputError(f"time goes backwards ({t[i - 1]} then {t[i]})", source=source, field=f"{loc}.time")
-    keep = np.r_[True, np.diff(t) != 0] if t.size else np.zeros(0, dtype=bool)
-    if not keep.all():
-        warnings.append(f"{name}: dropped {int((~keep).sum())} samples repeating the previous timestamp")
+    files = {w.rpartition(", line ")[0] for w in where}
+    if len(files) == 1 and "" not in files:
+        keep = keep_increasing(t, files.pop(), "time", warnings, lines=[int(w.rpartition(", line ")[2]) for w in where])
+    else:
+        keep = keep_increasing(t, source, "time", warnings, places=where, what=name)
     return _Raw(t[keep], v[keep], [where[i] for i in np.flatnonzero(keep)])
 
 

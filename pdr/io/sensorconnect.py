@@ -99,27 +99,27 @@ def read(path: str | Path) -> Recording:
     first_line = text.split("\n", 1)[0]
     raw_header = split_header(first_line, source=source) if first_line.strip() else []
     rename = {h: _column_name(h) for h in raw_header}
-    table = parse_table(text, source, rename=rename)
+    warnings: list[str] = []
+    table = parse_table(text, source, rename=rename, notes=warnings)
     time_col = next((n for n in _TIME_NAMES if n in table.header), None)
     if time_col is None:
         raise InputError(f"no Time column (header has {list(table.header)})", source=source, line=1, field="Time")
     if len(table) == 0:
         raise InputError("no samples after the header", source=source, line=2)
-    table.check_increasing(time_col)
+    in_order = table.keep_increasing(time_col, warnings)
     t_s = table.column(time_col)
     t_ns = timestamps_ns(t_s, source, time_col, scale=1e9)
 
     variant = 2 if "estCompensatedAccelX" in table.header or "estAngularRateX" in table.header else 1
     channels, euler = (_EST, _EST_EULER) if variant == 2 else (_RAW, _RAW_EULER)
-    warnings: list[str] = []
     streams: dict[str, SensorStream] = {}
     for kind, (cols, unit) in channels.items():
         if all(c in table.header for c in cols):
-            ok = _valid_rows(table, cols, kind, warnings)
+            ok = _valid_rows(table, cols, kind, warnings) & in_order
             values = table.stack(cols)[ok]
             streams[kind] = SensorStream(kind, t_ns[ok], values * _si_factor(kind, unit, values, warnings))
     if all(c in table.header for c in euler):
-        ok = _valid_rows(table, euler, "orientation", warnings)
+        ok = _valid_rows(table, euler, "orientation", warnings) & in_order
         angles = table.stack(euler)[ok]
         streams["orientation"] = SensorStream("orientation", t_ns[ok],
                                               orientation_q_nb(angles[:, 0], angles[:, 1], angles[:, 2]))

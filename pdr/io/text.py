@@ -10,11 +10,13 @@ import gzip
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import AnyStr
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
+from pdr.io.time_order import file_name
 
 #: Bytes read by :func:`head` for sniffing.
 SNIFF_BYTES = 4096
@@ -60,7 +62,10 @@ def read_text(path: str | Path) -> str:
 
 
 def head(path: str | Path, n: int = SNIFF_BYTES) -> bytes:
-    """First ``n`` bytes of a file (gunzipped if ``.gz``); empty on any error. For sniffing only."""
+    """First ``n`` bytes of a file (gunzipped if ``.gz``); empty on any error and for a zip archive (whose stored
+    members would otherwise show their text to a text reader's sniffer: a zip is read from its members). For
+    sniffing only.
+    """
     p = Path(path)
     try:
         if not p.is_file():
@@ -69,7 +74,8 @@ def head(path: str | Path, n: int = SNIFF_BYTES) -> bytes:
             with gzip.open(p, "rb") as f:
                 return f.read(n)
         with p.open("rb") as f:
-            return f.read(n)
+            start = f.read(n)
+        return b"" if start.startswith(b"PK\x03\x04") else start
     except (OSError, EOFError):
         return b""
 
@@ -274,15 +280,28 @@ def parse_float_rows(rows: Sequence[Sequence[str]], line_numbers: Sequence[int],
     return arr
 
 
-def check_increasing_rows(t: NDArray[np.generic], line_numbers: Sequence[int], source: str, field: str) -> None:
-    """:class:`InputError` naming the line where timestamps stop strictly increasing."""
-    if t.size > 1:
-        bad = np.flatnonzero(np.diff(t) <= 0)
-        if bad.size:
-            i = int(bad[0]) + 1
-            what = "repeats" if t[i] == t[i - 1] else "goes backwards"
-            raise InputError(f"time {what} ({t[i - 1]} then {t[i]})", source=source, line=line_numbers[i],
-                             field=field)
+def drop_cut_off_last_line(text: AnyStr, source: str, sep: AnyStr | None, warnings: list[str]) -> AnyStr:
+    """``text`` without its last line when a phone cut the log off mid-line: the text does not end with a line
+    break and its last line has fewer ``sep``-separated fields (whitespace-separated for None) than the line before.
+    The line is reported in ``warnings`` with file and line number; any other text is returned as it is.
+    """
+    if isinstance(text, str):
+        newline, ends = "\n", ("\n", "\r")
+    else:
+        newline, ends = b"\n", (b"\n", b"\r")
+    if not text or text.endswith(ends):
+        return text
+    head, nl, last = text.rpartition(newline)
+    prev = head.rstrip().rpartition(newline)[2]
+    if not nl or not prev.strip():
+        return text
+    fields, expected = len(last.split(sep)), len(prev.split(sep))
+    if fields >= expected:
+        return text
+    line = text.count(newline) + 1
+    warnings.append(f"{file_name(source)}: dropped the cut-off last line {line} ({fields} of {expected} fields): the "
+                    "log ends mid-line")
+    return head + nl
 
 
 #: Largest magnitude of an int64 nanosecond timestamp we accept (about 292 years from the epoch or boot).

@@ -22,7 +22,8 @@ column the phone's time ``t`` in seconds since boot (all files share that clock)
     seconds to add to the phone's time to get motion-capture time.
 
 Time: ``t_ns = round(t * 1e9)``, so ``t0_ns / 1e9 + t_s`` (what ``pdr track`` writes) is the phone's seconds
-since boot, as in the files' first column. A time that repeats or goes back is an error naming file and line.
+since boot, as in the files' first column. A row whose time repeats or goes back is dropped with a warning naming
+file and line (:mod:`pdr.io.time_order`).
 
 The folder name ``<Walker>_<Device>_<Dist|NoDist>_<Motion>`` gives ``meta['walker']``, ``meta['disturbed']``,
 ``meta['carriage']`` (FrontPocket, BackPocket, Swinging, Texting, RunningPocket, ...) and
@@ -66,7 +67,8 @@ from pdr.errors import InputError
 from pdr.io import matfile
 from pdr.io.android import rotation_vector_to_q_nb
 from pdr.io.bundle import Bundle, is_zip
-from pdr.io.text import check_increasing_rows, parse_float_rows, timestamps_ns
+from pdr.io.text import drop_cut_off_last_line, parse_float_rows, timestamps_ns
+from pdr.io.time_order import keep_increasing
 from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, SensorStream
 
 FORMAT = "tyrex"
@@ -151,10 +153,11 @@ def read(path: str | Path) -> Recording:
         raise InputError("no accelerometer.txt[.gz] in the recording", source=str(p))
     streams: dict[str, SensorStream] = {}
     meta: dict[str, Any] = {"files": []}
+    read_warnings: list[str] = []
     for name, (kind, columns) in FILES.items():
         if bundle.get(name) is None:
             continue
-        arr = _table(bundle.text(name), bundle.name(name), columns)
+        arr = _table(bundle.text(name), bundle.name(name), columns, read_warnings)
         t_ns = timestamps_ns(arr[:, 0], bundle.name(name), "t", scale=1e9)
         meta["files"].append(name)
         if kind == "orientation":
@@ -179,7 +182,7 @@ def read(path: str | Path) -> Recording:
         why = ("no motion-capture file ../../qualisys/<name>.mat beside the folder" if p.is_dir() else
                "motion capture is read only beside a folder (../../qualisys/<name>.mat), not from a zip")
         return Recording(streams, device=device, t0_ns=rec.origin_ns, source=str(p), format=FORMAT, meta=meta,
-                         warnings=(f"{why}: no truth",))
+                         warnings=(*read_warnings, f"{why}: no truth"))
     if bundle.get(ALIGNMENT) is None:
         raise InputError("motion capture present but no timeAlignment.txt to put it on the phone's clock",
                          source=str(p))
@@ -187,7 +190,7 @@ def read(path: str | Path) -> Recording:
     truth, truth_meta, warnings = _mocap_truth(mat, rec, alignment, bundle.name(ALIGNMENT))
     meta.update(truth_meta)
     return Recording(streams, device=device, t0_ns=rec.origin_ns, truth=truth, source=str(p), format=FORMAT,
-                     meta=meta, warnings=tuple(warnings))
+                     meta=meta, warnings=(*read_warnings, *warnings))
 
 
 def _recording_name(p: Path, bundle: Bundle) -> str:
@@ -201,10 +204,13 @@ def _recording_name(p: Path, bundle: Bundle) -> str:
 
 
 # -- phone files -------------------------------------------------------------------------------------------
-def _table(text: str, source: str, columns: tuple[str, ...]) -> FloatArray:
-    """The numeric rows of one space-separated file; InputError naming file, line and field on bad input."""
+def _table(text: str, source: str, columns: tuple[str, ...], warnings: list[str]) -> FloatArray:
+    """The numeric rows of one space-separated file (rows whose time repeats or goes back dropped with a warning);
+    InputError naming file, line and field on bad input.
+    """
     rows: list[list[str]] = []
     numbers: list[int] = []
+    text = drop_cut_off_last_line(text, source, None, warnings)
     for number, line in enumerate(text.splitlines(), start=1):
         if line.strip():
             rows.append(line.split())
@@ -212,8 +218,7 @@ def _table(text: str, source: str, columns: tuple[str, ...]) -> FloatArray:
     if not rows:
         raise InputError("empty file: no samples", source=source)
     arr = parse_float_rows(rows, numbers, source, columns)
-    check_increasing_rows(arr[:, 0], numbers, source, "t")
-    return arr
+    return arr[keep_increasing(arr[:, 0], source, "t", warnings, lines=numbers)]
 
 
 def _bias_changes(arr: FloatArray) -> list[list[float]]:

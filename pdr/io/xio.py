@@ -6,8 +6,8 @@ honoured (deg/s or rad/s; g or m/s^2; uT; hPa) and converted to SI. The accelero
 sensor frame (about +1 g along the up-pointing axis at rest).
 
 ``Time`` is in seconds from the start; ``t_ns = round(t * 1e9)``. The x-io logs repeat some rows verbatim
-(the same timestamp and values, about 1 % of the Gait-Tracking example): repeated timestamps are dropped
-(keeping the first) with a warning; time going backwards is an error.
+(the same timestamp and values, about 1 % of the Gait-Tracking example): rows whose time repeats (the first is
+kept) or goes back are dropped with a warning naming the line (:mod:`pdr.io.time_order`).
 
 The side of the foot is not recorded: role ``right_foot`` with ``meta['foot_side'] = 'unknown'``.
 """
@@ -22,6 +22,7 @@ import numpy as np
 from pdr.errors import InputError
 from pdr.io.csvtable import parse_table, split_header
 from pdr.io.text import head, read_text, strip_gz, timestamps_ns
+from pdr.io.time_order import keep_increasing
 from pdr.recording import DeviceInfo, Recording, SensorStream
 from pdr.units import ACC_UNITS, GYRO_UNITS, MAG_UNITS, PRESSURE_UNITS
 
@@ -58,20 +59,15 @@ def read(path: str | Path) -> Recording:
     p = Path(path)
     source = str(p)
     text = read_text(p)
-    table = parse_table(text, source)
+    warnings: list[str] = []
+    table = parse_table(text, source, notes=warnings)
     if "Time (s)" not in table.header:
         raise InputError(f"no 'Time (s)' column (header has {list(table.header)})", source=source, line=1,
                          field="Time (s)")
     if len(table) == 0:
         raise InputError("no samples after the header", source=source, line=2)
-    t_s = table.column("Time (s)")
-    back = np.flatnonzero(np.diff(t_s) < 0)
-    if back.size:
-        i = int(back[0]) + 1
-        raise InputError(f"time goes backwards ({t_s[i - 1]} then {t_s[i]})", source=source, line=table.line(i),
-                         field="Time (s)")
-    t_ns = timestamps_ns(t_s, source, "Time (s)", scale=1e9)
-    keep = np.r_[True, np.diff(t_ns) > 0]
+    t_ns = timestamps_ns(table.column("Time (s)"), source, "Time (s)", scale=1e9)
+    keep = keep_increasing(t_ns, source, "Time (s)", warnings, lines=table.lines())
 
     groups: dict[str, dict[str, tuple[str, str]]] = {}
     for col in split_header(text.split("\n", 1)[0]):
@@ -86,13 +82,6 @@ def read(path: str | Path) -> Recording:
         if name == "Barometer":
             groups["baro"] = {"p": (col, unit)}
 
-    warnings: list[str] = []
-    if not keep.all():
-        repeated = np.flatnonzero(~keep)
-        data = np.column_stack([table.column(h) for h in table.header])
-        same = int(np.sum(np.all(data[repeated] == data[repeated - 1], axis=1)))
-        warnings.append(f"dropped {repeated.size} rows that repeat the previous timestamp ({same} of them "
-                        "exact copies of the previous row)")
     streams: dict[str, SensorStream] = {}
     for kind, axes in groups.items():
         units_of = PRESSURE_UNITS if kind == "baro" else next(u for k, u in _SENSORS.values() if k == kind)

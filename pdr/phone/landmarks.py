@@ -54,6 +54,10 @@ MODES: tuple[str, ...] = ("walking", "stairs_up", "stairs_down", "elevator", "es
 LANDMARK_TYPES: tuple[str, ...] = ("stairs_up", "stairs_down", "stairs", "elevator", "escalator")
 
 
+#: Window (s) before a step's end over which its barometric vertical rate is taken.
+RATE_WINDOW_S = 2.0
+
+
 @dataclass(frozen=True)
 class LandmarkConfig:
     """Thresholds of the decision tree.
@@ -70,6 +74,9 @@ class LandmarkConfig:
         Vertical specific-force impulse of an elevator start/stop: magnitude (m/s^2) and minimum duration (s).
     elevator_max_ride_s
         Longest time between the two impulses (s).
+    elevator_max_steps
+        Most steps between the two impulses of a ride: a rider stands in the cabin (a shuffle or a turn may make a
+        step or two); a walk between two jolts (a flight of stairs between landings) is no ride.
     """
 
     stairs_rate_mps: float = 0.12
@@ -79,6 +86,7 @@ class LandmarkConfig:
     elevator_impulse_mps2: float = 0.2
     elevator_impulse_s: float = 0.8
     elevator_max_ride_s: float = 60.0
+    elevator_max_steps: int = 2
 
 
 def classify_step(vertical_rate_mps: float | None, pitch_max_deg: float | None, pitch_min_deg: float | None,
@@ -129,7 +137,7 @@ class StepModeLabeller:
         sl = h.sl(s, e)
         rate = None
         if has_baro:
-            back = h.sl(s - int(2.0 * self.rate_hz), e)
+            back = h.sl(s - int(RATE_WINDOW_S * self.rate_hz), e)
             tt, uu = h.t[back], h.up[back]
             if tt.size > 2 and tt[-1] > tt[0]:
                 rate = float((uu[-1] - uu[0]) / (tt[-1] - tt[0]))
@@ -288,7 +296,9 @@ class ElevatorDetector:
     """First level of the tree: a pair of opposite vertical specific-force impulses with no steps between.
 
     Feed the low-passed vertical specific force minus gravity (m/s^2) on the grid; reports
-    ``(start_idx, end_idx, direction)`` with direction +1 (up: positive impulse first) or -1.
+    ``(start_idx, end_idx, direction)`` with direction +1 (up: positive impulse first) or -1. Steps reported with
+    :meth:`add_step` (grid index of their start) before the second impulse ends count against the pair: with more
+    than ``elevator_max_steps`` between them it is no ride, and the second impulse may open a new pair.
     """
 
     def __init__(self, rate_hz: float, config: LandmarkConfig | None = None) -> None:
@@ -299,6 +309,11 @@ class ElevatorDetector:
         self.run_len = 0
         self.first: tuple[int, int, int] | None = None   # (start, end, sign) of a pending first impulse
         self.index = 0
+        self.steps: list[int] = []                        # grid indices of recent step starts
+
+    def add_step(self, idx: int) -> None:
+        """A step starting at grid index ``idx``."""
+        self.steps.append(int(idx))
 
     def update(self, dv: FloatArray, moving: NDArray[np.bool_]) -> list[tuple[int, int, int]]:
         c = self.config
@@ -327,6 +342,11 @@ class ElevatorDetector:
             return
         if self.first is not None and end - self.first[1] > max_ride:
             self.first = None
+        self.steps = [i for i in self.steps if i > end - max_ride]
+        if self.first is not None and self.first[2] != self.run_sign:
+            a = self.first[1]
+            if sum(1 for i in self.steps if a < i < self.run_start) > self.config.elevator_max_steps:
+                self.first = None  # a walk between two jolts
         if self.first is None or self.first[2] == self.run_sign:
             self.first = (self.run_start, end, self.run_sign)
             return
@@ -335,7 +355,8 @@ class ElevatorDetector:
 
     def state(self) -> dict[str, Any]:
         return {"rate_hz": self.rate_hz, "run_sign": self.run_sign, "run_start": self.run_start,
-                "run_len": self.run_len, "first": list(self.first) if self.first else None, "index": self.index}
+                "run_len": self.run_len, "first": list(self.first) if self.first else None, "index": self.index,
+                "steps": list(self.steps)}
 
     @classmethod
     def from_state(cls, d: dict[str, Any], config: LandmarkConfig | None = None) -> ElevatorDetector:
@@ -344,6 +365,7 @@ class ElevatorDetector:
         f = d["first"]
         e.first = (int(f[0]), int(f[1]), int(f[2])) if f else None
         e.index = int(d["index"])
+        e.steps = [int(i) for i in d.get("steps", [])]  # states saved before steps were counted have none
         return e
 
 

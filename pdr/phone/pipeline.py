@@ -1,7 +1,7 @@
 """The online phone PDR pipeline: ``update(batch) -> events`` with serialisable state.
 
 Stages per batch (each keeps its own state, so a session can be fed batch by batch, saved with
-:meth:`PdrPipeline.to_dict`, resumed with :meth:`PdrPipeline.from_dict`, and gives the same track as one
+:meth:`PdrPipeline.state`, resumed with :meth:`PdrPipeline.from_state`, and gives the same track as one
 big batch):
 
 1. :class:`pdr.phone.grid.OnlineGrid`: acc, gyro, mag, baro on one uniform grid (``rate_hz``);
@@ -84,8 +84,8 @@ PlacementProvider = Callable[[Recording], "str | None"]
 
 PLACEMENT_GROUPS = {"trouser_pocket_front": "pocket", "trouser_pocket_back": "pocket", "trouser_pocket": "pocket",
                     "hand": "hand", "torso": "torso", "neck": "torso", "bag": "torso", "armband": "hand"}
-#: Layout of :meth:`PdrPipeline.to_dict`: 1 (no ``format`` key) before the stage classes, 2 since (the same keys plus
-#: ``format`` and the plugged-in stages' ``stages``). :meth:`PdrPipeline.from_dict` reads both.
+#: Layout of :meth:`PdrPipeline.state`: 1 (no ``format`` key) before the stage classes, 2 since (the same keys plus
+#: ``format`` and the plugged-in stages' ``stages``). :meth:`PdrPipeline.from_state` reads both.
 STATE_FORMAT = 2
 #: Placements the pipeline has a heading method for.
 PIPELINE_PLACEMENTS = ("pocket", "hand", "torso", "swinging")
@@ -366,7 +366,7 @@ class PdrPipeline:
         return self.stairs.attitude_updates
 
     # -- state -------------------------------------------------------------------------------------
-    def to_dict(self) -> dict[str, Any]:
+    def state(self) -> dict[str, Any]:
         """JSON-serialisable state (configuration and site included)."""
         d = {
             "format": STATE_FORMAT, "config": self.config.to_dict(),
@@ -390,9 +390,9 @@ class PdrPipeline:
         return d
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any], placement_provider: PlacementProvider | None = None,
-                  stages: Sequence[StepStage] = ()) -> PdrPipeline:
-        """A pipeline resuming a saved state (:meth:`to_dict`); ``stages``: the plugged-in stages, built as for the
+    def from_state(cls, d: dict[str, Any], placement_provider: PlacementProvider | None = None,
+                   stages: Sequence[StepStage] = ()) -> PdrPipeline:
+        """A pipeline resuming a saved state (:meth:`state`); ``stages``: the plugged-in stages, built as for the
         saved session, each restored from its saved state. A state that cannot be resumed (damaged, of a newer format,
         or of an older one whose fields this version no longer fills in) is refused with an :class:`InputError`
         that says to reprocess the session.
@@ -639,6 +639,7 @@ class PdrPipeline:
     def _step(self, s: int, e: int, peak: float) -> list[PipelineEvent]:
         """One confirmed step ``[s, e)``: its heading and label now, output one step later (:meth:`_emit_step`)."""
         h = self.history
+        self.elevator.add_step(s)
         for o in self.observers:
             o.confirmed(s, e, h)
         sl = h.sl(s, e)

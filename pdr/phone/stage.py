@@ -11,7 +11,7 @@ A :class:`StepObserver` watches the confirmed steps and their samples without ch
 A stage that is not part of the pipeline (a map matcher, a learned step-length correction) plugs in as a
 :class:`StepStage`: ``PdrPipeline(..., stages=[stage])``. It sees every step event after the PDR position update,
 may correct the track (:class:`pdr.phone.track.TrackState`) and returns the event to emit; its state is saved under
-``state["stages"][stage.name]`` and restored by ``PdrPipeline.from_dict(d, stages=[fresh_stage])`` through
+``state["stages"][stage.name]`` and restored by ``PdrPipeline.from_state(d, stages=[fresh_stage])`` through
 ``fresh_stage.from_state(saved)``.
 """
 

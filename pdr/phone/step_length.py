@@ -19,12 +19,12 @@ Turns (not in seed 004): a step that turns the walking direction covers less gro
 of the step heading from the previous step of the same walk (the track rows' ``turn_deg``), the length is multiplied
 by ``f = max(cos Delta psi, 0)^2`` (:func:`turn_factor`; 0.94 at 14 deg, 0.75 at 30 deg, 0.5 at 45 deg, 0 for a turn
 of 90 deg or more on the spot). Why: at the same cadence the IPIN 2023 hand-held walker of the SM-A520F logs covers
-less ground per step on turn-heavy routes; eq. 19 alone reads 1.02-1.07 of the true distance on routes with 11-16 %
-of steps turning by more than 20 deg and 0.97-1.01 on routes with 1-4 % (correlation 0.67 over its 20 logs). Turning
-steps are not detected twice (their cadence is 0.62-0.67 s against 0.60 s straight): the walker pivots. ``pdr
-calibrate ../shared/data/ipin2023_t3/logfiles --fit --placement hand``, each route left out of the fit, p1^0.5:
-median distance error 3.5 -> 3.2 % (14 -> 13 of 25 logs outside 3 %); with ``K`` recalibrated on the phone's other
-routes 2.7 -> 1.2 % (11 -> 5 outside); in that column every pattern and exponent has a lower median error. In an
+less ground per step on turn-heavy routes, and eq. 19 alone over-reads the distance of the routes with many turning
+steps; turning steps are not detected twice (their cadence is barely longer than straight walking's): the walker
+pivots. With the factor the leave-one-route-out median distance error and the count of logs outside 3 % fell a little
+with ``K`` fitted on the other routes, and clearly with ``K`` recalibrated on the phone's other routes, where every
+pattern and exponent improved (issue history; ``pdr calibrate ../shared/data/ipin2023_t3/logfiles --fit --placement
+hand`` prints the current errors per pattern and exponent). In an
 offline study on the tracks' headings, a linear ``1 - c |Delta psi| / 90 deg`` chose ``c`` = 1.0-1.1 on every
 held-out route and did as well as ``cos^2``; plain ``cos`` did worse. ``turn="none"`` turns the factor off (and is
 what a model saved before it existed loads with). The pipeline measures turns for hand-held and torso phones only

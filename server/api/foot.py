@@ -16,7 +16,7 @@ from pdr.errors import InputError
 from pdr.foot.summaries import SCHEMA, steps_from_json
 from pdr.recording import DeviceInfo
 from server.api import current_user, json_body, services
-from server.api.sessions import require_paired
+from server.api.sessions import refuse_file, require_paired
 from server.errors import APIError
 from server.ingest import store_batch
 from server.processing import FOOT_STEPS_JSON
@@ -31,6 +31,7 @@ def add_step_summaries(session_id: str) -> tuple[Response, int]:
     user = current_user(allow_query_token=True, scope="ingest")
     svc = services()
     svc.store.session_row(session_id, user.id)
+    refuse_file(session_id)
     body = json_body()
     validate(body, SCHEMA, "step summaries")
     batch_id = body["batch_id"]

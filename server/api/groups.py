@@ -3,9 +3,11 @@
 An agent (a person with two shoe IMUs and a ranging radio) joins a group with its initial pose, then uploads
 batches of events: step-wise dead-reckoning summaries of each foot and range measurements (between agents, to
 anchors, position fixes, pressure differences). The upload's events are validated against :data:`EVENT` (the
-OpenAPI document's ``GroupUpload``); :mod:`pdr.fusion.measurements` reads them. Step events name the feet as
-sessions do (``left_foot``/``right_foot``, :data:`server.feet.FOOT_SIDES`) or as the group's
-``FusionConfig.feet`` (``left``/``right``). The server buffers the events, applies them in time order to the
+OpenAPI document's ``GroupUpload``); :mod:`pdr.fusion.measurements` reads them. The API names the feet as
+sessions do, ``left_foot``/``right_foot``, everywhere: a group's ``config.feet``, step events, corrections and
+tracks (the fusion library's ``left``/``right`` are translated at this boundary, :data:`server.feet.FOOT_SIDES`;
+the old names are refused with 422 naming the field and the new name). The server buffers the events, applies them
+in time order to the
 group's joint state (:class:`pdr.fusion.group.Group`) and answers each upload with the correction for the
 uploading agent. Agents that lost contact upload their buffered summaries when they return. An upload whose
 ranges are older than the fusion horizon (they could never be fused) is refused with 422 ``stale_range``,
@@ -13,6 +15,12 @@ listing them and why; nothing of it is kept.
 
 An agent joined with a ``session_id`` takes its steps from that session as its batches are processed
 (:mod:`server.group_feed`); its uploads then carry its ranges and other measurements, not steps.
+
+Time: every ``t_s`` of the group API is on the group's common clock (s), which the clients choose (e.g. Unix time,
+or seconds from a mission's start). A session's steps are on its shoe's own clock (``t_ns / 1e9`` of the
+samples, the ``t_s`` of the session's foot track rows); an agent joined with a ``session_id`` gives
+``clock_offset_s``, group time = session time + ``clock_offset_s`` (default 0: the shoe stamps its samples on the
+group's clock).
 """
 
 from __future__ import annotations
@@ -29,7 +37,7 @@ from pdr.fusion.group import Group
 from pdr.fusion.measurements import StepSummary, parse_event
 from server.api import current_user, json_body, services
 from server.errors import APIError
-from server.feet import FOOT_SIDES
+from server.feet import FOOT_SIDES, ROLE_SIDES, foot_role
 from server.group_feed import feed_groups
 from server.group_store import GroupStore
 from server.schemas import validate
@@ -40,12 +48,42 @@ _NAME = {"type": "string", "minLength": 1, "maxLength": 200}
 _NUMBER = {"type": "number"}
 _VEC3 = {"type": "array", "items": _NUMBER, "minItems": 3, "maxItems": 3}
 
+#: A foot of an agent: the sessions' device roles.
+_FOOT = {"enum": list(FOOT_SIDES.values()), "description": "left_foot or right_foot (as in sessions)"}
+
+_POSITIVE = {"type": "number", "exclusiveMinimum": 0}
+_NON_NEGATIVE = {"type": "number", "minimum": 0}
+#: The fusion parameters (:class:`pdr.fusion.centre.FusionConfig`; every field optional, defaults there).
+_CONFIG: dict[str, Any] = {
+    "type": "object", "additionalProperties": False,
+    "description": "fusion parameters (pdr.fusion.centre.FusionConfig); each omitted one takes its default",
+    "properties": {
+        "feet": {"type": "array", "items": _FOOT, "minItems": 1, "uniqueItems": True,
+                 "description": "the feet of every agent (default both)"},
+        "separation": {"type": "object", "additionalProperties": False,
+                       "description": "dual-foot separation constraint (seed 001 eq. 13)", "properties": {
+                           "gamma_xy": _POSITIVE | {"description": "largest horizontal distance of the feet, m"},
+                           "gamma_z": _POSITIVE | {"description": "largest vertical distance of the feet, m"},
+                           "eta": {"type": "number", "minimum": 3, "description": "sigma-point spread"},
+                           "speed_bound_mps": _NON_NEGATIVE | {"description": "widening for states apart in "
+                                                                              "time, m/s"},
+                           "grace_s": _NON_NEGATIVE | {"description": "time covered by gamma_xy/gamma_z, s"}}},
+        "ranging": {"type": "object", "additionalProperties": False,
+                    "description": "inter-agent range likelihood (eqs. 17-20)", "properties": {
+                        "gamma_m": _NON_NEGATIVE | {"description": "uniform half-width gamma_r, m"},
+                        "sigma_m": _POSITIVE | {"description": "Cauchy scale sigma_r, m"}}},
+        "lattice_points": {"type": "integer", "minimum": 2, "description": "lattice points per axis (Algorithm 3)"},
+        "lattice_extent": _POSITIVE | {"description": "lattice half-width in prior standard deviations"},
+        "robust": {"type": "boolean", "description": "false: the linearised Kalman range update (reference)"},
+        "kalman_range_variance_m2": _POSITIVE | {"description": "range variance of the Kalman reference, m^2"},
+    },
+}
+
 CREATE_GROUP: dict[str, Any] = {
     "type": "object", "additionalProperties": False,
     "properties": {
         "name": {"type": "string", "maxLength": 200},
-        "config": {"type": "object", "description": "pdr.fusion.centre.FusionConfig fields (separation, ranging, "
-                                                    "feet, lattice_points, lattice_extent, robust, ...)"},
+        "config": _CONFIG,
         "contact_timeout_s": {"type": "number", "exclusiveMinimum": 0},
         "max_range_age_s": {"type": "number", "exclusiveMinimum": 0},
     },
@@ -57,14 +95,19 @@ JOIN_GROUP: dict[str, Any] = {
         "agent": _NAME,
         "session_id": {"type": "string", "maxLength": 36,
                        "description": "the id of one of the user's sessions: the agent takes its steps from "
-                                      "its shoes as the session's batches are processed (the session's clock is "
-                                      "the group's); the agent's uploads then carry no steps"},
+                                      "its shoes as the session's batches are processed; the agent's uploads "
+                                      "then carry no steps"},
+        "clock_offset_s": {"type": "number",
+                           "description": "with session_id: the group's clock less the session's (s; group time = "
+                                          "session time + clock_offset_s; the session's clock is its shoes' own, "
+                                          "the t_s of its foot track rows); default 0"},
         "pos0_n": _VEC3,
         "heading0_deg": {"type": "number", "description": "compass heading, clockwise from north"},
         "cov0": {"type": "array", "items": {"type": "array", "items": _NUMBER, "minItems": 4, "maxItems": 4},
                  "minItems": 4, "maxItems": 4, "description": "(4, 4) covariance of x, y, z (m) and yaw (rad)"},
         "t_s": _NUMBER,
-        "foot_offsets_n": {"type": "array", "items": _VEC3},
+        "foot_offsets_n": {"type": "array", "items": _VEC3,
+                           "description": "each foot's offset from pos0_n (m, ENU), in the order of config.feet"},
     },
 }
 
@@ -73,8 +116,6 @@ _COV4 = {"type": "array", "items": {"type": "array", "items": _NUMBER, "minItems
 _T = {"type": "number", "description": "time of the event (s, the group's common clock)"}
 _MODEL = {"gamma_m": {"type": "number", "minimum": 0, "description": "bounded error (m)"},
           "sigma_m": {"type": "number", "minimum": 0, "description": "noise standard deviation (m)"}}
-#: Feet of a step event: the sessions' device roles, or the fusion centre's names (``FusionConfig.feet``).
-FOOT_NAMES = {role: side for side, role in FOOT_SIDES.items()}
 
 
 def _event(kind: str, description: str, required: list[str], properties: dict[str, Any]) -> dict[str, Any]:
@@ -90,8 +131,7 @@ EVENT: dict[str, Any] = {"type": "object", "required": ["type"], "properties": {
     "step", "range", "anchor_range", "position_fix", "height_difference"]}}, "allOf": [
     _event("step", "a foot's step-wise dead-reckoning summary (seed 001 eq. 7-8): displacement dp (m, the "
            "step's frame), heading change dpsi (rad), their 4x4 covariance", ["agent", "foot", "dp", "dpsi", "cov"],
-           {"agent": _NAME, "foot": {"type": "string", "description": "left_foot or right_foot (as in sessions), "
-                                                                     "or the group's own foot names (left, right)"},
+           {"agent": _NAME, "foot": _FOOT,
             "dp": _VEC3, "dpsi": _NUMBER, "cov": _COV4, "index": {"type": "integer"}}),
     _event("range", "a range between two agents (m)", ["agent_a", "agent_b", "range_m"],
            {"agent_a": _NAME, "agent_b": _NAME, "range_m": {"type": "number", "minimum": 0}}),
@@ -116,6 +156,14 @@ UPLOAD: dict[str, Any] = {
 }
 
 
+def _refuse_old_foot(name: Any, path: str) -> None:
+    """422 naming the field for a foot given by its old name in the API (the library's ``left``/``right``)."""
+    if isinstance(name, str) and name in FOOT_SIDES:
+        raise APIError(422, f"{path}: the foot '{name}' is now called '{FOOT_SIDES[name]}' (feet are named as "
+                            f"sessions' device roles: {', '.join(FOOT_SIDES.values())})",
+                       details={"field": "foot", "path": path})
+
+
 def store() -> GroupStore:
     """The group repository (one per app, over the service's engine)."""
     ext = current_app.extensions
@@ -136,13 +184,15 @@ def group_json(row: Any, detail: bool = False) -> dict[str, Any]:
     out: dict[str, Any] = {
         "id": row.id, "name": row.name, "created_at": row.created_at.isoformat(),
         "updated_at": row.updated_at.isoformat(),
-        "agents": [{"agent": a.agent, "session_id": a.session_id, "in_contact": group.in_contact(a.agent)
+        "agents": [{"agent": a.agent, "session_id": a.session_id, "clock_offset_s": a.clock_offset_s,
+                    "in_contact": group.in_contact(a.agent)
                     if a.agent in group.latest_s else False, "latest_s": group.latest_s.get(a.agent)}
                    for a in repo.agents(row.id)],
         "clock_s": _float(group.clock_s), "pending": group.pending, "counts": dict(group.counts),
     }
     if detail:
         out["config"] = group.centre.config.to_dict()
+        out["config"]["feet"] = [foot_role(f) for f in out["config"]["feet"]]
         out["contact_timeout_s"] = group.contact_timeout_s
         out["max_range_age_s"] = group.max_range_age_s
         out["fusion_counts"] = dict(group.centre.counts)
@@ -152,6 +202,7 @@ def group_json(row: Any, detail: bool = False) -> dict[str, Any]:
 def correction_json(group: Group, agent: str) -> dict[str, Any]:
     """The fused estimate of an agent's feet (positions m ENU, yaw rad, covariance) with compass headings."""
     corr = group.correction(agent).to_dict()
+    corr["feet"] = [foot_role(f) for f in corr["feet"]]
     corr["heading_deg"] = [(90.0 - math.degrees(corr["mean"][4 * i + 3])) % 360.0 for i in range(len(corr["feet"]))]
     return corr
 
@@ -161,8 +212,15 @@ def create_group() -> tuple[Response, int]:
     """Create a group with its fusion parameters."""
     user = current_user()
     body = json_body()
+    given = body.get("config") if isinstance(body, dict) else None
+    if isinstance(given, dict) and isinstance(given.get("feet"), list):
+        for i, name in enumerate(given["feet"]):
+            _refuse_old_foot(name, f"config.feet[{i}]")
     validate(body, CREATE_GROUP, "group")
-    group = Group(FusionConfig.from_dict(body.get("config", {})), float(body.get("contact_timeout_s", 10.0)),
+    config = dict(body.get("config", {}))
+    if "feet" in config:
+        config["feet"] = [ROLE_SIDES[f] for f in config["feet"]]
+    group = Group(FusionConfig.from_dict(config), float(body.get("contact_timeout_s", 10.0)),
                   float(body.get("max_range_age_s", 2.0)))
     gid = store().create(user.id, body.get("name", ""), group)
     return jsonify(group_json(store().row(gid, user.id), detail=True)), 201
@@ -191,10 +249,12 @@ def join_group(group_id: str) -> tuple[Response, int]:
     session_id = body.get("session_id")
     if session_id is not None:
         session_id = services().store.session_row(session_id, user.id).id   # 404 for a session not the user's
-        feet = repo.state(group_id).centre.config.feet
-        if not set(FOOT_SIDES) & set(feet):
-            raise APIError(422, f"an agent fed from a session needs a group with the feet left and/or right, this "
-                                f"group's are {', '.join(feet)}", details={"field": "session_id"})
+    elif "clock_offset_s" in body:
+        raise APIError(422, "clock_offset_s relates a session's clock to the group's: give it with session_id",
+                       details={"field": "clock_offset_s"})
+    clock_offset_s = float(body.get("clock_offset_s", 0.0))
+    if not math.isfinite(clock_offset_s):
+        raise APIError(422, "clock_offset_s must be a finite time in s", details={"field": "clock_offset_s"})
     agent = body["agent"]
     if any(a.agent == agent for a in repo.agents(group_id)):
         raise APIError(409, f"agent '{agent}' is already in the group", details={"field": "agent"})
@@ -206,10 +266,11 @@ def join_group(group_id: str) -> tuple[Response, int]:
         return correction_json(group, agent)
 
     corr = repo.modify(group_id, join)
-    repo.add_agent(group_id, agent, session_id)
+    repo.add_agent(group_id, agent, session_id, clock_offset_s)
     if session_id is not None and feed_groups(services().store, session_id).get(group_id):
         corr = correction_json(repo.state(group_id), agent)        # the steps the session has already taken
-    return jsonify({"agent": agent, "session_id": session_id, "correction": corr}), 201
+    return jsonify({"agent": agent, "session_id": session_id, "clock_offset_s": clock_offset_s,
+                    "correction": corr}), 201
 
 
 @bp.post("/<group_id>/uploads")
@@ -219,6 +280,10 @@ def upload(group_id: str) -> tuple[Response, int]:
     repo = store()
     repo.row(group_id, user.id)
     body = json_body()
+    if isinstance(body, dict) and isinstance(body.get("events"), list):
+        for i, e in enumerate(body["events"]):
+            if isinstance(e, dict) and e.get("type") == "step":
+                _refuse_old_foot(e.get("foot"), f"events[{i}].foot")
     validate(body, UPLOAD, "upload")
     agent = body["agent"]
     agents = repo.agents(group_id)
@@ -228,15 +293,16 @@ def upload(group_id: str) -> tuple[Response, int]:
         raise APIError(422, f"agent '{agent}' has not joined the group", details={"field": "agent"})
     events = [parse_event(e, f"events[{i}]") for i, e in enumerate(body["events"])]   # 422 naming the event
     feet = repo.state(group_id).centre.config.feet
-    events = [replace(ev, foot=FOOT_NAMES[ev.foot]) if isinstance(ev, StepSummary) and ev.foot in FOOT_NAMES
-              and ev.foot not in feet else ev for ev in events]              # one foot vocabulary with sessions
+    events = [replace(ev, foot=ROLE_SIDES[ev.foot]) if isinstance(ev, StepSummary) else ev
+              for ev in events]                                # the API's foot names to the library's
     for i, ev in enumerate(events):                  # everything checked before the raw upload is stored
         unknown = [a for a in ev.agents if a not in members]
         if unknown:
             raise APIError(422, f"events[{i}]: agent '{unknown[0]}' has not joined the group",
                            details={"source": f"events[{i}]", "field": "agent"})
         if isinstance(ev, StepSummary) and ev.foot not in feet:
-            raise APIError(422, f"events[{i}]: foot must be one of {', '.join(feet)}",
+            raise APIError(422, f"events[{i}]: foot must be one of this group's feet, "
+                                f"{', '.join(foot_role(f) for f in feet)}",
                            details={"source": f"events[{i}]", "field": "foot"})
         if isinstance(ev, StepSummary) and ev.agent in fed:
             raise APIError(409, f"events[{i}]: agent '{ev.agent}' takes its steps from session '{fed[ev.agent]}'",
@@ -295,7 +361,7 @@ def tracks(group_id: str) -> Response:
         raise APIError(422, "since_s must be a number (s)", details={"field": "since_s"}) from None
     out: dict[str, dict[str, list[list[float]]]] = {}
     for r in repo.track(group_id, request.args.getlist("agent") or None, since_s):
-        out.setdefault(r.agent, {}).setdefault(r.foot, []).append(
+        out.setdefault(r.agent, {}).setdefault(foot_role(r.foot), []).append(
             [r.t_s, r.east_m, r.north_m, r.up_m, r.heading_deg])
     return jsonify({"group_id": group_id, "agents": out})
 

@@ -9,6 +9,10 @@ The app's messages do not say how the phone is carried, so the push URL may: ``?
 :data:`pdr.recording.PLACEMENTS`) is the session's and the phone's placement, which the phone pipeline takes as
 ``pdr track`` takes a log's placement; without it the pipeline detects the carriage online
 (:mod:`pdr.phone.placement_detect`), and its first steps then differ from a log whose reader knew the placement.
+Nor do they say the platform: ``?platform=ios|android&standardised=0|1`` (the app's "Standardise Units & Frames"
+setting) say how to read raw iOS data, which is otherwise inferred from the data (:mod:`pdr.io.sensor_logger`).
+``location`` readings geo-reference the session (its origin is the first fix). ``time`` may be a string of digits.
+A message over the route's body limit is answered 499 with a text body too (:mod:`server.limits`).
 """
 
 from __future__ import annotations
@@ -22,16 +26,17 @@ from pdr.errors import InputError
 from pdr.recording import PLACEMENTS
 from server import plausibility
 from server.api import current_user, services
-from server.api.sessions import time_span_ns
+from server.api.sessions import geo_reference, time_span_ns
 from server.errors import APIError
 from server.ingest import store_batch
+from server.limits import USER_VISIBLE_STATUS
 from server.processing import SENSOR_LOGGER_JSON
 from server.schemas import SENSOR_LOGGER_MESSAGE, validate
 
 bp = Blueprint("ingest", __name__, url_prefix="/api/v1/ingest")
 
-#: Status the Sensor Logger app displays to its user.
-USER_VISIBLE_ERROR = 499
+#: Status the Sensor Logger app displays to its user (one definition: :data:`server.limits.USER_VISIBLE_STATUS`).
+USER_VISIBLE_ERROR = USER_VISIBLE_STATUS
 
 
 def _user_error(message: str) -> Response:
@@ -43,8 +48,6 @@ def sensor_logger() -> Response:
     try:
         return _ingest()
     except APIError as exc:
-        if exc.status == 413:
-            raise
         return _user_error(f"pdr: {exc.message}")
     except InputError as exc:
         return _user_error(f"pdr: {exc}")
@@ -65,7 +68,9 @@ def _ingest() -> Response:
     if not message["payload"]:
         return jsonify({"status": "ok", "stored": False, "reason": "empty payload"})
     placement = _placement()
-    recording = parse_push_message(message, source=f"message {message_id}")
+    platform, standardised = _platform()
+    recording = parse_push_message(message, source=f"message {message_id}", platform=platform,
+                                   standardised=standardised)
     plausibility.check_units(recording)
     sid, created = svc.store.create_session(user.id, source="sensor_logger",
                                             client_session_id=str(message["sessionId"]),
@@ -82,7 +87,27 @@ def _ingest() -> Response:
                            device=replace(recording.device, role="phone", device_id=str(message["deviceId"]),
                                           placement=placement),
                            content=message, recording=recording)
+    geo_reference(sid, recording)
     return jsonify({"status": "ok", "session": sid, "duplicate": not accepted.created})
+
+
+#: ``?standardised=`` spellings of the app's "Standardise Units & Frames" setting.
+STANDARDISED = {"1": True, "true": True, "0": False, "false": False}
+
+
+def _platform() -> tuple[str | None, bool | None]:
+    """The phone's platform and standardisation setting named by the push URL (``?platform=ios|android``,
+    ``?standardised=0|1``); ``None`` for what it does not name (then inferred from the data).
+    """
+    platform = request.args.get("platform") or None
+    if platform is not None and platform not in ("ios", "android"):
+        raise APIError(422, f"unknown platform '{platform[:20]}' in the push URL; expected ios or android",
+                       details={"field": "platform"})
+    flag = request.args.get("standardised")
+    if flag is not None and flag.lower() not in STANDARDISED:
+        raise APIError(422, f"standardised must be 0 or 1 in the push URL, got '{flag[:20]}'",
+                       details={"field": "standardised"})
+    return platform, None if flag is None else STANDARDISED[flag.lower()]
 
 
 def _placement() -> str | None:

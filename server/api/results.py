@@ -24,14 +24,15 @@ from typing import Any
 from flask import Blueprint, Response, jsonify, request
 from sqlalchemy import func, select
 
-from pdr.frames import local_enu_to_geodetic
 from pdr.phone.heading_smoother import smooth_track
+from pdr.phone.track_geojson import NotGeoReferenced, track_geojson
 from pdr.phone.track_schema import TRACK_COLUMNS
 from server import db
 from server.api import current_user, services
 from server.errors import APIError
 from server.feet import primary_role
 from server.processing_options import map_matched
+from server.session_clock import session_clock
 from server.store import step_fields
 
 bp = Blueprint("results", __name__, url_prefix="/api/v1/sessions")
@@ -172,10 +173,12 @@ def track(session_id: str) -> Response:
         return Response(buf.getvalue(), mimetype="text/csv",
                         headers={"Content-Disposition": f'attachment; filename="{session_id}.csv"'})
     if fmt == "geojson":
-        return Response(json.dumps(_geojson(rows, row)), mimetype="application/geo+json")
+        return Response(json.dumps(_geojson(rows, row) | {"clock": session_clock(svc.store, row)}),
+                        mimetype="application/geo+json")
     next_since = max(r["t_s"] for r in rows) if rows else since
     body: dict[str, Any] = {"session": session_id, "columns": list(TRACK_COLUMNS), "points": rows,
-                            "count": len(rows), "next_since": next_since, "heading": heading}
+                            "count": len(rows), "next_since": next_since, "heading": heading,
+                            "clock": session_clock(svc.store, row)}
     return jsonify(body | (smoothing.fields() if smoothing else {}))
 
 
@@ -203,35 +206,25 @@ def _smoothed(points: list[Any]) -> tuple[list[dict[str, Any]], Smoothing]:
 
 
 def _geojson(rows: list[dict[str, Any]], session: Any) -> dict[str, Any]:
-    """Track as a GeoJSON LineString per device: WGS-84 when the session has an origin, else local metres."""
-    geodetic = session.origin_lat_deg is not None
-    features = []
-    for device in sorted({r["device"] for r in rows}):
-        mine = [r for r in rows if r["device"] == device]
-        if geodetic:
-            lat, lon = local_enu_to_geodetic([r["east_m"] for r in mine], [r["north_m"] for r in mine],
-                                             session.origin_lat_deg, session.origin_lon_deg)
-            coords = [[float(lo), float(la), r["up_m"]] for lo, la, r in zip(lon, lat, mine, strict=True)]
-        else:
-            coords = [[r["east_m"], r["north_m"], r["up_m"]] for r in mine]
-        features.append({"type": "Feature", "geometry": {"type": "LineString", "coordinates": coords},
-                         "properties": {"device": device, "t_s": [r["t_s"] for r in mine],
-                                        "floor": [r["floor"] for r in mine], "mode": [r["mode"] for r in mine]}})
-    out: dict[str, Any] = {"type": "FeatureCollection", "features": features}
-    if not geodetic:
-        out["crs_note"] = "local ENU metres (x east, y north) from the start; the session has no geodetic origin"
-    return out
+    """The track as RFC 7946 GeoJSON (:mod:`pdr.phone.track_geojson`); 409 when the session has no origin."""
+    origin = None if session.origin_lat_deg is None else (session.origin_lat_deg, session.origin_lon_deg)
+    try:
+        return track_geojson(rows, origin, source=f"session {session.id}")
+    except NotGeoReferenced as exc:
+        raise APIError(409, f"{exc.message} (a session gets an origin from a log's surveyed origin, a Sensor Logger "
+                            f"location reading or 'origin' when it is created); use ?format=json or csv",
+                       code=NotGeoReferenced.code, details={"field": "format"}) from None
 
 
 def _events(session_id: str, what: str) -> Response:
     user = current_user()
     svc = services()
-    svc.store.session_row(session_id, user.id)
+    row = svc.store.session_row(session_id, user.id)
     rows = svc.store.events(session_id, EVENT_KINDS[what], parse_since(), previous=svc.store.rebuilding(session_id))
     items = [{"t_s": r.t_s, "t_end_s": r.t_end_s, "label": r.label, "value": _clean(r.value),
               "device": r.device_role, "provisional": r.provisional, **json.loads(r.data or "{}")} for r in rows]
     return jsonify({"session": session_id, what: items, "count": len(items),
-                    "next_since": items[-1]["t_s"] if items else parse_since()})
+                    "next_since": items[-1]["t_s"] if items else parse_since(), "clock": session_clock(svc.store, row)})
 
 
 @bp.get("/<session_id>/steps")
@@ -242,7 +235,7 @@ def steps(session_id: str) -> Response:
     """
     user = current_user()
     svc = services()
-    svc.store.session_row(session_id, user.id)
+    session = svc.store.session_row(session_id, user.id)
     since = parse_since()
     rows = svc.store.steps(session_id, since, previous=svc.store.rebuilding(session_id))
     items = [{"t_s": r.t_s, "t_end_s": None, "label": r.mode, "value": _clean(r.step_length_m),
@@ -250,7 +243,7 @@ def steps(session_id: str) -> Response:
              | {c: _clean(getattr(r, c)) for c in TRACK_COLUMNS} | step_fields(r) | json.loads(r.data or "{}")
              for r in rows]
     return jsonify({"session": session_id, "steps": items, "count": len(items),
-                    "next_since": items[-1]["t_s"] if items else since})
+                    "next_since": items[-1]["t_s"] if items else since, "clock": session_clock(svc.store, session)})
 
 
 @bp.get("/<session_id>/modes")

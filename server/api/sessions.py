@@ -10,7 +10,7 @@ from typing import Any
 from flask import Blueprint, Response, jsonify, request
 
 from pdr.errors import InputError
-from pdr.recording import DEVICE_ROLES, FOOT_ROLES, Recording
+from pdr.recording import DEVICE_ROLES, FOOT_ROLES, Recording, geo_origin
 from server import plausibility
 from server.api import current_user, json_body, services, uploaded_log
 from server.api.sites import give_session_site, named_site
@@ -20,6 +20,7 @@ from server.ingest import store_batch
 from server.processing import FILE_PREFIX, NATIVE_JSON
 from server.processing_options import META_KEY, ProcessingOptions
 from server.schemas import CREATE_SESSION, PAIR_DEVICE, PROCESSING, validate
+from server.session_clock import session_clock
 
 bp = Blueprint("sessions", __name__, url_prefix="/api/v1/sessions")
 
@@ -49,6 +50,7 @@ def session_json(row: Any, detail: bool = False) -> dict[str, Any]:
         "origin": ({"lat_deg": row.origin_lat_deg, "lon_deg": row.origin_lon_deg}
                    if row.origin_lat_deg is not None else None),
         "processing": json.loads(row.meta or "{}").get(META_KEY, {}),
+        "clock": session_clock(svc.store, row),
     }
     if detail:
         out["batch_list"] = [{"id": b.id, "batch_id": b.client_batch_id, "device_role": b.device_role,
@@ -122,10 +124,18 @@ def _create_from_file(user_id: int) -> tuple[Response, int]:
                 payload=payload, t_first_ns=t_first, t_last_ns=t_last, device=replace(dev, placement=placement),
                 recording=recording)
     svc.store.set_session(sid, t0_ns=recording.origin_ns)
-    if recording.truth.positions is not None and recording.truth.positions.origin_lat_lon_deg:
-        lat, lon = recording.truth.positions.origin_lat_lon_deg
-        svc.store.set_session(sid, origin_lat_deg=lat, origin_lon_deg=lon)
+    geo_reference(sid, recording)
     return jsonify(session_json(svc.store.session_row(sid, user_id))), 201 if created else 200
+
+
+def geo_reference(session_id: str, recording: Recording) -> None:
+    """Give a session without an origin the recording's (:func:`geo_origin`): its track, GeoJSON and map are then
+    geo-referenced.
+    """
+    svc = services()
+    origin = geo_origin(recording)
+    if origin is not None and svc.store.session_row(session_id).origin_lat_deg is None:
+        svc.store.set_session(session_id, origin_lat_deg=origin[0], origin_lon_deg=origin[1])
 
 
 @bp.get("")
@@ -160,12 +170,21 @@ def delete_session(session_id: str) -> tuple[str, int]:
     return "", 204
 
 
+def refuse_file(session_id: str) -> None:
+    """415 naming the upload route when a log file (multipart) is sent to a route that takes JSON."""
+    if request.mimetype == "multipart/form-data":
+        raise APIError(415, f"this route takes JSON; a log file of a paired device goes to POST "
+                            f"/api/v1/sessions/{session_id}/devices/ROLE/upload (multipart field 'file'), a log "
+                            "file for a new session to POST /api/v1/sessions", details={"field": "file"})
+
+
 @bp.post("/<session_id>/devices")
 def pair_device(session_id: str) -> tuple[Response, int]:
     """Pair a device (e.g. shoe IMUs with roles left_foot / right_foot) with a session."""
     user = current_user()
     svc = services()
     svc.store.session_row(session_id, user.id)
+    refuse_file(session_id)
     body = json_body()
     validate(body, PAIR_DEVICE, "device")
     svc.store.upsert_device(session_id, body["role"], device_id=body.get("device_id", ""),
@@ -226,6 +245,7 @@ def add_native_batch(session_id: str) -> tuple[Response, int]:
     user = current_user(allow_query_token=True, scope="ingest")
     svc = services()
     svc.store.session_row(session_id, user.id)
+    refuse_file(session_id)
     body = json_body()
     batch_id = body.get("batch_id") if isinstance(body, dict) else None
     if not isinstance(batch_id, str) or not batch_id:

@@ -18,6 +18,7 @@ from flask import Blueprint, Response, jsonify
 from pdr.errors import InputError
 from server.api import current_user, services
 from server.processing import FILE_PREFIX, decode_batch
+from server.session_clock import session_clock
 from server.store import BatchRecord
 
 bp = Blueprint("truth", __name__, url_prefix="/api/v1/sessions")
@@ -87,4 +88,5 @@ def truth(session_id: str) -> Response:
             for batch in svc.store.batches(session_id):
                 if batch.payload_format.startswith(FILE_PREFIX):
                     sets.append(_cached_truth(batch, str(svc.store.engine.url)))
-    return jsonify({"session": session_id, "truth": sets, "count": sum(len(s["points"]) for s in sets)})
+    return jsonify({"session": session_id, "truth": sets, "count": sum(len(s["points"]) for s in sets),
+                    "clock": session_clock(svc.store, row)})

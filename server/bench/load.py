@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from pdr.cli.progress import Progress
 from server.client import Client, add_user
 
 
@@ -138,13 +139,20 @@ def percentiles_ms(latencies_s: list[float]) -> dict[str, float]:
 
 def run_load(args: argparse.Namespace) -> dict[str, Any]:
     """Run the load check with the parsed command-line options; returns the figures."""
+    with Progress(5, "bench load") as bar:   # simulate, start, upload in real time, drain, check
+        return _run_load(args, bar)
+
+
+def _run_load(args: argparse.Namespace, bar: Progress) -> dict[str, Any]:
     from server.bench.cluster import ensure_services, replay_phones, running_cluster, temporary_postgres, wait_drained
     from server.queue import purge_namespace, redis_client
 
+    bar.set_note(f"simulating {min(args.recordings, args.phones)} walks of {args.minutes:g} min")
     t_sim = time.perf_counter()
     uploads = simulated_uploads(args.phones, args.minutes, args.batch_s, args.recordings)
     big = big_upload(args.big_upload_mb) if args.big_upload_mb > 0 else None
     sim_s = time.perf_counter() - t_sim
+    bar.advance(note="starting PostgreSQL, web processes and workers")
     ensure_services(args.postgres_admin_url, args.redis_url)
     namespace = f"pdrbench-{uuid.uuid4().hex[:8]}"
     env = {"PDR_PROCESSOR": args.processor} if args.processor else {}
@@ -168,6 +176,7 @@ def run_load(args: argparse.Namespace) -> dict[str, Any]:
                 prober = threading.Thread(target=health_during_upload, args=(cluster.urls[0], token, big, delay_s,
                                                                            probe), daemon=True)
                 prober.start()
+            bar.advance(note=f"{args.phones} phones uploading for {args.minutes:g} min")
             t0 = time.perf_counter()
             replay = replay_phones(cluster.urls, token, uploads, pace_s=0.0 if args.flood else args.batch_s)
             upload_s = time.perf_counter() - t0
@@ -177,6 +186,7 @@ def run_load(args: argparse.Namespace) -> dict[str, Any]:
                 if "session" in probe:  # the big log is a session too: wait for it and check it as well
                     replay.session_ids["big-upload"] = probe.pop("session")
                     replay.acknowledged["big-upload"] = []
+            bar.advance(note="waiting for the processing backlog to drain")
             t1 = time.perf_counter()
             try:
                 wait_drained(cluster.urls[0], token, list(replay.session_ids.values()),
@@ -187,6 +197,7 @@ def run_load(args: argparse.Namespace) -> dict[str, Any]:
             drain_s = time.perf_counter() - t1
             stop.set()
             sampler.join()
+            bar.advance(note="checking every session's track")
             result["processing_batches_per_s"] = _processing_rate(db_url)
             sent = sum(len(v) for v in uploads.values())
             acked = sum(len(v) for v in replay.acknowledged.values())
@@ -201,6 +212,7 @@ def run_load(args: argparse.Namespace) -> dict[str, Any]:
             })
             if replay.refused:
                 result["first_refusal"] = replay.refused[0]
+            bar.advance()
     finally:  # after the processes stopped, so that none writes to the namespace again
         purge_namespace(redis_client(args.redis_url), namespace)
     return result

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from classifiers.artifacts import load_model
@@ -40,3 +41,38 @@ def test_eval_classifier_timeline_cli(tmp_path, capsys):
     assert main(["eval", "classifier", "motion_mode", "--timeline", "--data", str(log), "--json"]) == 0
     fig = json.loads(capsys.readouterr().out)
     assert fig["walk_recordings"] == 1 and fig["walk_vehicle_windows"] == 0
+
+
+def test_eval_classifier_targets_cli(capsys):
+    sim = REPO_ROOT / "mobile_logs" / "sim"
+    logs = [str(sim / "pocket_office.zip"), str(sim / "hand_escalator.zip")]
+    assert main(["eval", "classifier", "motion_mode", "--targets", "--data", *logs, "--json"]) == 0
+    fig = json.loads(capsys.readouterr().out)
+    by_name = {r["target"]: r for r in fig["targets"]}
+    walks = by_name["walking recordings with a car_*/vehicle label"]
+    assert walks["value"] == "0 of 2" and walks["met"] is True
+    # No landmarks, no car trip, no floor legs in simulated logs: those targets say so instead of passing.
+    assert by_name["stops of 5 s or more (IPIN landmarks) appearing as standing"]["met"] is None
+    assert by_name["driving windows labelled vehicle"]["met"] is None
+    assert by_name["elevator rides reported with the right floor count"]["met"] is None
+
+
+def test_timeline_scores_of_a_hand_held_walk_with_a_stop():
+    from classifiers.timeline_scores import timeline_scores, truth_labels
+
+    rec = read_recording(data_path("ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial03_repetition01.txt"))
+    t = np.array([100.0, 130.0, 160.0])
+    assert list(truth_labels(rec, t)) == ["walking", "standing", "walking"]  # landmark 7 passed twice, 118-154 s
+    fig = timeline_scores([rec])
+    hand = fig["groups"]["hand"]
+    assert hand["per_class"]["standing"]["support"] == pytest.approx(154 - 118, abs=1.0)
+    assert hand["per_class"]["standing"]["recall"] > 0.7 and hand["per_class"]["walking"]["f1"] > 0.9
+
+
+def test_step_timeline_label_at():
+    from classifiers.floor_eval import StepTimeline
+
+    tl = StepTimeline(np.zeros(0), np.zeros(0), np.zeros(0, dtype=object), (),
+                      ((0.0, "walking"), (5.0, "standing"), (9.0, "walking")))
+    assert list(tl.label_at(np.array([-1.0, 0.0, 4.9, 5.0, 8.0, 20.0]))) == [
+        "", "walking", "walking", "standing", "standing", "walking"]

@@ -1,9 +1,10 @@
-"""Building native batches for server tests."""
+"""Helpers of the server tests: native batches and multipart bodies to send, waiting for a real server."""
 
 from __future__ import annotations
 
 import io
 import json
+import time
 from dataclasses import replace
 from typing import Any
 
@@ -12,6 +13,7 @@ import numpy as np
 from pdr.errors import InputError
 from pdr.io.native import batch_to_json
 from pdr.recording import DeviceInfo, GroundTruth, Recording, SensorStream
+from server.client import Client
 
 
 def phone_batch(batch_id: str, start_s: float, duration_s: float = 1.0, rate_hz: float = 50.0,
@@ -51,3 +53,15 @@ def multipart(fields: dict[str, Any]) -> tuple[bytes, str]:
     values = {k: FileStorage(io.BytesIO(v[0]), filename=v[1]) if isinstance(v, tuple) else v for k, v in fields.items()}
     boundary, body = encode_multipart(values)
     return body, f"multipart/form-data; boundary={boundary}"
+
+
+def wait_processed(client: Client, session_id: str, timeout_s: float = 600.0) -> dict[str, Any]:
+    """The session's detail once a real server has processed every batch of it (status done or failed, nothing
+    pending); fails the test after ``timeout_s`` (a loaded machine compiles the foot kernels slowly)."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        s = client.request("GET", f"/api/v1/sessions/{session_id}").json()
+        if s["status"] in ("done", "failed") and not s["batches"].get("pending"):
+            return s
+        assert time.monotonic() < deadline, s
+        time.sleep(0.3)

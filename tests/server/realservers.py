@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import uuid
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
@@ -37,6 +38,15 @@ def pg_database() -> Iterator[str]:
             admin = psycopg.connect(POSTGRES_ADMIN_URL, autocommit=True, connect_timeout=10)
             admin.execute(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)')
         admin.close()
+
+
+@pytest.fixture(params=["sqlite", "postgresql"])
+def database_url(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[str]:
+    """SQLAlchemy URL of an empty database, in turn a SQLite file and a fresh PostgreSQL database (migration tests)."""
+    if request.param == "sqlite":
+        yield f"sqlite:///{tmp_path / 'legacy.db'}"
+    else:
+        yield "postgresql+psycopg://" + request.getfixturevalue("pg_database").split("://", 1)[1]
 
 
 @pytest.fixture

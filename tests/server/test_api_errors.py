@@ -99,9 +99,10 @@ def test_422_schema_violations_name_the_field(client, tokens, body, match):
 def test_422_invalid_batch_names_stream_and_sample(client, tokens):
     sid = _session(client, tokens["alice"])
     batch = phone_batch("b1", 0.0)
-    batch["streams"]["acc"]["t_ns"][3] = batch["streams"]["acc"]["t_ns"][2]
+    t = batch["streams"]["acc"]["t_ns"]
+    t[3:6] = [t[2] - 3, t[2] - 2, t[2] - 1]  # a broken clock (a repeated or lone backward sample is dropped)
     resp = client.post(f"/api/v1/sessions/{sid}/batches", json=batch, headers=bearer(tokens["alice"]))
-    assert_error(resp, 422, "acc")
+    assert_error(resp, 422, "field 'streams.acc.t_ns[3]': time goes backwards in 3 of 50")
     assert client.get(f"/api/v1/sessions/{sid}", headers=bearer(tokens["alice"])).get_json()["batch_list"] == []
 
 

@@ -43,22 +43,22 @@ def join_all(client: FlaskClient, token: str, gid: str, sc: Any) -> None:
 
 
 def events_json(sc: Any, agent: str, t0: float, t1: float) -> list[dict[str, Any]]:
+    """The agent's events in [t0, t1) as it uploads them (the simulation's feet left/right named as the API's)."""
     from pdr.fusion.measurements import InterAgentRange, StepSummary
     out = []
     for e in sc.events():
         if not t0 <= e.t_s < t1:
             continue
         if isinstance(e, StepEvent) and e.agent == agent:
-            out.append(event_to_dict(StepSummary(e.agent, e.foot, e.increment)))
+            out.append(event_to_dict(StepSummary(e.agent, f"{e.foot}_foot", e.increment)))
         elif not isinstance(e, StepEvent) and e.agent_a == agent:
             out.append(event_to_dict(InterAgentRange(e.t_s, e.agent_a, e.agent_b, e.measured_m)))
     return out
 
 
-@pytest.mark.parametrize("foot_names", ["group", "sessions"])
-def test_group_fuses_uploads_like_the_library(gclient: FlaskClient, tokens: dict[str, str], foot_names: str) -> None:
-    """The same fusion whether the step events name the feet as the group does (left, right) or as sessions do
-    (left_foot, right_foot)."""
+def test_group_fuses_uploads_like_the_library(gclient: FlaskClient, tokens: dict[str, str]) -> None:
+    """The library's fusion of the same events, with the feet named as sessions name them everywhere in the API:
+    step events, the group's configuration, corrections and tracks (left_foot, right_foot)."""
     tok = tokens["alice"]
     r = gclient.post("/api/v1/groups", headers=bearer(tok), json={"name": "team", "contact_timeout_s": 30})
     assert r.status_code == 201
@@ -68,8 +68,6 @@ def test_group_fuses_uploads_like_the_library(gclient: FlaskClient, tokens: dict
     for t0 in range(0, 31, 10):
         for a in sc.agents:
             events = events_json(sc, a, t0, t0 + 10)
-            if foot_names == "sessions":
-                events = [e | ({"foot": f"{e['foot']}_foot"} if "foot" in e else {}) for e in events]
             r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=bearer(tok),
                              json={"batch_id": f"{a}-{t0}", "agent": a, "events": events})
             assert r.status_code == 201, r.get_json()
@@ -81,12 +79,15 @@ def test_group_fuses_uploads_like_the_library(gclient: FlaskClient, tokens: dict
     corr = gclient.get(f"/api/v1/groups/{gid}/agents/a1/correction", headers=bearer(tok)).get_json()
     reference = run_scenario(sc)
     np.testing.assert_allclose(corr["mean"], reference.centre.correction("a1").mean, atol=1e-9)
+    assert corr["feet"] == ["left_foot", "right_foot"]
     tracks = gclient.get(f"/api/v1/groups/{gid}/tracks", headers=bearer(tok)).get_json()["agents"]
-    assert set(tracks) == {"a0", "a1"} and len(tracks["a0"]["left"]) == 31       # initial pose + 30 steps
-    east = [row[1] for row in tracks["a0"]["left"]]
+    assert set(tracks) == {"a0", "a1"} and set(tracks["a0"]) == {"left_foot", "right_foot"}
+    assert len(tracks["a0"]["left_foot"]) == 31                                 # initial pose + 30 steps
+    east = [row[1] for row in tracks["a0"]["left_foot"]]
     assert east[-1] == pytest.approx(30.0, abs=2.0)
     detail = gclient.get(f"/api/v1/groups/{gid}", headers=bearer(tok)).get_json()
     assert detail["pending"] == 0 and detail["fusion_counts"]["ranges"] > 0
+    assert detail["config"]["feet"] == ["left_foot", "right_foot"]
     listed = gclient.get("/api/v1/groups", headers=bearer(tok)).get_json()["groups"]
     assert [g["id"] for g in listed] == [gid]
 
@@ -103,12 +104,40 @@ def test_access_control_and_errors(gclient: FlaskClient, tokens: dict[str, str])
     assert r.status_code == 422 and r.get_json()["error"]["code"] == "invalid_input"
     r = gclient.post("/api/v1/groups", headers=alice, json={"config": {"feet": []}})
     assert r.status_code == 422 and "feet" in r.get_json()["error"]["message"]
+    # One foot vocabulary: the fusion library's old names are refused, naming the field and the new name.
+    r = gclient.post("/api/v1/groups", headers=alice, json={"config": {"feet": ["left_foot", "right"]}})
+    assert r.status_code == 422 and r.get_json()["error"]["details"]["path"] == "config.feet[1]"
+    assert "now called 'right_foot'" in r.get_json()["error"]["message"]
+    r = gclient.post("/api/v1/groups", headers=alice, json={"config": {"feet": ["hand"]}})
+    assert r.status_code == 422 and "config.feet[0]" in r.get_json()["error"]["message"]
+    for config, path in (({"ranging": {"sigma_m": 0}}, "config.ranging.sigma_m"),
+                         ({"lattice_points": 2.5}, "config.lattice_points"), ({"colour": 1}, "config")):
+        r = gclient.post("/api/v1/groups", headers=alice, json={"config": config})
+        assert r.status_code == 422 and r.get_json()["error"]["details"]["path"] == path, r.get_json()
+    spec = gclient.get("/api/v1/openapi.json").get_json()["components"]["schemas"]["CreateGroup"]
+    assert spec["properties"]["config"]["properties"]["ranging"]["properties"]["sigma_m"]["exclusiveMinimum"] == 0
+    one = gclient.post("/api/v1/groups", headers=alice, json={"config": {"feet": ["right_foot"]}}).get_json()
+    assert one["config"]["feet"] == ["right_foot"]
+    assert gclient.post(f"/api/v1/groups/{one['id']}/agents", headers=alice,
+                        json={"agent": "x", "pos0_n": [0, 0, 0]}).status_code == 201
+    step = {"type": "step", "agent": "x", "foot": "left_foot", "t_s": 1, "dp": [1, 0, 0], "dpsi": 0,
+            "cov": np.eye(4).tolist()}
+    r = gclient.post(f"/api/v1/groups/{one['id']}/uploads", headers=alice,
+                     json={"batch_id": "b", "agent": "x", "events": [step]})
+    assert r.status_code == 422 and "one of this group's feet, right_foot" in r.get_json()["error"]["message"]
     assert gclient.post("/api/v1/groups", headers=alice, data="x").status_code == 415
     r = gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice, json={"agent": "x", "pos0_n": [0, 0]})
     assert r.status_code == 422
     r = gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice,
                      json={"agent": "x", "pos0_n": [0, 0, 0], "session_id": "nope"})
     assert r.status_code == 404
+    r = gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice,
+                     json={"agent": "x", "pos0_n": [0, 0, 0], "clock_offset_s": 5.0})
+    assert r.status_code == 422 and r.get_json()["error"]["details"]["field"] == "clock_offset_s"
+    sid = gclient.post("/api/v1/sessions", headers=alice, json={"session_id": "walk"}).get_json()["id"]
+    r = gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice, data='{"agent": "x", "pos0_n": [0, 0, 0], '
+                     f'"session_id": "{sid}", "clock_offset_s": Infinity}}', content_type="application/json")
+    assert r.status_code == 422 and "finite" in r.get_json()["error"]["message"]
     assert gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice,
                         json={"agent": "x", "pos0_n": [0, 0, 0]}).status_code == 201
     assert gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice,
@@ -116,11 +145,14 @@ def test_access_control_and_errors(gclient: FlaskClient, tokens: dict[str, str])
     bad = [({"batch_id": "b", "agent": "y", "events": []}, "has not joined"),
            ({"batch_id": "b", "agent": "x", "events": [{"type": "range", "agent_a": "x", "agent_b": "z",
                                                          "t_s": 1, "range_m": 2}]}, "events[0]: agent 'z'"),
-           ({"batch_id": "b", "agent": "x", "events": [{"type": "step", "agent": "x", "foot": "left", "t_s": 1,
-                                                         "dp": [1, 0], "dpsi": 0, "cov": []}]}, "events[0]"),
+           ({"batch_id": "b", "agent": "x", "events": [{"type": "step", "agent": "x", "foot": "left_foot",
+                                                         "t_s": 1, "dp": [1, 0], "dpsi": 0, "cov": []}]}, "events[0]"),
            ({"batch_id": "b", "agent": "x", "events": [{"type": "step", "agent": "x", "foot": "hand", "t_s": 1,
                                                          "dp": [1, 0, 0], "dpsi": 0,
-                                                         "cov": np.eye(4).tolist()}]}, "foot must be"),
+                                                         "cov": np.eye(4).tolist()}]}, "events[0].foot: 'hand'"),
+           ({"batch_id": "b", "agent": "x", "events": [{"type": "step", "agent": "x", "foot": "left", "t_s": 1,
+                                                         "dp": [1, 0, 0], "dpsi": 0, "cov": np.eye(4).tolist()}]},
+            "events[0].foot: the foot 'left' is now called 'left_foot'"),
            ({"batch_id": "b", "agent": "x", "events": [{"type": "range", "agent_a": "x", "agent_b": "x",
                                                          "t_s": 1}]}, "events[0]: 'range_m' is a required"),
            ({"batch_id": "b", "agent": "x", "events": [{"type": "walk", "t_s": 1}]}, "events[0].type")]
@@ -154,8 +186,3 @@ def test_stale_ranges_are_refused_and_nothing_of_the_upload_is_kept(gclient: Fla
     r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=bearer(tok),
                      json={"batch_id": "walk", "agent": "a0", "events": steps})
     assert r.status_code == 201 and r.get_json()["accepted"] == len(steps)       # the refused one was not kept
-    single = gclient.post("/api/v1/groups", headers=bearer(tok), json={"config": {"feet": ["foot"]}}).get_json()
-    sid = gclient.post("/api/v1/sessions", headers=bearer(tok), json={"session_id": "k"}).get_json()["id"]
-    r = gclient.post(f"/api/v1/groups/{single['id']}/agents", headers=bearer(tok),
-                     json={"agent": "x", "pos0_n": [0, 0, 0], "session_id": sid})
-    assert r.status_code == 422 and r.get_json()["error"]["details"]["field"] == "session_id"

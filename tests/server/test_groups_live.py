@@ -1,12 +1,13 @@
 """Issue 32 item 8 against the real ``pdr serve`` process: a group whose agents take their steps from live
-sessions (updated as the sessions' batches arrive), ranges fused and stale ones refused with 422, one foot
-vocabulary, and the upload's documented schema.
+sessions (updated as the sessions' batches arrive, a session's clock put on the group's by the agent's
+``clock_offset_s``), ranges fused and stale ones refused with 422, one foot vocabulary (``left_foot``/``right_foot``
+in the configuration, step events, corrections and tracks; the old ``left`` refused naming the field), and the
+upload's documented schema.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import time
 from typing import Any
 
 import numpy as np
@@ -14,24 +15,25 @@ import pytest
 
 from pdr.io import read_recording
 from pdr.io.native import batch_to_json
+from pdr.recording import Recording
 from server.client import Client, add_user, running_server
 from tests.conftest import data_path
-from tests.server.helpers import multipart
+from tests.server.helpers import multipart, wait_processed
 
 pytestmark = [pytest.mark.data, pytest.mark.timeout(1500)]
 
 #: Two PyShoe trials whose walks end within 4 s of each other (last final steps at 42.1 s and about 40 s).
 TRIAL_A, TRIAL_B = "2017-11-27-11-18-11", "2017-11-27-11-24-07"
+#: Agent b's shoe stamps its samples on its own clock, this much ahead of the group's (s; e.g. time since boot).
+B_CLOCK_AHEAD_S = 1000.0
 
 
-def _wait_done(c: Client, sid: str) -> dict[str, Any]:
-    deadline = time.monotonic() + 600             # a loaded machine compiles the foot kernels slowly
-    while True:
-        s = c.request("GET", f"/api/v1/sessions/{sid}").json()
-        if s["status"] in ("done", "failed") and not s["batches"].get("pending"):
-            return s
-        assert time.monotonic() < deadline, s
-        time.sleep(0.3)
+def _clock_shifted(rec: Recording, ahead_s: float) -> Recording:
+    """``rec`` as a device whose clock is ``ahead_s`` (s) ahead of the recording's."""
+    dt_ns = int(round(ahead_s * 1e9))
+    streams = {k: dataclasses.replace(st, t_ns=st.t_ns + dt_ns) for k, st in rec.streams.items()}
+    return dataclasses.replace(rec, streams=streams, t0_ns=rec.origin_ns + dt_ns)
+
 
 
 def _agent(c: Client, gid: str, name: str) -> dict[str, Any]:
@@ -47,13 +49,14 @@ def _final_steps(c: Client, sid: str) -> list[float]:
 
 def _left_track(c: Client, gid: str, name: str) -> list[list[float]]:
     tracks = c.request("GET", f"/api/v1/groups/{gid}/tracks?agent={name}").json()["agents"]
-    return tracks.get(name, {}).get("left", [])
+    return tracks.get(name, {}).get("left_foot", [])
 
 
 def test_a_group_fed_by_live_sessions_through_the_real_service(tmp_path) -> None:
     log_a = data_path("pyshoe_vicon", f"{TRIAL_A}.mat")
     rec_b = read_recording(data_path("pyshoe_vicon", f"{TRIAL_B}.mat"))
-    rec_b = dataclasses.replace(rec_b, device=dataclasses.replace(rec_b.device, role="left_foot"))
+    rec_b = _clock_shifted(dataclasses.replace(rec_b, device=dataclasses.replace(rec_b.device, role="left_foot")),
+                           B_CLOCK_AHEAD_S)
     half_s = 20.0
     with running_server(tmp_path / "srv") as (url, env, _):
         c = Client(url, add_user(env, "leader"))
@@ -61,6 +64,7 @@ def test_a_group_fed_by_live_sessions_through_the_real_service(tmp_path) -> None
         spec = c.request("GET", "/api/v1/openapi.json").json()
         events = spec["components"]["schemas"]["GroupUpload"]["properties"]["events"]["items"]
         assert events["properties"]["type"]["enum"][0] == "step" and len(events["allOf"]) == 5
+        assert events["allOf"][0]["then"]["properties"]["foot"]["enum"] == ["left_foot", "right_foot"]
 
         # Agent a: its shoe file is in its session before it joins; joining feeds the steps taken so far.
         sa = c.request("POST", "/api/v1/sessions", {"session_id": "walker-a"}).json()["id"]
@@ -68,27 +72,31 @@ def test_a_group_fed_by_live_sessions_through_the_real_service(tmp_path) -> None
         body, content_type = multipart({"file": (log_a.read_bytes(), log_a.name)})
         assert c.request("POST", f"/api/v1/sessions/{sa}/devices/left_foot/upload", raw=body,
                          content_type=content_type).status == 201
-        _wait_done(c, sa)
+        wait_processed(c, sa)
         steps_a = _final_steps(c, sa)
-        r = c.request("POST", "/api/v1/groups", {"name": "pair", "config": {"feet": ["left"]},
+        r = c.request("POST", "/api/v1/groups", {"name": "pair", "config": {"feet": ["left"]}})
+        assert r.status == 422 and "now called 'left_foot'" in r.json()["error"]["message"], r.body
+        r = c.request("POST", "/api/v1/groups", {"name": "pair", "config": {"feet": ["left_foot"]},
                                                  "contact_timeout_s": 600})
-        assert r.status == 201, r.body
+        assert r.status == 201 and r.json()["config"]["feet"] == ["left_foot"], r.body
         gid = r.json()["id"]
         r = c.request("POST", f"/api/v1/groups/{gid}/agents", {"agent": "a", "session_id": sa,
                                                                "pos0_n": [0, 0, 0]})
         assert r.status == 201 and r.json()["correction"]["steps"] == [len(steps_a)], r.body
+        assert r.json()["correction"]["feet"] == ["left_foot"]
         assert _agent(c, gid, "a")["latest_s"] == steps_a[-1] == r.json()["correction"]["t_s"][0]
 
-        # Agent b joins before its session has data; its track follows the batches as they are processed.
+        # Agent b joins before its session has data; its track follows the batches as they are processed, its
+        # shoe's clock put on the group's.
         sb = c.request("POST", "/api/v1/sessions", {"session_id": "walker-b"}).json()["id"]
         assert c.request("POST", f"/api/v1/sessions/{sb}/devices", {"role": "left_foot"}).status == 201
-        assert c.request("POST", f"/api/v1/groups/{gid}/agents", {"agent": "b", "session_id": sb,
-                                                                  "pos0_n": [0, 10, 0]}).status == 201
+        assert c.request("POST", f"/api/v1/groups/{gid}/agents", {"agent": "b", "session_id": sb, "pos0_n": [0, 10, 0],
+                                                                  "clock_offset_s": -B_CLOCK_AHEAD_S}).status == 201
         assert _left_track(c, gid, "b") == [[0.0, 0.0, 10.0, 0.0, 90.0]]          # its initial pose only
         for i, (t0, t1) in enumerate(((0.0, half_s), (half_s, float(rec_b.duration_s) + 1.0))):
             batch = batch_to_json(rec_b.slice_time(t0, t1), batch_id=f"b-{i}")
             assert c.request("POST", f"/api/v1/sessions/{sb}/batches", batch).status == 201
-            _wait_done(c, sb)
+            wait_processed(c, sb)
             track = _left_track(c, gid, "b")
             fed = _agent(c, gid, "b")["latest_s"]
             assert track[-1][0] == fed and len(track) > 5
@@ -97,8 +105,13 @@ def test_a_group_fed_by_live_sessions_through_the_real_service(tmp_path) -> None
                 first_half = len(track)
             else:
                 assert len(track) > first_half
-        # Every final step of the session is in the group, at its time, no more (the provisional tail is not).
-        assert [row[0] for row in _left_track(c, gid, "b")[1:]] == _final_steps(c, sb)
+        assert _agent(c, gid, "b")["clock_offset_s"] == -B_CLOCK_AHEAD_S and _agent(c, gid, "a")["clock_offset_s"] == 0
+        # Every final step of the session is in the group, at its time on the group's clock, no more (the
+        # provisional tail is not).
+        session_steps = _final_steps(c, sb)
+        assert session_steps[0] > B_CLOCK_AHEAD_S
+        assert [row[0] for row in _left_track(c, gid, "b")[1:]] == pytest.approx(
+            [t - B_CLOCK_AHEAD_S for t in session_steps], abs=1e-6)
 
         # Steps of an agent fed from a session are refused; its ranges are taken.
         step = {"type": "step", "agent": "a", "foot": "left_foot", "t_s": 50.0, "dp": [1, 0, 0], "dpsi": 0,
@@ -124,6 +137,8 @@ def test_a_group_fed_by_live_sessions_through_the_real_service(tmp_path) -> None
         r = c.request("POST", f"/api/v1/groups/{gid}/uploads", {"batch_id": "c1", "agent": "c", "events": [step]})
         assert r.status == 201 and r.json()["accepted"] == 1
         r = c.request("POST", f"/api/v1/groups/{gid}/uploads",
-                      {"batch_id": "c2", "agent": "c", "events": [dict(step, foot="hand", t_s=2.0)]})
-        assert r.status == 422 and "foot must be one of left" in r.json()["error"]["message"]
+                      {"batch_id": "c2", "agent": "c", "events": [dict(step, foot="left", t_s=2.0)]})
+        assert r.status == 422 and r.json()["error"]["details"]["path"] == "events[0].foot", r.body
+        tracks = c.request("GET", f"/api/v1/groups/{gid}/tracks").json()["agents"]
+        assert {foot for feet in tracks.values() for foot in feet} == {"left_foot"}
         c.close()

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -25,21 +24,13 @@ from pdr.phone.pipeline import PdrPipeline, PipelineConfig
 from server import auth, db, migrations
 from server.api.results import _smoothed
 from server.store import STEP_FIELDS, Store, step_fields
-from tests.server.realservers import pg_database  # noqa: F401  (fixture)
+from tests.server.realservers import database_url, pg_database  # noqa: F401  (fixtures)
 
 LOG = Path(__file__).resolve().parents[2] / "mobile_logs" / "sim" / "hand_escalator.zip"
 #: The step event fields the service kept for the heading smoother until migration 0009_typed_steps.
 OLD_SMOOTHER_INPUTS = ("placement", "heading_sigma_deg", "heading_raw_deg", "gyro_heading_deg", "up_time_s",
                        "gyro_bias_dps", "position_fix", "landmark_heading")
 TRACK = ("t_s", "east_m", "north_m", "up_m", "floor", "heading_deg", "step_length_m", "mode")
-
-
-@pytest.fixture(params=["sqlite", "postgresql"])
-def database_url(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[str]:
-    if request.param == "sqlite":
-        yield f"sqlite:///{tmp_path / 'legacy.db'}"
-    else:
-        yield "postgresql+psycopg://" + request.getfixturevalue("pg_database").split("://", 1)[1]
 
 
 @pytest.fixture(scope="module")
@@ -111,7 +102,8 @@ def _check_migrated(store: Store, sid: str, phone: list[dict[str, Any]]) -> None
     assert len(store.events(sid, "mode")) == 1
 
 
-def test_migration_keeps_old_steps_and_numbers_them(database_url: str, phone_rows: list[dict[str, Any]]) -> None:
+def test_migration_keeps_old_steps_and_numbers_them(database_url: str,  # noqa: F811
+                                                    phone_rows: list[dict[str, Any]]) -> None:
     cfg = migrations.alembic_config(database_url)
     command.upgrade(cfg, "0006")
     engine = db.make_engine(database_url)

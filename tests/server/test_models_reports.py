@@ -81,6 +81,8 @@ def test_allan_report_round_trip(client, tokens):
     assert png.status_code == 200 and png.data[:8] == b"\x89PNG\r\n\x1a\n"
     html = client.get(f"/api/v1/reports/{rid}/report.html", headers=h)
     assert html.status_code == 200 and b"<html" in html.data.lower()
+    # the report names the uploaded file, never the server's temporary copy of it
+    assert b"static.npz" in html.data and b"pdr-upload-" not in html.data and "pdr-upload-" not in str(rep)
     assert client.get(f"/api/v1/reports/{rid}", headers=bearer(tokens["bob"])).status_code == 404
 
 

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
+import pytest
+
 from classifiers.timeline import ModeEntry, StepModes
 from pdr.phone.events import StepEvent
 from server.phone_processor import convert_events
@@ -23,3 +27,30 @@ def test_convert_events_places_stops_among_the_steps():
     assert modes.last == "walking" and out.track == events      # the steps are stored as they are
     # The classifier's timeline (pocket phones) takes no step-mode entries.
     assert not [r for r in convert_events(events, StepModes(), step_modes=False).events if r.kind == "mode"]
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(300)
+def test_escalator_ride_appears_in_modes_with_its_floor_change(tmp_path):
+    # The simulated hand-held escalator walk: one floor down on an escalator, walking before and after.
+    from server import auth
+    from tests.server.conftest import bearer, make_app
+    from tests.server.helpers import multipart
+
+    app = make_app(tmp_path, processor_factory=None)
+    try:
+        with app.extensions["pdr"].store.engine.begin() as conn:
+            token = auth.add_user(conn, "walker")
+        log = Path(__file__).resolve().parents[2] / "mobile_logs" / "sim" / "hand_escalator.zip"
+        body, ctype = multipart({"file": (log.read_bytes(), log.name), "placement": "hand"})
+        c = app.test_client()
+        resp = c.post("/api/v1/sessions", data=body, headers=bearer(token), content_type=ctype)
+        assert resp.status_code == 201, resp.get_json()
+        assert app.extensions["pdr"].worker.wait_idle(240)
+        modes = c.get(f"/api/v1/sessions/{resp.get_json()['id']}/modes", headers=bearer(token)).get_json()["modes"]
+    finally:
+        app.extensions["pdr"].worker.stop()
+    rides = [m for m in modes if m["label"].startswith(("elevator", "escalator"))]
+    assert [m["label"] for m in rides] == ["escalator_down"], modes
+    assert rides[0]["floors"] == 1 and rides[0]["t_s"] < 26.0 and rides[0]["t_end_s"] > 14.0
+    assert not any(m["label"].startswith("stairs") for m in modes), modes  # walking off is not stairs

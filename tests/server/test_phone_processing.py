@@ -160,3 +160,19 @@ def test_pocket_office_walk_has_no_car_labels_when_standing(real_app):
     labels = Counter(m["label"] for m in _modes(app, token, session))
     assert not [k for k in labels if k.startswith(("car_", "vehicle"))], labels
     assert labels["stationary"] + labels["standing"] > 0, labels
+
+
+def test_the_no_classifier_notice_says_whether_the_placement_was_given_or_detected():
+    """A session without a placement once read "placement: null" beside "this one is carried in the hand"."""
+    from server.phone_processor import PhoneProcessor
+    from server.processing import SessionContext
+
+    for placement, auto in (("hand", False), (None, True)):
+        proc = PhoneProcessor(SessionContext("s", "phone", placement, {}), None)
+        assert proc.pipeline.auto_placement is auto
+        proc.pipeline.placement = "hand"  # as the online detector sets it
+        _, notice = proc._classify(None)  # type: ignore[arg-type]  # turned off before reading the batch
+        if auto:
+            assert "detected as carried in the hand (the session names no placement)" in notice
+        else:
+            assert "for a phone carried in the hand" in notice and "detected" not in notice

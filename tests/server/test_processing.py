@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import json
+
+import numpy as np
 from flask.testing import FlaskClient
 
 from tests.server.conftest import bearer, make_app
@@ -60,8 +63,38 @@ def test_since_returns_only_new_rows(app, client, tokens):
     csv_text = client.get(f"/api/v1/sessions/{sid}/track?format=csv", headers=h).get_data(as_text=True)
     assert csv_text.splitlines()[0] == "t_s,east_m,north_m,up_m,floor,heading_deg,step_length_m,mode,device"
     assert len(csv_text.splitlines()) == 4
-    geo = client.get(f"/api/v1/sessions/{sid}/track?format=geojson", headers=h).get_json()
-    assert len(geo["features"][0]["geometry"]["coordinates"]) == 3
+
+
+def test_geojson_is_rfc_7946_lon_lat_of_a_geo_referenced_session_only(app, client, tokens):
+    """Local metres once went out as "coordinates", which GIS tools read as degrees: without an origin the answer
+    is 409; with one, lon/lat, a LineString of two or more positions or a Point for one step."""
+    from pdr.frames import geodetic_to_local_enu
+    from tests.geojson_rfc7946 import check_rfc7946
+
+    h = bearer(tokens["alice"])
+    local = _new_session(client, tokens["alice"], "local")
+    client.post(f"/api/v1/sessions/{local}/batches", json=phone_batch("b0", 0.0), headers=h)
+    geo = client.post("/api/v1/sessions", json={"session_id": "geo", "origin": {"lat_deg": 51.5, "lon_deg": -0.12}},
+                      headers=h).get_json()["id"]
+    client.post(f"/api/v1/sessions/{geo}/batches", json=phone_batch("b0", 0.0), headers=h)
+    app.extensions["pdr"].worker.wait_idle()
+    r = client.get(f"/api/v1/sessions/{local}/track?format=geojson", headers=h)
+    assert r.status_code == 409 and r.get_json()["error"]["code"] == "not_geo_referenced"
+    assert "not geo-referenced" in r.get_json()["error"]["message"]
+    one = json.loads(client.get(f"/api/v1/sessions/{geo}/track?format=geojson", headers=h).data)
+    check_rfc7946(one)
+    assert one["features"][0]["geometry"]["type"] == "Point"  # one step: no one-position LineString
+    for i in (1, 2):
+        client.post(f"/api/v1/sessions/{geo}/batches", json=phone_batch(f"b{i}", float(i)), headers=h)
+    app.extensions["pdr"].worker.wait_idle()
+    r = client.get(f"/api/v1/sessions/{geo}/track?format=geojson", headers=h)
+    assert r.mimetype == "application/geo+json"
+    doc = json.loads(r.data)
+    check_rfc7946(doc)
+    (line,) = doc["features"]
+    assert line["geometry"]["type"] == "LineString" and line["properties"]["device"] == "phone"
+    lon, lat = np.array(line["geometry"]["coordinates"]).T
+    np.testing.assert_allclose(geodetic_to_local_enu(lat, lon, 51.5, -0.12), [[1, 0], [2, 0], [3, 0]], atol=0.02)
 
 
 def test_processing_failure_keeps_raw_batch_and_is_visible(tmp_path, tokens):  # noqa: ARG001

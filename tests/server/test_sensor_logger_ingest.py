@@ -106,3 +106,48 @@ def test_unknown_or_changed_push_placement_is_a_user_error(client, tokens):
     assert client.post(f"{URL}?token={tokens['alice']}&placement=hand", json=msgs[0]).status_code == 200
     changed = client.post(f"{URL}?token={tokens['alice']}&placement=bag", json=msgs[1])
     assert changed.status_code == 499 and "differs from the session's" in changed.get_data(as_text=True)
+
+
+def test_string_times_and_location_geo_reference_the_session(client, tokens):
+    """``time`` as a string of digits is accepted; ``location`` readings give the session its origin, so its
+    GeoJSON is in lon/lat (RFC 7946)."""
+    msgs = _messages(3)
+    for m in msgs:
+        for e in m["payload"]:
+            e["time"] = str(e["time"])
+    msgs[0]["payload"].append({"name": "location", "time": msgs[0]["payload"][0]["time"],
+                               "values": {"latitude": 49.4611, "longitude": 11.111, "altitude": 300.0,
+                                          "horizontalAccuracy": 4.5}})
+    for m in msgs:
+        r = client.post(f"{URL}?token={tokens['alice']}", json=m)
+        assert r.status_code == 200, r.get_data(as_text=True)
+    session = client.get("/api/v1/sessions", headers=bearer(tokens["alice"])).get_json()["sessions"][0]
+    assert session["origin"] == {"lat_deg": 49.4611, "lon_deg": 11.111}
+
+
+def test_push_url_platform_reads_raw_ios_data(client, tokens):
+    """Raw iOS data without orientation (Core Motion's -specific force, here a phone lying face-up reading
+    -1 g on z) was read as Android; ``?platform=ios&standardised=0`` says how to read it."""
+    t = 1_700_000_000_000_000_000 + np.arange(100, dtype=np.int64) * 20_000_000
+    msg = {"messageId": 1, "sessionId": "ios", "deviceId": "iphone",
+           "payload": [{"name": "accelerometer", "time": int(k), "values": {"x": 0.0, "y": 0.0, "z": 0.0}}
+                       for k in t] + [{"name": "gravity", "time": int(k), "values": {"x": 0.0, "y": 0.0, "z": -9.81}}
+                                      for k in t]}
+    from pdr.io.sensor_logger import parse_push_message
+
+    assert parse_push_message(msg).values("acc")[0, 2] < 0  # inferred: Android assumed, gravity upside down
+    r = client.post(f"{URL}?token={tokens['alice']}&platform=ios&standardised=0", json=msg)
+    assert r.status_code == 200, r.get_data(as_text=True)
+    assert parse_push_message(msg, platform="ios", standardised=False).values("acc")[0, 2] > 9.0
+    for bad in ("platform=windows", "standardised=maybe"):
+        r = client.post(f"{URL}?token={tokens['alice']}&{bad}", json=dict(msg, messageId=2))
+        assert r.status_code == 499 and r.mimetype == "text/plain" and bad.split("=")[0] in r.get_data(as_text=True)
+
+
+def test_oversized_message_is_499_with_a_text_body(client, tokens):
+    """Over the route's limit (PDR_MAX_BATCH_MB, 8 MB by default) the app shows only a 499's text."""
+    msg = _messages(1)[0]
+    msg["padding"] = "x" * (9 * 1024**2)
+    r = client.post(f"{URL}?token={tokens['alice']}", json=msg)
+    assert r.status_code == 499 and r.mimetype == "text/plain"
+    assert "message too large" in r.get_data(as_text=True)

@@ -111,6 +111,19 @@ def test_upload_to_a_device_refuses_what_the_pairing_does_not_allow(real_app: Fl
     assert client.get(f"/api/v1/sessions/{sid}", headers=bearer(token)).get_json()["batches"] == {}
 
 
+@pytest.mark.parametrize("route", ["batches", "devices", "steps"])
+def test_a_log_file_sent_where_json_is_expected_names_the_upload_route(client: FlaskClient, tokens: dict[str, str],
+                                                                       route: str) -> None:
+    """Issue 32 item 4: a shoe file posted to a JSON route is refused 415 with the route that takes it."""
+    sid = _session(client, tokens["alice"], "files", ("left_foot",))
+    body, content_type = multipart({"file": (b"MATLAB 5.0 MAT-file", "walk.mat")})
+    r = client.post(f"/api/v1/sessions/{sid}/{route}", headers=bearer(tokens["alice"]), data=body,
+                    content_type=content_type)
+    err = r.get_json()["error"]
+    assert r.status_code == 415 and f"/api/v1/sessions/{sid}/devices/ROLE/upload" in err["message"], err
+    assert err["details"]["field"] == "file"
+
+
 def test_duration_spans_every_device_and_the_foot_is_primary(app: Flask, client: FlaskClient,
                                                              tokens: dict[str, str]) -> None:
     """A 10 s phone walk with a 3 s shoe: the session lasts 10 s; its steps and distance are the shoe's."""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import io
 import json
 from collections.abc import Iterator
@@ -41,9 +42,13 @@ def test_page_is_served_without_authentication_and_holds_no_data(client: FlaskCl
         assert r.headers["X-Content-Type-Options"] == "nosniff"
 
 
+STATIC = Path(__file__).resolve().parents[2] / "server" / "web" / "static"
+
+
 def test_page_references_only_its_own_origin() -> None:
-    static = Path(__file__).resolve().parents[2] / "server" / "web" / "static"
-    for f in static.iterdir():
+    for f in STATIC.iterdir():
+        if not f.is_file():
+            continue  # vendor/: third-party files, checked against their record below
         text = f.read_text()
         assert "http://" not in text.replace("http://www.w3.org/2000/svg", ""), f.name
         assert "https://" not in text, f.name
@@ -124,3 +129,40 @@ def test_track_columns_errors(client: FlaskClient, tokens: dict[str, str]) -> No
     assert bad.status_code == 400 and "'since' must be a number" in bad.get_json()["error"]["message"]
     assert client.get(f"/api/v1/sessions/{sid}/track/columns", headers=bearer(tokens["bob"])).status_code == 404
     assert client.get(f"/api/v1/sessions/{sid}/track/columns").status_code == 401
+
+
+def test_vendored_leaflet_is_the_recorded_npm_release_with_its_licence() -> None:
+    folder = STATIC / "vendor" / "leaflet"
+    record = (folder / "VENDORED.md").read_text()
+    assert "leaflet@1.9.4" in record and "BSD 2-Clause" in record
+    assert (folder / "LICENSE").read_text().startswith("BSD 2-Clause License")
+    files = sorted([*folder.glob("*.js"), *folder.glob("*.css"), *folder.glob("images/*.png")])
+    assert {f.name for f in files} >= {"leaflet.js", "leaflet.css", "marker-icon.png"}
+    for f in files:
+        assert f"`{f.relative_to(folder).as_posix()}`: `{hashlib.sha256(f.read_bytes()).hexdigest()}`" in record, f
+
+
+def test_map_tiles_come_only_from_the_configured_server(tmp_path: Path) -> None:
+    """Without PDR_MAP_TILE_URL the page loads no image from elsewhere; with it, its host only, and the page's
+    configuration names the template and attribution; a malformed template is refused at start-up."""
+    plain = make_app(tmp_path / "plain", processor_factory=WebTestProcessor)
+    tiled = make_app(tmp_path / "tiled", processor_factory=WebTestProcessor,
+                     map_tile_url="https://{s}.tiles.example.org/osm/{z}/{x}/{y}.png", map_tile_attribution="© OSM")
+    try:
+        with plain.test_client() as c:
+            csp = c.get("/").headers["Content-Security-Policy"]
+            assert "img-src 'self' blob: data:;" in csp
+            assert c.get("/web/config.json").get_json() == {"map": {"tile_url": None, "attribution": None}}
+            with c.get("/web/vendor/leaflet/leaflet.js") as r:
+                assert r.status_code == 200 and r.mimetype == "text/javascript" and len(r.get_data()) > 100_000
+        with tiled.test_client() as c:
+            csp = c.get("/").headers["Content-Security-Policy"]
+            assert "img-src 'self' blob: data: https://*.tiles.example.org;" in csp
+            assert c.get("/web/config.json").get_json() == {"map": {
+                "tile_url": "https://{s}.tiles.example.org/osm/{z}/{x}/{y}.png", "attribution": "© OSM"}}
+    finally:
+        plain.extensions["pdr"].worker.stop()
+        tiled.extensions["pdr"].worker.stop()
+    for bad in ("tiles.example.org/{z}/{x}/{y}.png", "https://tiles.example.org/{z}/{x}.png", "ftp://h/{z}/{x}/{y}"):
+        with pytest.raises(ValueError, match="PDR_MAP_TILE_URL must be an http"):
+            make_app(tmp_path / "bad", processor_factory=WebTestProcessor, map_tile_url=bad)

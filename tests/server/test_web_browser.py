@@ -3,7 +3,7 @@
 The server is the real application on a real HTTP socket (werkzeug, in a thread) with the web test
 processor; sessions are seeded as processed results (a 2-hour walk, a foot session with both feet and
 the fused track, another user's session) or uploaded through the API (a log with waypoint truth, a live
-upload). Screenshots of the main views go to ``test-artifacts/web/``.
+upload). Screenshots of the main views go under a temporary folder (:func:`tests.server.live_web.shot`).
 
 The whole module takes about 25 s on the shared 2-core machine, so the default run keeps the core
 acceptance path (sign in, the 2-hour session drawn within the render budget, downloads) and the other
@@ -22,21 +22,20 @@ import json
 import math
 import statistics
 import struct
-import threading
 import time
 import zlib
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
-from server import auth
-from server.app import create_app
+from pdr.frames import local_enu_to_geodetic
 from server.client import Client
-from tests.server.helpers import phone_batch
+from tests.server.helpers import multipart, phone_batch
+from tests.server.live_web import LiveApp, shot, sign_in
 from tests.server.web_seed import (
-    WebTestProcessor,
     allan_report,
     corridor_walk,
     drifting_compass_walk,
@@ -45,25 +44,22 @@ from tests.server.web_seed import (
     truth_log,
 )
 
-ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts" / "web"
 LONG_WALK_S = 2 * 3600.0
 FIRST_RENDER_LIMIT_MS = 1000.0
 
 
-class LiveService:
-    """The app on a loopback socket, with seeded users and sessions."""
+TILE_URL = "https://tiles.test/{z}/{x}/{y}.png"
+#: Where the seeded geo-referenced session starts (WGS-84 degrees).
+GEO_ORIGIN = (49.4521, 11.0767)
+
+
+class LiveService(LiveApp):
+    """The app on a loopback socket (:class:`~tests.server.live_web.LiveApp`, with map tiles configured), with
+    seeded sessions."""
 
     def __init__(self, data_dir: Path) -> None:
-        from werkzeug.serving import make_server
-
-        self.app = create_app({"data_dir": str(data_dir), "processor_factory": WebTestProcessor, "settle_s": 0.0})
+        super().__init__(data_dir, map_tile_url=TILE_URL, map_tile_attribution="test tiles")
         svc = self.app.extensions["pdr"]
-        with svc.store.engine.begin() as conn:
-            self.tokens = {"alice": auth.add_user(conn, "alice"), "bob": auth.add_user(conn, "bob")}
-        self.server = make_server("127.0.0.1", 0, self.app, threaded=True)
-        self.url = f"http://127.0.0.1:{self.server.server_port}"
-        self.thread = threading.Thread(target=self.server.serve_forever, daemon=True)
-        self.thread.start()
         store = svc.store
         walk = corridor_walk(LONG_WALK_S)
         self.long_steps = len(walk.t_s)
@@ -92,11 +88,6 @@ class LiveService:
         alice.close()
         assert svc.worker.wait_idle(timeout_s=60)
 
-    def close(self) -> None:
-        self.server.shutdown()
-        self.thread.join(timeout=10)
-        self.app.extensions["pdr"].worker.stop()
-
 
 @pytest.fixture(scope="module")
 def live(tmp_path_factory: pytest.TempPathFactory, browser: Any) -> Iterator[LiveService]:
@@ -114,18 +105,6 @@ def page(browser: Any, live: LiveService) -> Iterator[Any]:
     yield pg
     context.close()
     assert not errors, f"JavaScript errors on the page: {errors}"
-
-
-def shot(page: Any, name: str) -> None:
-    ARTIFACTS.mkdir(parents=True, exist_ok=True)
-    page.screenshot(path=str(ARTIFACTS / f"{name}.png"), full_page=True)
-
-
-def sign_in(page: Any, live: LiveService, user: str = "alice") -> None:
-    page.goto(live.url + "/")
-    page.fill("#token", live.tokens[user])
-    page.click("#signin-form button[type=submit]")
-    page.wait_for_selector("#sessions-table tbody tr")
 
 
 def track_point_counts(page: Any) -> dict[str, Any]:
@@ -229,10 +208,18 @@ def test_csv_and_geojson_downloads(page: Any, live: LiveService) -> None:
     assert table[0] == ["t_s", "east_m", "north_m", "up_m", "floor", "heading_deg", "step_length_m", "mode", "device"]
     assert len(table) == 1 + 3 * live.foot_steps
     assert sorted({row[-1] for row in table[1:]}) == ["fused", "left_foot", "right_foot"]
-    with page.expect_download() as info:
-        page.click("#dl-geojson")
-    geo = json.loads(Path(info.value.path()).read_text())
-    assert geo["type"] == "FeatureCollection"
+    # GeoJSON (RFC 7946) is lon/lat: only for a geo-referenced session (the API answers 409 otherwise)
+    from tests.geojson_rfc7946 import check_rfc7946
+
+    store = live.app.extensions["pdr"].store
+    store.set_session(live.foot_id, origin_lat_deg=51.5, origin_lon_deg=-0.12)
+    try:
+        with page.expect_download() as info:
+            page.click("#dl-geojson")
+        geo = json.loads(Path(info.value.path()).read_text())
+    finally:
+        store.set_session(live.foot_id, origin_lat_deg=None, origin_lon_deg=None)
+    check_rfc7946(geo)
     assert sorted(f["properties"]["device"] for f in geo["features"]) == ["fused", "left_foot", "right_foot"]
 
 
@@ -376,7 +363,9 @@ def test_a_session_is_deleted_from_its_page(page: Any, live: LiveService) -> Non
     page.wait_for_function("() => location.hash === '#/sessions'")
     # The list shown before is redrawn once the service answers: wait for the deleted row to go.
     page.wait_for_selector(f"#sessions-table tr[data-session='{sid}']", state="detached")
+    assert page.inner_text("#message") == "Session \"to-delete\" deleted."
     assert page.locator("#sessions-table tbody tr").count() > 0
+    shot(page, "21-session-deleted")
     assert alice.request("GET", f"/api/v1/sessions/{sid}").status == 404
     alice.close()
 
@@ -575,6 +564,7 @@ def test_every_chart_is_on_the_sessions_time_axis(page: Any, live: LiveService) 
     page.wait_for_selector("#error-plot polyline")
     steps = _tick_labels(page, "#steps-plot")
     assert steps and _tick_labels(page, "#error-plot") == steps == _tick_labels(page, "#heading-plot")
+    shot(page, "22-charts-on-the-session-time-axis")
 
 
 def test_models_page_shows_model_cards(page: Any, live: LiveService) -> None:
@@ -636,3 +626,167 @@ def test_the_page_is_usable_at_phone_width(browser: Any, live: LiveService) -> N
     finally:
         context.close()
     assert not errors, errors
+
+
+@pytest.mark.slow
+def test_an_allan_report_is_deleted_from_its_page(page: Any, live: LiveService) -> None:
+    """A real report (uploaded, computed by the service) opened from the list and deleted with its button."""
+    from tests.server.test_models_reports import _static_npz
+
+    alice = Client(live.url, live.tokens["alice"])
+    body, ctype = multipart({"file": (_static_npz(seconds=60.0), "bench-static.npz")})
+    reply = alice.request("POST", "/api/v1/reports/allan", raw=body, content_type=ctype)
+    assert reply.status == 202, reply.body
+    rid = reply.json()["id"]
+    deadline = time.monotonic() + 120
+    while alice.request("GET", f"/api/v1/reports/{rid}").json()["status"] == "pending":
+        assert time.monotonic() < deadline
+        time.sleep(0.3)
+    sign_in(page, live)
+    page.click("#nav a[data-view=reports]")
+    page.click(f"#reports-body a[href='#/report/{rid}']")
+    page.wait_for_function("() => document.querySelector('#report-title').textContent === "
+                           "'Allan report: bench-static.npz'")
+    shot(page, "16-report-before-delete")
+    page.once("dialog", lambda dialog: dialog.accept())
+    page.click("#delete-report")
+    page.wait_for_function("() => location.hash === '#/reports'")
+    page.wait_for_selector(f"#reports-body a[href='#/report/{rid}']", state="detached")
+    assert "Report \"bench-static.npz\" deleted." in page.inner_text("#message")
+    shot(page, "17-report-deleted")
+    assert alice.request("GET", f"/api/v1/reports/{rid}").status == 404
+    alice.close()
+
+
+def test_a_geo_referenced_session_is_drawn_on_a_real_map(page: Any, live: LiveService) -> None:
+    """Leaflet (vendored from npm) over the configured tile server, the track in longitude/latitude from the API,
+    fitted, with start and end markers; a session in local metres gets no such map."""
+    walk = corridor_walk(120.0, seed=4)
+    store = live.app.extensions["pdr"].store
+    sid = seed_session(store, live.tokens["alice"], "geo-walk", {"phone": walk.rows()}, placement="hand")
+    store.set_session(sid, origin_lat_deg=GEO_ORIGIN[0], origin_lon_deg=GEO_ORIGIN[1])
+    tiles: list[str] = []
+
+    def tile(route: Any) -> None:
+        tiles.append(route.request.url)
+        route.fulfill(status=200, content_type="image/png", body=_png_1x1())
+
+    page.route("https://tiles.test/**", tile)
+    sign_in(page, live)
+    page.goto(f"{live.url}/#/sessions/{sid}")
+    page.wait_for_function("() => window.pdrPage.timings.complete !== undefined")
+    assert page.is_hidden("#message"), page.inner_text("#message")
+    page.wait_for_function("() => document.querySelector('#geomap').dataset.features === '1'")
+    assert page.get_attribute("#geomap", "data-points") == str(len(walk.t_s))
+    assert page.get_attribute("#geomap", "data-tiles") == "yes"
+    page.wait_for_function("() => document.querySelectorAll('#geomap img.leaflet-tile-loaded').length > 0")
+    assert tiles and all(t.startswith("https://tiles.test/") and t.endswith(".png") for t in tiles)
+    assert "test tiles" in page.inner_text("#geomap .leaflet-control-attribution")
+    # The track is fitted inside the map, and drawn once with its start and end markers.
+    box = page.locator("#geomap").bounding_box()
+    line = page.locator("#geomap path.leaflet-interactive").first.bounding_box()
+    assert box is not None and line is not None
+    assert box["x"] <= line["x"] and line["x"] + line["width"] <= box["x"] + box["width"] + 1
+    assert box["y"] <= line["y"] and line["y"] + line["height"] <= box["y"] + box["height"] + 1
+    assert line["width"] > 0.3 * box["width"] or line["height"] > 0.3 * box["height"]
+    assert page.locator("#geomap path.geo-start").count() == 1 and page.locator("#geomap path.geo-end").count() == 1
+    # The start marker is where the API's GeoJSON starts: the first step, placed about the session's origin.
+    lat, lon = local_enu_to_geodetic(walk.east_m[0], walk.north_m[0], *GEO_ORIGIN)
+    assert page.evaluate("window.pdrPage.geo.start") == pytest.approx([float(lat), float(lon)], abs=1e-9)
+    assert f"{GEO_ORIGIN[0]:.6f}°, {GEO_ORIGIN[1]:.6f}°" in page.inner_text("#geo-note")
+    # The page's policy lets the browser fetch tiles from the configured host only.
+    csp = page.evaluate("fetch('/').then(r => r.headers.get('content-security-policy'))")
+    assert "img-src 'self' blob: data: https://tiles.test;" in csp
+    shot(page, "18-geo-session")
+    # At phone width the map fits the screen, and the track is fitted into the narrower map again.
+    page.set_viewport_size({"width": 390, "height": 844})
+    page.wait_for_function("""() => {
+        const m = document.querySelector('#geomap').getBoundingClientRect();
+        const l = document.querySelector('#geomap path.leaflet-interactive').getBoundingClientRect();
+        return m.width <= 390 && l.left >= m.left && l.right <= m.right + 1; }""")
+    assert page.evaluate("document.documentElement.scrollWidth") <= 390
+    box = page.locator("#geomap").bounding_box()
+    assert box is not None and box["x"] >= 0 and box["x"] + box["width"] <= 390
+    shot(page, "18b-geo-session-phone")
+    # A session in local metres: the metric map only.
+    page.goto(f"{live.url}/#/session/{live.compass_id}")
+    page.wait_for_function("() => window.pdrPage.timings.complete !== undefined")
+    assert page.is_hidden("#geo-wrap")
+
+
+@pytest.mark.slow
+@pytest.mark.data
+def test_the_pages_error_on_a_real_log_is_the_scorers(browser: Any, tmp_path_factory: pytest.TempPathFactory
+                                                       ) -> None:
+    """A real IPIN log uploaded to the service with its real processors: the mean error the page shows is the mean of
+    ``pdr.evaluation.scoring.landmark_errors`` (what ``pdr eval ipin`` reports percentiles of) on the track the page
+    draws, scored against the truth the page draws."""
+    from pdr.evaluation.scoring import landmark_errors
+    from tests.conftest import data_path
+
+    log = data_path("ipin2023_t3", "logfiles") / "IPIN2023_T3_TrainingTrial22_repetition01.txt"
+    service = LiveApp(tmp_path_factory.mktemp("web-real"), users=("alice",), processor_factory=None)
+    context = browser.new_context(viewport={"width": 1360, "height": 1000})
+    pg = context.new_page()
+    errors: list[str] = []
+    pg.on("pageerror", lambda exc: errors.append(str(exc)))
+    try:
+        alice = Client(service.url, service.tokens["alice"])
+        body, ctype = multipart({"file": (log.read_bytes(), log.name)})
+        reply = alice.request("POST", "/api/v1/sessions", raw=body, content_type=ctype)
+        assert reply.status == 201, reply.body
+        sid = reply.json()["id"]
+        assert service.app.extensions["pdr"].worker.wait_idle(timeout_s=300)
+        sign_in(pg, service)
+        pg.goto(f"{service.url}/#/session/{sid}")
+        pg.wait_for_function("() => window.pdrPage.timings.complete !== undefined")
+        heading = pg.evaluate("window.pdrPage.track.heading")
+        stats = pg.inner_text("[data-role=truth-stats]")
+        shot(pg, "19-real-ipin-truth")
+        points = alice.request("GET", f"/api/v1/sessions/{sid}/track?heading={heading}").json()["points"]
+        truth = alice.request("GET", f"/api/v1/sessions/{sid}/truth").json()["truth"]
+        alice.close()
+    finally:
+        context.close()
+        service.close()
+    assert not errors, errors
+    pts = sorted((p for s in truth for p in s.get("points", [])), key=lambda p: p["t_s"])
+    t = np.array([p["t_s"] for p in points])
+    en = np.array([[p["east_m"], p["north_m"]] for p in points])
+    tt = np.array([p["t_s"] for p in pts])
+    gt = np.array([[p["east_m"], p["north_m"]] for p in pts])
+    e = landmark_errors(t, en, tt, gt, "none")
+    print(f"\n{log.name}: page '{stats}'; scorer mean {e.mean():.2f} m over {e.size} points "
+          f"(track {t[0]:.1f}-{t[-1]:.1f} s, truth {tt[0]:.1f}-{tt[-1]:.1f} s, heading {heading})")
+    assert f"({e.size} later points)" in stats
+    assert f"mean: {e.mean():.2f} m" in stats
+
+
+def test_truth_beyond_the_tracks_ends_is_scored_as_the_scorer_does(page: Any, live: LiveService) -> None:
+    """Truth points before the first step and after the last one: the page takes the track's first and last
+    positions there (numpy's interp in ``landmark_errors``), so its mean error is still ``pdr eval``'s."""
+    from pdr.evaluation.scoring import landmark_errors
+
+    alice = Client(live.url, live.tokens["alice"])
+    rows = alice.request("GET", f"/api/v1/sessions/{live.compass_id}/track?heading=smoothed").json()["points"]
+    alice.close()
+    t = np.array([r["t_s"] for r in rows])
+    en = np.array([[r["east_m"], r["north_m"]] for r in rows])
+    tt = np.arange(t[0] - 10.0, t[-1] + 30.0, 20.0)   # from 10 s before the first step to past the last
+    gt = np.column_stack([3.0 + 0.5 * tt, 2.0 - 0.2 * tt])
+    answer = {"session": live.compass_id, "count": len(tt), "truth": [{
+        "batch_id": "seed", "device": "phone", "kind": "landmark", "frame": "enu", "t0_ns": 0, "origin": None,
+        "error": None, "points": [{"t_s": float(a), "east_m": float(e), "north_m": float(n), "up_m": 0.0, "floor": 0.0}
+                                  for a, (e, n) in zip(tt, gt, strict=True)]}]}
+    page.route(f"**/api/v1/sessions/{live.compass_id}/truth",
+               lambda route: route.fulfill(status=200, content_type="application/json", body=json.dumps(answer)))
+    sign_in(page, live)
+    page.goto(f"{live.url}/#/session/{live.compass_id}")
+    page.wait_for_function("() => window.pdrPage.timings.complete !== undefined && "
+                           "window.pdrPage.track.heading === 'smoothed'")
+    stats = page.inner_text("[data-role=truth-stats]")
+    e = landmark_errors(t, en, tt, gt, "none")
+    assert tt[0] < t[0] and tt[-1] > t[-1]
+    assert f"({e.size} later points)" in stats and f"mean: {e.mean():.2f} m" in stats, (stats, e.mean())
+    assert "starts at the first truth point (-10 s)" in stats
+    shot(page, "23-truth-beyond-the-track")

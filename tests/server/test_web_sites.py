@@ -1,23 +1,20 @@
-"""The floor plan on the web page's session map, in a real headless browser (the approach of test_web_browser.py):
-the walkable area of the current floor drawn under a map-matched track, with its holes, at phone width (390 px)."""
+"""The floor plan on the web page's session map, in a real headless browser (the live service of live_web.py): the
+walkable area of the current floor drawn under a map-matched track, with its holes, at phone width (390 px)."""
 
 from __future__ import annotations
 
-import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-from server import auth
-from server.app import create_app
 from server.client import Client
 from server.site_store import SiteStore
 from server.store import TrackRow
+from tests.server.live_web import LiveApp, shot, sign_in
 from tests.server.test_sites_api import HALL
-from tests.server.test_web_browser import shot
-from tests.server.web_seed import WebTestProcessor, seed_session, user_id
+from tests.server.web_seed import seed_session, user_id
 
 START = [5.0, 6.0, 0]
 
@@ -29,20 +26,13 @@ def _hall_walk() -> list[TrackRow]:
     return rows
 
 
-class SiteService:
+class SiteService(LiveApp):
     """The app on a loopback socket with alice's uploaded hall and two sessions: map-matched on it, and not."""
 
     def __init__(self, data_dir: Path) -> None:
-        from werkzeug.serving import make_server
-
-        self.app = create_app({"data_dir": str(data_dir), "processor_factory": WebTestProcessor, "settle_s": 0.0})
-        store = self.app.extensions["pdr"].store
-        with store.engine.begin() as conn:
-            self.token = auth.add_user(conn, "alice")
-        self.server = make_server("127.0.0.1", 0, self.app, threaded=True)
-        self.url = f"http://127.0.0.1:{self.server.server_port}"
-        self.thread = threading.Thread(target=self.server.serve_forever, daemon=True)
-        self.thread.start()
+        super().__init__(data_dir, users=("alice",))
+        self.token = self.tokens["alice"]
+        store = self.store
         client = Client(self.url, self.token)
         reply = client.request("POST", "/api/v1/sites", HALL)
         assert reply.status == 201, reply.body
@@ -55,11 +45,6 @@ class SiteService:
         self.plain = seed_session(store, self.token, "floors-only", {"phone": _hall_walk()}, placement="hand",
                                   meta={"processing": {"site_id": site_id}})
         sites.set_session_site(self.plain, sites.document(site_id, user_id(store, self.token)))
-
-    def close(self) -> None:
-        self.server.shutdown()
-        self.thread.join(timeout=10)
-        self.app.extensions["pdr"].worker.stop()
 
 
 @pytest.fixture(scope="module")
@@ -75,10 +60,7 @@ def test_the_floor_plan_is_drawn_under_the_track_at_phone_width(browser: Any, se
     errors: list[str] = []
     pg.on("pageerror", lambda exc: errors.append(str(exc)))
     try:
-        pg.goto(service.url + "/")
-        pg.fill("#token", service.token)
-        pg.click("#signin-form button[type=submit]")
-        pg.wait_for_selector("#sessions-table tbody tr")
+        sign_in(pg, service)
         pg.goto(f"{service.url}/#/session/{service.matched}")
         pg.wait_for_function("() => window.pdrPage.timings.complete !== undefined")
         plan = pg.locator("#map path[data-role=floor-plan]")

@@ -15,25 +15,21 @@ same loop and the mechanization integrates ``w - b``. The bias filter is decoupl
 attitude error it leaves behind is what the ZUPTs and the drift elimination see anyway), so the filter, its
 smoother and the chunked online run stay as they are.
 
-Why the update is off by default (issue #5; ``pdr eval foot /work/shared/data --method zupt --hde on --smoother
-both --zaru on|off``, off / on): PyShoe median ARMSE 0.0465 / 0.0465 m smoothed, 0.0579 / 0.0539 m causal;
-xio_gait_loop 19.3 / 10.6 mm; foot_stride_gcp median 0.73 / 0.59 %, but walk 36 1.14 / 2.97 % and walk 34
-0.32 / 0.65 %. Walk 36's only rest (1.9 s at the start) reads 0.37 deg/s about the sensor z axis, 30 times
-the 3DM-GX5-25's specified bias instability: a slow real rotation of the standing foot, not a bias, and
-removing it for 70 s turns the heading. A larger ``sigma_zaru`` (2 or 4 deg/s, the still samples taken as
-correlated) or ``zaru_min_still_s`` of 1 s do not remove that loss (walk 36 2.5-3.0 %) and lose xio
-(47-64 mm). The update pays where the sensor's bias is large against the foot's residual motion (a consumer
-IMU) and the walk has long rests.
+Why the update is off by default (issue #5): it helps on PyShoe (causal), xio_gait_loop and the median of
+foot_stride_gcp, but it loses badly on the foot_stride_gcp walks whose only rest is short and where the standing
+foot still turns slowly: a real rotation, not a bias, read as bias and removed for the rest of the walk turns the
+heading. A larger ``sigma_zaru`` or a longer ``zaru_min_still_s`` does not remove that loss and loses xio. The
+update pays where the sensor's bias is large against the foot's residual motion (a consumer IMU) and the walk has
+long rests. ``pdr eval foot /work/shared/data --method zupt --hde on --smoother both --zaru on|off`` prints the
+figures.
 
 Sample timing (``ZuptConfig.interval_samples``): by default each IMU sample is taken as the value at its instant
 and the step from ``k - 1`` to ``k`` integrates the two samples (trapezoid, coning term). An IMU that averages or
 integrates between outputs delivers instead the mean over the interval ending at ``k``; ``interval_samples`` then
-integrates sample ``k`` alone over that step, as PyShoe's reference INS does. Measured (issue #5, ``pdr eval foot
-/work/shared/data --method zupt --hde on --smoother both --imu-samples instant|interval``): PyShoe median ARMSE
-0.0465 / 0.0453 m smoothed, 0.0579 / 0.0582 m causal; xio_gait_loop 19 / 34 mm; foot_stride_gcp median 0.73 /
-0.73 %. Not the default: no clear gain, and xio loses. With the PyShoe files' reference labels (``--zv-labels
-shoe``: thresholds grid-searched per trial with that first-order INS) it gains more, 0.0427 -> 0.0409 m smoothed
-and 0.0496 -> 0.0478 m causal, because those labels were tuned to that mechanization.
+integrates sample ``k`` alone over that step, as PyShoe's reference INS does. Not the default: no clear gain on PyShoe,
+and xio loses (``pdr eval foot /work/shared/data --method zupt --hde on --smoother both --imu-samples
+instant|interval``). With the PyShoe files' reference labels (``--zv-labels shoe``: thresholds grid-searched per trial
+with that first-order INS) it gains more, because those labels were tuned to that mechanization.
 
 Error convention: ``error = true - estimate`` for position and velocity, and ``q_true = exp(dtheta) * q_est``
 (a navigation-frame rotation vector, :func:`pdr.quaternion.boxplus`). With it the attitude-to-velocity block

@@ -31,8 +31,8 @@ class AttitudeConfig:
         Maximum deviation of the angle between ``a`` and ``m`` from the reference dip angle (deg).
         ``eps_m1`` and ``eps_dip_deg`` were 10; in a steel building (IPIN 2023 museum: |m| 30-40 uT against
         48 uT outdoors, dip -25 to -72 deg) rejecting more rows leaves the heading to the gyro for longer and
-        the deflections do not average out: 20 gives 4.87 -> 4.49 m landmark p75 on the repetition-01
-        files it was chosen on and 4.17 -> 3.86 m on the repetition-02 files.
+        the deflections do not average out: 20 lowered the landmark p75 of ``pdr eval ipin`` on the
+        repetition-01 files it was chosen on and on the held-out repetition-02 files.
     var_window_s
         Time constant of the trailing exponential windows for the variances of eqs. 12-13 (s).
     alpha, beta, kappa
@@ -65,7 +65,7 @@ class AttitudeConfig:
         estimate half way. Without the prior, one 1.7 s stand of a turning hand set the bias to (-1.6, 0.8, -3.5)
         deg/s, 10x the true residual, and the yaw drifted by 120 deg over the walk. A gyro the OS does not
         compensate can be biased by several deg/s (IPIN trial 27: 2.9 deg/s), where such a prior would hold the
-        estimate back for the first minute (IPIN p75 3.79 -> 4.44 m with it), so it keeps ``bias_prior_s``.
+        estimate back for the first minute (``pdr eval ipin``'s p75 rose with it), so it keeps ``bias_prior_s``.
     gravity_tau_s
         Time constant of the local gravity magnitude estimate during stationary periods (s).
     mag_ref_tau_s

@@ -19,16 +19,19 @@
   const { fmt, fmtDuration } = Plot;
 
   /** Exposed for the browser tests: render timings (ms) of the last session view, and which track it shows
-   * (``track.heading``: "smoothed" or "causal"; ``track.last``: [east_m, north_m] of its last row). */
-  const page = { timings: {}, track: null };
+   * (``track.heading``: "smoothed" or "causal"; ``track.last``: [east_m, north_m] of its last row), and the
+   * geo-referenced map's track (``geo.start``: [lat, lon] of its first position). */
+  const page = { timings: {}, track: null, geo: null };
   window.pdrPage = page;
 
   let generation = 0; // bumped on every navigation: late answers of an old view are dropped
   let pollTimer = null;
   let map = null;
+  let geoMap = null; // the Leaflet map of a geo-referenced session
+  let pageConfig = null; // GET /web/config.json: the map tile URL template and attribution (or nulls)
   let current = null; // the open session's state
   /** /modes entries drawn over the step-mode band (they cover time without steps). */
-  const BAND_ENTRY_MODES = new Set(["standing", "elevator_up", "elevator_down"]);
+  const BAND_ENTRY_MODES = new Set(["standing", "elevator_up", "elevator_down", "escalator_up", "escalator_down"]);
 
   // -- API --------------------------------------------------------------------------------------
   class ApiError extends Error {
@@ -113,6 +116,13 @@
     $("message").textContent = "";
   }
 
+  /** A notice for the view navigated to next (route() clears the message box on every navigation). */
+  let nextNotice = null;
+  function navigateWithNotice(hash, text) {
+    nextNotice = text;
+    if (location.hash === hash) route(); else location.hash = hash;
+  }
+
   function reportError(err, what) {
     if (err instanceof ApiError) {
       if (err.status !== 401) showMessage(err.readable(what));
@@ -172,6 +182,7 @@
     stopPolling();
     generation++;
     clearMessage();
+    if (nextNotice) { showMessage(nextNotice, "info"); nextNotice = null; }
     if (!token()) { show("signin"); $("token").focus(); return; }
     const [view, ...rest] = (location.hash || "#/sessions").replace(/^#\/?/, "").split("/");
     const arg = rest.length ? decodeURIComponent(rest.join("/")) : "";
@@ -299,6 +310,15 @@
   /** Linear interpolation of a device's track (rows sorted by t_s) at time t; null outside its span. */
   function positionAt(rows, t) {
     if (!rows.length || t < rows[0].t_s || t > rows[rows.length - 1].t_s) return null;
+    return positionNear(rows, t);
+  }
+
+  /** The track's position at time ``t`` as the scorers interpolate it (numpy's interp): linear between rows, the
+   * first row's position before the track starts and the last row's after it ends; null without rows. */
+  function positionNear(rows, t) {
+    if (!rows.length) return null;
+    if (t <= rows[0].t_s) return [rows[0].east_m, rows[0].north_m];
+    if (t >= rows[rows.length - 1].t_s) return [rows[rows.length - 1].east_m, rows[rows.length - 1].north_m];
     let lo = 0, hi = rows.length - 1;
     while (hi - lo > 1) {
       const mid = (lo + hi) >> 1;
@@ -321,6 +341,8 @@
     clearNode($("session-summary"));
     clearNode($("session-warnings"));
     clearNode($("truth-panel"));
+    $("geo-wrap").hidden = true;
+    if (geoMap) { geoMap.remove(); geoMap = null; }
     // The track first, alone: it is what the view is for, and the server answers it fastest without
     // the detail request competing for it; the header, landmarks and truth follow.
     let track;
@@ -373,7 +395,7 @@
     if (site.status === "fulfilled") current.site = site.value;
     else reportError(site.reason, "Could not load the session's floor plan");
     if (landmarks.status === "fulfilled") current.landmarks = landmarks.value.landmarks || [];
-    // Stops and elevator rides have no steps: the band shows them from /modes (entries with an end).
+    // Stops, elevator and escalator rides have no steps: the band shows them from /modes (entries with an end).
     if (modes.status === "fulfilled") {
       current.stopEntries = (modes.value.modes || []).filter((m) => BAND_ENTRY_MODES.has(m.label) && m.t_end_s !== null);
     }
@@ -385,6 +407,65 @@
     renderSessionHeader();
     renderSessionData(true);
     page.timings.complete = performance.now() - page.timings.start;
+    renderGeoMap(gen).catch((err) => { if (gen === generation) reportError(err, "Could not draw the session on the map"); });
+  }
+
+  async function loadConfig() {
+    if (!pageConfig) {
+      const resp = await fetch("/web/config.json", { cache: "no-cache" });
+      pageConfig = resp.ok ? await resp.json() : { map: {} };
+    }
+    return pageConfig;
+  }
+
+  /** A geo-referenced session (its detail has an origin) on a real map: Leaflet (vendor/leaflet, from npm) on Web
+   * Mercator with the server's GeoJSON of the track in longitude/latitude (the server converts from local metres, so
+   * the page has no Earth model of its own), over the operator's tiles (PDR_MAP_TILE_URL) when configured. A session
+   * in local metres has no such map: the metric map above is its map. */
+  async function renderGeoMap(gen) {
+    const wrap = $("geo-wrap");
+    const origin = current && current.detail && current.detail.origin;
+    if (geoMap) { geoMap.remove(); geoMap = null; }
+    delete $("geomap").dataset.features;
+    if (!origin || typeof L === "undefined") { wrap.hidden = true; return; }
+    const [config, geo] = await Promise.all([loadConfig(),
+      apiJson(`${API}/sessions/${enc(current.id)}/track?format=geojson&heading=${current.heading}`)]);
+    if (gen !== generation) return;
+    wrap.hidden = false;
+    const tiles = config.map && config.map.tile_url;
+    // A view before any layer: Leaflet's vector renderer needs the map's pixel bounds when a path is added.
+    geoMap = L.map($("geomap"), { crs: L.CRS.EPSG3857, zoomSnap: 0.25 }).setView([origin.lat_deg, origin.lon_deg], 18);
+    if (tiles) {
+      L.tileLayer(tiles, { maxZoom: 22, maxNativeZoom: 19, attribution: config.map.attribution || "" }).addTo(geoMap);
+    }
+    const byDevice = geo.features.length > 1;
+    const layer = L.geoJSON(geo, { style: (f) => ({ color: byDevice ? Plot.deviceColour(f.properties.device) : "#1f6feb",
+      weight: 3, opacity: 0.9 }) }).addTo(geoMap);
+    const lines = geo.features.filter((f) => f.geometry.coordinates.length);
+    for (const f of lines) {
+      const c = f.geometry.coordinates;
+      L.circleMarker([c[0][1], c[0][0]], { radius: 6, color: "#067647", fillOpacity: 1, className: "geo-start" })
+        .bindTooltip(`start (${f.properties.device})`).addTo(geoMap);
+      L.circleMarker([c[c.length - 1][1], c[c.length - 1][0]], { radius: 6, color: "#b42318", fillOpacity: 1,
+        className: "geo-end" }).bindTooltip(`end (${f.properties.device})`).addTo(geoMap);
+    }
+    if (lines.length) {
+      // Fitted now, and again when the map's box changes size (a phone turned, a window resized) until the user
+      // moves the map themselves.
+      const fit = () => geoMap.fitBounds(layer.getBounds(), { padding: [24, 24], maxZoom: 21 });
+      let moved = false;
+      geoMap.on("dragstart", () => { moved = true; });
+      geoMap.on("resize", () => { if (!moved) fit(); });
+      fit();
+    }
+    const first = lines.length ? lines[0].geometry.coordinates[0] : null;
+    page.geo = { start: first ? [first[1], first[0]] : null, features: geo.features.length };
+    const el = $("geomap");
+    el.dataset.features = String(geo.features.length);
+    el.dataset.points = String(geo.features.reduce((n, f) => n + f.geometry.coordinates.length, 0));
+    el.dataset.tiles = tiles ? "yes" : "no";
+    $("geo-note").textContent = `Geo-referenced: the start is at ${origin.lat_deg.toFixed(6)}°, ${origin.lon_deg.toFixed(6)}°.`
+      + (tiles ? "" : " No map tiles are configured on this server (PDR_MAP_TILE_URL), so the map has no background.");
   }
 
   /** The floor plans of the uploaded site the session names, when its track is in the site's frame (the session
@@ -471,6 +552,7 @@
     setupFloorFilter();
     if (current.detail) renderSessionHeader();
     renderSessionData(true);
+    renderGeoMap(gen).catch((err) => { if (gen === generation) reportError(err, "Could not draw the session on the map"); });
   }
 
   /** Poll while uploading: each device's new rows with ?device=&since= (its last time), and the status. */
@@ -641,19 +723,19 @@
    * The tracks as the scorers of ``pdr eval`` compare them with the truth (pdr.evaluation.scoring): rows
    * before the first truth point dropped, the rest translated so that the primary track's position at that
    * time is the first truth point; in a ``map`` frame (a floor plan, not north-aligned) also rotated about
-   * it by the least-squares angle over all truth points (``waypoint_errors``). Returns null when the first
-   * truth point falls outside the primary track's time span (nothing to align on).
+   * it by the least-squares angle over all truth points (``waypoint_errors``). Positions at truth times outside
+   * the track's span are its first or last position, as numpy's interp gives the scorers. Null without a track.
    */
   function alignToTruth(primary, truth) {
     const rows = current.byDevice.get(primary) || [];
     const first = truth[0];
-    const est0 = first ? positionAt(rows, first.t_s) : null;
+    const est0 = first ? positionNear(rows, first.t_s) : null;
     if (!est0) return null;
     let angle = 0;
     if (first.frame === "map") {
       let cross = 0, dot = 0;
       for (const p of truth) {
-        const est = positionAt(rows, p.t_s);
+        const est = positionNear(rows, p.t_s);
         if (!est) continue;
         const rx = est[0] - est0[0], ry = est[1] - est0[1], gx = p.east_m - first.east_m, gy = p.north_m - first.north_m;
         cross += rx * gy - ry * gx;
@@ -669,7 +751,7 @@
     const out = new Map();
     for (const [device, list] of current.byDevice) {
       const kept = [];
-      const at = positionAt(list, first.t_s);
+      const at = positionNear(list, first.t_s);
       if (at) kept.push(move(Object.assign({}, list[0], { t_s: first.t_s, east_m: at[0], north_m: at[1] })));
       for (const r of list) if (r.t_s > first.t_s) kept.push(move(r));
       if (kept.length) out.set(device, kept);
@@ -699,7 +781,7 @@
     const errorT = [], errorM = [];
     // As the scorers: the first truth point is where the track starts, so the errors are those of points 2..K.
     for (const p of aligned ? truth.slice(1) : []) {
-      const est = positionAt(primaryRows, p.t_s);
+      const est = positionNear(primaryRows, p.t_s);
       if (!est) continue;
       errorT.push(p.t_s);
       errorM.push(Math.hypot(est[0] - p.east_m, est[1] - p.north_m));
@@ -1248,8 +1330,7 @@
       if (!window.confirm(`Delete the session "${name}" with its raw data and results? This cannot be undone.`)) return;
       try {
         await apiFetch(`${API}/sessions/${enc(current.id)}`, undefined, "DELETE");
-        location.hash = "#/sessions";
-        showMessage(`Session "${name}" deleted.`, "info");
+        navigateWithNotice("#/sessions", `Session "${name}" deleted.`);
       } catch (err) {
         reportError(err, "The session could not be deleted");
       }
@@ -1262,8 +1343,7 @@
       if (!id || !window.confirm(`Delete the Allan report of "${name}" with its files? This cannot be undone.`)) return;
       try {
         await apiFetch(`${API}/reports/${enc(id)}`, undefined, "DELETE");
-        location.hash = "#/reports";
-        showMessage(`Report "${name}" deleted.`, "info");
+        navigateWithNotice("#/reports", `Report "${name}" deleted.`);
       } catch (err) {
         reportError(err, "The report could not be deleted");
       }

@@ -72,7 +72,8 @@ const Plot = (() => {
   const MODE_COLOURS = {
     walking: "#1f6feb", walk: "#1f6feb", running: "#7a5af8", run: "#7a5af8", standing: "#98a2b3", still: "#98a2b3",
     stationary: "#98a2b3", sitting: "#667085", stairs_up: "#f79009", stairs_down: "#dc6803", upstairs: "#f79009",
-    downstairs: "#dc6803", elevator: "#12b76a", elevator_up: "#12b76a", elevator_down: "#039855", lift: "#12b76a", escalator: "#0e9384", driving: "#e31b54",
+    downstairs: "#dc6803", elevator: "#12b76a", elevator_up: "#12b76a", elevator_down: "#039855", lift: "#12b76a", escalator: "#0e9384",
+    escalator_up: "#0e9384", escalator_down: "#107569", driving: "#e31b54",
     vehicle: "#e31b54", cycling: "#ee46bc", unknown: "#475467",
   };
   const DEVICE_COLOURS = { phone: "#1f6feb", left_foot: "#12b76a", right_foot: "#f79009", fused: "#6941c6" };

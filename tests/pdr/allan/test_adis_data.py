@@ -1,12 +1,10 @@
 """Real static recordings: ADIS16405, 2.8 h at 100 Hz (SMAC-Group imudata, CC BY-NC-SA; test input only)."""
 
-import time
 
 import numpy as np
 import pytest
 
 from pdr.allan.characterise import characterise_recording
-from pdr.allan.estimators import allan_curve
 from pdr.allan.report import comparison_dict, report_dict
 from pdr.io import read_recording
 from tests.conftest import data_path
@@ -44,20 +42,11 @@ def test_one_adis_unit_matches_its_datasheet_order_of_magnitude():
 
 @pytest.mark.data
 @pytest.mark.slow
-def test_three_adis_units_agree_and_six_axes_are_fast():
+def test_three_adis_units_agree():
     reports = [report_dict(characterise_recording(_read(u))) for u in (1, 2, 3)]
     comp = comparison_dict(reports)
     for a in ("x", "y", "z"):
         assert comp["sensors"]["gyro"][a]["N"]["cv_pct"] < 10
         assert comp["sensors"]["gyro"][a]["B"]["cv_pct"] < 30
         assert comp["sensors"]["acc"][a]["N"]["cv_pct"] < 15
-    rec = _read(1)
-    six = np.column_stack([rec.values("gyro"), rec.values("acc")])
-    best = min(_cpu(lambda: allan_curve(six, 100.0)) for _ in range(3))
-    assert best < 2.0, f"six axes of 1e6 samples took {best:.2f} s CPU"
 
-
-def _cpu(fn):
-    t = time.process_time()
-    fn()
-    return time.process_time() - t

@@ -136,6 +136,19 @@ def test_convert_round_trips(capsys, tmp_path, native_log, target):
     assert native.read(out) == native.read(native_log)
 
 
+def test_convert_sets_the_device_role(capsys, tmp_path, native_log):
+    """Issue 32 item 4: the role written is the one asked for (a PyShoe file does not say which foot)."""
+    out = tmp_path / "left.json"
+    code, _, err = _run(capsys, "convert", str(native_log), "--to", "native", str(out), "--role", "left_foot")
+    assert code == 0, err
+    back, source = native.read(out), native.read(native_log)
+    assert back.device.role == "left_foot" and source.device.role == "phone"
+    assert back.streams == source.streams and json.loads(out.read_text())["device"]["role"] == "left_foot"
+    with pytest.raises(SystemExit, match="2"):
+        main(["convert", str(native_log), "--to", "native", str(out), "--role", "toe"])
+    assert "argument --role: invalid choice: 'toe'" in capsys.readouterr().err
+
+
 def test_convert_excerpt_cuts_streams_and_truth(capsys, tmp_path, native_log):
     out = tmp_path / "cut"
     code, _, err = _run(capsys, "convert", str(native_log), "--to", "native", str(out),

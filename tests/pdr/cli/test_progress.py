@@ -3,6 +3,7 @@
 import io
 import json
 import sys
+import threading
 
 from pdr.cli import main, progress
 from pdr.cli.progress import BAR_WIDTH, Progress
@@ -49,3 +50,48 @@ def test_simulate_prints_its_summary_on_stdout_and_no_bar_when_piped(tmp_path, c
     assert main(["simulate", str(scenario), "--out", str(tmp_path / "rec")]) == 0
     captured = capsys.readouterr()
     assert captured.out.startswith("wrote ") and captured.err == ""
+
+
+def test_convert_and_train_draw_their_stages_on_a_terminal(tmp_path, monkeypatch, capsys):
+    """The long commands of issue #29 besides the evaluations: a bar on a terminal's stderr, the result on stdout."""
+    from tests.conftest import REPO_ROOT
+
+    log = REPO_ROOT / "mobile_logs" / "sim" / "hand_escalator.zip"
+    assert main(["convert", str(log), "--to", "native", str(tmp_path / "piped")]) == 0
+    piped = capsys.readouterr()
+    assert piped.out.startswith("wrote ") and piped.err == ""
+    stream = Terminal()
+    monkeypatch.setattr(sys, "stderr", stream)
+    assert main(["convert", str(log), "--to", "native", str(tmp_path / "tty")]) == 0
+    drawn = stream.getvalue()
+    assert "convert [" in drawn and "reading hand_escalator.zip" in drawn and "2/2" in drawn
+    assert capsys.readouterr().out.startswith("wrote ")
+    stream.seek(0)
+    stream.truncate()
+    assert main(["train", "landmark", "--sim", "2", "--out", str(tmp_path / "lm")]) == 0
+    drawn = stream.getvalue()
+    assert "train landmark [" in drawn and "fitting on" in drawn and "3/3" in drawn
+    assert capsys.readouterr().out.startswith("wrote ")
+
+
+def test_a_drawn_bar_keeps_its_clock_running_during_a_long_stage_and_stops_at_close():
+    stream = Terminal()
+    bar = Progress(2, "bench load", stream=stream, tick_s=0.01)
+    bar.set_note("uploading")
+    first = stream.getvalue().count("\r")
+    for _ in range(500):   # wait for the ticker's redraws (no progress is made meanwhile)
+        if stream.getvalue().count("\r") >= first + 3:
+            break
+        threading.Event().wait(0.01)
+    assert stream.getvalue().count("\r") >= first + 3
+    assert stream.getvalue().rstrip().endswith("s") and "0/2  uploading" in stream.getvalue()
+    bar.close()
+    after = stream.getvalue()
+    assert after.endswith("\r") and "pdr-progress" not in [t.name for t in threading.enumerate()]
+    threading.Event().wait(0.05)
+    assert stream.getvalue() == after   # nothing drawn after close
+    silent = io.StringIO()
+    piped = Progress(2, "piped", stream=silent, tick_s=0.01)   # not a terminal: no bar, no thread
+    assert "pdr-progress" not in [t.name for t in threading.enumerate()]
+    piped.close()
+    assert silent.getvalue() == ""

@@ -4,6 +4,7 @@ import csv
 import importlib.util
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -22,15 +23,35 @@ def read_rows(path):
 
 
 def test_track_writes_csv_and_geojson(tmp_path, capsys):
+    """GeoJSON (RFC 7946: lon/lat) only for a geo-referenced log; the track's local metres projected about its
+    origin, one LineString of the steps."""
+    from dataclasses import replace
+
+    from pdr.frames import geodetic_to_local_enu
+    from pdr.io import native, read_recording
+    from tests.geojson_rfc7946 import check_rfc7946
+
     out, gj = tmp_path / "t.csv", tmp_path / "t.geojson"
-    assert main(["track", str(SIM / "hand_escalator.zip"), "--out", str(out), "--geojson", str(gj)]) == 0
+    assert main(["track", str(SIM / "hand_escalator.zip"), "--out", str(out), "--geojson", str(gj)]) == 2
+    assert re.search(r"error: --geojson .*not geo-referenced.*RFC 7946", capsys.readouterr().err)
+    assert not out.exists() and not gj.exists()  # refused before the work
+    rec = read_recording(SIM / "hand_escalator.zip")
+    located = native.write(replace(rec, meta={**rec.meta, "location": {"lat_deg": 49.4611, "lon_deg": 11.111}}),
+                           tmp_path / "located")
+    assert main(["track", str(located), "--out", str(out), "--geojson", str(gj)]) == 0
     rows = read_rows(out)
+    doc = json.loads(gj.read_text())
+    check_rfc7946(doc)
+    (feature,) = doc["features"]
+    lon, lat = np.array(feature["geometry"]["coordinates"]).T
+    en = geodetic_to_local_enu(lat, lon, 49.4611, 11.111)  # back to the CSV's metres, the same Earth model
+    np.testing.assert_allclose(en, [[float(r["east_m"]), float(r["north_m"])] for r in rows], atol=0.02)
     assert rows and list(rows[0]) == ["t_s", "east_m", "north_m", "up_m", "floor", "heading_deg", "step_length_m",
                                       "mode"]
     t = np.array([float(r["t_s"]) for r in rows])
     assert np.all(np.diff(t) > 0)
     assert all(0 <= float(r["heading_deg"]) < 360 for r in rows)
-    assert json.loads(gj.read_text())["features"][0]["geometry"]["type"] == "LineString"
+    assert feature["geometry"]["type"] == "LineString" and feature["properties"]["steps"] == len(rows)
     assert "steps" in capsys.readouterr().out
 
 

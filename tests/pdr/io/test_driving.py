@@ -130,8 +130,8 @@ def test_without_trip_json_or_events(tmp_path):
     ([*_rows(2), "14/05/2016 11:17:09,12892911069993,0.1,0.0,9.8,1"], r"line 4: expected 5 fields"),
     ([*_rows(2), "14/05/2016 11:17:09,12892991069993,0.1,abc,9.8"], r"line 4, field 'y': 'abc' is not a number"),
     ([*_rows(2), "14/05/2016 11:17:09,12892991069993,0.1,nan,9.8"], r"line 4, field 'y': value nan is not finite"),
-    ([*_rows(2), "14/05/2016 11:17:09,12892000000000,0.1,0.0,9.8"],
-     r"line 4, field 'uptimeNanos': time goes backwards"),
+    ([*_rows(2), "14/05/2016 11:17:09,12892000000000,0.1,0.0,9.8", "14/05/2016 11:17:09,12892000000001,0.1,0.0,9.8"],
+     r"line 4, field 'uptimeNanos': time goes backwards in 2 of 4 samples"),
 ])
 @pytest.mark.parametrize("pandas_path", [False, True])
 def test_bad_sensor_rows_name_file_and_line(tmp_path, monkeypatch, acc, match, pandas_path):

@@ -258,3 +258,60 @@ def test_reader_survives_hostile_input_on_dataset_excerpts(seed):
 @pytest.mark.parametrize("seed", sorted(SEEDS | DATA_SEEDS))
 def test_reader_survives_many_hostile_inputs(seed):
     _run((SEEDS | DATA_SEEDS)[seed], SLOW_EXAMPLES)
+
+
+#: Seeds of text files whose lines are samples (JSON messages and binary files have no sample lines).
+LINE_SEEDS = [pytest.param(k, marks=[pytest.mark.data] if k in DATA_SEEDS else []) for k in sorted(SEEDS | DATA_SEEDS)
+              if k not in ("native-json", "sensor_logger-push", "pyshoe", "static_npz")]
+
+
+def _samples(seed: Seed, files: dict[str, bytes], tmp: Path) -> Recording:
+    with tempfile.TemporaryDirectory(dir=tmp) as sub:
+        return read_recording(seed.write(Path(sub), files), seed.fmt)
+
+
+def _count(rec: Recording) -> int:
+    return sum(len(s) for s in rec.streams.values())
+
+
+@pytest.mark.parametrize("seed_name", LINE_SEEDS)
+def test_repeated_and_backward_times_are_dropped_with_a_warning_naming_file_and_line(seed_name, tmp_path):
+    """Every reader's rule (pdr.io.time_order): a sample line repeated at once (its time repeats) or a copy of it
+    two lines on (its time goes back, or repeats for a record of another stream in between) is dropped, the rest
+    read, with a warning naming the file and the copy's line."""
+    seed = (SEEDS | DATA_SEEDS)[seed_name]()
+    base_rec = _samples(seed, seed.files, tmp_path)
+    base = _count(base_rec)
+    member = max((n for n in seed.files if not _is_binary(n)), key=lambda n: seed.files[n].count(b"\n"))
+    lines = seed.files[member].splitlines(keepends=True)
+    name = Path(seed.root if seed.pack in ("file", "gz") else member).name.removesuffix(".gz")
+    # a line in the middle that is a sample: deleting it loses a sample
+    i = next(i for i in range(len(lines) // 2, len(lines) - 3)
+             if _count(_samples(seed, {**seed.files, member: b"".join(lines[:i] + lines[i + 1:])}, tmp_path))
+             < base)
+    for at in (i + 1, i + 3):
+        copy = b"".join(lines[:at] + [lines[i]] + lines[at:])
+        rec = _samples(seed, {**seed.files, member: copy}, tmp_path)
+        assert _count(rec) == base, f"the copy at line {at + 1} was not dropped"
+        new = [w for w in rec.warnings if w not in base_rec.warnings and name.split(".")[0] in w]
+        assert new, (at + 1, name, rec.warnings)
+        if not any(name.split(".")[0] in w and "repeat" in w for w in base_rec.warnings):  # else the first is named
+            assert any(re.search(rf"\bline {at + 1}\b", w) for w in new), (at + 1, new)
+
+
+@pytest.mark.parametrize("seed_name", LINE_SEEDS)
+def test_cut_off_last_line_is_dropped_with_a_warning(seed_name, tmp_path):
+    """A log the phone cut off mid-line (its last line ends after the first field, no line break) reads as the
+    log without that line, with a warning naming the file and the line."""
+    seed = (SEEDS | DATA_SEEDS)[seed_name]()
+    member = max((n for n in seed.files if not _is_binary(n)), key=lambda n: seed.files[n].count(b"\n"))
+    content = seed.files[member].rstrip(b"\r\n")
+    body, _, last = content.rpartition(b"\n")
+    whole = _samples(seed, {**seed.files, member: body + b"\n"}, tmp_path)
+    cut = re.match(rb"[^,;\t ]+[,;\t ]", last)
+    assert cut is not None
+    rec = _samples(seed, {**seed.files, member: body + b"\n" + cut.group(0)}, tmp_path)
+    assert _count(rec) == _count(whole)
+    line = body.count(b"\n") + 2
+    name = Path(seed.root if seed.pack in ("file", "gz") else member).name.removesuffix(".gz")
+    assert any(name.split(".")[0] in w and f"cut-off last line {line}" in w for w in rec.warnings), rec.warnings

@@ -138,7 +138,8 @@ def test_unknown_code_is_a_warning(tmp_path):
     ([*ROWS, "939519614000, 0.30, 10.0, -0.84, 7"], r"line 13: expected 4 fields"),
     ([*ROWS, "939519614000, 0.30, ten, -0.84"], r"line 13, field 'y': 'ten' is not a number"),
     ([*ROWS, "939519614000, 0.30, NaN, -0.84"], r"line 13, field 'y': value nan is not finite"),
-    ([*ROWS, "939409614000, 0.30, 10.0, -0.84"], r"line 13, field 'timestamp_ns': time goes backwards"),
+    ([*ROWS, "939409614000, 0.30, 10.0, -0.84", "939409614001, 0.30, 10.0, -0.84"],
+     r"line 13, field 'timestamp_ns': time goes backwards in 2 of"),
 ])
 def test_bad_rows_name_file_and_line(tmp_path, rows, match):
     p = _write(tmp_path, "STU_acc_9_1.txt", rows)

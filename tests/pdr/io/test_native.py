@@ -194,11 +194,23 @@ def _batch():
             "streams": {"acc": {"t_ns": [1, 2, 3, 4], "values": [[0, 0, 9.8], [0, 0, 9.8], [0, 0, 9.8], [0, 0, 9.8]]}}}
 
 
+@pytest.mark.parametrize(("t_ns", "kept", "counts"), [
+    ([1, 2, 2, 4], [1, 2, 4], "repeats (1) or goes backwards (0)"),
+    ([1, 3, 2, 4], [1, 3, 4], "repeats (0) or goes backwards (1)"),
+])
+def test_repeated_or_backward_sample_dropped_with_a_warning(t_ns, kept, counts):
+    b = _batch()
+    b["streams"]["acc"]["t_ns"] = t_ns
+    rec = native.batch_from_json(b, source="upload")
+    assert rec.streams["acc"].t_ns.tolist() == kept
+    assert len(rec.warnings) == 1 and counts in rec.warnings[0] and "streams.acc.t_ns[2]" in rec.warnings[0]
+
+
 @pytest.mark.parametrize(("mutate", "field", "match"), [
     (lambda b: b["streams"]["acc"]["values"][3].__setitem__(1, "x"), r"streams\.acc\.values\[3\]\[1\]", "number"),
     (lambda b: b["streams"]["acc"]["values"][2].pop(), r"streams\.acc\.values\[2\]", "at least 3"),
-    (lambda b: b["streams"]["acc"]["t_ns"].__setitem__(2, 1), r"streams\.acc\.t_ns\[2\]", "goes backwards"),
-    (lambda b: b["streams"]["acc"]["t_ns"].__setitem__(2, 2), r"streams\.acc\.t_ns\[2\]", "repeats"),
+    (lambda b: b["streams"]["acc"].__setitem__("t_ns", [1, 2, 1, 0]), r"streams\.acc\.t_ns\[2\]",
+     "goes backwards in 2 of 4 samples"),
     (lambda b: b["streams"]["acc"]["values"][1].__setitem__(0, float("nan")), r"streams\.acc\.values\[1\]\[0\]",
      "not finite"),
     (lambda b: b["streams"]["acc"]["t_ns"].pop(), r"streams\.acc\.values", "3 timestamps but 4 rows"),
@@ -255,7 +267,7 @@ def test_large_folder_round_trip(tmp_path):
     ("t_ns,x,y,z\n1,0,0,9.8\n2,0,abc,9.8\n", 3, "y", "not a number"),
     ("t_ns,x,y,z\n1,0,0,9.8\n2,0,nan,9.8\n", 3, "y", "not finite"),
     ("t_ns,x,y,z\n1,0,0,9.8\n2.5,0,0,9.8\n", 3, "t_ns", "not an integer"),
-    ("t_ns,x,y,z\n5,0,0,9.8\n2,0,0,9.8\n", 3, "t_ns", "backwards"),
+    ("t_ns,x,y,z\n5,0,0,9.8\n2,0,0,9.8\n1,0,0,9.8\n", 3, "t_ns", "backwards in 2 of 3"),
     ("t_ns,x,y\n5,0,0\n", 1, None, "header must be"),
 ])
 def test_bad_stream_csv_names_file_line_field(tmp_path, content, line, field, match):

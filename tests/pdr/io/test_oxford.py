@@ -126,7 +126,8 @@ def test_isolated_jitter_is_dropped_with_a_warning(tmp_path):
     rec = oxford.read(_trial(tmp_path, lines, STEPS))
     assert len(rec.stream("acc")) == 298
     (warning,) = rec.warnings
-    assert "dropped 2 sample(s)" in warning and "line 101" in warning
+    assert "dropped 2 of 300 samples whose time repeats (1) or goes backwards (1)" in warning
+    assert "accelerometer.csv" in warning and "first at line 101" in warning
 
 
 @pytest.mark.parametrize("name,placement", [
@@ -205,3 +206,54 @@ def test_binary_garbage_and_sniffing(tmp_path):
         oxford.read(tmp_path)
     with pytest.raises(InputError, match="step-counter file alone"):
         oxford.read(folder / "stepcounter.csv")
+
+
+# ---------------------------------------------------------------------------------------------------------
+# zipped trial folders, renamed files, a log cut off mid-line
+
+@pytest.mark.parametrize("layout", ["folder at the top", "flat"])
+def test_zipped_trial_folder_reads_as_the_folder(tmp_path, layout):
+    folder = _trial(tmp_path, _acc_lines(50), STEPS, gz=True)
+    (folder / "notes.txt").write_text("12 steps\n")
+    z = tmp_path / ("trial.zip" if layout == "flat" else "upload.zip")
+    import zipfile
+
+    with zipfile.ZipFile(z, "w") as zf:
+        for f in sorted(folder.iterdir()):
+            zf.write(f, f.name if layout == "flat" else f"{folder.name}/{f.name}")
+    assert oxford.sniff(z) and detect_or_skip(z) == "oxford"
+    rec, ref = oxford.read(z), oxford.read(folder)
+    assert rec.stream("acc") == ref.stream("acc") and rec.truth.step_count == ref.truth.step_count == 3
+    assert rec.meta["notes_step_count"] == 12 and rec.warnings == ()
+    if layout == "folder at the top":  # the trial's name (phone, placement) comes from its folder
+        assert rec.meta["trial"] == folder.name and rec.device.model == "Pixel"
+        assert rec.device.placement == "trouser_pocket_back"
+    else:
+        assert rec.meta["trial"] == "trial" and rec.device.placement is None
+
+
+def test_renamed_accelerometer_file_is_detected_by_its_content(tmp_path):
+    from pdr.io import detect_format
+
+    p = tmp_path / "my walk.csv"
+    p.write_text("\n".join(_acc_lines(20)) + "\n")
+    assert detect_format(p) == "oxford"
+    rec = oxford.read(p)
+    assert len(rec.stream("acc")) == 20 and rec.truth.step_count is None
+    assert rec.device.model == "" and "trial" not in rec.meta  # no name taken from the folder it sits in
+    assert any("read alone" in w for w in rec.warnings)
+    other = tmp_path / "table.csv"
+    other.write_text("1,2,3\n4,5,6\n")
+    assert not oxford.sniff(other)
+
+
+def test_cut_off_last_line_dropped_with_a_warning(tmp_path):
+    lines = _acc_lines(30)
+    folder = _trial(tmp_path, lines, STEPS)
+    (folder / "accelerometer.csv").write_text("\n".join(lines) + "\n" + lines[0][:16])  # the phone stopped mid-line
+    rec = oxford.read(folder)
+    assert len(rec.stream("acc")) == 30
+    assert any("accelerometer.csv: dropped the cut-off last line 31 (2 of 5 fields)" in w for w in rec.warnings)
+    (folder / "accelerometer.csv").write_text("\n".join(lines) + "\n" + lines[0][:16] + "\n")  # not at the end: bad
+    with pytest.raises(InputError, match="line 31: expected 5 fields"):
+        oxford.read(folder)

@@ -58,7 +58,8 @@ def test_gz_is_read(tmp_path):
 @pytest.mark.parametrize(("over", "field", "match"), [
     ({"imu": np.zeros((400, 5))}, "imu", "Nx6"),
     ({"ts": np.arange(399)[None, :] * 0.005}, "ts", "399 timestamps but 400"),
-    ({"ts": np.r_[0.0, 0.005, 0.003, 0.02 + np.arange(397) * 0.005][None, :]}, "ts", "backwards at sample 3"),
+    ({"ts": np.r_[0.0, 0.005, np.arange(1, 7) * 6e-4, 0.02 + np.arange(392) * 0.005][None, :]}, "ts[2]",
+     "backwards in 6 of 400"),
     ({"imu": np.r_[np.zeros((10, 6)), np.full((1, 6), np.nan), np.zeros((389, 6))]}, "imu", "row 11 is not finite"),
     ({"gt": np.zeros((10, 3))}, "gt", "10 VICON rows"),
     ({"imu": np.full((400, 6), "x")}, "imu", "not a numeric"),

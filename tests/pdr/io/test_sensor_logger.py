@@ -149,7 +149,7 @@ def test_payload_order_and_repeats():
     msg["payload"].append(copy.deepcopy(gyro))
     rec = sensor_logger.parse_push_message(msg)
     assert np.all(np.diff(rec.stream("gyro").t_ns) > 0)
-    assert any("gyroscope: dropped 1 samples" in w for w in rec.warnings)
+    assert any("gyroscope dropped 1 of" in w and "repeats (1)" in w and "payload[" in w for w in rec.warnings)
 
 
 def test_string_times_and_ignored_readings():
@@ -225,12 +225,13 @@ def _edit_line(path: Path, line: int, new: str | None):
 
 
 @pytest.mark.parametrize(("edit", "line", "field", "match"), [
-    (lambda p: p.write_text(p.read_text()[:-25]), None, None, None),  # truncated last line: caught below
+    (lambda p: p.write_text(p.read_text()[:-25]), None, None, None),  # cut-off last line: dropped, see below
     (lambda p: _edit_line(p, 4, "1717000000150000000,0.03,0.1"), 4, None, "expected 5 fields"),
     (lambda p: _edit_line(p, 4, "1717000000150000000,0.03,0.1,0.2,0.3,0.4"), 4, None, "expected 5 fields"),
     (lambda p: _edit_line(p, 5, "1717000000160000000,0.04,0.1,abc,0.3"), 5, "y", "not a number"),
     (lambda p: _edit_line(p, 5, "1717000000160000000,0.04,0.1,NaN,0.3"), 5, "y", "not finite"),
-    (lambda p: _edit_line(p, 6, "1717000000000000000,0.05,0.1,0.2,0.3"), 6, "time", "backwards"),
+    (lambda p: (_edit_line(p, 6, "1717000000000000000,0.05,0.1,0.2,0.3"),
+                _edit_line(p, 7, "1717000000000000001,0.05,0.1,0.2,0.3")), 6, "time", "backwards in 2 of"),
     (lambda p: _edit_line(p, 6, "1.7e18,0.05,0.1,0.2,0.3"), 6, "time", "not an integer"),
     (lambda p: p.write_text("time,seconds_elapsed,z,y\n1,0,1,2\n"), 1, "x", "missing column 'x'"),
     (lambda p: p.write_bytes(b"\x00\x01garbage" * 30), None, None, "binary"),
@@ -239,10 +240,11 @@ def test_bad_csv_names_file_line_field(tmp_path, edit, line, field, match):
     folder = _copy_export(tmp_path)
     target = folder / "Gyroscope.csv"
     edit(target)
-    if match is None:  # a cut-off last line has too few fields
-        with pytest.raises(InputError, match="expected 5 fields") as err:
-            sensor_logger.read(folder)
-        assert err.value.line == len(target.read_text().splitlines())
+    if match is None:  # a cut-off last line (the app stopped mid-line) is dropped with a warning naming it
+        n = len(target.read_text().splitlines())
+        rec = sensor_logger.read(folder)
+        assert len(rec.stream("gyro")) == n - 2
+        assert any(f"Gyroscope.csv: dropped the cut-off last line {n}" in w for w in rec.warnings), rec.warnings
         return
     with pytest.raises(InputError, match=match) as err:
         sensor_logger.read(folder)
@@ -258,7 +260,7 @@ def test_repeated_timestamps_in_csv_are_dropped(tmp_path):
     target.write_text("\n".join(lines) + "\n")
     rec = sensor_logger.read(folder)
     assert len(rec.stream("gyro")) == len(lines) - 2
-    assert any("gyroscope: dropped 1" in w for w in rec.warnings)
+    assert any(w.startswith("Gyroscope.csv: dropped 1 of") and "first at line 4" in w for w in rec.warnings)
 
 
 def test_missing_metadata_infers_convention(tmp_path):
@@ -367,3 +369,26 @@ def test_real_sensor_logger_walks_are_read(walk):
         assert rec.has(kind), kind
     # at rest at the start the specific force is gravity, in m/s^2 and the Android sign
     assert np.linalg.norm(rec.values("acc")[:20].mean(axis=0)) == pytest.approx(9.81, abs=0.5)
+
+
+def test_location_fixes_geo_reference_the_recording(tmp_path):
+    """The first fix of Location.csv (the export's column set; blanks where the phone had no value) or of the
+    push's ``location`` readings goes to meta['location']; a fix without a position is ignored, never refused."""
+    folder = _copy_export(tmp_path)
+    (folder / "Location.csv").write_text(
+        "time,seconds_elapsed,bearingAccuracy,speedAccuracy,verticalAccuracy,horizontalAccuracy,speed,bearing,"
+        "altitude,longitude,latitude\n"
+        "1717000000200000000,0.2,,,3.0,4.5,0.1,,301.5,11.1110,49.4611\n"
+        "1717000000100000000,0.1,,,3.0,,0.1,,301.5,11.1109,49.4610\n")
+    loc = sensor_logger.read(folder).meta["location"]
+    assert loc == {"lat_deg": 49.4610, "lon_deg": 11.1109, "t_ns": 1717000000100000000,
+                   "horizontal_accuracy_m": None, "fixes": 2}
+    msg = _ios_message()
+    t = msg["payload"][0]["time"]
+    msg["payload"] += [{"name": "location", "time": t, "values": {"latitude": 91.0, "longitude": 0.0}},
+                       {"name": "location", "time": t, "values": {"latitude": 51.5, "longitude": -0.12,
+                                                                  "horizontalAccuracy": "7"}}]
+    rec = sensor_logger.parse_push_message(msg)
+    assert rec.meta["location"] == {"lat_deg": 51.5, "lon_deg": -0.12, "t_ns": int(t), "horizontal_accuracy_m": 7.0,
+                                    "fixes": 1}
+    assert rec.meta["ignored_readings"] == {"location": 1}

@@ -145,12 +145,13 @@ def _replace_line(text, line, new):
 @pytest.mark.parametrize(("edit", "line", "field", "match"), [
     (lambda t: "", 1, None, "empty file"),
     (lambda t: t.splitlines()[0] + "\n", 2, None, "no samples"),
-    (lambda t: t[: t.index("\n", t.index("\n", t.index("\n") + 1) + 1) - 8], 3, None, "expected 13 fields"),
+    (lambda t: t[: t.index("\n", t.index("\n", t.index("\n") + 1) + 1) - 8] + "\n", 3, None, "expected 13 fields"),
     (lambda t: _replace_line(t, 4, "0.015,1,2,3"), 4, None, "expected 13 fields"),
     (lambda t: _replace_line(t, 5, ",".join(["0.02"] + ["abc"] + ["0"] * 11)), 5, "scaledAccelX", "not a number"),
     (lambda t: _replace_line(t, 5, ",".join(["0.02"] + ["0"] * 5 + ["nan"] + ["0"] * 6)), 5, "scaledGyroZ",
      "not finite"),
-    (lambda t: _replace_line(t, 6, ",".join(["0.001"] + ["0"] * 12)), 6, "Time", "backwards"),
+    (lambda t: _replace_line(_replace_line(t, 6, ",".join(["0.001"] + ["0"] * 12)), 7,
+                             ",".join(["0.0015"] + ["0"] * 12)), 6, "Time", "backwards in 2 of"),
     (lambda t: t.replace("Time,", "Clock,", 1), 1, "Time", "no Time column"),
 ])
 def test_bad_input_names_file_line_field(tmp_path, edit, line, field, match):

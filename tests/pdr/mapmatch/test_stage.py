@@ -53,8 +53,8 @@ def test_a_session_saved_half_way_resumes_to_the_same_matched_track(f3_walk):
     mid = 0.5 * (t0 + t1)
     a = PdrPipeline(PipelineConfig(), stages=[MapMatchStage(plan, start, 3)])
     first = a.update(rec.slice_time(t0, mid))
-    state = state_codec.loads(state_codec.dumps(a.to_dict()))
+    state = state_codec.loads(state_codec.dumps(a.state()))
     assert "map_match" in state["stages"]
-    b = PdrPipeline.from_dict(state, stages=[MapMatchStage(plan, start, 3)])
+    b = PdrPipeline.from_state(state, stages=[MapMatchStage(plan, start, 3)])
     rest = b.update(rec.slice_time(mid, t1 + 1)) + b.finish()
     assert track_rows(first + rest) == whole

@@ -228,5 +228,5 @@ def test_site_grid_is_read_checked_and_reaches_the_pipeline():
     p = PdrPipeline(PipelineConfig(placement="hand"), site)
     assert p.drift.hde.grid_yaw == pytest.approx(math.radians(90.0 - 69.5))  # ENU yaw of a compass bearing
     from pdr import state_codec
-    again = PdrPipeline.from_dict(state_codec.loads(state_codec.dumps(p.to_dict())))
+    again = PdrPipeline.from_state(state_codec.loads(state_codec.dumps(p.state())))
     assert again.drift.hde.grid_yaw == p.drift.hde.grid_yaw

@@ -75,6 +75,28 @@ def test_impulses_too_short_too_far_apart_or_of_one_sign_are_no_elevator():
     assert ElevatorDetector(rate).update(same, np.zeros(same.size, dtype=bool)) == []
 
 
+def test_impulses_with_a_walk_between_them_are_no_elevator():
+    rate = 50.0
+    dv = _impulses(rate, 20.0, -1.0)                            # impulses at samples 50-100 and 1100-1150
+    walk = ElevatorDetector(rate)
+    for i in range(300, 900, 25):                               # steps every 0.5 s between the jolts
+        walk.add_step(i)
+    assert walk.update(dv, np.zeros(dv.size, dtype=bool)) == []
+    # Turning round in the cabin (two steps) still leaves a ride, also across a state round trip.
+    det = ElevatorDetector(rate)
+    det.add_step(400)
+    det.add_step(425)
+    det = ElevatorDetector.from_state(json.loads(json.dumps(det.state())))
+    assert len(det.update(dv, np.zeros(dv.size, dtype=bool))) == 1
+    # After a walk between two jolts, the second jolt opens a pair with a third.
+    three = np.concatenate([dv, np.zeros(200), np.full(50, -0.5), np.zeros(50)])
+    walk = ElevatorDetector(rate)
+    for i in range(300, 900, 25):
+        walk.add_step(i)
+    got = walk.update(three, np.zeros(three.size, dtype=bool))
+    assert len(got) == 1 and got[0][0] == 1100 and got[0][2] == 1
+
+
 SITE = {"name": "museum", "floor_height_m": 3.5, "declination_deg": 2.0, "grid_deg": 69.5, "landmarks": [
     {"id": "S1", "type": "stairs_up", "east_m": 10.0, "north_m": 0.0, "floor": 0, "heading_deg": [80, 100]},
     {"id": "S2", "type": "stairs", "east_m": 14.0, "north_m": 0.0, "floor": 0, "heading_deg": [350, 10],

@@ -96,7 +96,7 @@ def test_disabled_and_bad_input():
 def test_pipeline_state_keeps_the_offset_and_reads_older_states():
     p = PdrPipeline()
     p.magcal.hard_iron.applied = np.array([1.0, 2.0, 3.0])
-    d = p.to_dict()
-    np.testing.assert_array_equal(PdrPipeline.from_dict(d).magcal.hard_iron.applied, [1.0, 2.0, 3.0])
+    d = p.state()
+    np.testing.assert_array_equal(PdrPipeline.from_state(d).magcal.hard_iron.applied, [1.0, 2.0, 3.0])
     del d["magcal"]
-    np.testing.assert_array_equal(PdrPipeline.from_dict(d).magcal.hard_iron.applied, np.zeros(3))
+    np.testing.assert_array_equal(PdrPipeline.from_state(d).magcal.hard_iron.applied, np.zeros(3))

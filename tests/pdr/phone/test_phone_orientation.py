@@ -144,7 +144,7 @@ def test_use_phone_orientation_chunked_equals_one_batch_and_resumes(hand_walk):
     events = []
     for a, b in zip(np.linspace(t0, t1 + 1, 6)[:-1], np.linspace(t0, t1 + 1, 6)[1:], strict=True):
         events += p.update(rec.slice_time(a, b))
-        p = PdrPipeline.from_dict(p.to_dict())
+        p = PdrPipeline.from_state(p.state())
     events += p.finish()
     assert track_rows(events) == one
 

@@ -68,7 +68,7 @@ def test_state_survives_a_stored_round_trip(hand_walk):
     mid = 0.5 * (t0 + t1)
     p = PdrPipeline(PipelineConfig())
     ev = p.update(hand_walk.slice_time(t0, mid))
-    p2 = PdrPipeline.from_dict(state_codec.loads(state_codec.dumps(p.to_dict())))
+    p2 = PdrPipeline.from_state(state_codec.loads(state_codec.dumps(p.state())))
     ev += p2.update(hand_walk.slice_time(mid, t1 + 1)) + p2.finish()
     rows = track_rows(ev)
     assert [r["t_s"] for r in rows] == [r["t_s"] for r in one]
@@ -120,10 +120,10 @@ def test_a_shoe_imu_batch_is_refused_and_changes_nothing(hand_walk, role, placem
     shoe = replace(rest, device=replace(hand_walk.device, role=role, placement=placement))
     pipeline = PdrPipeline(PipelineConfig())
     events = pipeline.update(first)
-    state = state_codec.dumps(pipeline.to_dict())
+    state = state_codec.dumps(pipeline.state())
     with pytest.raises(InputError, match="foot-mounted IMU.*'pdr foot'"):
         pipeline.update(shoe)
-    assert state_codec.dumps(pipeline.to_dict()) == state
+    assert state_codec.dumps(pipeline.state()) == state
     # The session goes on with the phone's batches as if the shoe's had never come.
     events += pipeline.update(rest) + pipeline.finish()
     assert track_rows(events) == track_rows(PdrPipeline(PipelineConfig()).run(hand_walk))
@@ -227,7 +227,7 @@ def test_device_heading_placements_get_their_gyro_noise(hand_walk):
     assert p.attitude.config.sigma_gyro == 0.01
     p.update(hand_walk)
     assert p.placement == "hand" and p.attitude.config.sigma_gyro == 0.02
-    assert PdrPipeline.from_dict(p.to_dict()).attitude.config.sigma_gyro == 0.02
+    assert PdrPipeline.from_state(p.state()).attitude.config.sigma_gyro == 0.02
 
 
 def leg_direction_errors_deg(rec, rows):
@@ -345,7 +345,7 @@ def test_auto_placement_follows_the_phone_from_the_pocket_to_the_hand():
     # A state saved mid-walk resumes the detection where it was.
     q = PdrPipeline(PipelineConfig())
     q.update(first)
-    r = PdrPipeline.from_dict(state_codec.loads(state_codec.dumps(q.to_dict())))
+    r = PdrPipeline.from_state(state_codec.loads(state_codec.dumps(q.state())))
     assert r.auto_placement and r.placement_detector.state() == q.placement_detector.state()
 
 

@@ -75,9 +75,9 @@ def test_a_plugged_in_stage_corrects_every_step_and_resumes_from_a_saved_state(h
     mid = 0.5 * (t0 + t1)
     a = PdrPipeline(PipelineConfig(), stages=[CorridorSnap(0.0)])
     first = a.update(hand_walk.slice_time(t0, mid))
-    state = state_codec.loads(state_codec.dumps(a.to_dict()))
+    state = state_codec.loads(state_codec.dumps(a.state()))
     assert state["stages"]["corridor"]["moved_m"] > 0.0
-    b = PdrPipeline.from_dict(state, stages=[CorridorSnap(0.0)])
+    b = PdrPipeline.from_state(state, stages=[CorridorSnap(0.0)])
     assert b.stages[0].moved_m == a.stages[0].moved_m  # type: ignore[attr-defined]
     rest = b.update(hand_walk.slice_time(mid, t1 + 1)) + b.finish()
     assert track_rows(first + rest) == rows
@@ -106,7 +106,7 @@ def test_an_observer_sees_every_confirmed_step_and_changes_nothing(hand_walk):
 
 
 def test_a_state_without_plugged_in_stages_has_no_stages_key(hand_walk):
-    assert "stages" not in PdrPipeline(PipelineConfig()).to_dict()
+    assert "stages" not in PdrPipeline(PipelineConfig()).state()
 
 
 def test_event_rows_round_trip_and_keep_their_fields():

@@ -56,8 +56,8 @@ def test_a_format_1_state_resumes_and_gives_the_golden_rows(name):
     assert sum(r["type"] == "step" for r in golden) >= 10
     assert same_rows(rows, golden)
     # Saved again, it is a current state with the same content.
-    p = PdrPipeline.from_dict(old)
-    again = p.to_dict()
+    p = PdrPipeline.from_state(old)
+    again = p.state()
     # prev_q (the pocket's attitude at the previous stride) is obsolete since the device-frame continuity.
     assert again["format"] == STATE_FORMAT and set(old) - {"prev_q"} <= set(again)
 
@@ -72,6 +72,6 @@ def test_a_state_that_cannot_be_resumed_is_refused_with_a_reprocess_message(edit
     d = _old_state("hand_escalator")
     edit(d)
     with pytest.raises(InputError, match=match):
-        PdrPipeline.from_dict(d)
+        PdrPipeline.from_state(d)
     with pytest.raises(InputError, match="must be an object.*reprocess"):
-        PdrPipeline.from_dict([])  # type: ignore[arg-type]
+        PdrPipeline.from_state([])  # type: ignore[arg-type]

@@ -100,8 +100,8 @@ def test_stairs_landmark_corrects_a_seeded_heading_error(side, seed):
     assert e1[after].mean() < 0.6 * e0[after].mean()
     assert e1.mean() < e0.mean()
     # Stored state round-trips the landmark bookkeeping.
-    state = pipe.to_dict()
-    again = PdrPipeline.from_dict(state)
+    state = pipe.state()
+    again = PdrPipeline.from_state(state)
     assert again.stairs.stairs_landmark == pipe.stairs.stairs_landmark
     assert again.landmark_updates == pipe.landmark_updates
 
@@ -120,7 +120,7 @@ def test_site_carries_the_scenario_declination_and_the_pipeline_uses_it():
     assert bare.declination_deg is None and "declination_deg" not in bare.to_dict()
     pipe = PdrPipeline(PipelineConfig(attitude=AttitudeConfig(mag_declination_deg=20.0)), site=bare)
     assert pipe.attitude.config.mag_declination_deg == 20.0
-    again = PdrPipeline.from_dict(PdrPipeline(site=site).to_dict())
+    again = PdrPipeline.from_state(PdrPipeline(site=site).state())
     assert again.attitude.config.mag_declination_deg == pytest.approx(-7.5)
 
 

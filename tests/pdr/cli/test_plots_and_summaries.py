@@ -1,0 +1,124 @@
+"""What ``pdr track --plot``, ``pdr foot`` and ``pdr eval ipin FILE`` show a user (issue #29, CLI items 2 and 3)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pdr.cli import main
+from pdr.cli.plots import ALIGNED_NOTE, TURNED_NOTE, PlotTruth, track_figure
+from pdr.evaluation.foot_metrics import pyshoe_turn, stance_onsets, stride_summary
+from pdr.evaluation.scoring import landmark_errors, start_offset
+from tests.conftest import REPO_ROOT, data_path
+
+SIM = REPO_ROOT / "mobile_logs" / "sim"
+
+
+def _lines(fig):  # noqa: ANN001, ANN202 - a matplotlib figure
+    return {ln.get_label(): ln.get_xydata() for ln in fig.axes[0].get_lines()}
+
+
+def test_start_offset_puts_the_track_on_the_first_truth_point_as_the_scorer_does() -> None:
+    t = np.array([0.0, 1.0, 2.0, 3.0])
+    en = np.array([[5.0, 5.0], [6.0, 5.0], [7.0, 5.0], [8.0, 5.0]])
+    shift = start_offset(t, en, 1.5, np.array([0.0, 0.0]))
+    assert shift == pytest.approx([-6.5, -5.0])
+    # The landmark errors are those of the track moved by this offset.
+    truth_t, truth_en = np.array([1.5, 2.5]), np.array([[0.0, 0.0], [1.0, 1.0]])
+    moved = en + shift
+    assert landmark_errors(t, en, truth_t, truth_en) == pytest.approx(
+        [math.hypot(np.interp(2.5, t, moved[:, 0]) - 1.0, np.interp(2.5, t, moved[:, 1]) - 1.0)])
+
+
+def test_track_figure_marks_start_and_end_and_aligns_at_the_first_truth_point() -> None:
+    import matplotlib.pyplot as plt
+
+    t = np.arange(5.0)
+    en = np.column_stack([np.arange(5.0) + 10.0, np.full(5, 3.0)])
+    truth = PlotTruth(np.array([1.0, 4.0]), np.array([[0.0, 0.0], [3.0, 1.0]]), "landmark")
+    fig = track_figure(t, en, "walk", truth, label="PDR track")
+    lines = _lines(fig)
+    assert set(lines) == {"truth (landmark)", "PDR track", "start", "end"}
+    # At the first truth time (t = 1 s) the drawn track is on the first truth point.
+    drawn = lines["PDR track"]
+    assert [np.interp(1.0, t, drawn[:, 0]), np.interp(1.0, t, drawn[:, 1])] == pytest.approx([0.0, 0.0])
+    assert lines["start"][0] == pytest.approx(drawn[0]) and lines["end"][0] == pytest.approx(drawn[-1])
+    legend = fig.axes[0].get_legend()
+    assert legend is not None and [lg.get_text() for lg in legend.get_texts()] == [
+        "truth (landmark)", "PDR track", "start", "end"]
+    assert fig.axes[0].get_title().endswith(ALIGNED_NOTE)
+    plt.close(fig)
+    # Without truth: drawn where it is, no alignment note.
+    fig = track_figure(t, en, "walk")
+    assert _lines(fig)["track"] == pytest.approx(en)
+    assert fig.axes[0].get_title() == "walk"
+    plt.close(fig)
+
+
+def test_a_foot_track_is_also_turned_onto_the_truth() -> None:
+    import matplotlib.pyplot as plt
+
+    # A straight walk north in truth; the foot's frame has it going east (its heading origin is arbitrary).
+    t = np.linspace(0.0, 10.0, 101)
+    truth = PlotTruth(t, np.column_stack([np.zeros_like(t), 1.2 * t]), "dense")
+    en = np.column_stack([5.0 + 1.2 * t, np.full_like(t, -2.0)])
+    assert pyshoe_turn(en - en[0], truth.en_m - truth.en_m[0]) == pytest.approx(math.pi / 2)
+    fig = track_figure(t, en, "foot", truth, label="foot track", turn=True)
+    assert _lines(fig)["foot track"] == pytest.approx(truth.en_m, abs=1e-9)
+    assert fig.axes[0].get_title().endswith(TURNED_NOTE)
+    plt.close(fig)
+
+
+def test_stance_onsets_count_each_return_to_rest() -> None:
+    zv = np.array([1, 1, 0, 0, 1, 1, 0, 1, 0, 0], dtype=bool)
+    assert stance_onsets(zv).tolist() == [4, 7]
+    pos = np.column_stack([np.arange(10.0), np.zeros(10), np.zeros(10)])
+    assert stride_summary(np.arange(10.0) * 0.5, pos, zv) == (2, pytest.approx(9.0), pytest.approx(4.5))
+
+
+def test_pdr_foot_prints_a_summary_and_plots_with_the_truth(tmp_path: Path, capsys: pytest.CaptureFixture[str]
+                                                            ) -> None:
+    out, png = tmp_path / "foot.csv", tmp_path / "foot.png"
+    assert main(["foot", str(SIM / "foot_walk_run.zip"), "--out", str(out), "--plot", str(png)]) == 0
+    line = capsys.readouterr().out.strip().splitlines()[-1]
+    # The scenario: 35 s, walking and running along a 12 m corridor and back (its truth, SIM/foot_walk_run.json).
+    assert line.endswith(f"s, method zupt (RTS-smoothed) -> {out}")
+    strides, dist = int(line.split()[0]), float(line.split()[2])
+    assert " strides, " in line and "m walked in 35.0 s" in line
+    assert 20 <= strides <= 40 and 30.0 < dist < 45.0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_pdr_track_plot_titles_the_walk(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out, png = tmp_path / "t.csv", tmp_path / "t.png"
+    assert main(["track", str(SIM / "hand_escalator.zip"), "--out", str(out), "--plot", str(png)]) == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert " steps, " in capsys.readouterr().out
+
+
+def test_eval_ipin_refuses_what_it_cannot_score(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # A file that is not an IPIN log, a folder without any, a missing path: each a clear error, never "ALL (0 files)".
+    assert main(["eval", "ipin", str(SIM / "hand_escalator.zip")]) == 2
+    assert "not a log this evaluation reads" in capsys.readouterr().err
+    assert main(["eval", "ipin", str(tmp_path)]) == 2
+    assert "no *.txt or *.txt.gz or *.mat files in this folder" in capsys.readouterr().err
+    assert main(["eval", "ipin", str(tmp_path / "missing.txt")]) == 2
+    assert "no such file or folder" in capsys.readouterr().err
+    # An IPIN-named file without landmarks: named, and nothing scored is an error.
+    empty = tmp_path / "no-truth.txt"
+    empty.write_text("ACCE;0.0;0.0;0.0;0.0;9.8;3\n")
+    assert main(["eval", "ipin", str(empty)]) == 2
+    err = capsys.readouterr().err
+    assert "0 files" not in err and "no-truth.txt" in err
+
+
+@pytest.mark.data
+@pytest.mark.slow
+def test_eval_ipin_scores_one_file(capsys: pytest.CaptureFixture[str]) -> None:
+    log = data_path("ipin2023_t3", "logfiles") / "IPIN2023_T3_TrainingTrial22_repetition01.txt"
+    assert main(["eval", "ipin", str(log), "--smoother", "off"]) == 0
+    out = capsys.readouterr().out
+    assert "ALL (1 files)" in out and log.name in out
