@@ -13,6 +13,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from pdr import recording_codec
+from pdr.foot import summaries_codec
+from pdr.foot.summaries import StepSummaryBatch
 from pdr.recording import DeviceInfo, Recording
 
 log = logging.getLogger(__name__)
@@ -31,13 +33,14 @@ class Accepted:
 
 def store_batch(svc: Services, session_id: str, *, client_batch_id: str, payload_format: str, payload: bytes,
                 t_first_ns: int | None, t_last_ns: int | None, device: DeviceInfo, content: Any = None,
-                recording: Recording | None = None) -> Accepted:
+                recording: Recording | StepSummaryBatch | None = None) -> Accepted:
     """Persist a raw batch of ``session_id`` from ``device`` (its role names the processor) and queue the session
     when the batch is new.
 
     ``content`` is the payload's decoded JSON (JSON payloads): a re-send with the same content in other
     whitespace is a replay (:meth:`server.store.Store.add_batch`). ``recording`` is what the view decoded from
-    the payload: it is stored with the batch and processing reads it instead of decoding the payload again.
+    the payload (a recording, or a shoe unit's step summaries): it is stored with the batch and processing reads it
+    instead of decoding the payload again.
     Raises the 409 of a different payload under an existing ``client_batch_id``.
     """
     role = device.role
@@ -51,12 +54,15 @@ def store_batch(svc: Services, session_id: str, *, client_batch_id: str, payload
     return Accepted(bid, created)
 
 
-def encoded(recording: Recording | None) -> bytes | None:
-    """``recording`` as stored bytes (:mod:`pdr.recording_codec`); ``None`` when there is none or it holds what the
-    codec cannot store (then processing reads the raw payload, as for rows stored before decoded forms).
+def encoded(recording: Recording | StepSummaryBatch | None) -> bytes | None:
+    """``recording`` as stored bytes (:mod:`pdr.recording_codec`, :mod:`pdr.foot.summaries_codec` for step
+    summaries); ``None`` when there is none or it holds what the codec cannot store (then processing reads the raw
+    payload, as for rows stored before decoded forms).
     """
     if recording is None:
         return None
+    if isinstance(recording, StepSummaryBatch):
+        return summaries_codec.dumps(recording)
     try:
         return recording_codec.dumps(recording)
     except TypeError as exc:

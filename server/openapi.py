@@ -94,6 +94,7 @@ def _results_path(what: str) -> dict[str, Any]:
 
 #: Operations an ``ingest`` token may call (server.auth.SCOPES); every other write needs ``full``, reads ``read``.
 INGEST_OPERATIONS = {("/api/v1/sessions", "post"), ("/api/v1/sessions/{session_id}/batches", "post"),
+                     ("/api/v1/sessions/{session_id}/devices/{role}/upload", "post"),
                      ("/api/v1/sessions/{session_id}/steps", "post"), ("/api/v1/groups/{group_id}/uploads", "post"),
                      ("/api/v1/ingest/sensor-logger", "post")}
 #: Writes that store nothing, allowed to ``read`` tokens.
@@ -135,7 +136,8 @@ def openapi_document() -> dict[str, Any]:
             "securitySchemes": {"bearer": {"type": "http", "scheme": "bearer"},
                                 "queryToken": {"type": "apiKey", "in": "query", "name": "token"}},
             # Token scopes: each operation's x-token-scope names the one it needs ('full' tokens may do all).
-            "x-token-scopes": {"ingest": "push data only (Sensor Logger, native batches, uploads, steps)",
+            "x-token-scopes": {"ingest": "push data only (Sensor Logger, native batches, file uploads to a "
+                                         "session or a paired device, foot steps, group uploads)",
                                "read": "read only", "full": "everything"},
             "schemas": {"Error": ERROR, "CreateSession": schemas.CREATE_SESSION, "Processing": schemas.PROCESSING,
                         "Device": schemas.PAIR_DEVICE,

@@ -72,8 +72,13 @@ ProcessorFactory = Callable[[SessionContext, bytes | None], Processor]
 
 
 def decode_payload(batch: BatchRecord) -> Recording | StepSummaryBatch:
-    """What a raw batch holds for its processor: a :class:`Recording`, or foot step summaries."""
+    """What a raw batch holds for its processor: a :class:`Recording`, or foot step summaries (the form decoded at
+    ingest, else parsed from the raw payload of rows stored before that form was kept).
+    """
     if batch.payload_format == FOOT_STEPS_JSON:
+        if batch.decoded is not None:
+            from pdr.foot import summaries_codec
+            return summaries_codec.loads(batch.decoded)
         from pdr.foot.summaries import steps_from_json
         source = f"batch '{batch.client_batch_id}'"
         return steps_from_json(_json(batch.payload, source), source=source)

@@ -7,6 +7,10 @@ the web process in the embedded default, as an RQ job for ``pdr worker`` with ``
 process runs it, keeps ``started_at`` fresh while it runs (a heartbeat every ``stale_s / 3``), characterises the
 recording, stores the files and drops the upload.
 
+A second run of one report (its job thought lost and queued again while the first still ran, or a run taken over
+after its heartbeat stalled) is harmless: the attempt number of the claim fences every later write, so only the
+run holding the latest claim stores files or refreshes the heartbeat; a superseded run's result is dropped.
+
 Recovery: :meth:`ReportRunner.interrupted` lists the pending reports never started and those whose heartbeat
 stopped more than ``stale_s`` ago (their process is gone). The embedded service queues them all again on start-up
 (it is the only process, so every started report was interrupted); ``pdr worker``'s reconciler queues them
@@ -122,9 +126,9 @@ class ReportRunner:
     def _stale_before(self) -> datetime:
         return db.utcnow() - timedelta(seconds=self.stale_s)
 
-    def _claim(self, report_id: str, take_over: bool = False) -> tuple[bytes, str, bytes | None] | None:
-        """Take the report (one more attempt) and return its upload (raw, descriptor, decoded recording); ``None``
-        if it is done, gone, failed now, or run by another process (its heartbeat is fresh; ``take_over`` ignores it).
+    def _claim(self, report_id: str, take_over: bool = False) -> _Claim | None:
+        """Take the report (one more attempt) and return its upload; ``None`` if it is done, gone, failed now, or run
+        by another process (its heartbeat is fresh; ``take_over`` ignores it).
         """
         r, u = db.reports, db.report_uploads
         with self.store.engine.begin() as conn:
@@ -147,67 +151,89 @@ class ReportRunner:
             if not claimed:
                 return None
             up = conn.execute(select(u.c.payload, u.c.decoded).where(u.c.report_id == report_id)).one()
-            return (zlib.decompress(up.payload), str(row.descriptor),
-                    None if up.decoded is None else zlib.decompress(up.decoded))
+            return _Claim(row.attempts + 1, zlib.decompress(up.payload), str(row.descriptor),
+                          None if up.decoded is None else zlib.decompress(up.decoded))
 
     def run(self, report_id: str, take_over: bool = False) -> None:
         """Run one report job; failures are stored on the report, never raised."""
         try:
-            claimed = self._claim(report_id, take_over)
-            if claimed is not None:
-                with self._heartbeat(report_id):
-                    self._characterise(report_id, *claimed)
+            claim = self._claim(report_id, take_over)
+            if claim is not None:
+                with self._heartbeat(report_id, claim.attempt):
+                    self._characterise(report_id, claim)
         except Exception:  # the thread must survive; the report stays pending and is recovered on restart
             log.exception("Allan report %s could not be run", report_id)
 
-    def _heartbeat(self, report_id: str) -> _Heartbeat:
-        return _Heartbeat(self.store, report_id, self.stale_s / 3.0)
+    def _heartbeat(self, report_id: str, attempt: int) -> _Heartbeat:
+        return _Heartbeat(self.store, report_id, attempt, self.stale_s / 3.0)
 
-    def _characterise(self, report_id: str, payload: bytes, descriptor: str, decoded: bytes | None) -> None:
+    def _characterise(self, report_id: str, claim: _Claim) -> None:
         from pdr.allan.characterise import characterise_recording
         from pdr.allan.report import write_report
         from server.processing import read_uploaded_file
 
         try:
             # What the upload's reader returned at ingest; reports stored before that was kept are read now.
-            recording = (recording_codec.loads(decoded) if decoded is not None
-                         else read_uploaded_file(payload, descriptor))
+            recording = (recording_codec.loads(claim.decoded) if claim.decoded is not None
+                         else read_uploaded_file(claim.payload, claim.descriptor))
             # The report names the uploaded file, never the server's temporary copy that the reader was given.
             result = dataclasses.replace(characterise_recording(recording),
-                                         source=descriptor.partition("/")[2] or "upload")
+                                         source=claim.descriptor.partition("/")[2] or "upload")
             with tempfile.TemporaryDirectory(prefix="pdr-report-") as tmp:
                 paths = write_report(result, tmp)
                 files = {p.name: p.read_bytes() for p in paths.values()}
         except InputError as exc:
-            self._finish(report_id, error=str(exc))
+            self._finish(report_id, claim.attempt, error=str(exc))
             return
         except Exception as exc:  # keep the failure visible through the API, not only in the log
             log.exception("Allan report %s failed", report_id)
-            self._finish(report_id, error=f"internal error: {type(exc).__name__}: {exc}")
+            self._finish(report_id, claim.attempt, error=f"internal error: {type(exc).__name__}: {exc}")
             return
-        self._finish(report_id, files=files)
+        self._finish(report_id, claim.attempt, files=files)
 
-    def _finish(self, report_id: str, files: dict[str, bytes] | None = None, error: str | None = None) -> None:
+    def _finish(self, report_id: str, attempt: int, files: dict[str, bytes] | None = None,
+                error: str | None = None) -> bool:
+        """Store the run's outcome if its claim (``attempt``) is still the report's latest and the report is still
+        pending; otherwise (a later run took it over, or finished it) drop it. Returns whether it was stored.
+        """
+        r = db.reports
+        mine = and_(r.c.id == report_id, r.c.status == "pending", r.c.attempts == attempt)
         with self.store.engine.begin() as conn:
-            if files is not None:
-                for name, content in files.items():
-                    conn.execute(insert(db.report_files).values(
-                        report_id=report_id, name=name, content=content,
-                        media_type=MEDIA_TYPES.get(Path(name).suffix, "application/octet-stream")))
-                conn.execute(update(db.reports).where(db.reports.c.id == report_id).values(
-                    status="done", result=files["report.json"].decode("utf-8")))
-            else:
-                conn.execute(update(db.reports).where(db.reports.c.id == report_id).values(status="failed",
-                                                                                          error=error))
+            values = ({"status": "done", "result": files["report.json"].decode("utf-8")} if files is not None
+                      else {"status": "failed", "error": error})
+            if not conn.execute(update(r).where(mine).values(**values)).rowcount:  # settles a race: one row, once
+                log.info("Allan report %s: the result of attempt %d is dropped (a later run took the report over or "
+                         "finished it)", report_id, attempt)
+                return False
+            for name, content in (files or {}).items():
+                conn.execute(insert(db.report_files).values(
+                    report_id=report_id, name=name, content=content,
+                    media_type=MEDIA_TYPES.get(Path(name).suffix, "application/octet-stream")))
             conn.execute(delete(db.report_uploads).where(db.report_uploads.c.report_id == report_id))
+        return True
+
+
+@dataclasses.dataclass(frozen=True)
+class _Claim:
+    """A run's claim on a report: its attempt number (fences the run's writes) and the stored upload (raw bytes,
+    ``FORMAT/FILENAME`` descriptor, the recording read at ingest as :mod:`pdr.recording_codec` bytes or ``None``).
+    """
+
+    attempt: int
+    payload: bytes
+    descriptor: str
+    decoded: bytes | None
 
 
 class _Heartbeat:
-    """Keeps a claimed report's ``started_at`` fresh every ``period_s`` while its run lasts (a context manager)."""
+    """Keeps a claimed report's ``started_at`` fresh every ``period_s`` while its run lasts (a context manager), as
+    long as the claim (``attempt``) is the report's latest: a superseded run does not make the report look alive.
+    """
 
-    def __init__(self, store: Store, report_id: str, period_s: float) -> None:
+    def __init__(self, store: Store, report_id: str, attempt: int, period_s: float) -> None:
         self.store = store
         self.report_id = report_id
+        self.attempt = attempt
         self.period_s = period_s
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._beat, name=f"pdr-report-heartbeat-{report_id[:8]}", daemon=True)
@@ -220,12 +246,17 @@ class _Heartbeat:
         self._stop.set()
         self._thread.join()
 
+    def beat(self) -> bool:
+        """Refresh ``started_at`` once if the claim is still the latest; returns whether it was."""
+        with self.store.engine.begin() as conn:
+            return bool(conn.execute(update(db.reports).where(db.reports.c.id == self.report_id,
+                                                              db.reports.c.status == "pending",
+                                                              db.reports.c.attempts == self.attempt)
+                                     .values(started_at=db.utcnow())).rowcount)
+
     def _beat(self) -> None:
         while not self._stop.wait(self.period_s):
             try:
-                with self.store.engine.begin() as conn:
-                    conn.execute(update(db.reports).where(db.reports.c.id == self.report_id,
-                                                          db.reports.c.status == "pending")
-                                 .values(started_at=db.utcnow()))
+                self.beat()
             except Exception as exc:  # the database may be down for a moment; the next beat tries again
                 log.warning("heartbeat of report %s: %s", self.report_id, exc)

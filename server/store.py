@@ -53,8 +53,9 @@ def content_digest(content: Any) -> str:
 class BatchRecord:
     """A stored raw batch, decompressed.
 
-    ``decoded`` is the recording its reader decoded at ingest (:mod:`pdr.recording_codec` bytes), ``None`` for
-    batches stored without one (step summaries, rows older than migration 0007_decoded). ``payload`` is the raw
+    ``decoded`` is what was decoded at ingest: the recording its reader returned (:mod:`pdr.recording_codec` bytes)
+    or a shoe unit's step summaries (:mod:`pdr.foot.summaries_codec`); ``None`` for rows stored without one (older
+    than migration 0007_decoded, or step summaries stored before they had a decoded form). ``payload`` is the raw
     payload as received, loaded only when there is no decoded form (what processing needs: read once).
     """
 
@@ -243,8 +244,8 @@ class Store:
 
         ``content`` is the decoded JSON of a JSON payload: then the batch is identified by its content
         (:func:`content_digest`), so a re-send that differs only in whitespace or key order is a replay.
-        ``decoded``: the recording read from the payload at ingest (:mod:`pdr.recording_codec`), which processing
-        reads instead of decoding the payload again.
+        ``decoded``: what was decoded from the payload at ingest (:class:`BatchRecord`), which processing reads
+        instead of decoding the payload again.
         """
         digest = hashlib.sha256(payload).hexdigest() if content is None else content_digest(content)
         q = select(db.batches.c.id, db.batches.c.payload_sha256).where(

@@ -2,7 +2,8 @@
 
 The body is a ``pdr-foot-steps/1`` payload (:mod:`pdr.foot.summaries`, JSON Schema ``FootSteps`` in the OpenAPI
 document). Like native batches it is stored raw before processing and is idempotent by its ``batch_id``
-(a re-sent identical payload is a no-op, different content under the same id a 409); the session's
+(a re-sent identical payload is a no-op, different content under the same id a 409); it is parsed and validated
+once, here, and the decoded summaries are stored with it (:mod:`pdr.foot.summaries_codec`); the session's
 ``left_foot`` / ``right_foot`` processor (:class:`server.foot_processor.FootProcessor`) composes the summaries.
 The payload's foot must be paired with the session first (``POST .../devices``), 409 otherwise.
 """
@@ -42,7 +43,7 @@ def add_step_summaries(session_id: str) -> tuple[Response, int]:
     dev = body["device"]
     accepted = store_batch(svc, session_id, client_batch_id=batch_id, payload_format=FOOT_STEPS_JSON,
                            payload=request.get_data(), t_first_ns=summaries.t_first_ns,
-                           t_last_ns=summaries.t_last_ns, content=body,
+                           t_last_ns=summaries.t_last_ns, content=body, recording=summaries,
                            device=DeviceInfo(platform="imu", model=dev.get("model", ""), role=summaries.role,
                                              placement="foot", device_id=dev.get("device_id", "")))
     return (jsonify({"batch_id": batch_id, "id": accepted.id, "duplicate": not accepted.created,

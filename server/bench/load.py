@@ -7,7 +7,10 @@ seconds for ``--minutes``, then waits until the processing backlog is drained an
 
 - lost: batches acknowledged (HTTP 200/201) but not stored, or stored but not processed (``done``);
 - duplicated: a stored batch id twice, or a track point emitted twice (a batch processed twice);
-- p50/p95/p99 ingest latency (request sent to answer received), retries, throughput, drain time.
+- p50/p95/p99 ingest latency (request sent to answer received), retries, throughput, drain time;
+- ``/api/v1/health`` latency (polled every 0.1 s on the first web process) while one large log file
+  (``--big-upload-mb``, a simulated walk as native JSON) is uploaded to that same process during the replay, and
+  that upload's answer and duration.
 
 The defaults are the issue's check (50 phones, 10 minutes); tests run a short version.
 """
@@ -39,6 +42,67 @@ def simulated_uploads(phones: int, minutes: float, batch_s: float,
              for k in range(max(1, min(recordings, phones)))]
     n = int(round(minutes * 60.0 / batch_s))
     return {f"phone-{p:03d}": walks[p % len(walks)][:n] for p in range(phones)}
+
+
+def big_upload(megabytes: float) -> bytes:
+    """A simulated pocket walk as one native JSON log file of at least ``megabytes`` MB (10^6 bytes; about 2.7 MB per
+    minute of walk).
+    """
+    from pdr.io.native import batch_to_json
+    from server.bench.server import simulated_phone
+
+    minutes = max(0.5, megabytes / 2.7)
+    while True:
+        body = json.dumps(batch_to_json(simulated_phone(minutes, seed=99), session_id="big", batch_id="big")).encode()
+        if len(body) >= megabytes * 1e6:
+            return body
+        minutes *= 1.05 * megabytes * 1e6 / len(body)
+
+
+def multipart_file(payload: bytes, filename: str) -> tuple[bytes, str]:
+    """A ``multipart/form-data`` body with one ``file`` field; returns (body, content type)."""
+    boundary = uuid.uuid4().hex
+    head = (f'--{boundary}\r\nContent-Disposition: form-data; name="file"; filename="{filename}"\r\n'
+            "Content-Type: application/octet-stream\r\n\r\n").encode()
+    return head + payload + f"\r\n--{boundary}--\r\n".encode(), f"multipart/form-data; boundary={boundary}"
+
+
+def health_during_upload(url: str, token: str, payload: bytes, delay_s: float, out: dict[str, Any]) -> None:
+    """After ``delay_s`` s, upload ``payload`` as a log file to ``url`` and poll ``/api/v1/health`` there every 0.1 s
+    until the upload is answered; fills ``out`` with the upload's status and seconds and the health latencies.
+    """
+    time.sleep(delay_s)
+    body, ctype = multipart_file(payload, "big-walk.json")
+    done = threading.Event()
+    latencies: list[float] = []
+    statuses: Counter[int] = Counter()
+
+    def poll() -> None:
+        c = Client(url, timeout_s=60.0)
+        try:
+            while not done.is_set():
+                reply = c.request("GET", "/api/v1/health")
+                latencies.append(reply.seconds)
+                statuses[reply.status] += 1
+                done.wait(0.1)
+        finally:
+            c.close()
+
+    poller = threading.Thread(target=poll, daemon=True)
+    uploader = Client(url, token, timeout_s=600.0)
+    poller.start()
+    try:
+        reply = uploader.request("POST", "/api/v1/sessions", raw=body, content_type=ctype)
+    finally:
+        done.set()
+        poller.join()
+        uploader.close()
+    out.update({"upload_mb": round(len(body) / 1e6, 1), "upload_status": reply.status,
+                "upload_s": round(reply.seconds, 1), "health_polls": len(latencies),
+                "health_statuses": {str(k): v for k, v in statuses.items()},
+                "health_latency": percentiles_ms(latencies)})
+    if reply.status == 201:
+        out["session"] = str(reply.json()["id"])
 
 
 def check_sessions(url: str, token: str, session_ids: dict[str, str],
@@ -86,6 +150,7 @@ def _run_load(args: argparse.Namespace, bar: Progress) -> dict[str, Any]:
     bar.set_note(f"simulating {min(args.recordings, args.phones)} walks of {args.minutes:g} min")
     t_sim = time.perf_counter()
     uploads = simulated_uploads(args.phones, args.minutes, args.batch_s, args.recordings)
+    big = big_upload(args.big_upload_mb) if args.big_upload_mb > 0 else None
     sim_s = time.perf_counter() - t_sim
     bar.advance(note="starting PostgreSQL, web processes and workers")
     ensure_services(args.postgres_admin_url, args.redis_url)
@@ -104,10 +169,23 @@ def _run_load(args: argparse.Namespace, bar: Progress) -> dict[str, Any]:
             stop = threading.Event()
             sampler = threading.Thread(target=_sample_backlog, args=(db_url, backlog, stop), daemon=True)
             sampler.start()
+            probe: dict[str, Any] = {}
+            prober = None
+            if big is not None:  # a third of the way into the replay (its pace is real time unless flooding)
+                delay_s = 0.0 if args.flood else args.minutes * 60.0 / 3.0
+                prober = threading.Thread(target=health_during_upload, args=(cluster.urls[0], token, big, delay_s,
+                                                                           probe), daemon=True)
+                prober.start()
             bar.advance(note=f"{args.phones} phones uploading for {args.minutes:g} min")
             t0 = time.perf_counter()
             replay = replay_phones(cluster.urls, token, uploads, pace_s=0.0 if args.flood else args.batch_s)
             upload_s = time.perf_counter() - t0
+            if prober is not None:
+                prober.join()
+                result["big_upload"] = probe
+                if "session" in probe:  # the big log is a session too: wait for it and check it as well
+                    replay.session_ids["big-upload"] = probe.pop("session")
+                    replay.acknowledged["big-upload"] = []
             bar.advance(note="waiting for the processing backlog to drain")
             t1 = time.perf_counter()
             try:
@@ -193,6 +271,12 @@ def print_result(result: dict[str, Any]) -> None:
                else f"NOT drained {args_timeout(result)}: {result['backlog_at_end']} batches left")
     print(f"  backlog: at most {result['max_backlog_batches']} batches; {drained}; workers processed "
           f"{result['processing_batches_per_s']} batches/s")
+    if "big_upload" in result:
+        big = result["big_upload"]
+        hl = big["health_latency"]
+        print(f"  during a {big['upload_mb']} MB log upload (answered {big['upload_status']} after "
+              f"{big['upload_s']} s): /health p50 {hl['p50_ms']} ms, p95 {hl['p95_ms']} ms, max {hl['max_ms']} ms over "
+              f"{big['health_polls']} polls {big['health_statuses']}")
     print(f"  lost {result['lost']}, not processed {result['not_done']}, duplicated batches "
           f"{result['duplicated_batches']}, duplicated track points {result['duplicated_track_points']} "
           f"(of {result['track_points']}); batch status {result['batch_status']}")
@@ -238,6 +322,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--workers", type=int, default=2, help="workers (2)")
     p.add_argument("--recordings", type=int, default=5, help="distinct simulated walks shared by the phones (5)")
     p.add_argument("--flood", action="store_true", help="send as fast as answered instead of one batch per period")
+    p.add_argument("--big-upload-mb", type=float, default=50.0,
+                   help="size of the log file uploaded during the replay while /health is polled, MB; 0: none (50)")
     p.add_argument("--drain-timeout-s", type=float, default=1800.0, help="give up waiting for the backlog (1800)")
     add_deployment_options(p)
     p.set_defaults(func=_run)

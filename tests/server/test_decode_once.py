@@ -106,3 +106,42 @@ def test_allan_upload_is_read_once_in_the_request(app, client, tokens, monkeypat
     rep = client.get(f"/api/v1/reports/{r.get_json()['id']}", headers=h).get_json()
     assert rep["status"] == "done", rep["error"]
     assert calls == {"read_isolated": 2}  # the bad upload and the good one, each once; the job read none
+
+
+def _increments(n: int) -> list[Any]:
+    """``n`` steps of 0.7 m straight ahead, 0.5 s apart, each with a small diagonal covariance (eq. 8)."""
+    import numpy as np
+
+    from pdr.step_increment import StepIncrement
+
+    return [StepIncrement(1.0 + 0.5 * k, 50 * k, np.array([0.7, 0.0, 0.0]), 0.0, np.diag([1e-4, 1e-4, 1e-4, 1e-5]))
+            for k in range(n)]
+
+
+def test_step_summaries_are_parsed_once_and_stored_decoded(real_app, token, monkeypatch):
+    import pdr.foot.summaries
+    import server.api.foot
+    from pdr.foot import summaries_codec
+    from pdr.foot.summaries import steps_to_json
+
+    calls: Counter[str] = Counter()
+    _count(monkeypatch, calls, server.api.foot, "steps_from_json")     # the view's parse
+    _count(monkeypatch, calls, pdr.foot.summaries, "steps_from_json")  # any other (the worker's, before)
+    client = real_app.test_client()
+    h = bearer(token)
+    sid = client.post("/api/v1/sessions", json={"session_id": "shoe"}, headers=h).get_json()["id"]
+    assert client.post(f"/api/v1/sessions/{sid}/devices", json={"role": "left_foot"}, headers=h).status_code == 201
+    steps = _increments(6)
+    for i in (0, 1):
+        payload = steps_to_json(steps[3 * i:3 * i + 3], "left_foot", f"s{i}")
+        r = client.post(f"/api/v1/sessions/{sid}/steps", json=payload, headers=h)
+        assert r.status_code == 201, r.get_json()
+    assert real_app.extensions["pdr"].worker.wait_idle(120)
+    assert calls == {"steps_from_json": 2}  # once per payload, in the view; the worker parsed none
+    rows = _stored(real_app, sid)
+    assert [row.status for row in rows] == ["done", "done"], [row.error for row in rows]
+    stored = summaries_codec.loads(zlib.decompress(rows[0].decoded))
+    assert stored.role == "left_foot" and [s.t_s for s in stored.steps] == [s.t_s for s in steps[:3]]
+    assert all((a.dp == b.dp).all() and (a.cov == b.cov).all() for a, b in zip(stored.steps, steps[:3], strict=True))
+    track = client.get(f"/api/v1/sessions/{sid}/track?device=left_foot", headers=h).get_json()["points"]
+    assert len(track) == 6 and abs(track[-1]["east_m"] ** 2 + track[-1]["north_m"] ** 2 - 4.2 ** 2) < 1e-6

@@ -7,11 +7,13 @@ from __future__ import annotations
 import gzip
 import io
 import json
+import re
 import socket
 import subprocess
 import time
 import zipfile
 from datetime import timedelta
+from typing import Any
 
 import pytest
 from sqlalchemy import select, update
@@ -531,6 +533,54 @@ def test_report_interrupted_too_often_fails_with_the_reason(app, tokens):
     assert row.status == "failed" and f"interrupted {MAX_ATTEMPTS} times" in row.error
 
 
+def test_a_second_run_of_one_report_is_harmless_whichever_finishes_first(app, tokens):
+    """A report's job thought lost is queued again while its first run still goes on (or a run is taken over after
+    its heartbeat stalled): two runs hold claims. Only the latest claim stores a result, once; the other run's
+    result is dropped without an error, and its heartbeat no longer refreshes the report."""
+    from server.report_jobs import ReportRunner, _Heartbeat
+    from tests.server.test_models_reports import _static_npz
+
+    store = app.extensions["pdr"].store
+    with store.engine.begin() as conn:
+        uid = auth.user_id(conn, "alice")
+    runner = ReportRunner(store, enqueue=lambda report_id: None)
+    raw = _static_npz()
+    recording = _read(raw, "static.npz")
+
+    def files_and_row(report_id: str) -> tuple[list[str], Any]:
+        with store.engine.connect() as conn:
+            names = [r.name for r in conn.execute(select(db.report_files.c.name)
+                                                   .where(db.report_files.c.report_id == report_id))]
+            return names, conn.execute(select(db.reports).where(db.reports.c.id == report_id)).one()
+
+    for first_to_finish in ("superseded", "latest"):
+        rid = f"r-twice-{first_to_finish}"
+        runner.create(rid, uid, "static.npz", raw, "static_npz/static.npz", recording)
+        old = runner._claim(rid)
+        new = runner._claim(rid, take_over=True)
+        assert old is not None and new is not None and (old.attempt, new.attempt) == (1, 2)
+        order = (old, new) if first_to_finish == "superseded" else (new, old)
+        for claim in order:
+            runner._characterise(rid, claim)  # raises nothing (a duplicate file row would)
+        names, row = files_and_row(rid)
+        assert row.status == "done" and row.attempts == 2 and row.error is None
+        assert sorted(names) == sorted(set(names)) and "report.json" in names
+        with store.engine.connect() as conn:
+            assert conn.execute(select(db.report_uploads).where(db.report_uploads.c.report_id == rid)).first() is None
+    # the superseded run's heartbeat leaves the report alone; the latest run's keeps it fresh
+    rid = "r-beat"
+    runner.create(rid, uid, "static.npz", raw, "static_npz/static.npz", recording)
+    old, new = runner._claim(rid), runner._claim(rid, take_over=True)
+    assert old is not None and new is not None
+    long_ago = db.utcnow() - timedelta(hours=1)
+    for claim, refreshed in ((old, False), (new, True)):
+        with store.engine.begin() as conn:
+            conn.execute(update(db.reports).where(db.reports.c.id == rid).values(started_at=long_ago))
+        assert _Heartbeat(store, rid, claim.attempt, period_s=1.0).beat() is refreshed
+        _, row = files_and_row(rid)
+        assert (row.started_at.replace(tzinfo=None) > long_ago.replace(tzinfo=None)) is refreshed, claim.attempt
+
+
 def _read(payload: bytes, name: str):
     """The recording the upload ``payload`` named ``name`` holds, read as the service reads it."""
     from server.sandbox import read_isolated
@@ -588,3 +638,28 @@ def test_allan_reports_run_as_worker_jobs_and_recover_on_the_redis_back_end(tmp_
     assert "reconciler queued" in logs and logs.count("Successfully completed Allan report") >= 3  # the worker's jobs
     assert "Traceback" not in logs
 
+
+
+def test_every_operations_documented_scope_is_the_one_the_service_enforces(app, client, tokens):
+    """Each authenticated operation of the OpenAPI document, called with a token of each scope: refused for its scope
+    (403; the Sensor Logger route answers the app's 499) exactly when its ``x-token-scope`` is not the token's (a
+    full token may do all), whatever else the answer is (the path parameters name nothing, so allowed calls get 4xx
+    of another kind)."""
+    with app.extensions["pdr"].store.engine.begin() as conn:
+        uid = auth.user_id(conn, "alice")
+        scoped = {scope: auth.issue_token(conn, uid, scope) for scope in auth.SCOPES}
+    doc = client.get("/api/v1/openapi.json").get_json()
+    checked = 0
+    for path, ops in doc["paths"].items():
+        url = re.sub(r"\{(\w+)\}", lambda m: "left_foot" if m.group(1) == "role" else "nothing-here", path)
+        for method, op in ops.items():
+            if "x-token-scope" not in op:
+                continue
+            for scope, token in scoped.items():
+                r = client.open(url, method=method.upper(), headers=bearer(token), json={})
+                allowed = scope in ("full", op["x-token-scope"])
+                refused = r.status_code in (403, 499) and b"does not allow this request" in r.get_data()
+                assert refused is not allowed, (method, path, scope, r.status_code, r.get_data()[:200])
+                assert r.status_code < 500, (method, path, scope, r.get_data()[:300])
+            checked += 1
+    assert checked > 30

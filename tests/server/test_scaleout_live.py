@@ -78,7 +78,8 @@ def test_two_web_processes_and_two_workers_match_the_embedded_default(tmp_path, 
 
 
 def test_short_load_loses_and_duplicates_nothing_and_drains():
-    """``pdr bench load`` in small: 10 phones x 30 s of real-time 1 s batches, 2 web processes + 2 workers."""
+    """``pdr bench load`` in small: 10 phones x 30 s of real-time 1 s batches, 2 web processes + 2 workers, and a
+    3 MB log file uploaded meanwhile while ``/health`` is polled."""
     import argparse
 
     from server.bench.cluster import ensure_services
@@ -90,11 +91,14 @@ def test_short_load_loses_and_duplicates_nothing_and_drains():
     except RuntimeError as exc:
         pytest.skip(str(exc))
     args = argparse.Namespace(phones=10, minutes=0.5, batch_s=1.0, webs=2, workers=2, recordings=2, flood=False,
-                              drain_timeout_s=300.0, postgres_admin_url=POSTGRES_ADMIN_URL, redis_url=REDIS_TEST_URL,
-                              processor=PROCESSOR)
+                              big_upload_mb=3.0, drain_timeout_s=300.0, postgres_admin_url=POSTGRES_ADMIN_URL,
+                              redis_url=REDIS_TEST_URL, processor=PROCESSOR)
     r = run_load(args)
     assert r["batches_acknowledged"] == r["batches_sent"] == 300 and r["refused"] == 0
     assert r["drained"] and r["lost"] == 0 and r["not_done"] == 0
     assert r["duplicated_batches"] == 0 and r["duplicated_track_points"] == 0
     # Latency is a figure of `pdr bench load`, not asserted here: a wall-clock bound flakes on a loaded machine.
     assert r["latency"]["p95_ms"] > 0.0
+    big = r["big_upload"]  # a log file uploaded during the replay is a session, and /health answered meanwhile
+    assert big["upload_status"] == 201 and big["upload_mb"] >= 3.0, big
+    assert big["health_polls"] > 0 and big["health_statuses"] == {"200": big["health_polls"]}, big
