@@ -65,7 +65,8 @@ def _yaw_case(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """A true tilted attitude, an estimate 10 deg off in yaw about up (tilt exact), its covariance (yaw sigma 20 deg,
     tilt 1 deg), and the yaw error (rad)."""
     rng = np.random.default_rng(seed)
-    q_true = quat.from_euler(*rng.uniform(-0.6, 0.6, 2), rng.uniform(-math.pi, math.pi))
+    roll, pitch = rng.uniform(-0.6, 0.6, 2)
+    q_true = quat.from_euler(roll, pitch, rng.uniform(-math.pi, math.pi))
     err = math.radians(10.0)
     q = quat.multiply(quat.from_rotvec([0.0, 0.0, -err]), q_true)
     g = np.array([-q[3], -q[2], q[1], q[0]])
