@@ -95,7 +95,8 @@ def test_truth_of_an_uploaded_log_is_served_on_the_track_time_axis(app: Flask, c
 def test_truth_is_empty_for_streamed_sessions(client: FlaskClient, tokens: dict[str, str]) -> None:
     sid = client.post("/api/v1/sessions", headers=bearer(tokens["alice"]), json={"session_id": "s"}).get_json()["id"]
     body = client.get(f"/api/v1/sessions/{sid}/truth", headers=bearer(tokens["alice"])).get_json()
-    assert body == {"session": sid, "truth": [], "count": 0}
+    assert {k: body[k] for k in ("session", "truth", "count")} == {"session": sid, "truth": [], "count": 0}
+    assert set(body) == {"session", "truth", "count", "clock"} and "t0_ns" in body["clock"]
 
 
 def test_truth_of_another_users_session_is_not_found(client: FlaskClient, tokens: dict[str, str]) -> None:

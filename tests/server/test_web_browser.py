@@ -32,6 +32,7 @@ import numpy as np
 import pytest
 
 from pdr.frames import local_enu_to_geodetic
+from pdr.phone.track_geojson import DEGREE_DECIMALS
 from server.client import Client
 from tests.server.helpers import multipart, phone_batch
 from tests.server.live_web import LiveApp, shot, sign_in
@@ -691,8 +692,10 @@ def test_a_geo_referenced_session_is_drawn_on_a_real_map(page: Any, live: LiveSe
     assert line["width"] > 0.3 * box["width"] or line["height"] > 0.3 * box["height"]
     assert page.locator("#geomap path.geo-start").count() == 1 and page.locator("#geomap path.geo-end").count() == 1
     # The start marker is where the API's GeoJSON starts: the first step, placed about the session's origin.
+    # (RFC 7946 output keeps DEGREE_DECIMALS decimals, about a centimetre.)
     lat, lon = local_enu_to_geodetic(walk.east_m[0], walk.north_m[0], *GEO_ORIGIN)
-    assert page.evaluate("window.pdrPage.geo.start") == pytest.approx([float(lat), float(lon)], abs=1e-9)
+    assert page.evaluate("window.pdrPage.geo.start") == pytest.approx(
+        [round(float(lat), DEGREE_DECIMALS), round(float(lon), DEGREE_DECIMALS)], abs=1e-12)
     assert f"{GEO_ORIGIN[0]:.6f}°, {GEO_ORIGIN[1]:.6f}°" in page.inner_text("#geo-note")
     # The page's policy lets the browser fetch tiles from the configured host only.
     csp = page.evaluate("fetch('/').then(r => r.headers.get('content-security-policy'))")
