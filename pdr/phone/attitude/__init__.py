@@ -8,18 +8,17 @@ closed form ``cos(|w| Ts/2) I + sin(|w| Ts/2)/|w| Omega`` is used), ``omega`` th
 ``P = F P F^T + W`` with ``W = Xi W_gyro Xi^T`` (eqs. 8-9). Seed 003 prints ``Xi`` for a vector-first
 quaternion; the scalar-first form ``Xi = Ts/2 [-e^T; q0 I + [e x]]`` is used here (same covariance).
 
-Measurement update (eqs. 10-13, 35-40): ``z = [a; m] = [R(q)^T g; R(q)^T h] + v`` with the unscented
-transform of the paper (``alpha = 1e-3``, ``beta = 2``, ``kappa = 0``, ``L = 4``). Rows are used only
-when eq. 12 (accelerometer: ``| |a| - |g| | < eps_a1`` and ``var(|a|) < eps_a2``, quasi-static) or eq. 13
-(magnetometer: ``| |m| - |h| | < eps_m1`` and ``var(|m|) < eps_m2``; a dip-angle check is added) accept
-them; otherwise their variance is infinite, i.e. the rows are dropped. By default the field's rows act on the yaw alone
-(``AttitudeConfig.mag_yaw_only``, :func:`.kernel.mag_yaw_update`): the azimuth of the measured field is one scalar
-row along the rotation about up, so a disturbed field cannot tilt the attitude; eq. 11's three rows are the
-``False`` setting. The variances of eqs. 12-13 are
-computed over a trailing exponential window (time constant ``var_window_s``) instead of the centred
-window of the paper, so the filter is causal and can run online. The quaternion is renormalised after
-each update. The landmark row ``Delta UH = f(q)`` (eqs. 14-32) is applied once per step by
-:func:`landmark_update` (see :mod:`pdr.phone.heading`).
+Measurement update (eqs. 10-13, 35-40): ``z = [a; m] = [R(q)^T g; R(q)^T h] + v`` with the unscented transform of
+the paper (``alpha = 1e-3``, ``beta = 2``, ``kappa = 0``, ``L = 4``). Rows are used only when eq. 12 (accelerometer:
+``| |a| - |g| | < eps_a1`` and ``var(|a|) < eps_a2``, quasi-static) or eq. 13 (magnetometer: ``| |m| - |h| | <
+eps_m1`` and ``var(|m|) < eps_m2``; a dip-angle check is added) accept them; otherwise their variance is infinite,
+i.e. the rows are dropped. With ``AttitudeConfig.mag_yaw_only`` the field's rows act on the yaw alone
+(:func:`.kernel.mag_yaw_update`): the azimuth of the measured field is one scalar row along the rotation about up,
+so a disturbed field cannot tilt the attitude; eq. 11's three rows are the default. The variances of eqs. 12-13 are
+computed over a trailing exponential window (time constant ``var_window_s``) instead of the centred window of the
+paper, so the filter is causal and can run online. The quaternion is renormalised after each update. The landmark
+row ``Delta UH = f(q)`` (eqs. 14-32) is applied once per step by :func:`landmark_update` (see
+:mod:`pdr.phone.heading`).
 
 Gyro bias: while the user stands (quasi-static accelerometer, small spread of ``|a|`` and of the gyro for
 ``static_min_s``; a hand-held phone still trembles) gravity is fixed in the navigation frame, also in a moving

@@ -74,8 +74,11 @@ class AttitudeConfig:
     mag_yaw_only
         The magnetometer corrects the yaw alone (:func:`pdr.phone.attitude.kernel.mag_yaw_update`) instead of the
         three field rows of eq. 11. The tilt is observed by gravity; the field's rows also pull it wherever the field
-        is not the reference (a magnet, steel), and while the user walks the accelerometer's rows are mostly gated out
-        (eq. 12), so in a disturbed field nothing brought the tilt back. ``False``: the rows of eqs. 10-11 as printed.
+        is not the reference (a magnet, steel), and while the user walks the accelerometer's rows are mostly gated
+        out (eq. 12), so in a disturbed field nothing brings the tilt back. Off by default: with it, the yaw takes the
+        whole of a steel building's deflection, which eq. 11's rows share with the tilt, and the hand-held heading
+        between the IPIN landmarks got worse (``pdr eval ipin``), while the trouser-pocket and swinging-hand walks of
+        ``pdr eval heading`` gained from the kept tilt.
     mag_when_static
         Use magnetometer rows while stationary (False: a standing user sees one, possibly disturbed,
         field; its repeated samples are not independent measurements of north).
@@ -113,7 +116,7 @@ class AttitudeConfig:
     mag_declination_deg: float = 0.0
     bias_field_uT: float = 10.0
     bias_dip_deg: float = 10.0
-    mag_yaw_only: bool = True
+    mag_yaw_only: bool = False
 
     def params(self) -> FloatArray:
         return np.array([self.sigma_gyro, self.sigma_a, self.sigma_m, self.eps_a1, self.eps_a2, self.eps_m1,

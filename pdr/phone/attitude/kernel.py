@@ -536,7 +536,8 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
                     dd = dip_ref + k_ref * max(-3 * eps_dip, min(3 * eps_dip, dip - dip_ref))
                     aux[AUX_H_N] = nn * math.cos(dd)
                     aux[AUX_H_U] = -nn * math.sin(dd)
-        # The field's rows on the yaw alone (AttitudeConfig.mag_yaw_only), after the accelerometer's.
+        # The field's rows on the yaw alone when so configured (AttitudeConfig.mag_yaw_only), after the
+        # accelerometer's.
         yaw_row = use_m and mag_yaw_only
         if yaw_row:
             use_m = False
