@@ -82,30 +82,42 @@ def add_user(env: dict[str, str], name: str) -> str:
     return out.stdout.strip().splitlines()[-1]
 
 
-@contextmanager
-def running_server(data_dir: Path, extra_env: dict[str, str] | None = None,
-                   port: int | None = None) -> Iterator[tuple[str, dict[str, str], subprocess.Popen[bytes]]]:
-    """Start ``pdr serve`` on a free loopback port with its data in ``data_dir``; yields (url, env, process)."""
+def start_server(data_dir: Path, extra_env: dict[str, str] | None = None, port: int | None = None
+                 ) -> tuple[subprocess.Popen[bytes], str, dict[str, str]]:
+    """Start ``pdr serve`` on a loopback port with its data in ``data_dir`` (log in ``server.log``) without waiting
+    for it; returns (process, url, environment).
+    """
     env = {k: v for k, v in os.environ.items() if k not in ("DATABASE_URL", "PDR_DATABASE_URL")}
     env.update({"PDR_DATA_DIR": str(data_dir), **(extra_env or {})})
     port = port or free_port()
     data_dir.mkdir(parents=True, exist_ok=True)
-    log_path = data_dir / "server.log"
-    with log_path.open("ab") as log:
+    with (data_dir / "server.log").open("ab") as log:
         proc = subprocess.Popen([*pdr_command(), "serve", "--port", str(port)], env=env,
                                 stdout=log, stderr=subprocess.STDOUT)
-    url = f"http://127.0.0.1:{port}"
+    return proc, f"http://127.0.0.1:{port}", env
+
+
+def stop_server(proc: subprocess.Popen[bytes], timeout_s: float = 10.0) -> None:
+    """Terminate a server process, killing it when it does not exit within ``timeout_s`` (s)."""
+    if proc.poll() is None:
+        proc.terminate()
+        try:
+            proc.wait(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+@contextmanager
+def running_server(data_dir: Path, extra_env: dict[str, str] | None = None,
+                   port: int | None = None) -> Iterator[tuple[str, dict[str, str], subprocess.Popen[bytes]]]:
+    """Start ``pdr serve`` on a free loopback port with its data in ``data_dir``; yields (url, env, process)."""
+    proc, url, env = start_server(data_dir, extra_env, port)
     try:
-        wait_healthy(url, proc, log_path=log_path)
+        wait_healthy(url, proc, log_path=data_dir / "server.log")
         yield url, env, proc
     finally:
-        if proc.poll() is None:
-            proc.terminate()
-            try:
-                proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
+        stop_server(proc)
 
 
 def wait_healthy(url: str, proc: subprocess.Popen[bytes] | None = None, timeout_s: float = 60.0,

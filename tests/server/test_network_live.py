@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import io
 import json
-import os
 import signal
 import subprocess
 import threading
@@ -21,7 +20,7 @@ import pytest
 from sqlalchemy import select, update
 
 from server import db
-from server.client import Client, add_user, pdr_command, running_server, wait_healthy
+from server.client import Client, add_user, running_server, start_server, stop_server, wait_healthy
 from server.config import REPO_ROOT
 from server.db import make_engine
 from tests.server.helpers import multipart, phone_batch
@@ -170,25 +169,8 @@ def test_serve_never_prints_the_database_password(tmp_path, pg_database):  # noq
 
 def _start(data: Path, env: dict[str, str]) -> tuple[subprocess.Popen[bytes], str]:
     """Start ``pdr serve`` without waiting for it (it may crash at once); returns (process, url)."""
-    from server.client import free_port
-
-    port = free_port()
-    full = {k: v for k, v in os.environ.items() if k not in ("DATABASE_URL", "PDR_DATABASE_URL")}
-    full.update({"PDR_DATA_DIR": str(data), **env})
-    with (data / "server.log").open("ab") as log:
-        proc = subprocess.Popen([*pdr_command(), "serve", "--port", str(port)], env=full, stdout=log,
-                                stderr=subprocess.STDOUT)
-    return proc, f"http://127.0.0.1:{port}"
-
-
-def _stop(proc: subprocess.Popen[bytes]) -> None:
-    if proc.poll() is None:
-        proc.terminate()
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+    proc, url, _ = start_server(data, env)
+    return proc, url
 
 
 def test_a_batch_that_kills_the_process_is_dead_lettered_after_max_attempts(tmp_path):
@@ -213,7 +195,7 @@ def test_a_batch_that_kills_the_process_is_dead_lettered_after_max_attempts(tmp_
     try:
         assert proc.wait(timeout=120) == EXIT_CODE
     finally:
-        _stop(proc)
+        stop_server(proc)
     proc, url = _start(tmp_path, env)  # interrupted twice: dead-lettered, not run
     try:
         wait_healthy(url, proc, log_path=tmp_path / "server.log")
@@ -229,7 +211,7 @@ def test_a_batch_that_kills_the_process_is_dead_lettered_after_max_attempts(tmp_
         assert _wait_status(c, bad)["batch_list"][-1]["status"] == "done"  # the session goes on
         c.close()
     finally:
-        _stop(proc)
+        stop_server(proc)
 
 
 def test_allan_report_of_a_killed_server_is_finished_after_its_restart(tmp_path):
