@@ -48,6 +48,7 @@ from pdr.phone.walking_direction import (
     DeviceFrameDirection,
     DeviceSwingAxis,
     WalkingLineFilter,
+    step_frequency_axis,
     swing_plane_axis,
     turn_evidence,
     yaw_rate,
@@ -64,6 +65,10 @@ STRIDE_HEADING_PLACEMENTS = ("pocket", "swinging")
 #: (pdr.phone.walking_direction module doc, "Trouser pocket: continuity").
 POCKET_TURN_SPEED_MPS = (0.4, 4.0)
 POCKET_TURN_WEIGHT = 0.1
+#: Shortest stride (s) of walking, whose step-frequency axis the pocket's walking-line filter takes: a cadence of
+#: 2.2 steps/s, about the fastest walk before the gait turns to running, where the stance leg no longer vaults
+#: the body and the axis does not follow the walking direction (pdr.phone.walking_direction module doc).
+WALKING_MIN_STRIDE_S = 0.9
 
 
 def ut_points(config: AttitudeConfig) -> SigmaPoints:
@@ -159,7 +164,8 @@ class PocketHeading:
         self.prev_step_start = s
         stride = h.sl(s0, e)
         q_str, f_str = h.q[stride], h.f_n[stride]
-        if not (np.all(np.isfinite(q_str)) and np.all(np.isfinite(f_str))):
+        whole_stride = bool(np.all(np.isfinite(q_str)) and np.all(np.isfinite(f_str)))
+        if not whole_stride:
             q_str, f_str = q, f_n
         swing_axis = self.pocket_axis == "swing" or (self.pocket_axis == "auto" and not self.site_has_landmarks)
         reversed_direction = False
@@ -172,8 +178,12 @@ class PocketHeading:
             if swing_axis:
                 # The swing plane's axis of the thigh (pdr.phone.walking_direction), not the device yaw.
                 axis, _ratio = swing_plane_axis(q_str, self.rate_hz)
+                # The step-frequency axis of a walking stride (not running: module doc of
+                # pdr.phone.walking_direction) learns the swing plane's offset.
+                walking = q_str.shape[0] >= WALKING_MIN_STRIDE_S * self.rate_hz
+                step_axis = step_frequency_axis(f_str)[0] if walking and whole_stride else None
                 # Carried from stride to stride by the walker's turn (pdr.phone.walking_direction module doc).
-                axis = self.pocket_line.update(axis, h.q, h.start, s0, s, e, self.rate_hz)
+                axis = self.pocket_line.update(axis, h.q, h.start, s0, s, e, self.rate_hz, step_axis, walking)
             else:
                 axis, _ratio = pca_axis(f_str[:, :2])             # RMPCA over the stride
             # Continuity in the device frame, and the 180-degree rule from the thigh's fast swing (pdr.phone.heading

@@ -64,17 +64,37 @@ Trouser pocket: the walking line from stride to stride (:class:`WalkingLineFilte
     One stride's swing plane is a noisy measurement of the walking line. The walker's turn between two strides
     is known far better: the change of the stride-mean rotation about the vertical (a whole gait cycle, so the
     thigh's own swing averages out). A Kalman filter on the line (mod 180 deg) therefore predicts with the turn
-    and updates with the stride. Its two noises are properties of the data, not tuned: on the motion-capture
+    and updates with the stride. Its noises are properties of the data, not tuned: on the motion-capture
     benchmark's pocket walks with the pipeline's attitude, one stride's swing-plane line scatters about each
     walk's own median with a robust spread (1.48 MAD) of 12.8 deg (tuning walker) and 12.0 deg (the other), and
     the stride-mean turn differs from the true change of walking direction by 5.3 and 6.0 deg (1.48 MAD, the
     truth's own step-to-step noise included): hence ``line_sigma_deg`` 13 and ``turn_sigma_deg`` 5. It is not
     used for the swinging hand, where :class:`DeviceSwingAxis` already pools the strides.
 
-    What limits it: a constant offset per walker and pocket between the thigh's swing plane and the walking
-    direction, present with the motion-capture attitude too, of either sign. The leg's rotation about its own
-    axis and its abduction in step with the swing tilt the plane; the filter averages noise, not this bias, and
-    seed 003's acceleration PCA has a bias of its own that does not cancel it on both walkers.
+    The swing plane is not square to the walking direction: the thigh's sagittal plane is turned by the leg's
+    rotation about its own axis (toe-out, hip rotation), by a constant of either sign per walker and pocket (the
+    swing plane's median error per walk, motion-capture attitude: -21 and -17 deg front pocket, -8 and -14 back
+    pocket for the tuning walker; +4, +9, -14, +5 for the other). The filter learns it as a second state, the
+    swing plane's offset, from an unbiased second measurement: :func:`step_frequency_axis`, the axis of the
+    horizontal specific force at the step frequency. Walking is an inverted pendulum: the body brakes after each
+    heel strike and is pushed on before each toe-off, so at the step frequency it oscillates along the walking
+    direction, whatever the thigh does (its swing, and the body's lateral sway, are at the stride frequency).
+    Measured per stride on the benchmark's walking pocket walks: median errors of +1 to +9 deg per walk, a robust
+    spread of 14.6 deg about them on the tuning walker (``step_sigma_deg`` 15; 17.4 on the other). It is noisier
+    than the swing plane but unbiased, so together the line gets the swing plane's precision without its offset.
+    The offset's prior (20 deg) covers the offsets above; it may drift by ``bias_walk_deg`` (1 deg) a stride as
+    the phone settles in the pocket.
+
+    Running is not an inverted pendulum (the stance leg is a spring, with a flight phase): the step-frequency
+    axis was 25 and 17 deg off on the benchmark's running walks, where the swing plane was within 4 and 7 deg.
+    A stride shorter than :data:`pdr.phone.heading_stages.WALKING_MIN_STRIDE_S` (a cadence above 2.2 steps/s;
+    the benchmark's walks step at 1.5-1.9 steps/s, its runs at 2.8-2.9) is taken for running: the swing plane is
+    used as it is, and the offset, the walking thigh's, is neither applied nor learnt.
+
+    What limits it: the walking line's error still grows with the turn rate, of opposite sign in a front
+    pocket (it trails the path by 0.2-0.5 s in a regression on the true turn rate) and a back pocket (none to
+    +0.2 s), for the swing plane and the step-frequency axis alike; a front pocket's error with that term
+    removed is 6-8 deg. The offline smoother, which carries the heading on the gyro, does not have it.
 
 Turns
     A direction measured over a stride is the walking direction at the stride's centre, while a step's
@@ -106,15 +126,11 @@ Trouser pocket: continuity (:class:`DeviceFrameDirection`; item 4 of issue 25)
     costs nothing measurable on the first and fixes the second. The reversed steps left are the first few of a
     walk (the vote's first decision).
 
-Trouser pocket: what limits the walking line
-    Even with the motion-capture attitude the thigh's swing plane is not square to the walking direction, also
-    on straight strides (not a lag in turns), and the thigh's long axis (the device's mean up direction) swings
-    in a plane off by about the same. RMPCA of the specific force is off the other way on one walker but not on
-    the other, so no fixed combination cancels it. A walker- and leg-specific angle (toe-out, hip rotation) is
-    the likely cause; the only unbiased cue here, the centripetal acceleration, gives the direction itself too
-    coarsely per turning stride with the filter's tilt to learn that angle online. Seed 003's 6.85 deg (the
-    issue's 7.0 deg on the third walker) is not reached on the benchmark's two walkers with either line
-    (``pdr eval heading --placement pocket``, front-pocket lines).
+Trouser pocket: other lines tried
+    Seed 003's RMPCA of the specific force is off the other way from the swing plane on one walker but not on the
+    other, so no fixed combination of the two cancels the swing plane's offset; the centripetal acceleration
+    (the one other unbiased cue) gives the direction too coarsely per turning stride, with the filter's tilt,
+    to learn it. The step-frequency axis above is what does.
 """
 
 from __future__ import annotations
@@ -158,6 +174,30 @@ def swing_plane_axis(q_nb: FloatArray, rate_hz: float) -> tuple[float, float]:
     axis, ratio = pca_axis(nav_angular_rate(q_nb, rate_hz)[:, :2])
     line = axis + math.pi / 2
     return float(line - math.pi if line > math.pi / 2 else line), ratio
+
+
+def step_frequency_axis(f_n: FloatArray) -> tuple[float, float]:
+    """Walking line of one stride from the body's fore-aft oscillation at the step frequency: (yaw in
+    (-pi/2, pi/2], eigenvalue ratio >= 1).
+
+    ``f_n`` (N, 3) is the specific force (m/s^2, ENU) over exactly one stride, so its second harmonic is at the step
+    frequency. A walker vaults over the stance leg at every step (the inverted pendulum of walking): braking after
+    heel strike, propulsion before toe-off, so the body's horizontal acceleration at the step frequency lies along
+    the walking direction; the lateral sway is at the stride frequency. The line is the principal axis of the
+    harmonic's horizontal ellipse, ``Re(A A^H)`` with ``A`` its complex amplitude; the thigh's own rotation plays
+    no part in it (module doc, "Trouser pocket: the walking line from stride to stride").
+    """
+    f = np.asarray(f_n, dtype=np.float64)
+    if f.ndim != 2 or f.shape[1] != 3 or f.shape[0] < 5:
+        raise InputError("need (N >= 5, 3) specific forces over one stride", source="walking direction")
+    n = f.shape[0]
+    phase = np.exp(-4j * np.pi * np.arange(n) / n)
+    amp = (phase @ f[:, :2]) * (2.0 / n)
+    scatter = np.real(np.outer(amp, np.conj(amp)))
+    vals, vecs = np.linalg.eigh(scatter)
+    line = math.atan2(float(vecs[1, 1]), float(vecs[0, 1]))
+    ratio = float(vals[1] / vals[0]) if vals[0] > 0.0 else math.inf
+    return _line(line), ratio
 
 
 def turn_evidence(f_n: FloatArray, yaw_rate_rps: float, yaw: float, v_ref_mps: float = V_REF_MPS,
@@ -277,15 +317,20 @@ class DeviceSwingAxis:
 
 @dataclass
 class WalkingLineFilter:
-    """Kalman filter of a trouser-pocket phone's walking line (yaw mod pi, rad) from stride to stride (module doc,
-    "Trouser pocket: the walking line from stride to stride").
+    """Kalman filter of a trouser-pocket phone's walking line (yaw mod pi, rad) from stride to stride, with the
+    swing plane's offset from it (module doc, "Trouser pocket: the walking line from stride to stride").
 
+    State: the line and the swing plane's offset ``bias`` (rad; the thigh's sagittal plane is not square to the
+    walking direction), covariance ``cov`` (2x2, rad^2).
     Prediction: the line turns with the walker, by the change of the stride-mean rotation about the vertical
     between this stride and the last (the attitude's navigation-frame rate integrated over both windows; the mean
-    over a whole gait cycle removes the thigh's own swing); its variance grows by ``turn_sigma_deg`` squared.
-    Measurement: the stride's swing-plane line (:func:`swing_plane_axis`) with standard deviation
-    ``line_sigma_deg``, innovation taken mod pi. The filter restarts from the measurement after a pause longer than
-    ``max_gap_s`` or when the last stride's attitudes are no longer in the history.
+    over a whole gait cycle removes the thigh's own swing); its variance grows by ``turn_sigma_deg`` squared, the
+    offset's by ``bias_walk_deg`` squared.
+    Measurements, innovations mod pi: the stride's swing-plane line (:func:`swing_plane_axis`) = line + bias, with
+    standard deviation ``line_sigma_deg``; the step-frequency axis (:func:`step_frequency_axis`) = line, with
+    ``step_sigma_deg``, in walking strides only (``step_axis`` None otherwise). The line restarts after a pause
+    longer than ``max_gap_s`` or when the last stride's attitudes are no longer in the history; the offset is the
+    walker's and the pocket's and is kept.
     """
 
     line_sigma_deg: float = 13.0
@@ -294,14 +339,20 @@ class WalkingLineFilter:
     line: float | None = None
     var: float = 0.0
     window: list[int] | None = None      # grid indices [start, end) of the last stride
+    step_sigma_deg: float = 15.0
+    bias_sigma_deg: float = 20.0
+    bias_walk_deg: float = 1.0
+    bias: float = 0.0
+    cov: list[list[float]] | None = None
 
     def update(self, measured_line: float, q_nb: FloatArray, first: int, start: int, step_start: int, end: int,
-               rate_hz: float) -> float:
+               rate_hz: float, step_axis: float | None = None, walking: bool = True) -> float:
         """The filtered line (rad, in (-pi/2, pi/2]) after the stride ``[start, end)`` (grid indices; its last
-        step starts at ``step_start``) whose swing plane gave ``measured_line`` (rad). ``q_nb`` (N, 4) holds the
-        attitudes of grid indices ``first .. first + N - 1`` at ``rate_hz`` (Hz).
+        step starts at ``step_start``) whose swing plane gave ``measured_line`` (rad) and whose step-frequency axis
+        gave ``step_axis`` (rad; None when it is not measured). A running stride (``walking`` False) takes its swing
+        plane as it is: the offset is the walking thigh's, learnt and applied in walking strides only.
+        ``q_nb`` (N, 4) holds the attitudes of grid indices ``first .. first + N - 1`` at ``rate_hz`` (Hz).
         """
-        r = math.radians(self.line_sigma_deg) ** 2
         w = self.window
         turn = None
         if self.line is not None and w is not None and (step_start - w[1]) / rate_hz <= self.max_gap_s \
@@ -310,26 +361,61 @@ class WalkingLineFilter:
             if q.shape[0] >= 3 and np.all(np.isfinite(q)):
                 yaw = np.concatenate([[0.0], np.cumsum(nav_angular_rate(q, rate_hz)[:, 2]) / rate_hz])
                 turn = float(np.mean(yaw[start - w[0]:]) - np.mean(yaw[:w[1] - w[0]]))
+        r_swing = math.radians(self.line_sigma_deg) ** 2
+        swing_row = np.array([1.0, 1.0 if walking else 0.0])
+        if not walking:
+            step_axis = None
+        r_step = math.radians(self.step_sigma_deg) ** 2
+        b_var = math.radians(self.bias_sigma_deg) ** 2
+        cov = np.array(self.cov) if self.cov is not None else np.diag([0.0, b_var])
         if turn is None or self.line is None:
-            self.line, self.var = _line(measured_line), r
+            # (Re)start: the line from the unbiased step-frequency axis when there is one, else from the swing
+            # plane less its offset; the offset keeps what was learnt, uncorrelated with the new line.
+            if step_axis is not None:
+                x = np.array([step_axis, self.bias])
+                cov = np.diag([r_step, cov[1, 1]])
+                measurements = [(measured_line, swing_row, r_swing)]
+            else:
+                x = np.array([measured_line - swing_row[1] * self.bias, self.bias])
+                cov = np.diag([r_swing + swing_row[1] * cov[1, 1], cov[1, 1]])
+                cov[0, 1] = cov[1, 0] = -swing_row[1] * cov[1, 1]
+                measurements = []
         else:
-            line = self.line + turn
-            var = self.var + math.radians(self.turn_sigma_deg) ** 2
-            gain = var / (var + r)
-            self.line = _line(line + gain * _line(measured_line - line))
-            self.var = (1.0 - gain) * var
+            x = np.array([self.line + turn, self.bias])
+            cov = cov + np.diag([math.radians(self.turn_sigma_deg) ** 2, math.radians(self.bias_walk_deg) ** 2])
+            measurements = [(measured_line, swing_row, r_swing)]
+            if step_axis is not None:
+                measurements.append((step_axis, np.array([1.0, 0.0]), r_step))
+        for z, hrow, r in measurements:
+            innovation = _line(z - float(hrow @ x))
+            ph = cov @ hrow
+            gain = ph / (float(hrow @ ph) + r)
+            x = x + gain * innovation
+            cov = cov - np.outer(gain, ph)
+        self.line, self.bias = _line(float(x[0])), float(math.remainder(float(x[1]), math.pi))
+        self.var = float(cov[0, 0])
+        self.cov = (0.5 * (cov + cov.T)).tolist()
         self.window = [start, end]
         return self.line
 
     def state(self) -> dict[str, Any]:
         return {"line_sigma_deg": self.line_sigma_deg, "turn_sigma_deg": self.turn_sigma_deg,
-                "max_gap_s": self.max_gap_s, "line": self.line, "var": self.var, "window": self.window}
+                "max_gap_s": self.max_gap_s, "line": self.line, "var": self.var, "window": self.window,
+                "step_sigma_deg": self.step_sigma_deg, "bias_sigma_deg": self.bias_sigma_deg,
+                "bias_walk_deg": self.bias_walk_deg, "bias": self.bias, "cov": self.cov}
 
     @classmethod
     def from_state(cls, d: dict[str, Any]) -> WalkingLineFilter:
-        return cls(float(d["line_sigma_deg"]), float(d["turn_sigma_deg"]), float(d["max_gap_s"]),
-                   None if d["line"] is None else float(d["line"]), float(d["var"]),
-                   None if d["window"] is None else [int(v) for v in d["window"]])
+        o = cls(float(d["line_sigma_deg"]), float(d["turn_sigma_deg"]), float(d["max_gap_s"]),
+                None if d["line"] is None else float(d["line"]), float(d["var"]),
+                None if d["window"] is None else [int(v) for v in d["window"]])
+        if "cov" in d:                       # absent in states saved before the swing plane's offset
+            o.step_sigma_deg, o.bias_sigma_deg = float(d["step_sigma_deg"]), float(d["bias_sigma_deg"])
+            o.bias_walk_deg, o.bias = float(d["bias_walk_deg"]), float(d["bias"])
+            o.cov = None if d["cov"] is None else [[float(v) for v in row] for row in d["cov"]]
+        elif o.line is not None:
+            o.cov = [[o.var, 0.0], [0.0, math.radians(o.bias_sigma_deg) ** 2]]
+        return o
 
 
 def _line(yaw: float) -> float:

@@ -13,6 +13,7 @@ from pdr.phone.walking_direction import (
     DeviceSwingAxis,
     WalkingLineFilter,
     body_angular_rate,
+    step_frequency_axis,
     step_lead,
     swing_plane_axis,
     turn_evidence,
@@ -232,6 +233,81 @@ def test_walking_line_filter_restarts_after_a_pause():
     filt = WalkingLineFilter(max_gap_s=2.0)
     filt.update(0.1, q, 0, 0, 55, 110, RATE)
     assert filt.update(0.5, q, 0, 110, 165, 220, RATE) != pytest.approx(0.5)      # filtered
-    # The next step starts 3 s after the last stride ended: the filter starts again from the measurement.
-    assert filt.update(0.9, q, 0, 520, 575, 630, RATE) == pytest.approx(0.9)
+    # The next step starts 3 s after the last stride ended: the filter starts again from the measurement, less the
+    # swing plane's offset it has learnt (none is observable without the step-frequency axis).
+    assert filt.update(0.9, q, 0, 520, 575, 630, RATE) == pytest.approx(0.9 - filt.bias)
+    assert abs(filt.bias) < math.radians(0.5)
     assert -math.pi / 2 < filt.update(-1.6, q, 0, 575, 630, 685, RATE) <= math.pi / 2
+
+
+def _stride_specific_force(walk_yaw: float, thigh_offset_deg: float, rng: np.random.Generator,
+                           n: int = 110) -> np.ndarray:
+    """(n, 3) specific force (m/s^2, ENU) over one stride of a phone on the thigh: the body's fore-aft oscillation
+    at the step frequency (1.5 m/s^2 along the walking direction), its lateral sway at the stride frequency
+    (0.5 m/s^2), the thigh's swing at the stride frequency (4 m/s^2, in a plane ``thigh_offset_deg`` off the
+    walking direction), the vertical bounce at the step frequency and white noise (0.5 m/s^2).
+    """
+    k = np.arange(n) / n
+    fwd = np.array([math.cos(walk_yaw), math.sin(walk_yaw), 0.0])
+    lat = np.array([-math.sin(walk_yaw), math.cos(walk_yaw), 0.0])
+    a = walk_yaw + math.radians(thigh_offset_deg)
+    thigh = np.array([math.cos(a), math.sin(a), 0.0])
+    phase = rng.uniform(0, 2 * math.pi)
+    f = (1.5 * np.sin(4 * math.pi * k + phase)[:, None] * fwd + 0.5 * np.cos(2 * math.pi * k)[:, None] * lat
+         + 4.0 * np.sin(2 * math.pi * k + 1.0)[:, None] * thigh
+         + np.array([0.0, 0.0, GRAVITY_MPS2]) + 2.0 * np.cos(4 * math.pi * k + phase)[:, None] * np.array([0, 0, 1.0]))
+    return f + rng.normal(0.0, 0.5, (n, 3))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_step_frequency_axis_is_the_walking_line_whatever_the_thighs_swing(seed):
+    # The noise leaves about 2.6 deg of spread on the harmonic's axis (0.5 * sqrt(2 / 110) against 1.5 m/s^2).
+    rng = np.random.default_rng(seed)
+    errors = []
+    for walk_yaw in rng.uniform(-math.pi, math.pi, 10):
+        line, ratio = step_frequency_axis(_stride_specific_force(walk_yaw, rng.uniform(-30, 30), rng))
+        errors.append(abs(math.degrees(0.5 * float(wrap_angle(2 * (line - walk_yaw))))))
+        assert -math.pi / 2 < line <= math.pi / 2 and ratio > 5.0
+    assert max(errors) < 9.0 and np.mean(errors) < 3.5
+
+
+def test_step_frequency_axis_refuses_a_short_window():
+    with pytest.raises(InputError):
+        step_frequency_axis(np.zeros((3, 3)))
+
+
+def _offset_walk(offset_deg: float, seed: int, walking: bool = True) -> tuple[WalkingLineFilter, list[float]]:
+    """Strides of the turning thigh walk whose swing plane is ``offset_deg`` off the walking line (13 deg of noise)
+    and whose step-frequency axis is on it (15 deg of noise): the filtered line's errors (deg) from stride 30."""
+    rng = np.random.default_rng(seed)
+    q, yaw = _continuous_thigh_walk(quat.from_rotvec(rng.normal(0, 1.5, 3)), 90.0)
+    filt = WalkingLineFilter()
+    errors = []
+    for k, step_start in enumerate(range(55, q.shape[0] - 55, 55)):
+        s0, e = step_start - 55, step_start + 55
+        truth = yaw[(s0 + e) // 2]
+        swing = truth + math.radians(offset_deg + rng.normal(0.0, 13.0))
+        step_axis = truth + math.radians(rng.normal(0.0, 15.0))
+        out = filt.update(swing, q, 0, s0, step_start, e, RATE, step_axis, walking)
+        if k >= 30:
+            errors.append(abs(math.degrees(0.5 * float(wrap_angle(2 * (out - truth))))))
+    return filt, errors
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_walking_line_filter_learns_the_swing_planes_offset(seed):
+    filt, errors = _offset_walk(20.0, seed)
+    assert math.degrees(filt.bias) == pytest.approx(20.0, abs=6.0)
+    assert np.mean(errors) < 7.0
+    # The offset survives a round trip of the state, and states saved before it resume with none.
+    again = WalkingLineFilter.from_state(filt.state())
+    assert again.bias == filt.bias and again.cov == filt.cov
+    old = {k: v for k, v in filt.state().items() if k in ("line_sigma_deg", "turn_sigma_deg", "max_gap_s", "line",
+                                                            "var", "window")}
+    assert WalkingLineFilter.from_state(old).bias == 0.0
+
+
+def test_running_strides_take_the_swing_plane_as_it_is():
+    # Running: no step-frequency axis and no offset; a swing plane on the line is followed without bias.
+    filt, errors = _offset_walk(0.0, 1, walking=False)
+    assert filt.bias == 0.0 and np.mean(errors) < 7.0
