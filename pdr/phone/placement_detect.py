@@ -42,6 +42,13 @@ the specific force and neither cue exists (the pipeline then takes the phone as 
 starts from rest and swings the limb through half its range); afterwards a different label replaces the
 current one once it has won ``switch_strides`` strides in a row, so a phone taken out of the pocket mid-walk is
 followed within a few strides while one odd stride changes nothing.
+
+A phone taken out of a pocket also turns: from along the thigh (long axis near the vertical) to the reading or
+phoning hand, its stride-mean up direction in the device frame (``up_b``) moves by tens of degrees, while it
+stays within a few degrees from stride to stride in the pocket, slow steps and pauses included. A stride that
+reads as held steady (rule 1) while the phone's mean up direction is within ``moved_min_deg`` of the pocket's
+is a gentle pocket stride (the benchmark's walkers slowing down in a pocket read as held for three strides and
+more, and their walks turned backwards), not a phone in the hand.
 """
 
 from __future__ import annotations
@@ -77,6 +84,10 @@ class PlacementDetectConfig:
         Moving-average length applied to the specific force before its direction is taken (s).
     switch_strides
         Consecutive strides with another label before the placement changes.
+    moved_min_deg
+        Smallest turn of a pocket phone's stride-mean up direction (device frame, deg) that lets a steady stride
+        read as a phone held in the hand (module doc): half the 60 deg between a thigh's long axis and a reading
+        phone's.
     """
 
     held_max_swing_deg: float = 12.0
@@ -84,6 +95,7 @@ class PlacementDetectConfig:
     pocket_max_axis_tilt_deg: float = 45.0
     smooth_s: float = 0.1
     switch_strides: int = 3
+    moved_min_deg: float = 30.0
 
     def __post_init__(self) -> None:
         if not (self.held_max_swing_deg > 0 and self.pendulum_max_ratio > 0 and self.smooth_s > 0
@@ -97,13 +109,15 @@ class PlacementDetectConfig:
 
 @dataclass(frozen=True)
 class StrideCues:
-    """Turn of the device's up direction and of the specific-force direction over one stride (deg), and the
-    cosine of the long axis' angle to the vertical.
+    """Turn of the device's up direction and of the specific-force direction over one stride (deg), the
+    cosine of the long axis' angle to the vertical, and the stride-mean up direction in the device frame (unit
+    vector; None where unknown).
     """
 
     tilt_swing_deg: float
     force_swing_deg: float
     long_axis_up: float
+    up_b: tuple[float, float, float] | None = None
 
     @property
     def ratio(self) -> float:
@@ -157,7 +171,10 @@ def stride_cues(q_nb: FloatArray, acc_b: FloatArray, rate_hz: float, smooth_s: f
     n = np.linalg.norm(a_s, axis=1)
     a_s = a_s[n > 0] / n[n > 0, None]
     long_axis_up = abs(float(up_b[:, 1].sum())) / up_b.shape[0]
-    return StrideCues(swing_range_deg(up_b), swing_range_deg(a_s), long_axis_up)
+    mean_up = up_b.sum(axis=0)
+    norm = float(np.linalg.norm(mean_up))
+    up_mean = (float(mean_up[0] / norm), float(mean_up[1] / norm), float(mean_up[2] / norm)) if norm > 0 else None
+    return StrideCues(swing_range_deg(up_b), swing_range_deg(a_s), long_axis_up, up_mean)
 
 
 def classify_stride(cues: StrideCues, config: PlacementDetectConfig | None = None) -> str:
@@ -171,7 +188,12 @@ def classify_stride(cues: StrideCues, config: PlacementDetectConfig | None = Non
 
 
 class PlacementDetector:
-    """Online placement from per-stride labels, with a change after ``switch_strides`` agreeing strides."""
+    """Online placement from per-stride labels, with a change after ``switch_strides`` agreeing strides; a pocket
+    phone must have moved to be taken for a held one (module doc).
+    """
+
+    #: Weight of the older strides in the pocket's mean up direction.
+    UP_DECAY = 0.8
 
     def __init__(self, config: PlacementDetectConfig | None = None) -> None:
         self.config = config or PlacementDetectConfig()
@@ -179,10 +201,26 @@ class PlacementDetector:
         self.candidate: str | None = None
         self.run = 0
         self.strides = 0
+        self.pocket_up_b: list[float] | None = None     # stride-mean up direction in the pocket (device frame)
+
+    def _still_in_pocket(self, cues: StrideCues) -> bool:
+        """A steady stride whose mean up direction is where the pocket's was (module doc)."""
+        if self.placement != "pocket" or self.pocket_up_b is None or cues.up_b is None \
+                or not cues.tilt_swing_deg < self.config.held_max_swing_deg:
+            return False
+        cos = float(np.dot(self.pocket_up_b, cues.up_b)) / max(float(np.linalg.norm(self.pocket_up_b)), 1e-12)
+        return cos > math.cos(math.radians(self.config.moved_min_deg))
 
     def update(self, cues: StrideCues) -> str:
         """Add one stride; returns the current placement."""
         label = classify_stride(cues, self.config)
+        if label == "hand" and self._still_in_pocket(cues):
+            label = "pocket"
+        if label == "pocket" and cues.up_b is not None:
+            up = np.array(cues.up_b)
+            if self.pocket_up_b is not None and self.placement == "pocket":
+                up = self.UP_DECAY * np.array(self.pocket_up_b) + (1.0 - self.UP_DECAY) * up
+            self.pocket_up_b = (up / float(np.linalg.norm(up))).tolist()
         self.strides += 1
         if self.placement is None or self.strides <= self.config.switch_strides:
             self.placement, self.candidate, self.run = label, None, 0
@@ -196,11 +234,14 @@ class PlacementDetector:
         return self.placement
 
     def state(self) -> dict[str, Any]:
-        return {"placement": self.placement, "candidate": self.candidate, "run": self.run, "strides": self.strides}
+        return {"placement": self.placement, "candidate": self.candidate, "run": self.run, "strides": self.strides,
+                "pocket_up_b": self.pocket_up_b}
 
     @classmethod
     def from_state(cls, d: dict[str, Any], config: PlacementDetectConfig | None = None) -> PlacementDetector:
         o = cls(config)
         o.placement, o.candidate, o.run = d["placement"], d["candidate"], int(d["run"])
         o.strides = int(d.get("strides", o.config.switch_strides))   # absent in states saved before the settling
+        up = d.get("pocket_up_b")                                     # absent in states saved before it
+        o.pocket_up_b = None if up is None else [float(v) for v in up]
         return o

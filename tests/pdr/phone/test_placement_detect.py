@@ -110,6 +110,28 @@ def test_the_detector_follows_a_change_of_place_after_agreeing_strides_only():
     assert [restored.update(pocket) for _ in range(3)] == ["hand", "hand", "pocket"]
 
 
+def test_a_pocket_phone_that_slows_down_stays_in_the_pocket_until_it_moves():
+    along_thigh, screen_up = (0.0, 0.97, 0.24), (0.0, 0.5, 0.87)          # 16 deg and 60 deg from the device's y
+    pocket = StrideCues(25.0, 30.0, 0.95, along_thigh)
+    gentle = StrideCues(6.0, 8.0, 0.95, (0.05, 0.96, 0.27))               # steady, where the pocket's up was
+    held = StrideCues(4.0, 8.0, 0.5, screen_up)                           # steady, turned 44 deg: taken out
+    det = PlacementDetector(PlacementDetectConfig(switch_strides=3))
+    assert [det.update(pocket) for _ in range(4)] == ["pocket"] * 4
+    assert [det.update(gentle) for _ in range(5)] == ["pocket"] * 5
+    assert [det.update(held) for _ in range(3)] == ["pocket", "pocket", "hand"]
+    restored = PlacementDetector.from_state(det.state())
+    assert restored.pocket_up_b == det.pocket_up_b
+    # Strides without the mean up direction (cues built by hand) follow the labels alone.
+    det = PlacementDetector(PlacementDetectConfig(switch_strides=3))
+    assert [det.update(c) for c in [pocket] * 4 + [StrideCues(6.0, 8.0, 0.95)] * 3][-1] == "hand"
+
+
+def test_a_strides_mean_up_direction_is_the_device_frame_vertical():
+    # A phone lying flat, screen up: the navigation frame's up axis is the device's z.
+    cues = stride_cues(np.tile([1.0, 0.0, 0.0, 0.0], (50, 1)), np.tile([0.0, 0.0, 9.81], (50, 1)), RATE)
+    assert cues.up_b == pytest.approx((0.0, 0.0, 1.0))
+
+
 def test_bad_input_is_refused_with_its_field():
     with pytest.raises(InputError, match="same stride"):
         stride_cues(np.zeros((5, 4)), np.zeros((4, 3)), RATE)
