@@ -434,7 +434,7 @@
   /** A geo-referenced session (its detail has an origin) on a real map: Leaflet (vendor/leaflet, from npm) on Web
    * Mercator with the server's GeoJSON of the track in longitude/latitude (the server converts from local metres, so
    * the page has no Earth model of its own), over the operator's tiles (PDR_MAP_TILE_URL) when configured. A session
-   * in local metres has no such map: the metric map above is its map. */
+   * in local metres has no such map: the metric map above (trackmap.js: Leaflet, CRS.Simple) is its map. */
   async function renderGeoMap(gen) {
     const wrap = $("geo-wrap");
     const origin = current && current.detail && current.detail.origin;
