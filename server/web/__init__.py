@@ -7,9 +7,9 @@ scripts (no inline script), which keeps a session name or warning text from ever
 
 Leaflet (npm ``leaflet``, BSD-2-Clause; ``static/vendor/leaflet/``, see its ``VENDORED.md``) draws every track:
 in local metres with ``L.CRS.Simple`` (``static/trackmap.js``: floor plan, truth and errors, one unit a metre), and a
-geo-referenced session also on a real map in longitude/latitude (Web Mercator). Map tiles come only from the operator's ``PDR_MAP_TILE_URL``
-(``GET /web/config.json`` hands it to the page, and the policy's ``img-src`` names its host); without it the map
-has no tiles and the page loads nothing from elsewhere.
+geo-referenced session also on a real map in longitude/latitude (Web Mercator). Map tiles come only from the
+operator's ``PDR_MAP_TILE_URL`` (``GET /web/config.json`` hands it to the page, and the policy's ``img-src`` names
+its host); without it the map has no tiles and the page loads nothing from elsewhere.
 """
 
 from __future__ import annotations
