@@ -485,6 +485,16 @@ def test_allan_report_renders_from_the_api(page: Any, live: LiveService) -> None
     assert page.locator("#report-body img.report-png").count() == 1
     assert page.locator("svg.loglog[data-sensor=gyro]").count() == 1
     shot(page, "09-allan-report")
+    # A phone's width: the curves are drawn again at the new size (their labels keep their size on screen).
+    drawn_width = "(s) => Number(s.getAttribute('viewBox').split(' ')[2]) === s.clientWidth"
+    page.set_viewport_size({"width": 390, "height": 844})
+    page.wait_for_function(f"() => [...document.querySelectorAll('svg.loglog')].every({drawn_width})")
+    assert not _overlapping_labels(page, ("svg.loglog[data-sensor=gyro]",))
+    assert page.evaluate("""() => [...document.querySelectorAll('svg.loglog')].every(s => {
+        const t = s.querySelector('text.title').getBoundingClientRect(), b = s.getBoundingClientRect();
+        return t.left >= b.left && t.right <= b.right; })""")  # the title is not cut off
+    shot(page, "09b-allan-report-phone")
+    page.set_viewport_size({"width": 1360, "height": 1000})
     with page.expect_download() as info:
         page.click("#dl-report-html")
     assert Path(info.value.path()).read_text() == "<html><body>Allan report</body></html>"

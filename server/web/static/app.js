@@ -1011,13 +1011,15 @@
     body.appendChild(el("h2", {}, s.name));
     const svg = Plot.svgEl("svg", { class: "loglog", "data-sensor": s.name }, body);
     const colour = (axis) => AXIS_COLOURS[axis] || Plot.deviceColour(axis);
-    Plot.logLogChart(svg, s.axes.map(([axis, a]) => ({
+    // Drawn at the element's size; drawn again when the window's size changes (redrawOnResize).
+    svg.pdrRedraw = () => Plot.logLogChart(svg, s.axes.map(([axis, a]) => ({
       name: axis, colour: colour(axis), x: a.tau_s, y: a.adev, lo: a.adev_lo, hi: a.adev_hi,
     })), {
-      title: `${s.name}: overlapping Allan deviation (dashed: fitted noise model)`, yLabel: `σ(τ) ${adevUnit}`,
+      title: `${s.name}: overlapping Allan deviation`, yLabel: `σ(τ) ${adevUnit}`, linesLabel: "– – fitted noise model",
       lines: s.axes.filter(([, a]) => a.fit && Array.isArray(a.fit.model_adev))
         .map(([axis, a]) => ({ x: a.tau_s, y: a.fit.model_adev, colour: colour(axis), dash: "5 4" })),
     });
+    svg.pdrRedraw();
     const table = el("table", { class: "grid terms" });
     const head = el("tr");
     head.appendChild(el("th", {}, "axis"));
@@ -1321,14 +1323,15 @@
   }
 
   /** The charts are drawn at their element's size in pixels (labels and ticks keep their size on screen), so a new
-   * size (a phone turned, a window resized) draws them again, once the resizing has paused; the map keeps the
-   * user's view, or fits the track to its new size. */
+   * size (a phone turned, a window resized) draws them again, once the resizing has paused: the session's charts and
+   * map (which keeps the user's view, or fits the track to its new size), and an Allan report's curves. */
   let resizeTimer = null;
   const RESIZE_PAUSE_MS = 150;
   function redrawOnResize() {
     clearTimeout(resizeTimer);
     resizeTimer = setTimeout(() => {
       if (current && !$("view-session").hidden) renderSessionData(true);
+      for (const svg of document.querySelectorAll("#view-report:not([hidden]) svg.loglog")) if (svg.pdrRedraw) svg.pdrRedraw();
     }, RESIZE_PAUSE_MS);
   }
 

@@ -174,12 +174,15 @@ const Plot = (() => {
     }
   }
 
-  /** Log-log chart: series [{name, colour, x: [], y: [], lo?: [], hi?: []}], lines [{name, x: [], y: [], dash}]. */
+  /** Log-log chart: series [{name, colour, x: [], y: [], lo?: [], hi?: []}], lines [{name, x: [], y: [], dash}]
+   * (opts.lines, named together by opts.linesLabel in the legend). */
   function logLogChart(svg, series, opts) {
     clear(svg);
     const W = svg.clientWidth || 640, H = svg.clientHeight || 360;
     svg.setAttribute("viewBox", `0 0 ${W} ${H}`);
-    const L = 64, R = 12, T = 22, B = 36;
+    // B: room under the plot for the decade labels, low enough to clear the lowest y label at the corner, and
+    // the axis title under them.
+    const L = 64, R = 12, T = 22, B = 40;
     const xs = [], ys = [];
     for (const s of series.concat(opts.lines || [])) {
       s.x.forEach((v, i) => {
@@ -197,7 +200,7 @@ const Plot = (() => {
     if (opts.title) svgText(svg, L, 14, opts.title, { class: "title" });
     for (let e = lx0; e <= lx1; e++) {
       svgEl("line", { x1: X(10 ** e), x2: X(10 ** e), y1: T, y2: H - B, class: "gridline" }, svg);
-      svgText(svg, X(10 ** e), H - B + 14, `1e${e}`, { "text-anchor": "middle" });
+      svgText(svg, X(10 ** e), H - B + 17, `1e${e}`, { "text-anchor": "middle" });
     }
     for (let e = ly0; e <= ly1; e++) {
       svgEl("line", { x1: L, x2: W - R, y1: Y(10 ** e), y2: Y(10 ** e), class: "gridline" }, svg);
@@ -228,6 +231,8 @@ const Plot = (() => {
       svgText(svg, W - R - 8, legendY, s.name, { "text-anchor": "end" }).style.fill = s.colour;
       legendY += 14;
     }
+    // What the dashed lines are, under the series' names (the title alone would not fit a phone's width).
+    if (opts.linesLabel && (opts.lines || []).length) svgText(svg, W - R - 8, legendY, opts.linesLabel, { "text-anchor": "end" });
   }
 
   return { svgEl, svgText, clear, niceStep, ticks, timeTicks, fmt, fmtDuration, modeColour, deviceColour, timeChart,
