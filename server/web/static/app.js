@@ -18,10 +18,10 @@
   const enc = encodeURIComponent;
   const { fmt, fmtDuration } = Plot;
 
-  /** Exposed for the browser tests: render timings (ms) of the last session view, and which track it shows
-   * (``track.heading``: "smoothed" or "causal"; ``track.last``: [east_m, north_m] of its last row), and the
-   * geo-referenced map's track (``geo.start``: [lat, lon] of its first position), and the metric map
-   * (``trackMap``: the :class:`TrackMap` drawn, or null). */
+  /** Exposed for the browser tests: render timings (ms) of the last session view (``mapDrawMs``: its map's last
+   * draw), which track it shows (``track.heading``: "smoothed" or "causal"; ``track.last``: [east_m, north_m] of its
+   * last row), the geo-referenced map's track (``geo.start``: [lat, lon] of its first position), and the metric map
+   * (``trackMap``: the TrackMap drawn, or null). */
   const page = { timings: {}, track: null, geo: null, trackMap: null };
   window.pdrPage = page;
 
@@ -809,10 +809,12 @@
     if (!map) page.trackMap = map = new TrackMap($("map"), $("scale-bar"));
     const step = Math.max(1, Math.ceil(errors.length / 500));
     current.plan = planLayer();
+    const drawStart = performance.now();
     map.draw({ plan: current.plan, tracks: trackLayers(drawn), truth: truth.map((p) => ({ e: p.east_m, n: p.north_m })),
       errors: errors.filter((_, i) => i % step === 0), markers,
       empty: current.detail && LIVE_STATUSES.has(current.detail.status) ? "waiting for the first track points…" : "this session has no track" },
     keepView);
+    page.timings.mapDrawMs = performance.now() - drawStart; // the last draw of the map (ms)
     renderLegend(truth.length > 0);
     const span = renderCharts(primary);
     renderTruthPanel(truth, errorT, errorM, primary, aligned, span);

@@ -122,6 +122,11 @@ const TrackMap = (() => {
       if (this.empty) this.empty.hidden = true;
       const c = bounds.getCenter(), half = MIN_EXTENT_M / 2;
       bounds.extend([c.lat - half, c.lng - half]).extend([c.lat + half, c.lng + half]);
+      this.bounds = bounds;
+      // The view first, then the layers: each layer is projected once, at the view it is shown in (a fit after
+      // adding them would project every point again). Keep the view only when the user chose it: rows arriving
+      // later (the smoothed track, the truth, a live upload) may reach beyond the first fit.
+      if (!(keepView && this.moved)) this.fit();
       this._grid(bounds);
       if (layers.plan) { // the floor's walkable area under everything else: outer rings and holes, even-odd
         const rings = layers.plan.polygons.map((poly) => poly.map((ring) => ring.map((p) => at(p[0], p[1]))));
@@ -160,11 +165,7 @@ const TrackMap = (() => {
           color: "#fff" }).addTo(this.layers);
         tag(marker, { role: m.cls.split(" ")[0] }, m.title);
       }
-      this.bounds = bounds;
       this.el.dataset.points = String(drawn);
-      // Keep the view only when the user chose it: rows arriving later (the smoothed track, the truth, a live
-      // upload) may reach beyond the first fit, which would leave them outside the view.
-      if (!(keepView && this.moved)) this.fit();
       this._updateScale();
       return drawn;
     }
