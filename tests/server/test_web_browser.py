@@ -764,6 +764,44 @@ def test_a_geo_referenced_session_is_drawn_on_a_real_map(page: Any, live: LiveSe
 
 
 @pytest.mark.slow
+def test_a_sensor_logger_push_with_a_location_is_drawn_on_the_real_map(page: Any, live: LiveService) -> None:
+    """A real client end to end: Sensor Logger's HTTP push with a ``location`` reading geo-references the session
+    (its first fix is the origin), so the page draws the track on the real map and offers the GeoJSON."""
+    from pdr.io.sensor_logger_writer import to_push_messages
+    from pdr.recording import DeviceInfo, Recording, SensorStream
+
+    t = 1_700_000_000_000_000_000 + np.arange(150, dtype=np.int64) * 20_000_000
+    rec = Recording({"acc": SensorStream("acc", t, np.tile([0.0, 0.0, 9.81], (t.size, 1))),
+                     "gyro": SensorStream("gyro", t, np.zeros((t.size, 3)))}, DeviceInfo(platform="android"))
+    messages = to_push_messages(rec, session_id="sl-geo", device_id="pixel-geo", period_s=1.0)
+    fix = (48.8584, 2.2945)
+    messages[0]["payload"].append({"name": "location", "time": messages[0]["payload"][0]["time"],
+                                   "values": {"latitude": fix[0], "longitude": fix[1], "altitude": 35.0,
+                                              "horizontalAccuracy": 4.0}})
+    alice = Client(live.url, live.tokens["alice"])
+    for m in messages:
+        reply = alice.request("POST", f"/api/v1/ingest/sensor-logger?token={live.tokens['alice']}", m)
+        assert reply.status == 200, reply.body
+    assert live.app.extensions["pdr"].worker.wait_idle(timeout_s=60)
+    sid = next(s["id"] for s in alice.request("GET", "/api/v1/sessions").json()["sessions"]
+               if s["session_id"] == "sl-geo")
+    alice.close()
+    page.route("https://tiles.test/**", lambda route: route.fulfill(status=200, content_type="image/png",
+                                                                      body=_png_1x1()))
+    sign_in(page, live)
+    page.goto(f"{live.url}/#/session/{sid}")
+    page.wait_for_function("() => window.pdrPage.timings.complete !== undefined")
+    page.wait_for_function("() => document.querySelector('#geomap').dataset.features === '1'")
+    assert page.get_attribute("#map", "data-points") == page.get_attribute("#geomap", "data-points") == "3"
+    # The test processor's first step is 0.7 m east of the session's start: on the map, next to the fix.
+    lat, lon = local_enu_to_geodetic(0.7, 0.0, *fix)
+    assert page.evaluate("window.pdrPage.geo.start") == pytest.approx([float(lat), float(lon)], abs=1e-6)
+    assert f"{fix[0]:.6f}°, {fix[1]:.6f}°" in page.inner_text("#geo-note")
+    assert page.is_visible("#dl-geojson")
+    shot(page, "25-sensor-logger-location-on-the-map")
+
+
+@pytest.mark.slow
 @pytest.mark.data
 def test_the_pages_error_on_a_real_log_is_the_scorers(browser: Any, tmp_path_factory: pytest.TempPathFactory
                                                        ) -> None:
