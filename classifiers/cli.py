@@ -324,42 +324,54 @@ def _report_figures(args: argparse.Namespace, fig: dict[str, Any], name: str,
 def run_eval(args: argparse.Namespace) -> int:
     model = load_model(args.model)
     task = get_task(model.task)
-    recs = _recordings(args)
-    if args.floors:
-        from classifiers.floor_eval import floor_figures, print_floor_figures
-        from pdr.phone.landmarks import Site
+    # Stages on a terminal's stderr (reading the logs takes minutes over several datasets); the figures are printed
+    # once the bar is closed, so the two never share a line.
+    with Progress(2 if args.floors or args.targets or args.timeline else 4, f"eval classifier {args.model}") as bar:
+        bar.set_note("reading the logs" + (f", simulating {args.sim}" if args.sim else ""))
+        recs = _recordings(args)
+        bar.advance(note=f"{len(recs)} recordings")
+        if args.floors:
+            from classifiers.floor_eval import floor_figures, print_floor_figures
+            from pdr.phone.landmarks import Site
 
-        floors = floor_figures(recs, Site.load(args.site) if args.site else None)
-        _report_figures(args, floors, "floors.json", print_floor_figures)
-        return 0
-    if args.targets:
-        from classifiers.mode_targets import print_targets, target_figures
-        from pdr.phone.landmarks import Site
+            report = ("floors.json", floor_figures(recs, Site.load(args.site) if args.site else None),
+                      print_floor_figures)
+        elif args.targets:
+            from classifiers.mode_targets import print_targets, target_figures
+            from pdr.phone.landmarks import Site
 
-        fig = target_figures(model, recs, Site.load(args.site) if args.site else None)
-        _report_figures(args, fig, "targets.json", print_targets)
-        return 0
-    if args.timeline:
-        from classifiers.timeline_eval import print_timeline, timeline_figures
+            report = ("targets.json", target_figures(model, recs, Site.load(args.site) if args.site else None),
+                      print_targets)
+        elif args.timeline:
+            from classifiers.timeline_eval import print_timeline, timeline_figures
 
-        _report_figures(args, timeline_figures(model, recs), "timeline.json", print_timeline)
+            report = ("timeline.json", timeline_figures(model, recs), print_timeline)
+        if args.floors or args.targets or args.timeline:
+            bar.advance()
+        else:
+            missing = [s for s in model.required_streams if not all(r.has(s) for r in recs)]
+            if missing:
+                raise InputError(f"the model needs the {', '.join(missing)} stream(s), which some of the data lacks")
+            data = labelled_windows(recs, task, model.window, model.feature_groups)
+            bar.advance(note=("leave-one-group-out cross-validation" if args.cv else "predicting")
+                        + f" on {len(data)} windows")
+            targets = args.target_classes if args.target_classes is not None else DEFAULT_TARGETS.get(task.name)
+            if args.cv:
+                metrics = _cv_metrics(data, model, task.name, targets, recs)
+                title = "leave-one-group-out cross-validation"
+            else:
+                res = predict_sequences(model, data)
+                metrics = classification_metrics(data.y, res.label, res.confidence,
+                                                 sorted(set(data.y.astype(str)) | set(model.classes)), targets)
+                title = "saved model on the given data"
+            bar.advance(note="inference speed")
+            metrics["n_groups"] = len(set(data.groups.astype(str).tolist()))
+            X = np.tile(data.X, (max(1, 10000 // max(1, len(data))), 1))
+            metrics.update(benchmark(model, X, recs))
+            bar.advance()
+    if args.floors or args.targets or args.timeline:
+        _report_figures(args, report[1], report[0], report[2])
         return 0
-    missing = [s for s in model.required_streams if not all(r.has(s) for r in recs)]
-    if missing:
-        raise InputError(f"the model needs the {', '.join(missing)} stream(s), which some of the data lacks")
-    data = labelled_windows(recs, task, model.window, model.feature_groups)
-    targets = args.target_classes if args.target_classes is not None else DEFAULT_TARGETS.get(task.name)
-    if args.cv:
-        metrics = _cv_metrics(data, model, task.name, targets, recs)
-        title = "leave-one-group-out cross-validation"
-    else:
-        res = predict_sequences(model, data)
-        metrics = classification_metrics(data.y, res.label, res.confidence,
-                                         sorted(set(data.y.astype(str)) | set(model.classes)), targets)
-        title = "saved model on the given data"
-    metrics["n_groups"] = len(set(data.groups.astype(str).tolist()))
-    X = np.tile(data.X, (max(1, 10000 // max(1, len(data))), 1))
-    metrics.update(benchmark(model, X, recs))
     metrics["windows_per_s"] = metrics.get("features_and_classifier_windows_per_s", float("nan"))
     metrics["command"] = _command_line()
     metrics["versions"] = library_versions()

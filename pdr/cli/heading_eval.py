@@ -5,13 +5,13 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import sys
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from pdr.cli.progress import Progress
 from pdr.cli.track import config_from_args
-from pdr.evaluation.heading import evaluate, placement_for, report_lines
+from pdr.evaluation.heading import evaluate, placement_for, recordings_in, report_lines
 from pdr.phone.heading_smoother import smoothed_rows
 from pdr.phone.pipeline import PipelineConfig
 from pdr.recording import Recording
@@ -55,10 +55,17 @@ def run(args: argparse.Namespace) -> int:
     def cfg_for(rec: Recording) -> PipelineConfig:
         return replace(base, placement=placement_for(rec, args.placement))
 
-    def progress(msg: str) -> None:
-        print(msg, file=sys.stderr)
+    folders = recordings_in(args.dir)
+    with Progress(min(len(folders), args.limit) if args.limit else len(folders), "eval heading") as bar:
+        def progress(msg: str) -> None:
+            # "NAME: done" advances the bar; anything else (a recording skipped) is a message for the user.
+            if msg.endswith(": done"):
+                bar.advance(note=msg.removesuffix(": done"))
+            else:
+                bar.write(msg)
+                bar.advance()
 
-    scores, agg = evaluate(args.dir, cfg_for, smoothed_rows, args.limit, None if args.json else progress)
+        scores, agg = evaluate(args.dir, cfg_for, smoothed_rows, args.limit, progress)
     if args.steps:
         out = Path(args.steps)
         out.mkdir(parents=True, exist_ok=True)

@@ -1,8 +1,9 @@
 """A small progress bar for the CLI's long commands: one line on stderr, and nothing unless stderr is a terminal.
 
 Results go to stdout and stay there; the bar is for a person watching (``pdr eval ipin DIR``, ``pdr allan LOG``,
-``pdr simulate ...``). Piped, redirected or run by CI (stderr not a TTY) it writes nothing, so logs and
-captured output stay clean. tqdm would do the same; the project does not depend on it for one line.
+``pdr simulate ...``); :meth:`Progress.write` prints a message line (a skipped file) above it. Piped, redirected
+or run by CI (stderr not a TTY) the bar writes nothing, so logs and captured output stay clean. tqdm would do the
+same; the project does not depend on it for one line.
 """
 
 from __future__ import annotations
@@ -73,6 +74,18 @@ class Progress:
         """Say what is being worked on now, without counting progress."""
         self.note = note
         self._draw(force=self.done == 0)  # the first note shows at once, later ones at the redraw rate
+
+    def write(self, text: str) -> None:
+        """Print ``text`` as a line of its own on the bar's stream, piped or not (a warning, a skipped file); a drawn
+        bar is cleared first and drawn again under it, so the two never share a line.
+        """
+        with self._lock:
+            if self.enabled and self._width:
+                self.stream.write("\r" + " " * self._width + "\r")
+                self._width = 0
+            self.stream.write(text + "\n")
+            self.stream.flush()
+        self._draw(force=True)
 
     def close(self) -> None:
         """Clear the line, so that what is printed next starts on a clean line; nothing is drawn after."""

@@ -5,10 +5,11 @@ everything through the JSON API with the user's token in the ``Authorization`` h
 no user data, so they need no authentication. A strict Content-Security-Policy allows only this origin's
 scripts (no inline script), which keeps a session name or warning text from ever running as code.
 
-Leaflet (npm ``leaflet``, BSD-2-Clause; ``static/vendor/leaflet/``, see its ``VENDORED.md``) draws a
-geo-referenced session on a real map. Map tiles come only from the operator's ``PDR_MAP_TILE_URL``
-(``GET /web/config.json`` hands it to the page, and the policy's ``img-src`` names its host); without it the map
-has no tiles and the page loads nothing from elsewhere.
+Leaflet (npm ``leaflet``, BSD-2-Clause; ``static/vendor/leaflet/``, see its ``VENDORED.md``) draws every track:
+in local metres with ``L.CRS.Simple`` (``static/trackmap.js``: floor plan, truth and errors, one unit a metre), and a
+geo-referenced session also on a real map in longitude/latitude (Web Mercator). Map tiles come only from the
+operator's ``PDR_MAP_TILE_URL`` (``GET /web/config.json`` hands it to the page, and the policy's ``img-src`` names
+its host); without it the map has no tiles and the page loads nothing from elsewhere.
 """
 
 from __future__ import annotations

@@ -34,7 +34,7 @@ def test_page_is_served_without_authentication_and_holds_no_data(client: FlaskCl
     assert "script-src 'self'" in csp and "frame-ancestors 'none'" in csp
     assert resp.headers["Referrer-Policy"] == "no-referrer"
     for asset, mime in (("/web/app.js", "text/javascript"), ("/web/plot.js", "text/javascript"),
-                        ("/web/app.css", "text/css")):
+                        ("/web/trackmap.js", "text/javascript"), ("/web/app.css", "text/css")):
         with client.get(asset) as r:
             r.get_data()
         assert r.status_code == 200, asset

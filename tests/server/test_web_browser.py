@@ -109,15 +109,15 @@ def page(browser: Any, live: LiveService) -> Iterator[Any]:
 
 
 def track_point_counts(page: Any) -> dict[str, Any]:
-    """Points drawn on the map: declared per polyline, and the polylines' actual vertices."""
+    """Points drawn on the map: declared per track path, and the paths' actual vertices (Leaflet's SVG: M/L)."""
     return page.evaluate("""() => {
-        const lines = [...document.querySelectorAll('#map polyline[data-role=track]')];
+        const lines = [...document.querySelectorAll('#map path[data-role=track]')];
         const byDevice = {};
         for (const l of lines) {
             byDevice[l.dataset.device] = (byDevice[l.dataset.device] || 0) + Number(l.dataset.points);
         }
         return {declared: lines.reduce((a, l) => a + Number(l.dataset.points), 0),
-                vertices: lines.reduce((a, l) => a + l.points.numberOfItems, 0),
+                vertices: lines.reduce((a, l) => a + (l.getAttribute('d').match(/[ML]/g) || []).length, 0),
                 lines: lines.length, byDevice,
                 total: Number(document.querySelector('#map').dataset.points)};
     }""")
@@ -155,7 +155,8 @@ def test_sign_in_list_sessions_and_open_a_long_session(page: Any, live: LiveServ
         paint_ms.append(timings["firstPaint"])
         print(f"\n2-hour session, {live.long_steps} steps, open {attempt + 1}: track fetched and parsed at "
               f"{timings['fetched']:.0f} ms, drawn at {timings['firstRender']:.0f} ms, painted at "
-              f"{timings['firstPaint']:.0f} ms (page clock); {wall_ms[-1]:.0f} ms from the click (test clock)")
+              f"{timings['firstPaint']:.0f} ms (page clock; the map's last draw {timings['mapDrawMs']:.0f} ms); "
+              f"{wall_ms[-1]:.0f} ms from the click (test clock)")
     assert live.long_steps >= 10_000
     # The render time is printed, not asserted (a timed check flakes under load); `pdr bench` owns speed.
     print(f"median first paint {statistics.median(paint_ms):.0f} ms, "
@@ -165,9 +166,9 @@ def test_sign_in_list_sessions_and_open_a_long_session(page: Any, live: LiveServ
     assert counts["declared"] == counts["total"] == live.long_steps
     # Polylines split where the motion mode changes share their joint vertex with the previous one.
     assert counts["vertices"] == live.long_steps + counts["lines"] - 1
-    assert page.locator("#map circle[data-role=marker]").count() == 2  # start and end
-    page.wait_for_function("() => document.querySelectorAll('#map circle[data-role=landmark]').length === 2")
-    modes = set(page.eval_on_selector_all("#map polyline[data-role=track]", "ls => ls.map(l => l.dataset.mode)"))
+    assert page.locator("#map path[data-role=marker]").count() == 2  # start and end
+    page.wait_for_function("() => document.querySelectorAll('#map path[data-role=landmark]').length === 2")
+    modes = set(page.eval_on_selector_all("#map path[data-role=track]", "ls => ls.map(l => l.dataset.mode)"))
     assert modes == {"walking", "standing", "stairs_up"}
     assert page.locator("#timeline .bands rect").count() > 10
     assert page.locator("#steps-plot polyline").count() >= 1
@@ -181,18 +182,22 @@ def test_sign_in_list_sessions_and_open_a_long_session(page: Any, live: LiveServ
     on_floor_1 = track_point_counts(page)["total"]
     assert 0 < on_floor_1 < live.long_steps / 2
     page.select_option("#floor-filter", "")
-    # Zoom and pan change the view box, not the drawing.
-    before = page.get_attribute("#map", "viewBox")
+    # Zoom and pan change the view (metres, CRS.Simple), not the drawing.
+    view = "window.pdrPage.trackMap.view()"
+    before = page.evaluate(view)
     page.click("#zoom-in")
+    zoomed = page.evaluate(view)
     box = page.locator("#map").bounding_box()
     page.mouse.move(box["x"] + 300, box["y"] + 200)
     page.mouse.down()
-    page.mouse.move(box["x"] + 400, box["y"] + 260)
+    page.mouse.move(box["x"] + 350, box["y"] + 230, steps=5)
+    page.mouse.move(box["x"] + 400, box["y"] + 260, steps=5)
     page.mouse.up()
-    after = page.get_attribute("#map", "viewBox")
-    assert before is not None and after is not None
-    w0, w1 = float(before.split()[2]), float(after.split()[2])
-    assert w1 == pytest.approx(w0 / 1.5, rel=1e-3)
+    page.wait_for_function(f"() => {view}[0] !== {zoomed[0]!r}")
+    after = page.evaluate(view)
+    assert zoomed[2] - zoomed[0] == pytest.approx((before[2] - before[0]) / 1.5, rel=1e-3)
+    assert after[2] - after[0] == pytest.approx(zoomed[2] - zoomed[0], rel=1e-6)
+    assert after[0] < zoomed[0] and after[3] > zoomed[3]  # dragged right and down: the view moved west and north
     assert track_point_counts(page)["total"] == live.long_steps
 
 
@@ -200,6 +205,8 @@ def test_csv_and_geojson_downloads(page: Any, live: LiveService) -> None:
     sign_in(page, live)
     page.goto(f"{live.url}/#/session/{live.foot_id}")
     page.wait_for_function(f"() => document.querySelector('#map').dataset.points === '{3 * live.foot_steps}'")
+    page.wait_for_function("() => window.pdrPage.timings.complete !== undefined")
+    assert page.is_hidden("#dl-geojson")  # local metres: no longitude and latitude to download
     with page.expect_download() as info:
         page.click("#dl-csv")
     download = info.value
@@ -215,6 +222,8 @@ def test_csv_and_geojson_downloads(page: Any, live: LiveService) -> None:
     store = live.app.extensions["pdr"].store
     store.set_session(live.foot_id, origin_lat_deg=51.5, origin_lon_deg=-0.12)
     try:
+        page.reload()
+        page.wait_for_selector("#dl-geojson:visible")
         with page.expect_download() as info:
             page.click("#dl-geojson")
         geo = json.loads(Path(info.value.path()).read_text())
@@ -268,7 +277,7 @@ def test_foot_session_shows_both_feet_and_the_fused_track(page: Any, live: LiveS
     counts = track_point_counts(page)
     assert counts["byDevice"] == {"fused": live.foot_steps, "left_foot": live.foot_steps,
                                   "right_foot": live.foot_steps}
-    assert page.locator("#map polyline.foot").count() >= 2  # the single feet are drawn dashed
+    assert page.locator("#map path.foot").count() >= 2  # the single feet are drawn dashed
     assert page.input_value("#colour-by") == "device"
     assert set(page.locator("#legend .item").all_inner_texts()) >= {"fused", "left_foot", "right_foot"}
     assert page.inner_text("#session-summary [data-role=processing]") == (
@@ -292,18 +301,16 @@ def test_truth_and_error_are_shown_for_an_uploaded_log(page: Any, live: LiveServ
     assert f"({len(errors)} later points)" in stats
     assert f"mean: {statistics.mean(errors):g} m" in stats and f"max: {max(errors):g} m" in stats
     assert "starts at the first truth point (0 s)" in stats
-    first = page.evaluate("""() => {
-        const l = document.querySelector('#map polyline[data-role=track]');
-        const p = l.points.getItem(0);
-        return [p.x, -p.y];
-    }""")
-    truth = page.evaluate("""() => {
-        const p = document.querySelector('#map polyline[data-role=truth]').points.getItem(0);
-        return [p.x, -p.y];
-    }""")
+    lines = page.evaluate("window.pdrPage.trackMap.lines")
+    first = next(line["xy"][0] for line in lines if line["role"] == "track")
+    truth = next(line["xy"][0] for line in lines if line["role"] == "truth")
     assert first == pytest.approx(truth, abs=0.01)  # the lead row before the first truth point is not drawn
-    assert page.locator("#map polyline[data-role=truth]").count() == 1
-    assert page.locator("#map circle[data-role=truth-point]").count() == live.truth_points
+    # ... and drawn there: both paths start at the same pixel.
+    starts = page.evaluate("""() => ['track', 'truth'].map(r => document.querySelector(`#map path[data-role=${r}]`)
+        .getAttribute('d').match(/^M(-?[0-9.]+) (-?[0-9.]+)/).slice(1).map(Number))""")
+    assert starts[0] == pytest.approx(starts[1], abs=1.0)
+    assert page.locator("#map path[data-role=truth]").count() == 1
+    assert page.locator("#map path[data-role=truth-point]").count() == live.truth_points
     assert page.locator("#error-plot polyline").count() == 1
     # The test processor's rows carry none of the smoother's inputs: the page says so and draws them as streamed.
     heading = page.inner_text("#session-summary [data-role=heading]")
@@ -479,6 +486,16 @@ def test_allan_report_renders_from_the_api(page: Any, live: LiveService) -> None
     assert page.locator("#report-body img.report-png").count() == 1
     assert page.locator("svg.loglog[data-sensor=gyro]").count() == 1
     shot(page, "09-allan-report")
+    # A phone's width: the curves are drawn again at the new size (their labels keep their size on screen).
+    drawn_width = "(s) => Number(s.getAttribute('viewBox').split(' ')[2]) === s.clientWidth"
+    page.set_viewport_size({"width": 390, "height": 844})
+    page.wait_for_function(f"() => [...document.querySelectorAll('svg.loglog')].every({drawn_width})")
+    assert not _overlapping_labels(page, ("svg.loglog[data-sensor=gyro]",))
+    assert page.evaluate("""() => [...document.querySelectorAll('svg.loglog')].every(s => {
+        const t = s.querySelector('text.title').getBoundingClientRect(), b = s.getBoundingClientRect();
+        return t.left >= b.left && t.right <= b.right; })""")  # the title is not cut off
+    shot(page, "09b-allan-report-phone")
+    page.set_viewport_size({"width": 1360, "height": 1000})
     with page.expect_download() as info:
         page.click("#dl-report-html")
     assert Path(info.value.path()).read_text() == "<html><body>Allan report</body></html>"
@@ -487,20 +504,32 @@ def test_allan_report_renders_from_the_api(page: Any, live: LiveService) -> None
 
 
 def _outside_view(page: Any) -> dict[str, int]:
-    """Vertices of the map's polylines (track and truth) outside its view box (drawn whole: 'meet')."""
+    """Vertices of the map's lines (track and truth) outside its view (both in metres)."""
     return page.evaluate("""() => {
-        const svg = document.querySelector('#map');
-        const [x, y, w, h] = svg.getAttribute('viewBox').split(' ').map(Number);
-        let n = 0, out = 0;
-        for (const l of svg.querySelectorAll('polyline')) {
-            for (let i = 0; i < l.points.numberOfItems; i++) {
-                const p = l.points.getItem(i);
-                n++;
-                if (p.x < x || p.x > x + w || p.y < y || p.y > y + h) out++;
+        const m = window.pdrPage.trackMap;
+        const [w, s, e, n] = m.view();
+        let count = 0, out = 0;
+        for (const line of m.lines) {
+            for (const [x, y] of line.xy) {
+                count++;
+                if (x < w || x > e || y < s || y > n) out++;
             }
         }
-        return {n, out};
+        return {n: count, out};
     }""")
+
+
+def _overlapping_labels(page: Any, charts: tuple[str, ...]) -> list[Any]:
+    """Pairs of text labels of the charts whose boxes overlap on screen."""
+    found = []
+    for chart in charts:
+        boxes = page.evaluate(f"""() => [...document.querySelectorAll('{chart} text')].map(t => {{
+            const b = t.getBoundingClientRect(); return [b.left, b.top, b.right, b.bottom, t.textContent]; }})""")
+        for i, a in enumerate(boxes):
+            for b in boxes[i + 1:]:
+                if min(a[2], b[2]) - max(a[0], b[0]) > 0.5 and min(a[3], b[3]) - max(a[1], b[1]) > 0.5:
+                    found.append((chart, a, b))
+    return found
 
 
 def _stop_walk(live: LiveService) -> tuple[str, float, float]:
@@ -568,6 +597,29 @@ def test_every_chart_is_on_the_sessions_time_axis(page: Any, live: LiveService) 
     shot(page, "22-charts-on-the-session-time-axis")
 
 
+def test_charts_and_map_are_redrawn_when_the_window_is_resized(page: Any, live: LiveService) -> None:
+    """A phone turned or a window resized: the charts are drawn again at their new width, so their labels keep
+    their size on screen and stay apart, and the map fits the track into its new box."""
+    sign_in(page, live)
+    page.goto(f"{live.url}/#/session/{live.truth_id}")
+    page.wait_for_selector("#error-plot polyline")
+    page.wait_for_function("() => window.pdrPage.timings.complete !== undefined")
+    charts = ("#timeline", "#steps-plot", "#heading-plot", "#error-plot")
+    label_height = "() => document.querySelector('#steps-plot text').getBoundingClientRect().height"
+    before = page.evaluate(label_height)
+    drawn_width = "(c) => Number(document.querySelector(c).getAttribute('viewBox').split(' ')[2])"
+    assert all(page.evaluate(f"() => ({drawn_width})('{c}')") > 1000 for c in charts)
+    page.set_viewport_size({"width": 390, "height": 844})
+    page.wait_for_function(f"() => {list(charts)!r}.every(c => "
+                           f"({drawn_width})(c) === document.querySelector(c).clientWidth)")
+    assert page.evaluate(label_height) == pytest.approx(before, rel=0.1)  # not shrunk with the chart
+    assert not _overlapping_labels(page, charts)
+    seen = _outside_view(page)
+    assert seen["n"] > 0 and seen["out"] == 0
+    assert page.evaluate("document.documentElement.scrollWidth") <= 390
+    shot(page, "24-session-after-resize")
+
+
 def test_models_page_shows_model_cards(page: Any, live: LiveService) -> None:
     """The installed models (../models) as model cards; the fitted internals only behind a download."""
     models_dir = Path(__file__).resolve().parents[2] / "models"
@@ -612,13 +664,7 @@ def test_the_page_is_usable_at_phone_width(browser: Any, live: LiveService) -> N
         box = pg.locator("#map").bounding_box()
         assert box["x"] >= 0 and box["x"] + box["width"] <= 390
         assert _outside_view(pg)["out"] == 0
-        for chart in ("#timeline", "#steps-plot", "#heading-plot"):
-            boxes = pg.evaluate(f"""() => [...document.querySelectorAll('{chart} text')].map(t => {{
-                const b = t.getBoundingClientRect(); return [b.left, b.top, b.right, b.bottom, t.textContent]; }})""")
-            for i, a in enumerate(boxes):
-                for b in boxes[i + 1:]:
-                    overlap = min(a[2], b[2]) - max(a[0], b[0]) > 0.5 and min(a[3], b[3]) - max(a[1], b[1]) > 0.5
-                    assert not overlap, (chart, a, b)
+        assert not _overlapping_labels(pg, ("#timeline", "#steps-plot", "#heading-plot"))
         shot(pg, "14-phone-session")
         pg.click("#nav a[data-view=models]")
         pg.wait_for_selector(".card[data-model]")
@@ -715,6 +761,44 @@ def test_a_geo_referenced_session_is_drawn_on_a_real_map(page: Any, live: LiveSe
     page.goto(f"{live.url}/#/session/{live.compass_id}")
     page.wait_for_function("() => window.pdrPage.timings.complete !== undefined")
     assert page.is_hidden("#geo-wrap")
+
+
+@pytest.mark.slow
+def test_a_sensor_logger_push_with_a_location_is_drawn_on_the_real_map(page: Any, live: LiveService) -> None:
+    """A real client end to end: Sensor Logger's HTTP push with a ``location`` reading geo-references the session
+    (its first fix is the origin), so the page draws the track on the real map and offers the GeoJSON."""
+    from pdr.io.sensor_logger_writer import to_push_messages
+    from pdr.recording import DeviceInfo, Recording, SensorStream
+
+    t = 1_700_000_000_000_000_000 + np.arange(150, dtype=np.int64) * 20_000_000
+    rec = Recording({"acc": SensorStream("acc", t, np.tile([0.0, 0.0, 9.81], (t.size, 1))),
+                     "gyro": SensorStream("gyro", t, np.zeros((t.size, 3)))}, DeviceInfo(platform="android"))
+    messages = to_push_messages(rec, session_id="sl-geo", device_id="pixel-geo", period_s=1.0)
+    fix = (48.8584, 2.2945)
+    messages[0]["payload"].append({"name": "location", "time": messages[0]["payload"][0]["time"],
+                                   "values": {"latitude": fix[0], "longitude": fix[1], "altitude": 35.0,
+                                              "horizontalAccuracy": 4.0}})
+    alice = Client(live.url, live.tokens["alice"])
+    for m in messages:
+        reply = alice.request("POST", f"/api/v1/ingest/sensor-logger?token={live.tokens['alice']}", m)
+        assert reply.status == 200, reply.body
+    assert live.app.extensions["pdr"].worker.wait_idle(timeout_s=60)
+    sid = next(s["id"] for s in alice.request("GET", "/api/v1/sessions").json()["sessions"]
+               if s["session_id"] == "sl-geo")
+    alice.close()
+    page.route("https://tiles.test/**", lambda route: route.fulfill(status=200, content_type="image/png",
+                                                                      body=_png_1x1()))
+    sign_in(page, live)
+    page.goto(f"{live.url}/#/session/{sid}")
+    page.wait_for_function("() => window.pdrPage.timings.complete !== undefined")
+    page.wait_for_function("() => document.querySelector('#geomap').dataset.features === '1'")
+    assert page.get_attribute("#map", "data-points") == page.get_attribute("#geomap", "data-points") == "3"
+    # The test processor's first step is 0.7 m east of the session's start: on the map, next to the fix.
+    lat, lon = local_enu_to_geodetic(0.7, 0.0, *fix)
+    assert page.evaluate("window.pdrPage.geo.start") == pytest.approx([float(lat), float(lon)], abs=1e-6)
+    assert f"{fix[0]:.6f}°, {fix[1]:.6f}°" in page.inner_text("#geo-note")
+    assert page.is_visible("#dl-geojson")
+    shot(page, "25-sensor-logger-location-on-the-map")
 
 
 @pytest.mark.slow

@@ -69,13 +69,13 @@ def test_the_floor_plan_is_drawn_under_the_track_at_phone_width(browser: Any, se
         # Under the track: drawn before the first track polyline.
         assert pg.evaluate("""() => {
             const p = document.querySelector('#map path[data-role=floor-plan]');
-            const t = document.querySelector('#map polyline[data-role=track]');
+            const t = document.querySelector('#map path[data-role=track]');
             return Boolean(p.compareDocumentPosition(t) & Node.DOCUMENT_POSITION_FOLLOWING); }""")
-        # Walkable where the hall is, not in the shop (map y is -north).
+        # Walkable where the hall is, not in the shop (east, north in metres; drawn in Leaflet's layer points).
         inside = pg.evaluate("""() => {
             const p = document.querySelector('#map path[data-role=floor-plan]');
-            const at = (x, y) => p.isPointInFill(new DOMPoint(x, y));
-            return [at(5, -5), at(15, -15), at(70, -5)]; }""")
+            const at = (e, n) => p.isPointInFill(new DOMPoint(...window.pdrPage.trackMap.toLayerPoint(e, n)));
+            return [at(5, 5), at(15, 15), at(70, 5)]; }""")
         assert inside == [True, False, False]
         assert "walkable area, floor 1" in pg.inner_text("#legend")
         assert "map-matched from (5, 6) m on floor 0" in pg.inner_text("#session-summary")
@@ -90,7 +90,7 @@ def test_the_floor_plan_is_drawn_under_the_track_at_phone_width(browser: Any, se
         # A session whose track is not in the site's frame (no start) gets no plan.
         pg.goto(f"{service.url}/#/session/{service.plain}")
         pg.wait_for_function("() => window.pdrPage.timings.complete !== undefined")
-        assert pg.locator("#map polyline[data-role=track]").count() >= 1
+        assert pg.locator("#map path[data-role=track]").count() >= 1
         assert pg.locator("#map path[data-role=floor-plan]").count() == 0
         assert "uploaded site (floor altitudes)" in pg.inner_text("#session-summary")
     finally:

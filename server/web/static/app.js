@@ -18,15 +18,16 @@
   const enc = encodeURIComponent;
   const { fmt, fmtDuration } = Plot;
 
-  /** Exposed for the browser tests: render timings (ms) of the last session view, and which track it shows
-   * (``track.heading``: "smoothed" or "causal"; ``track.last``: [east_m, north_m] of its last row), and the
-   * geo-referenced map's track (``geo.start``: [lat, lon] of its first position). */
-  const page = { timings: {}, track: null, geo: null };
+  /** Exposed for the browser tests: render timings (ms) of the last session view (``mapDrawMs``: its map's last
+   * draw), which track it shows (``track.heading``: "smoothed" or "causal"; ``track.last``: [east_m, north_m] of its
+   * last row), the geo-referenced map's track (``geo.start``: [lat, lon] of its first position), and the metric map
+   * (``trackMap``: the TrackMap drawn, or null). */
+  const page = { timings: {}, track: null, geo: null, trackMap: null };
   window.pdrPage = page;
 
   let generation = 0; // bumped on every navigation: late answers of an old view are dropped
   let pollTimer = null;
-  let map = null;
+  let map = null; // the metric map of the open session (TrackMap: Leaflet, CRS.Simple)
   let geoMap = null; // the Leaflet map of a geo-referenced session
   let pageConfig = null; // GET /web/config.json: the map tile URL template and attribution (or nulls)
   let current = null; // the open session's state
@@ -158,6 +159,15 @@
     container.appendChild(el("p", { class: "not-available", "data-role": "not-available" }, text));
   }
 
+  /** Take the metric map off the page (a new session is opened, or the user signs out). */
+  function dropMap() {
+    if (map) map.remove();
+    map = null;
+    page.trackMap = null;
+    clearNode($("map"));
+    delete $("map").dataset.points;
+  }
+
   function stopPolling() {
     if (pollTimer) clearTimeout(pollTimer);
     pollTimer = null;
@@ -172,7 +182,8 @@
     for (const id of ["session-title", "session-summary", "session-warnings", "truth-panel", "reports-body",
       "report-body", "models-body", "legend"]) clearNode($(id));
     for (const id of ["sessions-table", "batches-table"]) clearNode($(id).querySelector("tbody"));
-    for (const id of ["map", "timeline", "steps-plot", "heading-plot"]) clearNode($(id));
+    dropMap();
+    for (const id of ["timeline", "steps-plot", "heading-plot"]) clearNode($(id));
     show("signin");
     if (reason) showMessage(reason); else clearMessage();
   }
@@ -336,8 +347,9 @@
     show("session");
     $("session-title").textContent = "Loading…";
     $("session-body").hidden = false;
-    for (const svgId of ["map", "timeline", "steps-plot", "heading-plot", "legend"]) clearNode($(svgId));
-    delete $("map").dataset.points;
+    dropMap();
+    for (const svgId of ["timeline", "steps-plot", "heading-plot", "legend"]) clearNode($(svgId));
+    $("dl-geojson").hidden = true; // until the session's detail says it has an origin
     clearNode($("session-summary"));
     clearNode($("session-warnings"));
     clearNode($("truth-panel"));
@@ -352,7 +364,8 @@
       if (gen !== generation) return;
       $("session-title").textContent = "Session not available";
       $("session-body").hidden = true;
-      for (const svgId of ["map", "timeline", "steps-plot", "heading-plot", "legend"]) clearNode($(svgId));
+      dropMap();
+      for (const svgId of ["timeline", "steps-plot", "heading-plot", "legend"]) clearNode($(svgId));
       clearNode($("batches-table").querySelector("tbody"));
       reportError(err, "Could not open the session");
       return;
@@ -421,7 +434,7 @@
   /** A geo-referenced session (its detail has an origin) on a real map: Leaflet (vendor/leaflet, from npm) on Web
    * Mercator with the server's GeoJSON of the track in longitude/latitude (the server converts from local metres, so
    * the page has no Earth model of its own), over the operator's tiles (PDR_MAP_TILE_URL) when configured. A session
-   * in local metres has no such map: the metric map above is its map. */
+   * in local metres has no such map: the metric map above (trackmap.js: Leaflet, CRS.Simple) is its map. */
   async function renderGeoMap(gen) {
     const wrap = $("geo-wrap");
     const origin = current && current.detail && current.detail.origin;
@@ -616,6 +629,8 @@
   function renderSessionHeader() {
     const d = current.detail;
     $("session-title").textContent = d.name || d.session_id || d.id;
+    // GeoJSON (RFC 7946) is longitude/latitude: only a session with an origin has one (the API answers 409).
+    $("dl-geojson").hidden = !d.origin;
     const summary = $("session-summary");
     clearNode(summary);
     const part = (label, value, role) => {
@@ -791,13 +806,15 @@
       const points = truth.map((p) => ({ e: p.east_m, n: p.north_m, cls: "truth-point", px: 4, title: `truth ${p.kind} at ${fmt(p.t_s, 1)} s` }));
       markers.unshift(...points);
     }
-    if (!map) map = new Plot.TrackMap($("map"), $("scale-bar"));
+    if (!map) page.trackMap = map = new TrackMap($("map"), $("scale-bar"));
     const step = Math.max(1, Math.ceil(errors.length / 500));
     current.plan = planLayer();
+    const drawStart = performance.now();
     map.draw({ plan: current.plan, tracks: trackLayers(drawn), truth: truth.map((p) => ({ e: p.east_m, n: p.north_m })),
       errors: errors.filter((_, i) => i % step === 0), markers,
       empty: current.detail && LIVE_STATUSES.has(current.detail.status) ? "waiting for the first track points…" : "this session has no track" },
     keepView);
+    page.timings.mapDrawMs = performance.now() - drawStart; // the last draw of the map (ms)
     renderLegend(truth.length > 0);
     const span = renderCharts(primary);
     renderTruthPanel(truth, errorT, errorM, primary, aligned, span);
@@ -996,13 +1013,15 @@
     body.appendChild(el("h2", {}, s.name));
     const svg = Plot.svgEl("svg", { class: "loglog", "data-sensor": s.name }, body);
     const colour = (axis) => AXIS_COLOURS[axis] || Plot.deviceColour(axis);
-    Plot.logLogChart(svg, s.axes.map(([axis, a]) => ({
+    // Drawn at the element's size; drawn again when the window's size changes (redrawOnResize).
+    svg.pdrRedraw = () => Plot.logLogChart(svg, s.axes.map(([axis, a]) => ({
       name: axis, colour: colour(axis), x: a.tau_s, y: a.adev, lo: a.adev_lo, hi: a.adev_hi,
     })), {
-      title: `${s.name}: overlapping Allan deviation (dashed: fitted noise model)`, yLabel: `σ(τ) ${adevUnit}`,
+      title: `${s.name}: overlapping Allan deviation`, yLabel: `σ(τ) ${adevUnit}`, linesLabel: "– – fitted noise model",
       lines: s.axes.filter(([, a]) => a.fit && Array.isArray(a.fit.model_adev))
         .map(([axis, a]) => ({ x: a.tau_s, y: a.fit.model_adev, colour: colour(axis), dash: "5 4" })),
     });
+    svg.pdrRedraw();
     const table = el("table", { class: "grid terms" });
     const head = el("tr");
     head.appendChild(el("th", {}, "axis"));
@@ -1305,14 +1324,27 @@
     if (current) renderSessionData(false);
   }
 
+  /** The charts are drawn at their element's size in pixels (labels and ticks keep their size on screen), so a new
+   * size (a phone turned, a window resized) draws them again, once the resizing has paused: the session's charts and
+   * map (which keeps the user's view, or fits the track to its new size), and an Allan report's curves. */
+  let resizeTimer = null;
+  const RESIZE_PAUSE_MS = 150;
+  function redrawOnResize() {
+    clearTimeout(resizeTimer);
+    resizeTimer = setTimeout(() => {
+      if (current && !$("view-session").hidden) renderSessionData(true);
+      for (const svg of document.querySelectorAll("#view-report:not([hidden]) svg.loglog")) if (svg.pdrRedraw) svg.pdrRedraw();
+    }, RESIZE_PAUSE_MS);
+  }
+
   document.addEventListener("DOMContentLoaded", () => {
     $("signin-form").addEventListener("submit", signIn);
     $("sign-out").addEventListener("click", () => { signOut(); location.hash = "#/sessions"; });
     $("floor-filter").addEventListener("change", redrawSession);
     $("colour-by").addEventListener("change", () => { if (current) renderSessionData(true); });
     $("heading-mode").addEventListener("change", changeHeading);
-    $("zoom-in").addEventListener("click", () => map && map.box && map.zoom(1 / 1.5));
-    $("zoom-out").addEventListener("click", () => map && map.box && map.zoom(1.5));
+    $("zoom-in").addEventListener("click", () => map && map.zoom(1 / 1.5));
+    $("zoom-out").addEventListener("click", () => map && map.zoom(1.5));
     $("zoom-reset").addEventListener("click", () => map && map.fit());
     const dl = (format, ext) => async () => {
       if (!current) return;
@@ -1349,6 +1381,7 @@
       }
     });
     window.addEventListener("hashchange", route);
+    window.addEventListener("resize", redrawOnResize);
     route();
     watchServiceState();
   });

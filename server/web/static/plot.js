@@ -1,5 +1,5 @@
-/* Small SVG drawing kit of the page: elements, nice ticks, time-series charts, log-log charts and a
- * pan/zoom map in local metres. No dependencies; every text goes through textContent. */
+/* Small SVG drawing kit of the page: elements, nice ticks, time-series charts and log-log charts (the track map is
+ * trackmap.js). No dependencies; every text goes through textContent. */
 "use strict";
 
 const SVG_NS = "http://www.w3.org/2000/svg";
@@ -174,12 +174,15 @@ const Plot = (() => {
     }
   }
 
-  /** Log-log chart: series [{name, colour, x: [], y: [], lo?: [], hi?: []}], lines [{name, x: [], y: [], dash}]. */
+  /** Log-log chart: series [{name, colour, x: [], y: [], lo?: [], hi?: []}], lines [{name, x: [], y: [], dash}]
+   * (opts.lines, named together by opts.linesLabel in the legend). */
   function logLogChart(svg, series, opts) {
     clear(svg);
     const W = svg.clientWidth || 640, H = svg.clientHeight || 360;
     svg.setAttribute("viewBox", `0 0 ${W} ${H}`);
-    const L = 64, R = 12, T = 22, B = 36;
+    // B: room under the plot for the decade labels, low enough to clear the lowest y label at the corner, and
+    // the axis title under them.
+    const L = 64, R = 12, T = 22, B = 40;
     const xs = [], ys = [];
     for (const s of series.concat(opts.lines || [])) {
       s.x.forEach((v, i) => {
@@ -197,7 +200,7 @@ const Plot = (() => {
     if (opts.title) svgText(svg, L, 14, opts.title, { class: "title" });
     for (let e = lx0; e <= lx1; e++) {
       svgEl("line", { x1: X(10 ** e), x2: X(10 ** e), y1: T, y2: H - B, class: "gridline" }, svg);
-      svgText(svg, X(10 ** e), H - B + 14, `1e${e}`, { "text-anchor": "middle" });
+      svgText(svg, X(10 ** e), H - B + 17, `1e${e}`, { "text-anchor": "middle" });
     }
     for (let e = ly0; e <= ly1; e++) {
       svgEl("line", { x1: L, x2: W - R, y1: Y(10 ** e), y2: Y(10 ** e), class: "gridline" }, svg);
@@ -228,175 +231,10 @@ const Plot = (() => {
       svgText(svg, W - R - 8, legendY, s.name, { "text-anchor": "end" }).style.fill = s.colour;
       legendY += 14;
     }
-  }
-
-  /**
-   * The track map: an SVG whose viewBox is in metres (x east, -y north, so north is up), drawn to scale
-   * (equal axes). Pan by dragging, zoom with the wheel or the buttons; markers keep their size on screen.
-   */
-  class TrackMap {
-    constructor(svg, scaleBar) {
-      this.svg = svg;
-      this.scaleBar = scaleBar;
-      this.box = null;
-      this.home = null;
-      this.markers = [];
-      this.moved = false; // the user panned or zoomed: a redraw keeps their view, else it fits the data
-      this._bind();
-    }
-
-    _bind() {
-      const svg = this.svg;
-      let drag = null;
-      svg.addEventListener("pointerdown", (ev) => {
-        if (!this.box) return;
-        drag = { x: ev.clientX, y: ev.clientY, box: this.box.slice() };
-        this.moved = true;
-        svg.setPointerCapture(ev.pointerId);
-        svg.classList.add("dragging");
-      });
-      svg.addEventListener("pointermove", (ev) => {
-        if (!drag) return;
-        const k = this.metresPerPixel();
-        this.setBox([drag.box[0] - (ev.clientX - drag.x) * k, drag.box[1] - (ev.clientY - drag.y) * k,
-          drag.box[2], drag.box[3]]);
-      });
-      const end = () => { drag = null; svg.classList.remove("dragging"); };
-      svg.addEventListener("pointerup", end);
-      svg.addEventListener("pointercancel", end);
-      svg.addEventListener("wheel", (ev) => {
-        if (!this.box) return;
-        ev.preventDefault();
-        const r = svg.getBoundingClientRect();
-        this.zoom(Math.exp(ev.deltaY * 0.0015), this.toWorld(ev.clientX - r.left, ev.clientY - r.top));
-      }, { passive: false });
-      window.addEventListener("resize", () => this._updateScale());
-    }
-
-    metresPerPixel() {
-      const w = this.svg.clientWidth || 1, h = this.svg.clientHeight || 1;
-      return Math.max(this.box[2] / w, this.box[3] / h);
-    }
-
-    /** World coordinates (svg units) of a pixel of the element, with the 'meet' letterboxing. */
-    toWorld(px, py) {
-      const w = this.svg.clientWidth, h = this.svg.clientHeight, k = this.metresPerPixel();
-      const cx = this.box[0] + this.box[2] / 2, cy = this.box[1] + this.box[3] / 2;
-      return [cx + (px - w / 2) * k, cy + (py - h / 2) * k];
-    }
-
-    zoom(factor, centre) {
-      this.moved = true;
-      const [x, y, w, h] = this.box;
-      const c = centre || [x + w / 2, y + h / 2];
-      this.setBox([c[0] - (c[0] - x) * factor, c[1] - (c[1] - y) * factor, w * factor, h * factor]);
-    }
-
-    setBox(box) {
-      this.box = box;
-      this.svg.setAttribute("viewBox", box.map((v) => v.toFixed(3)).join(" "));
-      this._updateScale();
-    }
-
-    fit() {
-      this.moved = false;
-      if (this.home) this.setBox(this.home.slice());
-    }
-
-    _updateScale() {
-      if (!this.box) return;
-      const k = this.metresPerPixel();
-      for (const m of this.markers) m.node.setAttribute("r", (m.px * k).toFixed(3));
-      if (this.scaleBar) {
-        const metres = niceStep(k * 120, 1);
-        this.scaleBar.querySelector(".scale-line").style.width = `${(metres / k).toFixed(0)}px`;
-        this.scaleBar.querySelector(".scale-text").textContent = metres >= 1000 ? `${metres / 1000} km` : `${fmt(metres)} m`;
-      }
-    }
-
-    /**
-     * Draw layers. plan: {floor, polygons: GeoJSON MultiPolygon coordinates (m, site frame), name} or null;
-     * tracks: [{device, foot, segments: [{colour, mode, xy: Float64Array [e0, n0, e1, n1, ...],
-     * count}]}]; truth: [{e, n}]; truthKind; errors: [[e, n, e', n']]; markers: [{e, n, cls, px, title}].
-     */
-    draw(layers, keepView) {
-      const svg = this.svg;
-      clear(svg);
-      this.markers = [];
-      let minE = Infinity, maxE = -Infinity, minN = Infinity, maxN = -Infinity;
-      const grow = (e, n) => {
-        if (e < minE) minE = e; if (e > maxE) maxE = e; if (n < minN) minN = n; if (n > maxN) maxN = n;
-      };
-      for (const tr of layers.tracks) for (const s of tr.segments) for (let i = 0; i < s.xy.length; i += 2) grow(s.xy[i], s.xy[i + 1]);
-      for (const p of layers.truth || []) grow(p.e, p.n);
-      let drawn = 0;
-      if (!Number.isFinite(minE)) {
-        svg.setAttribute("viewBox", "0 0 100 60");
-        svgText(svg, 50, 30, layers.empty || "no track points yet", { "text-anchor": "middle", "font-size": 4,
-          fill: "#667085" });
-        svg.dataset.points = "0";
-        this.box = null;
-        if (this.scaleBar) {
-          this.scaleBar.querySelector(".scale-line").style.width = "0";
-          this.scaleBar.querySelector(".scale-text").textContent = "";
-        }
-        return 0;
-      }
-      const pad = Math.max(maxE - minE, maxN - minN, 4) * 0.06;
-      const home = [minE - pad, -maxN - pad, maxE - minE + 2 * pad, maxN - minN + 2 * pad];
-      // The grid: lines every "nice" number of metres, over three times the data's extent (room to pan).
-      const span = Math.max(home[2], home[3]);
-      const step = niceStep(span, 10);
-      const grid = svgEl("g", { class: "grid" }, svg);
-      const gx0 = Math.floor((home[0] - span) / step) * step, gx1 = home[0] + home[2] + span;
-      const gy0 = Math.floor((home[1] - span) / step) * step, gy1 = home[1] + home[3] + span;
-      for (let gx = gx0; gx <= gx1; gx += step) svgEl("line", { x1: gx, x2: gx, y1: gy0, y2: gy1, class: "grid-line" }, grid);
-      for (let gy = gy0; gy <= gy1; gy += step) svgEl("line", { x1: gx0, x2: gx1, y1: gy, y2: gy, class: "grid-line" }, grid);
-      if (layers.plan) { // the floor's walkable area under everything else: outer rings and holes, even-odd
-        const d = [];
-        for (const poly of layers.plan.polygons) {
-          for (const ring of poly) d.push(`M${ring.map((p) => `${p[0].toFixed(2)},${(-p[1]).toFixed(2)}`).join("L")}Z`);
-        }
-        const path = svgEl("path", { d: d.join(""), class: "floor-plan", "fill-rule": "evenodd", "data-role": "floor-plan",
-          "data-floor": layers.plan.floor, "data-rings": d.length }, svg);
-        svgEl("title", {}, path).textContent = `${layers.plan.name ? `${layers.plan.name}: ` : ""}floor ${layers.plan.floor}, walkable area`;
-      }
-      if ((layers.truth || []).length) {
-        const pts = layers.truth.map((p) => `${p.e.toFixed(2)},${(-p.n).toFixed(2)}`).join(" ");
-        svgEl("polyline", { points: pts, class: "truth-line", "data-role": "truth" }, svg);
-      }
-      if ((layers.errors || []).length) {
-        const g = svgEl("g", { class: "errors" }, svg);
-        for (const [e0, n0, e1, n1] of layers.errors) {
-          svgEl("line", { x1: e0, y1: -n0, x2: e1, y2: -n1, class: "error-line" }, g);
-        }
-      }
-      for (const tr of layers.tracks) {
-        const g = svgEl("g", { "data-device": tr.device }, svg);
-        for (const s of tr.segments) {
-          const parts = new Array(s.xy.length / 2);
-          for (let i = 0, j = 0; i < s.xy.length; i += 2, j++) parts[j] = `${s.xy[i].toFixed(2)},${(-s.xy[i + 1]).toFixed(2)}`;
-          const line = svgEl("polyline", { points: parts.join(" "), class: tr.foot ? "track foot" : "track",
-            stroke: s.colour, "data-role": "track", "data-device": tr.device, "data-mode": s.mode,
-            "data-points": s.count }, g);
-          drawn += s.count;
-          svgEl("title", {}, line).textContent = `${tr.device}: ${s.mode || "unknown mode"}`;
-        }
-      }
-      for (const m of layers.markers || []) {
-        const c = svgEl("circle", { cx: m.e, cy: -m.n, r: 1, class: m.cls, "data-role": m.cls.split(" ")[0] }, svg);
-        if (m.title) svgEl("title", {}, c).textContent = m.title;
-        this.markers.push({ node: c, px: m.px || 5 });
-      }
-      this.home = home;
-      svg.dataset.points = String(drawn);
-      // Keep the view only when the user chose it: rows arriving later (the smoothed track, the truth, a live
-      // upload) may reach beyond the first fit, which would leave them outside the view.
-      if (keepView && this.box && this.moved) this.setBox(this.box); else { this.moved = false; this.setBox(home.slice()); }
-      return drawn;
-    }
+    // What the dashed lines are, under the series' names (the title alone would not fit a phone's width).
+    if (opts.linesLabel && (opts.lines || []).length) svgText(svg, W - R - 8, legendY, opts.linesLabel, { "text-anchor": "end" });
   }
 
   return { svgEl, svgText, clear, niceStep, ticks, timeTicks, fmt, fmtDuration, modeColour, deviceColour, timeChart,
-    logLogChart, TrackMap };
+    logLogChart };
 })();

@@ -95,3 +95,53 @@ def test_a_drawn_bar_keeps_its_clock_running_during_a_long_stage_and_stops_at_cl
     assert "pdr-progress" not in [t.name for t in threading.enumerate()]
     piped.close()
     assert silent.getvalue() == ""
+
+
+def test_a_message_gets_its_own_line_above_the_bar_and_is_printed_when_piped_too():
+    stream = Terminal()
+    bar = Progress(2, "eval heading", stream=stream, tick_s=0)
+    bar.advance(note="walk-1")
+    bar.write("walk-2: no motion-capture truth, skipped")
+    bar.advance()
+    bar.close()
+    lines = stream.getvalue().split("\n")
+    # The bar's line is cleared before the message, and the bar is drawn again after it, on the next line.
+    *drawn, cleared, message = lines[0].split("\r")
+    assert message == "walk-2: no motion-capture truth, skipped" and cleared.strip() == "" and len(cleared) > 0
+    assert drawn[-1].startswith("eval heading [")
+    assert "2/2" in lines[1] and len(lines) == 2
+    piped = io.StringIO()
+    with Progress(2, "eval heading", stream=piped) as quiet:
+        quiet.advance()
+        quiet.write("a message")
+    assert piped.getvalue() == "a message\n"
+
+
+def test_eval_heading_draws_a_bar_and_says_which_recordings_it_skipped(tmp_path, monkeypatch, capsys):
+    """A recording without motion-capture truth is skipped with a message (stderr, piped or not); the bar counts it."""
+    from tests.conftest import REPO_ROOT
+
+    log = REPO_ROOT / "mobile_logs" / "sim" / "hand_escalator.zip"
+    assert main(["convert", str(log), "--to", "native", str(tmp_path / "rec.zip")]) == 0
+    capsys.readouterr()
+    main(["eval", "heading", str(tmp_path / "rec.zip"), "--json"])
+    piped = capsys.readouterr()
+    assert piped.err == "rec.zip: no motion-capture truth (walking path and attitude), skipped\n"
+    stream = Terminal()
+    monkeypatch.setattr(sys, "stderr", stream)
+    main(["eval", "heading", str(tmp_path / "rec.zip"), "--json"])
+    drawn = stream.getvalue()
+    assert "rec.zip: no motion-capture truth" in drawn and "eval heading [" in drawn and "1/1" in drawn
+
+
+def test_eval_classifier_draws_its_stages_on_a_terminal_and_prints_the_figures_after(tmp_path, monkeypatch, capsys):
+    from tests.conftest import REPO_ROOT
+
+    log = REPO_ROOT / "mobile_logs" / "sim" / "pocket_office.zip"
+    stream = Terminal()
+    monkeypatch.setattr(sys, "stderr", stream)
+    assert main(["eval", "classifier", "motion_mode", "--timeline", "--data", str(log), "--json"]) == 0
+    drawn = stream.getvalue()
+    assert "eval classifier motion_mode [" in drawn and "reading the logs" in drawn and "2/2" in drawn
+    assert drawn.endswith("\r")   # cleared before the figures are printed
+    assert "command" in json.loads(capsys.readouterr().out)   # stdout holds the figures alone
