@@ -65,10 +65,14 @@ STRIDE_HEADING_PLACEMENTS = ("pocket", "swinging")
 #: (pdr.phone.walking_direction module doc, "Trouser pocket: continuity").
 POCKET_TURN_SPEED_MPS = (0.4, 4.0)
 POCKET_TURN_WEIGHT = 0.1
-#: Shortest stride (s) of walking, whose step-frequency axis the pocket's walking-line filter takes: a cadence of
-#: 2.2 steps/s, about the fastest walk before the gait turns to running, where the stance leg no longer vaults
-#: the body and the axis does not follow the walking direction (pdr.phone.walking_direction module doc).
-WALKING_MIN_STRIDE_S = 0.9
+#: Shortest median stride (s) of a walking bout, whose step-frequency axis the pocket's walking-line filter takes:
+#: a cadence of 2 steps/s. Faster bouts may be running, where the stance leg no longer vaults the body and the
+#: axis does not follow the walking direction (pdr.phone.walking_direction module doc).
+WALKING_MIN_STRIDE_S = 1.0
+#: Strides whose median duration decides the gait (walking or running), and the relative departure from it of a
+#: stride that still spans one gait cycle.
+GAIT_STRIDES = 5
+STRIDE_TOLERANCE = 0.25
 
 
 def ut_points(config: AttitudeConfig) -> SigmaPoints:
@@ -147,6 +151,19 @@ class PocketHeading:
         self.swing_axis = DeviceSwingAxis()              # swinging hand's walking direction
         self.pocket_direction = DeviceFrameDirection()   # pocket's forward/backward continuity
         self.pocket_line = WalkingLineFilter()           # pocket's walking line from stride to stride
+        self.stride_s: list[float] = []                  # durations (s) of the last strides (the gait)
+
+    def _walking_gait(self, stride_s: float) -> tuple[bool, bool]:
+        """Whether the walker walks (not runs), and whether this stride spans one gait cycle.
+
+        The gait is the bout's, not one stride's (a runner's odd slow stride in a turn is still running): the
+        median of the last :data:`GAIT_STRIDES` strides' durations (s), this one's ``stride_s`` included, at least
+        :data:`WALKING_MIN_STRIDE_S`. A harmonic of the stride frequency needs a window of one stride: this
+        stride's duration within :data:`STRIDE_TOLERANCE` of that median (not a step detected twice or missed).
+        """
+        self.stride_s = (self.stride_s + [round(stride_s, 6)])[-GAIT_STRIDES:]
+        median = float(np.median(self.stride_s))
+        return median >= WALKING_MIN_STRIDE_S, abs(stride_s - median) <= STRIDE_TOLERANCE * median
 
     def reset(self, placement: str | None) -> None:
         """Forget the walking direction's continuity and vote (the placement changed)."""
@@ -167,6 +184,8 @@ class PocketHeading:
         whole_stride = bool(np.all(np.isfinite(q_str)) and np.all(np.isfinite(f_str)))
         if not whole_stride:
             q_str, f_str = q, f_n
+        walking, one_cycle = self._walking_gait(q_str.shape[0] / self.rate_hz)
+        harmonics = walking and one_cycle and whole_stride      # the step-frequency axis is valid
         swing_axis = self.pocket_axis == "swing" or (self.pocket_axis == "auto" and not self.site_has_landmarks)
         reversed_direction = False
         if placement == "swinging":
@@ -180,8 +199,7 @@ class PocketHeading:
                 axis, _ratio = swing_plane_axis(q_str, self.rate_hz)
                 # The step-frequency axis of a walking stride (not running: module doc of
                 # pdr.phone.walking_direction) learns the swing plane's offset.
-                walking = q_str.shape[0] >= WALKING_MIN_STRIDE_S * self.rate_hz
-                step_axis = step_frequency_axis(f_str)[0] if walking and whole_stride else None
+                step_axis = step_frequency_axis(f_str)[0] if harmonics else None
                 # Carried from stride to stride by the walker's turn (pdr.phone.walking_direction module doc).
                 axis = self.pocket_line.update(axis, h.q, h.start, s0, s, e, self.rate_hz, step_axis, walking)
             else:
@@ -218,7 +236,7 @@ class PocketHeading:
         return {"prev_yaw": self.prev_yaw, "prev_step_start": self.prev_step_start,
                 "direction_score": self.direction_vote.score, "direction_votes": self.direction_vote.n,
                 "swing_axis": self.swing_axis.state(), "pocket_direction": self.pocket_direction.state(),
-                "pocket_line": self.pocket_line.state()}
+                "pocket_line": self.pocket_line.state(), "stride_s": list(self.stride_s)}
 
     @classmethod
     def from_state(cls, d: dict[str, Any], rate_hz: float, pocket_axis: str, process_var: float,
@@ -234,6 +252,7 @@ class PocketHeading:
             o.pocket_direction = DeviceFrameDirection.from_state(d["pocket_direction"])
         if d.get("pocket_line") is not None:        # absent in states saved before the walking-line filter
             o.pocket_line = WalkingLineFilter.from_state(d["pocket_line"])
+        o.stride_s = [float(v) for v in d.get("stride_s", [])]   # absent in states saved before the gait
         return o
 
 

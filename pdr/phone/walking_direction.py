@@ -87,9 +87,11 @@ Trouser pocket: the walking line from stride to stride (:class:`WalkingLineFilte
 
     Running is not an inverted pendulum (the stance leg is a spring, with a flight phase): the step-frequency
     axis was 25 and 17 deg off on the benchmark's running walks, where the swing plane was within 4 and 7 deg.
-    A stride shorter than :data:`pdr.phone.heading_stages.WALKING_MIN_STRIDE_S` (a cadence above 2.2 steps/s;
-    the benchmark's walks step at 1.5-1.9 steps/s, its runs at 2.8-2.9) is taken for running: the swing plane is
-    used as it is, and the offset, the walking thigh's, is neither applied nor learnt.
+    A bout whose median stride of the last five is shorter than
+    :data:`pdr.phone.heading_stages.WALKING_MIN_STRIDE_S` (a cadence above 2 steps/s; the benchmark's walks step
+    at 1.5-1.9 steps/s, its runs at 2.8-2.9) is taken for running: the swing plane is used as it is, and the
+    offset, the walking thigh's, is neither applied nor learnt. A stride more than a quarter off that median (a
+    step missed or found twice) is not one gait cycle, and its harmonics are not taken either.
 
     What limits it: the walking line's error still grows with the turn rate, of opposite sign in a front
     pocket (it trails the path by 0.2-0.5 s in a regression on the true turn rate) and a back pocket (none to
@@ -125,6 +127,14 @@ Trouser pocket: continuity (:class:`DeviceFrameDirection`; item 4 of issue 25)
     there being at chance (``pdr eval heading``, back-pocket lines); 0.1 with the speed and along-track gates
     costs nothing measurable on the first and fixes the second. The reversed steps left are the first few of a
     walk (the vote's first decision).
+
+    Tried and not adopted: the inverted pendulum's phase as a third vote (the body is highest and slowest at
+    mid-stance, so at the step frequency the forward acceleration leads the vertical one by a quarter of a step:
+    the quadrature pointed forward in 91-100 % of the strides of every walking pocket walk of the benchmark,
+    front and back). At full weight it cut the direction flips of the MobiFall pocket walks from 3 to 1 and of
+    Oxford's from 11 to 4, but running turns it round (the stance leg is a spring: 9 % forward on one of the
+    benchmark's runs) and a runner slowing down to a jog at a walking cadence was turned backwards for 4 s
+    (that run 12.7 -> 17.7 deg). A gait cue that tells a jog from a walk would let it in.
 
 Trouser pocket: other lines tried
     Seed 003's RMPCA of the specific force is off the other way from the swing plane on one walker but not on the
@@ -176,6 +186,17 @@ def swing_plane_axis(q_nb: FloatArray, rate_hz: float) -> tuple[float, float]:
     return float(line - math.pi if line > math.pi / 2 else line), ratio
 
 
+def step_harmonic(f_n: FloatArray) -> NDArray[np.complex128]:
+    """(3,) complex amplitudes ``A`` of the specific force ``f_n`` (N, 3; m/s^2, ENU) over exactly one stride at
+    twice the stride frequency (the step frequency): ``f ~ Re(A exp(i w t))``.
+    """
+    f = np.asarray(f_n, dtype=np.float64)
+    if f.ndim != 2 or f.shape[1] != 3 or f.shape[0] < 5:
+        raise InputError("need (N >= 5, 3) specific forces over one stride", source="walking direction")
+    n = f.shape[0]
+    return np.asarray((np.exp(-4j * np.pi * np.arange(n) / n) @ f) * (2.0 / n))
+
+
 def step_frequency_axis(f_n: FloatArray) -> tuple[float, float]:
     """Walking line of one stride from the body's fore-aft oscillation at the step frequency: (yaw in
     (-pi/2, pi/2], eigenvalue ratio >= 1).
@@ -187,12 +208,7 @@ def step_frequency_axis(f_n: FloatArray) -> tuple[float, float]:
     harmonic's horizontal ellipse, ``Re(A A^H)`` with ``A`` its complex amplitude; the thigh's own rotation plays
     no part in it (module doc, "Trouser pocket: the walking line from stride to stride").
     """
-    f = np.asarray(f_n, dtype=np.float64)
-    if f.ndim != 2 or f.shape[1] != 3 or f.shape[0] < 5:
-        raise InputError("need (N >= 5, 3) specific forces over one stride", source="walking direction")
-    n = f.shape[0]
-    phase = np.exp(-4j * np.pi * np.arange(n) / n)
-    amp = (phase @ f[:, :2]) * (2.0 / n)
+    amp = step_harmonic(f_n)[:2]
     scatter = np.real(np.outer(amp, np.conj(amp)))
     vals, vecs = np.linalg.eigh(scatter)
     line = math.atan2(float(vecs[1, 1]), float(vecs[0, 1]))

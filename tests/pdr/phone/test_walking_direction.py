@@ -311,3 +311,19 @@ def test_running_strides_take_the_swing_plane_as_it_is():
     # Running: no step-frequency axis and no offset; a swing plane on the line is followed without bias.
     filt, errors = _offset_walk(0.0, 1, walking=False)
     assert filt.bias == 0.0 and np.mean(errors) < 7.0
+
+
+def test_the_gait_is_the_bouts_and_a_harmonic_needs_one_stride():
+    from pdr.phone.attitude import AttitudeConfig
+    from pdr.phone.heading_stages import PocketHeading
+
+    head = PocketHeading(50.0, "swing", 0.0, AttitudeConfig(), False, "pocket")
+    # A walk (1.2 s strides): walking, every stride one gait cycle, a step found twice is not.
+    assert [head._walking_gait(1.2) for _ in range(4)] == [(True, True)] * 4
+    assert head._walking_gait(0.6) == (True, False)
+    # A run (0.7 s strides) with one slow stride in a turn: still running.
+    run = PocketHeading(50.0, "swing", 0.0, AttitudeConfig(), False, "pocket")
+    assert [run._walking_gait(d)[0] for d in (0.7, 0.7, 0.7, 1.1, 0.7)] == [False] * 5
+    # The recent strides are kept with the state.
+    again = PocketHeading.from_state(head.state(), 50.0, "swing", 0.0, AttitudeConfig(), False, "pocket")
+    assert again.stride_s == head.stride_s
