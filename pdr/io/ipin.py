@@ -328,7 +328,9 @@ def _assemble(p: Path, arrays: dict[str, tuple[NDArray[np.float64], _Lines]],
     for tag, (arr, lines) in arrays.items():
         kind = SENSOR_RECORDS[tag][0]
         field = f"{tag} SensorTimestamp" if lines is not None else _MAT_VARIABLE_OF[tag]
-        arr = arr[keep_increasing(arr[:, 1], source, field, warnings, lines=lines, what=tag)]
+        keep = keep_increasing(arr[:, 1], source, field, warnings, lines=lines, what=tag)
+        if not keep.all():
+            arr = arr[keep]
         t_ns, offsets[kind] = _app_clock_ns(arr[:, 0], arr[:, 1])
         if tag == "PRES":
             values = arr[:, 2:3]  # mbar == hPa
