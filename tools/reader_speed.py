@@ -33,6 +33,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--tiles", type=int, nargs="+", default=[1, 4, 16, 24])
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args(argv)
+    import pdr.io.decimal_kernel  # noqa: F401  (numba loaded: ipin.read takes the compiled parser at every size)
     ipin.read(args.log)                                   # load the compiled parser
     with tempfile.TemporaryDirectory() as tmp:
         for k in args.tiles:

@@ -124,8 +124,8 @@ def read(path: str | Path) -> Recording:
 # text logfiles
 
 #: Size from which a process that has not loaded numba yet reads with the compiled parser: loading numba and the
-#: cached kernel costs about 0.5 s once; a smaller text goes to numpy's text reader (about 3x slower per MB than the
-#: compiled parser, 3-4x faster than the line-by-line path).
+#: cached kernel costs about 0.5 s once; a smaller text goes to numpy's text reader (about 4x slower per MB than the
+#: compiled parser, 2-3x faster than the line-by-line path: tools/reader_speed.py).
 COMPILED_MIN_BYTES = 8_000_000
 
 
