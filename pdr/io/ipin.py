@@ -124,26 +124,32 @@ def read(path: str | Path) -> Recording:
 # text logfiles
 
 #: Size from which a process that has not loaded numba yet reads with the compiled parser: loading numba and the
-#: cached kernel costs about 0.5 s once, the line-by-line path about 70 ms/MB more than the array path (25 ms/MB).
+#: cached kernel costs about 0.5 s once; a smaller text goes to numpy's text reader (about 4x slower per MB than the
+#: compiled parser, 2-3x faster than the line-by-line path: tools/reader_speed.py).
 COMPILED_MIN_BYTES = 8_000_000
 
 
 def _read_text(p: Path) -> Recording:
     cut: list[str] = []
     raw = drop_cut_off_last_line(read_bytes(p), str(p), b";", cut)
-    if len(raw) < COMPILED_MIN_BYTES and "numba" not in sys.modules:
-        rec = _read_text_exact(p, raw)       # `pdr inspect` of a short log: no compiler to load
-    else:
-        fast = _read_text_fast(p, raw)
-        rec = fast if fast is not None else _read_text_exact(p, raw)
+    fast = _read_text_fast(p, raw, _use_compiled(len(raw)))
+    rec = fast if fast is not None else _read_text_exact(p, raw)
     return replace(rec, warnings=(*cut, *rec.warnings)) if cut else rec
 
 
-def _read_text_fast(p: Path, raw: bytes) -> Recording | None:
+def _use_compiled(size: int) -> bool:
+    """Whether a text of ``size`` bytes is parsed by the compiled parser: when numba is loaded already or the text
+    is long (:data:`COMPILED_MIN_BYTES`); `pdr inspect` of a short log loads no compiler.
+    """
+    return size >= COMPILED_MIN_BYTES or "numba" in sys.modules
+
+
+def _read_text_fast(p: Path, raw: bytes, compiled: bool = True) -> Recording | None:
     """The text log read by array operations on its bytes (:class:`~pdr.io.text.Lines`), or None.
 
     Lines are classified by their first bytes, each record kind's numbers parsed in one pass
-    (:meth:`~pdr.io.text.Lines.fields`). None when the file holds anything the exact line-by-line path
+    (:meth:`~pdr.io.text.Lines.fields`; by the compiled parser, or by numpy's text reader when not ``compiled``).
+    None when the file holds anything the exact line-by-line path
     (:func:`_read_text_exact`) would treat differently or refuse (non-ASCII bytes, unusual line breaks, a line of
     no known kind, a bad number, a field too many, time that does not increase): that path then reads it or
     names the bad line and field.
@@ -188,13 +194,13 @@ def _read_text_fast(p: Path, raw: bytes) -> Recording | None:
     arrays: dict[str, tuple[NDArray[np.float64], _Lines]] = {}
     for tag, (_, names) in SENSOR_RECORDS.items():
         if masks[tag].any():
-            arr = lines.fields(masks[tag], len(names), 5, trailing_separator=True)
+            arr = lines.fields(masks[tag], len(names), 5, trailing_separator=True, compiled=compiled)
             if arr is None:
                 return None
             arrays[tag] = (arr, np.flatnonzero(masks[tag]) + 1)
     posi = None
     if masks["POSI"].any():
-        arr = lines.fields(masks["POSI"], len(POSI_FIELDS), 5, trailing_separator=True)
+        arr = lines.fields(masks["POSI"], len(POSI_FIELDS), 5, trailing_separator=True, compiled=compiled)
         if arr is None:
             return None
         posi = (arr[:, 0], arr[:, 2], arr[:, 3], arr[:, 4],
@@ -322,7 +328,9 @@ def _assemble(p: Path, arrays: dict[str, tuple[NDArray[np.float64], _Lines]],
     for tag, (arr, lines) in arrays.items():
         kind = SENSOR_RECORDS[tag][0]
         field = f"{tag} SensorTimestamp" if lines is not None else _MAT_VARIABLE_OF[tag]
-        arr = arr[keep_increasing(arr[:, 1], source, field, warnings, lines=lines, what=tag)]
+        keep = keep_increasing(arr[:, 1], source, field, warnings, lines=lines, what=tag)
+        if not keep.all():
+            arr = arr[keep]
         t_ns, offsets[kind] = _app_clock_ns(arr[:, 0], arr[:, 1])
         if tag == "PRES":
             values = arr[:, 2:3]  # mbar == hPa

@@ -7,6 +7,8 @@ numeric field) is reported the same way: an :class:`~pdr.errors.InputError` nami
 from __future__ import annotations
 
 import gzip
+import io
+import warnings as warning_filters
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -93,6 +95,11 @@ _UNUSUAL_BREAKS = (b"\r", b"\x0b", b"\x0c", b"\x1c", b"\x1d", b"\x1e")
 _NEWLINE = 10
 
 
+#: Bytes of the plain decimals :meth:`Lines.fields` hands to numpy's text reader (and the LF ending each line).
+_PLAIN_DECIMAL_BYTE = np.zeros(256, dtype=bool)
+_PLAIN_DECIMAL_BYTE[np.frombuffer(b"0123456789.-+eE\n", np.uint8)] = True
+
+
 #: Ranges :meth:`Lines.numbers` converts with numpy before it leaves a text to the line-by-line path (or 2 %).
 MAX_EXACT_ROWS = 64
 
@@ -170,19 +177,59 @@ class Lines:
         return out
 
     def fields(self, mask: NDArray[np.bool_], ncol: int, skip_bytes: int = 0, sep: bytes = b";", *,
-               trailing_separator: bool = False) -> NDArray[np.float64] | None:
+               trailing_separator: bool = False, compiled: bool = True) -> NDArray[np.float64] | None:
         """(N, ncol) float64 of the ``sep``-separated plain decimals of the selected lines after their first
         ``skip_bytes`` bytes (:func:`pdr.io.decimal_kernel.parse_lines`: the values :func:`float` gives), or None
         when a line is not of that form: the caller's line-by-line path then reads it or names the line and field.
+
+        ``compiled=False`` parses with numpy's C text reader instead (:meth:`_fields_loadtxt`, the same values),
+        for a process that has not loaded numba and reads a short text (loading the compiler costs more).
         """
-        from pdr.io.decimal_kernel import parse_lines
         rows = np.flatnonzero(mask)
         if np.any(self.length[rows] < skip_bytes):
             return None
+        if not compiled:
+            return self._fields_loadtxt(rows, ncol, skip_bytes, sep, trailing_separator)
+        from pdr.io.decimal_kernel import parse_lines
         out = np.empty((rows.size, ncol))
         bad = parse_lines(self.buf, self.start[rows] + skip_bytes, self.length[rows] - skip_bytes, ncol,
                           trailing_separator, sep[0], out)
         return out if bad < 0 else None
+
+    def _fields_loadtxt(self, rows: NDArray[np.int64], ncol: int, skip_bytes: int, sep: bytes,
+                        trailing_separator: bool) -> NDArray[np.float64] | None:
+        """:meth:`fields` of the lines ``rows`` by :func:`numpy.loadtxt` (correctly rounded: the values of
+        :func:`float`). Only lines of signs, digits, points, exponents and separators with ``ncol`` fields (one
+        trailing separator allowed with ``trailing_separator``) are taken, so that every text it accepts the
+        line-by-line path accepts with the same values; None otherwise.
+        """
+        if rows.size == 0:
+            return np.empty((0, ncol))
+        start = self.start[rows] + skip_bytes
+        length = self.length[rows] - skip_bytes
+        seg = length + 1                                   # each line with the LF after it (buf has one)
+        ends = np.cumsum(seg)
+        body = self.buf[np.arange(int(ends[-1])) + np.repeat(start - (ends - seg), seg)]
+        if not np.all(_PLAIN_DECIMAL_BYTE[body] | (body == sep[0])):
+            return None
+        at_sep = np.flatnonzero(body == sep[0])
+        count = np.bincount(np.searchsorted(ends, at_sep, side="right"), minlength=rows.size)
+        ok = count == ncol - 1
+        if trailing_separator:
+            ok |= (count == ncol) & (length > 0) & (self.buf[start + length - 1] == sep[0])
+        if not ok.all():
+            return None
+        text = body.tobytes().decode("ascii")
+        try:
+            with warning_filters.catch_warnings():
+                warning_filters.simplefilter("error")
+                out = np.loadtxt(io.StringIO(text), delimiter=sep.decode("ascii"), comments=None, quotechar=None,
+                                 dtype=np.float64, ndmin=2, usecols=range(ncol))
+        except (ValueError, Warning):
+            return None
+        if out.shape != (rows.size, ncol) or not np.all(np.isfinite(out)):
+            return None
+        return out
 
 
 def ascii_lines(raw: bytes) -> Lines | None:

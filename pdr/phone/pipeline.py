@@ -45,6 +45,7 @@ from pdr.errors import InputError
 from pdr.filters import iir
 from pdr.frames import GRAVITY_MPS2, heading_deg_to_yaw, yaw_to_heading_deg
 from pdr.phone.attitude import AttitudeConfig, AttitudeFilter, AttitudeState, gyro_compensated
+from pdr.phone.attitude_derived import attitude_derived
 from pdr.phone.events import (
     ElevatorEvent,
     EventRow,
@@ -213,18 +214,6 @@ class PipelineConfig:
 
 #: Parameters of older versions' configurations, unused and removed since, per section: dropped from saved states.
 _OBSOLETE: dict[str, tuple[str, ...]] = {"landmarks": ("escalator_mag_var",)}
-
-
-def _derived(q: FloatArray, acc: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """Per sample from ``C_nb(q)``: specific force in ENU, yaw of the device y and z axes and up-part of y."""
-    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    c00, c01, c02 = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)
-    c10, c11, c12 = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)
-    c20, c21, c22 = 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
-    ax, ay, az = acc[:, 0], acc[:, 1], acc[:, 2]
-    f_n = np.column_stack([c00 * ax + c01 * ay + c02 * az, c10 * ax + c11 * ay + c12 * az,
-                           c20 * ax + c21 * ay + c22 * az])
-    return f_n, np.arctan2(c11, c01), np.arctan2(c12, c02), c21
 
 
 class PdrPipeline:
@@ -550,7 +539,7 @@ class PdrPipeline:
                     self.att_q_now = qs[-1].copy()
                 hs = self.history.sl(pos, cut + 1)
                 self.history.q[hs] = qs
-                f_n, yy, yz, yu = _derived(qs, acc[a:b])
+                f_n, yy, yz, yu = attitude_derived(qs, acc[a:b])
                 self.history.f_n[hs], self.history.yaw_y[hs], self.history.yaw_z[hs] = f_n, yy, yz
                 self.history.y_up[hs] = yu
                 if gyro is not None:
@@ -644,7 +633,7 @@ class PdrPipeline:
             o.confirmed(s, e, h)
         sl = h.sl(s, e)
         q = h.q[sl]
-        if q.shape[0] < 3 or not np.all(np.isfinite(q)):
+        if q.shape[0] < 3 or not np.isfinite(q).all():
             return []
         c = self.config
         if self.auto_placement:
@@ -697,15 +686,18 @@ class PdrPipeline:
         est = self.drift.apply(est, length, rec.t_end, self.placement)
         self.track.step(length, est.yaw, (c.step_length_rel_sigma * length) ** 2, est.var)
         self.modes.prev_mode = mode
+        # The three compass headings in one conversion (element-wise: the values of three scalar calls).
+        heading, heading_raw, heading_gyro = yaw_to_heading_deg(
+            [est.yaw, raw_yaw, math.nan if rec.gyro_yaw is None else rec.gyro_yaw]).tolist()
         step = StepEvent(
             t_s=rec.t_end, t_start_s=rec.t_start, east_m=self.track.east_m, north_m=self.track.north_m, up_m=rec.up,
-            floor=rec.floor, heading_deg=float(yaw_to_heading_deg(est.yaw)), step_length_m=length,
+            floor=rec.floor, heading_deg=heading, step_length_m=length,
             turn_deg=math.degrees(turn), mode=mode, placement=self.placement,
             heading_sigma_deg=math.degrees(math.sqrt(est.var)),
-            pos_sigma_m=math.sqrt(max(float(np.trace(self.track.P)), 0.0)), patterns=rec.pats,
+            pos_sigma_m=math.sqrt(max(float(self.track.P.trace()), 0.0)), patterns=rec.pats,
             # Inputs of the offline heading smoother (pdr.phone.heading_smoother).
-            heading_raw_deg=float(yaw_to_heading_deg(raw_yaw)),
-            gyro_heading_deg=None if rec.gyro_yaw is None else float(yaw_to_heading_deg(rec.gyro_yaw)),
+            heading_raw_deg=heading_raw,
+            gyro_heading_deg=None if rec.gyro_yaw is None else heading_gyro,
             up_time_s=rec.up_time,
             gyro_bias_dps=None if rec.gyro_bias is None else np.degrees(rec.gyro_bias).tolist(),
             position_fix=landmark is not None, landmark_heading=landmark_heading)

@@ -204,7 +204,9 @@ def test_rotation_vector_conversion_matches_a_known_rotation():
      r"line 3: POSI time goes backwards"),
     ("ACCE;0.05;100.0;0.1;0.2;9.8;3\ngarbage here\n", r"line 2: not a GetSensorData record"),
 ])
-def test_bad_text_input_names_file_and_line(tmp_path, body, match):
+@pytest.mark.parametrize("compiled", [True, False])
+def test_bad_text_input_names_file_and_line(tmp_path, body, match, compiled, monkeypatch):
+    monkeypatch.setattr(ipin, "_use_compiled", lambda size: compiled)   # numba's parser or numpy's text reader
     p = _write(tmp_path, body)
     with pytest.raises(InputError, match=match) as info:
         ipin.read(p)
@@ -291,13 +293,14 @@ POSI;0.080;1;49.4611;11.1110;0;100;
 """
 
 
+@pytest.mark.parametrize("compiled", [True, False])
 @pytest.mark.parametrize("crlf", [False, True])
-def test_array_reader_equals_the_line_by_line_reader(tmp_path, crlf):
+def test_array_reader_equals_the_line_by_line_reader(tmp_path, crlf, compiled):
     text = EDGES.replace("\n", "\r\n") if crlf else EDGES
     p = tmp_path / "edges.txt"
     p.write_bytes(text.encode())
     raw = p.read_bytes()
-    fast = ipin._read_text_fast(p, raw)
+    fast = ipin._read_text_fast(p, raw, compiled)
     assert fast is not None
     _same_recording(fast, ipin._read_text_exact(p, raw))
     assert fast.meta["ignored_records"] == {"WIFI": 1, "BLE4": 1, "AB": 1, "LIGH": 1}
@@ -313,6 +316,22 @@ def test_numbers_out_of_the_plain_form_take_the_exact_path_with_the_same_values(
     raw = p.read_bytes()
     assert ipin._read_text_fast(p, raw) is None
     _same_recording(ipin.read(p), ipin._read_text_exact(p, raw))
+    text_reader = ipin._read_text_fast(p, raw, compiled=False)    # numpy's reader takes them, correctly rounded
+    assert text_reader is not None
+    _same_recording(text_reader, ipin._read_text_exact(p, raw))
+
+
+@pytest.mark.parametrize("line", ["ACCE;0.090;100.030;0.1; 0.2;9.8;3",            # a blank in a field
+                                  "ACCE;0.090;100.030;0.1;0x1p3;9.8;3",           # hexadecimal
+                                  "ACCE;0.090;100.030;0.1;inf;9.8;3",             # not finite
+                                  "ACCE;0.090;100.030;0.1;1_0;9.8;3",             # float() takes it, C readers do not
+                                  "ACCE;0.090;100.030;0.1;;9.8;3",                # an empty field
+                                  "ACCE;0.090;100.030;0.1;0.2;9.8;3;;",           # a field too many
+                                  "ACCE;0.090;100.030;0.1;0.2;9.8"])              # a field too few
+def test_numpy_text_reader_leaves_anything_but_plain_decimals_to_the_exact_path(tmp_path, line):
+    p = tmp_path / "unusual.txt"
+    p.write_text(GOOD + line + "\n")
+    assert ipin._read_text_fast(p, p.read_bytes(), compiled=False) is None
 
 
 def test_plain_decimals_parse_to_the_values_float_gives() -> None:
@@ -329,6 +348,8 @@ def test_plain_decimals_parse_to_the_values_float_gives() -> None:
     rows = [texts[i:i + 3] for i in range(0, len(texts), 3)]
     lines = ascii_lines("\n".join(";".join(r) for r in rows).encode())
     assert lines is not None
-    got = lines.fields(np.ones(len(rows), bool), 3)
-    assert got is not None
-    assert got.tobytes() == np.array([[float(v) for v in r] for r in rows]).tobytes()
+    want = np.array([[float(v) for v in r] for r in rows]).tobytes()
+    for compiled in (True, False):
+        got = lines.fields(np.ones(len(rows), bool), 3, compiled=compiled)
+        assert got is not None
+        assert got.tobytes() == want
