@@ -164,22 +164,25 @@ class ContextModel:
             proba[usable] = self.estimator.predict_proba(X[usable])
         return proba, usable
 
-    def emissions(self, proba: FloatArray, usable: NDArray[np.bool_]) -> FloatArray:
-        """Emission log-likelihoods for the smoother; unusable windows carry no evidence (zeros)."""
+    def emissions(self, proba: FloatArray, usable: NDArray[np.bool_],
+                  speed: tuple[FloatArray, FloatArray] | None = None) -> FloatArray:
+        """Emission log-likelihoods for the smoother; unusable windows carry no evidence (zeros).
+
+        ``speed``: the windows' barometric vertical speed and standard error (m/s,
+        :func:`classifiers.baro_stage.vertical_speed`); with :attr:`barometer` on, their evidence is added.
+        """
         ll = scaled_log_likelihood(proba, self.train_priors)
         ll[~usable] = 0.0
+        if speed is not None and self.barometer:
+            ll[usable] += baro_log_likelihood(speed[0][usable], speed[1][usable], self.classes)
         return ll
 
     def window_evidence(self, win: Windows) -> tuple[FloatArray, NDArray[np.bool_], FloatArray]:
         """Posteriors (W, r), usable mask (W,) and emission log-likelihoods (W, r) of windows, the
-        barometric stage's evidence included in the usable windows that have pressure data.
+        barometric stage's evidence included where they have pressure data.
         """
         raw, usable = self.window_proba(extract_features(win, self.feature_groups))
-        ll = self.emissions(raw, usable)
-        speed = vertical_speed(win) if self.barometer else None
-        if speed is not None:
-            ll[usable] += baro_log_likelihood(speed[0][usable], speed[1][usable], self.classes)
-        return raw, usable, ll
+        return raw, usable, self.emissions(raw, usable, vertical_speed(win))
 
     def decide(self, smoothed: FloatArray, raw: FloatArray, usable: NDArray[np.bool_],
                t_start_s: FloatArray, t_end_s: FloatArray) -> WindowResults:

@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 
 from classifiers.baro_stage import STAIRS_SPEED_MPS, log_likelihood, vertical_speed
-from classifiers.windows import make_windows
+from classifiers.bayes import GaussianBayesClassifier
+from classifiers.model import ContextModel
+from classifiers.windows import WindowConfig, make_windows
 from pdr.frames import altitude_to_pressure_hpa
 from pdr.recording import Recording, SensorStream
 
@@ -70,3 +72,20 @@ def test_the_climb_favours_its_stairs_direction_and_leaves_other_classes_alone()
     noisy = log_likelihood(v, np.full(3, 0.5), CLASSES)
     up, walk = CLASSES.index("stairs_up"), CLASSES.index("walking")
     assert 0 < noisy[0, up] - noisy[0, walk] < ll[0, up] - ll[0, walk]
+
+
+def test_the_model_adds_the_evidence_to_usable_windows_only_and_can_leave_it_out() -> None:
+    rng = np.random.default_rng(5)
+    y = np.repeat(["stairs_down", "stairs_up", "walking"], 30)
+    est = GaussianBayesClassifier(covariance="tied").fit(rng.normal(size=(90, 2)), y)
+    model = ContextModel(task="motion_mode", window=WindowConfig(), feature_groups=(), estimator_kind="bayes",
+                         estimator=est, train_priors=np.asarray(est.priors_))
+    proba = np.full((3, 3), 1.0 / 3.0)
+    usable = np.array([True, True, False])
+    speed = (np.array([STAIRS_SPEED_MPS, -STAIRS_SPEED_MPS, STAIRS_SPEED_MPS]), np.full(3, 0.05))
+    ll = model.emissions(proba, usable, speed)
+    assert np.argmax(ll[0]) == model.classes.index("stairs_up")
+    assert np.argmax(ll[1]) == model.classes.index("stairs_down")
+    assert np.all(ll[2] == 0.0)
+    model.barometer = False
+    np.testing.assert_array_equal(model.emissions(proba, usable, speed), model.emissions(proba, usable))
