@@ -10,7 +10,11 @@ phones low-pass them) are compared with what each class predicts:
 * ``walking``: ``v ~ N(0, LEVEL_SPREAD_MPS^2 + se^2)``: level floors and ramps of at most 1:12 (accessibility
   codes) at 1.2 m/s keep the vertical speed within 0.1 m/s (two standard deviations);
 * every other class (standing, running, a vehicle, ...): the barometer says nothing about them; their
-  density is the mixture of the three above, so they gain or lose nothing.
+  density is the mixture of the three above, so they gain or lose nothing;
+* each of the three densities is mixed with a uniform one over +-2 m/s (weight :data:`OUTLIER_FRACTION`):
+  a door or the air conditioning moves the pressure by tenths of a hPa (metres of "altitude") within a
+  second, and such a jump must not pass for a flight of stairs; far from every class's speed, the
+  evidence vanishes instead of favouring the nearest class.
 
 The log-likelihoods are added to the classifier's emissions before the Markov smoothing
 (:meth:`classifiers.model.ContextModel.window_evidence`); a window without pressure data adds nothing.
@@ -33,6 +37,9 @@ STAIRS_SPEED_MPS = 0.29
 STAIRS_SPREAD_MPS = 0.09
 #: Spread (m/s) of the vertical speed of level walking, ramps included.
 LEVEL_SPREAD_MPS = 0.05
+#: Share of windows whose pressure slope is a disturbance (doors, ventilation), and its uniform span (m/s).
+OUTLIER_FRACTION = 0.05
+OUTLIER_SPAN_MPS = 4.0
 
 _SIGNED = {"stairs_up": 1.0, "stairs_down": -1.0, "walking": 0.0}
 
@@ -83,7 +90,8 @@ def log_likelihood(v: FloatArray, se: FloatArray, classes: Sequence[str]) -> Flo
         c = classes[i]
         spread = LEVEL_SPREAD_MPS if c == "walking" else STAIRS_SPREAD_MPS
         var = spread**2 + se[ok] ** 2
-        dens[i] = np.exp(-0.5 * (v[ok] - _SIGNED[c] * STAIRS_SPEED_MPS) ** 2 / var) / np.sqrt(2 * np.pi * var)
+        gauss = np.exp(-0.5 * (v[ok] - _SIGNED[c] * STAIRS_SPEED_MPS) ** 2 / var) / np.sqrt(2 * np.pi * var)
+        dens[i] = (1.0 - OUTLIER_FRACTION) * gauss + OUTLIER_FRACTION / OUTLIER_SPAN_MPS
     mixture = sum(dens.values()) / len(_SIGNED)
     floor = 1e-300
     for i in range(len(classes)):

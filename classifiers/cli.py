@@ -360,8 +360,12 @@ def run_eval(args: argparse.Namespace) -> int:
         title = "leave-one-group-out cross-validation"
     else:
         res = predict_sequences(model, data)
-        metrics = classification_metrics(data.y, res.label, res.confidence,
-                                         sorted(set(data.y.astype(str)) | set(model.classes)), targets)
+        classes = sorted(set(data.y.astype(str)) | set(model.classes))
+        metrics = classification_metrics(data.y, res.label, res.confidence, classes, targets)
+        if task.label_source != "placement":
+            metrics["per_placement"] = _per_placement(data, recs, np.asarray(res.label, dtype=object),
+                                                      np.asarray(res.confidence, dtype=np.float64), classes,
+                                                      targets)
         title = "saved model on the given data"
     metrics["n_groups"] = len(set(data.groups.astype(str).tolist()))
     X = np.tile(data.X, (max(1, 10000 // max(1, len(data))), 1))

@@ -72,6 +72,9 @@ def test_the_climb_favours_its_stairs_direction_and_leaves_other_classes_alone()
     noisy = log_likelihood(v, np.full(3, 0.5), CLASSES)
     up, walk = CLASSES.index("stairs_up"), CLASSES.index("walking")
     assert 0 < noisy[0, up] - noisy[0, walk] < ll[0, up] - ll[0, walk]
+    # A door's pressure jump (metres per second of "climb") is no flight of stairs: no class gains much.
+    jump = log_likelihood(np.array([1.5, -1.5]), np.full(2, 0.05), CLASSES)
+    assert np.all(np.abs(jump) < 0.2)
 
 
 def test_the_model_adds_the_evidence_to_usable_windows_only_and_can_leave_it_out() -> None:
