@@ -65,9 +65,13 @@ def principal_rate(gyro: FloatArray) -> FloatArray:
     The axis's sign is that of the eigenvector (arbitrary); NaN-free input.
     """
     n = gyro.shape[1]
-    cov = np.einsum("wni,wnj->wij", gyro, gyro) / n
-    _, vecs = np.linalg.eigh(cov)
-    return np.asarray(np.einsum("wni,wi->wn", gyro, vecs[:, :, -1]))
+    _, vecs = np.linalg.eigh(gyro.transpose(0, 2, 1) @ gyro / n)
+    return _along(gyro, vecs[:, :, -1])
+
+
+def _along(x: FloatArray, axis: FloatArray) -> FloatArray:
+    """Components (W, n) of (W, n, 3) vectors along one (W, 3) axis per window (a batched matrix product)."""
+    return np.asarray((x @ axis[:, :, None])[:, :, 0])
 
 
 def detrend(x: FloatArray) -> FloatArray:
@@ -132,12 +136,12 @@ def stride_features(f_b: FloatArray, gyro: FloatArray, rate_hz: float) -> FloatA
     g_vec = f0.mean(axis=1)
     g_mag = np.sqrt(np.einsum("wi,wi->w", g_vec, g_vec))
     u = g_vec / np.where(g_mag > 0, g_mag, 1.0)[:, None]
-    along = np.einsum("wni,wi->wn", f0, u)
+    along = _along(f0, u)
     a_v = along - g_mag[:, None]
     a_h = f0 - along[:, :, None] * u[:, None, :]
     a_h -= a_h.mean(axis=1, keepdims=True)
-    _, h_vecs = np.linalg.eigh(np.einsum("wni,wnj->wij", a_h, a_h) / n)
-    a_f = np.einsum("wni,wi->wn", a_h, h_vecs[:, :, -1])
+    _, h_vecs = np.linalg.eigh(a_h.transpose(0, 2, 1) @ a_h / n)
+    a_f = _along(a_h, h_vecs[:, :, -1])
     z, v_z = _integrate(a_v, rate_hz)
     x_f, _ = _integrate(a_f, rate_hz)
     r = principal_rate(gyro)
@@ -146,7 +150,7 @@ def stride_features(f_b: FloatArray, gyro: FloatArray, rate_hz: float) -> FloatA
     period, regularity = stride_period(r, rate_hz)
     stride_n = np.round(period * rate_hz).astype(np.int64)
     p_max, p_min = pitch.max(axis=1), -pitch.min(axis=1)
-    e_h = np.einsum("wni,wni->w", a_h, a_h) / n
+    e_h = np.square(a_h).sum(axis=(1, 2)) / n
     return np.column_stack([
         period, regularity, per_stride_range(z, stride_n), per_stride_range(x_f, stride_n),
         np.log10((a_v.var(axis=1) + 1e-6) / (e_h + 1e-6)),
