@@ -25,6 +25,7 @@ import shlex
 import sys
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -229,6 +230,8 @@ def register_eval(targets: argparse._SubParsersAction) -> None:
                    help="retrain the model's configuration leave-one-group-out on the data instead of "
                         "applying the saved model (use when the data was used for training)")
     p.add_argument("--json", action="store_true", help="print the metrics as JSON")
+    p.add_argument("--no-barometer", action="store_true",
+                   help="leave out the barometric second stage (classifiers.baro_stage): how much it helps")
     p.add_argument("--out-dir", default=None, help="write metrics.json and report.png here")
     p.add_argument("--target-classes", nargs="*", default=None, help="classes of the headline macro-F1")
     p.add_argument("--update-card", action="store_true", help="append the figures to the model card")
@@ -323,6 +326,7 @@ def _report_figures(args: argparse.Namespace, fig: dict[str, Any], name: str,
 
 def run_eval(args: argparse.Namespace) -> int:
     model = load_model(args.model)
+    model.barometer = not args.no_barometer
     task = get_task(model.task)
     # Stages on a terminal's stderr (reading the logs takes minutes over several datasets); the figures are printed
     # once the bar is closed, so the two never share a line.
@@ -353,6 +357,8 @@ def run_eval(args: argparse.Namespace) -> int:
             if missing:
                 raise InputError(f"the model needs the {', '.join(missing)} stream(s), which some of the data lacks")
             data = labelled_windows(recs, task, model.window, model.feature_groups)
+            if args.no_barometer:
+                data = replace(data, baro=None)
             bar.advance(note=("leave-one-group-out cross-validation" if args.cv else "predicting")
                         + f" on {len(data)} windows")
             targets = args.target_classes if args.target_classes is not None else DEFAULT_TARGETS.get(task.name)
@@ -361,8 +367,12 @@ def run_eval(args: argparse.Namespace) -> int:
                 title = "leave-one-group-out cross-validation"
             else:
                 res = predict_sequences(model, data)
-                metrics = classification_metrics(data.y, res.label, res.confidence,
-                                                 sorted(set(data.y.astype(str)) | set(model.classes)), targets)
+                classes = sorted(set(data.y.astype(str)) | set(model.classes))
+                metrics = classification_metrics(data.y, res.label, res.confidence, classes, targets)
+                if task.label_source != "placement":
+                    metrics["per_placement"] = _per_placement(data, recs, np.asarray(res.label, dtype=object),
+                                                              np.asarray(res.confidence, dtype=np.float64),
+                                                              classes, targets)
                 title = "saved model on the given data"
             bar.advance(note="inference speed")
             metrics["n_groups"] = len(set(data.groups.astype(str).tolist()))

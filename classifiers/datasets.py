@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from classifiers.baro_stage import vertical_speed
 from classifiers.features import context_margin_s, extract_features
 from classifiers.stops import step_intervals, stop_intervals, subtract
 from classifiers.tasks import Task
@@ -75,6 +76,9 @@ class LabelledWindows:
         (W,) window bounds on the recording's axis (s).
     sources
         Source path of each recording index.
+    baro
+        (W, 2) barometric vertical speed (m/s) and its standard error per window
+        (:func:`classifiers.baro_stage.vertical_speed`), NaN where the recording has no pressure data.
     """
 
     X: FloatArray
@@ -84,13 +88,15 @@ class LabelledWindows:
     t_start_s: FloatArray
     t_end_s: FloatArray
     sources: tuple[str, ...]
+    baro: FloatArray | None = None
 
     def __len__(self) -> int:
         return int(self.y.size)
 
     def select(self, mask: NDArray[np.bool_]) -> LabelledWindows:
         return LabelledWindows(self.X[mask], self.y[mask], self.groups[mask], self.recording[mask],
-                               self.t_start_s[mask], self.t_end_s[mask], self.sources)
+                               self.t_start_s[mask], self.t_end_s[mask], self.sources,
+                               None if self.baro is None else self.baro[mask])
 
     def class_counts(self) -> dict[str, int]:
         names, counts = np.unique(self.y.astype(str), return_counts=True)
@@ -267,7 +273,7 @@ def window_labels(labels: Labels, t_start_s: FloatArray, t_end_s: FloatArray, n_
 def labelled_windows(recordings: list[Recording], task: Task, cfg: WindowConfig,
                      groups: tuple[str, ...]) -> LabelledWindows:
     """Windows, features and task labels of every recording (unlabelled windows dropped)."""
-    xs, ys, gs, rs, t0s, t1s = [], [], [], [], [], []
+    xs, ys, gs, rs, t0s, t1s, bs = [], [], [], [], [], [], []
     sources = []
     for i, rec in enumerate(recordings):
         sources.append(rec.source)
@@ -287,7 +293,10 @@ def labelled_windows(recordings: list[Recording], task: Task, cfg: WindowConfig,
         keep = np.array([v is not None for v in y]) & win.valid
         if not keep.any():
             continue
-        xs.append(extract_features(win.select(keep), groups))
+        kept = win.select(keep)
+        xs.append(extract_features(kept, groups))
+        speed = vertical_speed(kept)
+        bs.append(np.full((int(keep.sum()), 2), np.nan) if speed is None else np.column_stack(speed))
         ys.append(y[keep])
         gs.append(np.full(int(keep.sum()), group_of(rec), dtype=object))
         rs.append(np.full(int(keep.sum()), i, dtype=np.int64))
@@ -296,4 +305,4 @@ def labelled_windows(recordings: list[Recording], task: Task, cfg: WindowConfig,
     if not xs:
         raise InputError(f"no labelled windows for task '{task.name}' in the given data")
     return LabelledWindows(np.vstack(xs), np.concatenate(ys), np.concatenate(gs), np.concatenate(rs),
-                           np.concatenate(t0s), np.concatenate(t1s), tuple(sources))
+                           np.concatenate(t0s), np.concatenate(t1s), tuple(sources), np.vstack(bs))

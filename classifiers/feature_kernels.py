@@ -136,3 +136,30 @@ def coning(gyro: FloatArray, dt: float, n_blocks: int) -> FloatArray:
         out[i, 0] = worst
         out[i, 1] = _angle(qw, qx, qy, qz, 1.0, 0.0, 0.0, 0.0)
     return out
+
+
+@numba.njit(cache=True)
+def rotate_to_first(f: FloatArray, gyro: FloatArray, dt: float) -> FloatArray:
+    """Specific force of each window in the body frame of its first sample; (W, n, 3) -> (W, n, 3).
+
+    The attitude relative to the first sample is integrated from the gyro at the full rate (eq. 9 of seed
+    004 with eq. 7, ``p = omega dt`` per sample, as :func:`coning`) and each sample's specific force is
+    rotated by it, so a thigh's swing no longer tilts the vertical the features project on. NaN samples
+    must be replaced by the caller.
+    """
+    w, n, _ = f.shape
+    out = np.empty((w, n, 3))
+    for i in range(w):
+        qw, qx, qy, qz = 1.0, 0.0, 0.0, 0.0
+        for k in range(n):
+            vx, vy, vz = f[i, k, 0], f[i, k, 1], f[i, k, 2]
+            # v' = q v q*, written out: t = 2 (q_v x v); v' = v + qw t + q_v x t.
+            tx = 2.0 * (qy * vz - qz * vy)
+            ty = 2.0 * (qz * vx - qx * vz)
+            tz = 2.0 * (qx * vy - qy * vx)
+            out[i, k, 0] = vx + qw * tx + (qy * tz - qz * ty)
+            out[i, k, 1] = vy + qw * ty + (qz * tx - qx * tz)
+            out[i, k, 2] = vz + qw * tz + (qx * ty - qy * tx)
+            rw, rx, ry, rz = _exp(gyro[i, k, 0] * dt, gyro[i, k, 1] * dt, gyro[i, k, 2] * dt)
+            qw, qx, qy, qz = _mul(qw, qx, qy, qz, rw, rx, ry, rz)
+    return out

@@ -34,6 +34,9 @@ Further groups:
   axis.
 * ``gait``: percentiles of ``avert`` (m/s^2), the gait period (s, lag of the autocorrelation peak of
   ``avert`` between 0.4 and 2 s) and its regularity (normalised autocorrelation at that lag).
+* ``stride``: per-stride leg pitch and vertical motion of a thigh-carried phone in the frame of the window's
+  first sample (:mod:`classifiers.stride_features`): stride period and regularity, knee-lift excursions,
+  vertical against horizontal motion, the vertical velocity's skewness, swing/stance asymmetry.
 * ``elevator``: extremes (m/s^2) of the 1 s moving average of ``avert`` (seed 003 level 1: the
   hyper-/hypo-gravity impulse pair of an elevator).
 * ``orientation``: mean gravity direction in the body frame (unit vector components; placement only: it
@@ -57,6 +60,7 @@ from numpy.typing import NDArray
 
 from classifiers import feature_kernels as kernels
 from classifiers.context import context_features
+from classifiers.stride_features import STRIDE_FEATURES, stride_features
 from classifiers.windows import Windows
 
 FloatArray = NDArray[np.float64]
@@ -84,6 +88,7 @@ FEATURE_GROUPS: Mapping[str, tuple[str, tuple[str, ...]]] = {
                      "gait_regularity")),
     "gyro_pitch": ("gyro", ("gpitch_opening_rad", "gpitch_max_rad", "gpitch_min_neg_rad", "gyro_axis_fraction")),
     "coning": ("gyro", ("coning_rad", "rotation_rad")),
+    "stride": ("gyro", STRIDE_FEATURES),
     "mag": ("mag", ("mag_mean", "mag_var", "mag_comp_var")),
     "baro": ("baro", ("baro_slope_hpa_s", "baro_range_hpa")),
     "pitch": ("acc", ("pitch_opening_rad", "pitch_max_rad", "pitch_min_neg_rad")),
@@ -366,6 +371,12 @@ def extract_features(win: Windows, groups: tuple[str, ...] = tuple(FEATURE_GROUP
         out["gait"] = gait_features(along - g_mag[:, None], rate)
     if "coning" in groups:
         out["coning"] = (np.full((n_win, 2), np.nan) if gyro is None else coning_features(gyro, rate))
+    if "stride" in groups:
+        if gyro is None or gy is None:
+            out["stride"] = np.full((n_win, len(STRIDE_FEATURES)), np.nan)
+        else:
+            out["stride"] = stride_features(f_b, np.where(np.isfinite(gy), gy, 0.0), rate)
+            out["stride"][_present_fraction(gyro) < 0.9] = np.nan
     if "mag" in groups:
         mag = win.get("mag")
         if mag is None:

@@ -23,6 +23,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from classifiers.baro_stage import log_likelihood as baro_log_likelihood
+from classifiers.baro_stage import vertical_speed
 from classifiers.features import FEATURE_GROUPS, context_margin_s, extract_features, feature_names
 from classifiers.sequence import ForwardFilter, dwell_transitions, forward_backward, scaled_log_likelihood
 from classifiers.transitions import gate_transitions
@@ -98,6 +100,9 @@ class ContextModel:
         Mean time in one class for the smoothing (s); 0 disables smoothing.
     reject_threshold
         Smoothed posterior below which the label is ``unknown``.
+    barometer
+        Add the barometric second stage's evidence (:mod:`classifiers.baro_stage`) when a window has
+        pressure data (a run-time switch, not stored with the model).
     info
         Training data, metrics and other card entries (JSON-serialisable).
     """
@@ -111,6 +116,7 @@ class ContextModel:
     mean_dwell_s: float = 20.0
     reject_threshold: float = 0.5
     info: dict[str, Any] = field(default_factory=dict)
+    barometer: bool = True
 
     @property
     def classes(self) -> tuple[str, ...]:
@@ -158,11 +164,25 @@ class ContextModel:
             proba[usable] = self.estimator.predict_proba(X[usable])
         return proba, usable
 
-    def emissions(self, proba: FloatArray, usable: NDArray[np.bool_]) -> FloatArray:
-        """Emission log-likelihoods for the smoother; unusable windows carry no evidence (zeros)."""
+    def emissions(self, proba: FloatArray, usable: NDArray[np.bool_],
+                  speed: tuple[FloatArray, FloatArray] | None = None) -> FloatArray:
+        """Emission log-likelihoods for the smoother; unusable windows carry no evidence (zeros).
+
+        ``speed``: the windows' barometric vertical speed and standard error (m/s,
+        :func:`classifiers.baro_stage.vertical_speed`); with :attr:`barometer` on, their evidence is added.
+        """
         ll = scaled_log_likelihood(proba, self.train_priors)
         ll[~usable] = 0.0
+        if speed is not None and self.barometer:
+            ll[usable] += baro_log_likelihood(speed[0][usable], speed[1][usable], self.classes)
         return ll
+
+    def window_evidence(self, win: Windows) -> tuple[FloatArray, NDArray[np.bool_], FloatArray]:
+        """Posteriors (W, r), usable mask (W,) and emission log-likelihoods (W, r) of windows, the
+        barometric stage's evidence included where they have pressure data.
+        """
+        raw, usable = self.window_proba(extract_features(win, self.feature_groups))
+        return raw, usable, self.emissions(raw, usable, vertical_speed(win))
 
     def decide(self, smoothed: FloatArray, raw: FloatArray, usable: NDArray[np.bool_],
                t_start_s: FloatArray, t_end_s: FloatArray) -> WindowResults:
@@ -177,11 +197,10 @@ class ContextModel:
 
     def predict_windows(self, win: Windows) -> WindowResults:
         """Offline decisions for windows of one recording (forward-backward smoothing over the sequence)."""
-        X = extract_features(win, self.feature_groups)
-        raw, usable = self.window_proba(X)
+        raw, usable, ll = self.window_evidence(win)
         if self.mean_dwell_s > 0:
             r = len(self.classes)
-            smoothed = forward_backward(self.emissions(raw, usable), self.transitions(), np.full(r, 1.0 / r))
+            smoothed = forward_backward(ll, self.transitions(), np.full(r, 1.0 / r))
         else:
             smoothed = raw
         return self.decide(smoothed, raw, usable, win.t_start_s, win.t_end_s)

@@ -24,7 +24,6 @@ from typing import Any
 import numpy as np
 
 from classifiers.artifacts import DEFAULT_MODEL, load_model, resolve_model_dir
-from classifiers.features import extract_features
 from classifiers.model import ContextModel
 from classifiers.transitions import TransitionGate
 from classifiers.windows import WINDOW_STREAMS, WindowConfig, make_windows
@@ -153,9 +152,8 @@ class StreamingClassifier:
         if not done.any():
             return []
         win = win.select(done)
-        X = extract_features(win, self.model.feature_groups)
-        raw, usable = self.model.window_proba(X)
-        filtered = self.filter.update(self.model.emissions(raw, usable))
+        raw, usable, ll = self.model.window_evidence(win)
+        filtered = self.filter.update(ll)
         res = self.model.decide(filtered, raw, usable, win.t_start_s, win.t_end_s)
         self.next_window = int(round(win.t_start_s[-1] / self.window.hop_s)) + 1
         keep_from = int(t0 + (self.next_window * self.window.hop_s - _HISTORY_S - margin) * 1e9)

@@ -54,7 +54,7 @@ class Task:
         return mapped if mapped in self.classes else None
 
 
-_MOTION_GROUPS = ("acc", "gait", "gyro", "gyro_pitch", "coning", "pitch", "elevator", "mag", "baro")
+_MOTION_GROUPS = ("acc", "gait", "gyro", "gyro_pitch", "coning", "pitch", "stride", "elevator", "mag", "baro")
 
 TASKS: Mapping[str, Task] = MappingProxyType({
     "motion_mode": Task(

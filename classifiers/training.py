@@ -80,7 +80,9 @@ def fit_model(data: LabelledWindows, task: Task, cfg: WindowConfig, groups: tupl
 
 
 def predict_sequences(model: ContextModel, data: LabelledWindows) -> WindowResults:
-    """Decisions for labelled windows, smoothed recording by recording (offline forward-backward)."""
+    """Decisions for labelled windows, smoothed recording by recording (offline forward-backward), with the
+    barometric stage where the windows have pressure data (:meth:`ContextModel.emissions`).
+    """
     raw, usable = model.window_proba(data.X)
     smoothed = raw.copy()
     if model.mean_dwell_s > 0:
@@ -88,7 +90,8 @@ def predict_sequences(model: ContextModel, data: LabelledWindows) -> WindowResul
         for rec in np.unique(data.recording):
             rows = np.flatnonzero(data.recording == rec)
             rows = rows[np.argsort(data.t_start_s[rows], kind="stable")]
-            ll = model.emissions(raw[rows], usable[rows])
+            speed = None if data.baro is None else (data.baro[rows, 0], data.baro[rows, 1])
+            ll = model.emissions(raw[rows], usable[rows], speed)
             smoothed[rows] = forward_backward(ll, model.transitions(), np.full(r, 1.0 / r))
     return model.decide(smoothed, raw, usable, data.t_start_s, data.t_end_s)
 
