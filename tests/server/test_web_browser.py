@@ -632,7 +632,7 @@ def test_models_page_shows_model_cards(page: Any, live: LiveService) -> None:
     text = card.inner_text()
     doc = json.loads((models_dir / "motion_mode" / "model.json").read_text())
     for expected in ("Task", "motion_mode", "Classes", "Training data", "Features", "Versions", "Date",
-                     f"{len(doc['feature_names'])} features", "Protocol: leave-one-group-out cross-validation",
+                     f"{len(doc['feature_names'])} features", "Protocol: leave-one-group-out",
                      "macro F1", "Recordings"):
         assert expected in text, expected
     assert all(c in text for c in doc["classes"])
