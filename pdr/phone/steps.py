@@ -563,7 +563,7 @@ class StepDetector:
         self._held: list[_Held] = []
         self._short: list[list[tuple[int, float]]] = []   # short regular runs of (start, peak), oldest first
         self._lone: list[list[tuple[int, float]]] = []    # those of them that may be a walk alone (lone_walks)
-        self._walk_end: int | None = None       # last start of the last confirmed bout (lone_walks)
+        self._walk_end: int | None = None       # last start of the last confirmed bout or run after it (lone_walks)
         self._soft: list[_Start] = []           # recent soft starts (gait periodicity not yet established)
         # The last confirmed bout, while a short run after it may walk on: (last start, stride (samples), median peak).
         self._walked: tuple[int, float, float] | None = None
@@ -849,6 +849,7 @@ class StepDetector:
         if not self._walks_on(run, run[0][0] - last, ref, peak):
             return []
         self._walked = (run[-1][0], ref, peak)
+        self._walk_end = run[-1][0]
         return self._run_steps(run)
 
     def _stride(self, i: int) -> tuple[float, float]:
