@@ -7,6 +7,7 @@ import pytest
 
 from pdr.errors import InputError
 from pdr.evaluation.scoring import (
+    alternating_step_count,
     bounce_free_step_count,
     distance_ratio,
     distance_ratio_same_floor,
@@ -76,6 +77,27 @@ def test_contact_bounces_are_removed_and_the_step_count_error_is_in_percent():
     assert step_count_error_pct(95, 100) == pytest.approx(-5.0)
     with pytest.raises(InputError, match="must be positive"):
         step_count_error_pct(3, 0)
+
+
+def test_a_switch_drop_out_is_filled_from_the_other_foot_and_nothing_else_is():
+    left = np.arange(0.0, 30.0, 1.1)
+    right = left + 0.55
+    assert alternating_step_count(left, right) == 2 * left.size
+    # The left switch silent for one stride, then for two (three contacts missed): the right foot kept walking.
+    dropped = np.delete(left, [5, 12, 13])
+    assert bounce_free_step_count([dropped, right]) == 2 * left.size - 3
+    assert alternating_step_count(dropped, right) == 2 * left.size
+    # With bounces too: removed first, then the drop-outs filled.
+    bouncy = np.sort(np.concatenate([right, right[[3, 20]] + 0.15]))
+    assert alternating_step_count(dropped, bouncy) == 2 * left.size
+    # A foot missing before its first or after its last contact, or both switches silent together: not invented.
+    assert alternating_step_count(left[3:-2], right) == 2 * left.size - 5
+    both = np.arange(left.size) != 7
+    assert alternating_step_count(left[both], right[both]) == 2 * left.size - 2
+    # A stop: both feet stand still (no contacts of either), so the walk on each side is counted as it is.
+    stop_l = np.concatenate([left, left + 40.0])
+    stop_r = np.concatenate([right, right + 40.0])
+    assert alternating_step_count(stop_l, stop_r) == 4 * left.size
 
 
 def test_the_plain_peak_counter_counts_a_clean_gait_signal():

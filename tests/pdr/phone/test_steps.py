@@ -479,11 +479,15 @@ def test_short_run_after_a_walk_off_its_strength_or_rhythm_is_not_counted(why, t
     assert len(detect_steps(acc, FS, FIXED)) == 11, why
 
 
-def test_short_run_long_after_a_walk_is_not_counted():
-    # The same four steps 3.6 s after the walk (more than short_bout_gap_s): a new short walk, too short alone.
+def test_short_run_long_after_a_walk_is_not_the_walk_going_on_but_a_walk_alone():
+    # The same four steps 3.6 s after the walk (more than short_bout_gap_s): not the walk going on, too short to
+    # confirm; with the phone's tilt kept and nothing after them, they are a walk alone (lone_walks).
     times = np.concatenate([2.0 + 0.9 * np.arange(11), 2.0 + 0.9 * 10 + 3.6 + 0.9 * np.arange(4)])
     acc = bumps(times, np.full(times.size, 2.0), times[-1] + 2.0, width_s=0.4)
-    assert len(detect_steps(acc, FS, FIXED)) == 11
+    assert len(detect_steps(acc, FS, dataclasses.replace(FIXED, lone_walks=False))) == 11
+    steps = detect_steps(acc, FS, FIXED)
+    assert len(steps) == 15
+    assert np.all(steps.confirm_idx[11:] == acc.shape[0])   # reported when the recording ends
 
 
 def test_short_run_after_a_walk_ending_in_handling_is_not_counted():
@@ -588,3 +592,58 @@ def test_real_gait_periodicity_keeps_handling_out_of_the_automatic_gain():
     fixed = len(detect_steps(acc, FS, FIXED))
     assert len(detect_steps(acc, FS)) == fixed
     assert len(detect_steps(acc, FS, GAIN)) > fixed
+
+
+def _lone_walk(turn_deg: float = 0.0):
+    # Five steps at 0.55 s and nothing before or after them (a short recording of a few steps); with turn_deg the
+    # phone turns that much about its y axis across the steps (a pocket phone when its wearer sits down in a car).
+    times = 2.0 + 0.55 * np.arange(5)
+    return turning_walk(times, np.full(5, 3.0), times[-1] + 3.0, turn_from_s=times[0] if turn_deg else None,
+                        turn_s=times[-1] - times[0], turn_deg=turn_deg), times
+
+
+def test_a_lone_short_walk_is_counted_when_the_phone_keeps_its_tilt():
+    acc, times = _lone_walk()
+    assert len(detect_steps(acc, FS, dataclasses.replace(StepConfig(), lone_walks=False))) == 0
+    steps = detect_steps(acc, FS)
+    assert abs(len(steps) - times.size) <= 1
+    assert np.all(np.diff(steps.start_idx) > 0)
+    assert np.all(steps.confirm_idx == acc.shape[0])            # reported when the recording ends
+    # The same peaks while the phone turns by 90 deg (getting into a car, sitting down): not a walk.
+    acc, _ = _lone_walk(turn_deg=90.0)
+    assert len(detect_steps(acc, FS)) == 0
+
+
+def test_a_lone_short_walk_chunked_with_state_round_trip_equals_one_batch():
+    acc, _ = _lone_walk()
+    _assert_chunks_with_state_round_trips_equal_one_batch(acc, StepConfig(), 7)
+
+
+def test_state_saved_before_lone_walks_loads():
+    acc, _ = _lone_walk()
+    det = StepDetector(FS)
+    a, _ = det.update(acc[:200])
+    state = det.state()
+    del state["lone"]                                       # a state saved before the rule
+    b, _ = StepDetector.from_state(state).update(acc[200:], final=True)
+    assert len(a) + len(b) >= 4
+
+
+@pytest.mark.data
+def test_real_lone_short_walk_gets_steps_and_car_entries_none():
+    from pdr.io import read_recording
+    from pdr.phone.grid import OnlineGrid
+    from pdr.phone.pipeline import PdrPipeline
+    # A 6.7 s MS trace: about 2 s of steps out to a waypoint 1 m away and back (plain peak detector: 7). Before the
+    # rule, an empty track.
+    path = data_path("ms_indoor_location", "site2", "F3", "path_data_files", "5dd398d944333f00067aa442.txt.gz")
+    events = PdrPipeline().run(read_recording(path))
+    assert 3 <= sum(1 for e in events if e.get("type") == "step") <= 8
+    # MobiFall getting into and out of a car: each of these has a regular run of 4-5 peaks at a walking pace, and
+    # the pocket phone turns by 69-107 deg over it (the thigh going horizontal or vertical): no step.
+    for code, name in (("CSI", "2_2"), ("CSI", "2_5"), ("CSO", "5_3"), ("CSO", "7_3")):
+        rec = read_recording(data_path("mobifall_v2_pocket", "sub" + name[0], "ADL", code, f"{code}_acc_{name}.txt.gz"))
+        grid = OnlineGrid(FS, ("acc",))
+        grid.push(rec)
+        acc = np.vstack([grid.pull()[1]["acc"], grid.flush()[1]["acc"]])
+        assert len(detect_steps(acc, FS)) == 0, (code, name)

@@ -1,0 +1,123 @@
+"""Steps the phone pipeline's detector finds on every walking recording of a data folder, and on the non-walking ones.
+
+``python tools/walking_steps.py ../shared/data`` runs :class:`pdr.phone.steps.StepDetector` on the pipeline's grid
+(the streams and rate ``pdr track`` uses, :class:`pdr.phone.grid.OnlineGrid`: the same step events as the pipeline,
+without its attitude and heading stages) for each phone recording of the datasets below, and prints per recording
+the steps found, the plain peak detector's count (:func:`pdr.evaluation.scoring.plain_step_count`) and the true count
+where the dataset has one. ``pdr track`` gives an empty track ("no walking detected") exactly when no step is found:
+the recordings with none are listed at the end, and the exit code is 1 if a walking recording is among them.
+
+Walking: ``sensor_logger_walks`` (every walk), ``oxford_step_counter`` (every trial), ``mobifall_v2_pocket`` WAL,
+STU and STN (walking, stairs up and down), ``ms_indoor_location`` (every trace), ``ipin2023_t3`` (every log),
+``attitude_smartphones`` (every recording; RunningPocket is running). Not walking, where every step is a false
+one: MobiFall CSI and CSO (getting into and out of a car), SCH (sitting down on a chair), STD (standing) and JUM
+(jumping). Foot-mounted IMU data (``pyshoe_vicon``, ``foot_stride_gcp``, ``xio_gait_loop``) is ``pdr foot``'s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pdr.errors import InputError
+from pdr.evaluation.scoring import plain_step_count
+from pdr.io import read_recording
+from pdr.phone.grid import OnlineGrid
+from pdr.phone.pipeline import PipelineConfig
+from pdr.phone.steps import StepConfig, StepDetector
+
+#: MobiFall activity codes (folder names) of walking and of activities with no step.
+MOBIFALL_WALKING = ("WAL", "STU", "STN")
+MOBIFALL_NOT_WALKING = ("CSI", "CSO", "SCH", "STD", "JUM")
+
+
+def recordings(data: Path) -> Iterator[tuple[str, Path, bool]]:
+    """(dataset, path, walking) of every phone recording this check reads under ``data``."""
+    for d in sorted((data / "sensor_logger_walks").glob("*-steps-*")):
+        yield "sensor_logger_walks", d, True
+    for d in sorted((data / "oxford_step_counter" / "optimisation" / "data").glob("*")):
+        if d.is_dir() and any(d.glob("accelerometer.csv*")):
+            yield "oxford_step_counter", d, True
+    for code in MOBIFALL_WALKING + MOBIFALL_NOT_WALKING:
+        for f in sorted((data / "mobifall_v2_pocket").glob(f"sub*/ADL/{code}/{code}_acc_*.txt*")):
+            yield f"mobifall {code}", f, code in MOBIFALL_WALKING
+    for f in sorted((data / "ms_indoor_location").rglob("path_data_files/*.txt*")):
+        yield "ms_indoor_location", f, True
+    for f in sorted((data / "ipin2023_t3" / "logfiles").glob("*.txt")):
+        yield "ipin2023_t3", f, True
+    for d in sorted((data / "attitude_smartphones" / "android").glob("*")):
+        if d.is_dir():
+            yield "attitude_smartphones", d, True
+
+
+def pipeline_steps(rec: Any, config: StepConfig, rate_hz: float) -> tuple[int, float]:
+    """Steps the pipeline's detector finds on ``rec`` (its grid: acc and the gyro, mag and baro it has) and the
+    grid's duration (s).
+    """
+    kinds = ("acc",) + tuple(k for k in ("gyro", "mag", "baro") if rec.has(k))
+    grid = OnlineGrid(rate_hz, kinds)
+    grid.push(rec)
+    det = StepDetector(rate_hz, config)
+    t1, v1 = grid.pull()
+    t2, v2 = grid.flush()
+    n = 0
+    for t, vals, final in ((t1, v1, False), (t2, v2, True)):
+        steps, _ = det.update(vals["acc"] if t.size else np.zeros((0, 3)), final=final)
+        n += len(steps)
+    t = np.concatenate([t1, t2])
+    return n, float(t[-1] - t[0]) if t.size else 0.0
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("data", help="the shared data folder (../shared/data)")
+    ap.add_argument("--step", metavar="JSON", default="{}", help="StepConfig fields as a JSON object")
+    ap.add_argument("--only", default="", help="only datasets whose name contains this")
+    ap.add_argument("--json", metavar="FILE", help="also write the rows as JSON to FILE")
+    args = ap.parse_args(argv)
+    config = StepConfig(**json.loads(args.step))
+    rate = PipelineConfig().rate_hz
+    rows: list[dict[str, Any]] = []
+    for dataset, path, walking in recordings(Path(args.data)):
+        if args.only not in dataset:
+            continue
+        try:
+            rec = read_recording(path)
+        except InputError as exc:
+            rows.append({"dataset": dataset, "path": str(path), "walking": walking, "error": str(exc)})
+            print(f"{dataset}: {path.name}: {exc}", flush=True)
+            continue
+        n, dur = pipeline_steps(rec, config, rate)
+        acc = rec.stream("acc")
+        plain = plain_step_count(acc.t_ns / 1e9, np.asarray(acc.values))
+        true = rec.truth.step_count
+        rows.append({"dataset": dataset, "path": str(path), "walking": walking, "duration_s": dur, "steps": n,
+                     "plain": plain, "true": true})
+        print(f"{dataset}: {path.name}: {dur:.1f} s, {n} steps (plain peak detector {plain}"
+              + (f", true {true}" if true is not None else "") + ")", flush=True)
+    empty = [r for r in rows if r["walking"] and r.get("steps") == 0]
+    unread = [r for r in rows if "error" in r]
+    false = [r for r in rows if not r["walking"] and r.get("steps")]
+    print(f"walking recordings: {sum(r['walking'] for r in rows)}, with no step (empty track): {len(empty)}")
+    for r in empty:
+        print(f"  EMPTY {r['path']} ({r['duration_s']:.1f} s, plain peak detector {r['plain']})")
+    for r in unread:
+        print(f"  UNREAD {r['path']}: {r['error']}")
+    not_walking = [r for r in rows if not r["walking"] and "steps" in r]
+    print(f"non-walking recordings: {len(not_walking)}, with steps: {len(false)}, "
+          f"{sum(r['steps'] for r in false)} steps in all")
+    for r in false:
+        print(f"  STEPS {r['path']}: {r['steps']}")
+    if args.json:
+        Path(args.json).write_text(json.dumps(rows, indent=1))
+    return 1 if empty else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
