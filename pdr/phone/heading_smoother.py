@@ -475,6 +475,10 @@ def smooth_track(steps: list[dict[str, Any]], config: HeadingSmootherConfig | No
                      f"{check.nis / per_deflection:.0f} over {dof:.0f} deflections, {100 * (1 - c.consistency_p):.0f}% "
                      f"bound {bound:.0f})")
     sm = smooth_offsets(t, gyro, raw, sigma, c, bias_sigma)
+    if sm.turn_lag_s ** 2 > chi2_quantile(1.0 - c.consistency_p, 1.0) * sm.turn_lag_sigma_s ** 2:
+        # Module doc "Turns": the offset follows the turn rate, which the straight-leg model would not allow.
+        notes.append(f"the measured direction and the gyro yaw disagree on the timing of turns ("
+                     f"{abs(sm.turn_lag_s) / sm.turn_lag_sigma_s:.1f} standard deviations): not a straight-leg walk")
     yaw = np.asarray(wrap_angle(gyro + sm.offset), dtype=np.float64)
     out = redo_steps(out, yaw)
     for k, s in enumerate(out):

@@ -1,6 +1,7 @@
 """Offline heading smoother: simulate-then-recover, exact properties, track re-integration, real IPIN walks."""
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -421,3 +422,23 @@ def test_turn_rate_is_the_central_difference_of_the_unwrapped_gyro_yaw():
     g = np.asarray(wrap_angle(np.array([3.0, 3.2, 3.4, 3.8])))        # crosses +/- pi
     np.testing.assert_allclose(turn_rate(t, g), [0.4, 0.4, 0.4, 0.4], rtol=1e-9)      # one-sided at the ends
     assert turn_rate(np.zeros(1), np.zeros(1)).tolist() == [0.0]
+
+
+def test_the_summary_says_when_the_walk_is_not_a_straight_leg_walk():
+    # The turn lag many standard deviations from zero is reported (module doc "Turns"); a walk whose measured
+    # direction and gyro agree on the timing of its turns, or a corridor walk, is not flagged.
+    t, _, gyro, mag = _turning_walk(0, gyro_lead_s=0.3, meas_lag_s=0.0)
+    rows = _steps(mag, mag, gyro)
+    for r, tk in zip(rows, t, strict=True):
+        r["t_s"] = float(tk)
+    _, summary = smooth_track(rows)
+    assert "not a straight-leg walk" in str(summary)
+    lag = re.search(r"lags the gyro yaw through turns by ([-+0-9.]+) \+/- ([0-9.]+) s", str(summary))
+    assert lag is not None and 0.3 - 3 * float(lag[2]) < float(lag[1]) < 0.3 + 3 * float(lag[2])
+    t, _, gyro, mag = _turning_walk(0, gyro_lead_s=0.0, meas_lag_s=0.0)
+    rows = _steps(mag, mag, gyro)
+    for r, tk in zip(rows, t, strict=True):
+        r["t_s"] = float(tk)
+    assert "straight-leg" not in str(smooth_track(rows)[1])
+    t, _, gyro, mag = route(0)
+    assert "straight-leg" not in str(smooth_track(_steps(mag, mag, gyro))[1])
