@@ -21,9 +21,12 @@ per step stayed best: 1 and 3 did worse or no better on MS F3 and F4). Measured 
 traces (step heading against the truth's direction between waypoints): the gyro's heading has a lower standard
 deviation about its own mean than the step heading on the traces with a disturbed start (5dd38ffd: 11 against
 21 deg; 5dd3a34c: 15 against 25 deg), the same elsewhere. Step (b) draws the offsets back to 0, the magnetometer's
-answer, over ``mag_distance_m`` of walking (infinite by default: on MS F3 a 10 m distance cut the worst trace from
-13 to 5 m p75 and on F4 it cost 0.3 m p75). Without a gyro heading (a) is skipped and the step heading carries the
-offset as before.
+answer, over ``mag_distance_m`` of walking: the gyro's drift (and a wrong turn carried through a suspension) would
+otherwise move the offsets without bound on a long walk through open space, while the magnetometer's indoor errors
+are local. 40 m by default (3 seeds on cached MS site2 tracks, p75 online / smoothed: F3 3.37 / 3.46 m against
+3.48 / 3.46 without relaxation and 3.35 / 3.43 with 10 m; F4 5.61 / 5.38 against 5.76 / 5.15 and 6.00 / 6.10; 10 m
+cut F3's worst trace from 13 to 5 m; without relaxation, with each trace's true step scale, one F4 trace went 31 m
+off after a suspension). Without a gyro heading (a) is skipped and the step heading carries the offset as before.
 
 A particle whose step crosses a wall dies (its likelihood is zero, the others' equal), and each dead particle is
 replaced by a copy of a survivor drawn uniformly: every survivor is kept and gets ``N / survivors`` copies on
@@ -113,7 +116,7 @@ class MapMatchConfig:
     length_sigma_m: float = 0.05
     reseed_sigma_m: float = 1.0
     follow_gyro: bool = True
-    mag_distance_m: float = math.inf
+    mag_distance_m: float = 40.0
     seed: int = 0
 
 
