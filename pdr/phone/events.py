@@ -138,6 +138,23 @@ class ElevatorEvent(_Event):
 
 
 @dataclass(frozen=True)
+class StairFlightEvent(_Event):
+    """A flight of stairs walked from ``t_start_s`` to ``t_end_s`` (s): direction ``up``/``down``, the steps on it,
+    the barometric height change (m; 0 without a barometer) and the floors it crossed (the change of the floor shown
+    from its foot to the step after it: a storey's two half flights count 0 and 1; None without a barometer).
+    Emitted with the first step after the flight (:class:`pdr.phone.floors.StairFlights`).
+    """
+
+    KIND: ClassVar[str] = "stair_flight"
+    t_start_s: float
+    t_end_s: float
+    direction: str
+    steps: int
+    altitude_change_m: float
+    floors: int | None = None
+
+
+@dataclass(frozen=True)
 class NoticeEvent(_Event):
     """A degraded input or a decision the user should know of (``message``, one sentence)."""
 
@@ -145,9 +162,9 @@ class NoticeEvent(_Event):
     message: str
 
 
-PipelineEvent = StepEvent | FloorChangeEvent | LandmarkEvent | ElevatorEvent | NoticeEvent
+PipelineEvent = StepEvent | FloorChangeEvent | LandmarkEvent | ElevatorEvent | StairFlightEvent | NoticeEvent
 _KINDS: dict[str, type[PipelineEvent]] = {c.KIND: c for c in (StepEvent, FloorChangeEvent, LandmarkEvent,
-                                                                ElevatorEvent, NoticeEvent)}
+                                                                ElevatorEvent, StairFlightEvent, NoticeEvent)}
 
 
 def event_from_row(row: EventRow) -> PipelineEvent:

@@ -175,3 +175,67 @@ def _track_floors(h: FloatArray, acc: FloatArray, flat: NDArray[np.bool_], ks: f
         fl[i] = floor0 + shown
     st[0], st[1], st[2], st[3], st[4] = alt, ref, v, am, av
     return n, shown
+
+
+#: Stairs steps in a row that make a flight: building codes ask for at least three risers per flight.
+FLIGHT_MIN_STEPS = 3
+
+
+class StairFlights:
+    """Online stair flights from the track's steps: a run of at least ``min_steps`` consecutive steps labelled
+    ``stairs_up`` (or all ``stairs_down``), closed by the first step of another mode or direction. Its height change is
+    the barometric altitude (m, above the start) at its last step minus the altitude at the step before its first
+    (the foot of the flight; the first step's own when the walk starts on the stairs). A flight still open when the
+    walk ends is not reported.
+    """
+
+    def __init__(self, min_steps: int = FLIGHT_MIN_STEPS) -> None:
+        self.min_steps = int(min_steps)
+        self.direction: str | None = None     # "up"/"down" while on a run of stairs steps
+        self.t0 = self.t1 = math.nan          # start of its first step, end of its last (s)
+        self.up0 = self.up1 = math.nan        # altitude at its foot and at its last step (m)
+        self.n = 0                            # its steps
+        self.prev_up = math.nan               # altitude at the last step off the run (m)
+        self.prev_floor = math.nan            # floor at the last step off the run
+        self.floor0 = math.nan                # floor at the run's foot
+
+    def step(self, t_start_s: float, t_s: float, mode: str, up_m: float, floor: float
+             ) -> tuple[float, float, str, int, float, float, int] | None:
+        """Take one step; returns the flight it closed, ``(t_start_s, t_end_s, direction, steps, up0_m, up1_m,
+        floors)``.
+        """
+        direction = {"stairs_up": "up", "stairs_down": "down"}.get(mode)
+        closed = None
+        if direction != self.direction and self.direction is not None:
+            if self.n >= self.min_steps:
+                closed = (self.t0, self.t1, self.direction, self.n, self.up0, self.up1,
+                          int(round(abs(float(floor) - self.floor0))))
+            self.direction, self.n = None, 0
+        if direction is None:
+            self.prev_up, self.prev_floor = float(up_m), float(floor)
+            return closed
+        if self.direction is None:
+            self.direction, self.t0, self.n = direction, float(t_start_s), 0
+            self.up0 = self.prev_up if math.isfinite(self.prev_up) else float(up_m)
+            self.floor0 = self.prev_floor if math.isfinite(self.prev_floor) else float(floor)
+        self.n += 1
+        self.t1, self.up1 = float(t_s), float(up_m)
+        self.prev_up, self.prev_floor = float(up_m), float(floor)
+        return closed
+
+    def state(self) -> dict[str, Any]:
+        return {"min_steps": self.min_steps, "direction": self.direction, "t0": self.t0, "t1": self.t1,
+                "up0": self.up0, "up1": self.up1, "n": self.n, "prev_up": self.prev_up, "prev_floor": self.prev_floor,
+                "floor0": self.floor0}
+
+    @classmethod
+    def from_state(cls, d: dict[str, Any]) -> StairFlights:
+        try:
+            f = cls(int(d["min_steps"]))
+            f.direction = None if d["direction"] is None else str(d["direction"])
+            f.t0, f.t1, f.up0, f.up1 = (float(d[k]) for k in ("t0", "t1", "up0", "up1"))
+            f.n, f.prev_up, f.prev_floor, f.floor0 = (int(d["n"]), float(d["prev_up"]), float(d["prev_floor"]),
+                                                      float(d["floor0"]))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise InputError(f"bad stair flight state ({exc})", source="stair flight state") from None
+        return f

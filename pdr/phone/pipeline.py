@@ -17,12 +17,14 @@ big batch):
    (:mod:`pdr.phone.landmarks`, with the neighbour-step correction, which delays each step by one step),
    site landmarks (a flight of stairs: position fix at its first step, heading rows of both UKFs at every
    step of it), floor (:mod:`pdr.phone.floors`), and the PDR position (:mod:`pdr.phone.track`, eqs. 20-22);
-5. elevator rides from the vertical specific force (:class:`pdr.phone.landmarks.ElevatorDetector`).
+5. elevator rides from the vertical specific force (:class:`pdr.phone.landmarks.ElevatorDetector`);
+6. stair flights from the steps' modes and altitudes (:class:`pdr.phone.floors.StairFlights`), each with its floor
+   count, emitted with the first step after the flight.
 
 Events are frozen dataclasses (:mod:`pdr.phone.events`: a step, a floor change, a landmark, an elevator ride, a
-notice of degraded input); :meth:`PdrPipeline.update` returns their rows (``{"type": "step", "t_s", "east_m", ...}``),
-:meth:`PdrPipeline.update_events` the dataclasses. ``t_s`` is on the log's own clock (seconds). The per-step stages
-and how to plug in another are described in :mod:`pdr.phone.stage` and ``docs/architecture.md``.
+stair flight, a notice of degraded input); :meth:`PdrPipeline.update` returns their rows (``{"type": "step", "t_s",
+"east_m", ...}``), :meth:`PdrPipeline.update_events` the dataclasses. ``t_s`` is on the log's own clock (seconds).
+The per-step stages and how to plug in another are described in :mod:`pdr.phone.stage` and ``docs/architecture.md``.
 
 Placement (``pocket``, ``hand``, ``torso``, ``swinging``) comes from the configuration, else from an injected
 ``placement_provider(recording) -> str | None`` (e.g. the placement classifier; pdr/ never imports it),
@@ -52,10 +54,11 @@ from pdr.phone.events import (
     FloorChangeEvent,
     NoticeEvent,
     PipelineEvent,
+    StairFlightEvent,
     StepEvent,
     to_rows,
 )
-from pdr.phone.floors import FloorConfig, FloorTracker
+from pdr.phone.floors import FloorConfig, FloorTracker, StairFlights
 from pdr.phone.grid import OnlineGrid
 from pdr.phone.gyro_yaw import GyroYaw
 from pdr.phone.heading import DriftEliminationConfig, HeadingEstimate, StepDriftElimination, pca_axis
@@ -261,6 +264,7 @@ class PdrPipeline:
         self.floors = FloorTracker(c.rate_hz, c.floors if site is None else replace(
             c.floors, floor_height_m=site.floor_height_m, altitudes_m=site.floor_altitudes_m), c.initial_floor)
         self.elevator = ElevatorDetector(c.rate_hz, c.landmarks)
+        self.flights = StairFlights()
         self.track = TrackState(float(start_en_m[0]), float(start_en_m[1]))
         self.history = SampleHistory(int(c.history_s * c.rate_hz))
         self.placement: str | None = None if c.placement == "auto" else c.placement
@@ -362,7 +366,8 @@ class PdrPipeline:
             "site": None if self.site is None else self.site.to_dict(),
             "grid": None if self.grid is None else self.grid.state(), "steps": self.steps.state(),
             "attitude": self.attitude.state.state(), "magcal": self.magcal.state(), "floors": self.floors.state(),
-            "elevator": self.elevator.state(), "track": self.track.state(), **self.device_heading.state(),
+            "elevator": self.elevator.state(), "stair_flights": self.flights.state(), "track": self.track.state(),
+            **self.device_heading.state(),
             **self.drift.state(), "history": self.history.state(), "placement": self.placement,
             "auto_placement": self.auto_placement, "placement_detector": self.placement_detector.state(),
             "t0_ns": self.t0_ns, **self.pocket_heading.state(), **self.modes.state(), **self.turns.state(),
@@ -405,6 +410,8 @@ class PdrPipeline:
                 p.magcal = HardIronEstimator.from_state(d["magcal"], c.rate_hz, c.magcal)
             p.floors = FloorTracker.from_state(d["floors"])
             p.elevator = ElevatorDetector.from_state(d["elevator"], c.landmarks)
+            if d.get("stair_flights") is not None:      # absent in states saved before stair flights were events
+                p.flights = StairFlights.from_state(d["stair_flights"])
             p.track = TrackState.from_state(d["track"])
             p.device_heading = DeviceHeading.from_state(d, c.heading_offset, c.heading_process_var)
             p.drift = DriftElimination.from_state(d, c.drift_elimination, p.drift.hde)
@@ -701,6 +708,10 @@ class PdrPipeline:
             up_time_s=rec.up_time,
             gyro_bias_dps=None if rec.gyro_bias is None else np.degrees(rec.gyro_bias).tolist(),
             position_fix=landmark is not None, landmark_heading=landmark_heading)
+        flight = self.flights.step(rec.t_start, rec.t_end, mode, rec.up, rec.floor)
+        if flight is not None:
+            t0, t1, direction, n, up0, up1, floors = flight
+            events.append(StairFlightEvent(t0, t1, direction, n, up1 - up0, floors if self._has_baro() else None))
         extra: list[PipelineEvent] = []
         for stage in self.stages:
             step, more = stage.step(step, self.track)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -59,6 +60,8 @@ def test_walls_correct_a_heading_error_and_a_long_step_length() -> None:
 
 def test_the_state_resumes_bit_identically_through_the_state_codec() -> None:
     steps, _ = l_walk(heading_error_deg=-8.0, length_scale=0.9)
+    wobble = np.random.default_rng(1).normal(0.0, 4.0, len(steps))      # the gyro's heading differs step by step
+    steps = [replace(s, gyro_heading_deg=s.heading_deg + 40.0 + w) for s, w in zip(steps, wobble, strict=True)]
     whole, _ = MapMatcher(corridor_site(), (1.0, 1.0), 0).update(steps)
     first = MapMatcher(corridor_site(), (1.0, 1.0), 0)
     a, _ = first.update(steps[:37])
@@ -101,3 +104,38 @@ def test_match_rows_keeps_the_rows_and_maps_floors_relative_to_the_start() -> No
     out, notices = match_rows(rows, site, (1.0, 1.0), 5, MapMatchConfig(particles=200))
     assert [r["floor"] for r in out] == [5.0] * 5 and [r["mode"] for r in out] == ["walking"] * 5
     assert out[-1]["east_m"] == pytest.approx(1.0 + 3.5, abs=1.0) and notices == []
+
+
+# A corridor 2 m wide (y in [0, 2]) from x = 0 to 20 that opens into a hall 40 m square: no wall near the walk there.
+CORRIDOR_HALL = [[0, 0], [20, 0], [20, -20], [60, -20], [60, 22], [20, 22], [20, 2], [0, 2], [0, 0]]
+
+
+def hall_walk(gyro: bool) -> tuple[list[StepInput], np.ndarray]:
+    """East along the corridor's centre line into the hall, 0.7 m steps. The step heading reads 15 deg too far
+    clockwise in the corridor, and 25 deg too far anticlockwise in the hall from step 30 on (a disturbed field); the
+    gyro's heading (its own origin, 123 deg) has no error.
+    """
+    steps, truth = [], []
+    for k in range(1, 66):
+        truth.append([1.0 + 0.7 * k, 1.0])
+        error = 15.0 if k < 30 else -25.0
+        steps.append(StepInput(0.55 * k, 0.7, 90.0 + error, 0, 123.0 + 90.0 if gyro else None))
+    return steps, np.array(truth)
+
+
+def test_the_gyro_carries_the_offset_the_walls_taught_through_a_disturbed_field() -> None:
+    site = SitePlan.from_dict({"floors": [{"floor": 0, "walkable": {"type": "Polygon",
+                                                                    "coordinates": [CORRIDOR_HALL]}}]})
+    end_err = {}
+    for gyro in (True, False):
+        steps, truth = hall_walk(gyro)
+        matched, notices = MapMatcher(site, (1.0, 1.0), 0).update(steps)
+        assert notices == []
+        end_err[gyro] = math.hypot(matched[-1].east_m - truth[-1, 0], matched[-1].north_m - truth[-1, 1])
+        assert abs(matched[28].heading_offset_deg - 15.0) < 5.0   # the corridor taught the offset (anticlockwise)
+    assert end_err[True] < 2.5                 # the hall's 40 deg disturbance did not move the matched heading
+    assert end_err[False] > 8.0                # without the gyro the particles follow it (40 deg over 25 m)
+    # (b): relaxing towards the magnetometer's heading over 5 m undoes the taught offset in the hall
+    steps, truth = hall_walk(True)
+    relaxed, _ = MapMatcher(site, (1.0, 1.0), 0, MapMatchConfig(mag_distance_m=5.0)).update(steps)
+    assert abs(relaxed[-1].heading_offset_deg) < abs(relaxed[28].heading_offset_deg) / 2

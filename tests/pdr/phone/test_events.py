@@ -21,6 +21,7 @@ EVENTS: list[ev.PipelineEvent] = [
     ev.LandmarkEvent(31.5, "S1", "stairs_up"),
     ev.ElevatorEvent(40.0, 55.0, "up", 8.1, 12.5, site_landmark="E2", floors=2),
     ev.ElevatorEvent(60.0, 70.0, "down", -4.0, None),
+    ev.StairFlightEvent(80.0, 95.5, "down", 26, -5.4, floors=2),
     ev.NoticeEvent("no magnetometer: the heading is relative"),
 ]
 

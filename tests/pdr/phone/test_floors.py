@@ -112,3 +112,31 @@ def test_floor_altitudes_are_checked():
     # Saved states keep the altitudes and resume with them.
     t = FloorTracker(RATE_HZ, MUSEUM)
     assert FloorTracker.from_state(t.state()).config == MUSEUM
+
+
+def test_stair_flights_are_runs_of_three_or_more_stairs_steps_with_their_height_from_the_foot():
+    from pdr.phone.floors import StairFlights
+    # (mode, altitude at the step's end): level at 0 m, 12 steps up to 1.8 m, level, 2 steps down (too short for a
+    # flight), level, 4 steps down to 1.2 m, straight into 3 steps up (a new flight), level.
+    # The floor shown goes from 0 to 1 on the first flight and back to 0 on the 4 steps down.
+    walk = ([("walking", 0.0, 0)] * 3 + [("stairs_up", 0.15 * k, int(k > 8)) for k in range(1, 13)]
+            + [("walking", 1.8, 1)] * 2 + [("stairs_down", 1.65, 1), ("stairs_down", 1.5, 1)]
+            + [("walking", 1.5, 1)] * 2
+            + [("stairs_down", 1.5 - 0.15 * k, int(k < 3)) for k in range(1, 5)]
+            + [("stairs_up", 0.9 + 0.15 * k, 0) for k in (1, 2, 3)] + [("walking", 1.35, 0)])
+    flights, t = [], 0.0
+    f = StairFlights()
+    for k, (mode, up, floor) in enumerate(walk):
+        if k == 20:                                    # resume from the saved state half way
+            f = StairFlights.from_state(f.state())
+        out = f.step(t, t + 0.5, mode, up, floor)
+        t += 0.5
+        if out is not None:
+            flights.append(out)
+    assert [(d, n, floors) for _, _, d, n, _, _, floors in flights] == [("up", 12, 1), ("down", 4, 1), ("up", 3, 0)]
+    assert flights[0][4:6] == (0.0, pytest.approx(1.8))           # from the foot of the flight to its top
+    assert flights[1][4] == pytest.approx(1.5) and flights[1][5] == pytest.approx(0.9)
+    assert flights[2][4] == pytest.approx(0.9)                    # the turn at the bottom is the next flight's foot
+    assert flights[0][0] == 1.5 and flights[0][1] == 7.5          # first step's start, last step's end (s)
+    with pytest.raises(InputError, match="stair flight state"):
+        StairFlights.from_state({"min_steps": 3})

@@ -373,3 +373,22 @@ def test_a_saved_configuration_with_a_removed_parameter_still_reads():
     assert PipelineConfig.from_dict(old) == cfg
     with pytest.raises(InputError, match="bad pipeline configuration"):
         PipelineConfig.from_dict(cfg.to_dict() | {"landmarks": {"teleport_m": 1.0}})
+
+
+@pytest.mark.data
+@pytest.mark.slow
+def test_stair_flights_of_the_ipin_stairs_walk_count_the_floors_they_change():
+    # IPIN 2023 .mat trial 52 walks from floor 0 down the stairs to floor -2, back up, down and up again; the site
+    # gives the floors' altitudes (0, -3.1, -5.7 m).
+    rec = read_recording(data_path("ipin2023_t3", "mat", "IPIN2023_T3_TrainingTrial52_repetition01.mat"))
+    site = Site.load(REPO_ROOT / "docs" / "sites" / "ipin2023_museum_floors.json")
+    events = PdrPipeline(PipelineConfig(initial_floor=0.0), site).run(rec)
+    flights = [e for e in events if e["type"] == "stair_flight"]
+    changes = np.array([e["t_s"] for e in events if e["type"] == "floor_change"])
+    steps = np.array([e["t_s"] for e in events if e["type"] == "step"])
+    assert [f["floors"] for f in flights if f["floors"]] == [2, 2, 2]
+    for f in flights:
+        closing = steps[steps > f["t_end_s"]][0]           # the floor shown at the step after the flight
+        assert f["floors"] == np.count_nonzero((changes >= f["t_start_s"]) & (changes <= closing))
+        assert (f["direction"] == "up") == (f["altitude_change_m"] > 0)
+        assert f["steps"] >= 3
