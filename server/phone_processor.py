@@ -35,6 +35,7 @@ from pdr.phone.events import (
     LandmarkEvent,
     NoticeEvent,
     PipelineEvent,
+    StairFlightEvent,
     StepEvent,
     to_rows,
 )
@@ -147,6 +148,9 @@ def convert_events(events: Sequence[PipelineEvent], modes: StepModes | None = No
                                        data=_scalars(e)))
         elif isinstance(e, LandmarkEvent):
             out.events.append(EventRow("landmark", e.t_s, label=e.mode or e.landmark or "landmark", data=_scalars(e)))
+        elif isinstance(e, StairFlightEvent):
+            out.events.append(EventRow("landmark", e.t_start_s, t_end_s=e.t_end_s, label="stair_flight",
+                                       data=_scalars(e)))
         elif isinstance(e, FloorChangeEvent):
             out.events.append(EventRow("floor", e.t_s, value=float(e.floor), label="floor"))
         elif isinstance(e, NoticeEvent):
@@ -156,7 +160,7 @@ def convert_events(events: Sequence[PipelineEvent], modes: StepModes | None = No
     return out
 
 
-def _scalars(e: ElevatorEvent | LandmarkEvent) -> dict[str, str | int | float]:
+def _scalars(e: ElevatorEvent | LandmarkEvent | StairFlightEvent) -> dict[str, str | int | float]:
     """The event's fields with a value (besides ``t_s``) as a landmark event's data."""
     values = {f.name: getattr(e, f.name) for f in fields(e) if f.name != "t_s"}
     return {k: v for k, v in values.items() if isinstance(v, str | int | float)}

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from classifiers.timeline import ModeEntry, StepModes
-from pdr.phone.events import StepEvent
+from pdr.phone.events import StairFlightEvent, StepEvent
 from server.phone_processor import convert_events
 
 
@@ -27,6 +27,19 @@ def test_convert_events_places_stops_among_the_steps():
     assert modes.last == "walking" and out.track == events      # the steps are stored as they are
     # The classifier's timeline (pocket phones) takes no step-mode entries.
     assert not [r for r in convert_events(events, StepModes(), step_modes=False).events if r.kind == "mode"]
+
+
+def test_a_stair_flight_is_a_landmark_with_its_floors():
+    flight = StairFlightEvent(t_start_s=18.1, t_end_s=29.6, direction="up", steps=19, altitude_change_m=2.7,
+                              floors=1)
+    rows = convert_events([flight]).events
+    assert [(r.kind, r.t_s, r.t_end_s, r.label) for r in rows] == [("landmark", 18.1, 29.6, "stair_flight")]
+    assert rows[0].data == {"t_start_s": 18.1, "t_end_s": 29.6, "direction": "up", "steps": 19,
+                            "altitude_change_m": 2.7, "floors": 1}
+    # Without a barometer the flight has no floor count, and says nothing of one.
+    no_baro = StairFlightEvent(t_start_s=18.1, t_end_s=29.6, direction="up", steps=19,
+                               altitude_change_m=0.0)
+    assert "floors" not in convert_events([no_baro]).events[0].data
 
 
 @pytest.mark.slow
