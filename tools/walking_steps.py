@@ -43,6 +43,9 @@ MOCAP_STEP_RISE_M = 0.002
 #: Shortest step (s) of :func:`mocap_step_count` (the plain detector's too).
 MOCAP_MIN_STEP_S = 0.3
 
+#: Largest distance (s) between a detected step and the true step it matches (:func:`matched_steps`).
+MOCAP_MATCH_S = 0.3
+
 #: MobiFall activity codes (folder names) of walking and of activities with no step.
 MOBIFALL_WALKING = ("WAL", "STU", "STN")
 MOBIFALL_NOT_WALKING = ("CSI", "CSO", "SCH", "STD", "JUM")
@@ -68,8 +71,14 @@ def recordings(data: Path) -> Iterator[tuple[str, Path, bool]]:
 
 
 def mocap_step_count(t_s: np.ndarray, pos_m: np.ndarray, rise_m: float = MOCAP_STEP_RISE_M) -> int:
-    """True step count from a motion-capture trajectory of the phone: the walker's body vaults over the stance leg
-    once per step (inverted pendulum), so the phone, on the thigh or in the hand, rises and falls once per step.
+    """True step count from a motion-capture trajectory of the phone: the size of :func:`mocap_step_times`."""
+    return int(mocap_step_times(t_s, pos_m, rise_m).size)
+
+
+def mocap_step_times(t_s: np.ndarray, pos_m: np.ndarray, rise_m: float = MOCAP_STEP_RISE_M) -> np.ndarray:
+    """Times (s) of the true steps in a motion-capture trajectory of the phone: the walker's body vaults over the
+    stance leg once per step (inverted pendulum), so the phone, on the thigh or in the hand, rises and falls once per
+    step; a step's time is the top of its rise.
 
     The height ``pos_m[:, 2]`` (m, z up) is put on a uniform grid at the capture's median frame rate (hidden frames
     interpolated), band-passed to :data:`MOCAP_STEP_BAND_HZ` (2nd-order Butterworth, forward and backward), and its
@@ -90,7 +99,7 @@ def mocap_step_count(t_s: np.ndarray, pos_m: np.ndarray, rise_m: float = MOCAP_S
     ok = np.isfinite(t) & np.isfinite(z)
     t, z = t[ok], z[ok]
     if t.size < 2:
-        return 0
+        return np.zeros(0)
     rate = 1.0 / float(np.median(np.diff(t)))
     lo, hi = MOCAP_STEP_BAND_HZ
     if not hi < 0.5 * rate:
@@ -99,10 +108,33 @@ def mocap_step_count(t_s: np.ndarray, pos_m: np.ndarray, rise_m: float = MOCAP_S
     grid = np.arange(t[0], t[-1], 1.0 / rate)
     b, a = signal.butter(2, [lo / (0.5 * rate), hi / (0.5 * rate)], "band")
     if grid.size <= 3 * max(a.size, b.size):
-        return 0
+        return np.zeros(0)
     zb = signal.filtfilt(b, a, np.interp(grid, t, z))
     peaks, _ = signal.find_peaks(zb, prominence=rise_m, distance=max(1, int(MOCAP_MIN_STEP_S * rate)))
-    return int(peaks.size)
+    return grid[peaks]
+
+
+def matched_steps(detected_s: np.ndarray, true_s: np.ndarray, tol_s: float = MOCAP_MATCH_S) -> tuple[int, float]:
+    """How many detected steps match a true step one to one, and the lag (s) applied: each detected time, shifted by
+    the median lag from it to the nearest true step (a detected start is the acceleration's upward crossing, before
+    the top of the vault), is matched to the nearest unmatched true step within ``tol_s`` (in time order).
+    """
+    det = np.sort(np.asarray(detected_s, dtype=np.float64))
+    true = np.sort(np.asarray(true_s, dtype=np.float64))
+    if det.size == 0 or true.size == 0:
+        return 0, 0.0
+    idx = np.searchsorted(true, det)
+    after, before = true[np.clip(idx, 0, true.size - 1)], true[np.clip(idx - 1, 0, true.size - 1)]
+    nearest = np.where(np.abs(after - det) < np.abs(before - det), after, before)
+    lag = float(np.median(nearest - det))
+    used = np.zeros(true.size, dtype=bool)
+    hits = 0
+    for x in det + lag:
+        free = np.flatnonzero(~used & (np.abs(true - x) <= tol_s))
+        if free.size:
+            used[free[np.argmin(np.abs(true[free] - x))]] = True
+            hits += 1
+    return hits, lag
 
 
 def true_step_count(rec: Any) -> tuple[int | None, str]:
@@ -125,18 +157,25 @@ def pipeline_steps(rec: Any, config: StepConfig, rate_hz: float) -> tuple[int, f
     """Steps the pipeline's detector finds on ``rec`` (its grid: acc and the gyro, mag and baro it has) and the
     grid's duration (s).
     """
+    times, dur = pipeline_step_times(rec, config, rate_hz)
+    return int(times.size), dur
+
+
+def pipeline_step_times(rec: Any, config: StepConfig, rate_hz: float) -> tuple[np.ndarray, float]:
+    """Start times (s, the recording's ``t_s``) of the steps of :func:`pipeline_steps`, and the grid's duration (s)."""
     kinds = ("acc",) + tuple(k for k in ("gyro", "mag", "baro") if rec.has(k))
     grid = OnlineGrid(rate_hz, kinds)
     grid.push(rec)
     det = StepDetector(rate_hz, config)
     t1, v1 = grid.pull()
     t2, v2 = grid.flush()
-    n = 0
+    starts: list[np.ndarray] = []
     for t, vals, final in ((t1, v1, False), (t2, v2, True)):
         steps, _ = det.update(vals["acc"] if t.size else np.zeros((0, 3)), final=final)
-        n += len(steps)
+        starts.append(steps.start_idx)
     t = np.concatenate([t1, t2])
-    return n, float(t[-1] - t[0]) if t.size else 0.0
+    idx = np.concatenate(starts)
+    return (t[idx] if t.size else np.zeros(0)), (float(t[-1] - t[0]) if t.size else 0.0)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -162,10 +201,18 @@ def main(argv: list[str] | None = None) -> int:
         acc = rec.stream("acc")
         plain = plain_step_count(acc.t_ns / 1e9, np.asarray(acc.values))
         true, origin = true_step_count(rec)
-        rows.append({"dataset": dataset, "path": str(path), "walking": walking, "duration_s": dur, "steps": n,
-                     "plain": plain, "true": true, "true_from": origin})
-        print(f"{dataset}: {path.name}: {dur:.1f} s, {n} steps (plain peak detector {plain}"
-              + (f", true {true}" + (f" ({origin})" if origin else "") if true is not None else "") + ")", flush=True)
+        row = {"dataset": dataset, "path": str(path), "walking": walking, "duration_s": dur, "steps": n,
+               "plain": plain, "true": true, "true_from": origin}
+        note = f", true {true}" if true is not None else ""
+        if origin == "mocap":
+            pos = rec.truth.positions
+            start, end = rec.time_span_s()
+            inside = (pos.t_s >= start) & (pos.t_s <= end)
+            times, _ = pipeline_step_times(rec, config, rate)
+            row["matched"], _ = matched_steps(times, mocap_step_times(pos.t_s[inside], pos.pos_m[inside]))
+            note += f" from motion capture, {row['matched']} matched within {MOCAP_MATCH_S} s"
+        rows.append(row)
+        print(f"{dataset}: {path.name}: {dur:.1f} s, {n} steps (plain peak detector {plain}{note})", flush=True)
     empty = [r for r in rows if r["walking"] and r.get("steps") == 0]
     unread = [r for r in rows if "error" in r]
     false = [r for r in rows if not r["walking"] and r.get("steps")]

@@ -92,3 +92,31 @@ def test_mocap_step_count_agrees_with_the_detector_where_it_is_right(tool: Modul
     assert origin == "mocap"
     n, _ = tool.pipeline_steps(rec, StepConfig(), PipelineConfig().rate_hz)
     assert true is not None and abs(true - n) <= 0.05 * n
+
+
+def test_matched_steps_pairs_one_to_one_after_the_lag(tool: ModuleType) -> None:
+    true = np.arange(20) * 0.6 + 1.0
+    det = np.r_[true[:15] - 0.12, 5.3]                       # 15 steps 0.12 s early, one extra between two steps
+    hits, lag = tool.matched_steps(det, true)
+    assert hits == 15 and lag == pytest.approx(0.12)
+    assert tool.matched_steps(np.r_[det, det], true)[0] == 15   # one true step matches one detected step only
+    assert tool.matched_steps(np.zeros(0), true) == (0, 0.0)
+
+
+@pytest.mark.data
+@pytest.mark.slow
+def test_mocap_steps_are_the_detectors_steps_on_a_brisk_texting_walk(tool: ModuleType) -> None:
+    """Jakob_Nexus5_NoDist_Texting (0.63 s steps, the detector and the plain peak detector agree): the true steps from
+    the capture's heights and the detector's steps from the accelerometer pair up one to one (179 of 186)."""
+    from pdr.io import read_recording
+    from pdr.phone.pipeline import PipelineConfig
+    from pdr.phone.steps import StepConfig
+    rec = read_recording(data_path("attitude_smartphones", "android", "Jakob_Nexus5_NoDist_Texting"))
+    pos = rec.truth.positions
+    start, end = rec.time_span_s()
+    inside = (pos.t_s >= start) & (pos.t_s <= end)
+    true = tool.mocap_step_times(pos.t_s[inside], pos.pos_m[inside])
+    det, _ = tool.pipeline_step_times(rec, StepConfig(), PipelineConfig().rate_hz)
+    hits, lag = tool.matched_steps(det, true)
+    assert hits >= 0.95 * max(det.size, true.size)
+    assert 0.0 < lag < 0.4
