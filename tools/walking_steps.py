@@ -142,15 +142,24 @@ def true_step_count(rec: Any) -> tuple[int | None, str]:
     phone's motion-capture trajectory within the phone's recording (``'mocap'``, :func:`mocap_step_count`);
     ``(None, '')`` if it has neither.
     """
-    truth = rec.truth
-    if truth.step_count is not None:
-        return int(truth.step_count), ""
-    pos = truth.positions
-    if pos is not None and pos.kind == "dense" and pos.pos_m.ndim == 2 and pos.pos_m.shape[1] == 3:
-        start, end = rec.time_span_s()
-        inside = (pos.t_s >= start) & (pos.t_s <= end)
-        return mocap_step_count(pos.t_s[inside], pos.pos_m[inside]), "mocap"
+    if rec.truth.step_count is not None:
+        return int(rec.truth.step_count), ""
+    trajectory = mocap_trajectory(rec)
+    if trajectory is not None:
+        return mocap_step_count(*trajectory), "mocap"
     return None, ""
+
+
+def mocap_trajectory(rec: Any) -> tuple[np.ndarray, np.ndarray] | None:
+    """Frame times (K,) s and phone positions (K, 3) m of the recording's motion capture within the phone's
+    recording (dense 3-D truth positions), or None if it has none.
+    """
+    pos = rec.truth.positions
+    if pos is None or pos.kind != "dense" or pos.pos_m.ndim != 2 or pos.pos_m.shape[1] != 3:
+        return None
+    start, end = rec.time_span_s()
+    inside = (pos.t_s >= start) & (pos.t_s <= end)
+    return pos.t_s[inside], pos.pos_m[inside]
 
 
 def pipeline_steps(rec: Any, config: StepConfig, rate_hz: float) -> tuple[int, float]:
@@ -204,12 +213,10 @@ def main(argv: list[str] | None = None) -> int:
         row = {"dataset": dataset, "path": str(path), "walking": walking, "duration_s": dur, "steps": n,
                "plain": plain, "true": true, "true_from": origin}
         note = f", true {true}" if true is not None else ""
-        if origin == "mocap":
-            pos = rec.truth.positions
-            start, end = rec.time_span_s()
-            inside = (pos.t_s >= start) & (pos.t_s <= end)
+        trajectory = mocap_trajectory(rec) if origin == "mocap" else None
+        if trajectory is not None:
             times, _ = pipeline_step_times(rec, config, rate)
-            row["matched"], _ = matched_steps(times, mocap_step_times(pos.t_s[inside], pos.pos_m[inside]))
+            row["matched"], _ = matched_steps(times, mocap_step_times(*trajectory))
             note += f" from motion capture, {row['matched']} matched within {MOCAP_MATCH_S} s"
         rows.append(row)
         print(f"{dataset}: {path.name}: {dur:.1f} s, {n} steps (plain peak detector {plain}{note})", flush=True)

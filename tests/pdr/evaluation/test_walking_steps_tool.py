@@ -112,10 +112,9 @@ def test_mocap_steps_are_the_detectors_steps_on_a_brisk_texting_walk(tool: Modul
     from pdr.phone.pipeline import PipelineConfig
     from pdr.phone.steps import StepConfig
     rec = read_recording(data_path("attitude_smartphones", "android", "Jakob_Nexus5_NoDist_Texting"))
-    pos = rec.truth.positions
-    start, end = rec.time_span_s()
-    inside = (pos.t_s >= start) & (pos.t_s <= end)
-    true = tool.mocap_step_times(pos.t_s[inside], pos.pos_m[inside])
+    trajectory = tool.mocap_trajectory(rec)
+    assert trajectory is not None
+    true = tool.mocap_step_times(*trajectory)
     det, _ = tool.pipeline_step_times(rec, StepConfig(), PipelineConfig().rate_hz)
     hits, lag = tool.matched_steps(det, true)
     assert hits >= 0.95 * max(det.size, true.size)
