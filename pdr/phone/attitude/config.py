@@ -79,6 +79,11 @@ class AttitudeConfig:
         whole of a steel building's deflection, which eq. 11's rows share with the tilt, and the hand-held heading
         between the IPIN landmarks got worse (``pdr eval ipin``), while the trouser-pocket and swinging-hand walks of
         ``pdr eval heading`` gained from the kept tilt.
+    earth_field_max_uT
+        The strongest field (uT) taken for the earth's: the geomagnetic field at the surface lies between about 22
+        and 67 uT (World Magnetic Model), so a stronger one is a magnet or steel nearby, whatever the reference
+        (which follows the measured field, ``mag_ref_tau_s``, and would follow a field that ramps up slowly as the
+        phone nears a magnet); its rows are not used and the reference never follows above it.
     mag_when_static
         Use magnetometer rows while stationary (False: a standing user sees one, possibly disturbed,
         field; its repeated samples are not independent measurements of north).
@@ -117,6 +122,7 @@ class AttitudeConfig:
     bias_field_uT: float = 10.0
     bias_dip_deg: float = 10.0
     mag_yaw_only: bool = False
+    earth_field_max_uT: float = 70.0
 
     def params(self) -> FloatArray:
         return np.array([self.sigma_gyro, self.sigma_a, self.sigma_m, self.eps_a1, self.eps_a2, self.eps_m1,
@@ -125,7 +131,7 @@ class AttitudeConfig:
                          self.bias_tau_s, self.bias_smooth_s, self.bias_prior_s, self.gravity_tau_s,
                          self.mag_ref_tau_s, float(self.mag_when_static), math.radians(self.init_yaw_sigma_deg),
                          self.static_mag_std, self.bias_hold_s, self.bias_field_uT,
-                         math.radians(self.bias_dip_deg), float(self.mag_yaw_only)])
+                         math.radians(self.bias_dip_deg), float(self.mag_yaw_only), self.earth_field_max_uT])
 
 
 

@@ -364,6 +364,7 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
     mag_ref_tau, mag_when_static, init_yaw_sigma, static_mag_std = prm[19], prm[20] > 0.5, prm[21], prm[22]
     bias_hold_s, bias_field, bias_dip = prm[23], prm[24], prm[25]
     mag_yaw_only = prm[26] > 0.5
+    earth_max = prm[27]
     n = acc.shape[0]
     out = np.empty((n, 4))
     used = np.zeros(n, dtype=np.int64)
@@ -527,12 +528,13 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
                 c = _rotmat(q)
                 hn = c @ mv
                 dip = math.atan2(-hn[2], math.sqrt(hn[0] * hn[0] + hn[1] * hn[1]))
-                use_m = abs(mn - href_n) < eps_m1 and aux[AUX_VAR_M_SQ] < eps_m2 and abs(dip - dip_ref) < eps_dip
+                use_m = (abs(mn - href_n) < eps_m1 and aux[AUX_VAR_M_SQ] < eps_m2 and abs(dip - dip_ref) < eps_dip
+                         and mn <= earth_max)
                 if stationary and not mag_when_static:
                     use_m = False
                 if k_ref > 0 and not stationary:
                     # The reference magnitude and dip follow the measured field slowly (innovations clipped).
-                    nn = href_n + k_ref * max(-3 * eps_m1, min(3 * eps_m1, mn - href_n))
+                    nn = min(href_n + k_ref * max(-3 * eps_m1, min(3 * eps_m1, mn - href_n)), earth_max)
                     dd = dip_ref + k_ref * max(-3 * eps_dip, min(3 * eps_dip, dip - dip_ref))
                     aux[AUX_H_N] = nn * math.cos(dd)
                     aux[AUX_H_U] = -nn * math.sin(dd)

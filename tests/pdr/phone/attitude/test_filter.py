@@ -142,6 +142,32 @@ def test_heading_recovers_from_a_disturbed_start(method):
     assert err < 3.0
 
 
+def test_a_field_stronger_than_the_earths_is_never_north():
+    """Walking-like motion past a magnet whose field ramps up slowly to 4 times the earth's, turned by 70 degrees:
+    the reference magnitude would follow a slow ramp, but no field above the geomagnetic maximum is used, and the
+    yaw is carried on the gyro through it. Without the bound the magnet's rows turn the yaw.
+    """
+    n = int(60 * FS)
+    t = np.arange(1, n + 1) / FS
+    yaw0, rate = 0.5, 0.02
+    q_true = quat.from_euler(np.full(n, 0.2), np.full(n, -0.3), yaw0 + rate * t)
+    bounce = np.column_stack([np.zeros(n), np.zeros(n), GRAVITY_MPS2 + 2.0 * np.sin(2 * np.pi * 2.0 * t)])
+    acc = quat.rotate(quat.conjugate(q_true), bounce)
+    ramp = np.clip((t - 20.0) / 10.0, 0.0, 1.0) * np.clip((50.0 - t) / 5.0, 0.0, 1.0)    # 20-30 s up, 45-50 s down
+    magnet = 3.0 * quat.rotate(quat.from_euler(0.0, 0.0, math.radians(70)), H_ENU)
+    field = H_ENU + ramp[:, None] * magnet
+    mag = quat.rotate(quat.conjugate(q_true), field)
+    gyro = quat.rotate(quat.conjugate(q_true), np.array([0.0, 0.0, rate]))
+    strong = np.linalg.norm(field, axis=1) > AttitudeConfig().earth_field_max_uT
+    assert strong.sum() > 10 * FS
+    q, used = AttitudeFilter(FS).run(acc, gyro, mag)
+    assert not (used[strong] & 2).any()
+    bounded = math.degrees(quat.angle_between(q[int(45 * FS)], q_true[int(45 * FS)]))
+    q_old, used_old = AttitudeFilter(FS, replace(AttitudeConfig(), earth_field_max_uT=math.inf)).run(acc, gyro, mag)
+    unbounded = math.degrees(quat.angle_between(q_old[int(45 * FS)], q_true[int(45 * FS)]))
+    assert (used_old[strong] & 2).any() and bounded < 3.0 < unbounded
+
+
 def test_state_round_trip_and_bad_input():
     f = AttitudeFilter(FS)
     acc, mag = body_measurements(quat.IDENTITY, 20)
