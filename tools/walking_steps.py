@@ -22,7 +22,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +29,7 @@ import numpy as np
 
 from pdr.errors import InputError
 from pdr.evaluation.scoring import plain_step_count
+from pdr.evaluation.walking_recordings import recordings
 from pdr.io import read_recording
 from pdr.phone.grid import OnlineGrid
 from pdr.phone.pipeline import PipelineConfig
@@ -45,30 +45,6 @@ MOCAP_MIN_STEP_S = 0.3
 
 #: Largest distance (s) between a detected step and the true step it matches (:func:`matched_steps`).
 MOCAP_MATCH_S = 0.3
-
-#: MobiFall activity codes (folder names) of walking and of activities with no step.
-MOBIFALL_WALKING = ("WAL", "STU", "STN")
-MOBIFALL_NOT_WALKING = ("CSI", "CSO", "SCH", "STD", "JUM")
-
-
-def recordings(data: Path) -> Iterator[tuple[str, Path, bool]]:
-    """(dataset, path, walking) of every phone recording this check reads under ``data``."""
-    for d in sorted((data / "sensor_logger_walks").glob("*-steps-*")):
-        yield "sensor_logger_walks", d, True
-    for d in sorted((data / "oxford_step_counter" / "optimisation" / "data").glob("*")):
-        if d.is_dir() and any(d.glob("accelerometer.csv*")):
-            yield "oxford_step_counter", d, True
-    for code in MOBIFALL_WALKING + MOBIFALL_NOT_WALKING:
-        for f in sorted((data / "mobifall_v2_pocket").glob(f"sub*/ADL/{code}/{code}_acc_*.txt*")):
-            yield f"mobifall {code}", f, code in MOBIFALL_WALKING
-    for f in sorted((data / "ms_indoor_location").rglob("path_data_files/*.txt*")):
-        yield "ms_indoor_location", f, True
-    for f in sorted((data / "ipin2023_t3" / "logfiles").glob("*.txt")):
-        yield "ipin2023_t3", f, True
-    for d in sorted((data / "attitude_smartphones" / "android").glob("*")):
-        if d.is_dir():
-            yield "attitude_smartphones", d, True
-
 
 def mocap_step_count(t_s: np.ndarray, pos_m: np.ndarray, rise_m: float = MOCAP_STEP_RISE_M) -> int:
     """True step count from a motion-capture trajectory of the phone: the size of :func:`mocap_step_times`."""

@@ -13,7 +13,7 @@ from pdr.cli import build_parser, main
 
 COMMANDS = {"allan", "bench", "calibrate", "classify", "convert", "eval", "foot", "inspect", "phyphox", "serve",
             "simulate", "site", "track", "train", "users", "worker"}
-EVAL_TARGETS = {"classifier", "coop", "foot", "heading", "ipin", "ms", "pocket-heading", "steps"}
+EVAL_TARGETS = {"classifier", "coop", "foot", "heading", "ipin", "ms", "placement", "pocket-heading", "steps"}
 BENCH_TARGETS = {"faults", "load", "phone", "processor", "server", "track"}
 
 

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from pdr.errors import InputError
+from pdr.evaluation.walking_recordings import MOBIFALL_WALKING
 from tests.conftest import REPO_ROOT, data_path
 
 
@@ -31,7 +32,7 @@ def test_the_tool_counts_the_pipelines_steps_and_lists_the_datasets(tool: Module
     names = {d for d, _, _ in found}
     assert {"sensor_logger_walks", "oxford_step_counter", "mobifall WAL", "mobifall CSI", "ms_indoor_location",
             "ipin2023_t3", "attitude_smartphones"} <= names
-    assert all(walking == (not d.startswith("mobifall") or d.split()[1] in tool.MOBIFALL_WALKING)
+    assert all(walking == (not d.startswith("mobifall") or d.split()[1] in MOBIFALL_WALKING)
                for d, _, walking in found)
     # The same step count as the pipeline (gyro and mag on the grid), here on a short MS trace.
     path = data / "ms_indoor_location" / "site2" / "F3" / "path_data_files" / "5dd398d944333f00067aa442.txt.gz"
