@@ -48,7 +48,10 @@ phoning hand, its stride-mean up direction in the device frame (``up_b``) moves 
 stays within a few degrees from stride to stride in the pocket, slow steps and pauses included. A stride that
 reads as held steady (rule 1) while the phone's mean up direction is within ``moved_min_deg`` of the pocket's
 is a gentle pocket stride (the benchmark's walkers slowing down in a pocket read as held for three strides and
-more, and their walks turned backwards), not a phone in the hand.
+more, and their walks turned backwards), not a phone in the hand. For ``pocket_hold_strides`` strides in a row at
+most: a slow-down at a turn or a door lasts a few strides, while a phone that stays steady for longer as the steps go
+on is not swinging with a thigh (a hand-held phone that was handled upright for a few strides and read as a pocket
+would otherwise stay one: two IPIN walks, 117 and 162 steps).
 """
 
 from __future__ import annotations
@@ -88,6 +91,8 @@ class PlacementDetectConfig:
         Smallest turn of a pocket phone's stride-mean up direction (device frame, deg) that lets a steady stride
         read as a phone held in the hand (module doc): half the 60 deg between a thigh's long axis and a reading
         phone's.
+    pocket_hold_strides
+        Most steady strides in a row that the unmoved up direction keeps in the pocket (module doc).
     """
 
     held_max_swing_deg: float = 12.0
@@ -96,6 +101,7 @@ class PlacementDetectConfig:
     smooth_s: float = 0.1
     switch_strides: int = 3
     moved_min_deg: float = 30.0
+    pocket_hold_strides: int = 8
 
     def __post_init__(self) -> None:
         if not (self.held_max_swing_deg > 0 and self.pendulum_max_ratio > 0 and self.smooth_s > 0
@@ -202,6 +208,7 @@ class PlacementDetector:
         self.run = 0
         self.strides = 0
         self.pocket_up_b: list[float] | None = None     # stride-mean up direction in the pocket (device frame)
+        self.held_in_pocket = 0                          # steady strides in a row kept in the pocket
 
     def _still_in_pocket(self, cues: StrideCues) -> bool:
         """A steady stride whose mean up direction is where the pocket's was (module doc)."""
@@ -214,8 +221,11 @@ class PlacementDetector:
     def update(self, cues: StrideCues) -> str:
         """Add one stride; returns the current placement."""
         label = classify_stride(cues, self.config)
-        if label == "hand" and self._still_in_pocket(cues):
+        if label == "hand" and self._still_in_pocket(cues) and self.held_in_pocket < self.config.pocket_hold_strides:
             label = "pocket"
+            self.held_in_pocket += 1
+        elif label == "pocket":
+            self.held_in_pocket = 0
         if label == "pocket" and cues.up_b is not None:
             up = np.array(cues.up_b)
             if self.pocket_up_b is not None and self.placement == "pocket":
@@ -235,7 +245,7 @@ class PlacementDetector:
 
     def state(self) -> dict[str, Any]:
         return {"placement": self.placement, "candidate": self.candidate, "run": self.run, "strides": self.strides,
-                "pocket_up_b": self.pocket_up_b}
+                "pocket_up_b": self.pocket_up_b, "held_in_pocket": self.held_in_pocket}
 
     @classmethod
     def from_state(cls, d: dict[str, Any], config: PlacementDetectConfig | None = None) -> PlacementDetector:
@@ -244,4 +254,5 @@ class PlacementDetector:
         o.strides = int(d.get("strides", o.config.switch_strides))   # absent in states saved before the settling
         up = d.get("pocket_up_b")                                     # absent in states saved before it
         o.pocket_up_b = None if up is None else [float(v) for v in up]
+        o.held_in_pocket = int(d.get("held_in_pocket", 0))
         return o

@@ -121,6 +121,11 @@ def test_a_pocket_phone_that_slows_down_stays_in_the_pocket_until_it_moves():
     assert [det.update(held) for _ in range(3)] == ["pocket", "pocket", "hand"]
     restored = PlacementDetector.from_state(det.state())
     assert restored.pocket_up_b == det.pocket_up_b
+    # A phone steady for longer than a slow-down (8 strides) while the steps go on is not on a thigh.
+    det = PlacementDetector(PlacementDetectConfig(switch_strides=3, pocket_hold_strides=8))
+    assert [det.update(pocket) for _ in range(4)] == ["pocket"] * 4
+    assert [det.update(gentle) for _ in range(11)] == ["pocket"] * 10 + ["hand"]
+    assert PlacementDetector.from_state(det.state()).held_in_pocket == det.held_in_pocket
     # Strides without the mean up direction (cues built by hand) follow the labels alone.
     det = PlacementDetector(PlacementDetectConfig(switch_strides=3))
     assert [det.update(c) for c in [pocket] * 4 + [StrideCues(6.0, 8.0, 0.95)] * 3][-1] == "hand"
