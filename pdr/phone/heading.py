@@ -104,11 +104,13 @@ def pca_axis(horizontal: FloatArray) -> tuple[float, float]:
     h = np.asarray(horizontal, dtype=np.float64)
     if h.ndim != 2 or h.shape[1] != 2 or h.shape[0] < 2:
         raise InputError("need (M >= 2, 2) horizontal vectors", source="heading")
-    d = h - h.mean(axis=0)
-    s = d.T @ d
-    ang = 0.5 * math.atan2(2.0 * s[0, 1], s[0, 0] - s[1, 1])
-    tr = s[0, 0] + s[1, 1]
-    det = s[0, 0] * s[1, 1] - s[0, 1] ** 2
+    # np.add.reduce / M is what h.mean(axis=0) computes; the 2x2 scatter's entries as Python floats (the same
+    # IEEE operations as on numpy scalars, without their dispatch per step).
+    d = h - np.add.reduce(h, axis=0) / h.shape[0]
+    s00, s01, _s10, s11 = (d.T @ d).ravel().tolist()
+    ang = 0.5 * math.atan2(2.0 * s01, s00 - s11)
+    tr = s00 + s11
+    det = s00 * s11 - s01 ** 2
     disc = math.sqrt(max(tr * tr / 4 - det, 0.0))
     l1, l2 = tr / 2 + disc, tr / 2 - disc
     return float(ang), float(l1 / max(l2, 1e-12))
@@ -302,7 +304,7 @@ def yaw_variance(q: FloatArray, p_q: FloatArray) -> float:
     A small navigation-frame rotation ``dphi`` moves ``q`` by ``dq = 0.5 [0, dphi] * q``; the yaw changes
     by ``dphi_z``, and ``dphi_z = 2 g^T dq`` with ``g = [0, 0, 0, 1] * q``, so ``var = 4 g^T P g``.
     """
-    w, x, y, z = (float(v) for v in q)
+    w, x, y, z = np.asarray(q, dtype=np.float64).tolist()
     g = np.array([-z, -y, x, w])                     # [0, 0, 0, 1] * q (Hamilton product)
     return max(float(4.0 * g @ p_q @ g), 1e-10)
 

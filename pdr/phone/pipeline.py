@@ -682,7 +682,7 @@ class PdrPipeline:
         mode = self.modes.corrected(rec.mode, nxt.mode if near and nxt is not None else None)
         on_stairs = mode in ("stairs_up", "stairs_down")
         turn = self.turns.turn(rec, on_stairs, self.placement)
-        length = float(c.step_length.length(np.array(rec.pats), on_stairs, turn))
+        length = c.step_length.step_length(rec.pats, on_stairs, turn)
         est, landmark, landmark_heading = self.stairs.correct(
             rec, mode, self.modes.prev_mode, HeadingEstimate(rec.yaw, rec.var), self.track, self.attitude.state,
             self.placement)
@@ -743,8 +743,11 @@ def _mean_finite(x: FloatArray) -> Any:
     """Mean over the first axis of ``x`` ((N,): a float; (N, k): a list of k floats), or None where any value
     is missing (no gyro).
     """
-    # x.sum / n is what np.mean computes (the same pairwise sum and division), without its dispatch per step.
-    return (x.sum(axis=0) / x.shape[0]).tolist() if x.size and np.isfinite(x).all() else None
+    # np.add.reduce / n is what np.mean computes (the same pairwise sum and division), without its dispatch per
+    # step; np.logical_and.reduce is ndarray.all's reduction.
+    if not x.size or not np.logical_and.reduce(np.isfinite(x), axis=None):
+        return None
+    return (np.add.reduce(x, axis=0) / x.shape[0]).tolist()
 
 
 def _placement_group(name: str | None) -> str | None:

@@ -37,6 +37,7 @@ from __future__ import annotations
 import json
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -81,15 +82,17 @@ def step_patterns(a_n: FloatArray, a_v: FloatArray, rate_hz: float) -> FloatArra
     if m < 2:
         raise InputError("a step needs at least two samples", source="step length")
     dur = m / rate_hz
-    dn = a_n - a_n.sum() / m
-    dv = a_v - a_v.sum() / m
+    # The ufuncs' reductions directly: what the array methods .sum/.max/.min call, without their wrappers (per step).
+    add, hi, lo = np.add.reduce, np.maximum.reduce, np.minimum.reduce
+    dn = a_n - add(a_n) / m
+    dv = a_v - add(a_v) / m
     return np.array([
         1.0 / dur,                                            # eq. 13
         float(dn @ dn) / m,                                   # eq. 14
         float(dv @ dv) / m,                                   # eq. 15
-        float(np.abs(a_n - GRAVITY_MPS2).sum() / rate_hz),    # eq. 16
-        float(a_n.max() - a_n.min()),                         # eq. 17
-        float(a_v.max() - a_v.min()),                         # eq. 18
+        float(add(np.abs(a_n - GRAVITY_MPS2)) / rate_hz),     # eq. 16
+        float(hi(a_n) - lo(a_n)),                             # eq. 17
+        float(hi(a_v) - lo(a_v)),                             # eq. 18
     ])
 
 
@@ -162,6 +165,22 @@ class StepLengthModel:
         p = np.asarray(patterns, dtype=np.float64)[..., PATTERNS.index(self.pattern)]
         s = np.clip(self.k * np.maximum(p, 0.0) ** self.q + self.b, self.min_m, self.max_m)
         return np.where(on_stairs, self.stairs_m, s * turn_factor(turn_rad, self.turn))
+
+    def step_length(self, patterns: Sequence[float], on_stairs: bool, turn_rad: float) -> float:
+        """:meth:`length` of one step (m): the same operations on Python floats, without the arrays of a batch.
+
+        ``np.maximum``, ``np.clip`` and ``np.where`` are written out with their comparisons (NaN passes through
+        the clamp as there); the power is the C library's ``pow`` in both, the turn factor the same ufunc.
+        """
+        if on_stairs:
+            return float(self.stairs_m)
+        p = float(patterns[PATTERNS.index(self.pattern)])
+        p = p if (p >= 0.0 or p != p) else 0.0                      # np.maximum(p, 0.0)
+        s = self.k * p ** self.q + self.b
+        if s == s:                                                  # np.clip(s, min_m, max_m)
+            s = s if s > self.min_m else self.min_m
+            s = s if s < self.max_m else self.max_m
+        return float(s * turn_factor(turn_rad, self.turn))
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
