@@ -41,7 +41,9 @@ class TrackState:
         self.east_m += length_m * c
         self.north_m += length_m * s
         j = np.array([[c, -length_m * s], [s, length_m * c]])
-        self.P = self.P + j @ np.diag([var_length, var_yaw]) @ j.T
+        # j * [a, b] scales j's columns: j @ diag(a, b) without the diagonal matrix (the same products; the
+        # dropped terms are zeros, which cannot change a sum onto a covariance that never holds -0.0).
+        self.P = self.P + (j * np.array([var_length, var_yaw])) @ j.T
         self.n_steps += 1
 
     def fix(self, east_m: float, north_m: float, var_m2: float) -> None:
