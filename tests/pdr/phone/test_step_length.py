@@ -112,3 +112,21 @@ def test_a_model_saved_before_the_turn_factor_loads_without_it(tmp_path):
     assert StepLengthModel.load(tmp_path / "old.json").turn == "none"
     StepLengthModel(k=0.5).save(tmp_path / "new.json")
     assert StepLengthModel.load(tmp_path / "new.json") == StepLengthModel(k=0.5)
+
+
+@pytest.mark.parametrize("model", [StepLengthModel(), StepLengthModel(pattern="p2", q=1.0 / 3.0, b=0.1, turn="none"),
+                                   StepLengthModel(pattern="p5", q=0.25, k=0.3, min_m=0.0)])
+def test_one_step_length_equals_the_batch_formula_bit_for_bit(model):
+    """The pipeline's per-step path (floats) gives exactly the batch path's lengths, clamps, stairs and NaN."""
+    rng = np.random.default_rng(7)
+    for i in range(3000):
+        p = rng.normal(0.0, 3.0, 6) * 10.0 ** rng.uniform(-3.0, 2.0)
+        if i % 97 == 0:
+            p[:] = np.nan
+        if i % 89 == 0:
+            p[:] = 0.0 if i % 2 else -0.0
+        turn, stairs = float(rng.uniform(-4.0, 4.0)), bool(rng.random() < 0.1)
+        batch = float(model.length(p, stairs, turn))
+        one = model.step_length(p.tolist(), stairs, turn)
+        assert isinstance(one, float)
+        assert np.float64(one).tobytes() == np.float64(batch).tobytes(), (p, stairs, turn)
