@@ -295,7 +295,7 @@ def mean_yaw(yaw: FloatArray) -> float:
     wrap at +/-pi does not matter (equal to the mean of the unwrapped angles for small spreads).
     """
     y = np.asarray(yaw, dtype=np.float64)
-    return math.atan2(float(np.sin(y).sum()), float(np.cos(y).sum()))
+    return math.atan2(float(np.add.reduce(np.sin(y))), float(np.add.reduce(np.cos(y))))   # = .sum(), per step
 
 
 def yaw_variance(q: FloatArray, p_q: FloatArray) -> float:

@@ -640,7 +640,7 @@ class PdrPipeline:
             o.confirmed(s, e, h)
         sl = h.sl(s, e)
         q = h.q[sl]
-        if q.shape[0] < 3 or not np.isfinite(q).all():
+        if q.shape[0] < 3 or not np.logical_and.reduce(np.isfinite(q), axis=None):   # = .all(), per step
             return []
         c = self.config
         if self.auto_placement:
