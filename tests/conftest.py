@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import importlib.util
 import os
 from pathlib import Path
+from types import ModuleType
 
 import pytest
 
@@ -12,6 +14,15 @@ SHARED_DATA = Path(os.environ.get("PDR_SHARED_DATA", REPO_ROOT.parent / "shared"
 # One numba cache for every server the tests start: `pdr serve` would otherwise compile all kernels afresh into each
 # test's new data directory (server.warmup). Set before numba is imported; inherited by the child processes.
 os.environ.setdefault("NUMBA_CACHE_DIR", str(REPO_ROOT / ".pytest_cache" / "numba"))
+
+
+def load_tool(name: str) -> ModuleType:
+    """The script ``tools/<name>.py`` as a module (the tools folder is not a package)."""
+    spec = importlib.util.spec_from_file_location(name, REPO_ROOT / "tools" / f"{name}.py")
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
 
 
 def data_path(*parts: str) -> Path:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 from types import ModuleType
 
 import numpy as np
@@ -10,16 +9,12 @@ import pytest
 
 from pdr.errors import InputError
 from pdr.evaluation.walking_recordings import MOBIFALL_WALKING
-from tests.conftest import REPO_ROOT, data_path
+from tests.conftest import data_path, load_tool
 
 
 @pytest.fixture(scope="module")
 def tool() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("walking_steps", REPO_ROOT / "tools" / "walking_steps.py")
-    assert spec is not None and spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_tool("walking_steps")
 
 
 @pytest.mark.data

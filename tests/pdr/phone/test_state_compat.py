@@ -3,7 +3,6 @@
 are refused with a message saying to reprocess."""
 
 import gzip
-import importlib.util
 import json
 import math
 from typing import Any
@@ -13,12 +12,9 @@ import pytest
 from pdr import state_codec
 from pdr.errors import InputError
 from pdr.phone.pipeline import STATE_FORMAT, PdrPipeline
-from tests.conftest import REPO_ROOT
+from tests.conftest import load_tool
 
-_spec = importlib.util.spec_from_file_location("regen_golden", REPO_ROOT / "tools" / "regen_golden.py")
-assert _spec is not None and _spec.loader is not None
-regen_golden = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(regen_golden)
+regen_golden = load_tool("regen_golden")
 
 
 def same_rows(a: Any, b: Any, rel: float = 1e-9) -> bool:
