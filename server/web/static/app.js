@@ -354,7 +354,7 @@
     clearNode($("session-warnings"));
     clearNode($("truth-panel"));
     $("geo-wrap").hidden = true;
-    if (geoMap) { geoMap.remove(); geoMap = null; }
+    if (geoMap) { geoMap.pdrResize.disconnect(); geoMap.remove(); geoMap = null; }
     // The track first, alone: it is what the view is for, and the server answers it fastest without
     // the detail request competing for it; the header, landmarks and truth follow.
     let track;
@@ -435,10 +435,18 @@
    * Mercator with the server's GeoJSON of the track in longitude/latitude (the server converts from local metres, so
    * the page has no Earth model of its own), over the operator's tiles (PDR_MAP_TILE_URL) when configured. A session
    * in local metres has no such map: the metric map above (trackmap.js: Leaflet, CRS.Simple) is its map. */
+  /** Leaflet notices a window resize, but not a box that changes size with the page's layout after it (a chart
+   * redrawn, a scroll bar gone): the map is told of every change of its box's size (it then fires "resize"). */
+  function watchBoxSize(leafletMap) {
+    const observer = new ResizeObserver(() => leafletMap.invalidateSize({ pan: false }));
+    observer.observe(leafletMap.getContainer());
+    return observer;
+  }
+
   async function renderGeoMap(gen) {
     const wrap = $("geo-wrap");
     const origin = current && current.detail && current.detail.origin;
-    if (geoMap) { geoMap.remove(); geoMap = null; }
+    if (geoMap) { geoMap.pdrResize.disconnect(); geoMap.remove(); geoMap = null; }
     delete $("geomap").dataset.features;
     if (!origin || typeof L === "undefined") { wrap.hidden = true; return; }
     const [config, geo] = await Promise.all([loadConfig(),
@@ -448,6 +456,7 @@
     const tiles = config.map && config.map.tile_url;
     // A view before any layer: Leaflet's vector renderer needs the map's pixel bounds when a path is added.
     geoMap = L.map($("geomap"), { crs: L.CRS.EPSG3857, zoomSnap: 0.25 }).setView([origin.lat_deg, origin.lon_deg], 18);
+    geoMap.pdrResize = watchBoxSize(geoMap);
     if (tiles) {
       L.tileLayer(tiles, { maxZoom: 22, maxNativeZoom: 19, attribution: config.map.attribution || "" }).addTo(geoMap);
     }
@@ -464,8 +473,8 @@
     }
     if (lines.length) {
       // Fitted now, and again when the map's box changes size (a phone turned, a window resized) until the user
-      // moves the map themselves.
-      const fit = () => geoMap.fitBounds(layer.getBounds(), { padding: [24, 24], maxZoom: 21 });
+      // moves the map themselves. Not animated: Leaflet drops a new view asked for while a zoom animation runs.
+      const fit = () => geoMap.fitBounds(layer.getBounds(), { padding: [24, 24], maxZoom: 21, animate: false });
       let moved = false;
       geoMap.on("dragstart", () => { moved = true; });
       geoMap.on("resize", () => { if (!moved) fit(); });

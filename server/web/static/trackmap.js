@@ -48,6 +48,9 @@ const TrackMap = (() => {
       this.map.on("zoom zoomend resize viewreset", () => this._updateScale());
       // A new size (a phone turned, a window resized) fits the data again unless the user chose the view.
       this.map.on("resize", () => { if (!this.moved) this.fit(); });
+      // Leaflet notices a window resize, not a box resized by the page's layout after it: told of both.
+      this.resizeObserver = new ResizeObserver(() => this.map.invalidateSize({ pan: false }));
+      this.resizeObserver.observe(container);
     }
 
     /** True when there is something to show. */
@@ -185,6 +188,7 @@ const TrackMap = (() => {
 
     /** Take the map off its element (another session is opened, or none). */
     remove() {
+      this.resizeObserver.disconnect();
       this.map.remove();
       while (this.el.firstChild) this.el.removeChild(this.el.firstChild);
       delete this.el.dataset.points;
