@@ -84,6 +84,19 @@ class AttitudeConfig:
         and 67 uT (World Magnetic Model), so a stronger one is a magnet or steel nearby, whatever the reference
         (which follows the measured field, ``mag_ref_tau_s``, and would follow a field that ramps up slowly as the
         phone nears a magnet); its rows are not used and the reference never follows above it.
+    sigma_a_moving
+        Accelerometer noise (m/s^2) of gravity rows taken while the device is not quasi-static (eq. 12 rejects the
+        sample); 0: none, seed 003's gate alone. A phone that moves with a limb (a trouser pocket's thigh, a
+        swinging arm) never passes eq. 12 while its user walks (0 % of the samples of the motion-capture benchmark's
+        swinging-hand and walking front-pocket recordings after the first stand), so with the gate alone its tilt
+        is observed by nothing for the whole walk and drifts with the gyro (tilt error 3.2 deg mean over the
+        benchmark, 9.3 on one swinging hand), and the magnetometer's three rows then share the field's
+        deflections between that tilt and the yaw. The limb's accelerations are periodic with the gait and average
+        out about gravity over a stride, so rows with a noise of the order of the limb's acceleration act as a
+        low-pass over several strides (the filter's gain on them is about ``sigma_gyro sqrt(ts) g / sigma``
+        per sample). Set per placement by :attr:`pdr.phone.pipeline.PipelineConfig.limb_sigma_a_moving`: a
+        hand-held phone keeps the gate alone (with these rows the hand-held IPIN and MS walks lost a little: in a
+        steel building the field's deflection is then taken by the yaw alone, as with ``mag_yaw_only``).
     mag_when_static
         Use magnetometer rows while stationary (False: a standing user sees one, possibly disturbed,
         field; its repeated samples are not independent measurements of north).
@@ -123,6 +136,7 @@ class AttitudeConfig:
     bias_dip_deg: float = 10.0
     mag_yaw_only: bool = False
     earth_field_max_uT: float = 70.0
+    sigma_a_moving: float = 0.0
 
     def params(self) -> FloatArray:
         return np.array([self.sigma_gyro, self.sigma_a, self.sigma_m, self.eps_a1, self.eps_a2, self.eps_m1,
@@ -131,7 +145,8 @@ class AttitudeConfig:
                          self.bias_tau_s, self.bias_smooth_s, self.bias_prior_s, self.gravity_tau_s,
                          self.mag_ref_tau_s, float(self.mag_when_static), math.radians(self.init_yaw_sigma_deg),
                          self.static_mag_std, self.bias_hold_s, self.bias_field_uT,
-                         math.radians(self.bias_dip_deg), float(self.mag_yaw_only), self.earth_field_max_uT])
+                         math.radians(self.bias_dip_deg), float(self.mag_yaw_only), self.earth_field_max_uT,
+                         self.sigma_a_moving])
 
 
 

@@ -365,6 +365,7 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
     bias_hold_s, bias_field, bias_dip = prm[23], prm[24], prm[25]
     mag_yaw_only = prm[26] > 0.5
     earth_max = prm[27]
+    sigma_a_moving = prm[28]
     n = acc.shape[0]
     out = np.empty((n, 4))
     used = np.zeros(n, dtype=np.int64)
@@ -508,7 +509,7 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
         for i in range(4):
             p[i, i] += 1e-12
         # Accept rows of the measurement model (eqs. 12-13).
-        use_a = quasi_static or not has_gyro
+        use_a = quasi_static or not has_gyro or sigma_a_moving > 0
         use_m = False
         if has_mag:
             mv = mag[k]
@@ -551,7 +552,7 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
             j = 0
             if use_a:
                 g_ref[0], g_ref[1], g_ref[2] = 0.0, 0.0, aux[AUX_G]
-                sa = sigma_a if has_gyro else 10.0 * sigma_a
+                sa = sigma_a if quasi_static else (sigma_a_moving if has_gyro else 10.0 * sigma_a)
                 for i in range(3):
                     z[i] = a[i]
                     r[i] = sa * sa
