@@ -18,7 +18,8 @@ misnames them):
   A leg also holds the level walk to and from the stairs, so the share is also given over the steps inside
   the leg's barometric stairs intervals (:func:`classifiers.datasets.ipin_mode_labels`: pressure changing, the
   phone stepping); that truth comes from the same barometer the pipeline reads, so it checks the labelling and
-  its lag, not the barometer;
+  its lag, not the barometer. The leg's other steps are *level* (the pressure holds: the walk to and from the
+  stairs, a landing); how many of them show ``walking`` is given too;
 * **elevator leg**: *reported* when an ``elevator_up/down`` entry of the right direction
   overlaps it, with the floor count the entry states (target: every ride reported, with its floor count).
 
@@ -162,9 +163,12 @@ def floor_figures(recs: Sequence[Recording], site: Site | None = None,
                 inside = (tl.step_t0_s >= leg.t0_s) & (tl.step_t1_s <= leg.t1_s)
                 right = inside & (tl.step_label == f"stairs_{leg.direction}")
                 climbing = inside & (on_stairs == f"stairs_{leg.direction}")
+                level = inside & ~np.isin(on_stairs, STAIRS_MODES)
                 row.update(steps=int(inside.sum()), stairs_right=int(right.sum()),
                            share=float(right.sum() / inside.sum()) if inside.any() else 0.0,
-                           climbing_steps=int(climbing.sum()), climbing_right=int((climbing & right).sum()))
+                           climbing_steps=int(climbing.sum()), climbing_right=int((climbing & right).sum()),
+                           level_steps=int(level.sum()),
+                           level_walking=int((level & (tl.step_label == "walking")).sum()))
             else:
                 found = [en for en in tl.entries if en.label == f"elevator_{leg.direction}"
                          and en.t_end_s > leg.t0_s and en.t_start_s < leg.t1_s]
@@ -186,6 +190,8 @@ def floor_figures(recs: Sequence[Recording], site: Site | None = None,
         "stairs_leg_share": (sum(r["stairs_right"] for r in stairs_legs) / n_steps) if n_steps else None,
         "climbing_steps": n_climb,
         "climbing_share": (sum(r["climbing_right"] for r in stairs_legs) / n_climb) if n_climb else None,
+        "level_steps": sum(r["level_steps"] for r in stairs_legs),
+        "level_walking": sum(r["level_walking"] for r in stairs_legs),
         "elevator_rides": len(rides), "elevator_rides_reported": sum(1 for r in rides if r["reported"]),
         "elevator_rides_floors_right": sum(1 for r in rides if r["floors_right"]),
         "elevator_walk_stairs_steps": sum(w["stairs_steps"] for w in elevator_walks),
@@ -199,12 +205,14 @@ def print_floor_figures(fig: dict[str, Any]) -> None:
           if share is not None else "stairs legs: none")
     if fig["climbing_share"] is not None:
         print(f"  inside the barometric stairs intervals: {fig['climbing_share']:.3f} of {fig['climbing_steps']} steps")
+        print(f"  level steps of the legs (pressure holding): {fig['level_walking']} of {fig['level_steps']} "
+              "labelled walking")
     for r in fig["legs"]:
         head = f"  {r['recording']} {r['t0_s']:7.1f}-{r['t1_s']:7.1f} s {r['kind']:8s} " \
                f"{r['from_floor']:+.0f}->{r['to_floor']:+.0f}"
         if r["kind"] == "stairs":
             print(f"{head}: {r['stairs_right']}/{r['steps']} steps, climbing {r['climbing_right']}/"
-                  f"{r['climbing_steps']}")
+                  f"{r['climbing_steps']}, level walking {r['level_walking']}/{r['level_steps']}")
         else:
             print(f"{head}: {'reported' if r['reported'] else 'MISSED'}, floors {r['floors_reported']}")
     print(f"elevator rides: {fig['elevator_rides_reported']} of {fig['elevator_rides']} reported, "

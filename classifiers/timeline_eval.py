@@ -8,12 +8,18 @@
   phones only (the placement is printed with each recording).
 * **Driving**: for a recording whose truth modes are ``vehicle``, the fraction of its windows labelled vehicle.
 * **Stops**: in recordings with surveyed landmarks (IPIN), a truth stop is two consecutive landmarks at the same
-  place (under ``SAME_PLACE_M`` apart horizontally) passed at least ``MIN_TRUTH_STOP_S`` apart; on the same floor
-  it is standing, on different floors an elevator ride (the rider stands in the cabin). A stop *appears* when the
-  entries of its kind (``standing``; ``elevator_up/down``) in the service's step-mode timeline
-  (:func:`classifiers.floor_eval.step_timeline`: the phone pipeline, the stop rule, the rides) cover at least
-  ``MIN_COVERAGE`` of it. ``coverage_rule`` is the same for the stop rule alone
-  (:func:`classifiers.stops.stop_intervals` on :func:`classifiers.stops.step_intervals`), any label.
+  place (under ``SAME_PLACE_M`` apart horizontally) passed at least ``MIN_STOP_S`` (2 s, the timeline's shortest
+  stop) apart; on the same floor it is standing, on different floors an elevator ride (the rider stands in the
+  cabin). In recordings with mode truth (simulated logs), every interval labelled one of ``STILL_TRUTH_LABELS`` for
+  ``MIN_STOP_S`` or more is a standing stop. A stop *appears* when the entries of its kind in the timeline the
+  service shows for the recording's placement cover at least ``MIN_COVERAGE`` of it: for a phone the shipped model
+  takes (:func:`classifiers.artifacts.placement_model`, placement from the log's metadata) the model's windows
+  labelled one of ``STILL_CLASSES`` (each window holds the hop around its centre); otherwise the step-mode timeline
+  (:func:`classifiers.floor_eval.step_timeline`: the phone pipeline, the stop rule, the rides) and its
+  ``standing`` or ``elevator_up/down`` entries. ``coverage_rule`` is the same for the stop rule alone
+  (:func:`classifiers.stops.stop_intervals` on :func:`classifiers.stops.step_intervals`), any label. The issue's
+  two stop targets are the stops of ``MIN_TRUTH_STOP_S`` (5 s) or more in the landmark walks, and every stop of
+  ``MIN_STOP_S`` or more as its own entry.
 """
 
 from __future__ import annotations
@@ -24,33 +30,41 @@ from typing import Any
 
 import numpy as np
 
+from classifiers.artifacts import placement_model
 from classifiers.floor_eval import TimelineOf, step_timeline
-from classifiers.model import ContextModel
-from classifiers.stops import Stop, step_intervals, stop_intervals
+from classifiers.model import ContextModel, WindowResults
+from classifiers.stops import MIN_STOP_S, STOP_LABEL, Stop, step_intervals, stop_intervals
 from classifiers.transitions import TRANSITIONS
 from classifiers.windows import make_windows
 from pdr.errors import InputError
+from pdr.phone.configure import placement_group
 from pdr.recording import Recording
 
 #: Landmarks closer than this (m) horizontally are the same place.
 SAME_PLACE_M = 1.0
-#: Shortest truth stop (s) checked (the issue's target: every stop of 5 s or more).
+#: Shortest landmark stop (s) of the issue's standing target (every stop of 5 s or more in the IPIN walks).
 MIN_TRUTH_STOP_S = 5.0
+#: Truth mode labels of a person at rest (simulated logs, MobiFall).
+STILL_TRUTH_LABELS = ("standing", "stationary", "sitting")
+#: The shipped model's classes of a person at rest (a stop on a pocket phone's timeline).
+STILL_CLASSES = ("stationary", "sitting")
 #: Fraction of a truth stop the detected stops must cover for it to count as found.
 MIN_COVERAGE = 0.5
 
 VEHICLE_LABELS = ("vehicle", *TRANSITIONS)
 
 
-def truth_stops(rec: Recording) -> list[tuple[float, float, str]]:
-    """Truth stops ``(t0_s, t1_s, kind)`` from consecutive landmarks at one place (module docstring)."""
+def truth_stops(rec: Recording, min_s: float = MIN_TRUTH_STOP_S) -> list[tuple[float, float, str]]:
+    """Truth stops ``(t0_s, t1_s, kind)`` of ``min_s`` (s) or more from consecutive landmarks at one place
+    (module docstring).
+    """
     pos = rec.truth.positions
     if pos is None or pos.kind != "landmark" or len(pos) < 2:
         return []
     out = []
     for i in range(len(pos) - 1):
         dt = float(pos.t_s[i + 1] - pos.t_s[i])
-        if dt < MIN_TRUTH_STOP_S or np.linalg.norm(pos.pos_m[i + 1, :2] - pos.pos_m[i, :2]) >= SAME_PLACE_M:
+        if dt < min_s or np.linalg.norm(pos.pos_m[i + 1, :2] - pos.pos_m[i, :2]) >= SAME_PLACE_M:
             continue
         assert pos.floor is not None
         f0, f1 = float(pos.floor[i]), float(pos.floor[i + 1])
@@ -58,6 +72,31 @@ def truth_stops(rec: Recording) -> list[tuple[float, float, str]]:
             ("elevator_up" if f1 > f0 else "elevator_down")
         out.append((float(pos.t_s[i]), float(pos.t_s[i + 1]), kind))
     return out
+
+
+def mode_truth_stops(rec: Recording, min_s: float = MIN_STOP_S) -> list[tuple[float, float, str]]:
+    """Standing stops ``(t0_s, t1_s, "standing")`` of ``min_s`` (s) or more from the mode truth (module docstring);
+    adjacent still intervals (standing, then sitting) are one stop.
+    """
+    m = rec.truth.modes
+    if m is None:
+        return []
+    still = sorted((float(a), float(b)) for a, b, lab in zip(m.t_start_s, m.t_end_s, m.label, strict=True)
+                   if lab in STILL_TRUTH_LABELS)
+    merged: list[list[float]] = []
+    for a, b in still:
+        if merged and a <= merged[-1][1] + 1e-6:
+            merged[-1][1] = max(merged[-1][1], b)
+        else:
+            merged.append([a, b])
+    return [(a, b, STOP_LABEL) for a, b in merged if b - a >= min_s]
+
+
+def still_windows(res: WindowResults, hop_s: float) -> list[Stop]:
+    """The model's windows labelled one of ``STILL_CLASSES``, each as the ``hop_s`` (s) around its centre."""
+    mid = 0.5 * (np.asarray(res.t_start_s) + np.asarray(res.t_end_s))
+    still = np.isin(np.asarray(res.label, dtype=object), STILL_CLASSES)
+    return [Stop(float(c - 0.5 * hop_s), float(c + 0.5 * hop_s)) for c in mid[still]]
 
 
 def coverage(stops: Sequence[Stop], t0: float, t1: float) -> float:
@@ -80,28 +119,45 @@ def timeline_figures(model: ContextModel, recs: Sequence[Recording],
     walks: list[dict[str, Any]] = []
     driving: list[dict[str, Any]] = []
     stops_rows: list[dict[str, Any]] = []
+    pocket = placement_model("pocket")
     for rec in recs:
         name = Path(rec.source).name if rec.source else "?"
-        if rec.truth.positions is not None and rec.truth.positions.kind == "landmark":
-            truth = truth_stops(rec)
-            if truth:
-                found = stop_intervals(rec, step_intervals(rec))
-                entries = timeline_of(rec).entries
-                for t0, t1, kind in truth:
-                    cov = coverage([Stop(e.t_start_s, e.t_end_s) for e in entries if e.label == kind], t0, t1)
-                    stops_rows.append({"recording": name, "t0_s": t0, "t1_s": t1, "kind": kind, "coverage": cov,
-                                       "coverage_rule": coverage(found, t0, t1), "found": cov >= MIN_COVERAGE})
-        if _is_car_scene(rec):
-            continue
+        res = raw_res = None
         try:
             model.check_recording(rec)
         except InputError:
+            pass
+        else:
+            raw_res = model.predict_windows(make_windows(rec, model.window, margin_s=model.margin_s))
+            res = model.gated(raw_res)
+        truth = truth_stops(rec, MIN_STOP_S) + mode_truth_stops(rec)
+        if truth and not rec.device.is_foot:  # a shoe IMU's modes come from pdr foot, not a phone timeline
+            by_model = res is not None and pocket is not None and \
+                placement_model(placement_group(rec.device.placement)) == pocket
+            if by_model:
+                assert res is not None
+                shown: dict[str, list[Stop]] = {STOP_LABEL: still_windows(res, model.window.hop_s)}
+            else:
+                shown = {}
+                for e in timeline_of(rec).entries:
+                    shown.setdefault(e.label, []).append(Stop(e.t_start_s, e.t_end_s))
+            found = stop_intervals(rec, step_intervals(rec))
+            for t0, t1, kind in truth:
+                cov = coverage(shown.get(kind, []), t0, t1)
+                stops_rows.append({"recording": name, "t0_s": t0, "t1_s": t1, "kind": kind,
+                                   "landmarks": rec.truth.positions is not None
+                                   and rec.truth.positions.kind == "landmark",
+                                   "timeline": "model" if by_model else "steps", "coverage": cov,
+                                   "coverage_rule": coverage(found, t0, t1), "found": cov >= MIN_COVERAGE})
+        if _is_car_scene(rec):
+            continue
+        if res is None:
             if not _is_driving(rec):
                 walks.append({"recording": name, "windows": 0, "vehicle_labels": 0, "ungated_vehicle_labels": 0,
                               "note": "not classifiable (missing stream): step modes"})
             continue
-        raw_res = model.predict_windows(make_windows(rec, model.window, margin_s=model.margin_s))
-        labels = np.asarray(model.gated(raw_res).label, dtype=object)
+        assert raw_res is not None
+        labels = np.asarray(res.label, dtype=object)
         ungated = np.asarray(raw_res.label, dtype=object)
         if _is_driving(rec):
             driving.append({"recording": name, "windows": int(labels.size),
@@ -111,7 +167,7 @@ def timeline_figures(model: ContextModel, recs: Sequence[Recording],
             raw = int(np.isin(ungated, VEHICLE_LABELS).sum())
             walks.append({"recording": name, "placement": rec.device.placement, "windows": int(labels.size),
                           "vehicle_labels": bad, "ungated_vehicle_labels": raw})
-    n_truth = len(stops_rows)
+    long_stops = [r for r in stops_rows if r["landmarks"] and r["t1_s"] - r["t0_s"] >= MIN_TRUTH_STOP_S]
     return {
         "walks": walks, "driving": driving, "stops": stops_rows,
         "walk_recordings": len(walks),
@@ -121,8 +177,10 @@ def timeline_figures(model: ContextModel, recs: Sequence[Recording],
         "driving_vehicle_fraction": (float(np.average([d["vehicle_fraction"] for d in driving],
                                                       weights=[d["windows"] for d in driving]))
                                      if driving and sum(d["windows"] for d in driving) else None),
-        "truth_stops": n_truth,
-        "truth_stops_found": sum(1 for s in stops_rows if s["found"]),
+        "truth_stops": len(long_stops),
+        "truth_stops_found": sum(1 for s in long_stops if s["found"]),
+        "short_stops": sum(1 for s in stops_rows if s["kind"] == STOP_LABEL),
+        "short_stops_found": sum(1 for s in stops_rows if s["kind"] == STOP_LABEL and s["found"]),
     }
 
 
@@ -139,6 +197,9 @@ def print_timeline(fig: dict[str, Any]) -> None:
         print(f"driving {d['recording']}: {d['vehicle_fraction']:.3f} of {d['windows']} windows vehicle")
     print(f"truth stops of {MIN_TRUTH_STOP_S:.0f} s or more (IPIN landmarks): {fig['truth_stops_found']} of "
           f"{fig['truth_stops']} covered >= {MIN_COVERAGE:.0%} by timeline entries of their kind")
+    print(f"standing stops of {MIN_STOP_S:.0f} s or more (landmarks, mode truth): {fig['short_stops_found']} of "
+          f"{fig['short_stops']} covered >= {MIN_COVERAGE:.0%} by still entries")
     for s in fig["stops"]:
         print(f"  {s['recording']} {s['t0_s']:7.1f}-{s['t1_s']:7.1f} s {s['kind']:13s} coverage "
-              f"{s['coverage']:.2f} (stop rule alone {s['coverage_rule']:.2f}){'' if s['found'] else '  MISSED'}")
+              f"{s['coverage']:.2f} on the {s['timeline']} timeline (stop rule alone {s['coverage_rule']:.2f})"
+              f"{'' if s['found'] else '  MISSED'}")

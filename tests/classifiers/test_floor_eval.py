@@ -51,3 +51,15 @@ def test_ipin_standing_labels_the_stop_between_two_landmarks_at_one_place():
     assert inside >= 0.8 * 36.0
     labels = ipin_mode_labels(rec)
     assert labels is not None and labels.at(np.array([136.0]))[0] == "standing"
+
+
+@pytest.mark.data
+@pytest.mark.slow
+def test_stairs_legs_split_into_climbing_and_level_steps():
+    rec = read_recording(data_path("ipin2023_t3", "mat", "IPIN2023_T3_TrainingTrial51_repetition01.mat"))
+    fig = floor_figures([rec])
+    for leg in fig["legs"]:
+        assert leg["climbing_steps"] + leg["level_steps"] <= leg["steps"]  # the rest: barometric stairs the other way
+    # Most of the legs' level steps (the walk to the stairs, the landings) show walking, not stairs.
+    assert fig["level_steps"] > 0 and fig["level_walking"] >= 0.8 * fig["level_steps"]
+    assert fig["climbing_share"] >= 0.85

@@ -31,6 +31,8 @@ def test_timeline_figures_stop_pocket_rest_and_driving():
         data_path("driving_phone_mount", "17"))]
     fig = timeline_figures(load_model("motion_mode"), recs)
     assert fig["truth_stops"] == fig["truth_stops_found"] == 1
+    # Stops of 2 s or more: the walk's landmark stop and the simulated pocket walk's two, each its own entry.
+    assert fig["short_stops"] == fig["short_stops_found"] == 3
     office = next(w for w in fig["walks"] if w["recording"] == "pocket_office.zip")
     assert office["vehicle_labels"] == 0 and office["ungated_vehicle_labels"] > 0  # the gate is what removes them
     assert fig["driving"][0]["vehicle_fraction"] >= 0.9
@@ -51,6 +53,8 @@ def test_eval_classifier_targets_cli(capsys):
     by_name = {r["target"]: r for r in fig["targets"]}
     walks = by_name["walking recordings with a car_*/vehicle label"]
     assert walks["value"] == "0 of 2" and walks["met"] is True
+    stops = by_name["stops of 2 s or more appearing as their own (still) entry"]
+    assert stops["value"] == "4 of 4" and stops["met"] is True  # each walk starts and ends standing
     # No landmarks, no car trip, no floor legs in simulated logs: those targets say so instead of passing.
     assert by_name["stops of 5 s or more (IPIN landmarks) appearing as standing"]["met"] is None
     assert by_name["driving windows labelled vehicle"]["met"] is None
