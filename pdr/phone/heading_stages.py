@@ -47,8 +47,10 @@ from pdr.phone.track import TrackState
 from pdr.phone.walking_direction import (
     DeviceFrameDirection,
     DeviceSwingAxis,
+    PocketSide,
     WalkingLineFilter,
     step_frequency_axis,
+    step_lead,
     swing_plane_axis,
     turn_evidence,
     yaw_rate,
@@ -152,6 +154,7 @@ class PocketHeading:
         self.pocket_direction = DeviceFrameDirection()   # pocket's forward/backward continuity
         self.pocket_line = WalkingLineFilter()           # pocket's walking line from stride to stride
         self.stride_s: list[float] = []                  # durations (s) of the last strides (the gait)
+        self.pocket_side = PocketSide()                  # front or back of the thigh: the turn lead
 
     def _walking_gait(self, stride_s: float) -> tuple[bool, bool]:
         """Whether the walker walks (not runs), and whether this stride spans one gait cycle.
@@ -172,6 +175,7 @@ class PocketHeading:
         self.swing_axis = DeviceSwingAxis()
         self.pocket_direction = DeviceFrameDirection()
         self.pocket_line = WalkingLineFilter()
+        self.pocket_side = PocketSide()
 
     def estimate(self, win: StepWindow, placement: str) -> StepHeading:
         h, s, e = win.history, win.s, win.e
@@ -214,6 +218,12 @@ class PocketHeading:
             if reversed_direction:
                 psi0 = float(wrap_angle(psi0 + math.pi))
                 self.pocket_direction.reverse()
+            if swing_axis and walking and whole_stride:
+                # In front of the thigh the swing plane trails the path through turns; behind it, it does not
+                # (pdr.phone.walking_direction module doc, "Trouser pocket: front or back").
+                self.pocket_side.update(f_str, psi0)
+                psi0 = float(wrap_angle(psi0 + self.pocket_side.lead_weight()
+                                        * step_lead(q_str, self.rate_hz, q_str.shape[0] - q.shape[0])))
         m1 = scatter_of(f_str, win.att_q)
         if swing_axis or placement == "swinging":
             est = HeadingEstimate(psi0, yaw_variance(win.att_q, win.att_p) + self.process_var)
@@ -236,7 +246,8 @@ class PocketHeading:
         return {"prev_yaw": self.prev_yaw, "prev_step_start": self.prev_step_start,
                 "direction_score": self.direction_vote.score, "direction_votes": self.direction_vote.n,
                 "swing_axis": self.swing_axis.state(), "pocket_direction": self.pocket_direction.state(),
-                "pocket_line": self.pocket_line.state(), "stride_s": list(self.stride_s)}
+                "pocket_line": self.pocket_line.state(), "stride_s": list(self.stride_s),
+                "pocket_side": self.pocket_side.state()}
 
     @classmethod
     def from_state(cls, d: dict[str, Any], rate_hz: float, pocket_axis: str, process_var: float,
@@ -253,6 +264,8 @@ class PocketHeading:
         if d.get("pocket_line") is not None:        # absent in states saved before the walking-line filter
             o.pocket_line = WalkingLineFilter.from_state(d["pocket_line"])
         o.stride_s = [float(v) for v in d.get("stride_s", [])]   # absent in states saved before the gait
+        if d.get("pocket_side") is not None:        # absent in states saved before the pocket's side
+            o.pocket_side = PocketSide.from_state(d["pocket_side"])
         return o
 
 

@@ -11,6 +11,7 @@ from pdr.frames import GRAVITY_MPS2, wrap_angle
 from pdr.phone.walking_direction import (
     DeviceFrameDirection,
     DeviceSwingAxis,
+    PocketSide,
     WalkingLineFilter,
     body_angular_rate,
     step_frequency_axis,
@@ -327,3 +328,35 @@ def test_the_gait_is_the_bouts_and_a_harmonic_needs_one_stride():
     # The recent strides are kept with the state.
     again = PocketHeading.from_state(head.state(), 50.0, "swing", 0.0, AttitudeConfig(), False, "pocket")
     assert again.stride_s == head.stride_s
+
+
+def _thigh_point_specific_force(walk_yaw: float, offset_m: float, rng: np.random.Generator) -> np.ndarray:
+    """Specific force (N, 3, ENU) of a point on a thigh swinging +/-30 deg about the hip over one 1.1 s stride,
+    0.25 m down the thigh and ``offset_m`` in front of its long axis (negative: behind it), with the body's own
+    step-frequency bounce and sensor noise."""
+    t = np.arange(110) / RATE
+    theta = math.radians(30) * np.sin(2 * math.pi * t / 1.1)
+    fwd = 0.25 * np.sin(theta) + offset_m * np.cos(theta)
+    up = -0.25 * np.cos(theta) + offset_m * np.sin(theta)
+    acc_fwd = np.gradient(np.gradient(fwd, 1 / RATE), 1 / RATE)
+    acc_up = np.gradient(np.gradient(up, 1 / RATE), 1 / RATE) + 1.0 * np.cos(4 * math.pi * t / 1.1)
+    f = np.column_stack([acc_fwd * math.cos(walk_yaw), acc_fwd * math.sin(walk_yaw), acc_up + GRAVITY_MPS2])
+    return f + rng.normal(0.0, 0.3, f.shape)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_pocket_side_tells_front_from_back_of_the_thigh(seed):
+    """A phone in front of the thigh's long axis rises as the thigh swings forward (forward and vertical specific
+    force covary): the full half-step lead; behind it they covary the other way: no lead. Walking the other way
+    along the same line reads the side the other way round (the direction must be the resolved one)."""
+    rng = np.random.default_rng(seed)
+    yaw = rng.uniform(-math.pi, math.pi)
+    front, back, front_reversed = PocketSide(), PocketSide(), PocketSide()
+    for _ in range(30):
+        front.update(_thigh_point_specific_force(yaw, 0.1, rng), yaw)
+        back.update(_thigh_point_specific_force(yaw, -0.1, rng), yaw)
+        front_reversed.update(_thigh_point_specific_force(yaw, 0.1, rng), yaw + math.pi)
+    assert front.lead_weight() == 1.0
+    assert back.lead_weight() == 0.0 and front_reversed.lead_weight() == 0.0
+    assert PocketSide.from_state(front.state()) == front
+    assert PocketSide().lead_weight() == 0.0      # no evidence yet: no lead
