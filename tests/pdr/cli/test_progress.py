@@ -237,9 +237,14 @@ def test_a_drawn_bar_keeps_its_clock_running_during_a_long_stage_and_stops_at_cl
         assert tty.so_far().count("\x1b[2K") >= first + 3 and "0/2 uploading" in plain(tty.so_far())
     finally:
         bar.close()
+    closed = re.compile(re.escape("\x1b[?25h") + r".*\x1b\[2K$", re.S)   # cursor shown again, the bar erased
+    for _ in range(500):   # the reading thread catches up
+        if closed.search(tty.so_far()):
+            break
+        threading.Event().wait(0.01)
     after = tty.so_far()
-    threading.Event().wait(0.05)
-    assert tty.so_far() == after and screen(after) == []   # erased, and nothing drawn after close
+    threading.Event().wait(0.05)   # 5 of the bar's redraw periods
+    assert closed.search(after) and tty.so_far() == after and screen(after) == []   # nothing drawn after close
 
 
 def _sha(folder: Path) -> dict[str, str]:
