@@ -51,7 +51,7 @@ def test_unknown_command_error_lists_every_command(capsys: pytest.CaptureFixture
 
 def test_inspect_does_not_import_the_heavy_plugins() -> None:
     heavy = ("sklearn", "xgboost", "flask", "sqlalchemy", "matplotlib", "scipy.signal", "scipy.optimize",
-             "classifiers", "server")
+             "classifiers", "server", "rich")
     code = ("import json, sys; from pdr.cli import build_parser; build_parser(['inspect', 'LOG']); "
             f"print(json.dumps([m for m in {heavy!r} if m in sys.modules]))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120)
@@ -60,7 +60,7 @@ def test_inspect_does_not_import_the_heavy_plugins() -> None:
 
 def test_help_lists_every_command_without_importing_the_plugins() -> None:
     heavy = ("numba", "scipy", "sklearn", "flask", "matplotlib", "classifiers.cli", "server.cli", "pdr.cli.track",
-             "pdr.cli.allan", "pdr.pipeline")
+             "pdr.cli.allan", "pdr.pipeline", "rich")   # rich: imported by a progress bar drawn on a terminal only
     code = ("import json, sys; from pdr.cli import build_parser; p = build_parser(['--help']); "
             "sub = next(a for a in p._actions if a.dest == 'command'); "
             f"print(json.dumps([sorted(sub.choices), [m for m in {heavy!r} if m in sys.modules]]))")
