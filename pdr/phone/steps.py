@@ -435,8 +435,8 @@ def _detect_kernel(d: FloatArray, st: FloatArray, fs: float, min_peak: float, pe
                    amp_tau: float, beat_peak: float, beat_tol: float,
                    max_step: int, floor_gain: float, floor_tau: float,
                    noise_peak: float, track_corr: bool, min_corr: float, min_lag: int,
-                   max_lag: int, steady: NDArray[np.bool_],
-                   steady_corr: float) -> tuple[IntArray, FloatArray, IntArray, FloatArray, NDArray[np.bool_], IntArray]:
+                   max_lag: int, steady: NDArray[np.bool_], steady_corr: float
+                   ) -> tuple[IntArray, FloatArray, IntArray, FloatArray, NDArray[np.bool_], IntArray]:
     """Crossing/peak state machine over ``d = a_n - reference``; returns accepted and soft starts as (start, peak,
     decided_at, periodicity there, soft, lag of the periodicity's peak in samples).
 
@@ -923,16 +923,19 @@ class StepDetector:
     def _steady(self, grav: FloatArray) -> NDArray[np.bool_]:
         """(N,) True where the phone is held at a steady tilt: the RMS angle (deg) of the unit gravity direction
         ``grav`` (N, 3, device frame) about its running mean, both exponential windows of ``floor_tau_s``, is at most
-        ``steady_tilt_deg`` (small angles: the chord is the angle in rad). All False when the rule is off.
+        ``steady_tilt_deg`` (small angles: the chord is the angle in rad), starting unsteady. All False when the rule is
+        off.
         """
         c = self.config
         if not c.steady_tilt_deg > 0:
             return np.zeros(grav.shape[0], dtype=bool)
         alpha = 1.0 / (c.floor_tau_s * self.rate_hz)
         b, a = np.array([alpha]), np.array([1.0, alpha - 1.0])
-        if self._tzi is None:
+        if self._tzi is None or self._dzi is None:
+            # A detector that has seen nothing yet does not take the phone for steady: the deviation starts at twice
+            # the limit and needs about floor_tau_s * ln 4 of steady holding to come under it.
             self._tzi = np.outer(iir.lfilter_zi(b, a), grav[0])
-            self._dzi = np.zeros(1)
+            self._dzi = iir.lfilter_zi(b, a) * math.radians(2.0 * c.steady_tilt_deg) ** 2
         m, self._tzi = iir.lfilter(b, a, grav, self._tzi)
         dev, self._dzi = iir.lfilter(b, a, np.sum((grav - m) ** 2, axis=1), self._dzi)
         return np.degrees(np.sqrt(np.maximum(dev, 0.0))) <= c.steady_tilt_deg
