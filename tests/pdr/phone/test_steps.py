@@ -9,7 +9,7 @@ import pytest
 from pdr.errors import InputError
 from pdr.phone import steps as steps_mod
 from pdr.phone.steps import StepConfig, StepDetector, Steps, detect_steps
-from tests.conftest import data_path
+from tests.conftest import data_path, load_tool
 
 FS = 50.0
 #: The fixed peak floor alone (min_peak): no automatic gain, no slow walker's missed steps, no gait periodicity.
@@ -647,3 +647,49 @@ def test_real_lone_short_walk_gets_steps_and_car_entries_none():
         grid.push(rec)
         acc = np.vstack([grid.pull()[1]["acc"], grid.flush()[1]["acc"]])
         assert len(detect_steps(acc, FS)) == 0, (code, name)
+
+
+def test_state_saved_before_the_held_phone_gate_loads():
+    acc, _ = _gentle_hand_walk(6)
+    det = StepDetector(FS)
+    a, _ = det.update(acc[:400])
+    state = det.state()
+    del state["tzi"], state["dzi"]                          # a state saved before the gate
+    b, _ = StepDetector.from_state(state).update(acc[400:], final=True)
+    assert len(a) + len(b) == len(detect_steps(acc, FS))
+
+
+def test_held_phone_gate_needs_a_steady_tilt():
+    # The gentle walk held steady: not steady before the detector has seen it held (about 4 s), then steady. Turned by
+    # 90 deg over 2 s (putting the phone away): not steady while it turns.
+    acc, _ = _gentle_hand_walk(6)
+    det = StepDetector(FS)
+    steady = det._steady(det._gravity_dir(acc))
+    assert not steady[:int(FS)].any() and steady[6 * int(FS):].mean() > 0.95
+    times = 2.0 + 0.55 * np.arange(5)
+    turned = turning_walk(times, np.full(5, 3.0), times[-1] + 3.0, turn_from_s=times[0], turn_s=2.0, turn_deg=90.0)
+    det = StepDetector(FS)
+    steady = det._steady(det._gravity_dir(turned))
+    assert not steady[int(3.0 * FS):int(5.0 * FS)].any()
+    assert not StepDetector(FS, StepConfig(steady_tilt_deg=0.0))._steady(det._gravity_dir(acc)).any()
+
+
+@pytest.mark.data
+def test_real_texting_walks_keep_their_steps():
+    # attitude_smartphones, phone held in reading position: the norm carries each step as a small multi-humped
+    # signal whose stride periodicity stays at 0.3-0.5, so the gated automatic gain kept most steps soft and the
+    # walks broke into bouts too short to confirm. Matched to the motion capture's steps (tools/walking_steps.py):
+    # Guillaume NoDist (tuning walker) 55 of 134 before the held-phone gate, Jakob Dist (confirmation walker) 49 of
+    # 151; with it 82 and 68, with no more steps than true.
+    from pdr.io import read_recording
+    from pdr.phone.pipeline import PipelineConfig
+    tool = load_tool("walking_steps")
+    matched, true = 0, 0
+    for name in ("Guillaume_Nexus5_NoDist_Texting", "Jakob_Nexus5_Dist_Texting"):
+        rec = read_recording(data_path("attitude_smartphones", "android", name))
+        times, _ = tool.pipeline_step_times(rec, StepConfig(), PipelineConfig().rate_hz)
+        truth = tool.mocap_step_times(*tool.mocap_trajectory(rec))
+        hits, _ = tool.matched_steps(times, truth)
+        assert hits >= 0.4 * truth.size and times.size <= truth.size, name
+        matched, true = matched + hits, true + truth.size
+    assert matched >= 0.5 * true
