@@ -131,6 +131,11 @@ class PipelineConfig:
         keeps ``attitude.sigma_a_moving`` for every placement. Chosen on the motion-capture benchmark's tuning
         walker among 0.75, 1.5 and 3 (walking direction 14.1, 13.9, 14.2 deg causal; ``pdr eval heading``), and
         confirmed on the other (15.6, 14.3, 14.4; 15.2 without).
+    limb_mag_bias_gain
+        ``attitude.mag_bias_gain`` (1/s^2) once the placement is a trouser pocket or a swinging hand (None keeps
+        ``attitude.mag_bias_gain`` for every placement). Not for a hand-held phone: in the IPIN steel building the
+        field's deflection changes slowly along the corridors, and the integral took it for a bias (the hand-held
+        IPIN walks' smoothed p75 rose from 3.02 to 3.74 m with it, ``pdr eval ipin``).
     pocket_axis
         Trouser pocket: the walking line from the thigh's swing plane (``swing``, :mod:`pdr.phone.walking_direction`),
         from seed 003's improved RMPCA of the specific force through the second UKF (``rmpca``), or ``auto``:
@@ -170,6 +175,7 @@ class PipelineConfig:
     history_s: float = 30.0
     device_heading_sigma_gyro: float | None = 0.02
     limb_sigma_a_moving: float | None = 1.5
+    limb_mag_bias_gain: float | None = 0.0025
     drift_elimination: bool = True
     pocket_axis: str = "auto"
     step: StepConfig = field(default_factory=StepConfig)
@@ -602,17 +608,19 @@ class PdrPipeline:
         self.attitude.set_config(replace(att, bias_prior_s=att.compensated_bias_prior_s))
 
     def _placement_known(self) -> None:
-        """Attitude parameters of the placement: ``device_heading_sigma_gyro`` for hand and torso and
-        ``limb_sigma_a_moving`` for a trouser pocket and a swinging hand, from the first step on (the same sample
-        whether the placement came from the configuration, a provider or the detector), and the configured values
-        again when a detected placement changes to another carriage.
+        """Attitude parameters of the placement: ``device_heading_sigma_gyro`` for hand and torso,
+        ``limb_sigma_a_moving`` and ``limb_mag_bias_gain`` for a trouser pocket and a swinging hand, from the first
+        step on (the same sample whether the placement came from the configuration, a provider or the detector), and
+        the configured values again when a detected placement changes to another carriage.
         """
         att, base = self.attitude.config, self.config.attitude
         sg, sa = self.config.device_heading_sigma_gyro, self.config.limb_sigma_a_moving
+        mb = self.config.limb_mag_bias_gain
+        limb = self.placement in ("pocket", "swinging")
         want = replace(att, sigma_gyro=base.sigma_gyro if sg is None or self.placement not in ("hand", "torso")
                        else float(sg),
-                       sigma_a_moving=base.sigma_a_moving if sa is None or self.placement not in ("pocket", "swinging")
-                       else float(sa))
+                       sigma_a_moving=base.sigma_a_moving if sa is None or not limb else float(sa),
+                       mag_bias_gain=base.mag_bias_gain if mb is None or not limb else float(mb))
         if want != att:
             self.attitude.set_config(want)
 

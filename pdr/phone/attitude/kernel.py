@@ -30,6 +30,7 @@ from pdr.phone.attitude.state import (
     AUX_M1,
     AUX_ML,
     AUX_N,
+    AUX_NU,
     AUX_P0,
     AUX_P1,
     AUX_STATIC_S,
@@ -366,6 +367,9 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
     mag_yaw_only = prm[26] > 0.5
     earth_max = prm[27]
     sigma_a_moving = prm[28]
+    mag_bias_gain = prm[29]
+    k_nu = ts / (prm[30] + ts)
+    nu_steady = prm[31]
     n = acc.shape[0]
     out = np.empty((n, 4))
     used = np.zeros(n, dtype=np.int64)
@@ -539,6 +543,22 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
                     dd = dip_ref + k_ref * max(-3 * eps_dip, min(3 * eps_dip, dip - dip_ref))
                     aux[AUX_H_N] = nn * math.cos(dd)
                     aux[AUX_H_U] = -nn * math.sin(dd)
+        if use_m and has_gyro and mag_bias_gain > 0 and not stationary:
+            # The gyro's residual bias about the vertical from the field's yaw innovations (the integral term of
+            # a complementary filter, AttitudeConfig.mag_bias_gain): a bias b turns the estimate by b per second
+            # counter-clockwise, so the field seen through it turns clockwise (a negative innovation), steadily;
+            # a disturbance turns it back and forth as the user walks through it.
+            c = _rotmat(q)
+            hn = c @ mag[k]
+            if hn[0] * hn[0] + hn[1] * hn[1] > 1e-12:
+                az_ref = math.atan2(h_east, math.sqrt(max(0.0, 1 - h_east * h_east)))
+                nu = (math.atan2(hn[0], hn[1]) - az_ref + math.pi) % (2 * math.pi) - math.pi
+                dn = nu - aux[AUX_NU]
+                aux[AUX_NU] += k_nu * dn
+                aux[AUX_NU + 1] = (1 - k_nu) * (aux[AUX_NU + 1] + k_nu * dn * dn)
+                if aux[AUX_NU + 1] < nu_steady * nu_steady:
+                    for i in range(3):
+                        bias[i] -= mag_bias_gain * nu * ts * c[2, i]
         # The field's rows on the yaw alone when so configured (AttitudeConfig.mag_yaw_only), after the
         # accelerometer's.
         yaw_row = use_m and mag_yaw_only

@@ -27,8 +27,10 @@ AUX_V0, AUX_V1 = 89, 101               # (12 each) pending blocks of vertical me
 AUX_ML = 113                           # (3) low-passed magnetic field (uT, body frame)
 AUX_FREF = 116                         # (2) field invariants at the start of the stationary period (uT)
 AUX_FBAD = 118                         # (3) field moved: in the older block, in the newer block, in the period
-AUX_SIZE = 121
+AUX_NU = 121                           # (2) trailing mean and variance of the field's yaw innovation (rad, rad^2)
+AUX_SIZE = 123
 AUX_SIZE_V1 = 65                       # size of the layout before the blocks above
+AUX_SIZE_V2 = 121                      # size of the layout before the yaw innovation's moments
 #: Bit flags of the per-sample ``used`` output.
 USED_ACC, USED_MAG, STATIONARY = 1, 2, 4
 
@@ -52,9 +54,10 @@ class AttitudeState:
                      np.array(d["bias"], dtype=np.float64), np.array(d["aux"], dtype=np.float64))
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"bad attitude state ({exc})", source="attitude state") from None
-        if st.aux.shape == (AUX_SIZE_V1,):
-            # State saved before the magnetic and vertical bias rows had blocks of their own: nothing pending.
-            st.aux = np.concatenate([st.aux, np.zeros(AUX_SIZE - AUX_SIZE_V1)])
+        if st.aux.shape in ((AUX_SIZE_V1,), (AUX_SIZE_V2,)):
+            # State saved before the magnetic and vertical bias rows had blocks of their own (nothing pending), or
+            # before the yaw innovation's moments (none yet).
+            st.aux = np.concatenate([st.aux, np.zeros(AUX_SIZE - st.aux.shape[0])])
         if st.q.shape != (4,) or st.P.shape != (4, 4) or st.bias.shape != (3,) or st.aux.shape != (AUX_SIZE,):
             raise InputError("attitude state arrays have wrong shapes", source="attitude state")
         return st
