@@ -133,6 +133,7 @@ def save_model(model: ContextModel, out_dir: str | Path, name: str | None = None
         "reject_threshold": float(model.reject_threshold),
         "versions": library_versions(),
         "estimator": est,
+        "stairs_direction": model.stairs_direction,
         "info": model.info,
     }
     (out / "model.json").write_text(json.dumps(doc, indent=1, sort_keys=False) + "\n", encoding="utf-8")
@@ -205,7 +206,7 @@ def load_model(name_or_path: str | Path, window: WindowConfig | None = None) -> 
     return ContextModel(task=doc["task"], window=cfg, feature_groups=groups, estimator_kind=kind,
                         estimator=estimator, train_priors=np.asarray(doc["train_priors"], dtype=np.float64),
                         mean_dwell_s=float(doc["mean_dwell_s"]), reject_threshold=float(doc["reject_threshold"]),
-                        info=info)
+                        info=info, stairs_direction=doc.get("stairs_direction"))
 
 
 def _fmt_metrics(metrics: dict[str, Any]) -> list[str]:

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from classifiers import stairs_direction
 from classifiers.baro_stage import log_likelihood as baro_log_likelihood
 from classifiers.baro_stage import vertical_speed
 from classifiers.features import FEATURE_GROUPS, context_margin_s, extract_features, feature_names
@@ -100,6 +101,8 @@ class ContextModel:
         Mean time in one class for the smoothing (s); 0 disables smoothing.
     reject_threshold
         Smoothed posterior below which the label is ``unknown``.
+    stairs_direction
+        Parameters of the stairs direction stage (:mod:`classifiers.stairs_direction`), or ``None``.
     barometer
         Add the barometric second stage's evidence (:mod:`classifiers.baro_stage`) when a window has
         pressure data (a run-time switch, not stored with the model).
@@ -117,6 +120,7 @@ class ContextModel:
     reject_threshold: float = 0.5
     info: dict[str, Any] = field(default_factory=dict)
     barometer: bool = True
+    stairs_direction: dict[str, Any] | None = None
 
     @property
     def classes(self) -> tuple[str, ...]:
@@ -162,6 +166,8 @@ class ContextModel:
         proba = np.full((X.shape[0], r), 1.0 / r)
         if usable.any():
             proba[usable] = self.estimator.predict_proba(X[usable])
+        if self.stairs_direction is not None:
+            proba = stairs_direction.apply(proba, X, self.feature_names, self.classes, self.stairs_direction)
         return proba, usable
 
     def emissions(self, proba: FloatArray, usable: NDArray[np.bool_],

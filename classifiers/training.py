@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from classifiers import stairs_direction
 from classifiers.bayes import GaussianBayesClassifier
 from classifiers.boosting import BoostedTreeClassifier
 from classifiers.datasets import LabelledWindows
@@ -74,7 +75,7 @@ def fit_model(data: LabelledWindows, task: Task, cfg: WindowConfig, groups: tupl
     else:
         priors = np.full(len(est.classes_), 1.0 / len(est.classes_))
     return ContextModel(task=task.name, window=cfg, feature_groups=groups, estimator_kind=kind, estimator=est,
-                        train_priors=priors,
+                        train_priors=priors, stairs_direction=stairs_direction.fit(X, y, feature_names(groups)),
                         mean_dwell_s=task.mean_dwell_s if mean_dwell_s is None else mean_dwell_s,
                         reject_threshold=reject_threshold)
 
