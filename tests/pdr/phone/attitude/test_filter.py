@@ -6,6 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from numpy.typing import NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
@@ -284,7 +285,7 @@ def test_gravity_rows_while_moving_bring_a_swinging_phones_tilt_back():
     stand = int(3 * FS)
     acc_stand = np.tile(quat.rotate(quat.conjugate(q_true[0]), np.array([0.0, 0.0, GRAVITY_MPS2])), (stand, 1))
 
-    def run(sigma_a_moving: float) -> tuple[float, FloatArray]:
+    def run(sigma_a_moving: float) -> tuple[float, NDArray[np.int64]]:
         f = AttitudeFilter(FS, replace(AttitudeConfig(), sigma_a_moving=sigma_a_moving))
         f.run(acc_stand, np.zeros((stand, 3)), None)           # the stand: gravity's magnitude and the tilt
         f.state.q[:] = quat.multiply(quat.from_euler(math.radians(10), 0.0, 0.0), f.state.q)
