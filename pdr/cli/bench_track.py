@@ -35,9 +35,12 @@ def run(args: argparse.Namespace) -> int:
     print(f"environment: {environment_line(res['environment'])}")
     print(f"log: {res['log']} x{res['tile']} ({res['bytes'] / 1e6:.1f} MB, {best['duration_s']:.0f} s, "
           f"{best['acc_samples']} acc samples, {best['steps']} steps); best of {res['repeat']}")
+    cpu = res["least_cpu"]
+    print(f"  {'stage':9s} {'wall':>8s}   {'CPU':>8s} (wall: the best run's; CPU: the least over the runs)")
     for stage in bench_track.STAGES:
-        print(f"  {stage:9s} {best['stages_s'][stage]:8.3f} s")
-    print(f"  {'total':9s} {best['total_s']:8.3f} s = {res['samples_per_s']:.0f} samples/s (in process)")
+        print(f"  {stage:9s} {best['stages_s'][stage]:8.3f} s {cpu[stage]:8.3f} s")
+    print(f"  {'total':9s} {best['total_s']:8.3f} s {cpu['total']:8.3f} s = {res['samples_per_s']:.0f} samples/s "
+          "(in process)")
     print(f"  {'process':9s} {res['process_s']:8.3f} s = {res['process_samples_per_s']:.0f} samples/s "
           f"(a separate `pdr track` process: start-up and imports included)")
     e = res["ahrs_ekf"]

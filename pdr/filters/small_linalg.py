@@ -42,11 +42,10 @@ def cholesky_lower(A: Array, L: Array) -> bool:  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _solve_factored(L: Array, B: Array) -> Array:  # pragma: no cover - compiled
-    """``(L L^T)^-1 B`` for a lower Cholesky factor ``L`` (n, n) and (n, m) ``B``."""
+def substitute(L: Array, X: Array) -> None:  # pragma: no cover - compiled
+    """``X <- (L L^T)^-1 X`` in place, for a lower Cholesky factor ``L`` (n, n) and (n, m) ``X``."""
     n = L.shape[0]
-    X = B.copy()
-    for c in range(B.shape[1]):
+    for c in range(X.shape[1]):
         for i in range(n):  # L y = b
             acc = X[i, c]
             for k in range(i):
@@ -57,6 +56,13 @@ def _solve_factored(L: Array, B: Array) -> Array:  # pragma: no cover - compiled
             for k in range(i + 1, n):
                 acc -= L[k, i] * X[k, c]
             X[i, c] = acc / L[i, i]
+
+
+@njit(cache=True)
+def _solve_factored(L: Array, B: Array) -> Array:  # pragma: no cover - compiled
+    """``(L L^T)^-1 B`` for a lower Cholesky factor ``L`` (n, n) and (n, m) ``B``."""
+    X = B.copy()
+    substitute(L, X)
     return X
 
 
@@ -89,8 +95,16 @@ def solve_symmetric(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
 def congruence(F: Array, P: Array) -> Array:  # pragma: no cover - compiled
     """``F P F^T`` for an (n, k) ``F`` and a symmetric (k, k) ``P``; the result is exactly symmetric."""
     n, k = F.shape
-    FP = matmul(F, P)
     out = np.empty((n, n))
+    congruence_into(F, P, np.empty((n, k)), out)
+    return out
+
+
+@njit(cache=True)
+def congruence_into(F: Array, P: Array, FP: Array, out: Array) -> None:  # pragma: no cover - compiled
+    """:func:`congruence` into ``out`` (n, n), with ``FP`` (n, k) as scratch (no allocation)."""
+    n, k = F.shape
+    matmul_into(F, P, FP)
     for i in range(n):
         for j in range(i + 1):
             acc = 0.0
@@ -98,7 +112,6 @@ def congruence(F: Array, P: Array) -> Array:  # pragma: no cover - compiled
                 acc += FP[i, b] * F[j, b]
             out[i, j] = acc
             out[j, i] = acc
-    return out
 
 
 @njit(cache=True)
@@ -134,16 +147,24 @@ def symmetric_inverse(A: Array) -> tuple[Array, float]:  # pragma: no cover - co
 @njit(cache=True)
 def matmul(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
     """``A B`` for an (n, k) ``A`` and a (k, m) ``B``, skipping the zero entries of ``A``."""
+    out = np.empty((A.shape[0], B.shape[1]))
+    matmul_into(A, B, out)
+    return out
+
+
+@njit(cache=True)
+def matmul_into(A: Array, B: Array, out: Array) -> None:  # pragma: no cover - compiled
+    """:func:`matmul` into ``out`` (n, m) (no allocation)."""
     n, k = A.shape
     m = B.shape[1]
-    out = np.zeros((n, m))
     for i in range(n):
+        for j in range(m):
+            out[i, j] = 0.0
         for a in range(k):
             x = A[i, a]
             if x != 0.0:
                 for j in range(m):
                     out[i, j] += x * B[a, j]
-    return out
 
 
 @njit(cache=True)
@@ -164,14 +185,20 @@ def matmul_bt(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
 @njit(cache=True)
 def matvec(A: Array, x: Array) -> Array:  # pragma: no cover - compiled
     """``A x`` for an (n, k) ``A`` and a (k,) ``x``."""
+    out = np.empty(A.shape[0])
+    matvec_into(A, x, out)
+    return out
+
+
+@njit(cache=True)
+def matvec_into(A: Array, x: Array, out: Array) -> None:  # pragma: no cover - compiled
+    """:func:`matvec` into ``out`` (n,), which must not be ``x`` (no allocation)."""
     n, k = A.shape
-    out = np.zeros(n)
     for i in range(n):
         acc = 0.0
         for a in range(k):
             acc += A[i, a] * x[a]
         out[i] = acc
-    return out
 
 
 @njit(cache=True)

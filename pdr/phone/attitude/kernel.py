@@ -11,7 +11,17 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from pdr.filters.small_linalg import cholesky_lower, congruence, matmul, matmul_bt, matvec, solve_symmetric
+from pdr.filters.small_linalg import (
+    cholesky_lower,
+    congruence,
+    congruence_into,
+    matmul,
+    matmul_bt,
+    matvec,
+    matvec_into,
+    solve_symmetric,
+    substitute,
+)
 from pdr.frames import GRAVITY_MPS2
 from pdr.phone.attitude.state import (
     AUX_BIAS_READY,
@@ -53,9 +63,16 @@ FloatArray = NDArray[np.float64]
 @numba.njit(cache=True)
 def _rotmat(q: FloatArray) -> FloatArray:
     """C_nb of a (not necessarily unit) quaternion, normalised first (eq. 5)."""
+    c = np.empty((3, 3))
+    _rotmat_into(q, c)
+    return c
+
+
+@numba.njit(cache=True)
+def _rotmat_into(q: FloatArray, c: FloatArray) -> None:
+    """:func:`_rotmat` into ``c`` (3, 3)."""
     n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
     w, x, y, z = q[0] / n, q[1] / n, q[2] / n, q[3] / n
-    c = np.empty((3, 3))
     c[0, 0] = 1 - 2 * (y * y + z * z)
     c[0, 1] = 2 * (x * y - w * z)
     c[0, 2] = 2 * (x * z + w * y)
@@ -65,14 +82,21 @@ def _rotmat(q: FloatArray) -> FloatArray:
     c[2, 0] = 2 * (x * z - w * y)
     c[2, 1] = 2 * (y * z + w * x)
     c[2, 2] = 1 - 2 * (x * x + y * y)
-    return c
 
 
 @numba.njit(cache=True)
 def measurement(q: FloatArray, g_ref: FloatArray, h_ref: FloatArray, use_a: bool, use_m: bool, m: int) -> FloatArray:
     """Measurement function of eq. 10 restricted to the accepted rows: [R^T g; R^T h]."""
-    c = _rotmat(q)
     out = np.empty(m)
+    _measurement_into(q, g_ref, h_ref, use_a, use_m, out, np.empty((3, 3)))
+    return out
+
+
+@numba.njit(cache=True)
+def _measurement_into(q: FloatArray, g_ref: FloatArray, h_ref: FloatArray, use_a: bool, use_m: bool,
+                      out: FloatArray, c: FloatArray) -> None:
+    """:func:`measurement` into the first rows of ``out``, with ``c`` (3, 3) as scratch."""
+    _rotmat_into(q, c)
     k = 0
     if use_a:
         for i in range(3):
@@ -81,43 +105,54 @@ def measurement(q: FloatArray, g_ref: FloatArray, h_ref: FloatArray, use_a: bool
     if use_m:
         for i in range(3):
             out[k + i] = c[0, i] * h_ref[0] + c[1, i] * h_ref[1] + c[2, i] * h_ref[2]
-    return out
 
 
 @numba.njit(cache=True)
 def _transition(w: FloatArray, ts: float) -> FloatArray:
     """F = exp(0.5 Ts Omega(w)) (eqs. 6-7) in closed form."""
-    om = np.zeros((4, 4))
+    f = np.empty((4, 4))
+    _transition_into(w, ts, f, np.empty((4, 4)))
+    return f
+
+
+@numba.njit(cache=True)
+def _transition_into(w: FloatArray, ts: float, f: FloatArray, om: FloatArray) -> None:
+    """:func:`_transition` into ``f`` (4, 4), with ``om`` (4, 4) as scratch."""
+    om[:, :] = 0.0
     om[0, 1], om[0, 2], om[0, 3] = -w[0], -w[1], -w[2]
     om[1, 0], om[1, 2], om[1, 3] = w[0], w[2], -w[1]
     om[2, 0], om[2, 1], om[2, 3] = w[1], -w[2], w[0]
     om[3, 0], om[3, 1], om[3, 2] = w[2], w[1], -w[0]
     nw = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
-    f = np.eye(4) * math.cos(0.5 * nw * ts)
-    if nw > 1e-12:
-        f += om * (math.sin(0.5 * nw * ts) / nw)
-    else:
-        f += om * (0.5 * ts)
-    return f
+    cs = math.cos(0.5 * nw * ts)
+    sn = math.sin(0.5 * nw * ts) / nw if nw > 1e-12 else 0.5 * ts
+    for i in range(4):
+        for j in range(4):
+            f[i, j] = (1.0 if i == j else 0.0) * cs + om[i, j] * sn     # I cos + Omega sin / |w|
 
 
 @numba.njit(cache=True)
 def _process_noise(q: FloatArray, ts: float, sigma_gyro: float) -> FloatArray:
     """W = Xi W_gyro Xi^T (eqs. 8-9), scalar-first Xi = Ts/2 [-e^T; q0 I + [e x]]."""
-    xi = np.empty((4, 3))
+    out = np.empty((4, 4))
+    _process_noise_into(q, ts, sigma_gyro, out, np.empty((4, 3)))
+    return out
+
+
+@numba.njit(cache=True)
+def _process_noise_into(q: FloatArray, ts: float, sigma_gyro: float, out: FloatArray, xi: FloatArray) -> None:
+    """:func:`_process_noise` into ``out`` (4, 4), with ``xi`` (4, 3) as scratch."""
     q0, e1, e2, e3 = q[0], q[1], q[2], q[3]
     xi[0, 0], xi[0, 1], xi[0, 2] = -e1, -e2, -e3
     xi[1, 0], xi[1, 1], xi[1, 2] = q0, -e3, e2
     xi[2, 0], xi[2, 1], xi[2, 2] = e3, q0, -e1
     xi[3, 0], xi[3, 1], xi[3, 2] = -e2, e1, q0
     s2 = (0.5 * ts * sigma_gyro) ** 2
-    out = np.empty((4, 4))
     for i in range(4):
         for j in range(i + 1):
             v = s2 * (xi[i, 0] * xi[j, 0] + xi[i, 1] * xi[j, 1] + xi[i, 2] * xi[j, 2])
             out[i, j] = v
             out[j, i] = v
-    return out
 
 
 @numba.njit(cache=True)
@@ -129,14 +164,10 @@ def _normalise(q: FloatArray) -> None:
 
 
 @numba.njit(cache=True)
-def _sqrt_psd(p: FloatArray) -> FloatArray:
-    """Lower Cholesky factor; falls back to an eigen-decomposition with clipped eigenvalues."""
-    n = p.shape[0]
-    sym = np.empty((n, n))
-    for i in range(n):
-        for j in range(n):
-            sym[i, j] = 0.5 * (p[i, j] + p[j, i])
-    low = np.empty((n, n))
+def _sqrt_psd(sym: FloatArray, low: FloatArray) -> FloatArray:
+    """Lower Cholesky factor of the symmetric ``sym`` (into ``low``, which is returned); falls back to an
+    eigen-decomposition with clipped eigenvalues (a new array).
+    """
     if cholesky_lower(sym, low):
         return low
     vals, vecs = np.linalg.eigh(sym)
@@ -146,15 +177,38 @@ def _sqrt_psd(p: FloatArray) -> FloatArray:
 
 
 @numba.njit(cache=True)
+def ukf_workspace() -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
+                             FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Scratch arrays of :func:`ukf_update_into` for up to 6 measurement rows (state dimension 4)."""
+    return (np.empty((4, 4)), np.empty((4, 4)), np.empty((9, 4)), np.empty((9, 6)), np.empty(6), np.empty((6, 6)),
+            np.empty((4, 6)), np.empty(6), np.empty((6, 4)), np.empty((6, 6)), np.empty((3, 3)))
+
+
+@numba.njit(cache=True)
 def ukf_update(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatArray, g_ref: FloatArray,
                 h_ref: FloatArray, use_a: bool, use_m: bool, alpha: float, beta: float, kappa: float) -> None:
     """Unscented measurement update (eqs. 35-40), in place."""
+    ukf_update_into(q, p, z, r_diag, g_ref, h_ref, use_a, use_m, alpha, beta, kappa, ukf_workspace())
+
+
+@numba.njit(cache=True)
+def ukf_update_into(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatArray, g_ref: FloatArray,
+                    h_ref: FloatArray, use_a: bool, use_m: bool, alpha: float, beta: float, kappa: float,
+                    ws: tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
+                              FloatArray, FloatArray, FloatArray, FloatArray]) -> None:
+    """:func:`ukf_update` with the scratch arrays ``ws`` of :func:`ukf_workspace` (no allocation unless the
+    covariance needs the eigen-decomposition or the innovation covariance the LU fallback).
+    """
     n = 4
     m = z.size
+    sym, low, sig, zs_ws, zm_ws, pzz_ws, pqz_ws, dz, kt_ws, l_ws, c3 = ws
+    zs, zm, pzz, pqz = zs_ws[:, :m], zm_ws[:m], pzz_ws[:m, :m], pqz_ws[:, :m]
     lam = alpha * alpha * (n + kappa) - n
     c = n + lam
-    s = _sqrt_psd(c * p)
-    sig = np.empty((2 * n + 1, n))
+    for i in range(n):
+        for j in range(n):
+            sym[i, j] = 0.5 * (c * p[i, j] + c * p[j, i])
+    s = _sqrt_psd(sym, low)
     for j in range(n):
         sig[0, j] = q[j]
     for i in range(n):
@@ -164,17 +218,17 @@ def ukf_update(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatArray, 
     wm0 = lam / c
     wc0 = wm0 + (1.0 - alpha * alpha + beta)
     wi = 0.5 / c
-    zs = np.empty((2 * n + 1, m))
     for i in range(2 * n + 1):
-        zs[i] = measurement(sig[i], g_ref, h_ref, use_a, use_m, m)
+        _measurement_into(sig[i], g_ref, h_ref, use_a, use_m, zs[i], c3)
     # eq. 38: predicted mean. The centre point is subtracted first to avoid cancellation of the
     # large weights (wm0 is about -1e6 for alpha = 1e-3).
-    zm = zs[0].copy()
+    for a in range(m):
+        zm[a] = zs[0, a]
     for i in range(1, 2 * n + 1):
-        zm += wi * (zs[i] - zs[0])
-    pzz = np.zeros((m, m))
-    pqz = np.zeros((n, m))
-    dz = np.empty(m)
+        for a in range(m):
+            zm[a] += wi * (zs[i, a] - zs[0, a])
+    pzz[:, :] = 0.0
+    pqz[:, :] = 0.0
     for i in range(2 * n + 1):
         w = wc0 if i == 0 else wi
         for a in range(m):
@@ -191,7 +245,15 @@ def ukf_update(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatArray, 
         pzz[a, a] += r_diag[a]
         for b in range(a):
             pzz[b, a] = pzz[a, b]
-    kt = solve_symmetric(pzz, pqz.T)               # K^T = P_zz^-1 P_qz^T (eq. 39)
+    # K^T = P_zz^-1 P_qz^T (eq. 39): by Cholesky, or by LU when it fails (as solve_symmetric).
+    if cholesky_lower(pzz, l_ws[:m, :m]):
+        kt = kt_ws[:m]
+        for b in range(m):
+            for j in range(n):
+                kt[b, j] = pqz[j, b]
+        substitute(l_ws[:m, :m], kt)
+    else:
+        kt = np.linalg.solve(pzz, pqz.T)  # type: ignore[assignment]  # float64 in, float64 out
     for j in range(n):                             # eq. 40
         for b in range(m):
             q[j] += kt[b, j] * (z[b] - zm[b])
@@ -381,6 +443,18 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
     g_ref = np.zeros(3)
     h_ref = np.zeros(3)
     w = np.zeros(3)
+    # Scratch arrays, allocated once per call (the loop below allocates nothing in the common case).
+    u = np.empty(3)
+    f = np.empty((4, 4))
+    om = np.empty((4, 4))
+    wq = np.empty((4, 4))
+    xi = np.empty((4, 3))
+    fp = np.empty((4, 4))
+    pn = np.empty((4, 4))
+    qn = np.empty(4)
+    z_ws = np.empty(6)
+    r_ws = np.empty(6)
+    ws = ukf_workspace()
     for k in range(n):
         a = acc[k]
         an = math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
@@ -443,11 +517,15 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
             # field only while the user is not carried through the building's field (elevator, escalator), and
             # only then may its rows set the bias component about the vertical. Otherwise that component comes
             # from the gyro alone (at rest the mean of the gyro about the vertical is the bias).
-            u = a / max(an, 1e-9)
+            d = max(an, 1e-9)
+            for i in range(3):
+                u[i] = a[i] / d
             _bias_rows(aux, AUX_VS_A, AUX_CW_A, u, gyro[k], ks, ts, stationary, 1.0, AUX_P1)
             if has_mag:
-                _bias_rows(aux, AUX_VS_M, AUX_CW_M, mag[k] / max(mn, 1e-9), gyro[k], ks, ts, stationary, 1.0,
-                           AUX_M1)
+                d = max(mn, 1e-9)
+                for i in range(3):
+                    u[i] = mag[k, i] / d
+                _bias_rows(aux, AUX_VS_M, AUX_CW_M, u, gyro[k], ks, ts, stationary, 1.0, AUX_M1)
             if stationary:
                 used[k] |= 4
                 _vertical_rows(aux, AUX_V1, gyro[k], ts)
@@ -503,13 +581,20 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
             # Time update (eqs. 6-9, 34).
             for i in range(3):
                 w[i] = gyro[k, i] - bias[i]
-            f = _transition(w, ts)
-            wq = _process_noise(q, ts, sigma_gyro)         # from the prior q (eq. 9)
-            p[:, :] = congruence(f, p) + wq
-            q[:] = matvec(f, q)
+            _transition_into(w, ts, f, om)
+            _process_noise_into(q, ts, sigma_gyro, wq, xi)     # from the prior q (eq. 9)
+            congruence_into(f, p, fp, pn)
+            for i in range(4):
+                for j in range(4):
+                    p[i, j] = pn[i, j] + wq[i, j]
+            matvec_into(f, q, qn)
+            q[:] = qn
         else:
             # Without a gyro the attitude is a random walk driven by a large rate noise.
-            p += _process_noise(q, ts, 1.0)
+            _process_noise_into(q, ts, 1.0, wq, xi)
+            for i in range(4):
+                for j in range(4):
+                    p[i, j] += wq[i, j]
         for i in range(4):
             p[i, i] += 1e-12
         # Accept rows of the measurement model (eqs. 12-13).
@@ -567,8 +652,8 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
             used[k] |= 2
         if use_a or use_m:
             m = 3 * (int(use_a) + int(use_m))
-            z = np.empty(m)
-            r = np.empty(m)
+            z = z_ws[:m]
+            r = r_ws[:m]
             j = 0
             if use_a:
                 g_ref[0], g_ref[1], g_ref[2] = 0.0, 0.0, aux[AUX_G]
@@ -588,7 +673,7 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
                     r[j + i] = sigma_m * sigma_m
                 used[k] |= 2
             if unscented:
-                ukf_update(q, p, z, r, g_ref, h_ref, use_a, use_m, alpha, beta, kappa)
+                ukf_update_into(q, p, z, r, g_ref, h_ref, use_a, use_m, alpha, beta, kappa, ws)
             else:
                 ekf_update(q, p, z, r, g_ref, h_ref, use_a, use_m)
         else:

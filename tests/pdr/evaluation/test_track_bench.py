@@ -51,6 +51,9 @@ def test_stage_times_add_up_to_the_track_the_cli_writes(tmp_path) -> None:
     assert set(res["stages_s"]) == set(bench_track.STAGES)
     assert all(v >= 0 for v in res["stages_s"].values())
     assert sum(res["stages_s"].values()) <= res["total_s"] * 1.001
+    assert set(res["stages_cpu_s"]) == set(bench_track.STAGES)
+    assert all(v >= -1e-3 for v in res["stages_cpu_s"].values())      # "other" is a difference of CPU clocks
+    assert 0 < sum(res["stages_cpu_s"].values()) <= res["total_cpu_s"] * 1.001 + 1e-3
     assert main(["track", str(log), "--out", str(tmp_path / "cli.csv")]) == 0
     assert (tmp_path / "bench.csv").read_text() == (tmp_path / "cli.csv").read_text()
 

@@ -9,11 +9,15 @@ from pdr.filters.small_linalg import (
     cholesky_lower,
     cholesky_solve,
     congruence,
+    congruence_into,
     matmul,
     matmul_bt,
+    matmul_into,
     matvec,
+    matvec_into,
     quadratic_form,
     solve_symmetric,
+    substitute,
     symmetric_inverse,
 )
 
@@ -85,3 +89,29 @@ def test_products_match_numpy(n: int, k: int, m: int, seed: int) -> None:
     np.testing.assert_allclose(matmul_bt(a, c), a @ c.T, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(matvec(a, x), a @ x, rtol=1e-12, atol=1e-12)
     assert quadratic_form(x, sq) == pytest.approx(float(x @ sq @ x), rel=1e-10, abs=1e-12)
+
+
+@settings(max_examples=30, deadline=None)
+@given(n=st.integers(1, 6), k=st.integers(1, 6), seed=st.integers(0, 2**31 - 1))
+def test_in_place_forms_overwrite_dirty_scratch_with_the_allocating_results(n: int, k: int, seed: int) -> None:
+    """The ``_into`` forms (a filter's per-sample scratch) give bit for bit what the allocating forms give, whatever
+    the scratch held before; zero entries of ``A`` are skipped in both."""
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=(n, k)) * (rng.random((n, k)) > 0.3)
+    p = _spd(rng, k)
+    x = rng.normal(size=k)
+    out, fp = np.full((n, n), np.nan), np.full((n, k), np.nan)
+    congruence_into(a, p, fp, out)
+    assert np.array_equal(out, congruence(a, p))
+    mm = np.full((n, k), np.nan)
+    matmul_into(a, p, mm)
+    assert np.array_equal(mm, matmul(a, p))
+    mv = np.full(n, np.nan)
+    matvec_into(a, x, mv)
+    assert np.array_equal(mv, matvec(a, x))
+    low = np.full((k, k), np.nan)
+    assert cholesky_lower(p, low)
+    b = rng.normal(size=(k, n))
+    xs = b.copy()
+    substitute(low, xs)
+    assert np.array_equal(xs, cholesky_solve(p, b))

@@ -8,7 +8,14 @@ import pytest
 
 from pdr import quaternion as quat
 from pdr.frames import GRAVITY_MPS2
-from pdr.phone.attitude.kernel import ekf_update, mag_yaw_update, measurement, ukf_update
+from pdr.phone.attitude.kernel import (
+    ekf_update,
+    mag_yaw_update,
+    measurement,
+    ukf_update,
+    ukf_update_into,
+    ukf_workspace,
+)
 
 
 def _update_case(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -44,6 +51,22 @@ def test_product_ukf_update_matches_filterpy(seed):
     np.testing.assert_allclose(q1, expected, atol=1e-12)
     np.testing.assert_allclose(p1, ref.P, atol=1e-12)
     assert quat.angle_between(q1, q) > 0.01          # the measurement moved the attitude
+
+
+def test_ukf_update_with_a_reused_workspace_equals_a_fresh_one():
+    """run_kernel reuses one workspace for every sample: six rows, then the accelerometer's three, then six again
+    through one dirty workspace give bit for bit what a fresh workspace per update gives."""
+    ws = ukf_workspace()
+    for arr in ws:
+        arr[...] = np.nan
+    for seed, rows in ((3, 6), (4, 3), (5, 6)):
+        q, p, z, r, g_ref, h_ref = _update_case(seed)
+        use_m = rows == 6
+        q1, p1, q2, p2 = q.copy(), p.copy(), q.copy(), p.copy()
+        ukf_update(q1, p1, z[:rows], r[:rows], g_ref, h_ref, True, use_m, 0.5, 2.0, 1.0)
+        ukf_update_into(q2, p2, z[:rows], r[:rows], g_ref, h_ref, True, use_m, 0.5, 2.0, 1.0, ws)
+        assert np.array_equal(q1, q2) and np.array_equal(p1, p2)
+        assert not np.array_equal(q1, q)                 # the update did something
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
