@@ -211,7 +211,10 @@ def test_eval_heading_on_the_whole_benchmark_keeps_the_reference_figures(capsys,
     assert {r["carriage"] for r in recs} == set(ev.CARRIAGES)
     assert set(out["by_walker"]) == {"Guillaume", "Jakob"}
     for r in recs:
-        assert r["walk_causal"]["n"] >= 0.8 * r["steps"], r["recording"]
+        # The truth gives a direction for most steps; not for a step over which the walker moved less than
+        # MIN_STEP_M. The held-phone step gate finds some of those in the disturbed texting walks (12 of 52 and 17
+        # of 85 steps there match no motion-capture step: tools/walking_steps.py --only attitude), hence 0.7.
+        assert r["walk_causal"]["n"] >= 0.7 * r["steps"], r["recording"]
         # Michel et al.: the rotation vector's tilt stays within a few degrees, its yaw too in a clean field.
         assert r["rv_tilt"]["mean_deg"] < 5.0, r["recording"]
         if not r["disturbed"]:
