@@ -628,22 +628,19 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
                     dd = dip_ref + k_ref * max(-3 * eps_dip, min(3 * eps_dip, dip - dip_ref))
                     aux[AUX_H_N] = nn * math.cos(dd)
                     aux[AUX_H_U] = -nn * math.sin(dd)
-        if use_m and has_gyro and mag_bias_gain > 0 and not stationary:
-            # The gyro's residual bias about the vertical from the field's yaw innovations (the integral term of
-            # a complementary filter, AttitudeConfig.mag_bias_gain): a bias b turns the estimate by b per second
-            # counter-clockwise, so the field seen through it turns clockwise (a negative innovation), steadily;
-            # a disturbance turns it back and forth as the user walks through it.
-            c = _rotmat(q)
-            hn = c @ mag[k]
-            if hn[0] * hn[0] + hn[1] * hn[1] > 1e-12:
-                az_ref = math.atan2(h_east, math.sqrt(max(0.0, 1 - h_east * h_east)))
-                nu = (math.atan2(hn[0], hn[1]) - az_ref + math.pi) % (2 * math.pi) - math.pi
-                dn = nu - aux[AUX_NU]
-                aux[AUX_NU] += k_nu * dn
-                aux[AUX_NU + 1] = (1 - k_nu) * (aux[AUX_NU + 1] + k_nu * dn * dn)
-                if aux[AUX_NU + 1] < nu_steady * nu_steady:
-                    for i in range(3):
-                        bias[i] -= mag_bias_gain * nu * ts * c[2, i]
+                if (use_m and has_gyro and mag_bias_gain > 0 and not stationary
+                        and hn[0] * hn[0] + hn[1] * hn[1] > 1e-12):
+                    # The gyro's residual bias about the vertical from the field's yaw innovations (the integral
+                    # term of a complementary filter, AttitudeConfig.mag_bias_gain): a bias b turns the estimate by
+                    # b per second counter-clockwise, so the field seen through it turns clockwise (a negative
+                    # innovation), steadily; a disturbance turns it back and forth as the user walks through it.
+                    nu = _field_yaw_innovation(hn, h_east)
+                    dn = nu - aux[AUX_NU]
+                    aux[AUX_NU] += k_nu * dn
+                    aux[AUX_NU + 1] = (1 - k_nu) * (aux[AUX_NU + 1] + k_nu * dn * dn)
+                    if aux[AUX_NU + 1] < nu_steady * nu_steady:
+                        for i in range(3):
+                            bias[i] -= mag_bias_gain * nu * ts * c[2, i]     # c[2]: up in the device frame
         # The field's rows on the yaw alone when so configured (AttitudeConfig.mag_yaw_only), after the
         # accelerometer's.
         yaw_row = use_m and mag_yaw_only
@@ -685,6 +682,16 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
 
 
 @numba.njit(cache=True)
+def _field_yaw_innovation(h_n: FloatArray, h_east: float) -> float:
+    """Azimuth (rad, clockwise from north, in [-pi, pi)) of the field ``h_n`` (uT, ENU: the measured field carried
+    into the navigation frame by the current attitude) less the reference's (magnetic north turned by the
+    declination, ``h_east`` its east component).
+    """
+    az_ref = math.atan2(h_east, math.sqrt(max(0.0, 1 - h_east * h_east)))
+    return (math.atan2(h_n[0], h_n[1]) - az_ref + math.pi) % (2 * math.pi) - math.pi
+
+
+@numba.njit(cache=True)
 def mag_yaw_update(q: FloatArray, p: FloatArray, m_b: FloatArray, h_east: float, sigma_m: float) -> None:
     """The magnetometer's row on the yaw alone, in place (``AttitudeConfig.mag_yaw_only``).
 
@@ -699,8 +706,7 @@ def mag_yaw_update(q: FloatArray, p: FloatArray, m_b: FloatArray, h_east: float,
     hh = math.sqrt(hn[0] * hn[0] + hn[1] * hn[1])
     if hh < 1e-6:
         return
-    az_ref = math.atan2(h_east, math.sqrt(max(0.0, 1 - h_east * h_east)))
-    nu = (math.atan2(hn[0], hn[1]) - az_ref + math.pi) % (2 * math.pi) - math.pi
+    nu = _field_yaw_innovation(hn, h_east)
     g = np.array([-q[3], -q[2], q[1], q[0]])
     h = 2.0 * g
     ph = p @ h
