@@ -219,6 +219,31 @@ def test_pocket_steps_restart_the_offset_only_at_a_larger_jump():
         HeadingSmootherConfig(pocket_jump_deg=0.0)
 
 
+def test_a_swinging_hands_run_of_misread_strides_does_not_restart_the_offset_but_a_regrip_does():
+    # Swinging hand: the gyro and the true walking direction turn together; the measured direction is right with
+    # noise, misread by 150 deg for four steps in a row (a run seen on the motion-capture walks), and from step 60
+    # on the hand holds the phone turned by 120 deg about the vertical: the gyro yaw turns with the phone, the
+    # arm's swing and so the measured direction do not (a lasting change of measured - gyro).
+    rng = np.random.default_rng(3)
+    n = 100
+    truth = np.asarray(wrap_angle(np.cumsum(rng.normal(0.0, 0.15, n))))
+    gyro = np.asarray(wrap_angle(truth + 0.7))
+    meas = truth + rng.normal(0.0, math.radians(10.0), n)
+    meas[30:34] += math.radians(150.0)
+    gyro[60:] += math.radians(120.0)
+    c = HeadingSmootherConfig()
+    rows = _steps(np.asarray(wrap_angle(meas)), np.asarray(wrap_angle(meas)), gyro, placement="swinging")
+    got = heading_deg_to_yaw(np.array([r["heading_deg"] for r in smooth_track(rows, c)[0]]))
+    err = np.degrees(np.abs(wrap_angle(got - truth)))
+    assert err[30:34].max() < 20.0            # the run is outvoted by the steps around it
+    assert err[62:].mean() < 8.0              # the regrip restarts the offset
+    one_step = HeadingSmootherConfig(limb_jump_window_steps=1)
+    got1 = heading_deg_to_yaw(np.array([r["heading_deg"] for r in smooth_track(rows, one_step)[0]]))
+    assert np.degrees(np.abs(wrap_angle(got1 - truth)))[30:34].max() > 90.0   # the one-step rule follows the run
+    with pytest.raises(InputError, match="jump_window_steps"):
+        HeadingSmootherConfig(limb_jump_window_steps=0)
+
+
 def test_smoothing_removes_the_rmpca_lag_of_simulated_pocket_walks():
     # Trouser pocket: the measurement is the RMPCA walking direction, which lags through turns; the gyro yaw of a
     # device axis (pdr.phone.gyro_yaw) carries the turns. Measured on seeds 0-4: 7.64 -> 5.62 deg mean over 40 walks.
