@@ -87,9 +87,15 @@ HEADING = {"name": "heading", "in": "query", "schema": {"enum": ["causal", "smoo
                           "track as streamed"}
 
 
+AFTER = {"name": "after", "in": "query", "required": False, "schema": {"type": "integer", "minimum": 0},
+         "description": "only entries stored after the one with this seq (incremental polling that also gets "
+                        "entries stored with a time in the past: stops, rides, back-dated stairs); the answer's "
+                        "next_after is the next value"}
+
+
 def _results_path(what: str) -> dict[str, Any]:
     return {"get": _op(f"{what} of a session", {"200": _ok(what)} | _errors(400, 401, 404),
-                       parameters=[SESSION_ID, SINCE])}
+                       parameters=[SESSION_ID, SINCE, AFTER])}
 
 
 #: Operations an ``ingest`` token may call (server.auth.SCOPES); every other write needs ``full``, reads ``read``.

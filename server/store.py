@@ -482,11 +482,15 @@ class Store:
                     for r in conn.execute(q)}
 
     def events(self, session_id: str, kind: str, since_s: float | None = None,
-               previous: bool = False) -> list[Row[Any]]:
-        """The events of ``kind`` (after ``since_s``); ``previous``: those kept during a rebuild."""
+               previous: bool = False, after_id: int | None = None) -> list[Row[Any]]:
+        """The events of ``kind`` (with ``t_s`` after ``since_s``; stored after the event whose ``id`` is
+        ``after_id``) in time order; ``previous``: those kept during a rebuild.
+        """
         columns, kept = self._role_columns(db.events, previous)
         q = select(*columns).where(db.events.c.session_id == session_id, db.events.c.kind == kind, kept)
         if since_s is not None:
             q = q.where(db.events.c.t_s > since_s)
+        if after_id is not None:
+            q = q.where(db.events.c.id > after_id)
         with self.engine.connect() as conn:
             return list(conn.execute(q.order_by(db.events.c.t_s, db.events.c.id)))

@@ -4,6 +4,13 @@
 steps' headings smoothed over the whole session so far (:mod:`pdr.phone.heading_smoother`) and the positions
 re-integrated. Smoothing moves earlier rows too, so a poller asking with ``since`` gets the rows after it of the
 track smoothed over everything received. ``heading=causal`` (the default) is the track as it was streamed.
+
+Modes, landmarks and floors also take ``?after=SEQ``: every entry stored since the one numbered ``SEQ`` (each entry
+carries its ``seq``; the answer's ``next_after`` is the one to ask with next), whatever its time. ``since`` filters
+by the entry's own time, and some entries are stored with a time in the past: a stop or an elevator ride once it
+has ended, a stairs entry moved back by the barometer's lag. A poller using ``since`` misses those; one using
+``after`` does not. Provisional entries (the session's open end) are replaced at every batch and come again with new
+numbers, as do all entries after a rebuild.
 While a rebuild runs (reprocessing, new processing options, a late batch) every answer is the results from
 before it, until it ends. A smoothed answer names the devices whose headings the smoother changed
 (``smoothed_devices``; foot sensors and phones without its inputs keep their tracks) and gives its note per
@@ -51,6 +58,21 @@ def parse_since() -> float | None:
         raise APIError(400, f"'since' must be a number of seconds, got '{raw[:40]}'") from None
     if not math.isfinite(value):
         raise APIError(400, "'since' must be finite")
+    return value
+
+
+def parse_after() -> int | None:
+    """The ``?after=`` query parameter (an entry's ``seq``), validated; None when absent."""
+    raw = request.args.get("after")
+    if raw is None:
+        return None
+    try:
+        value = int(raw)
+    except ValueError:
+        raise APIError(400, f"'after' must be an entry's seq (an integer), got '{raw[:40]}'",
+                       details={"field": "after"}) from None
+    if value < 0:
+        raise APIError(400, "'after' must not be negative", details={"field": "after"})
     return value
 
 
@@ -220,11 +242,15 @@ def _events(session_id: str, what: str) -> Response:
     user = current_user()
     svc = services()
     row = svc.store.session_row(session_id, user.id)
-    rows = svc.store.events(session_id, EVENT_KINDS[what], parse_since(), previous=svc.store.rebuilding(session_id))
+    after = parse_after()
+    rows = svc.store.events(session_id, EVENT_KINDS[what], parse_since(), previous=svc.store.rebuilding(session_id),
+                            after_id=after)
     items = [{"t_s": r.t_s, "t_end_s": r.t_end_s, "label": r.label, "value": _clean(r.value),
-              "device": r.device_role, "provisional": r.provisional, **json.loads(r.data or "{}")} for r in rows]
+              "device": r.device_role, "provisional": r.provisional, "seq": r.id, **json.loads(r.data or "{}")}
+             for r in rows]
     return jsonify({"session": session_id, what: items, "count": len(items),
-                    "next_since": items[-1]["t_s"] if items else parse_since(), "clock": session_clock(svc.store, row)})
+                    "next_since": items[-1]["t_s"] if items else parse_since(),
+                    "next_after": max((r.id for r in rows), default=after), "clock": session_clock(svc.store, row)})
 
 
 @bp.get("/<session_id>/steps")
