@@ -234,6 +234,9 @@ def test_steps_eval_scores_a_walk_with_contact_switch_drop_outs(capsys):
     assert (row["true"], row["true_bounce_free"], row["true_alternating"]) == (306, 300, 315)
     assert abs(row["detected"] - row["true_alternating"]) <= 2
     assert row["error_pct_alternating"] == pytest.approx(100.0 * (row["detected"] - 315) / 315)
+    # Where the count errors are: matched steps and contacts cancel, the unmatched ones make the count error.
+    u = row["unmatched"]
+    assert row["detected"] - 315 == sum(u[f"extra_{p}"] - u[f"missed_{p}"] for p in ("first", "mid", "last"))
 
 
 def test_distance_ratio_same_floor_leaves_out_floor_changes():
