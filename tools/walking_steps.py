@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from pdr.errors import InputError
-from pdr.evaluation.scoring import plain_step_count
+from pdr.evaluation.scoring import match_steps, plain_step_count
 from pdr.evaluation.walking_recordings import recordings
 from pdr.io import read_recording
 from pdr.phone.grid import OnlineGrid
@@ -93,26 +93,12 @@ def mocap_step_times(t_s: np.ndarray, pos_m: np.ndarray, rise_m: float = MOCAP_S
 
 
 def matched_steps(detected_s: np.ndarray, true_s: np.ndarray, tol_s: float = MOCAP_MATCH_S) -> tuple[int, float]:
-    """How many detected steps match a true step one to one, and the lag (s) applied: each detected time, shifted by
-    the median lag from it to the nearest true step (a detected start is the acceleration's upward crossing, before
-    the top of the vault), is matched to the nearest unmatched true step within ``tol_s`` (in time order).
+    """How many detected steps match a true step one to one, and the lag (s) applied
+    (:func:`pdr.evaluation.scoring.match_steps`: each detected time, shifted by the median lag to the nearest true step,
+    takes the nearest unmatched true step within ``tol_s``).
     """
-    det = np.sort(np.asarray(detected_s, dtype=np.float64))
-    true = np.sort(np.asarray(true_s, dtype=np.float64))
-    if det.size == 0 or true.size == 0:
-        return 0, 0.0
-    idx = np.searchsorted(true, det)
-    after, before = true[np.clip(idx, 0, true.size - 1)], true[np.clip(idx - 1, 0, true.size - 1)]
-    nearest = np.where(np.abs(after - det) < np.abs(before - det), after, before)
-    lag = float(np.median(nearest - det))
-    used = np.zeros(true.size, dtype=bool)
-    hits = 0
-    for x in det + lag:
-        free = np.flatnonzero(~used & (np.abs(true - x) <= tol_s))
-        if free.size:
-            used[free[np.argmin(np.abs(true[free] - x))]] = True
-            hits += 1
-    return hits, lag
+    hit, _, lag = match_steps(detected_s, true_s, tol_s)
+    return int(hit.sum()), lag
 
 
 def true_step_count(rec: Any) -> tuple[int | None, str]:

@@ -17,8 +17,9 @@ from pdr.cli import progress
 from pdr.errors import InputError
 from pdr.evaluation.error_budget import BUDGET_TRACKS, budget_tracks
 from pdr.evaluation.scoring import (
+    WALK_EDGE_S,
     absolute_waypoint_errors,
-    alternating_step_count,
+    alternating_contacts,
     bounce_free_step_count,
     distance_ratio,
     distance_ratio_same_floor,
@@ -26,6 +27,7 @@ from pdr.evaluation.scoring import (
     landmark_errors,
     plain_step_count,
     step_count_error_pct,
+    unmatched_by_phase,
     waypoint_errors,
 )
 from pdr.io import read_recording
@@ -783,6 +785,16 @@ def _step_config(text: str) -> StepConfig:
     return _json_config(text, StepConfig, "step")
 
 
+def _unmatched_text(u: dict[str, int]) -> str:
+    """``pdr eval steps``' summary of :func:`pdr.evaluation.scoring.unmatched_by_phase`: unmatched steps (+) and
+    contacts (-) in the walk's first and last :data:`WALK_EDGE_S` s and between.
+    """
+    edge = f"{WALK_EDGE_S:g} s"
+    return "unmatched steps/contacts " + ", ".join(
+        f"{name} +{u['extra_' + p]}/-{u['missed_' + p]}"
+        for name, p in ((f"first {edge}", "first"), ("middle", "mid"), (f"last {edge}", "last")))
+
+
 def eval_steps(args: argparse.Namespace) -> int:
     """Step-count error per walk: Oxford step counter (truth in the recording), or folders named
     ``<carriage>-<N>-steps-<walker>`` (Sensor Logger exports); a plain peak detector's count beside each.
@@ -810,7 +822,8 @@ def eval_steps(args: argparse.Namespace) -> int:
             per.append({"walk": d.name, "error": f"no usable step truth ({true} steps)"})
             continue
         events = PdrPipeline(PipelineConfig(step=step)).run(rec)
-        n = sum(1 for e in events if e.get("type") == "step")
+        starts_s = np.array([e["t_start_s"] for e in events if e.get("type") == "step"], dtype=np.float64)
+        n = int(starts_s.size)
         err = step_count_error_pct(n, int(true))
         place = rec.device.placement or (named["carriage"] if named else "unknown")
         by_place.setdefault(place, []).append(err)
@@ -826,15 +839,23 @@ def eval_steps(args: argparse.Namespace) -> int:
             row["error_pct_bounce_free"] = step_count_error_pct(n, row["true_bounce_free"])
             by_place_bf.setdefault(place, []).append(row["error_pct_bounce_free"])
             # The main figure: bounce-free and with one switch's drop-outs filled (the feet alternate).
-            row["true_alternating"] = alternating_step_count(*feet)  # type: ignore[arg-type]
+            contacts = alternating_contacts(*feet)  # type: ignore[arg-type]
+            row["true_alternating"] = int(contacts.size)
             row["error_pct_alternating"] = step_count_error_pct(n, row["true_alternating"])
             by_place_alt.setdefault(place, []).append(row["error_pct_alternating"])
+            # Where the errors are: steps and contacts that match nothing, at the walk's start, middle and end.
+            row["unmatched"] = unmatched_by_phase(starts_s - rec.origin_ns / 1e9, contacts)
         per.append(row)
     targets = ("trouser_pocket_front", "trouser_pocket_back", "trouser_pocket", "hand", "bag", "armband")
     target = [e for p, v in by_place.items() if p in targets for e in v]
     target_bf = [e for p, v in by_place_bf.items() if p in targets for e in v]
     target_alt = [e for p, v in by_place_alt.items() if p in targets for e in v]
     every = [e for v in by_place.values() for e in v]
+    unmatched: dict[str, int] = {}
+    for p in per:
+        if p.get("placement") in targets and "unmatched" in p:
+            for k, v in p["unmatched"].items():
+                unmatched[k] = unmatched.get(k, 0) + v
     summary: dict[str, Any] = {
                "walks": len(every), "mean_abs_error_pct": float(np.mean(np.abs(every))) if every else math.nan,
                "mean_abs_error_pct_pocket_hand_bag_armband": float(np.mean(np.abs(target))) if target else math.nan,
@@ -842,6 +863,7 @@ def eval_steps(args: argparse.Namespace) -> int:
                    float(np.mean(np.abs(target_bf))) if target_bf else math.nan,
                "mean_abs_error_pct_pocket_hand_bag_armband_alternating":
                    float(np.mean(np.abs(target_alt))) if target_alt else math.nan,
+               "unmatched_pocket_hand_bag_armband": unmatched,
                "by_placement": {p: {"walks": len(v), "mean_abs_error_pct": float(np.mean(np.abs(v))),
                                     "mean_error_pct": float(np.mean(v)),
                                     "mean_abs_error_pct_bounce_free":
@@ -856,8 +878,8 @@ def eval_steps(args: argparse.Namespace) -> int:
                 yield f"{p['walk']}: {p['error']}"
             else:
                 bf = (f" (bounce-free truth {p['true_bounce_free']}: {p['error_pct_bounce_free']:+.1f} %; with "
-                      f"drop-outs filled {p['true_alternating']}: {p['error_pct_alternating']:+.1f} %)"
-                      if "true_bounce_free" in p else "")
+                      f"drop-outs filled {p['true_alternating']}: {p['error_pct_alternating']:+.1f} %, "
+                      + _unmatched_text(p["unmatched"]) + ")" if "true_bounce_free" in p else "")
                 yield (f"{p['walk']}: {p['placement']}, true {p['true']}, detected {p['detected']} "
                        f"({p['count_error']:+d} steps, {p['error_pct']:+.1f} %){bf}; plain peak detector "
                        f"{p['plain_detected']} ({p['plain_count_error']:+d})")
@@ -875,6 +897,8 @@ def eval_steps(args: argparse.Namespace) -> int:
                      f"{summary['mean_abs_error_pct_pocket_hand_bag_armband_alternating']:.2f} % with one switch's "
                      "drop-outs filled as well)")
         yield line
+        if unmatched:
+            yield "pocket/hand/bag/armband, against the filled truth: " + _unmatched_text(unmatched)
     _emit(summary, per, args.json, lines())
     return 0
 

@@ -167,15 +167,15 @@ def bounce_free_step_count(edges_per_foot: list[FloatArray], min_fraction: float
     return sum(int(_bounce_free(e, min_fraction).size) for e in edges_per_foot)
 
 
-def alternating_step_count(left: FloatArray, right: FloatArray, min_fraction: float = 0.5) -> int:
-    """Number of foot contacts of a two-switch truth, without bounces and with one switch's drop-outs filled.
+def alternating_contacts(left: FloatArray, right: FloatArray, min_fraction: float = 0.5) -> FloatArray:
+    """Sorted foot-contact times (s) of a two-switch truth, without bounces and with one switch's drop-outs filled.
 
     The feet alternate: between two successive contacts of one foot the other foot lands once. When one foot's
     switch misses contacts (the Oxford step counter's drop-outs: one switch silent for one or two strides while the
     other goes on at the walk's rhythm, e.g. 15 times on Samsung_Dario_Hard_FrontPocket_1), ``k > 1`` contacts of
-    the other foot between two of its kept contacts mean ``k - 1`` were missed; they are counted. Bounces are removed
-    first (:func:`bounce_free_step_count`); nothing is added before a foot's first or after its last contact, nor
-    when both switches drop out together.
+    the other foot between two of its kept contacts mean ``k - 1`` were missed; each is put midway between two
+    successive contacts of the other foot. Bounces are removed first (:func:`bounce_free_step_count`); nothing is added
+    before a foot's first or after its last contact, nor when both switches drop out together.
 
     Parameters
     ----------
@@ -185,11 +185,74 @@ def alternating_step_count(left: FloatArray, right: FloatArray, min_fraction: fl
         Bounce limit, as in :func:`bounce_free_step_count`.
     """
     feet = [_bounce_free(left, min_fraction), _bounce_free(right, min_fraction)]
-    n = int(feet[0].size + feet[1].size)
+    fills: list[FloatArray] = []
     for own, other in ((feet[0], feet[1]), (feet[1], feet[0])):
-        between = np.diff(np.searchsorted(other, own))     # the other foot's contacts between two of this foot's
-        n += int(np.maximum(between - 1, 0).sum())
-    return n
+        idx = np.searchsorted(other, own)           # the other foot's contacts before each of this foot's
+        for a, b in zip(idx[:-1].tolist(), idx[1:].tolist(), strict=True):
+            between = other[a:b]
+            fills.append(0.5 * (between[:-1] + between[1:]))
+    return np.sort(np.concatenate(feet + fills))
+
+
+def alternating_step_count(left: FloatArray, right: FloatArray, min_fraction: float = 0.5) -> int:
+    """Number of foot contacts of a two-switch truth, without bounces and with one switch's drop-outs filled
+    (:func:`alternating_contacts`).
+    """
+    return int(alternating_contacts(left, right, min_fraction).size)
+
+
+def match_steps(detected_s: FloatArray, true_s: FloatArray, tol_s: float) -> tuple[NDArray[np.bool_],
+                                                                                   NDArray[np.bool_], float]:
+    """One-to-one matching of detected step times with true step times.
+
+    Each detected time (sorted), shifted by the median lag (s) from it to the nearest true step (a detected start is
+    the acceleration's upward crossing, before the contact or the top of the vault), takes the nearest unmatched true
+    step within ``tol_s`` (s), in time order. Returns which detected (sorted) and which true (sorted) times are
+    matched, and the lag.
+    """
+    det = np.sort(np.asarray(detected_s, dtype=np.float64))
+    true = np.sort(np.asarray(true_s, dtype=np.float64))
+    hit = np.zeros(det.size, dtype=bool)
+    used = np.zeros(true.size, dtype=bool)
+    if det.size == 0 or true.size == 0:
+        return hit, used, 0.0
+    idx = np.searchsorted(true, det)
+    after, before = true[np.clip(idx, 0, true.size - 1)], true[np.clip(idx - 1, 0, true.size - 1)]
+    nearest = np.where(np.abs(after - det) < np.abs(before - det), after, before)
+    lag = float(np.median(nearest - det))
+    for i, x in enumerate((det + lag).tolist()):
+        free = np.flatnonzero(~used & (np.abs(true - x) <= tol_s))
+        if free.size:
+            used[free[np.argmin(np.abs(true[free] - x))]] = True
+            hit[i] = True
+    return hit, used, lag
+
+
+#: Part of a walk (s) at each end where :func:`unmatched_by_phase` counts apart: gait initiation and termination.
+WALK_EDGE_S = 3.0
+#: Largest distance (s) between a detected step start and the foot contact it matches in :func:`unmatched_by_phase`.
+CONTACT_MATCH_S = 0.35
+
+
+def unmatched_by_phase(detected_s: FloatArray, true_s: FloatArray, tol_s: float = CONTACT_MATCH_S,
+                       edge_s: float = WALK_EDGE_S) -> dict[str, int]:
+    """Where a step count's errors are: detected steps with no true step (``extra_*``) and true steps with none
+    detected (``missed_*``) after one-to-one matching (:func:`match_steps`), in the walk's first ``edge_s`` (s,
+    ``*_first``: gait initiation), its last ``edge_s`` (``*_last``: the stop) and between (``*_mid``). The walk spans
+    the true steps; a detected step before it counts as first, after it as last. Times in s on one clock.
+    """
+    det = np.sort(np.asarray(detected_s, dtype=np.float64))
+    true = np.sort(np.asarray(true_s, dtype=np.float64))
+    hit, used, lag = match_steps(det, true, tol_s)
+    out = {f"{k}_{p}": 0 for k in ("extra", "missed") for p in ("first", "mid", "last")}
+    if true.size == 0:
+        out["extra_mid"] = int(det.size)
+        return out
+    lo, hi = true[0] + edge_s, true[-1] - edge_s
+    for kind, times in (("extra", det[~hit] + lag), ("missed", true[~used])):
+        for x in times.tolist():
+            out[f"{kind}_{'first' if x < lo else 'last' if x > hi else 'mid'}"] += 1
+    return out
 
 
 def step_count_error_pct(detected: int, true: int) -> float:

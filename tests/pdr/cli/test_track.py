@@ -206,15 +206,22 @@ def test_steps_eval_on_two_oxford_walks(capsys):
 @pytest.mark.slow
 def test_full_oxford_step_count(capsys):
     assert main(["eval", "steps", str(data_path("oxford_step_counter")), "--json"]) == 0
-    res = json.loads(capsys.readouterr().out)["overall"]
-    # Measured 1.09 % mean absolute error over pocket/hand/bag/armband walks, 0.58 % against the truth without
-    # contact-switch bounces (1.14 % / 0.63 % before the walk-end rule; target 1 %, not reached: switch bounces
-    # in the contact-switch truth alone account for 0.88 %, see pdr.phone.steps).
-    assert res["mean_abs_error_pct_pocket_hand_bag_armband"] < 1.2
-    assert res["mean_abs_error_pct_pocket_hand_bag_armband_bounce_free"] < 0.62
+    out = capsys.readouterr().out
+    res = json.loads(out)["overall"]
+    # Measured 1.04 % mean absolute error over pocket/hand/bag/armband walks, 0.545 % against the truth without
+    # contact-switch bounces (1.06 % / 0.57 % before the gait-initiation double-crossing rule; target 0.5 % against the
+    # raw edges, not reachable: switch bounces and drop-outs in the contact-switch truth alone account for 0.88 %, see
+    # pdr.phone.steps).
+    assert res["mean_abs_error_pct_pocket_hand_bag_armband"] < 1.06
+    assert res["mean_abs_error_pct_pocket_hand_bag_armband_bounce_free"] < 0.56
     # Against the truth with one switch's drop-outs filled as well (the feet alternate; pdr.evaluation.scoring):
-    # measured 0.39 % (0.32 % on the odd half of the 42 walks sorted by name, 0.46 % on the even half).
-    assert res["mean_abs_error_pct_pocket_hand_bag_armband_alternating"] < 0.45
+    # measured 0.367 % (0.39 % before), Jamie's 22 walks 0.43 %, Carmelo's and Dario's 20 walks 0.30 %.
+    assert res["mean_abs_error_pct_pocket_hand_bag_armband_alternating"] < 0.38
+    rows = [r for r in json.loads(out)["files"] if "error_pct_alternating" in r
+            and r["placement"] not in ("neck", "unknown")]
+    for half in (True, False):
+        errs = [abs(r["error_pct_alternating"]) for r in rows if ("_Jamie_" in r["walk"]) == half]
+        assert len(errs) in (22, 20) and np.mean(errs) < (0.45 if half else 0.32)
 
 
 @pytest.mark.data
@@ -227,6 +234,9 @@ def test_steps_eval_scores_a_walk_with_contact_switch_drop_outs(capsys):
     assert (row["true"], row["true_bounce_free"], row["true_alternating"]) == (306, 300, 315)
     assert abs(row["detected"] - row["true_alternating"]) <= 2
     assert row["error_pct_alternating"] == pytest.approx(100.0 * (row["detected"] - 315) / 315)
+    # Where the count errors are: matched steps and contacts cancel, the unmatched ones make the count error.
+    u = row["unmatched"]
+    assert row["detected"] - 315 == sum(u[f"extra_{p}"] - u[f"missed_{p}"] for p in ("first", "mid", "last"))
 
 
 def test_distance_ratio_same_floor_leaves_out_floor_changes():

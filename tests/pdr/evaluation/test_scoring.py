@@ -7,14 +7,17 @@ import pytest
 
 from pdr.errors import InputError
 from pdr.evaluation.scoring import (
+    alternating_contacts,
     alternating_step_count,
     bounce_free_step_count,
     distance_ratio,
     distance_ratio_same_floor,
     floors_at,
     landmark_errors,
+    match_steps,
     plain_step_count,
     step_count_error_pct,
+    unmatched_by_phase,
     waypoint_errors,
 )
 
@@ -98,6 +101,31 @@ def test_a_switch_drop_out_is_filled_from_the_other_foot_and_nothing_else_is():
     stop_l = np.concatenate([left, left + 40.0])
     stop_r = np.concatenate([right, right + 40.0])
     assert alternating_step_count(stop_l, stop_r) == 4 * left.size
+
+
+def test_filled_contacts_sit_midway_between_the_other_foots():
+    left = np.arange(0.0, 30.0, 1.1)
+    right = left + 0.55
+    dropped = np.delete(left, [5, 12, 13])
+    got = alternating_contacts(dropped, right)
+    assert got.size == alternating_step_count(dropped, right) == 2 * left.size
+    # The missed left contacts come back halfway between the right foot's contacts around them: where they were.
+    assert np.allclose(got, np.sort(np.concatenate([left, right])))
+
+
+def test_unmatched_steps_are_placed_at_the_walk_start_middle_or_end():
+    true = np.arange(0.0, 60.0, 0.55)
+    det = true - 0.1                                     # the starts lead the contacts by 0.1 s
+    none = {f"{k}_{p}": 0 for k in ("extra", "missed") for p in ("first", "mid", "last")}
+    assert unmatched_by_phase(det, true) == none
+    # The first contact missed, a push-off crossing 0.6 s before the walk, a double crossing mid-walk, the last missed.
+    det2 = np.concatenate([[det[0] - 0.6], det[1:-1], [30.2]])
+    u = unmatched_by_phase(det2, true)
+    assert (u["missed_first"], u["extra_first"], u["extra_mid"], u["missed_mid"], u["missed_last"], u["extra_last"]) \
+        == (1, 1, 1, 0, 1, 0)
+    hit, used, lag = match_steps(det2, true, 0.35)
+    assert lag == pytest.approx(0.1) and hit.sum() == used.sum() == true.size - 2
+    assert unmatched_by_phase(det, np.zeros(0))["extra_mid"] == det.size
 
 
 def test_the_plain_peak_counter_counts_a_clean_gait_signal():

@@ -693,3 +693,75 @@ def test_real_texting_walks_keep_their_steps():
         assert hits >= 0.4 * truth.size and times.size <= truth.size, name
         matched, true = matched + hits, true + truth.size
     assert matched >= 0.5 * true
+
+
+def _walk_with_a_double_crossing(step_s: float = 0.66, split_s: float = 0.33, split_amp: float = 2.0):
+    """Contact times (s) of a 30-step walk and the acc (N, 3) where the third step's contact gives a second hump
+    ``split_s`` after it (a double crossing at gait initiation), ``split_amp`` m/s^2 high."""
+    walk_t = 1.0 + step_s * np.arange(30)
+    split = walk_t[2] + split_s
+    times = np.sort(np.r_[walk_t, split])
+    return walk_t, bumps(times, np.where(times == split, split_amp, 3.0), times[-1] + 3.0)
+
+
+def test_double_crossing_at_gait_initiation_is_dropped():
+    # Measured starts 1.04, 1.74, 2.42, 2.78, 3.10: the hump splits the third step into 0.36 s + 0.32 s, both shorter
+    # than any walking step, together one step of the candidate's 1.4 s stride. Kept, it broke the candidate's rhythm
+    # and the walk lost its first three steps (as Nexus_Jamie_Hard_InHand_2 did).
+    walk_t, acc = _walk_with_a_double_crossing()
+    steps = detect_steps(acc, FS)
+    assert len(steps) == walk_t.size
+    assert abs(steps.start_idx.min() / FS - walk_t[0]) < 0.1
+    kept = detect_steps(acc, FS, StepConfig(double_crossings=False))
+    assert len(kept) == walk_t.size - 3 and kept.start_idx.min() / FS > walk_t[3]
+
+
+def test_double_crossing_rule_chunked_with_state_round_trip_equals_one_batch():
+    _, acc = _walk_with_a_double_crossing()
+    _assert_chunks_with_state_round_trips_equal_one_batch(acc, StepConfig(), 11)
+
+
+@pytest.mark.parametrize("short_s,long_s", [(0.35, 0.65), (0.3, 0.7)])
+def test_asymmetric_steps_are_not_double_crossings(short_s, long_s):
+    # A back pocket's legs: one side of each start is short (below min_bout_step_s), the other long; the two together
+    # span a stride, not a step, so no start is dropped from the candidate (nor later).
+    times = 2.0 + np.cumsum(np.tile([short_s, long_s], 15))
+    steps = detect_steps(bumps(times, np.tile([4.0, 3.0], 15), times[-1] + 3.0), FS)
+    assert len(steps) == times.size
+
+
+def _candidate(starts, config: StepConfig | None = None, confirmed: bool = False) -> StepDetector:
+    """A detector whose open bout holds the given starts (grid indices at FS), peaks 2 m/s^2."""
+    det = StepDetector(FS, config)
+    det._bout = [(s, 2.0, s + 5, 0.0, 0.0, 0.0, 1.0) for s in starts]
+    det._bout_confirmed = confirmed
+    return det
+
+
+def test_double_crossing_predicate():
+    # Nexus_Jamie_Hard_InHand_2's starts at 50 Hz (1.28, 1.96, 2.58, 2.94 s; next 3.28 s): 0.36 s + 0.34 s, together
+    # 0.70 s against a 1.30 s stride, and 0.70 s repeats the same leg's 0.68 s a stride before.
+    assert _candidate([64, 98, 129, 147])._double_crossing(164)
+    assert not _candidate([64, 98, 129, 147], StepConfig(double_crossings=False))._double_crossing(164)
+    assert not _candidate([64, 98, 129, 147], confirmed=True)._double_crossing(164)   # confirmed bouts: left alone
+    assert not _candidate([98, 129, 147])._double_crossing(164)                       # no stride before it yet
+    # Samsung_Carmelo_Hard_Purse_2's handling (1.13, 1.59, 2.03, 2.73, 3.09 s; next 3.39 s): the short sides and the
+    # step they make pass, but 0.66 s against the same leg's 0.44 s a stride before (ratio 1.5) does not.
+    purse = [57, 80, 102, 137, 155]
+    assert not _candidate(purse)._double_crossing(170)
+    assert _candidate(purse, StepConfig(short_bout_spread=1.6))._double_crossing(170)
+    # A back pocket's asymmetric legs (0.34 s / 0.66 s): one side long, the two a stride.
+    assert not _candidate([0, 17, 50, 67])._double_crossing(100)
+    assert not _candidate([0, 33, 50, 83])._double_crossing(100)
+    # Both sides short but together a stride (a fast sequence, e.g. handling at 0.3 s): not one step.
+    assert not _candidate([0, 18, 36, 54])._double_crossing(72)
+
+
+@pytest.mark.data
+def test_real_double_crossing_at_gait_initiation():
+    # Nexus_Jamie_Hard_InHand_2: contacts at 1.44, 2.03, 2.61 and 3.20 s; the phone's starts at 1.28, 1.96, 2.58,
+    # 2.94 and 3.28 s, where 2.94 splits the step 2.58-3.28 (0.36 s + 0.34 s). Before the rule the walk's first step
+    # was at 3.28 s (301 of 306 contact-switch steps); now 304 with the three first steps found.
+    t, steps, true = _oxford_walk_steps("Nexus_Jamie_Hard_InHand_2")
+    assert true.size == 306 and len(steps) == 304
+    assert np.count_nonzero(t[steps.start_idx] < 3.0) == 3
