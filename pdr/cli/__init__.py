@@ -25,7 +25,6 @@ from collections.abc import Sequence
 from importlib.metadata import EntryPoint, entry_points
 from pathlib import Path
 
-from pdr.cli.lazy_numpy import defer_numpy_extras
 from pdr.errors import InputError
 
 log = logging.getLogger("pdr")
@@ -149,7 +148,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(words)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
-    defer_numpy_extras()
     try:
         return int(args.func(args) or 0)
     except InputError as exc:

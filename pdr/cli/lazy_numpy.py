@@ -1,9 +1,12 @@
-"""Numpy's optional submodules, loaded on first use in a ``pdr`` process (:func:`defer_numpy_extras`).
+"""Numpy's optional submodules, loaded on first use in a ``pdr track`` process (:func:`defer_numpy_extras`).
 
 numba loads its compiled-kernel cache through its CPU target, which imports ``scipy.linalg.cython_blas`` (numba's
 check that BLAS is there); scipy's array-API layer then copies every public name of numpy, and reading
 ``numpy.f2py``, ``numpy.testing``, ``numpy.ma``, ... imports those packages: about 0.1-0.2 s of a ``pdr track``
 process spent on Fortran wrapping, unit-test helpers and masked arrays that no command uses.
+
+Called by the one-shot ``pdr track`` process before its first kernel loads; not by the long-running, threaded
+service (Python 3.11's :class:`importlib.util.LazyLoader` does not lock the first access of a lazy module).
 """
 
 from __future__ import annotations
