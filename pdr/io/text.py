@@ -249,7 +249,13 @@ def _split_lines(raw: bytes) -> Lines | None:
         raw = raw.replace(b"\r\n", b"\n")
     if any(c in raw for c in _UNUSUAL_BREAKS):
         return None
-    buf = np.frombuffer(b"\n" + raw + (b"" if raw.endswith(b"\n") or not raw else b"\n"), np.uint8)
+    # LF + text (+ LF) in one copy into the array (concatenating the bytes first copied them twice).
+    n, tail = len(raw), 0 if raw.endswith(b"\n") or not raw else 1
+    buf = np.empty(1 + n + tail, np.uint8)
+    buf[0] = buf[-1] = _NEWLINE
+    if n:
+        buf[1:1 + n] = np.frombuffer(raw, np.uint8)
+    buf.flags.writeable = False
     newline = np.flatnonzero(buf == _NEWLINE)
     start = newline[:-1] + 1
     return Lines(buf, start, newline[1:] - start)

@@ -298,6 +298,9 @@ class PdrPipeline:
         self.pending: PendingStep | None = None
         self.last_floor = float(c.initial_floor)
         self.notices: list[str] = []
+        #: (placement, attitude configuration, pipeline configuration) for which :meth:`_placement_known` last set
+        #: the attitude parameters: the same objects again need nothing (it runs once per step).
+        self._placement_config_for: tuple[str | None, AttitudeConfig, PipelineConfig] | None = None
         self._av_zi: FloatArray | None = None
         b, a = iir.butter_lowpass(1, 0.5 / (0.5 * c.rate_hz))
         self._av_ba = (b, a)
@@ -614,6 +617,9 @@ class PdrPipeline:
         the configured values again when a detected placement changes to another carriage.
         """
         att, base = self.attitude.config, self.config.attitude
+        done = self._placement_config_for
+        if done is not None and done[0] == self.placement and done[1] is att and done[2] is self.config:
+            return      # set from these very (frozen) objects last time: ``want`` would equal ``att``
         sg, sa = self.config.device_heading_sigma_gyro, self.config.limb_sigma_a_moving
         mb = self.config.limb_mag_bias_gain
         limb = self.placement in ("pocket", "swinging")
@@ -623,6 +629,7 @@ class PdrPipeline:
                        mag_bias_gain=base.mag_bias_gain if mb is None or not limb else float(mb))
         if want != att:
             self.attitude.set_config(want)
+        self._placement_config_for = (self.placement, self.attitude.config, self.config)
 
     def _detect_placement(self, s: int, e: int) -> None:
         """Online placement from the stride ending with this step (:mod:`pdr.phone.placement_detect`); a change

@@ -83,3 +83,25 @@ def test_the_help_read_from_a_plugins_source_is_the_help_it_registers() -> None:
     for target in EVAL_TARGETS:
         loaded = _helps(_choices(build_parser(["eval", target]))["eval"])
         assert listed_targets[target] == loaded[target], target
+
+
+def test_numpys_unused_submodules_load_on_first_use_only() -> None:
+    """numba's kernel loading imports scipy.linalg, whose array-API layer reads every numpy attribute: after
+    :func:`pdr.cli.lazy_numpy.defer_numpy_extras` that runs no extra's code, and an extra still works when used.
+    """
+    code = ("import json, sys, numpy; from pdr.cli.lazy_numpy import EXTRAS, defer_numpy_extras; "
+            "defer_numpy_extras(); import scipy.linalg.cython_blas; "
+            "lazy = [m for m in EXTRAS if type(sys.modules[m]).__name__ == '_LazyModule']; "
+            "ok = numpy.ma.masked_invalid(numpy.array([1.0, numpy.nan])).count() == 1; "
+            "print(json.dumps([lazy, type(sys.modules['numpy.ma']).__name__, bool(ok)]))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120)
+    lazy, ma_type, ok = json.loads(out.stdout)
+    assert "numpy.f2py" in lazy and "numpy.testing" in lazy
+    assert ma_type == "module" and ok
+
+
+def test_defer_numpy_extras_does_not_import_numpy() -> None:
+    code = ("import sys; from pdr.cli.lazy_numpy import defer_numpy_extras; defer_numpy_extras(); "
+            "print('numpy' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120)
+    assert out.stdout.strip() == "False"
