@@ -27,6 +27,7 @@ from classifiers import stairs_direction
 from classifiers.baro_stage import log_likelihood as baro_log_likelihood
 from classifiers.baro_stage import vertical_speed
 from classifiers.features import FEATURE_GROUPS, context_margin_s, extract_features, feature_names
+from classifiers.posture import gate_posture, window_gravity
 from classifiers.sequence import ForwardFilter, dwell_transitions, forward_backward, scaled_log_likelihood
 from classifiers.transitions import gate_transitions
 from classifiers.windows import WindowConfig, Windows, make_windows
@@ -212,16 +213,23 @@ class ContextModel:
         return self.decide(smoothed, raw, usable, win.t_start_s, win.t_end_s)
 
     def classify(self, rec: Recording) -> WindowResults:
-        """Offline timeline of a recording: a decision per window, transitions gated (module docstring)."""
+        """Offline timeline of a recording: a decision per window, transitions and posture gated (module
+        docstring).
+        """
         self.check_recording(rec)
         win = make_windows(rec, self.window, margin_s=self.margin_s)
-        return self.gated(self.predict_windows(win))
+        return self.gated(self.predict_windows(win), window_gravity(win))
 
     @staticmethod
-    def gated(res: WindowResults) -> WindowResults:
-        """``res`` with transition windows away from their anchor relabelled (:mod:`classifiers.transitions`)."""
+    def gated(res: WindowResults, gravity: FloatArray | None = None) -> WindowResults:
+        """``res`` with transition windows away from their anchor relabelled (:mod:`classifiers.transitions`) and,
+        given each window's gravity direction (device frame, :func:`classifiers.posture.window_gravity`),
+        ``sitting`` windows of an upright thigh relabelled (:mod:`classifiers.posture`).
+        """
         labels, conf = gate_transitions(res.label, res.confidence, res.proba, res.classes, res.t_start_s,
                                         res.t_end_s)
+        if gravity is not None:
+            labels, conf = gate_posture(labels, conf, res.proba, res.classes, res.t_start_s, res.t_end_s, gravity)
         return replace(res, label=labels, confidence=conf)
 
     def forward_filter(self) -> ForwardFilter:

@@ -25,6 +25,7 @@ import numpy as np
 
 from classifiers.artifacts import DEFAULT_MODEL, load_model, resolve_model_dir
 from classifiers.model import ContextModel
+from classifiers.posture import PostureGate, window_gravity
 from classifiers.transitions import TransitionGate
 from classifiers.windows import WINDOW_STREAMS, WindowConfig, make_windows
 from pdr.errors import InputError
@@ -100,6 +101,7 @@ class StreamingClassifier:
         self.buffers: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self.filter = self.model.forward_filter()
         self.gate = TransitionGate()
+        self.posture = PostureGate()
 
     @property
     def window(self) -> WindowConfig:
@@ -133,7 +135,7 @@ class StreamingClassifier:
 
         Their context spans end at the last sample, as in an offline pass over the whole log.
         """
-        return self._emit(final=True, source="") + [StreamResult(**d) for d in self.gate.flush()]
+        return self._emit(final=True, source="") + [StreamResult(**d) for d in self.posture.push(self.gate.flush())]
 
     def _emit(self, final: bool, source: str) -> list[StreamResult]:
         t0 = self.t0_ns
@@ -152,6 +154,7 @@ class StreamingClassifier:
         if not done.any():
             return []
         win = win.select(done)
+        gravity = window_gravity(win)
         raw, usable, ll = self.model.window_evidence(win)
         filtered = self.filter.update(ll)
         res = self.model.decide(filtered, raw, usable, win.t_start_s, win.t_end_s)
@@ -166,14 +169,15 @@ class StreamingClassifier:
                                 {cl: float(p) for cl, p in zip(classes, pr, strict=True)})
                    for a, b, lab, c, r, pr in zip(res.t_start_s, res.t_end_s, res.label, res.confidence,
                                                    res.raw_proba, res.proba, strict=True)]
-        return [StreamResult(**d) for d in self.gate.push([r.to_dict() for r in results])]
+        items = [{**r.to_dict(), "gravity": g.tolist()} for r, g in zip(results, gravity, strict=True)]
+        return [StreamResult(**d) for d in self.posture.push(self.gate.push(items))]
 
     def state(self) -> dict[str, Any]:
         """State for :func:`pdr.state_codec.dumps`: model name, clock origin, next window, filter, sample buffers."""
         return {
             "version": STATE_VERSION, "model": self.model_name, "window": self.window.to_dict(),
             "t0_ns": self.t0_ns, "next_window": self.next_window, "filter": self.filter.state(),
-            "gate": self.gate.state(),
+            "gate": self.gate.state(), "posture": self.posture.state(),
             "buffers": {k: {"t_ns": t.copy(), "values": v.copy()} for k, (t, v) in self.buffers.items()},
         }
 
@@ -191,6 +195,8 @@ class StreamingClassifier:
             clf.filter.set_state(state["filter"])
             if "gate" in state:  # states stored before the gate existed resume with an empty one
                 clf.gate = TransitionGate.from_state(state["gate"])
+            if "posture" in state:  # states stored before the posture rule resume with an empty one
+                clf.posture = PostureGate.from_state(state["posture"])
             for k, b in state["buffers"].items():
                 t = np.asarray(b["t_ns"], dtype=np.int64)
                 v = np.asarray(b["values"], dtype=np.float64).reshape(t.size, -1)

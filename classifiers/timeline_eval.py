@@ -33,6 +33,7 @@ import numpy as np
 from classifiers.artifacts import placement_model
 from classifiers.floor_eval import TimelineOf, step_timeline
 from classifiers.model import ContextModel, WindowResults
+from classifiers.posture import window_gravity
 from classifiers.stops import MIN_STOP_S, STOP_LABEL, Stop, step_intervals, stop_intervals
 from classifiers.transitions import TRANSITIONS
 from classifiers.windows import make_windows
@@ -128,8 +129,9 @@ def timeline_figures(model: ContextModel, recs: Sequence[Recording],
         except InputError:
             pass
         else:
-            raw_res = model.predict_windows(make_windows(rec, model.window, margin_s=model.margin_s))
-            res = model.gated(raw_res)
+            windows = make_windows(rec, model.window, margin_s=model.margin_s)
+            raw_res = model.predict_windows(windows)
+            res = model.gated(raw_res, window_gravity(windows))
         truth = truth_stops(rec, MIN_STOP_S) + mode_truth_stops(rec)
         if truth and not rec.device.is_foot:  # a shoe IMU's modes come from pdr foot, not a phone timeline
             by_model = res is not None and pocket is not None and \

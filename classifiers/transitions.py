@@ -40,12 +40,12 @@ MIN_SEGMENT_S = 30.0
 ANCHORS = tuple(sorted({a for a, _ in TRANSITIONS.values()}))
 
 
-def fallback(proba: Sequence[float], classes: Sequence[str]) -> tuple[str, float]:
+def fallback(proba: Sequence[float], classes: Sequence[str], also_excluded: Sequence[str] = ()) -> tuple[str, float]:
     """Best class of one window's posterior other than the transitions and their anchors (a window that loses a
-    car label is not in a car), and its posterior renormalised over the allowed classes.
+    car label is not in a car) and ``also_excluded``, and its posterior renormalised over the allowed classes.
     """
     p = np.asarray(proba, dtype=np.float64)
-    allowed = np.array([c not in TRANSITIONS and c not in ANCHORS for c in classes])
+    allowed = np.array([c not in TRANSITIONS and c not in ANCHORS and c not in also_excluded for c in classes])
     if not allowed.any():
         raise InputError("no class is left once transitions and their anchors are excluded", field="classes")
     q = np.where(allowed, p, -1.0)
