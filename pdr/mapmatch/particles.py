@@ -125,9 +125,15 @@ class MapMatchConfig:
 
 def steps_from_rows(rows: Sequence[dict[str, Any]]) -> list[StepInput]:
     """The pipeline's step events (or track rows) as :class:`StepInput`."""
-    return [StepInput(float(r["t_s"]), float(r["step_length_m"]), float(r["heading_deg"]),
-                      int(round(float(r["floor"]))),
-                      None if r.get("gyro_heading_deg") is None else float(r["gyro_heading_deg"])) for r in rows]
+    return [step_input(r["t_s"], r["step_length_m"], r["heading_deg"], r["floor"], r.get("gyro_heading_deg"))
+            for r in rows]
+
+
+def step_input(t_s: Any, length_m: Any, heading_deg: Any, floor: Any, gyro_heading_deg: Any,
+               floor_shift: int = 0) -> StepInput:
+    """A :class:`StepInput` from a step's fields (floor rounded to an integer, plus ``floor_shift``)."""
+    return StepInput(float(t_s), float(length_m), float(heading_deg), int(round(float(floor))) + floor_shift,
+                     None if gyro_heading_deg is None else float(gyro_heading_deg))
 
 
 @dataclass
