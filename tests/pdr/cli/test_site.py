@@ -89,7 +89,7 @@ def test_eval_ms_map_scores_absolutely_from_the_first_waypoint(capsys: pytest.Ca
     res = json.loads(capsys.readouterr().out)
     m = res["overall"]["map"]
     assert m["traces"] == 2 and m["speed"]["particles"] == 300 and m["speed"]["steps"] > 20
-    for name in ("pdr", "online", "smoothed"):
+    for name in ("pdr", "online", "smoothed", "hindsight"):
         # (the pooled p75 may exceed every trace's own p75: a few large errors of each trace pool into the top 25 %)
         assert 0 < m[name]["median_m"] <= m[name]["p75_m"] < 50 and 0 < m[name]["worst_p75_m"] < 50
     assert main(["eval", "ms", str(floor), "--map", "--map-config", '{"walls": 1}']) == 2
