@@ -685,24 +685,35 @@ def eval_ms(args: argparse.Namespace) -> int:
                 s = m[name]
                 yield (f"MAP {name} (absolute, from the first waypoint, {m['traces']} traces): median "
                        f"{s['median_m']:.2f} p75 {s['p75_m']:.2f} m; worst trace {s['worst_file']} p75 "
-                       f"{s['worst_p75_m']:.2f} m; {s['traces_over_5m']} traces over 5 m p75")
+                       f"{s['worst_p75_m']:.2f} m; {s['traces_over_5m']} traces over 5 m p75" + _map_floors(s))
             s = m[_MapScores.HINDSIGHT]
             yield (f"MAP bound: PDR turned and scaled about the start by each trace's least-squares rotation and "
                    f"scale on its truth (a constant heading offset and step-length scale known with hindsight): "
-                   f"median {s['median_m']:.2f} p75 {s['p75_m']:.2f} m; {s['traces_over_5m']} traces over 5 m p75")
+                   f"median {s['median_m']:.2f} p75 {s['p75_m']:.2f} m; {s['traces_over_5m']} traces over 5 m p75"
+                   + _map_floors(s))
             sp = m["speed"]
             if "calibrated" in summary and "map" in summary["calibrated"]:
                 for name in _MapScores.TRACKS:
                     s = summary["calibrated"]["map"][name]
-                    yield (f"MAP {name} CALIBRATED --calibrate {args.calibrate} ({s['traces']} traces): median "
+                    yield (f"MAP {name} CALIBRATED --calibrate {args.calibrate} "
+                           f"({summary['calibrated']['map']['traces']} traces): median "
                            f"{s['median_m']:.2f} p75 {s['p75_m']:.2f} m; worst trace {s['worst_file']} p75 "
-                           f"{s['worst_p75_m']:.2f} m; {s['traces_over_5m']} traces over 5 m p75")
+                           f"{s['worst_p75_m']:.2f} m; {s['traces_over_5m']} traces over 5 m p75" + _map_floors(s))
             yield (f"MAP speed: {sp['particles']} particles, {sp['steps']} steps in {sp['wall_s']:.3f} s = "
                    f"{sp['steps_per_s']:.0f} steps/s, {sp['times_real_time']:.0f}x real time (online filter, "
                    f"warm: kernels loaded before the first timed trace); CPU time {sp['cpu_s']:.3f} s = "
                    f"{sp['times_real_time_cpu']:.0f}x real time (without the wait for other processes on the cores)")
     _emit(summary, per, args.json, lines())
     return 0
+
+
+def _map_floors(s: dict[str, Any]) -> str:
+    """`` | F3 (n): median .. p75 .. m, k over 5 m; F4 ...`` when a MAP figure pools several floor folders."""
+    fl = s.get("floors", {})
+    if len(fl) < 2:
+        return ""
+    return " | " + "; ".join(f"{k} ({v['traces']}): median {v['median_m']:.2f} p75 {v['p75_m']:.2f} m, "
+                             f"{v['traces_over_5m']} over 5 m" for k, v in fl.items())
 
 
 def _ms_calibrated(done: list[dict[str, Any]], args: argparse.Namespace) -> dict[str, Any]:
@@ -780,6 +791,7 @@ class _MapScores:
         self.config = config
         self.plans: dict[Path, SitePlan] = {}
         self.errors: dict[str, list[tuple[str, np.ndarray]]] = {k: [] for k in (*self.TRACKS, self.HINDSIGHT)}
+        self.floor_of: dict[str, str] = {}     # trace file name -> its floor folder
         self.wall_s = 0.0
         self.cpu_s = 0.0
         self.walk_s = 0.0
@@ -800,6 +812,7 @@ class _MapScores:
 
         from pdr.mapmatch.rows import match_rows
         plan, floor = self._plan(trace)
+        self.floor_of[trace.name] = _ms_floor(trace)
         after = [r for r in rows if r["t_s"] > truth_t[0]]
         start = (float(truth_xy[0, 0]), float(truth_xy[0, 1]))
         t = np.array([r["t_s"] for r in rows])
@@ -837,7 +850,13 @@ class _MapScores:
             p75 = [(_pct(e, 75), f) for f, e in per]
             worst = max(p75) if p75 else (math.nan, "")
             out[name] = {"median_m": _pct(a, 50), "p75_m": _pct(a, 75), "worst_p75_m": worst[0],
-                         "worst_file": worst[1], "traces_over_5m": sum(1 for v, _ in p75 if v > 5.0)}
+                         "worst_file": worst[1], "traces_over_5m": sum(1 for v, _ in p75 if v > 5.0),
+                         "floors": {}}
+            for floor in sorted(set(self.floor_of.values())):
+                mine = [e for f, e in per if self.floor_of[f] == floor]
+                b = np.concatenate(mine) if mine else np.zeros(0)
+                out[name]["floors"][floor] = {"traces": len(mine), "median_m": _pct(b, 50), "p75_m": _pct(b, 75),
+                                              "traces_over_5m": sum(1 for e in mine if _pct(e, 75) > 5.0)}
         out["speed"] = {"particles": self.config.particles, "steps": self.steps, "wall_s": self.wall_s,
                         "steps_per_s": self.steps / self.wall_s if self.wall_s else math.nan,
                         "times_real_time": self.walk_s / self.wall_s if self.wall_s else math.nan,

@@ -117,3 +117,9 @@ def test_eval_ms_calibrates_each_trace_on_the_other_floors(tmp_path: Path, capsy
     per = {p["file"]: p["calibrated"] for p in res["files"]}
     assert per[picks["F4"][0]]["calibrated_on"] == 2 and per[picks["F3"][0]]["calibrated_on"] == 1
     assert per[picks["F3"][0]]["k"] == per[picks["F3"][1]]["k"] != per[picks["F4"][0]]["k"]
+    assert main(["eval", "ms", str(tmp_path), "--map", "--calibrate", "cross",
+                 "--map-config", '{"particles": 200}']) == 0
+    text = capsys.readouterr().out
+    for line in ("CALIBRATED --calibrate cross (K on the other floors'", "MAP online CALIBRATED --calibrate cross (3",
+                 "MAP bound:", "| F3 (2): median"):
+        assert line in text
