@@ -241,6 +241,11 @@ def _register_eval(targets: argparse._SubParsersAction, name: str, helptext: str
                             "start")
         p.add_argument("--map-config", metavar="JSON", default="{}",
                        help="particle filter parameters (pdr.mapmatch.particles.MapMatchConfig fields) as JSON")
+        p.add_argument("--calibrate", default="none", choices=("none", "cross"),
+                       help="also score each trace (and map-match it, with --map) after recalibrating the "
+                            "step-length scale K (pdr calibrate) on the traces of the OTHER floor folders walked "
+                            "with the same phone (never the trace's own floor): tune on F3, report on F4 and the "
+                            "reverse")
     if name == "ipin":
         p.add_argument("--calibrate", default="none", choices=("none", "cross", "cross-rep"),
                        help="also score each log after recalibrating the step-length scale K (pdr calibrate) "
@@ -581,12 +586,14 @@ def eval_ms(args: argparse.Namespace) -> int:
     """Per trace and overall waypoint errors, ours and the reference (the phone's own attitude,
     :func:`reference_rows`) side by side, and per floor folder; with ``--map`` also absolute, map-matched errors.
     """
+    from pdr.cli.calibrate import landmark_walk
     files = _files(args.dir, ("*.txt", "*.txt.gz"))
     if args.limit:
         files = files[:args.limit]
     per: list[dict[str, Any]] = []
     errs: list[np.ndarray] = []
     mapped = _MapScores(_map_config(args.map_config)) if args.map else None
+    done: list[dict[str, Any]] = []         # scored traces with what the calibrated pass needs
     ours_ref: list[np.ndarray] = []         # ours on the traces that have a reference
     ref_errs: list[np.ndarray] = []
     by_floor: dict[str, dict[str, list[np.ndarray]]] = {}
@@ -625,6 +632,8 @@ def eval_ms(args: argparse.Namespace) -> int:
         if mapped is not None:
             p["map"] = mapped.score(f, rows, rec.origin_ns / 1e9 + pt.t_s, pt.pos_m[:, :2])
         per.append(p)
+        done.append({"path": f, "per": p, "cfg": cfg, "floor": floor, "phone": rec.device.model,
+                     "walk": landmark_walk(rows, rec.origin_ns / 1e9 + pt.t_s, pt.pos_m)})
     summary: dict[str, Any] = {**_ms_summary(errs), "reference": _ms_summary(ref_errs),
                                "ours_on_reference_traces": _ms_summary(ours_ref),
                                "worse_than_reference": [
@@ -634,6 +643,8 @@ def eval_ms(args: argparse.Namespace) -> int:
                                           for k, d in sorted(by_floor.items())}}
     if mapped is not None:
         summary["map"] = mapped.summary()
+    if args.calibrate != "none":
+        summary["calibrated"] = _ms_calibrated(done, args)
 
     def lines() -> Iterator[str]:
         for p in per:
@@ -647,7 +658,8 @@ def eval_ms(args: argparse.Namespace) -> int:
             if "map" in p:
                 m = p["map"]
                 line += (f" | absolute from the start: PDR p75 {m['pdr']['p75_m']:.2f}, map online "
-                         f"{m['online']['p75_m']:.2f}, map smoothed {m['smoothed']['p75_m']:.2f} m"
+                         f"{m['online']['p75_m']:.2f}, map smoothed {m['smoothed']['p75_m']:.2f} m, hindsight "
+                         f"bound {m['hindsight']['p75_m']:.2f} m"
                          + (f" ({len(m['notices'])} notices)" if m["notices"] else ""))
             yield line
         yield _ms_line("ALL", summary)
@@ -661,6 +673,10 @@ def eval_ms(args: argparse.Namespace) -> int:
                    f"{ref['traces']} traces" + (f" ({', '.join(worse)})" if worse else ""))
         else:
             yield "REFERENCE (phone's own attitude): n/a (no trace with an orientation stream)"
+        if "calibrated" in summary:
+            c = summary["calibrated"]
+            yield (_ms_line(f"CALIBRATED --calibrate {args.calibrate} (K on the other floors' traces of the same "
+                            "phone)", c) + f"; {c['without_calibration_walk']} traces without a calibration walk")
         for floor, d in summary["floors"].items():
             same = d["reference"]["traces"] == d["ours"]["traces"]
             yield _ms_line(f"FLOOR {floor} ours", d["ours"]) + (
@@ -673,14 +689,74 @@ def eval_ms(args: argparse.Namespace) -> int:
                 s = m[name]
                 yield (f"MAP {name} (absolute, from the first waypoint, {m['traces']} traces): median "
                        f"{s['median_m']:.2f} p75 {s['p75_m']:.2f} m; worst trace {s['worst_file']} p75 "
-                       f"{s['worst_p75_m']:.2f} m; {s['traces_over_5m']} traces over 5 m p75")
+                       f"{s['worst_p75_m']:.2f} m; {s['traces_over_5m']} traces over 5 m p75" + _map_floors(s))
+            s = m[_MapScores.HINDSIGHT]
+            yield (f"MAP bound: PDR turned and scaled about the start by each trace's least-squares rotation and "
+                   f"scale on its truth (a constant heading offset and step-length scale known with hindsight): "
+                   f"median {s['median_m']:.2f} p75 {s['p75_m']:.2f} m; {s['traces_over_5m']} traces over 5 m p75"
+                   + _map_floors(s))
             sp = m["speed"]
+            if "calibrated" in summary and "map" in summary["calibrated"]:
+                for name in _MapScores.TRACKS:
+                    s = summary["calibrated"]["map"][name]
+                    yield (f"MAP {name} CALIBRATED --calibrate {args.calibrate} "
+                           f"({summary['calibrated']['map']['traces']} traces): median "
+                           f"{s['median_m']:.2f} p75 {s['p75_m']:.2f} m; worst trace {s['worst_file']} p75 "
+                           f"{s['worst_p75_m']:.2f} m; {s['traces_over_5m']} traces over 5 m p75" + _map_floors(s))
             yield (f"MAP speed: {sp['particles']} particles, {sp['steps']} steps in {sp['wall_s']:.3f} s = "
                    f"{sp['steps_per_s']:.0f} steps/s, {sp['times_real_time']:.0f}x real time (online filter, "
                    f"warm: kernels loaded before the first timed trace); CPU time {sp['cpu_s']:.3f} s = "
                    f"{sp['times_real_time_cpu']:.0f}x real time (without the wait for other processes on the cores)")
     _emit(summary, per, args.json, lines())
     return 0
+
+
+def _map_floors(s: dict[str, Any]) -> str:
+    """`` | F3 (n): median .. p75 .. m, k over 5 m; F4 ...`` when a MAP figure pools several floor folders."""
+    fl = s.get("floors", {})
+    if len(fl) < 2:
+        return ""
+    return " | " + "; ".join(f"{k} ({v['traces']}): median {v['median_m']:.2f} p75 {v['p75_m']:.2f} m, "
+                             f"{v['traces_over_5m']} over 5 m" for k, v in fl.items())
+
+
+def _ms_calibrated(done: list[dict[str, Any]], args: argparse.Namespace) -> dict[str, Any]:
+    """``pdr eval ms --calibrate cross``: each trace re-run with the step-length scale K recalibrated
+    (:func:`pdr.cli.calibrate.calibrate_on_walks`) on the same phone's traces of the other floor folders, scored as
+    the uncalibrated ones (rotation about the start; with ``--map`` also map-matched, absolutely).
+    """
+    from dataclasses import replace
+
+    from pdr.cli.calibrate import calibrate_on_walks, calibration_partners
+    floors, phones = [d["floor"] for d in done], [d["phone"] for d in done]
+    usable = [d["walk"] is not None for d in done]
+    mapped = _MapScores(_map_config(args.map_config)) if args.map else None
+    errs: list[np.ndarray] = []
+    for i, d in enumerate(progress.each(done, "eval ms --calibrate")):
+        partners = [done[k] for k in calibration_partners(i, floors, phones, usable, "cross")]
+        if not partners:
+            d["per"]["calibrated"] = {"error": "no calibration walk"}
+            continue
+        model = calibrate_on_walks(d["cfg"].step_length, [o["walk"] for o in partners])
+        rec = read_recording(d["path"])
+        pt = rec.truth.positions
+        assert pt is not None           # scored in the first pass
+        rows, _ = run_pipeline(rec, replace(d["cfg"], step_length=model))
+        if len(rows) < 2:
+            d["per"]["calibrated"] = {"error": "empty track"}
+            continue
+        e = _ms_scores(rows, rec, pt)
+        errs.append(e)
+        c: dict[str, Any] = {"k": model.k, "calibrated_on": len(partners), "median_m": _pct(e, 50),
+                             "p75_m": _pct(e, 75)}
+        if mapped is not None:
+            c["map"] = mapped.score(d["path"], rows, rec.origin_ns / 1e9 + pt.t_s, pt.pos_m[:, :2])
+        d["per"]["calibrated"] = c
+    out: dict[str, Any] = {"mode": args.calibrate, **_ms_summary(errs),
+                           "without_calibration_walk": len(done) - len(errs)}
+    if mapped is not None:
+        out["map"] = mapped.summary()
+    return out
 
 
 def _map_config(text: str) -> MapMatchConfig:
@@ -710,11 +786,16 @@ class _MapScores:
     """``pdr eval ms --map``: each trace on its own floor's plan from its first waypoint, scored absolutely."""
 
     TRACKS = ("pdr", "online", "smoothed")
+    #: PDR turned and scaled about the start by the least-squares rotation and scale on the truth
+    #: (:func:`pdr.evaluation.scoring.waypoint_errors` with ``scale``): the error a constant heading offset and
+    #: step-length scale leave, known with hindsight (what remains needs corrections within the walk).
+    HINDSIGHT = "hindsight"
 
     def __init__(self, config: MapMatchConfig) -> None:
         self.config = config
         self.plans: dict[Path, SitePlan] = {}
-        self.errors: dict[str, list[tuple[str, np.ndarray]]] = {k: [] for k in self.TRACKS}
+        self.errors: dict[str, list[tuple[str, np.ndarray]]] = {k: [] for k in (*self.TRACKS, self.HINDSIGHT)}
+        self.floor_of: dict[str, str] = {}     # trace file name -> its floor folder
         self.wall_s = 0.0
         self.cpu_s = 0.0
         self.walk_s = 0.0
@@ -735,6 +816,7 @@ class _MapScores:
 
         from pdr.mapmatch.rows import match_rows
         plan, floor = self._plan(trace)
+        self.floor_of[trace.name] = _ms_floor(trace)
         after = [r for r in rows if r["t_s"] > truth_t[0]]
         start = (float(truth_xy[0, 0]), float(truth_xy[0, 1]))
         t = np.array([r["t_s"] for r in rows])
@@ -760,6 +842,9 @@ class _MapScores:
                  np.linalg.norm(truth_xy[1:] - truth_xy[0], axis=1))     # no step after the start: still there
             self.errors[name].append((trace.name, e))
             out[name] = {"median_m": _pct(e, 50), "p75_m": _pct(e, 75)}
+        e = waypoint_errors(t, xy, truth_t, truth_xy, scale=True)
+        self.errors[self.HINDSIGHT].append((trace.name, e))
+        out[self.HINDSIGHT] = {"median_m": _pct(e, 50), "p75_m": _pct(e, 75)}
         return out
 
     def summary(self) -> dict[str, Any]:
@@ -769,7 +854,13 @@ class _MapScores:
             p75 = [(_pct(e, 75), f) for f, e in per]
             worst = max(p75) if p75 else (math.nan, "")
             out[name] = {"median_m": _pct(a, 50), "p75_m": _pct(a, 75), "worst_p75_m": worst[0],
-                         "worst_file": worst[1], "traces_over_5m": sum(1 for v, _ in p75 if v > 5.0)}
+                         "worst_file": worst[1], "traces_over_5m": sum(1 for v, _ in p75 if v > 5.0),
+                         "floors": {}}
+            for floor in sorted(set(self.floor_of.values())):
+                mine = [e for f, e in per if self.floor_of[f] == floor]
+                b = np.concatenate(mine) if mine else np.zeros(0)
+                out[name]["floors"][floor] = {"traces": len(mine), "median_m": _pct(b, 50), "p75_m": _pct(b, 75),
+                                              "traces_over_5m": sum(1 for e in mine if _pct(e, 75) > 5.0)}
         out["speed"] = {"particles": self.config.particles, "steps": self.steps, "wall_s": self.wall_s,
                         "steps_per_s": self.steps / self.wall_s if self.wall_s else math.nan,
                         "times_real_time": self.walk_s / self.wall_s if self.wall_s else math.nan,

@@ -61,16 +61,26 @@ def landmark_errors(track_t: FloatArray, track_en: FloatArray, truth_t: FloatArr
     return np.asarray(np.linalg.norm(est[1:] - gt[1:], axis=1))
 
 
-def waypoint_errors(track_t: FloatArray, track_xy: FloatArray, truth_t: FloatArray, truth_xy: FloatArray
-                    ) -> FloatArray:
-    """Errors (m) at waypoints 2..K after starting at the first and one least-squares rotation about it."""
+def waypoint_errors(track_t: FloatArray, track_xy: FloatArray, truth_t: FloatArray, truth_xy: FloatArray,
+                    scale: bool = False) -> FloatArray:
+    """Errors (m) at waypoints 2..K after starting at the first and one least-squares rotation about it.
+
+    ``scale``: a least-squares rotation and scale (the track's points at the waypoint times times the complex
+    factor ``sum(conj(z) w) / sum(|z|^2)``): what a constant heading offset and step-length scale, known with
+    hindsight, leave of the error.
+    """
     gt = np.asarray(truth_xy, dtype=np.float64)[:, :2]
     est = _interp(np.asarray(track_t), np.asarray(track_xy)[:, :2], np.asarray(truth_t))
     rel, g = est - est[0], gt - gt[0]
-    a = math.atan2(float(np.sum(rel[:, 0] * g[:, 1] - rel[:, 1] * g[:, 0])),
-                   float(np.sum(rel[:, 0] * g[:, 0] + rel[:, 1] * g[:, 1])))
+    im = float(np.sum(rel[:, 0] * g[:, 1] - rel[:, 1] * g[:, 0]))
+    re = float(np.sum(rel[:, 0] * g[:, 0] + rel[:, 1] * g[:, 1]))
+    a = math.atan2(im, re)
     r = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
-    est = gt[0] + rel @ r.T
+    turned = rel @ r.T
+    if scale:
+        norm = float(np.sum(rel * rel))
+        turned = turned * (math.hypot(re, im) / norm if norm > 0 else 1.0)
+    est = gt[0] + turned
     return np.asarray(np.linalg.norm(est[1:] - gt[1:], axis=1))
 
 

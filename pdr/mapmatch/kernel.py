@@ -1,7 +1,11 @@
-"""Compiled per-step kernel of the map matcher: move every particle one step and test it against the walls.
+"""Compiled per-step kernels of the map matcher: carry the offsets and scales, move every particle one step and
+test it against the walls (:func:`advance_particles`), then replace the dead by survivors and summarise the cloud
+(:func:`resample_summary`).
 
-Equations in :mod:`pdr.mapmatch.particles` (module doc); one loop over the particles instead of a dozen numpy
-passes, the wall test of :func:`pdr.site.wall_index.step_crosses` inside it.
+Equations in :mod:`pdr.mapmatch.particles` (module doc); a loop over the particles instead of a dozen numpy
+passes, the wall test of :func:`pdr.site.wall_index.step_crosses` inside it. The random draws stay with the
+caller's numpy generator (its state resumes bit-identically); the kernels apply the same floating-point
+operations in the same order as the numpy expressions they replaced, so the matched tracks are unchanged.
 """
 
 from __future__ import annotations
@@ -16,18 +20,6 @@ from pdr.site.wall_index import WallIndex, step_crosses
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
-
-
-def move_particles(pos: FloatArray, offset: FloatArray, scale: FloatArray, noise: FloatArray, yaw: float,
-                   length_m: float, heading_sigma_rad: float, length_sigma_m: float, walls: WallIndex
-                   ) -> tuple[FloatArray, BoolArray]:
-    """New positions ``(n, 2)`` (m) of a step of ``length_m`` at ``yaw`` (rad), and which crossed no wall.
-
-    ``noise`` ``(2, n)``: standard normal draws for the per-step heading and length noise.
-    """
-    return _move(pos, offset, scale, noise, yaw, length_m, heading_sigma_rad, length_sigma_m, walls.walls,
-                 walls.start, walls.wall_ids, walls.origin[0], walls.origin[1], walls.cell_m, walls.reach_m,
-                 walls.nx, walls.ny)
 
 
 @njit(cache=True)
@@ -46,6 +38,74 @@ def _move(pos: FloatArray, offset: FloatArray, scale: FloatArray, noise: FloatAr
         alive[i] = not step_crosses(pos[i, 0], pos[i, 1], new[i, 0], new[i, 1], walls, start, wall_ids, ox, oy,
                                     cell, reach, nx, ny)
     return new, alive
+
+
+def advance_particles(pos: FloatArray, offset: FloatArray, scale: FloatArray, noise: FloatArray, turn: float,
+                      relax: float, offset_walk_rad: float, scale_walk: float, scale_bounds: tuple[float, float],
+                      yaw: float, length_m: float, heading_sigma_rad: float, length_sigma_m: float,
+                      walls: WallIndex, retry_inflate: float) -> tuple[FloatArray, BoolArray, int]:
+    """One step of every particle; ``offset`` and ``scale`` are updated in place.
+
+    ``offset_i = (offset_i + turn) * relax + offset_walk_rad * noise[0, i]`` (rad; eqs. (a), (b) and the random
+    walk), ``scale_i = clip(scale_i + scale_walk * noise[1, i], *scale_bounds)``, then the move of ``length_m``
+    (m) at ``yaw`` (rad) with the per-step heading and length noise ``noise[2:]`` (standard normal, scaled by
+    ``heading_sigma_rad`` and ``length_sigma_m``); if no particle survives, the move is retried once with that
+    noise times ``retry_inflate``. Returns the new positions ``(n, 2)`` (m), which crossed no wall,
+    and how many.
+    """
+    return _advance(pos, offset, scale, noise, turn, relax, offset_walk_rad, scale_walk, scale_bounds[0],
+                    scale_bounds[1], yaw, length_m, heading_sigma_rad, length_sigma_m, retry_inflate, walls.walls,
+                    walls.start, walls.wall_ids, walls.origin[0], walls.origin[1], walls.cell_m, walls.reach_m,
+                    walls.nx, walls.ny)
+
+
+@njit(cache=True)
+def _advance(pos: FloatArray, offset: FloatArray, scale: FloatArray, noise: FloatArray, turn: float, relax: float,
+             offset_walk: float, scale_walk: float, lo: float, hi: float, yaw: float, length_m: float,
+             heading_sigma: float, length_sigma: float, inflate: float, walls: FloatArray, start: NDArray[np.int64],
+             wall_ids: NDArray[np.int64], ox: float, oy: float, cell: float, reach: float, nx: int, ny: int
+             ) -> tuple[FloatArray, BoolArray, int]:
+    n = pos.shape[0]
+    for i in range(n):
+        offset[i] = (offset[i] + turn) * relax + offset_walk * noise[0, i]
+        scale[i] = min(max(scale[i] + scale_walk * noise[1, i], lo), hi)
+    new, alive = _move(pos, offset, scale, noise[2:], yaw, length_m, heading_sigma, length_sigma, walls, start,
+                       wall_ids, ox, oy, cell, reach, nx, ny)
+    n_alive = int(alive.sum())
+    if n_alive == 0:
+        new, alive = _move(pos, offset, scale, noise[2:], yaw, length_m, inflate * heading_sigma,
+                           inflate * length_sigma, walls, start, wall_ids, ox, oy, cell, reach, nx, ny)
+        n_alive = int(alive.sum())
+    return new, alive, n_alive
+
+
+@njit(cache=True)
+def resample_summary(new: FloatArray, offset: FloatArray, scale: FloatArray, alive: BoolArray,
+                     draws: NDArray[np.int64]) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.int64],
+                                                        float, float, float, float, float]:
+    """Each dead particle replaced by the survivor ``draws[j]`` (the ``j``-th dead, in index order; survivors
+    counted in index order): positions, offsets, scales and parent indices of the new cloud, and its
+    :func:`cloud_summary`.
+    """
+    n = new.shape[0]
+    survivors = np.flatnonzero(alive)
+    pick = np.arange(n)
+    j = 0
+    for i in range(n):
+        if not alive[i]:
+            pick[i] = survivors[draws[j]]
+            j += 1
+    pos = np.empty_like(new)
+    off = np.empty_like(offset)
+    sc = np.empty_like(scale)
+    for i in range(n):
+        k = pick[i]
+        pos[i, 0] = new[k, 0]
+        pos[i, 1] = new[k, 1]
+        off[i] = offset[k]
+        sc[i] = scale[k]
+    mx, my, spread, mean_off, mean_scale = cloud_summary(pos, off, sc)
+    return pos, off, sc, pick, mx, my, spread, mean_off, mean_scale
 
 
 @njit(cache=True)

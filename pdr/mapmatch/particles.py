@@ -55,7 +55,7 @@ from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.frames import heading_deg_to_yaw
-from pdr.mapmatch.kernel import cloud_summary, move_particles
+from pdr.mapmatch.kernel import advance_particles, cloud_summary, resample_summary
 from pdr.site.plan import SitePlan
 from pdr.site.wall_index import WallIndex
 
@@ -63,6 +63,9 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 STATE_VERSION = 1
+
+#: No resampling draws (every particle survived the step).
+_NO_DRAWS = np.zeros(0, dtype=np.int64)
 
 
 @dataclass(frozen=True)
@@ -122,9 +125,15 @@ class MapMatchConfig:
 
 def steps_from_rows(rows: Sequence[dict[str, Any]]) -> list[StepInput]:
     """The pipeline's step events (or track rows) as :class:`StepInput`."""
-    return [StepInput(float(r["t_s"]), float(r["step_length_m"]), float(r["heading_deg"]),
-                      int(round(float(r["floor"]))),
-                      None if r.get("gyro_heading_deg") is None else float(r["gyro_heading_deg"])) for r in rows]
+    return [step_input(r["t_s"], r["step_length_m"], r["heading_deg"], r["floor"], r.get("gyro_heading_deg"))
+            for r in rows]
+
+
+def step_input(t_s: Any, length_m: Any, heading_deg: Any, floor: Any, gyro_heading_deg: Any,
+               floor_shift: int = 0) -> StepInput:
+    """A :class:`StepInput` from a step's fields (floor rounded to an integer, plus ``floor_shift``)."""
+    return StepInput(float(t_s), float(length_m), float(heading_deg), int(round(float(floor))) + floor_shift,
+                     None if gyro_heading_deg is None else float(gyro_heading_deg))
 
 
 @dataclass
@@ -213,40 +222,35 @@ class MapMatcher:
         assert walls is not None
         n = c.particles
         noise = self.rng.standard_normal((4, n))
-        self.offset = self._carry_offset(yaw, s) + math.radians(c.heading_offset_walk_deg) * noise[0]
-        self.scale = np.clip(self.scale + c.scale_walk * noise[1], *c.scale_bounds)
-        for inflate in (1.0, 3.0):
-            new, alive = move_particles(self.pos, self.offset, self.scale, noise[2:], yaw, s.length_m,
-                                        inflate * math.radians(c.heading_step_sigma_deg),
-                                        inflate * c.length_sigma_m, walls)
-            if alive.any():
-                break
-        else:
+        turn, relax = self._carry_terms(yaw, s)
+        new, alive, n_alive = advance_particles(
+            self.pos, self.offset, self.scale, noise, turn, relax, math.radians(c.heading_offset_walk_deg),
+            c.scale_walk, c.scale_bounds, yaw, s.length_m, math.radians(c.heading_step_sigma_deg), c.length_sigma_m,
+            walls, 3.0)
+        if n_alive == 0:
             self.dr = self._dead_reckon(np.mean(self.pos, axis=0), yaw, s.length_m)
             self._suspend(notices, f"every particle crossed a wall at t = {s.t_s:.2f} s")
             return self._unmatched(s.t_s)
-        survivors = np.flatnonzero(alive)
-        pick = np.arange(n)
-        dead = np.flatnonzero(~alive)
-        pick[dead] = survivors[self.rng.integers(0, survivors.size, dead.size)]
-        self.pos, self.offset, self.scale = new[pick], self.offset[pick], self.scale[pick]
+        draws = self.rng.integers(0, n_alive, n - n_alive) if n_alive < n else _NO_DRAWS
+        self.pos, self.offset, self.scale, pick, mx, my, spread, off, scale = resample_summary(
+            new, self.offset, self.scale, alive, draws)
         self._record(pick)
-        return self._estimate(s.t_s)
+        return MatchedStep(s.t_s, mx, my, self.floor, True, spread, math.degrees(off), scale)
 
-    def _carry_offset(self, yaw: float, s: StepInput) -> FloatArray:
-        """The heading offsets carried to this step: turned by what the gyro turned and the step heading did not
-        (eq. (a) of the module doc), then relaxed towards 0 over ``mag_distance_m`` of walking (eq. (b)).
+    def _carry_terms(self, yaw: float, s: StepInput) -> tuple[float, float]:
+        """What carries the heading offsets to this step: the turn (rad) the gyro made and the step heading did
+        not (eq. (a) of the module doc; 0 without it) and the factor relaxing them towards 0 over
+        ``mag_distance_m`` of walking (eq. (b); 1 without it).
         """
         c = self.config
         gyro = math.nan if s.gyro_heading_deg is None else float(heading_deg_to_yaw(s.gyro_heading_deg))
         y0, g0 = self.prev_turn
         self.prev_turn = (yaw, gyro)
-        off = self.offset
+        turn = 0.0
         if c.follow_gyro and not (math.isnan(g0) or math.isnan(gyro)):
-            off = off + _wrap((gyro - g0) - (yaw - y0))
-        if math.isfinite(c.mag_distance_m):
-            off = off * math.exp(-s.length_m / c.mag_distance_m)
-        return np.asarray(off)
+            turn = _wrap((gyro - g0) - (yaw - y0))
+        relax = math.exp(-s.length_m / c.mag_distance_m) if math.isfinite(c.mag_distance_m) else 1.0
+        return turn, relax
 
     def _dead_reckon(self, pos: FloatArray, yaw: float, length_m: float) -> FloatArray:
         """``pos`` (m) walked one step with the particles' mean heading offset and step-length scale."""

@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Any
 
-from pdr.mapmatch.particles import MapMatchConfig, MapMatcher, steps_from_rows
+from pdr.mapmatch.particles import MapMatchConfig, MapMatcher, step_input
 from pdr.phone.events import NoticeEvent, PipelineEvent, StepEvent
 from pdr.phone.track import TrackState
 from pdr.site.plan import SitePlan
@@ -35,10 +35,10 @@ class MapMatchStage:
 
     def step(self, event: StepEvent, track: TrackState) -> tuple[StepEvent, list[PipelineEvent]]:
         """The step at its matched position (and floor), the track moved there, and the matcher's notices."""
-        s = steps_from_rows([event.to_row()])[0]
         if self.first_step_floor is None:
-            self.first_step_floor = s.floor
-        s = replace(s, floor=self.start_floor + s.floor - self.first_step_floor)
+            self.first_step_floor = int(round(float(event.floor)))
+        s = step_input(event.t_s, event.step_length_m, event.heading_deg, event.floor, event.gyro_heading_deg,
+                       self.start_floor - self.first_step_floor)
         (m,), notices = self.matcher.update([s])
         track.fix(m.east_m, m.north_m, MATCHED_VAR_M2)
         matched = replace(event, east_m=m.east_m, north_m=m.north_m, floor=float(m.floor))

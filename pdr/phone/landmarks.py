@@ -220,10 +220,14 @@ class Site:
 
     @classmethod
     def from_dict(cls, d: Any, source: str = "site") -> Site:
-        if not isinstance(d, dict) or not isinstance(d.get("landmarks"), list):
+        if not isinstance(d, dict):
             raise InputError("expected an object with a 'landmarks' list", source=source)
+        landmarks = d.get("landmarks", [] if isinstance(d.get("floors"), list) else None)   # a plan-only site
+        if not isinstance(landmarks, list):
+            raise InputError("expected an object with a 'landmarks' list (it may be left out where a 'floors' list "
+                             "of floor plans is given)", source=source, field="landmarks")
         out = []
-        for i, lm in enumerate(d["landmarks"]):
+        for i, lm in enumerate(landmarks):
             where = f"{source} landmark {i}"
             try:
                 typ = str(lm["type"])

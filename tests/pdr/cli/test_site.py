@@ -89,7 +89,37 @@ def test_eval_ms_map_scores_absolutely_from_the_first_waypoint(capsys: pytest.Ca
     res = json.loads(capsys.readouterr().out)
     m = res["overall"]["map"]
     assert m["traces"] == 2 and m["speed"]["particles"] == 300 and m["speed"]["steps"] > 20
-    for name in ("pdr", "online", "smoothed"):
+    for name in ("pdr", "online", "smoothed", "hindsight"):
         # (the pooled p75 may exceed every trace's own p75: a few large errors of each trace pool into the top 25 %)
         assert 0 < m[name]["median_m"] <= m[name]["p75_m"] < 50 and 0 < m[name]["worst_p75_m"] < 50
     assert main(["eval", "ms", str(floor), "--map", "--map-config", '{"walls": 1}']) == 2
+
+
+@pytest.mark.data
+def test_eval_ms_calibrates_each_trace_on_the_other_floors(tmp_path: Path, capsys: pytest.CaptureFixture[str]
+                                                           ) -> None:
+    # Two F3 traces and one F4 trace (each floor folder with its plan): every trace's K comes from the other floor.
+    picks = {"F3": ["5dd398d727889b0006b76b8d.txt.gz", "5dd51c0350e04e0006f56442.txt.gz"],
+             "F4": ["5dd5205350e04e0006f5645c.txt.gz"]}
+    for floor, names in picks.items():
+        src = data_path("ms_indoor_location", "site2", floor)
+        (tmp_path / floor / "path_data_files").mkdir(parents=True)
+        for f in ("geojson_map.json", "floor_info.json"):
+            (tmp_path / floor / f).symlink_to(src / f)
+        for n in names:
+            (tmp_path / floor / "path_data_files" / n).symlink_to(src / "path_data_files" / n)
+    assert main(["eval", "ms", str(tmp_path), "--map", "--calibrate", "cross", "--json",
+                 "--map-config", '{"particles": 200}']) == 0
+    res = json.loads(capsys.readouterr().out)
+    c = res["overall"]["calibrated"]
+    assert c["mode"] == "cross" and c["traces"] == 3 and c["without_calibration_walk"] == 0
+    assert c["map"]["traces"] == 3 and 0 < c["map"]["online"]["p75_m"] < 50
+    per = {p["file"]: p["calibrated"] for p in res["files"]}
+    assert per[picks["F4"][0]]["calibrated_on"] == 2 and per[picks["F3"][0]]["calibrated_on"] == 1
+    assert per[picks["F3"][0]]["k"] == per[picks["F3"][1]]["k"] != per[picks["F4"][0]]["k"]
+    assert main(["eval", "ms", str(tmp_path), "--map", "--calibrate", "cross",
+                 "--map-config", '{"particles": 200}']) == 0
+    text = capsys.readouterr().out
+    for line in ("CALIBRATED --calibrate cross (K on the other floors'", "MAP online CALIBRATED --calibrate cross (3",
+                 "MAP bound:", "| F3 (2): median"):
+        assert line in text

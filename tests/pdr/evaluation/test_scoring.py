@@ -53,6 +53,15 @@ def test_a_rotated_track_costs_the_chord_unless_aligned():
         landmark_errors(t, en, TRUTH_T, TRUTH_EN, align="best")
 
 
+def test_the_hindsight_rotation_and_scale_undo_a_constant_heading_offset_and_step_scale():
+    t, en = _track(rotate_deg=-25.0, scale=0.8, offset=(3.0, 4.0))
+    dist = np.linalg.norm(TRUTH_EN[1:] - TRUTH_EN[0], axis=1)
+    np.testing.assert_allclose(waypoint_errors(t, en, TRUTH_T, TRUTH_EN), 0.2 * dist, rtol=1e-9)   # rotation only
+    np.testing.assert_allclose(waypoint_errors(t, en, TRUTH_T, TRUTH_EN, scale=True), 0.0, atol=1e-9)
+    still = np.full_like(en, 7.0)                           # a track that never moves: no factor to fit
+    np.testing.assert_allclose(waypoint_errors(t, still, TRUTH_T, TRUTH_EN, scale=True), dist, rtol=1e-12)
+
+
 def test_scale_shows_in_the_distance_ratios_and_floor_changes_are_left_out():
     t, en = _track(scale=1.1)
     assert distance_ratio(t, en, TRUTH_T, TRUTH_EN) == pytest.approx(1.1)

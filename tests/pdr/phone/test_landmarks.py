@@ -156,6 +156,15 @@ def test_site_floor_altitudes_from_the_floor_plan_layout():
     assert Site.from_dict(SITE).floor_altitudes_m == ()
 
 
+def test_a_plan_only_site_needs_no_landmarks_list():
+    # What `pdr site check` validates, `pdr track --site` reads: a site of floor plans alone has no landmarks.
+    site = Site.from_dict({"floors": [{"floor": 0, "altitude_m": 0.0, "walkable": []}]})
+    assert site.landmarks == () and site.floor_altitudes_m == ((0.0, 0.0),)
+    with pytest.raises(InputError, match="'landmarks' list") as exc:
+        Site.from_dict({"floors": [], "landmarks": {"id": 1}})
+    assert exc.value.field == "landmarks"
+
+
 def test_site_load_names_an_unreadable_file(tmp_path):
     bad = tmp_path / "site.json"
     bad.write_text("{not json")

@@ -1,0 +1,56 @@
+"""The map matcher's compiled step kernels equal the numpy expressions of the module doc, bit for bit."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from pdr.mapmatch.kernel import advance_particles, cloud_summary, resample_summary
+from pdr.site.geometry import segments_cross
+from pdr.site.wall_index import WallIndex
+
+# A room 10 m x 4 m with a 2 m wall sticking into it from the south at x = 5.
+WALLS = np.array([[0, 0, 10, 0], [10, 0, 10, 4], [10, 4, 0, 4], [0, 4, 0, 0], [5, 0, 5, 2]], dtype=np.float64)
+
+
+def reference_step(pos, offset, scale, noise, turn, relax, walk, scale_walk, bounds, yaw, length, hs, ls, inflate):
+    """The per-step update written as numpy expressions (the form the kernels replaced)."""
+    offset = (offset + turn) * relax + walk * noise[0]
+    scale = np.clip(scale + scale_walk * noise[1], *bounds)
+    for f in (1.0, inflate):
+        psi = yaw + offset + f * hs * noise[2]
+        step = np.maximum(length * scale + f * ls * noise[3], 0.0)
+        new = pos + step[:, None] * np.column_stack([np.cos(psi), np.sin(psi)])
+        alive = ~segments_cross(np.hstack([pos, new]), WALLS).any(axis=1)
+        if alive.any():
+            break
+    return offset, scale, new, alive
+
+
+@pytest.mark.parametrize("length", [0.7, 30.0])       # 30 m: every particle crosses a wall, the retry also fails
+def test_advance_and_resample_equal_the_numpy_expressions(length: float) -> None:
+    rng = np.random.default_rng(3)
+    n = 500
+    pos = np.column_stack([rng.uniform(0.5, 9.5, n), rng.uniform(0.5, 3.5, n)])
+    offset, scale = rng.normal(0, 0.3, n), rng.normal(1, 0.1, n)
+    noise = rng.standard_normal((4, n))
+    args = (0.05, math.exp(-0.7 / 40.0), math.radians(2.0), 0.001, (0.6, 1.6), 0.3, length, math.radians(3.0), 0.05)
+    want_off, want_scale, want_new, want_alive = reference_step(pos, offset, scale, noise, *args, 3.0)
+    off, sc = offset.copy(), scale.copy()
+    new, alive, n_alive = advance_particles(pos, off, sc, noise, *args, WallIndex.build(WALLS), 3.0)
+    assert np.array_equal(off, want_off) and np.array_equal(sc, want_scale)
+    assert np.array_equal(new, want_new) and alive.tolist() == want_alive.tolist()
+    assert n_alive == int(want_alive.sum())
+    if length > 10:
+        assert n_alive == 0
+        return
+    assert 0 < n_alive < n                 # some particles walked into the walls
+    draws = rng.integers(0, n_alive, n - n_alive)
+    pick = np.arange(n)
+    pick[~alive] = np.flatnonzero(alive)[draws]
+    got = resample_summary(new, off, sc, alive, draws)
+    for a, b in zip(got[:4], (new[pick], off[pick], sc[pick], pick), strict=True):
+        assert np.array_equal(a, b)
+    assert got[4:] == cloud_summary(new[pick], off[pick], sc[pick])
