@@ -359,6 +359,18 @@ def _floors_right(m: dict[str, Any]) -> str:
     return f"{m['floors_right']}/{n} ({100.0 * m['floors_right'] / n:.1f} %)" if n else "n/a"
 
 
+def _recalibrated(d: dict[str, Any], partners: list[dict[str, Any]]) -> tuple[StepLengthModel, Recording] | None:
+    """The step-length model calibrated on ``partners``' walks (:func:`pdr.cli.calibrate.calibrate_on_walks`) and
+    ``d``'s recording read again, or None (``d`` marked) when there is no partner to calibrate on.
+    """
+    from pdr.cli.calibrate import calibrate_on_walks
+
+    if not partners:
+        d["per"]["calibrated"] = {"error": "no calibration walk"}
+        return None
+    return calibrate_on_walks(d["cfg"].step_length, [o["walk"] for o in partners]), read_recording(d["path"])
+
+
 def _trim_start(rec: Recording, trim_s: float, first_landmark_s: float) -> Recording:
     """``rec`` without its first ``trim_s`` seconds; refused when that would reach the first landmark."""
     if trim_s == 0:
@@ -382,7 +394,7 @@ def eval_ipin(args: argparse.Namespace) -> int:
     """
     from dataclasses import replace
 
-    from pdr.cli.calibrate import calibrate_on_walks, calibration_partners, landmark_walk, trial_key
+    from pdr.cli.calibrate import calibration_partners, landmark_walk, trial_key
     files = _files(args.dir, ("*.txt", "*.txt.gz", "*.mat"))
     if args.limit:
         files = files[:args.limit]
@@ -447,11 +459,10 @@ def eval_ipin(args: argparse.Namespace) -> int:
         usable = [d["walk"] is not None for d in done]
         for i, d in enumerate(done):
             partners = [done[k] for k in calibration_partners(i, routes, phones, usable, args.calibrate)]
-            if not partners:
-                d["per"]["calibrated"] = {"error": "no calibration walk"}
+            recalibrated = _recalibrated(d, partners)
+            if recalibrated is None:
                 continue
-            model = calibrate_on_walks(d["cfg"].step_length, [o["walk"] for o in partners])
-            rec = read_recording(d["path"])
+            model, rec = recalibrated
             truth = rec.truth.positions
             assert truth is not None   # scored in the first pass
             rec = _trim_start(rec, args.trim_start, rec.origin_ns / 1e9 + float(truth.t_s[0]))
@@ -727,18 +738,17 @@ def _ms_calibrated(done: list[dict[str, Any]], args: argparse.Namespace) -> dict
     """
     from dataclasses import replace
 
-    from pdr.cli.calibrate import calibrate_on_walks, calibration_partners
+    from pdr.cli.calibrate import calibration_partners
     floors, phones = [d["floor"] for d in done], [d["phone"] for d in done]
     usable = [d["walk"] is not None for d in done]
     mapped = _MapScores(_map_config(args.map_config)) if args.map else None
     errs: list[np.ndarray] = []
     for i, d in enumerate(progress.each(done, "eval ms --calibrate")):
         partners = [done[k] for k in calibration_partners(i, floors, phones, usable, "cross")]
-        if not partners:
-            d["per"]["calibrated"] = {"error": "no calibration walk"}
+        recalibrated = _recalibrated(d, partners)
+        if recalibrated is None:
             continue
-        model = calibrate_on_walks(d["cfg"].step_length, [o["walk"] for o in partners])
-        rec = read_recording(d["path"])
+        model, rec = recalibrated
         pt = rec.truth.positions
         assert pt is not None           # scored in the first pass
         rows, _ = run_pipeline(rec, replace(d["cfg"], step_length=model))
