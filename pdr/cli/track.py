@@ -359,16 +359,22 @@ def _floors_right(m: dict[str, Any]) -> str:
     return f"{m['floors_right']}/{n} ({100.0 * m['floors_right'] / n:.1f} %)" if n else "n/a"
 
 
-def _recalibrated(d: dict[str, Any], partners: list[dict[str, Any]]) -> tuple[StepLengthModel, Recording] | None:
-    """The step-length model calibrated on ``partners``' walks (:func:`pdr.cli.calibrate.calibrate_on_walks`) and
-    ``d``'s recording read again, or None (``d`` marked) when there is no partner to calibrate on.
+def _recalibrated(done: list[dict[str, Any]], i: int, groups: list[str], mode: str
+                  ) -> tuple[StepLengthModel, Recording, list[dict[str, Any]]] | None:
+    """For the ``i``-th log of ``done``: the step-length model calibrated on its partners' walks (the same phone's
+    logs of other ``groups``, :func:`pdr.cli.calibrate.calibration_partners` and ``calibrate_on_walks``), its
+    recording read again and the partners; None (the log marked) when there is no partner to calibrate on.
     """
-    from pdr.cli.calibrate import calibrate_on_walks
+    from pdr.cli.calibrate import calibrate_on_walks, calibration_partners
 
+    phones, usable = [d["phone"] for d in done], [d["walk"] is not None for d in done]
+    partners = [done[k] for k in calibration_partners(i, groups, phones, usable, mode)]
+    d = done[i]
     if not partners:
         d["per"]["calibrated"] = {"error": "no calibration walk"}
         return None
-    return calibrate_on_walks(d["cfg"].step_length, [o["walk"] for o in partners]), read_recording(d["path"])
+    model = calibrate_on_walks(d["cfg"].step_length, [o["walk"] for o in partners])
+    return model, read_recording(d["path"]), partners
 
 
 def _trim_start(rec: Recording, trim_s: float, first_landmark_s: float) -> Recording:
@@ -394,7 +400,7 @@ def eval_ipin(args: argparse.Namespace) -> int:
     """
     from dataclasses import replace
 
-    from pdr.cli.calibrate import calibration_partners, landmark_walk, trial_key
+    from pdr.cli.calibrate import landmark_walk, trial_key
     files = _files(args.dir, ("*.txt", "*.txt.gz", "*.mat"))
     if args.limit:
         files = files[:args.limit]
@@ -455,14 +461,12 @@ def eval_ipin(args: argparse.Namespace) -> int:
     calibrated: list[dict[str, Any]] = []
     calibrated_smoothed: list[dict[str, Any]] = []
     if args.calibrate != "none":
-        routes, phones = [d["route"] for d in done], [d["phone"] for d in done]
-        usable = [d["walk"] is not None for d in done]
+        routes = [d["route"] for d in done]
         for i, d in enumerate(done):
-            partners = [done[k] for k in calibration_partners(i, routes, phones, usable, args.calibrate)]
-            recalibrated = _recalibrated(d, partners)
+            recalibrated = _recalibrated(done, i, routes, args.calibrate)
             if recalibrated is None:
                 continue
-            model, rec = recalibrated
+            model, rec, partners = recalibrated
             truth = rec.truth.positions
             assert truth is not None   # scored in the first pass
             rec = _trim_start(rec, args.trim_start, rec.origin_ns / 1e9 + float(truth.t_s[0]))
@@ -738,17 +742,14 @@ def _ms_calibrated(done: list[dict[str, Any]], args: argparse.Namespace) -> dict
     """
     from dataclasses import replace
 
-    from pdr.cli.calibrate import calibration_partners
-    floors, phones = [d["floor"] for d in done], [d["phone"] for d in done]
-    usable = [d["walk"] is not None for d in done]
+    floors = [d["floor"] for d in done]
     mapped = _MapScores(_map_config(args.map_config)) if args.map else None
     errs: list[np.ndarray] = []
     for i, d in enumerate(progress.each(done, "eval ms --calibrate")):
-        partners = [done[k] for k in calibration_partners(i, floors, phones, usable, "cross")]
-        recalibrated = _recalibrated(d, partners)
+        recalibrated = _recalibrated(done, i, floors, "cross")
         if recalibrated is None:
             continue
-        model, rec = recalibrated
+        model, rec, partners = recalibrated
         pt = rec.truth.positions
         assert pt is not None           # scored in the first pass
         rows, _ = run_pipeline(rec, replace(d["cfg"], step_length=model))
