@@ -12,10 +12,12 @@ The rule: a window labelled ``sitting`` keeps it unless the walker was upright (
 turned: the classifier's "at rest, seated" becomes "at rest, upright", ``stationary``, with the posterior of
 being at rest (sitting plus stationary) as its confidence; a model without that class gives the best class other
 than sitting, the transitions and their anchors (:func:`classifiers.transitions.fallback`). The upright
-reference is the running mean of the upright windows' gravity directions (weight :data:`REFERENCE_WEIGHT` each); it
-is only ever taken from the past, so the online decisions (:class:`PostureGate`) equal the offline ones
-(:func:`gate_posture`) without holding windows back. A ``sitting`` window with no upright window before it within
-reach keeps its label: without a reference the thigh's angle is unknown (a recording that starts seated).
+reference is the running mean of the upright windows' gravity directions (weight :data:`REFERENCE_WEIGHT` each).
+A ``sitting`` window with no upright window within reach before it (a walk that starts from a stand) waits, with the
+windows after it, for the first upright window: if one starts within reach after it, it is judged against the
+reference that window makes; if none comes (a recording that starts seated), it keeps its label, since without a
+reference the thigh's angle is unknown. :class:`PostureGate` applies the rule online, holding such windows back;
+:func:`gate_posture` runs the same gate over a whole recording, so the two decide alike.
 """
 
 from __future__ import annotations
@@ -58,49 +60,93 @@ def window_gravity(win: Windows) -> FloatArray:
 
 
 class PostureGate:
-    """Online posture rule (module doc) over decisions arriving in time order; JSON-able state."""
+    """Online posture rule (module doc) over decision dicts arriving in time order (``t_start_s``, ``t_end_s``,
+    ``mode``, ``confidence``, ``proba`` class -> posterior, ``gravity``: the window's unit gravity direction in the
+    device frame). :meth:`push` returns the decided ones (``gravity`` removed), :meth:`flush` the held ones at the
+    end of the session. JSON-able state.
+    """
 
     def __init__(self, reach_s: float = POSTURE_REACH_S, min_tilt_deg: float = SITTING_MIN_TILT_DEG) -> None:
         self.reach_s = float(reach_s)
         self.min_tilt_deg = float(min_tilt_deg)
         self.reference: list[float] | None = None      # unit gravity direction of the upright walker (device)
         self.reference_end_s: float | None = None      # end (s) of the last upright window
-
-    def judge(self, label: str, confidence: float, proba: Sequence[float], classes: Sequence[str],
-              t_start_s: float, t_end_s: float, gravity: Sequence[float]) -> tuple[str, float]:
-        """The window's label and confidence after the rule; learns the reference from upright windows."""
-        g = np.asarray(gravity, dtype=np.float64)
-        known = bool(np.all(np.isfinite(g)))
-        if (label == SITTING and known and self.reference is not None and self.reference_end_s is not None
-                and t_start_s - self.reference_end_s <= self.reach_s):
-            cos = float(np.clip(g @ np.asarray(self.reference), -1.0, 1.0))
-            if math.degrees(math.acos(cos)) < self.min_tilt_deg:
-                label, confidence = _upright(proba, classes)
-        if label in UPRIGHT and known:
-            ref = g if self.reference is None else \
-                (1.0 - REFERENCE_WEIGHT) * np.asarray(self.reference) + REFERENCE_WEIGHT * g
-            self.reference = (ref / np.linalg.norm(ref)).tolist()
-            self.reference_end_s = float(t_end_s)
-        return label, confidence
+        self.held: list[dict[str, Any]] = []           # a sitting window waiting for a reference, and those after
 
     def push(self, items: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
-        """Decision dicts (``t_start_s``, ``t_end_s``, ``mode``, ``confidence``, ``proba`` class -> posterior,
-        ``gravity``) with the rule applied; ``gravity`` is removed.
-        """
-        out = []
+        out: list[dict[str, Any]] = []
         for item in items:
             it = dict(item)
-            gravity = it.pop("gravity")
-            classes = list(it["proba"])
-            it["mode"], it["confidence"] = self.judge(
-                str(it["mode"]), float(it["confidence"]), [it["proba"][c] for c in classes], classes,
-                float(it["t_start_s"]), float(it["t_end_s"]), gravity)
-            out.append(it)
+            t0 = float(it["t_start_s"])
+            while self.held and t0 - float(self.held[0]["t_end_s"]) > self.reach_s:
+                out += self._release_first()          # no upright window came within reach: it stays sitting
+            if self.held or (it["mode"] == SITTING and not self._fresh(t0)):
+                it["pending"] = it["mode"] == SITTING
+                self.held.append(it)
+            else:
+                out.append(self._decide(it))
+                continue
+            if it["mode"] in UPRIGHT and self._learn(it):
+                for h in self.held:
+                    if h.pop("pending", False) and t0 - float(h["t_end_s"]) <= self.reach_s:
+                        self._judge(h)
+                out += [self._done(h) for h in self.held]
+                self.held = []
         return out
+
+    def flush(self) -> list[dict[str, Any]]:
+        """The held windows at the end of the session, undecided ones keeping their labels."""
+        out = [self._done(h) for h in self.held]
+        self.held = []
+        return out
+
+    def _fresh(self, t_start_s: float) -> bool:
+        """Whether an upright window ended within reach before ``t_start_s``."""
+        return self.reference_end_s is not None and t_start_s - self.reference_end_s <= self.reach_s
+
+    def _decide(self, it: dict[str, Any]) -> dict[str, Any]:
+        """A window judged against the reference of the past, then learnt from (in time order)."""
+        if it["mode"] == SITTING and self._fresh(float(it["t_start_s"])):
+            self._judge(it)
+        self._learn(it)
+        return self._done(it)
+
+    def _judge(self, it: dict[str, Any]) -> None:
+        g = np.asarray(it["gravity"], dtype=np.float64)
+        if self.reference is None or not np.all(np.isfinite(g)):
+            return
+        cos = float(np.clip(g @ np.asarray(self.reference), -1.0, 1.0))
+        if math.degrees(math.acos(cos)) < self.min_tilt_deg:
+            classes = list(it["proba"])
+            it["mode"], it["confidence"] = _upright([it["proba"][c] for c in classes], classes)
+
+    def _learn(self, it: dict[str, Any]) -> bool:
+        """An upright window's gravity into the reference; whether it was one."""
+        g = np.asarray(it["gravity"], dtype=np.float64)
+        if it["mode"] not in UPRIGHT or not np.all(np.isfinite(g)):
+            return False
+        ref = g if self.reference is None else \
+            (1.0 - REFERENCE_WEIGHT) * np.asarray(self.reference) + REFERENCE_WEIGHT * g
+        self.reference = (ref / np.linalg.norm(ref)).tolist()
+        self.reference_end_s = float(it["t_end_s"])
+        return True
+
+    def _release_first(self) -> list[dict[str, Any]]:
+        """Release the first held window undecided, and the windows after it that no longer wait for anything."""
+        first = self.held.pop(0)
+        first.pop("pending", None)
+        out = [self._done(first)]
+        while self.held and not self.held[0].get("pending"):
+            out.append(self._done(self.held.pop(0)))
+        return out
+
+    @staticmethod
+    def _done(it: dict[str, Any]) -> dict[str, Any]:
+        return {k: v for k, v in it.items() if k not in ("gravity", "pending")}
 
     def state(self) -> dict[str, Any]:
         return {"reach_s": self.reach_s, "min_tilt_deg": self.min_tilt_deg, "reference": self.reference,
-                "reference_end_s": self.reference_end_s}
+                "reference_end_s": self.reference_end_s, "held": [dict(h) for h in self.held]}
 
     @classmethod
     def from_state(cls, state: dict[str, Any]) -> PostureGate:
@@ -108,7 +154,8 @@ class PostureGate:
             g = cls(float(state["reach_s"]), float(state["min_tilt_deg"]))
             g.reference = None if state["reference"] is None else [float(v) for v in state["reference"]]
             g.reference_end_s = None if state["reference_end_s"] is None else float(state["reference_end_s"])
-        except (KeyError, TypeError, ValueError) as exc:
+            g.held = [dict(h) for h in state.get("held", [])]
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise InputError(f"not a posture gate state ({exc})", field="state") from None
         return g
 
@@ -125,11 +172,12 @@ def _upright(proba: Sequence[float], classes: Sequence[str]) -> tuple[str, float
 def gate_posture(labels: Sequence[str], confidence: FloatArray, proba: FloatArray, classes: Sequence[str],
                  t_start_s: FloatArray, t_end_s: FloatArray, gravity: FloatArray
                  ) -> tuple[tuple[str, ...], FloatArray]:
-    """Offline posture rule over a recording's windows in time order (module doc)."""
+    """The posture rule over a whole recording's windows in time order (module doc): :class:`PostureGate` run
+    over them and flushed.
+    """
     gate = PostureGate()
-    labs = list(labels)
-    conf = np.array(confidence, dtype=np.float64, copy=True)
-    for i in range(len(labs)):
-        labs[i], conf[i] = gate.judge(labs[i], float(conf[i]), proba[i], classes, float(t_start_s[i]),
-                                      float(t_end_s[i]), gravity[i])
-    return tuple(labs), conf
+    items = [{"t_start_s": float(t_start_s[i]), "t_end_s": float(t_end_s[i]), "mode": str(labels[i]),
+              "confidence": float(confidence[i]), "proba": dict(zip(classes, map(float, proba[i]), strict=True)),
+              "gravity": np.asarray(gravity[i], dtype=np.float64).tolist()} for i in range(len(labels))]
+    out = gate.push(items) + gate.flush()
+    return tuple(str(it["mode"]) for it in out), np.array([it["confidence"] for it in out], dtype=np.float64)

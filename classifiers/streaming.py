@@ -135,7 +135,8 @@ class StreamingClassifier:
 
         Their context spans end at the last sample, as in an offline pass over the whole log.
         """
-        return self._emit(final=True, source="") + [StreamResult(**d) for d in self.posture.push(self.gate.flush())]
+        tail = self.posture.push(self.gate.flush()) + self.posture.flush()
+        return self._emit(final=True, source="") + [StreamResult(**d) for d in tail]
 
     def _emit(self, final: bool, source: str) -> list[StreamResult]:
         t0 = self.t0_ns
