@@ -86,7 +86,7 @@ class PostureGate:
             else:
                 out.append(self._decide(it))
                 continue
-            if it["mode"] in UPRIGHT and self._learn(it):
+            if self._learn(it):
                 for h in self.held:
                     if h.pop("pending", False) and t0 - float(h["t_end_s"]) <= self.reach_s:
                         self._judge(h)

@@ -24,12 +24,14 @@ import pandas as pd
 from pdr import quaternion as quat
 from pdr.evaluation.heading import recordings_in
 from pdr.io import read_recording
+from pdr.recording import Recording
 
 LEVER_ARMS_M = (0.0, 0.2, 0.3, 0.4)
 MOCAP_HZ = 60
 
 
-def body_point_heading_deg(rec, t_start_s: np.ndarray, t_end_s: np.ndarray, lever_m: float) -> np.ndarray:  # noqa: ANN001
+def body_point_heading_deg(rec: Recording, t_start_s: np.ndarray, t_end_s: np.ndarray, lever_m: float
+                           ) -> np.ndarray:
     """Compass heading (deg) of the displacement of a point ``lever_m`` behind the phone (along its horizontal -y)
     between each step's start and end (log clock, s), the point's path averaged over one second (one stride).
     """

@@ -701,10 +701,7 @@ def eval_ms(args: argparse.Namespace) -> int:
         if "map" in summary:
             m = summary["map"]
             for name in _MapScores.TRACKS:
-                s = m[name]
-                yield (f"MAP {name} (absolute, from the first waypoint, {m['traces']} traces): median "
-                       f"{s['median_m']:.2f} p75 {s['p75_m']:.2f} m; worst trace {s['worst_file']} p75 "
-                       f"{s['worst_p75_m']:.2f} m; {s['traces_over_5m']} traces over 5 m p75" + _map_floors(s))
+                yield _map_line(f"MAP {name} (absolute, from the first waypoint, {m['traces']} traces)", m[name])
             s = m[_MapScores.HINDSIGHT]
             yield (f"MAP bound: PDR turned and scaled about the start by each trace's least-squares rotation and "
                    f"scale on its truth (a constant heading offset and step-length scale known with hindsight): "
@@ -712,18 +709,22 @@ def eval_ms(args: argparse.Namespace) -> int:
                    + _map_floors(s))
             sp = m["speed"]
             if "calibrated" in summary and "map" in summary["calibrated"]:
+                cm = summary["calibrated"]["map"]
                 for name in _MapScores.TRACKS:
-                    s = summary["calibrated"]["map"][name]
-                    yield (f"MAP {name} CALIBRATED --calibrate {args.calibrate} "
-                           f"({summary['calibrated']['map']['traces']} traces): median "
-                           f"{s['median_m']:.2f} p75 {s['p75_m']:.2f} m; worst trace {s['worst_file']} p75 "
-                           f"{s['worst_p75_m']:.2f} m; {s['traces_over_5m']} traces over 5 m p75" + _map_floors(s))
+                    yield _map_line(f"MAP {name} CALIBRATED --calibrate {args.calibrate} ({cm['traces']} traces)",
+                                    cm[name])
             yield (f"MAP speed: {sp['particles']} particles, {sp['steps']} steps in {sp['wall_s']:.3f} s = "
                    f"{sp['steps_per_s']:.0f} steps/s, {sp['times_real_time']:.0f}x real time (online filter, "
                    f"warm: kernels loaded before the first timed trace); CPU time {sp['cpu_s']:.3f} s = "
                    f"{sp['times_real_time_cpu']:.0f}x real time (without the wait for other processes on the cores)")
     _emit(summary, per, args.json, lines())
     return 0
+
+
+def _map_line(label: str, s: dict[str, Any]) -> str:
+    """One MAP figure: median and p75 (m), the worst trace and the traces over 5 m p75, per floor folder too."""
+    return (f"{label}: median {s['median_m']:.2f} p75 {s['p75_m']:.2f} m; worst trace {s['worst_file']} p75 "
+            f"{s['worst_p75_m']:.2f} m; {s['traces_over_5m']} traces over 5 m p75" + _map_floors(s))
 
 
 def _map_floors(s: dict[str, Any]) -> str:

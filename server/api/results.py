@@ -25,8 +25,9 @@ import json
 import math
 import threading
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 from flask import Blueprint, Response, jsonify, request
 from sqlalchemy import func, select
@@ -42,36 +43,38 @@ from server.processing_options import map_matched
 from server.session_clock import session_clock
 from server.store import step_fields
 
+T = TypeVar("T")
+
 bp = Blueprint("results", __name__, url_prefix="/api/v1/sessions")
 
 EVENT_KINDS = {"modes": "mode", "landmarks": "landmark", "floors": "floor"}
 
 
-def parse_since() -> float | None:
-    """The ``?since=`` query parameter (seconds on the log's clock), validated; None when absent."""
-    raw = request.args.get("since")
+def _query_value(name: str, convert: Callable[[str], T], expected: str) -> T | None:
+    """The query parameter ``name`` converted by ``convert``; None when absent, a 400 naming it (as ``expected``)
+    when it does not convert.
+    """
+    raw = request.args.get(name)
     if raw is None:
         return None
     try:
-        value = float(raw)
+        return convert(raw)
     except ValueError:
-        raise APIError(400, f"'since' must be a number of seconds, got '{raw[:40]}'") from None
-    if not math.isfinite(value):
-        raise APIError(400, "'since' must be finite")
+        raise APIError(400, f"'{name}' must be {expected}, got '{raw[:40]}'", details={"field": name}) from None
+
+
+def parse_since() -> float | None:
+    """The ``?since=`` query parameter (seconds on the log's clock), validated; None when absent."""
+    value = _query_value("since", float, "a number of seconds")
+    if value is not None and not math.isfinite(value):
+        raise APIError(400, "'since' must be finite", details={"field": "since"})
     return value
 
 
 def parse_after() -> int | None:
     """The ``?after=`` query parameter (an entry's ``seq``), validated; None when absent."""
-    raw = request.args.get("after")
-    if raw is None:
-        return None
-    try:
-        value = int(raw)
-    except ValueError:
-        raise APIError(400, f"'after' must be an entry's seq (an integer), got '{raw[:40]}'",
-                       details={"field": "after"}) from None
-    if value < 0:
+    value = _query_value("after", int, "an entry's seq (an integer)")
+    if value is not None and value < 0:
         raise APIError(400, "'after' must not be negative", details={"field": "after"})
     return value
 
