@@ -75,6 +75,12 @@ WALKING_MIN_STRIDE_S = 1.0
 #: stride that still spans one gait cycle.
 GAIT_STRIDES = 5
 STRIDE_TOLERANCE = 0.25
+#: Longest walk (s) away from the swinging placement after which a swinging hand's swing axis and its
+#: forward/backward evidence are kept: a few strides read as another carriage and then as the swinging hand again
+#: are the placement detector misreading irregular strides (a sharp turn, a stumble), not a new grip, which
+#: :class:`pdr.phone.walking_direction.DeviceSwingAxis` would see by its axis moving (``regrip_deg``) anyway. Five
+#: seconds is a few strides; a phone put in a pocket and taken out again takes longer.
+SWING_GRIP_MEMORY_S = 5.0
 
 
 def ut_points(config: AttitudeConfig) -> SigmaPoints:
@@ -151,6 +157,8 @@ class PocketHeading:
         self.prev_step_start: int | None = None
         self.direction_vote = direction_vote(placement)
         self.swing_axis = DeviceSwingAxis()              # swinging hand's walking direction
+        self.swing_end_s: float | None = None           # end (s, log clock) of the last swinging stride
+        self.swing_paused = False                       # another placement since that stride
         self.pocket_direction = DeviceFrameDirection()   # pocket's forward/backward continuity
         self.pocket_line = WalkingLineFilter()           # pocket's walking line from stride to stride
         self.stride_s: list[float] = []                  # durations (s) of the last strides (the gait)
@@ -169,13 +177,26 @@ class PocketHeading:
         return median >= WALKING_MIN_STRIDE_S, abs(stride_s - median) <= STRIDE_TOLERANCE * median
 
     def reset(self, placement: str | None) -> None:
-        """Forget the walking direction's continuity and vote (the placement changed)."""
+        """Forget the walking direction's continuity and vote (the placement changed). The swinging hand's swing
+        axis is kept through a short spell of another placement (:data:`SWING_GRIP_MEMORY_S`), and dropped when the
+        hand swings again after a longer one (:meth:`estimate`).
+        """
         self.prev_yaw = self.prev_step_start = None
         self.direction_vote = direction_vote(placement)
-        self.swing_axis = DeviceSwingAxis()
+        self.swing_paused = self.swing_paused or placement != "swinging"
         self.pocket_direction = DeviceFrameDirection()
         self.pocket_line = WalkingLineFilter()
         self.pocket_side = PocketSide()
+
+    def swing_tracker(self, end_s: float) -> DeviceSwingAxis:
+        """The swinging hand's swing-axis tracker for a stride ending at ``end_s`` (s, log clock): the one in use,
+        unless the hand last swung more than :data:`SWING_GRIP_MEMORY_S` before, with another placement since (a
+        new grip: a fresh tracker). A stop while the hand swings keeps it: the grip stays.
+        """
+        if self.swing_paused and self.swing_end_s is not None and end_s - self.swing_end_s > SWING_GRIP_MEMORY_S:
+            self.swing_axis = DeviceSwingAxis()
+        self.swing_end_s, self.swing_paused = end_s, False
+        return self.swing_axis
 
     def estimate(self, win: StepWindow, placement: str) -> StepHeading:
         h, s, e = win.history, win.s, win.e
@@ -195,7 +216,8 @@ class PocketHeading:
         if placement == "swinging":
             # The arm's swing axis, fixed in the device frame while the grip holds, with its sign decided by the
             # turns (pdr.phone.walking_direction.DeviceSwingAxis): no per-stride continuity or vote.
-            axis = self.swing_axis.update(q_str, f_str, self.rate_hz, q_str.shape[0] - q.shape[0])
+            tracker = self.swing_tracker(float(h.t[h.sl(e - 1, e)][0]))
+            axis = tracker.update(q_str, f_str, self.rate_hz, q_str.shape[0] - q.shape[0])
             psi0 = axis
         else:
             if swing_axis:
@@ -245,7 +267,9 @@ class PocketHeading:
     def state(self) -> dict[str, Any]:
         return {"prev_yaw": self.prev_yaw, "prev_step_start": self.prev_step_start,
                 "direction_score": self.direction_vote.score, "direction_votes": self.direction_vote.n,
-                "swing_axis": self.swing_axis.state(), "pocket_direction": self.pocket_direction.state(),
+                "swing_axis": self.swing_axis.state(), "swing_end_s": self.swing_end_s,
+                "swing_paused": self.swing_paused,
+                "pocket_direction": self.pocket_direction.state(),
                 "pocket_line": self.pocket_line.state(), "stride_s": list(self.stride_s),
                 "pocket_side": self.pocket_side.state()}
 
@@ -259,6 +283,9 @@ class PocketHeading:
         o.direction_vote.n = int(d["direction_votes"])
         if d.get("swing_axis") is not None:         # absent in states saved before the device-frame swing axis
             o.swing_axis = DeviceSwingAxis.from_state(d["swing_axis"])
+        swing_end_s = d.get("swing_end_s")          # absent in states saved before the grip memory
+        o.swing_end_s = None if swing_end_s is None else float(swing_end_s)
+        o.swing_paused = bool(d.get("swing_paused", False))
         if d.get("pocket_direction") is not None:   # absent in states saved before the device-frame continuity
             o.pocket_direction = DeviceFrameDirection.from_state(d["pocket_direction"])
         if d.get("pocket_line") is not None:        # absent in states saved before the walking-line filter

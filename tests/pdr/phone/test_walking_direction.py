@@ -360,3 +360,21 @@ def test_pocket_side_tells_front_from_back_of_the_thigh(seed):
     assert back.lead_weight() == 0.0 and front_reversed.lead_weight() == 0.0
     assert PocketSide.from_state(front.state()) == front
     assert PocketSide().lead_weight() == 0.0      # no evidence yet: no lead
+
+
+def test_a_swinging_hands_grip_is_kept_through_a_short_misread_placement():
+    from pdr.phone.attitude import AttitudeConfig
+    from pdr.phone.heading_stages import SWING_GRIP_MEMORY_S, PocketHeading
+
+    head = PocketHeading(50.0, "auto", 0.0, AttitudeConfig(), False, "swinging")
+    grip = head.swing_tracker(10.0)
+    head.reset("pocket")                          # a few strides read as a pocket ...
+    head.reset("swinging")                        # ... then the hand again: the same grip, its sign kept
+    assert head.swing_tracker(10.0 + 0.5 * SWING_GRIP_MEMORY_S) is grip
+    assert head.swing_tracker(30.0) is grip      # a stop with the hand swinging keeps it too
+    head = PocketHeading.from_state(head.state(), 50.0, "auto", 0.0, AttitudeConfig(), False, "swinging")
+    kept = head.swing_tracker(30.5)
+    assert kept.state() == grip.state()           # the state round trip keeps it
+    head.reset("pocket")
+    head.reset("swinging")                        # back in the hand after a longer spell: a new grip
+    assert head.swing_tracker(31.0 + 2 * SWING_GRIP_MEMORY_S) is not kept
