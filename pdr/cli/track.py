@@ -15,7 +15,7 @@ import numpy as np
 
 from pdr.cli import progress
 from pdr.cli.lazy_numpy import defer_numpy_extras
-from pdr.errors import InputError
+from pdr.errors import InputError, UnknownFormatError
 from pdr.evaluation.error_budget import BUDGET_TRACKS, budget_tracks
 from pdr.evaluation.scoring import (
     WALK_EDGE_S,
@@ -31,7 +31,7 @@ from pdr.evaluation.scoring import (
     unmatched_by_phase,
     waypoint_errors,
 )
-from pdr.io import read_recording
+from pdr.io import detect_format, read_recording
 from pdr.phone.configure import pipeline_config
 from pdr.phone.heading_smoother import smoothed_rows
 from pdr.phone.landmarks import Site
@@ -266,8 +266,11 @@ def _register_eval(targets: argparse._SubParsersAction, name: str, helptext: str
 
 
 def _files(d: str, patterns: tuple[str, ...]) -> list[Path]:
-    """The dataset's files matching ``patterns`` under folder ``d``, or ``d`` itself when it is one such file;
+    """The dataset's logs matching ``patterns`` under folder ``d``, or ``d`` itself when it is one such file;
     an InputError when there is none (an evaluation of nothing would print ``ALL (0 files) ... nan``).
+
+    In a folder, a matching file that no reader recognises (a dataset's ``README.txt``) is left out, and named on
+    stderr.
     """
     root = Path(d)
     if not root.exists():
@@ -277,12 +280,23 @@ def _files(d: str, patterns: tuple[str, ...]) -> list[Path]:
             return [root]
         raise InputError(f"not a log this evaluation reads: give a folder of, or one file named, "
                          f"{' or '.join(patterns)}", source=d)
-    out: list[Path] = []
+    found: set[Path] = set()
     for pat in patterns:
-        out += sorted(root.rglob(pat))
+        found.update(root.rglob(pat))
+    out, not_logs = [], []
+    for f in sorted(found):
+        try:
+            detect_format(f)
+            out.append(f)
+        except UnknownFormatError:
+            not_logs.append(f)
+    if not_logs:
+        print(f"{d}: left out {len(not_logs)} file(s) that are not a supported log: "
+              + ", ".join(str(f.relative_to(root)) for f in not_logs), file=sys.stderr)
     if not out:
-        raise InputError(f"no {' or '.join(patterns)} files in this folder or below it", source=d)
-    return sorted(set(out))
+        raise InputError(f"no {' or '.join(patterns)} files in this folder or below it"
+                         + (" that a reader recognises" if not_logs else ""), source=d)
+    return out
 
 
 def _pct(a: np.ndarray, q: float) -> float:

@@ -113,6 +113,15 @@ def test_eval_ipin_refuses_what_it_cannot_score(tmp_path: Path, capsys: pytest.C
     assert main(["eval", "ipin", str(empty)]) == 2
     err = capsys.readouterr().err
     assert "0 files" not in err and "no-truth.txt" in err
+    # A dataset folder's README.txt is not a log: left out and named, and the logs beside it are still read.
+    (tmp_path / "supplementary").mkdir()
+    (tmp_path / "supplementary" / "ZZ_README.txt").write_text("This folder holds the competition's maps.\n")
+    assert main(["eval", "ipin", str(tmp_path / "supplementary")]) == 2
+    err = capsys.readouterr().err
+    assert "ZZ_README.txt" in err and "that a reader recognises" in err
+    assert main(["eval", "ipin", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "left out 1 file(s)" in err and "supplementary/ZZ_README.txt" in err and "no-truth.txt" in err
 
 
 @pytest.mark.data
