@@ -265,12 +265,12 @@ def _register_eval(targets: argparse._SubParsersAction, name: str, helptext: str
     p.set_defaults(func=func)
 
 
-def _files(d: str, patterns: tuple[str, ...]) -> list[Path]:
+def _files(d: str, patterns: tuple[str, ...], log_of: Callable[[Path], Path] = lambda f: f) -> list[Path]:
     """The dataset's logs matching ``patterns`` under folder ``d``, or ``d`` itself when it is one such file;
     an InputError when there is none (an evaluation of nothing would print ``ALL (0 files) ... nan``).
 
-    In a folder, a matching file that no reader recognises (a dataset's ``README.txt``) is left out, and named on
-    stderr.
+    In a folder, a matching file whose log (``log_of(file)``: the file, or for a folder-format log its folder) no
+    reader recognises (a dataset's ``README.txt``) is left out, and named on stderr.
     """
     root = Path(d)
     if not root.exists():
@@ -286,7 +286,7 @@ def _files(d: str, patterns: tuple[str, ...]) -> list[Path]:
     out, not_logs = [], []
     for f in sorted(found):
         try:
-            detect_format(f)
+            detect_format(log_of(f))
             out.append(f)
         except UnknownFormatError:
             not_logs.append(f)
@@ -920,7 +920,8 @@ def eval_steps(args: argparse.Namespace) -> int:
     """
     step = _step_config(args.step)
     dirs = sorted({p.parent for p in _files(args.dir, ("accelerometer.csv", "accelerometer.csv.gz",
-                                                       "Accelerometer.csv", "Accelerometer.csv.gz"))})
+                                                       "Accelerometer.csv", "Accelerometer.csv.gz"),
+                                            log_of=lambda f: f.parent)})
     if args.limit:
         dirs = dirs[:args.limit]
     per: list[dict[str, Any]] = []
