@@ -95,10 +95,10 @@ def resample_summary(new: FloatArray, offset: FloatArray, scale: FloatArray, ali
                                 float]:
     """Each dead particle replaced by the survivor ``draws[j]`` (the ``j``-th dead, in index order; survivors
     counted in index order): positions, offsets, scales and parent indices of the new cloud, and its
-    :func:`cloud_summary`. A dead particle whose step met its wall at a grazing angle (``across[i] < graze_sin``,
-    the sines of :func:`advance_particles`) takes the survivor's position and heading offset but keeps its own
-    step-length scale (module doc of :mod:`pdr.mapmatch.particles`: a grazing death says the heading was wrong,
-    not the stride).
+    :func:`cloud_summary`. A dead particle takes the survivor's position and corrects only what its death gave
+    evidence about (module doc of :mod:`pdr.mapmatch.particles`): one whose step met its wall at a grazing angle
+    (``across[i] < graze_sin``, the sines of :func:`advance_particles`) takes the survivor's heading offset and
+    keeps its own step-length scale; one that met it head-on takes the survivor's scale and keeps its own offset.
     """
     n = new.shape[0]
     survivors = np.flatnonzero(alive)
@@ -115,7 +115,7 @@ def resample_summary(new: FloatArray, offset: FloatArray, scale: FloatArray, ali
         k = pick[i]
         pos[i, 0] = new[k, 0]
         pos[i, 1] = new[k, 1]
-        off[i] = offset[k]
+        off[i] = offset[i] if across[i] >= graze_sin else offset[k]
         sc[i] = scale[i] if across[i] < graze_sin else scale[k]
     mx, my, spread, mean_off, mean_scale = cloud_summary(pos, off, sc)
     return pos, off, sc, pick, mx, my, spread, mean_off, mean_scale

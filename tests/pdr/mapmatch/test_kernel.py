@@ -73,10 +73,12 @@ def test_advance_and_resample_equal_the_numpy_expressions(length: float) -> None
     pick = np.arange(n)
     pick[~alive] = np.flatnonzero(alive)[draws]
     graze = math.sin(math.radians(45.0))
-    want_sc = np.where(across < graze, sc, sc[pick])        # a grazing death keeps its own scale
+    want_sc = np.where(across < graze, sc, sc[pick])        # a grazing death keeps its own scale,
+    want_off = np.where(alive | (across < graze), off[pick], off)      # a head-on death its own heading offset
     assert 0 < np.sum(~alive & (across < graze)) < np.sum(~alive)      # both kinds of death occur
     got = resample_summary(new, off, sc, alive, draws, across, graze)
-    for a, b in zip(got[:4], (new[pick], off[pick], want_sc, pick), strict=True):
+    for a, b in zip(got[:4], (new[pick], want_off, want_sc, pick), strict=True):
         assert np.array_equal(a, b)
-    assert got[4:] == cloud_summary(new[pick], off[pick], want_sc)
-    assert np.array_equal(resample_summary(new, off, sc, alive, draws, across, 0.0)[2], sc[pick])    # off: all
+    assert got[4:] == cloud_summary(new[pick], want_off, want_sc)
+    plain = resample_summary(new, off, sc, alive, draws, across, 0.0)     # every death head-on: own offsets
+    assert np.array_equal(plain[1], off) and np.array_equal(plain[2], sc[pick])
