@@ -97,6 +97,42 @@ def step_crosses(x0: float, y0: float, x1: float, y1: float, walls: FloatArray, 
 
 
 @njit(cache=True)
+def _hit_fraction(ax0: float, ay0: float, ax1: float, ay1: float, w: FloatArray, k: int) -> float:
+    """Where along the step ``a`` (fraction 0..1) it meets wall ``k``; 2 when it does not."""
+    if not _segment_hits(ax0, ay0, ax1, ay1, w, k):
+        return 2.0
+    bx0, by0, bx1, by1 = w[k, 0], w[k, 1], w[k, 2], w[k, 3]
+    rx, ry, sx, sy = ax1 - ax0, ay1 - ay0, bx1 - bx0, by1 - by0
+    den = rx * sy - ry * sx
+    if den == 0.0:                          # collinear overlap: met at the start
+        return 0.0
+    return min(max(((bx0 - ax0) * sy - (by0 - ay0) * sx) / den, 0.0), 1.0)
+
+
+@njit(cache=True)
+def step_hit(x0: float, y0: float, x1: float, y1: float, walls: FloatArray, start: IntArray, wall_ids: IntArray,
+             ox: float, oy: float, cell: float, reach: float, nx: int, ny: int) -> int:
+    """The first wall (index into ``walls``) that the step ``(x0, y0) -> (x1, y1)`` (m) meets; -1: none. Meets a
+    wall exactly when :func:`step_crosses` says so.
+    """
+    gx = int(math.floor((x0 - ox) / cell))
+    gy = int(math.floor((y0 - oy) / cell))
+    best, first = 2.0, -1
+    if math.hypot(x1 - x0, y1 - y0) > reach or gx < 0 or gy < 0 or gx >= nx or gy >= ny:
+        for k in range(walls.shape[0]):
+            f = _hit_fraction(x0, y0, x1, y1, walls, k)
+            if f < best:
+                best, first = f, k
+        return first
+    c = gy * nx + gx
+    for j in range(start[c], start[c + 1]):
+        f = _hit_fraction(x0, y0, x1, y1, walls, wall_ids[j])
+        if f < best:
+            best, first = f, wall_ids[j]
+    return first
+
+
+@njit(cache=True)
 def _crosses(x0: FloatArray, y0: FloatArray, x1: FloatArray, y1: FloatArray, walls: FloatArray, start: IntArray,
              wall_ids: IntArray, ox: float, oy: float, cell: float, reach: float, nx: int, ny: int) -> BoolArray:
     out = np.zeros(x0.shape[0], dtype=np.bool_)

@@ -139,3 +139,23 @@ def test_the_gyro_carries_the_offset_the_walls_taught_through_a_disturbed_field(
     steps, truth = hall_walk(True)
     relaxed, _ = MapMatcher(site, (1.0, 1.0), 0, MapMatchConfig(mag_distance_m=5.0)).update(steps)
     assert abs(relaxed[-1].heading_offset_deg) < abs(relaxed[28].heading_offset_deg) / 2
+
+
+def test_a_wandering_heading_in_a_corridor_does_not_teach_a_short_stride() -> None:
+    # A straight corridor 2 m wide walked with the true stride (scale 1) and a step heading that wanders about its
+    # axis: the particles that die graze the side walls. Were the scale inherited from the survivors, the short
+    # striders (who drift sideways more slowly) would be selected; a grazing death keeps its own scale.
+    site = SitePlan.from_dict({"floors": [{"floor": 0, "walkable": {
+        "type": "Polygon", "coordinates": [[[0, 0], [80, 0], [80, 2], [0, 2], [0, 0]]]}}]})
+    final = {}
+    for graze in (0.0, 45.0):
+        scales = []
+        for seed in range(5):
+            wander = np.cumsum(np.random.default_rng(seed).normal(0.0, 1.5, 100))     # deg
+            steps = [StepInput(0.55 * (k + 1), 0.7, 90.0 + w, 0) for k, w in enumerate(wander)]
+            matched, _ = MapMatcher(site, (1.0, 1.0), 0, MapMatchConfig(graze_deg=graze, seed=seed)).update(steps)
+            assert all(m.matched for m in matched)
+            scales.append(matched[-1].scale)
+        final[graze] = float(np.mean(scales))
+    assert final[0.0] < 0.99                # the survivor bias when every death teaches the stride
+    assert abs(final[45.0] - 1.0) < 0.01

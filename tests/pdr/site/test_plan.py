@@ -10,7 +10,7 @@ import pytest
 from pdr.errors import InputError
 from pdr.site.geometry import points_in_rings, ring_edges, segments_cross
 from pdr.site.plan import SitePlan
-from pdr.site.wall_index import WallIndex
+from pdr.site.wall_index import WallIndex, step_hit
 from tests.conftest import data_path
 
 
@@ -54,6 +54,22 @@ def test_the_wall_index_agrees_with_testing_every_wall() -> None:
     want = segments_cross(np.hstack([start, end]), walls).any(axis=1)
     assert got.tolist() == want.tolist()
     assert 0.05 < got.mean() < 0.95
+    a = np.hstack([start, end])
+    hit = [step_hit(s[0], s[1], s[2], s[3], idx.walls, idx.start, idx.wall_ids, idx.origin[0], idx.origin[1],
+                    idx.cell_m, idx.reach_m, idx.nx, idx.ny) for s in a]
+    assert [k >= 0 for k in hit] == want.tolist()          # meets a wall exactly when crosses() says so
+    for s, k in zip(a, hit, strict=True):                   # ... and names the first one along the step
+        if k >= 0:
+            others = segments_cross(s[None, :], walls)[0]
+            assert others[k]
+            assert _fraction(s, walls[k]) <= min(_fraction(s, w) for w in walls[others]) + 1e-12
+
+
+def _fraction(step: np.ndarray, w: np.ndarray) -> float:
+    """Where along ``step`` (0..1) it meets the line of wall ``w`` (0 when collinear)."""
+    r, s, q = step[2:] - step[:2], w[2:] - w[:2], w[:2] - step[:2]
+    den = r[0] * s[1] - r[1] * s[0]
+    return 0.0 if den == 0 else float(np.clip((q[0] * s[1] - q[1] * s[0]) / den, 0.0, 1.0))
 
 
 @pytest.mark.parametrize(("doc", "words"), [
