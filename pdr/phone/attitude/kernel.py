@@ -36,8 +36,10 @@ from pdr.phone.attitude.state import (
     AUX_H_N,
     AUX_H_READY,
     AUX_H_U,
+    AUX_IN_MAGNET,
     AUX_M0,
     AUX_M1,
+    AUX_MAG_DYAW,
     AUX_ML,
     AUX_N,
     AUX_NU,
@@ -432,6 +434,8 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
     mag_bias_gain = prm[29]
     k_nu = ts / (prm[30] + ts)
     nu_steady = prm[31]
+    undo_keep = math.exp(-ts / prm[32]) if prm[32] > 0 else 0.0
+    magnet_rise = prm[33]
     n = acc.shape[0]
     out = np.empty((n, 4))
     used = np.zeros(n, dtype=np.int64)
@@ -452,6 +456,7 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
     fp = np.empty((4, 4))
     pn = np.empty((4, 4))
     qn = np.empty(4)
+    q_prior = np.empty(4)
     z_ws = np.empty(6)
     r_ws = np.empty(6)
     ws = ukf_workspace()
@@ -600,6 +605,7 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
         # Accept rows of the measurement model (eqs. 12-13).
         use_a = quasi_static or not has_gyro or sigma_a_moving > 0
         use_m = False
+        stronger = False
         if has_mag:
             mv = mag[k]
             if aux[AUX_H_READY] == 0 and quasi_static:
@@ -620,6 +626,16 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
                 dip = math.atan2(-hn[2], math.sqrt(hn[0] * hn[0] + hn[1] * hn[1]))
                 use_m = (abs(mn - href_n) < eps_m1 and aux[AUX_VAR_M_SQ] < eps_m2 and abs(dip - dip_ref) < eps_dip
                          and mn <= earth_max)
+                stronger = mn > href_n + magnet_rise
+                if undo_keep > 0:
+                    # A field stronger than the earth's: the rows of the seconds before saw it coming and turned
+                    # the yaw with it; take that turn back (AttitudeConfig.magnet_undo_tau_s).
+                    magnet = mn > earth_max
+                    if magnet and aux[AUX_IN_MAGNET] == 0:
+                        turn_yaw(q, -aux[AUX_MAG_DYAW])
+                        aux[AUX_MAG_DYAW] = 0.0
+                    aux[AUX_IN_MAGNET] = 1.0 if magnet else 0.0
+                    aux[AUX_MAG_DYAW] *= undo_keep
                 if stationary and not mag_when_static:
                     use_m = False
                 if k_ref > 0 and not stationary:
@@ -647,6 +663,10 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
         if yaw_row:
             use_m = False
             used[k] |= 2
+        # The rows' turn counts while the field is stronger than the reference: what a magnet being approached does.
+        field_turn = undo_keep > 0 and (use_m or yaw_row) and stronger
+        if field_turn:
+            q_prior[:] = q
         if use_a or use_m:
             m = 3 * (int(use_a) + int(use_m))
             z = z_ws[:m]
@@ -677,6 +697,10 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
             _normalise(q)
         if yaw_row:
             mag_yaw_update(q, p, mag[k], h_east, sigma_m)
+        if field_turn:
+            # The yaw this sample's field rows turned the attitude by: dq = 0.5 dpsi g (mag_yaw_update).
+            aux[AUX_MAG_DYAW] += 2.0 * (-q_prior[3] * (q[0] - q_prior[0]) - q_prior[2] * (q[1] - q_prior[1])
+                                        + q_prior[1] * (q[2] - q_prior[2]) + q_prior[0] * (q[3] - q_prior[3]))
         out[k] = q
     return out, used
 
@@ -717,6 +741,19 @@ def mag_yaw_update(q: FloatArray, p: FloatArray, m_b: FloatArray, h_east: float,
     _normalise(q)
     pn = p - np.outer(gain, ph)
     p[:, :] = 0.5 * (pn + pn.T)
+
+
+@numba.njit(cache=True)
+def turn_yaw(q: FloatArray, dpsi: float) -> None:
+    """Turn the attitude ``q`` (``q_nb``) in place by ``dpsi`` (rad, counter-clockwise) about the navigation up axis:
+    ``q <- [cos(dpsi/2), 0, 0, sin(dpsi/2)] * q``; the tilt is kept.
+    """
+    c, s = math.cos(0.5 * dpsi), math.sin(0.5 * dpsi)
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    q[0] = c * w - s * z
+    q[1] = c * x - s * y
+    q[2] = c * y + s * x
+    q[3] = c * z + s * w
 
 
 @numba.njit(cache=True)

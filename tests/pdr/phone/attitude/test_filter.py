@@ -347,3 +347,38 @@ def test_the_field_learns_a_residual_gyro_bias_while_walking_but_not_from_a_dist
     f = AttitudeFilter(FS, replace(AttitudeConfig(), mag_bias_gain=0.0025))
     f.run(acc_d, gyro_d, mag_d)
     assert abs(math.degrees(float(f.state.bias[2]))) < 0.1
+
+
+def test_the_turn_a_nearing_magnet_gave_the_yaw_is_taken_back_when_it_is_seen():
+    """A phone carried towards a magnet soon after the start (its yaw still open to the field's rows): for 8 s its
+    field strengthens and turns (below the earth's maximum, so the gates, whose reference follows the field, let the
+    rows through and they turn the yaw), then it exceeds the earth's maximum. At that first stronger sample the rows'
+    recent turn is undone (``magnet_undo_tau_s``) and the gyro carries the yaw on; without the undo the magnet's
+    approach stays in the yaw. A field that weakens and turns (no magnet near) is not undone."""
+    n = int(25 * FS)
+    t = np.arange(1, n + 1) / FS
+    yaw0, rate = 0.5, 0.02
+    q_true = quat.from_euler(np.full(n, 0.2), np.full(n, -0.3), yaw0 + rate * t)
+    bounce = np.column_stack([np.zeros(n), np.zeros(n), GRAVITY_MPS2 + 2.0 * np.sin(2 * np.pi * 2.0 * t)])
+    acc = quat.rotate(quat.conjugate(q_true), bounce)
+    gyro = quat.rotate(quat.conjugate(q_true), np.array([0.0, 0.0, rate]))
+    ramp = np.clip((t - 5.0) / 8.0, 0.0, 1.0) ** 3                   # a dipole's 1/r^3 as the phone nears it
+    magnet = quat.rotate(quat.from_euler(0.0, 0.0, math.radians(-90)), H_ENU)
+    field = H_ENU + ramp[:, None] * magnet
+    strong = np.linalg.norm(field, axis=1) > AttitudeConfig().earth_field_max_uT
+    first = int(np.argmax(strong))
+    assert 5 * FS < first < 13 * FS
+    after = slice(first + int(FS), first + int(3 * FS))
+
+    def yaw_error(cfg: AttitudeConfig, f_n: FloatArray) -> float:
+        q, _ = AttitudeFilter(FS, cfg).run(acc, gyro, quat.rotate(quat.conjugate(q_true), f_n))
+        return float(np.degrees(quat.angle_between(q[after], q_true[after])).mean())
+
+    undone = yaw_error(AttitudeConfig(), field)
+    kept = yaw_error(replace(AttitudeConfig(), magnet_undo_tau_s=0.0), field)
+    assert kept > 3.0 and undone < 0.6 * kept
+    # A weakening, turning field (a steel beam's shadow, say) then the same strong field: nothing is undone.
+    weaker = H_ENU - 0.5 * ramp[:, None] * magnet
+    weaker[first:] = field[first:]
+    assert yaw_error(AttitudeConfig(), weaker) == pytest.approx(
+        yaw_error(replace(AttitudeConfig(), magnet_undo_tau_s=0.0), weaker), abs=1e-9)
