@@ -15,6 +15,7 @@ import numpy as np
 
 from pdr.cli import progress
 from pdr.cli.lazy_numpy import defer_numpy_extras
+from pdr.cli.numba_blas import load_numba_blas
 from pdr.errors import InputError
 from pdr.evaluation.error_budget import BUDGET_TRACKS, budget_tracks
 from pdr.evaluation.scoring import (
@@ -134,6 +135,7 @@ def write_plot(rows: list[dict[str, Any]], path: str | Path, rec: Recording, tit
 
 def run_track(args: argparse.Namespace) -> int:
     defer_numpy_extras()    # before the first compiled kernel loads (pdr.cli.lazy_numpy)
+    load_numba_blas()       # BLAS and LAPACK without the scipy.linalg package (pdr.cli.numba_blas)
     rec = read_recording(args.log)
     if not rec.has("acc"):
         # No specific force with gravity: no attitude and no steps, so a track would be empty (never exit 0).

@@ -10,7 +10,8 @@ Cholesky factorisation fails, so they accept what ``np.linalg.solve`` and ``np.l
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Callable
+from typing import Any, cast
 
 import numpy as np
 from llvmlite import ir
@@ -22,10 +23,8 @@ Array = NDArray[np.float64]
 
 
 @intrinsic
-def fma(typingctx: Any, a: Any, b: Any, c: Any) -> Any:  # pragma: no cover - compiled
-    """``a * b + c`` with one rounding (IEEE 754 fusedMultiplyAdd, LLVM's ``llvm.fma.f64``), for float64 scalars in
-    compiled code.
-    """
+def _fma(typingctx: Any, a: Any, b: Any, c: Any) -> Any:  # pragma: no cover - compiled
+    """The typing and code of :data:`fma`: LLVM's ``llvm.fma.f64``."""
     sig = types.float64(types.float64, types.float64, types.float64)
 
     def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
@@ -34,6 +33,11 @@ def fma(typingctx: Any, a: Any, b: Any, c: Any) -> Any:  # pragma: no cover - co
         return builder.call(fn, args)
 
     return sig, codegen
+
+
+#: ``fma(a, b, c)``: ``a * b + c`` with one rounding (IEEE 754 fusedMultiplyAdd) of float64 scalars, in compiled
+#: code only.
+fma = cast(Callable[[float, float, float], float], _fma)
 
 
 @njit(cache=True)
