@@ -7,7 +7,8 @@ check that BLAS is there, and the functions its ``np.dot`` calls); a kernel that
 decompositions and array-API layer): about 0.15 s of a one-shot process's CPU for two extension modules whose
 function tables are all numba reads. Loaded alone under their own names, the imports numba makes find them in
 :data:`sys.modules`; ``import scipy.linalg`` later in the process still runs the package as usual (its own imports
-of them find the same modules).
+of them find the same modules). The one difference: the package's attribute ``scipy.linalg.cython_blas`` is not set
+(``from scipy.linalg import cython_blas`` and ``sys.modules`` still give the module).
 
 Called by the one-shot ``pdr track`` process before its first kernel loads, as
 :func:`pdr.cli.lazy_numpy.defer_numpy_extras`; not by the long-running service.
