@@ -25,6 +25,7 @@ from collections.abc import Sequence
 from importlib.metadata import EntryPoint, entry_points
 from pathlib import Path
 
+from pdr.cli.collector import collection_paused, freeze_at_exit
 from pdr.errors import InputError
 
 log = logging.getLogger("pdr")
@@ -144,7 +145,9 @@ def build_parser(argv: Sequence[str] = ()) -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``pdr`` command line; returns the process exit code."""
     words = list(sys.argv[1:] if argv is None else argv)
-    parser = build_parser(words)
+    freeze_at_exit()            # the interpreter's last collections would walk every object (pdr.cli.collector)
+    with collection_paused():   # the command's modules: many long-lived objects (pdr.cli.collector)
+        parser = build_parser(words)
     args = parser.parse_args(words)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")

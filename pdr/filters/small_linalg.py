@@ -10,12 +10,45 @@ Cholesky factorisation fails, so they accept what ``np.linalg.solve`` and ``np.l
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any, cast
 
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.extending import intrinsic
 from numpy.typing import NDArray
 
 Array = NDArray[np.float64]
+
+
+@intrinsic
+def _fma(typingctx: Any, a: Any, b: Any, c: Any) -> Any:  # pragma: no cover - compiled
+    """The typing and code of :data:`fma`: LLVM's ``llvm.fma.f64``."""
+    sig = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        f64 = ir.DoubleType()
+        fn = builder.module.declare_intrinsic("llvm.fma", [f64], ir.FunctionType(f64, [f64, f64, f64]))
+        return builder.call(fn, args)
+
+    return sig, codegen
+
+
+#: ``fma(a, b, c)``: ``a * b + c`` with one rounding (IEEE 754 fusedMultiplyAdd) of float64 scalars, in compiled
+#: code only.
+fma = cast(Callable[[float, float, float], float], _fma)
+
+
+@njit(cache=True)
+def matvec3_into(A: Array, x: Array, out: Array) -> None:  # pragma: no cover - compiled
+    """``A x`` for a (3, 3) ``A`` and a (3,) ``x`` into ``out`` (not ``x``): the values of ``A @ x`` in compiled
+    code, which calls BLAS ``dgemv`` (the bundled OpenBLAS sums ``a1 x1``, then ``a0 x0``, then ``a2 x2`` with fused
+    multiply-adds; ``tests/pdr/filters/test_small_linalg.py`` pins the equality), without the call's checks,
+    allocation and dispatch.
+    """
+    for i in range(3):
+        out[i] = fma(A[i, 2], x[2], fma(A[i, 0], x[0], A[i, 1] * x[1]))
 
 
 @njit(cache=True)
@@ -44,18 +77,23 @@ def cholesky_lower(A: Array, L: Array) -> bool:  # pragma: no cover - compiled
 @njit(cache=True)
 def substitute(L: Array, X: Array) -> None:  # pragma: no cover - compiled
     """``X <- (L L^T)^-1 X`` in place, for a lower Cholesky factor ``L`` (n, n) and (n, m) ``X``."""
-    n = L.shape[0]
-    for c in range(X.shape[1]):
-        for i in range(n):  # L y = b
+    # Row by row over all columns at once: each column's chain of divisions is independent of the others', so
+    # the processor overlaps them (the same operations on each entry as column by column).
+    n, m = X.shape
+    for i in range(n):  # L y = b
+        d = L[i, i]
+        for c in range(m):
             acc = X[i, c]
             for k in range(i):
                 acc -= L[i, k] * X[k, c]
-            X[i, c] = acc / L[i, i]
-        for i in range(n - 1, -1, -1):  # L^T x = y
+            X[i, c] = acc / d
+    for i in range(n - 1, -1, -1):  # L^T x = y
+        d = L[i, i]
+        for c in range(m):
             acc = X[i, c]
             for k in range(i + 1, n):
                 acc -= L[k, i] * X[k, c]
-            X[i, c] = acc / L[i, i]
+            X[i, c] = acc / d
 
 
 @njit(cache=True)

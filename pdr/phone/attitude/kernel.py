@@ -18,6 +18,7 @@ from pdr.filters.small_linalg import (
     matmul,
     matmul_bt,
     matvec,
+    matvec3_into,
     matvec_into,
     solve_symmetric,
     substitute,
@@ -71,42 +72,53 @@ def _rotmat(q: FloatArray) -> FloatArray:
 
 
 @numba.njit(cache=True)
-def _rotmat_into(q: FloatArray, c: FloatArray) -> None:
-    """:func:`_rotmat` into ``c`` (3, 3)."""
+def _rotmat_entries(q: FloatArray) -> tuple[float, float, float, float, float, float, float, float, float]:
+    """The entries ``c00, c01, ..., c22`` (row by row) of :func:`_rotmat` as scalars (kept in registers)."""
     n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
     w, x, y, z = q[0] / n, q[1] / n, q[2] / n, q[3] / n
-    c[0, 0] = 1 - 2 * (y * y + z * z)
-    c[0, 1] = 2 * (x * y - w * z)
-    c[0, 2] = 2 * (x * z + w * y)
-    c[1, 0] = 2 * (x * y + w * z)
-    c[1, 1] = 1 - 2 * (x * x + z * z)
-    c[1, 2] = 2 * (y * z - w * x)
-    c[2, 0] = 2 * (x * z - w * y)
-    c[2, 1] = 2 * (y * z + w * x)
-    c[2, 2] = 1 - 2 * (x * x + y * y)
+    return (1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+            2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+            2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y))
+
+
+@numba.njit(cache=True)
+def _rotmat_into(q: FloatArray, c: FloatArray) -> None:
+    """:func:`_rotmat` into ``c`` (3, 3)."""
+    c00, c01, c02, c10, c11, c12, c20, c21, c22 = _rotmat_entries(q)
+    c[0, 0], c[0, 1], c[0, 2] = c00, c01, c02
+    c[1, 0], c[1, 1], c[1, 2] = c10, c11, c12
+    c[2, 0], c[2, 1], c[2, 2] = c20, c21, c22
 
 
 @numba.njit(cache=True)
 def measurement(q: FloatArray, g_ref: FloatArray, h_ref: FloatArray, use_a: bool, use_m: bool, m: int) -> FloatArray:
     """Measurement function of eq. 10 restricted to the accepted rows: [R^T g; R^T h]."""
     out = np.empty(m)
-    _measurement_into(q, g_ref, h_ref, use_a, use_m, out, np.empty((3, 3)))
+    _measurement_into(q, g_ref, h_ref, use_a, use_m, out)
     return out
 
 
 @numba.njit(cache=True)
 def _measurement_into(q: FloatArray, g_ref: FloatArray, h_ref: FloatArray, use_a: bool, use_m: bool,
-                      out: FloatArray, c: FloatArray) -> None:
-    """:func:`measurement` into the first rows of ``out``, with ``c`` (3, 3) as scratch."""
-    _rotmat_into(q, c)
+                      out: FloatArray) -> None:
+    """:func:`measurement` into the first rows of ``out``.
+
+    The rotation's entries stay scalars: nine of these run per UKF update (the sigma points), and going through
+    a (3, 3) array cost three times the arithmetic.
+    """
+    c00, c01, c02, c10, c11, c12, c20, c21, c22 = _rotmat_entries(q)
     k = 0
     if use_a:
-        for i in range(3):
-            out[k + i] = c[0, i] * g_ref[0] + c[1, i] * g_ref[1] + c[2, i] * g_ref[2]
-        k += 3
+        g0, g1, g2 = g_ref[0], g_ref[1], g_ref[2]
+        out[0] = c00 * g0 + c10 * g1 + c20 * g2
+        out[1] = c01 * g0 + c11 * g1 + c21 * g2
+        out[2] = c02 * g0 + c12 * g1 + c22 * g2
+        k = 3
     if use_m:
-        for i in range(3):
-            out[k + i] = c[0, i] * h_ref[0] + c[1, i] * h_ref[1] + c[2, i] * h_ref[2]
+        h0, h1, h2 = h_ref[0], h_ref[1], h_ref[2]
+        out[k] = c00 * h0 + c10 * h1 + c20 * h2
+        out[k + 1] = c01 * h0 + c11 * h1 + c21 * h2
+        out[k + 2] = c02 * h0 + c12 * h1 + c22 * h2
 
 
 @numba.njit(cache=True)
@@ -180,10 +192,10 @@ def _sqrt_psd(sym: FloatArray, low: FloatArray) -> FloatArray:
 
 @numba.njit(cache=True)
 def ukf_workspace() -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
-                             FloatArray, FloatArray, FloatArray, FloatArray]:
+                             FloatArray, FloatArray, FloatArray]:
     """Scratch arrays of :func:`ukf_update_into` for up to 6 measurement rows (state dimension 4)."""
     return (np.empty((4, 4)), np.empty((4, 4)), np.empty((9, 4)), np.empty((9, 6)), np.empty(6), np.empty((6, 6)),
-            np.empty((4, 6)), np.empty(6), np.empty((6, 4)), np.empty((6, 6)), np.empty((3, 3)))
+            np.empty((4, 6)), np.empty(6), np.empty((6, 4)), np.empty((6, 6)))
 
 
 @numba.njit(cache=True)
@@ -197,13 +209,13 @@ def ukf_update(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatArray, 
 def ukf_update_into(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatArray, g_ref: FloatArray,
                     h_ref: FloatArray, use_a: bool, use_m: bool, alpha: float, beta: float, kappa: float,
                     ws: tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
-                              FloatArray, FloatArray, FloatArray, FloatArray]) -> None:
+                              FloatArray, FloatArray, FloatArray]) -> None:
     """:func:`ukf_update` with the scratch arrays ``ws`` of :func:`ukf_workspace` (no allocation unless the
     covariance needs the eigen-decomposition or the innovation covariance the LU fallback).
     """
     n = 4
     m = z.size
-    sym, low, sig, zs_ws, zm_ws, pzz_ws, pqz_ws, dz, kt_ws, l_ws, c3 = ws
+    sym, low, sig, zs_ws, zm_ws, pzz_ws, pqz_ws, dz, kt_ws, l_ws = ws
     zs, zm, pzz, pqz = zs_ws[:, :m], zm_ws[:m], pzz_ws[:m, :m], pqz_ws[:, :m]
     lam = alpha * alpha * (n + kappa) - n
     c = n + lam
@@ -221,7 +233,7 @@ def ukf_update_into(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatAr
     wc0 = wm0 + (1.0 - alpha * alpha + beta)
     wi = 0.5 / c
     for i in range(2 * n + 1):
-        _measurement_into(sig[i], g_ref, h_ref, use_a, use_m, zs[i], c3)
+        _measurement_into(sig[i], g_ref, h_ref, use_a, use_m, zs[i])
     # eq. 38: predicted mean. The centre point is subtracted first to avoid cancellation of the
     # large weights (wm0 is about -1e6 for alpha = 1e-3).
     for a in range(m):
@@ -460,6 +472,8 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
     z_ws = np.empty(6)
     r_ws = np.empty(6)
     ws = ukf_workspace()
+    c33 = np.empty((3, 3))
+    hn_ws = np.empty(3)
     for k in range(n):
         a = acc[k]
         an = math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
@@ -621,8 +635,10 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
             if aux[AUX_H_READY] == 1:
                 href_n = math.sqrt(aux[AUX_H_N] ** 2 + aux[AUX_H_U] ** 2)
                 dip_ref = math.atan2(-aux[AUX_H_U], aux[AUX_H_N])
-                c = _rotmat(q)
-                hn = c @ mv
+                c = c33
+                _rotmat_into(q, c)
+                hn = hn_ws
+                matvec3_into(c, mv, hn)         # c @ mv
                 dip = math.atan2(-hn[2], math.sqrt(hn[0] * hn[0] + hn[1] * hn[1]))
                 use_m = (abs(mn - href_n) < eps_m1 and aux[AUX_VAR_M_SQ] < eps_m2 and abs(dip - dip_ref) < eps_dip
                          and mn <= earth_max)

@@ -105,3 +105,22 @@ def test_defer_numpy_extras_does_not_import_numpy() -> None:
             "print('numpy' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120)
     assert out.stdout.strip() == "False"
+
+
+def test_numba_blas_loads_without_the_scipy_linalg_package() -> None:
+    """:func:`pdr.cli.numba_blas.load_numba_blas`: a compiled kernel that calls LAPACK runs without ``scipy.linalg``
+    being imported, and a later ``import scipy.linalg`` runs the package with the same BLAS module.
+    """
+    code = ("import json, sys, numpy as np; from pdr.cli.numba_blas import load_numba_blas; "
+            "loaded = load_numba_blas(); "
+            "from pdr.filters.small_linalg import solve_symmetric; "
+            "x = solve_symmetric(np.array([[1.0, 2.0], [2.0, 1.0]]), np.array([[3.0], [3.0]])); "
+            "before = 'scipy.linalg' in sys.modules; blas = sys.modules['scipy.linalg.cython_blas']; "
+            "import scipy.linalg; "
+            "print(json.dumps([loaded, before, x.ravel().tolist(), sys.modules['scipy.linalg.cython_blas'] is blas, "
+            "scipy.linalg.solve(np.array([[1.0, 2.0], [2.0, 1.0]]), np.array([3.0, 3.0])).tolist()]))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=300)
+    loaded, before, x, same, y = json.loads(out.stdout)
+    assert loaded and not before
+    assert x == [1.0, 1.0]      # the indefinite matrix goes through LAPACK's LU
+    assert same and y == pytest.approx([1.0, 1.0])

@@ -1,19 +1,24 @@
 """The compiled small-matrix routines agree with numpy's LAPACK/BLAS results on random and singular input."""
 
+from fractions import Fraction
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from numba import njit
 
 from pdr.filters.small_linalg import (
     cholesky_lower,
     cholesky_solve,
     congruence,
     congruence_into,
+    fma,
     matmul,
     matmul_bt,
     matmul_into,
     matvec,
+    matvec3_into,
     matvec_into,
     quadratic_form,
     solve_symmetric,
@@ -115,3 +120,49 @@ def test_in_place_forms_overwrite_dirty_scratch_with_the_allocating_results(n: i
     xs = b.copy()
     substitute(low, xs)
     assert np.array_equal(xs, cholesky_solve(p, b))
+
+
+@njit
+def _fma(a: float, b: float, c: float) -> float:
+    return fma(a, b, c)
+
+
+@njit
+def _compiled_matvec(a: np.ndarray, x: np.ndarray) -> np.ndarray:
+    return a @ x
+
+
+def test_fma_rounds_once() -> None:
+    # 0.1 * 10 rounds to 1.0; the fused operation keeps the product's rounding error.
+    assert _fma(0.1, 10.0, -1.0) == float(Fraction(0.1) * 10 - 1)
+    assert 0.1 * 10.0 - 1.0 == 0.0
+
+
+def test_matvec3_into_equals_compiled_matmul_bit_for_bit() -> None:
+    rng = np.random.default_rng(3)
+    out = np.empty(3)
+    for _ in range(2000):
+        a, x = rng.normal(size=(3, 3)), 40.0 * rng.normal(size=3)
+        matvec3_into(a, x, out)
+        assert np.array_equal(out, _compiled_matvec(a, x))
+
+
+def test_substitute_equals_column_by_column_solution_bit_for_bit() -> None:
+    rng = np.random.default_rng(4)
+    for n, m in ((4, 4), (6, 4), (3, 1), (6, 6)):
+        low = np.linalg.cholesky(_spd(rng, n))
+        x = rng.normal(size=(n, m))
+        ref = x.copy()
+        for c in range(m):        # forward then backward substitution of one column at a time
+            for i in range(n):
+                acc = ref[i, c]
+                for k in range(i):
+                    acc -= low[i, k] * ref[k, c]
+                ref[i, c] = acc / low[i, i]
+            for i in range(n - 1, -1, -1):
+                acc = ref[i, c]
+                for k in range(i + 1, n):
+                    acc -= low[k, i] * ref[k, c]
+                ref[i, c] = acc / low[i, i]
+        substitute(low, x)
+        assert np.array_equal(x, ref)
