@@ -697,20 +697,41 @@ def test_real_texting_walks_keep_their_steps():
 
 @pytest.mark.data
 def test_real_slow_texting_walk_is_counted_as_a_held_walk():
-    # Guillaume_Nexus5_Dist_Texting: a slow reader (0.7-1.2 s steps) whose starts are too irregular for the bout
-    # rules; the held walk's looser rules count more of it (motion-capture steps matched: 40 of 131 without, 63
-    # with), with no more steps than true. Off (the default), the detector is as before.
+    # Guillaume_Nexus5_NoDist_Texting: a slow reader (0.7-1.2 s steps) whose starts are too irregular for the bout
+    # rules; once a walk has confirmed, the held walk's looser rules count more of it at that walk's tilt
+    # (motion-capture steps matched: 82 of 134 without, 97 with), with no more steps than true. Off (the default),
+    # the detector is as before.
+    from pdr.evaluation.mocap_steps import matched_steps, mocap_step_times, mocap_trajectory
     from pdr.io import read_recording
     from pdr.phone.pipeline import PipelineConfig
     tool = load_tool("walking_steps")
-    rec = read_recording(data_path("attitude_smartphones", "android", "Guillaume_Nexus5_Dist_Texting"))
-    truth = tool.mocap_step_times(*tool.mocap_trajectory(rec))
+    rec = read_recording(data_path("attitude_smartphones", "android", "Guillaume_Nexus5_NoDist_Texting"))
+    trajectory = mocap_trajectory(rec)
+    assert trajectory is not None
+    truth = mocap_step_times(*trajectory)
     hits = {}
     for on in (False, True):
         times, _ = tool.pipeline_step_times(rec, StepConfig(held_walks=on), PipelineConfig().rate_hz)
-        hits[on], _ = tool.matched_steps(times, truth)
+        hits[on], _ = matched_steps(times, truth)
         assert times.size <= truth.size
-    assert hits[False] < 0.4 * truth.size and hits[True] >= 0.45 * truth.size
+    assert hits[False] < 0.65 * truth.size and hits[True] >= 0.7 * truth.size
+
+
+def test_held_walk_needs_a_walk_at_the_same_tilt_first():
+    # Handling at a fixed tilt before any walk (no re-orientation: the synthetic handling of the tests above) is no
+    # held walk: the held-walk rules apply only at the tilt of a walk already confirmed. The irregular handling
+    # before the walk is not counted with held walks on, as with them off.
+    handling = 1.0 + np.cumsum([0.0, 0.8, 0.35, 0.45, 1.0, 0.4, 0.3, 0.9, 0.5])
+    walk_t = handling[-1] + 2.0 + 0.55 * np.arange(30)
+    times = np.concatenate([handling, walk_t])
+    amps = np.concatenate([np.full(handling.size, 3.0), np.full(walk_t.size, 4.0)])
+    acc = bumps(times, amps, times[-1] + 3.0)
+    for on in (False, True):
+        steps = detect_steps(acc, FS, StepConfig(held_walks=on))
+        assert len(steps) == walk_t.size and steps.start_idx.min() / FS > walk_t[0] - 0.3
+    det = StepDetector(FS, StepConfig(held_walks=True))
+    det.update(acc, final=True)
+    assert det.state()["walk_up"] is not None            # the walk's tilt, saved with the state
 
 
 def test_held_walk_chunked_with_state_round_trip_equals_one_batch():
