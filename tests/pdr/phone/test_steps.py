@@ -717,6 +717,20 @@ def test_real_slow_texting_walk_is_counted_as_a_held_walk():
     assert hits[False] < 0.65 * truth.size and hits[True] >= 0.68 * truth.size
 
 
+@pytest.mark.data
+def test_held_walk_rules_stay_out_of_a_back_pocket():
+    # Guillaume_Nexus5_NoDist_BackPocket: the phone holds a steady tilt in the pocket too, and the held walk's rules
+    # added 25 steps there (172 -> 197 for 157 motion-capture steps). A phone whose long axis is near the vertical is
+    # along a thigh, not held in front: with held walks on the count is the one with them off.
+    from pdr.io import read_recording
+    from pdr.phone.pipeline import PipelineConfig
+    tool = load_tool("walking_steps")
+    rec = read_recording(data_path("attitude_smartphones", "android", "Guillaume_Nexus5_NoDist_BackPocket"))
+    off, on = (tool.pipeline_step_times(rec, StepConfig(held_walks=h), PipelineConfig().rate_hz)[0]
+               for h in (False, True))
+    assert np.array_equal(off, on)
+
+
 def test_held_walk_needs_a_walk_at_the_same_tilt_first():
     # Handling at a fixed tilt before any walk (no re-orientation: the synthetic handling of the tests above) is no
     # held walk: the held-walk rules apply only at the tilt of a walk already confirmed. The irregular handling
