@@ -53,7 +53,9 @@ def pipeline_steps(rec: Any, config: StepConfig, rate_hz: float) -> tuple[int, f
 
 
 def pipeline_step_times(rec: Any, config: StepConfig, rate_hz: float) -> tuple[np.ndarray, float]:
-    """Start times (s, the recording's ``t_s``) of the steps of :func:`pipeline_steps`, and the grid's duration (s)."""
+    """Start times (s, the recording's ``t_s`` axis: the grid's times less ``t0_ns / 1e9``, as the motion capture's) of
+    the steps of :func:`pipeline_steps`, and the grid's duration (s).
+    """
     kinds = ("acc",) + tuple(k for k in ("gyro", "mag", "baro") if rec.has(k))
     grid = OnlineGrid(rate_hz, kinds)
     grid.push(rec)
@@ -66,7 +68,7 @@ def pipeline_step_times(rec: Any, config: StepConfig, rate_hz: float) -> tuple[n
         starts.append(steps.start_idx)
     t = np.concatenate([t1, t2])
     idx = np.concatenate(starts)
-    return (t[idx] if t.size else np.zeros(0)), (float(t[-1] - t[0]) if t.size else 0.0)
+    return (t[idx] - rec.origin_ns / 1e9 if t.size else np.zeros(0)), (float(t[-1] - t[0]) if t.size else 0.0)
 
 
 def main(argv: list[str] | None = None) -> int:

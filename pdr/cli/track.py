@@ -936,13 +936,13 @@ def _step_log(f: Path) -> Path:
     return f if _MOBIFALL_ACC.match(f.name) else f.parent
 
 
-def _mocap_step_row(starts_s: np.ndarray, trajectory: tuple[np.ndarray, np.ndarray]
+def _mocap_step_row(rec: Recording, starts_s: np.ndarray, trajectory: tuple[np.ndarray, np.ndarray]
                     ) -> dict[str, Any]:
-    """``pdr eval steps``' motion-capture figures of a walk: how many detected steps (start times, s, the
-    recording's ``t_s`` axis, as the pipeline's events) pair one to one with the true steps of the capture
-    (:mod:`pdr.evaluation.mocap_steps`).
+    """``pdr eval steps``' motion-capture figures of a walk: how many detected steps (the pipeline's start times,
+    s since the sensors' epoch: ``t0_ns / 1e9`` past the recording's ``t_s`` axis, the capture's) pair one to one
+    with the true steps of the capture (:mod:`pdr.evaluation.mocap_steps`).
     """
-    matched, _ = matched_steps(starts_s, mocap_step_times(*trajectory))
+    matched, _ = matched_steps(starts_s - rec.origin_ns / 1e9, mocap_step_times(*trajectory))
     return {"true_from": "motion capture", "matched": matched}
 
 
@@ -1034,7 +1034,7 @@ def eval_steps(args: argparse.Namespace) -> int:
                                "count_error": n - int(true), "plain_detected": plain,
                                "plain_count_error": plain - int(true)}
         if trajectory is not None:
-            row.update(_mocap_step_row(starts_s, trajectory))
+            row.update(_mocap_step_row(rec, starts_s, trajectory))
         feet = [rec.truth.extra.get(k) for k in ("step_times_chan1_s", "step_times_chan2_s")]
         if all(f is not None for f in feet):
             # Secondary figure: the same truth with contact-switch bounces removed (pdr.evaluation.scoring).

@@ -37,8 +37,9 @@ def mocap_step_times(t_s: np.ndarray, pos_m: np.ndarray, rise_m: float = MOCAP_S
     interpolated), band-passed to :data:`MOCAP_STEP_BAND_HZ` (2nd-order Butterworth, forward and backward), and its
     peaks of prominence at least ``rise_m`` (m), at least :data:`MOCAP_MIN_STEP_S` apart, are counted. Standing moves
     the phone by less than ``rise_m`` (no step). Independent of the accelerometer. Checked against the detector where
-    it is right (Jakob_Nexus5_NoDist_Texting: 179 of its 186 steps pair up with the 184 found here; the front-pocket
-    walks: 167-183 of 175-190); in a back pocket it is looser (107-209 of 172-228 pair up).
+    it is right (Jakob_Nexus5_NoDist_Texting: 180 of its 186 steps pair up with the 184 found here; the front-pocket
+    walks: 160-183 of 175-190; the back pockets 140-213 of 172-228), the detector's steps on the recording's ``t_s``
+    axis like the capture's.
 
     Parameters
     ----------

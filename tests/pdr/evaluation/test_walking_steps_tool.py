@@ -105,7 +105,7 @@ def test_matched_steps_pairs_one_to_one_after_the_lag() -> None:
 @pytest.mark.slow
 def test_mocap_steps_are_the_detectors_steps_on_a_brisk_texting_walk(tool: ModuleType) -> None:
     """Jakob_Nexus5_NoDist_Texting (0.63 s steps, the detector and the plain peak detector agree): the true steps from
-    the capture's heights and the detector's steps from the accelerometer pair up one to one (179 of 186)."""
+    the capture's heights and the detector's steps from the accelerometer pair up one to one (180 of 186)."""
     from pdr.io import read_recording
     from pdr.phone.pipeline import PipelineConfig
     from pdr.phone.steps import StepConfig
@@ -116,4 +116,6 @@ def test_mocap_steps_are_the_detectors_steps_on_a_brisk_texting_walk(tool: Modul
     det, _ = tool.pipeline_step_times(rec, StepConfig(), PipelineConfig().rate_hz)
     hits, lag = mocap_steps.matched_steps(det, true)
     assert hits >= 0.95 * max(det.size, true.size)
-    assert 0.0 < lag < 0.4
+    # Both on the recording's t_s axis: the top of the vault (mid-stance) comes before the acceleration's upward
+    # crossing that starts the next step (the body falls onto the next foot): -0.24 s here.
+    assert -0.4 < lag < 0.0
