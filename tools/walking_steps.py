@@ -8,7 +8,8 @@ where the dataset has one. ``pdr track`` gives an empty track ("no walking detec
 the recordings with none are listed at the end, and the exit code is 1 if a walking recording is among them.
 
 Where a recording has a motion-capture trajectory of the phone and no counted steps (``attitude_smartphones``), the
-true count is :func:`mocap_step_count`: the phone's vertical oscillation, one rise and fall per step.
+true count is :func:`pdr.evaluation.mocap_steps.mocap_step_count`: the phone's vertical oscillation, one rise and
+fall per step (the truth ``pdr eval steps`` uses there too).
 
 Walking: ``sensor_logger_walks`` (every walk), ``oxford_step_counter`` (every trial), ``mobifall_v2_pocket`` WAL,
 STU and STN (walking, stairs up and down), ``ms_indoor_location`` (every trace), ``ipin2023_t3`` (every log),
@@ -28,102 +29,19 @@ from typing import Any
 import numpy as np
 
 from pdr.errors import InputError
-from pdr.evaluation.scoring import match_steps, plain_step_count
+from pdr.evaluation.mocap_steps import (
+    MOCAP_MATCH_S,
+    matched_steps,
+    mocap_step_times,
+    mocap_trajectory,
+    true_step_count,
+)
+from pdr.evaluation.scoring import plain_step_count
 from pdr.evaluation.walking_recordings import recordings
 from pdr.io import read_recording
 from pdr.phone.grid import OnlineGrid
 from pdr.phone.pipeline import PipelineConfig
 from pdr.phone.steps import StepConfig, StepDetector
-
-#: Band (Hz) of the phone's vertical oscillation at the step frequency: walking (0.8-2.2 steps/s) and running.
-MOCAP_STEP_BAND_HZ = (0.7, 3.0)
-#: Rise of the phone (m) that makes a step in :func:`mocap_step_count`: above the motion capture's sub-millimetre noise,
-#: below the 1-5 cm vault of a walk.
-MOCAP_STEP_RISE_M = 0.002
-#: Shortest step (s) of :func:`mocap_step_count` (the plain detector's too).
-MOCAP_MIN_STEP_S = 0.3
-
-#: Largest distance (s) between a detected step and the true step it matches (:func:`matched_steps`).
-MOCAP_MATCH_S = 0.3
-
-def mocap_step_count(t_s: np.ndarray, pos_m: np.ndarray, rise_m: float = MOCAP_STEP_RISE_M) -> int:
-    """True step count from a motion-capture trajectory of the phone: the size of :func:`mocap_step_times`."""
-    return int(mocap_step_times(t_s, pos_m, rise_m).size)
-
-
-def mocap_step_times(t_s: np.ndarray, pos_m: np.ndarray, rise_m: float = MOCAP_STEP_RISE_M) -> np.ndarray:
-    """Times (s) of the true steps in a motion-capture trajectory of the phone: the walker's body vaults over the
-    stance leg once per step (inverted pendulum), so the phone, on the thigh or in the hand, rises and falls once per
-    step; a step's time is the top of its rise.
-
-    The height ``pos_m[:, 2]`` (m, z up) is put on a uniform grid at the capture's median frame rate (hidden frames
-    interpolated), band-passed to :data:`MOCAP_STEP_BAND_HZ` (2nd-order Butterworth, forward and backward), and its
-    peaks of prominence at least ``rise_m`` (m), at least :data:`MOCAP_MIN_STEP_S` apart, are counted. Standing moves
-    the phone by less than ``rise_m`` (no step). Independent of the accelerometer. Checked against the detector where
-    it is right (Jakob_Nexus5_NoDist_Texting: 179 of its 186 steps pair up with the 184 found here; the front-pocket
-    walks: 167-183 of 175-190); in a back pocket it is looser (107-209 of 172-228 pair up).
-
-    Parameters
-    ----------
-    t_s
-        (K,) frame times (s), increasing.
-    pos_m
-        (K, 3) phone positions (m), z up; frames with a NaN are left out.
-    """
-    from scipy import signal
-
-    t = np.asarray(t_s, dtype=np.float64)
-    z = np.asarray(pos_m, dtype=np.float64)[:, 2]
-    ok = np.isfinite(t) & np.isfinite(z)
-    t, z = t[ok], z[ok]
-    if t.size < 2:
-        return np.zeros(0)
-    rate = 1.0 / float(np.median(np.diff(t)))
-    lo, hi = MOCAP_STEP_BAND_HZ
-    if not hi < 0.5 * rate:
-        raise InputError(f"motion capture at {rate:.1f} Hz is too slow for steps up to {hi} Hz",
-                         field="t_s", source="motion-capture truth")
-    grid = np.arange(t[0], t[-1], 1.0 / rate)
-    b, a = signal.butter(2, [lo / (0.5 * rate), hi / (0.5 * rate)], "band")
-    if grid.size <= 3 * max(a.size, b.size):
-        return np.zeros(0)
-    zb = signal.filtfilt(b, a, np.interp(grid, t, z))
-    peaks, _ = signal.find_peaks(zb, prominence=rise_m, distance=max(1, int(MOCAP_MIN_STEP_S * rate)))
-    return grid[peaks]
-
-
-def matched_steps(detected_s: np.ndarray, true_s: np.ndarray, tol_s: float = MOCAP_MATCH_S) -> tuple[int, float]:
-    """How many detected steps match a true step one to one, and the lag (s) applied
-    (:func:`pdr.evaluation.scoring.match_steps`: each detected time, shifted by the median lag to the nearest true step,
-    takes the nearest unmatched true step within ``tol_s``).
-    """
-    hit, _, lag = match_steps(detected_s, true_s, tol_s)
-    return int(hit.sum()), lag
-
-
-def true_step_count(rec: Any) -> tuple[int | None, str]:
-    """The recording's true step count and where it comes from: counted steps (``''``) or, failing them, the
-    phone's motion-capture trajectory within the phone's recording (``'mocap'``, :func:`mocap_step_count`);
-    ``(None, '')`` if it has neither.
-    """
-    if rec.truth.step_count is not None:
-        return int(rec.truth.step_count), ""
-    trajectory = mocap_trajectory(rec)
-    if trajectory is not None:
-        return mocap_step_count(*trajectory), "mocap"
-    return None, ""
-
-
-def mocap_trajectory(rec: Any) -> tuple[np.ndarray, np.ndarray] | None:
-    """Frame times (K,) s and phone positions (K, 3) m of the recording's motion capture within the phone's
-    recording (dense 3-D truth positions), or None if it has none.
-    """
-    pos = rec.truth.positions
-    if pos is None or pos.kind != "dense" or pos.pos_m.ndim != 2 or pos.pos_m.shape[1] != 3:
-        return None
-    start, end = rec.time_span_s()
-    inside = (pos.t_s >= start) & (pos.t_s <= end)
-    return pos.t_s[inside], pos.pos_m[inside]
 
 
 def pipeline_steps(rec: Any, config: StepConfig, rate_hz: float) -> tuple[int, float]:
@@ -135,7 +53,9 @@ def pipeline_steps(rec: Any, config: StepConfig, rate_hz: float) -> tuple[int, f
 
 
 def pipeline_step_times(rec: Any, config: StepConfig, rate_hz: float) -> tuple[np.ndarray, float]:
-    """Start times (s, the recording's ``t_s``) of the steps of :func:`pipeline_steps`, and the grid's duration (s)."""
+    """Start times (s, the recording's ``t_s`` axis: the grid's times less ``t0_ns / 1e9``, as the motion capture's) of
+    the steps of :func:`pipeline_steps`, and the grid's duration (s).
+    """
     kinds = ("acc",) + tuple(k for k in ("gyro", "mag", "baro") if rec.has(k))
     grid = OnlineGrid(rate_hz, kinds)
     grid.push(rec)
@@ -148,7 +68,7 @@ def pipeline_step_times(rec: Any, config: StepConfig, rate_hz: float) -> tuple[n
         starts.append(steps.start_idx)
     t = np.concatenate([t1, t2])
     idx = np.concatenate(starts)
-    return (t[idx] if t.size else np.zeros(0)), (float(t[-1] - t[0]) if t.size else 0.0)
+    return (t[idx] - rec.origin_ns / 1e9 if t.size else np.zeros(0)), (float(t[-1] - t[0]) if t.size else 0.0)
 
 
 def main(argv: list[str] | None = None) -> int:

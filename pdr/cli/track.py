@@ -19,6 +19,13 @@ from pdr.cli.lazy_numpy import defer_numpy_extras
 from pdr.cli.numba_blas import load_numba_blas
 from pdr.errors import InputError, UnknownFormatError
 from pdr.evaluation.error_budget import BUDGET_TRACKS, budget_tracks
+from pdr.evaluation.mocap_steps import (
+    MOCAP_MATCH_S,
+    matched_steps,
+    mocap_step_count,
+    mocap_step_times,
+    mocap_trajectory,
+)
 from pdr.evaluation.scoring import (
     WALK_EDGE_S,
     absolute_waypoint_errors,
@@ -33,6 +40,7 @@ from pdr.evaluation.scoring import (
     unmatched_by_phase,
     waypoint_errors,
 )
+from pdr.evaluation.walking_recordings import MOBIFALL_NOT_WALKING, MOBIFALL_WALKING
 from pdr.io import detect_format, read_recording
 from pdr.phone.configure import pipeline_config
 from pdr.phone.heading_smoother import smoothed_rows
@@ -224,7 +232,8 @@ def register_eval_ms(targets: argparse._SubParsersAction) -> None:
 
 
 def register_eval_steps(targets: argparse._SubParsersAction) -> None:
-    _register_eval(targets, "steps", "step-count error per walk and placement (Oxford step counter)", eval_steps)
+    _register_eval(targets, "steps", "step-count error per walk and placement (Oxford step counter, Sensor Logger "
+                   "walks, attitude_smartphones motion capture; MobiFall counts only)", eval_steps)
 
 
 def _register_eval(targets: argparse._SubParsersAction, name: str, helptext: str,
@@ -923,21 +932,86 @@ def _unmatched_text(u: dict[str, int]) -> str:
         for name, p in ((f"first {edge}", "first"), ("middle", "mid"), (f"last {edge}", "last")))
 
 
+#: The files ``pdr eval steps`` looks for. Each belongs to a folder-format log (its folder: an Oxford trial, a Sensor
+#: Logger export, a Tyrex logger folder of ``attitude_smartphones``) or is a log itself (a MobiFall trial's acc file).
+_STEP_LOG_FILES = ("accelerometer.csv", "accelerometer.csv.gz", "Accelerometer.csv", "Accelerometer.csv.gz",
+                   "accelerometer.txt", "accelerometer.txt.gz", "*_acc_*.txt", "*_acc_*.txt.gz")
+#: A MobiFall trial's accelerometer file (:mod:`pdr.io.mobifall`): a log of its own, not a folder's file.
+_MOBIFALL_ACC = re.compile(r"^[A-Z]{3}_acc_\d+_\d+\.txt(\.gz)?$")
+
+
+def _step_log(f: Path) -> Path:
+    """The log ``pdr eval steps`` reads for one of :data:`_STEP_LOG_FILES`: the file (MobiFall) or its folder."""
+    return f if _MOBIFALL_ACC.match(f.name) else f.parent
+
+
+def _mocap_step_row(rec: Recording, starts_s: np.ndarray, trajectory: tuple[np.ndarray, np.ndarray]
+                    ) -> dict[str, Any]:
+    """``pdr eval steps``' motion-capture figures of a walk: how many detected steps (the pipeline's start times,
+    s since the sensors' epoch: ``t0_ns / 1e9`` past the recording's ``t_s`` axis, the capture's) pair one to one
+    with the true steps of the capture (:mod:`pdr.evaluation.mocap_steps`).
+    """
+    matched, _ = matched_steps(starts_s - rec.origin_ns / 1e9, mocap_step_times(*trajectory))
+    return {"true_from": "motion capture", "matched": matched}
+
+
+def _no_truth_row(rec: Recording, name: str, n: int, plain: int) -> dict[str, Any]:
+    """``pdr eval steps``' row of a walk with no step truth (MobiFall: activity labels only): the counts alone."""
+    code = str(rec.meta.get("activity_code", ""))
+    modes = rec.truth.modes
+    return {"walk": name, "placement": rec.device.placement or "unknown", "activity": code,
+            "mode": modes.label[0] if modes is not None and len(modes.label) == 1 else "unknown",
+            "walking": code in MOBIFALL_WALKING, "true": None, "detected": n, "plain_detected": plain,
+            "duration_s": rec.duration_s}
+
+
+def _no_truth_summary(per: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Per activity code, the walks with no step truth: how many, how long (s), steps detected, plain count."""
+    out: dict[str, dict[str, Any]] = {}
+    for p in per:
+        if "error" in p or p.get("true", 0) is not None:
+            continue
+        a = out.setdefault(p["activity"], {"walking": p["walking"], "mode": p["mode"], "walks": 0, "duration_s": 0.0,
+                                           "detected": 0, "plain_detected": 0})
+        a["walks"] += 1
+        a["duration_s"] += p["duration_s"]
+        a["detected"] += p["detected"]
+        a["plain_detected"] += p["plain_detected"]
+    return out
+
+
+def _no_truth_lines(summary: dict[str, dict[str, Any]]) -> Iterator[str]:
+    """``pdr eval steps``' text for the walks with no step truth (MobiFall)."""
+    for code, a in summary.items():
+        what = ("" if a["walking"] else
+                " (not walking: every step found is a false one)" if code in MOBIFALL_NOT_WALKING else "")
+        minutes = a["duration_s"] / 60.0
+        yield (f"{code} {a['mode']}{what}: {a['walks']} recordings, {minutes:.1f} min, detected {a['detected']} "
+               f"steps ({a['detected'] / minutes:.0f}/min), plain peak detector {a['plain_detected']} "
+               f"({a['plain_detected'] / minutes:.0f}/min)")
+    yield ("MobiFall counts no steps (its SOURCE.md: one activity label per recording), so these recordings "
+           "have no count error; steps per minute are a cadence check only")
+
+
+def _mean_abs(v: Sequence[float]) -> float:
+    return float(np.mean(np.abs(v))) if len(v) else math.nan
+
+
 def eval_steps(args: argparse.Namespace) -> int:
-    """Step-count error per walk: Oxford step counter (truth in the recording), or folders named
-    ``<carriage>-<N>-steps-<walker>`` (Sensor Logger exports); a plain peak detector's count beside each.
+    """Step-count error per walk, a plain peak detector's count beside each. The truth: counted steps (Oxford step
+    counter: in the recording; Sensor Logger folders named ``<carriage>-<N>-steps-<walker>``: the name) or the steps
+    of the phone's motion capture (``attitude_smartphones``: :mod:`pdr.evaluation.mocap_steps`, with the detected
+    steps that pair with them). MobiFall trials count no steps: their counts are printed per activity, with no error.
     """
     step = _step_config(args.step)
-    dirs = sorted({p.parent for p in _files(args.dir, ("accelerometer.csv", "accelerometer.csv.gz",
-                                                       "Accelerometer.csv", "Accelerometer.csv.gz"),
-                                            log_of=lambda f: f.parent)})
+    logs = sorted({_step_log(p) for p in _files(args.dir, _STEP_LOG_FILES, log_of=_step_log)})
     if args.limit:
-        dirs = dirs[:args.limit]
+        logs = logs[:args.limit]
     per: list[dict[str, Any]] = []
     by_place: dict[str, list[float]] = {}
     by_place_bf: dict[str, list[float]] = {}
     by_place_alt: dict[str, list[float]] = {}
-    for d in progress.each(dirs, "eval steps"):
+    for d in progress.each(logs, "eval steps"):
         try:
             rec = read_recording(d)
         except InputError as exc:
@@ -947,20 +1021,29 @@ def eval_steps(args: argparse.Namespace) -> int:
         named = _STEPS_IN_NAME.match(d.name)
         if true is None and named:
             true = int(named["n"])
-        if true is None or true < 10:
+        trajectory = mocap_trajectory(rec) if true is None else None
+        if trajectory is not None:
+            true = mocap_step_count(*trajectory)
+        counts_only = true is None and rec.format == "mobifall"
+        if not counts_only and (true is None or true < 10):
             per.append({"walk": d.name, "error": f"no usable step truth ({true} steps)"})
             continue
         events = PdrPipeline(PipelineConfig(step=step)).run(rec)
         starts_s = np.array([e["t_start_s"] for e in events if e.get("type") == "step"], dtype=np.float64)
         n = int(starts_s.size)
-        err = step_count_error_pct(n, int(true))
-        place = rec.device.placement or (named["carriage"] if named else "unknown")
-        by_place.setdefault(place, []).append(err)
         acc = rec.stream("acc")
         plain = plain_step_count(acc.t_ns / 1e9, np.asarray(acc.values)) if rec.has("acc") else 0
+        if true is None:
+            per.append(_no_truth_row(rec, d.name, n, plain))
+            continue
+        err = step_count_error_pct(n, int(true))
+        place = rec.device.placement or (named["carriage"] if named else str(rec.meta.get("carriage", "unknown")))
+        by_place.setdefault(place, []).append(err)
         row: dict[str, Any] = {"walk": d.name, "placement": place, "true": int(true), "detected": n, "error_pct": err,
                                "count_error": n - int(true), "plain_detected": plain,
                                "plain_count_error": plain - int(true)}
+        if trajectory is not None:
+            row.update(_mocap_step_row(rec, starts_s, trajectory))
         feet = [rec.truth.extra.get(k) for k in ("step_times_chan1_s", "step_times_chan2_s")]
         if all(f is not None for f in feet):
             # Secondary figure: the same truth with contact-switch bounces removed (pdr.evaluation.scoring).
@@ -1000,24 +1083,44 @@ def eval_steps(args: argparse.Namespace) -> int:
                                     "mean_abs_error_pct_alternating":
                                         float(np.mean(np.abs(by_place_alt[p]))) if by_place_alt.get(p) else math.nan}
                                 for p, v in sorted(by_place.items())}}
+    # Motion-capture truth (attitude_smartphones): the steps that pair up, and the plain detector's error beside ours.
+    mocap = [p for p in per if "matched" in p]
+    for pl, m in summary["by_placement"].items():
+        rows = [p for p in mocap if p["placement"] == pl]
+        if rows:
+            m.update(_mocap_summary(rows))
+    if mocap:
+        summary["motion_capture"] = _mocap_summary(mocap)
+    no_truth = _no_truth_summary(per)
+    if no_truth:
+        summary["no_step_truth"] = no_truth
 
     def lines() -> Iterator[str]:
         for p in per:
             if "error" in p:
                 yield f"{p['walk']}: {p['error']}"
+            elif p["true"] is None:
+                yield (f"{p['walk']}: {p['placement']}, {p['activity']} {p['mode']}, {p['duration_s']:.1f} s, "
+                       f"no step truth, detected {p['detected']}; plain peak detector {p['plain_detected']}")
             else:
                 bf = (f" (bounce-free truth {p['true_bounce_free']}: {p['error_pct_bounce_free']:+.1f} %; with "
                       f"drop-outs filled {p['true_alternating']}: {p['error_pct_alternating']:+.1f} %, "
                       + _unmatched_text(p["unmatched"]) + ")" if "true_bounce_free" in p else "")
-                yield (f"{p['walk']}: {p['placement']}, true {p['true']}, detected {p['detected']} "
+                if "matched" in p:
+                    bf = f", {p['matched']} matched within {MOCAP_MATCH_S:g} s of a true step"
+                true = f"true {p['true']}" + (" (motion capture)" if "matched" in p else "")
+                yield (f"{p['walk']}: {p['placement']}, {true}, detected {p['detected']} "
                        f"({p['count_error']:+d} steps, {p['error_pct']:+.1f} %){bf}; plain peak detector "
                        f"{p['plain_detected']} ({p['plain_count_error']:+d})")
         for pl, v in summary["by_placement"].items():
             bf, alt = v["mean_abs_error_pct_bounce_free"], v["mean_abs_error_pct_alternating"]
             yield (f"{pl}: {v['walks']} walks, mean |error| {v['mean_abs_error_pct']:.2f} %"
                    + (f" ({bf:.2f} % against bounce-free truth, {alt:.2f} % with drop-outs filled)"
-                      if math.isfinite(bf) else ""))
-        line = f"ALL: mean |error| {summary['mean_abs_error_pct']:.2f} % over {summary['walks']} walks"
+                      if math.isfinite(bf) else "") + ("; motion capture" + _mocap_text(v) if "matched" in v else ""))
+        if every:
+            line = f"ALL: mean |error| {summary['mean_abs_error_pct']:.2f} % over {summary['walks']} walks"
+        else:
+            line = "ALL: no walk with a step truth"
         if target:
             line += f"; pocket/hand/bag/armband {summary['mean_abs_error_pct_pocket_hand_bag_armband']:.2f} %"
         if target_bf:
@@ -1025,11 +1128,34 @@ def eval_steps(args: argparse.Namespace) -> int:
                      "contact-switch truth without bounces, "
                      f"{summary['mean_abs_error_pct_pocket_hand_bag_armband_alternating']:.2f} % with one switch's "
                      "drop-outs filled as well)")
+        if mocap:
+            line += "; motion-capture truth" + _mocap_text(summary["motion_capture"])
         yield line
         if unmatched:
             yield "pocket/hand/bag/armband, against the filled truth: " + _unmatched_text(unmatched)
+        if no_truth:
+            yield from _no_truth_lines(no_truth)
     _emit(summary, per, args.json, lines())
     return 0
+
+
+def _mocap_summary(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """The motion-capture figures of ``pdr eval steps`` over ``rows``: walks, true and matched steps, and our and the
+    plain peak detector's mean |count error| (%).
+    """
+    true = sum(p["true"] for p in rows)
+    return {"mocap_walks": len(rows), "true": true, "detected": sum(p["detected"] for p in rows),
+            "matched": sum(p["matched"] for p in rows),
+            "mean_abs_error_pct": _mean_abs([p["error_pct"] for p in rows]),
+            "plain_detected": sum(p["plain_detected"] for p in rows),
+            "plain_mean_abs_error_pct": _mean_abs([step_count_error_pct(p["plain_detected"], p["true"])
+                                                   for p in rows])}
+
+
+def _mocap_text(m: dict[str, Any]) -> str:
+    return (f": {m['matched']} of {m['true']} true steps matched ({100.0 * m['matched'] / m['true']:.1f} %), "
+            f"{m['detected']} detected; plain peak detector {m['plain_detected']}, mean |error| "
+            f"{m['plain_mean_abs_error_pct']:.2f} %")
 
 
 # -- benchmark -------------------------------------------------------------------------------------

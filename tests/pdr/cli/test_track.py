@@ -333,3 +333,77 @@ def test_reference_is_none_without_an_orientation_stream():
     assert not rec.has("orientation")
     assert reference_rows(rec, PipelineConfig()) is None
     assert "REFERENCE (phone's own attitude): n/a" in "\n".join(_reference_lines({"without_reference": 2}))
+
+
+def _write_mobifall(folder, code, sensor, t_ns, values):
+    """One MobiFall v2 file (pdr.io.mobifall: '#' header, '@DATA', 'timestamp_ns, x, y, z' rows) in ``folder``."""
+    folder.mkdir(parents=True, exist_ok=True)
+    rows = "\n".join(f"{t}, {x:.5f}, {y:.5f}, {z:.5f}" for t, (x, y, z) in zip(t_ns, values, strict=True))
+    (folder / f"{code}_{sensor}_1_1.txt").write_text(
+        f"#Activity: {code}\n#Subject ID: 1\n\n@DATA\n{rows}\n")
+
+
+def test_steps_eval_counts_mobifall_trials_with_no_step_truth(tmp_path, capsys):
+    """MobiFall counts no steps: a (simulated) pocket walk and a stand written as MobiFall trials are counted, the
+    plain peak detector beside, with no count error; the stand's steps are false ones."""
+    from pdr.sim.simulate import simulate
+    sc = {"placement": "trouser_pocket", "segments": [
+        {"type": "stand", "duration_s": 2.0},
+        {"type": "walk", "duration_s": 20.0, "speed_mps": 1.2, "step_frequency_hz": 1.8},
+        {"type": "stand", "duration_s": 2.0}]}
+    rec = simulate(sc, 3)
+    assert rec.truth.step_times_s is not None
+    n_true = rec.truth.step_times_s.size
+    for kind in ("acc", "gyro"):
+        s = rec.stream(kind)
+        _write_mobifall(tmp_path / "sub1" / "ADL" / "WAL", "WAL", kind, s.t_ns, np.asarray(s.values))
+    t_ns = np.arange(1000) * 10_000_000
+    rng = np.random.default_rng(0)
+    _write_mobifall(tmp_path / "sub1" / "ADL" / "STD", "STD", "acc", t_ns,
+                    np.array([0.3, 9.8, 0.5]) + rng.normal(0.0, 0.02, (t_ns.size, 3)))
+    assert main(["eval", "steps", str(tmp_path), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    rows = {r["walk"]: r for r in res["files"]}
+    assert set(rows) == {"WAL_acc_1_1.txt", "STD_acc_1_1.txt"}
+    wal, std = rows["WAL_acc_1_1.txt"], rows["STD_acc_1_1.txt"]
+    assert wal["true"] is None and wal["walking"] and abs(wal["detected"] - n_true) <= 2 and wal["plain_detected"] > 0
+    assert std["true"] is None and not std["walking"] and std["detected"] == 0
+    overall = res["overall"]
+    assert overall["walks"] == 0                                   # no count error without a truth
+    assert overall["no_step_truth"]["WAL"]["detected"] == wal["detected"]
+    assert main(["eval", "steps", str(tmp_path)]) == 0
+    text = capsys.readouterr().out
+    assert "nan" not in text and "ALL: no walk with a step truth" in text and "MobiFall counts no steps" in text
+
+
+@pytest.mark.data
+def test_steps_eval_scores_a_mocap_walk_against_its_motion_capture_steps(capsys):
+    """attitude_smartphones: the truth is the steps of the phone's motion capture (pdr.evaluation.mocap_steps), the
+    detected steps that pair with them counted. Jakob_Nexus5_NoDist_Texting (a brisk walk the detector and the plain
+    peak detector agree on): 184 true steps, 186 detected, 180 paired."""
+    from pdr.evaluation.mocap_steps import true_step_count
+    from pdr.io import read_recording
+    walk = data_path("attitude_smartphones", "android", "Jakob_Nexus5_NoDist_Texting")
+    assert main(["eval", "steps", str(walk), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    row = res["files"][0]
+    assert row["true_from"] == "motion capture" and row["placement"] == "Texting"
+    assert row["true"] == true_step_count(read_recording(walk))[0]
+    assert row["matched"] >= 0.95 * max(row["true"], row["detected"])
+    assert row["count_error"] == row["detected"] - row["true"] and row["plain_detected"] > 0
+    m = res["overall"]["motion_capture"]
+    assert (m["mocap_walks"], m["true"], m["matched"]) == (1, row["true"], row["matched"])
+    assert res["overall"]["by_placement"]["Texting"]["matched"] == row["matched"]
+
+
+@pytest.mark.data
+@pytest.mark.slow
+def test_steps_eval_on_every_mocap_walk_of_attitude_smartphones(capsys):
+    root = data_path("attitude_smartphones")
+    assert main(["eval", "steps", str(root)]) == 0
+    text = capsys.readouterr().out.splitlines()
+    walks = [t for t in text if "(motion capture)" in t]
+    assert len(walks) == 18 and all("matched within" in t and "plain peak detector" in t for t in walks)
+    for carriage in ("FrontPocket", "BackPocket", "Swinging", "Texting", "RunningPocket"):
+        assert any(t.startswith(f"{carriage}: ") and "true steps matched" in t for t in text)
+    assert text[-1].startswith("ALL: mean |error|") and "motion-capture truth" in text[-1]
