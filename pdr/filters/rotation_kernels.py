@@ -1,10 +1,11 @@
 """Compiled (numba) rotation helpers for the per-sample filter loops: quaternion product, exponential, rotation
-matrix, yaw and angle wrap on scalars and small arrays.
+matrix, a turn about the vertical, yaw and angle wrap on scalars and small arrays.
 
 The conventions of :mod:`pdr.frames`: Hamilton quaternions, scalar first, ``q_nb`` rotates body vectors into the
 ENU navigation frame; yaw counter-clockwise from east. :mod:`pdr.quaternion` is the vectorised counterpart for
 whole arrays; these are for the ``@njit`` loops (:mod:`pdr.foot.zupt`, :mod:`pdr.foot.filterbank`,
-:mod:`pdr.foot.bc`, :mod:`pdr.phone.gyro_yaw`, :mod:`pdr.phone.heading_smoother`) and tested against it.
+:mod:`pdr.foot.bc`, :mod:`pdr.foot.drift`, :mod:`pdr.phone.gyro_yaw`, :mod:`pdr.phone.heading_smoother`,
+:mod:`pdr.phone.attitude.kernel`) and tested against it.
 """
 
 from __future__ import annotations
@@ -34,6 +35,19 @@ def quat_exp(phi: Array) -> Array:  # pragma: no cover - compiled
     angle = math.sqrt(phi[0] ** 2 + phi[1] ** 2 + phi[2] ** 2)
     k = 0.5 - angle * angle / 48.0 if angle < 1e-8 else math.sin(0.5 * angle) / angle
     return np.array([math.cos(0.5 * angle), k * phi[0], k * phi[1], k * phi[2]])
+
+
+@njit(cache=True)
+def rotate_yaw(q: Array, angle: float) -> None:  # pragma: no cover - compiled
+    """``q := Rz(angle) q`` in place: turn the attitude about the navigation-frame vertical by ``angle`` (rad,
+    counter-clockwise); the tilt is kept.
+    """
+    c, s = math.cos(0.5 * angle), math.sin(0.5 * angle)
+    q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
+    q[0] = c * q0 - s * q3
+    q[1] = c * q1 - s * q2
+    q[2] = c * q2 + s * q1
+    q[3] = c * q3 + s * q0
 
 
 @njit(cache=True)

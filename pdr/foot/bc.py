@@ -53,9 +53,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
-from pdr.filters.rotation_kernels import quat_exp, quat_mul, rotmat
+from pdr.filters.rotation_kernels import quat_exp, quat_mul, rotate_yaw, rotmat
 from pdr.filters.small_linalg import congruence, matmul, matmul_bt, matvec, quadratic_form, symmetric_inverse
-from pdr.foot.drift import drift_predict, drift_update, initial_state, rotate_yaw
+from pdr.foot.drift import drift_predict, drift_update, initial_state
 from pdr.foot.saturation import CLIP_EXCESS_FRACTION, add_clip_attitude_noise, clip_variance, clip_variance_peak
 from pdr.foot.zupt import ZuptConfig, check_imu, coarse_start
 from pdr.frames import GRAVITY_MPS2

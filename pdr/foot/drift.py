@@ -49,17 +49,6 @@ def initial_state(sigma_drift0: float) -> Array:
 
 
 @njit(cache=True)
-def rotate_yaw(q: Array, angle: float) -> None:  # pragma: no cover - compiled
-    """``q := Rz(angle) q`` in place: turn the attitude about the navigation-frame vertical by ``angle`` (rad)."""
-    c, s = math.cos(0.5 * angle), math.sin(0.5 * angle)
-    q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
-    q[0] = c * q0 - s * q3
-    q[1] = c * q1 - s * q2
-    q[2] = c * q2 + s * q1
-    q[3] = c * q3 + s * q0
-
-
-@njit(cache=True)
 def drift_predict(hde: Array, dt: float, par: Array) -> float:  # pragma: no cover - compiled
     """Propagate the drift filter over ``dt``; returns the yaw turn (rad) that removes the estimated drift.
 

@@ -63,7 +63,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
-from pdr.filters.rotation_kernels import quat_exp, quat_mul, rotmat
+from pdr.filters.rotation_kernels import quat_exp, quat_mul, rotate_yaw, rotmat
 from pdr.filters.small_linalg import (
     congruence,
     matmul,
@@ -72,7 +72,7 @@ from pdr.filters.small_linalg import (
     quadratic_form,
     symmetric_inverse,
 )
-from pdr.foot.drift import drift_predict, drift_update, initial_state, rotate_yaw
+from pdr.foot.drift import drift_predict, drift_update, initial_state
 from pdr.foot.lost_stance import LOST_STANCE_DEFAULTS, check_lost_stance, reopen_velocity, swing_lasts
 from pdr.foot.saturation import CLIP_EXCESS_FRACTION, add_clip_attitude_noise, clip_variance
 from pdr.foot.zupt import ZuptConfig, check_imu, coarse_start, error_transition, mechanize

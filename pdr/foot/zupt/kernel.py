@@ -12,8 +12,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from pdr.filters.rotation_kernels import quat_exp, quat_mul, yaw_of
-from pdr.foot.drift import HDE_SIZE, drift_predict, drift_update, initial_state, rotate_yaw
+from pdr.filters.rotation_kernels import quat_exp, quat_mul, rotate_yaw, yaw_of
+from pdr.foot.drift import HDE_SIZE, drift_predict, drift_update, initial_state
 from pdr.foot.zupt.config import Segmentation, ZuptConfig
 from pdr.foot.zupt.mechanisation import (
     zupt_predict,

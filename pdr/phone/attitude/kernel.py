@@ -11,6 +11,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from pdr.filters.rotation_kernels import rotate_yaw
 from pdr.filters.small_linalg import (
     cholesky_lower,
     congruence,
@@ -648,7 +649,7 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
                     # the yaw with it; take that turn back (AttitudeConfig.magnet_undo_tau_s).
                     magnet = mn > earth_max
                     if magnet and aux[AUX_IN_MAGNET] == 0:
-                        turn_yaw(q, -aux[AUX_MAG_DYAW])
+                        rotate_yaw(q, -aux[AUX_MAG_DYAW])
                         aux[AUX_MAG_DYAW] = 0.0
                     aux[AUX_IN_MAGNET] = 1.0 if magnet else 0.0
                     aux[AUX_MAG_DYAW] *= undo_keep
@@ -757,19 +758,6 @@ def mag_yaw_update(q: FloatArray, p: FloatArray, m_b: FloatArray, h_east: float,
     _normalise(q)
     pn = p - np.outer(gain, ph)
     p[:, :] = 0.5 * (pn + pn.T)
-
-
-@numba.njit(cache=True)
-def turn_yaw(q: FloatArray, dpsi: float) -> None:
-    """Turn the attitude ``q`` (``q_nb``) in place by ``dpsi`` (rad, counter-clockwise) about the navigation up axis:
-    ``q <- [cos(dpsi/2), 0, 0, sin(dpsi/2)] * q``; the tilt is kept.
-    """
-    c, s = math.cos(0.5 * dpsi), math.sin(0.5 * dpsi)
-    w, x, y, z = q[0], q[1], q[2], q[3]
-    q[0] = c * w - s * z
-    q[1] = c * x - s * y
-    q[2] = c * y + s * x
-    q[3] = c * z + s * w
 
 
 @numba.njit(cache=True)

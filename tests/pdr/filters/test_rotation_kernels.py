@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pdr import quaternion as quat
-from pdr.filters.rotation_kernels import quat_exp, quat_mul, rotmat, wrap_pi, yaw_of
+from pdr.filters.rotation_kernels import quat_exp, quat_mul, rotate_yaw, rotmat, wrap_pi, yaw_of
 from pdr.frames import wrap_angle
 
 
@@ -37,3 +37,10 @@ def test_small_rotation_vectors_use_the_series_and_stay_unit():
 def test_wrap_is_the_frames_wrap(a):
     assert wrap_pi(a) == float(wrap_angle(a))
     assert -math.pi <= wrap_pi(a) < math.pi
+
+
+def test_rotate_yaw_turns_about_the_navigation_vertical() -> None:
+    q = quat.from_euler(0.1, -0.2, 0.3)
+    turned = q.copy()
+    rotate_yaw(turned, 0.25)
+    np.testing.assert_allclose(turned, quat.multiply(quat.from_euler(0.0, 0.0, 0.25), q), atol=1e-15)

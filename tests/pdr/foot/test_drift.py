@@ -5,10 +5,8 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from pdr import quaternion as quat
 from pdr.foot.bc import BCConfig, run_bc
 from pdr.foot.detectors import detect
-from pdr.foot.drift import rotate_yaw
 from pdr.foot.filterbank import FilterBankConfig, run_filterbank
 from pdr.foot.zupt import ZuptConfig, run_zupt
 from pdr.frames import wrap_angle
@@ -20,13 +18,6 @@ RUNS: dict[str, Callable] = {
     "filterbank-height": lambda t, f, w, zv, z: run_filterbank(t, f, w, zv, FilterBankConfig("height", zupt=z)),
     "bc": lambda t, f, w, zv, z: run_bc(t, f, w, zv, BCConfig(hde=z)),
 }
-
-
-def test_rotate_yaw_turns_about_the_navigation_vertical() -> None:
-    q = quat.from_euler(0.1, -0.2, 0.3)
-    turned = q.copy()
-    rotate_yaw(turned, 0.25)
-    np.testing.assert_allclose(turned, quat.multiply(quat.from_euler(0.0, 0.0, 0.25), q), atol=1e-15)
 
 
 @pytest.mark.parametrize("method", list(RUNS))
