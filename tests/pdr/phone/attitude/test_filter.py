@@ -144,22 +144,29 @@ def test_heading_recovers_from_a_disturbed_start(method):
     assert err < 3.0
 
 
+def _tilted_walk(n: int) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """``n`` samples of a tilted phone turning slowly (0.02 rad/s) with a 2 Hz step bounce (never quasi-static):
+    times (s), true attitudes, specific force and angular rate (device frame)."""
+    t = np.arange(1, n + 1) / FS
+    rate = 0.02
+    q_true = quat.from_euler(np.full(n, 0.2), np.full(n, -0.3), 0.5 + rate * t)
+    bounce = np.column_stack([np.zeros(n), np.zeros(n), GRAVITY_MPS2 + 2.0 * np.sin(2 * np.pi * 2.0 * t)])
+    acc = quat.rotate(quat.conjugate(q_true), bounce)
+    gyro = quat.rotate(quat.conjugate(q_true), np.array([0.0, 0.0, rate]))
+    return t, q_true, acc, gyro
+
+
 def test_a_field_stronger_than_the_earths_is_never_north():
     """Walking-like motion past a magnet whose field ramps up slowly to 4 times the earth's, turned by 70 degrees:
     the reference magnitude would follow a slow ramp, but no field above the geomagnetic maximum is used, and the
     yaw is carried on the gyro through it. Without the bound the magnet's rows turn the yaw.
     """
     n = int(60 * FS)
-    t = np.arange(1, n + 1) / FS
-    yaw0, rate = 0.5, 0.02
-    q_true = quat.from_euler(np.full(n, 0.2), np.full(n, -0.3), yaw0 + rate * t)
-    bounce = np.column_stack([np.zeros(n), np.zeros(n), GRAVITY_MPS2 + 2.0 * np.sin(2 * np.pi * 2.0 * t)])
-    acc = quat.rotate(quat.conjugate(q_true), bounce)
+    t, q_true, acc, gyro = _tilted_walk(n)
     ramp = np.clip((t - 20.0) / 10.0, 0.0, 1.0) * np.clip((50.0 - t) / 5.0, 0.0, 1.0)    # 20-30 s up, 45-50 s down
     magnet = 3.0 * quat.rotate(quat.from_euler(0.0, 0.0, math.radians(70)), H_ENU)
     field = H_ENU + ramp[:, None] * magnet
     mag = quat.rotate(quat.conjugate(q_true), field)
-    gyro = quat.rotate(quat.conjugate(q_true), np.array([0.0, 0.0, rate]))
     strong = np.linalg.norm(field, axis=1) > AttitudeConfig().earth_field_max_uT
     assert strong.sum() > 10 * FS
     q, used = AttitudeFilter(FS).run(acc, gyro, mag)
@@ -356,12 +363,7 @@ def test_the_turn_a_nearing_magnet_gave_the_yaw_is_taken_back_when_it_is_seen():
     recent turn is undone (``magnet_undo_tau_s``) and the gyro carries the yaw on; without the undo the magnet's
     approach stays in the yaw. A field that weakens and turns (no magnet near) is not undone."""
     n = int(25 * FS)
-    t = np.arange(1, n + 1) / FS
-    yaw0, rate = 0.5, 0.02
-    q_true = quat.from_euler(np.full(n, 0.2), np.full(n, -0.3), yaw0 + rate * t)
-    bounce = np.column_stack([np.zeros(n), np.zeros(n), GRAVITY_MPS2 + 2.0 * np.sin(2 * np.pi * 2.0 * t)])
-    acc = quat.rotate(quat.conjugate(q_true), bounce)
-    gyro = quat.rotate(quat.conjugate(q_true), np.array([0.0, 0.0, rate]))
+    t, q_true, acc, gyro = _tilted_walk(n)
     ramp = np.clip((t - 5.0) / 8.0, 0.0, 1.0) ** 3                   # a dipole's 1/r^3 as the phone nears it
     magnet = quat.rotate(quat.from_euler(0.0, 0.0, math.radians(-90)), H_ENU)
     field = H_ENU + ramp[:, None] * magnet
