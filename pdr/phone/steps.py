@@ -143,7 +143,17 @@ back pocket) while the stride stays regular.
   ``[min_stride_ratio, max_stride_ratio]`` of the bout's) and is as strong (median peak at least
   ``short_bout_peak_ratio`` of the bout's). Putting a phone away before a walk fails the last test (softer
   peaks) or the stride test. On the IPIN 2023 hand-held logs this recovers the 8 steps of IPIN trial 21
-  repetition 1 between its first three landmarks; the Oxford counts are unchanged.
+  repetition 1 between its first three landmarks; the Oxford counts are unchanged. Three starts (two steps, one
+  stride: its regularity test is empty) are enough here, since the bout after the run vouches for it by the rhythm
+  and strength tests: the MS surveyors walk two or three steps between waypoints 1.4-3 m apart at the start of a
+  trace, stopping at each (the acceleration norm stays within 0.1-1 m/s^2 of its reference for 1-5 s there, against
+  3-12 m/s^2 peaks walking), and four starts lost those steps (up to 6 m before the first counted step). With three
+  (four before): MS site2 F3 p75 3.54 -> 3.52 m (tuning; 3 traces better, 5dd51a76 worse, 3.13 -> 4.52 m: its 7
+  steps between waypoints 1.4 m apart are counted, but taken at the model's step length), F4 5.44 m unchanged (check;
+  5dd3bbd6 1.53 -> 1.06 m, no trace worse), IPIN p75 3.61 -> 3.60 m causal, 2.99 -> 2.95 m smoothed (repetition01
+  trials 05 and 25 and repetition02 trials 05 and 22 better, repetition02 trial 04 worse by 0.2 m absolute, better
+  aligned), attitude_smartphones 12.14 -> 12.11 % (motion-capture matched 2862 -> 2869); Oxford, sensor_logger_walks
+  and MobiFall unchanged walk by walk.
 * Short walks after a walk (the mirror of the rule above): a confirmed bout ends at a gap longer than
   ``max_step_s``, which a gentle walker's one soft missed step makes (0.9 s steps leave 1.6-1.8 s), or at a brief
   stop; the steps after it are too few to confirm a bout of their own when the walk ends soon after (a short test
@@ -156,7 +166,9 @@ back pocket) while the stride stays regular.
   start), like every bout's confirming steps.
 * A walk alone (``lone_walks``): a recording of a few steps only (a 6.7 s MS trace: two steps out to a waypoint 1 m
   away and back) has a regular run with no bout after it to claim it, nor one within ``short_bout_gap_s`` before it.
-  Such a run is steps if, besides the short-walk regularity, it walks at a walking pace (median step
+  Such a run is steps if it has at least ``min_lone_walk_steps`` starts (no walk vouches for it: three-start runs of
+  getting into or out of a car passed the tests below, MobiFall CSI + CSO 13 -> 31 steps), and, besides the
+  short-walk regularity, it walks at a walking pace (median step
   ``min_bout_step_s`` to ``max_step_s``) with the same-leg agreement (``step_spread``), and the phone keeps its tilt:
   the gravity direction in the device frame stays within ``handling_angle_deg`` of its direction at the run's first
   start. Getting into or out of a car or sitting down turns a pocket phone with the thigh (69-107 deg on the ten
@@ -329,6 +341,8 @@ class StepConfig:
     lone_walks
         Count a regular short run that no walk comes before or after (a recording of a few steps only) when it walks
         at a walking pace and the phone keeps its tilt over it (module docstring); reported when the recording ends.
+    min_lone_walk_steps
+        Fewest starts of such a walk alone (more than ``min_short_bout_steps``: no walk next to it vouches for it).
     steady_tilt_deg, steady_min_corr
         Held-phone periodicity gate: while the phone is held steady, i.e. the RMS angle (deg) of the gravity direction
         in the device frame about its running mean (exponential window ``floor_tau_s``) is at most
@@ -366,7 +380,7 @@ class StepConfig:
     handling_angle_deg: float = 25.0
     weak_energy_ratio: float = 0.5
     soft_walk_steps: int = 10
-    min_short_bout_steps: int = 4
+    min_short_bout_steps: int = 3
     short_bout_gap_s: float = 3.0
     short_bout_spread: float = 1.15
     short_bout_peak_ratio: float = 0.6
@@ -382,6 +396,7 @@ class StepConfig:
     gait_confirm_corr: float = 0.7
     gait_confirm_steps: int = 4
     lone_walks: bool = True
+    min_lone_walk_steps: int = 4
     steady_tilt_deg: float = 5.0
     steady_min_corr: float = 0.3
     double_crossings: bool = True
@@ -952,7 +967,7 @@ class StepDetector:
         about 90 deg with the thigh).
         """
         c = self._rules
-        if not c.lone_walks:
+        if not c.lone_walks or len(self._bout) < c.min_lone_walk_steps:
             return False
         if self._walk_end is not None and self._bout[0][0] - self._walk_end <= c.short_bout_gap_s * self.rate_hz:
             return False                        # right after a walk: the short walks after a walk judge it

@@ -285,6 +285,20 @@ def test_short_walks_between_stops_before_a_walk_are_counted():
     assert len(steps) == 20
 
 
+
+def test_three_steps_to_a_waypoint_before_a_walk_are_counted_but_not_alone():
+    # A surveyor walks two steps to a waypoint (three crossings, one stride), stops 2 s to mark it and walks on (MS
+    # traces): the walk after the run vouches for it by its rhythm and strength.
+    run = 1.0 + 0.5 * np.arange(3)
+    walk_t = run[-1] + 2.0 + 0.5 * np.arange(20)
+    times = np.concatenate([run, walk_t])
+    acc = bumps(times, np.full(times.size, 2.0), times[-1] + 3.0)
+    assert len(detect_steps(acc, FS)) == times.size
+    assert len(detect_steps(acc, FS, dataclasses.replace(StepConfig(), min_short_bout_steps=4))) == walk_t.size
+    # The same three crossings with nothing next to them are no walk alone (getting into a car gives such runs).
+    assert len(detect_steps(bumps(run, np.full(run.size, 2.0), run[-1] + 3.0), FS)) == 0
+
+
 @pytest.mark.data
 def test_real_short_walks_between_landmarks_are_counted():
     # IPIN 2023 trial 21 repetition 1 (hand-held): the walker passes landmarks at 61.1, 66.0 and 70.5 s
