@@ -41,7 +41,7 @@ from pdr.evaluation.scoring import (
     waypoint_errors,
 )
 from pdr.evaluation.walking_recordings import MOBIFALL_NOT_WALKING, MOBIFALL_WALKING
-from pdr.io import detect_format, read_recording
+from pdr.io import detect_format, mobifall, read_recording
 from pdr.phone.configure import pipeline_config
 from pdr.phone.heading_smoother import smoothed_rows
 from pdr.phone.landmarks import Site
@@ -936,13 +936,13 @@ def _unmatched_text(u: dict[str, int]) -> str:
 #: Logger export, a Tyrex logger folder of ``attitude_smartphones``) or is a log itself (a MobiFall trial's acc file).
 _STEP_LOG_FILES = ("accelerometer.csv", "accelerometer.csv.gz", "Accelerometer.csv", "Accelerometer.csv.gz",
                    "accelerometer.txt", "accelerometer.txt.gz", "*_acc_*.txt", "*_acc_*.txt.gz")
-#: A MobiFall trial's accelerometer file (:mod:`pdr.io.mobifall`): a log of its own, not a folder's file.
-_MOBIFALL_ACC = re.compile(r"^[A-Z]{3}_acc_\d+_\d+\.txt(\.gz)?$")
 
 
 def _step_log(f: Path) -> Path:
-    """The log ``pdr eval steps`` reads for one of :data:`_STEP_LOG_FILES`: the file (MobiFall) or its folder."""
-    return f if _MOBIFALL_ACC.match(f.name) else f.parent
+    """The log ``pdr eval steps`` reads for one of :data:`_STEP_LOG_FILES`: the file when it is a log of its own (a
+    MobiFall trial's acc file, :func:`pdr.io.mobifall.sniff`), else its folder.
+    """
+    return f if mobifall.sniff(f) else f.parent
 
 
 def _mocap_step_row(rec: Recording, starts_s: np.ndarray, trajectory: tuple[np.ndarray, np.ndarray]
