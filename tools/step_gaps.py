@@ -19,13 +19,12 @@ import numpy as np
 
 from pdr.errors import InputError
 from pdr.io import read_recording
-from pdr.phone.grid import OnlineGrid
 from pdr.phone.pipeline import PipelineConfig
 from pdr.phone.steps import StepConfig, StepDetector
 from pdr.recording import Recording
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from walking_steps import pipeline_step_times  # noqa: E402
+from walking_steps import grid_acc, pipeline_step_times  # noqa: E402
 
 #: Seconds before a gap over which the walking signal's 95th percentile is taken.
 BEFORE_S = 3.0
@@ -33,15 +32,9 @@ BEFORE_S = 3.0
 
 def norm_deviation(rec: Recording, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
     """Grid times (s, the recording's ``t_s`` axis) and ``|a_n - reference|`` (m/s^2) of the step detector."""
-    kinds = ("acc",) + tuple(k for k in ("gyro", "mag", "baro") if rec.has(k))
-    grid = OnlineGrid(rate_hz, kinds)
-    grid.push(rec)
-    t1, v1 = grid.pull()
-    t2, v2 = grid.flush()
-    t = np.concatenate([t1, t2])
-    acc = np.concatenate([v1["acc"] if t1.size else np.zeros((0, 3)), v2["acc"] if t2.size else np.zeros((0, 3))])
+    t, acc = grid_acc(rec, rate_hz)
     an, ref = StepDetector(rate_hz).filtered_norm(acc)
-    return t - rec.origin_ns / 1e9, np.abs(an - ref)
+    return t, np.abs(an - ref)
 
 
 def main(argv: list[str] | None = None) -> int:

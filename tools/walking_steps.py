@@ -52,23 +52,27 @@ def pipeline_steps(rec: Any, config: StepConfig, rate_hz: float) -> tuple[int, f
     return int(times.size), dur
 
 
-def pipeline_step_times(rec: Any, config: StepConfig, rate_hz: float) -> tuple[np.ndarray, float]:
-    """Start times (s, the recording's ``t_s`` axis: the grid's times less ``t0_ns / 1e9``, as the motion capture's) of
-    the steps of :func:`pipeline_steps`, and the grid's duration (s).
+def grid_acc(rec: Any, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """The pipeline's grid of the recording: times (s, the recording's ``t_s`` axis: the grid's times less
+    ``t0_ns / 1e9``, as the motion capture's) and the specific force (N, 3; m/s^2, device frame).
     """
     kinds = ("acc",) + tuple(k for k in ("gyro", "mag", "baro") if rec.has(k))
     grid = OnlineGrid(rate_hz, kinds)
     grid.push(rec)
-    det = StepDetector(rate_hz, config)
     t1, v1 = grid.pull()
     t2, v2 = grid.flush()
-    starts: list[np.ndarray] = []
-    for t, vals, final in ((t1, v1, False), (t2, v2, True)):
-        steps, _ = det.update(vals["acc"] if t.size else np.zeros((0, 3)), final=final)
-        starts.append(steps.start_idx)
     t = np.concatenate([t1, t2])
-    idx = np.concatenate(starts)
-    return (t[idx] - rec.origin_ns / 1e9 if t.size else np.zeros(0)), (float(t[-1] - t[0]) if t.size else 0.0)
+    acc = np.concatenate([v1["acc"] if t1.size else np.zeros((0, 3)), v2["acc"] if t2.size else np.zeros((0, 3))])
+    return t - rec.origin_ns / 1e9, acc
+
+
+def pipeline_step_times(rec: Any, config: StepConfig, rate_hz: float) -> tuple[np.ndarray, float]:
+    """Start times (s, the recording's ``t_s`` axis, :func:`grid_acc`) of the steps of :func:`pipeline_steps`, and the
+    grid's duration (s).
+    """
+    t, acc = grid_acc(rec, rate_hz)
+    steps, _ = StepDetector(rate_hz, config).update(acc, final=True)
+    return t[steps.start_idx], (float(t[-1] - t[0]) if t.size else 0.0)
 
 
 def main(argv: list[str] | None = None) -> int:
