@@ -57,10 +57,10 @@ together by the walk's periodicity (the first two on by default, the third off, 
   1.6-2.2 s gap, beyond ``max_step_s``) and splits others, so few runs are regular enough to confirm. The bout rules
   are there to tell handling and standing from walking by the rhythm of the starts; a start decided while the phone
   holds its tilt (``steady_tilt_deg``) and the signal repeats at a stride (``steady_min_corr``) has that evidence
-  from the held-phone gate already, so its bout rules are looser: gaps up to ``held_max_step_s``, confirmation from
-  ``held_min_bout_steps`` starts with strides within ``held_bout_spread`` and steps within ``held_step_spread`` of the
-  same leg's (the other rules unchanged; ``held_max_step_s`` is ``max_step_s``: 1.8 s bridged the IPIN walkers'
-  stops at landmarks, IPIN p75 3.65 -> 3.81 m, and cost Oxford 0.37 -> 0.41 %). Tuned on Guillaume's texting walks
+  from the held-phone gate already, so its bout rules are looser: confirmation from ``held_min_bout_steps`` starts
+  with strides within ``held_bout_spread`` and steps within ``held_step_spread`` of the same leg's (the other rules
+  unchanged, the gap ``max_step_s`` too: a 1.8 s gap for held walks bridged the IPIN walkers' stops at landmarks, IPIN
+  p75 3.65 -> 3.81 m, and cost Oxford 0.37 -> 0.41 %). Tuned on Guillaume's texting walks
   (motion-capture steps matched within 0.3 s, ``tools/walking_steps.py``: Dist 40 -> 63 and NoDist 82 -> 97 of 131
   and 134), confirmed on Jakob's (Dist 68 -> 73 of 151, NoDist unchanged); Oxford, MobiFall, sensor_logger_walks and
   the non-walking recordings unchanged walk by walk, IPIN p75 3.65 -> 3.67 m (smoothed 2.97 -> 2.99), MS F3 3.54 m
@@ -348,10 +348,10 @@ class StepConfig:
         in the device frame about its running mean (exponential window ``floor_tau_s``) is at most
         ``steady_tilt_deg``, the automatic gain needs a periodicity of only ``steady_min_corr`` instead of
         ``gait_min_corr`` (module docstring). ``steady_tilt_deg`` 0 turns it off.
-    held_walks, held_max_step_s, held_min_bout_steps, held_bout_spread, held_step_spread
+    held_walks, held_min_bout_steps, held_bout_spread, held_step_spread
         Held walk: a start decided while the held-phone gate is open (steady tilt and periodicity at least
-        ``steady_min_corr``) is judged by the bout rules with ``max_step_s``, ``min_bout_steps``, ``bout_spread`` and
-        ``step_spread`` replaced by these (module docstring). ``held_walks`` False turns it off.
+        ``steady_min_corr``) is judged by the bout rules with ``min_bout_steps``, ``bout_spread`` and ``step_spread``
+        replaced by these (module docstring). ``held_walks`` False turns it off.
     held_min_axis_tilt_deg
         Held walk only while the phone's long axis is more than this (deg) from the vertical: a phone along the thigh
         (a pocket) has it near the vertical, one held to be read lies across it
@@ -401,7 +401,6 @@ class StepConfig:
     steady_min_corr: float = 0.3
     double_crossings: bool = True
     held_walks: bool = True
-    held_max_step_s: float = 1.2
     held_min_bout_steps: int = 4
     held_bout_spread: float = 2.0
     held_step_spread: float = 3.0
@@ -424,9 +423,9 @@ class StepConfig:
                              source="step config")
         if self.min_bout_steps < 1:
             raise InputError("min_bout_steps must be at least 1", field="min_bout_steps", source="step config")
-        if self.held_min_bout_steps < 1 or not self.held_max_step_s > 0:
-            raise InputError("held_min_bout_steps must be at least 1 and held_max_step_s positive",
-                             field="held_min_bout_steps", source="step config")
+        if self.held_min_bout_steps < 1:
+            raise InputError("held_min_bout_steps must be at least 1", field="held_min_bout_steps",
+                             source="step config")
         if not (self.held_bout_spread >= 1.0 and self.held_step_spread >= 1.0):
             raise InputError("held_bout_spread and held_step_spread must be at least 1", field="held_bout_spread",
                              source="step config")
@@ -697,7 +696,7 @@ class StepDetector:
         # walks with (held walk), None before any walk.
         self._walk_up: tuple[float, float, float] | None = None
         self._walk_peak = 0.0                   # and its median peak (m/s^2)
-        self._held_rules = replace(c, max_step_s=c.held_max_step_s, min_bout_steps=c.held_min_bout_steps,
+        self._held_rules = replace(c, min_bout_steps=c.held_min_bout_steps,
                                    bout_spread=c.held_bout_spread, step_spread=c.held_step_spread)
 
     @property
