@@ -79,17 +79,28 @@ def _segment_hits(ax0: float, ay0: float, ax1: float, ay1: float, w: FloatArray,
 
 
 @njit(cache=True)
-def step_crosses(x0: float, y0: float, x1: float, y1: float, walls: FloatArray, start: IntArray, wall_ids: IntArray,
-                 ox: float, oy: float, cell: float, reach: float, nx: int, ny: int) -> bool:
-    """Compiled test of one step against the indexed walls (the arrays of a :class:`WallIndex`)."""
+def _start_cell(x0: float, y0: float, x1: float, y1: float, ox: float, oy: float, cell: float, reach: float,
+                nx: int, ny: int) -> int:
+    """The grid cell (row-major index) whose wall list covers the step ``(x0, y0) -> (x1, y1)`` (m): the cell of its
+    start; -1 when the step is longer than ``reach`` (m) or starts outside the grid (every wall must be tested).
+    """
     gx = int(math.floor((x0 - ox) / cell))
     gy = int(math.floor((y0 - oy) / cell))
     if math.hypot(x1 - x0, y1 - y0) > reach or gx < 0 or gy < 0 or gx >= nx or gy >= ny:
+        return -1
+    return gy * nx + gx
+
+
+@njit(cache=True)
+def step_crosses(x0: float, y0: float, x1: float, y1: float, walls: FloatArray, start: IntArray, wall_ids: IntArray,
+                 ox: float, oy: float, cell: float, reach: float, nx: int, ny: int) -> bool:
+    """Compiled test of one step against the indexed walls (the arrays of a :class:`WallIndex`)."""
+    c = _start_cell(x0, y0, x1, y1, ox, oy, cell, reach, nx, ny)
+    if c < 0:
         for k in range(walls.shape[0]):
             if _segment_hits(x0, y0, x1, y1, walls, k):
                 return True
         return False
-    c = gy * nx + gx
     for j in range(start[c], start[c + 1]):
         if _segment_hits(x0, y0, x1, y1, walls, wall_ids[j]):
             return True
@@ -115,16 +126,14 @@ def step_hit(x0: float, y0: float, x1: float, y1: float, walls: FloatArray, star
     """The first wall (index into ``walls``) that the step ``(x0, y0) -> (x1, y1)`` (m) meets; -1: none. Meets a
     wall exactly when :func:`step_crosses` says so.
     """
-    gx = int(math.floor((x0 - ox) / cell))
-    gy = int(math.floor((y0 - oy) / cell))
     best, first = 2.0, -1
-    if math.hypot(x1 - x0, y1 - y0) > reach or gx < 0 or gy < 0 or gx >= nx or gy >= ny:
+    c = _start_cell(x0, y0, x1, y1, ox, oy, cell, reach, nx, ny)
+    if c < 0:
         for k in range(walls.shape[0]):
             f = _hit_fraction(x0, y0, x1, y1, walls, k)
             if f < best:
                 best, first = f, k
         return first
-    c = gy * nx + gx
     for j in range(start[c], start[c + 1]):
         f = _hit_fraction(x0, y0, x1, y1, walls, wall_ids[j])
         if f < best:
