@@ -116,8 +116,8 @@ class AttitudeConfig:
         above 2 rad/s for 2 or 4 s; or no quasi-static sample for 2-20 s): IPIN trial 26 repetition 02, whose walker
         swings the phone at 300-500 deg/s for its first 30 s (eq. 12 rejects every sample, the field's three rows
         leave the rotation about the field's axis to the gyro, and the yaw drifts 5 deg/s from the rotation vector's),
-        went from 4.26 to 2.55-2.92 m causal p75, but the hand-held walks' p75 rose from 3.66 to 3.80-3.97 m causal and
-        3.22 to 3.33-3.43 m smoothed (``pdr eval ipin``): their walkers swing or turn the phone that fast for several
+        went from 4.26 to 2.55-3.85 m causal p75, but the hand-held walks' p75 rose from 3.66 to 3.71-3.97 m causal and
+        3.22 to 3.33-3.41 m smoothed (``pdr eval ipin``): their walkers swing or turn the phone that fast for several
         seconds too (7-23 % of half-second windows above 2 rad/s), and there the rows cost.
     mag_bias_gain, nu_window_s, nu_steady_deg
         The integral term of a complementary filter: the gyro's residual bias about the vertical learnt from the
