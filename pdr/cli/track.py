@@ -42,6 +42,7 @@ from pdr.evaluation.scoring import (
 )
 from pdr.evaluation.walking_recordings import MOBIFALL_NOT_WALKING, MOBIFALL_WALKING
 from pdr.io import detect_format, mobifall, read_recording
+from pdr.io.text import strip_gz
 from pdr.phone.configure import pipeline_config
 from pdr.phone.heading_smoother import smoothed_rows
 from pdr.phone.landmarks import Site
@@ -317,6 +318,23 @@ def _files(d: str, patterns: tuple[str, ...], log_of: Callable[[Path], Path] = l
     return out
 
 
+def _one_copy_per_walk(d: str, files: list[Path]) -> list[Path]:
+    """``files`` less every MATLAB copy (``.mat``) of a walk that is also there as a text log: the IPIN package ships
+    some walks in both formats (``../shared/data/ipin2023_t3``: trial 52 repetition 01), and scoring both would count
+    that walk twice in the overall figures. The text log is kept (it has the phone's own orientation, the
+    reference). Those left out are named on stderr.
+    """
+    def walk(f: Path) -> str:
+        return strip_gz(f.name).rsplit(".", 1)[0]
+
+    texts = {walk(f) for f in files if f.suffix != ".mat"}
+    copies = [f for f in files if f.suffix == ".mat" and walk(f) in texts]
+    if copies:
+        print(f"{d}: left out {len(copies)} MATLAB copy(ies) of a walk also given as a text log: "
+              + ", ".join(f.name for f in copies), file=sys.stderr)
+    return [f for f in files if f not in copies]
+
+
 def _pct(a: np.ndarray, q: float) -> float:
     return float(np.percentile(a, q)) if a.size else math.nan
 
@@ -433,7 +451,7 @@ def eval_ipin(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
     from pdr.cli.calibrate import landmark_walk, trial_key
-    files = _files(args.dir, ("*.txt", "*.txt.gz", "*.mat"))
+    files = _one_copy_per_walk(args.dir, _files(args.dir, ("*.txt", "*.txt.gz", "*.mat")))
     if args.limit:
         files = files[:args.limit]
     per: list[dict[str, Any]] = []

@@ -158,6 +158,22 @@ def test_ipin_eval_agrees_with_the_reference_scorer(tmp_path, capsys):
 
 
 @pytest.mark.data
+def test_ipin_eval_scores_a_walk_given_in_both_formats_once(tmp_path, capsys):
+    """The IPIN package ships trial 52 repetition 01 as a text log and as a MATLAB file: one walk, scored once."""
+    both = tmp_path / "logs"
+    both.mkdir()
+    for src in (data_path("ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial52_repetition01.txt"),
+                data_path("ipin2023_t3", "mat", "IPIN2023_T3_TrainingTrial52_repetition01.mat")):
+        (both / src.name).symlink_to(src)
+    assert main(["eval", "ipin", str(both), "--smoother", "off", "--json"]) == 0
+    out = capsys.readouterr()
+    res = json.loads(out.out)
+    assert [f["file"] for f in res["files"]] == ["IPIN2023_T3_TrainingTrial52_repetition01.txt"]
+    assert res["overall"]["files"] == 1
+    assert "left out 1 MATLAB copy(ies)" in out.err and "IPIN2023_T3_TrainingTrial52_repetition01.mat" in out.err
+
+
+@pytest.mark.data
 def test_ipin_eval_trim_start_drops_samples_before_the_first_landmark(tmp_path, capsys):
     logdir = data_path("ipin2023_t3", "logfiles")
     one = tmp_path / "logs"
