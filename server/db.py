@@ -150,6 +150,7 @@ track_points = Table(
     Column("gyro_bias_dps", Text),
     Column("position_fix", Boolean),
     Column("landmark_heading", Boolean),
+    Column("pocket_side", Float),               # migration 0011_pocket_side
     Index("ix_track_points_step", "session_id", "device_role", "step_index"),
 )
 

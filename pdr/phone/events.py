@@ -67,6 +67,10 @@ class StepEvent(_Event):
         period.
     position_fix, landmark_heading
         A site landmark fixed the position at this step / corrected its heading.
+    pocket_side
+        A trouser-pocket phone's side of the thigh so far, for the heading smoother
+        (:meth:`pdr.phone.walking_direction.PocketSide.mean_corr`:
+        positive in front, negative behind); None for other carriages, running strides and older records.
     """
 
     KIND: ClassVar[str] = "step"
@@ -90,6 +94,7 @@ class StepEvent(_Event):
     gyro_bias_dps: list[float] | None
     position_fix: bool
     landmark_heading: bool
+    pocket_side: float | None = None
 
 
 @dataclass(frozen=True)

@@ -213,6 +213,7 @@ class PocketHeading:
         harmonics = walking and one_cycle and whole_stride      # the step-frequency axis is valid
         swing_axis = self.pocket_axis == "swing" or (self.pocket_axis == "auto" and not self.site_has_landmarks)
         reversed_direction = False
+        side: float | None = None
         if placement == "swinging":
             # The arm's swing axis, fixed in the device frame while the grip holds, with its sign decided by the
             # turns (pdr.phone.walking_direction.DeviceSwingAxis): no per-stride continuity or vote.
@@ -244,6 +245,7 @@ class PocketHeading:
                 # In front of the thigh the swing plane trails the path through turns; behind it, it does not
                 # (pdr.phone.walking_direction module doc, "Trouser pocket: front or back").
                 self.pocket_side.update(f_str, psi0)
+                side = self.pocket_side.mean_corr()
                 psi0 = float(wrap_angle(psi0 + self.pocket_side.lead_weight()
                                         * step_lead(q_str, self.rate_hz, q_str.shape[0] - q.shape[0])))
         m1 = scatter_of(f_str, win.att_q)
@@ -254,7 +256,7 @@ class PocketHeading:
         if placement == "pocket":
             self.pocket_direction.update(est.yaw, q_str)
         self.prev_yaw = est.yaw
-        return StepHeading(est, psi0, axis, m1, reversed_direction)
+        return StepHeading(est, psi0, axis, m1, reversed_direction, side)
 
     def corrected(self, step_yaw: float, corrected_yaw: float) -> None:
         """A landmark corrected the output step's heading from ``step_yaw`` to ``corrected_yaw`` (rad). The step

@@ -691,7 +691,7 @@ class PdrPipeline:
                           head.est.yaw, head.est.var, head.psi0, head.axis, mode, float(h.up[sl][-1]),
                           float(h.floor[sl][-1]), head.m1.tolist(), att_q.tolist(), peak,
                           _mean_finite(h.gyro_yaw[sl]), _mean_finite(h.up_time[sl]),
-                          st.bias.tolist() if self.attitude.bias_known else None)
+                          st.bias.tolist() if self.attitude.bias_known else None, head.pocket_side)
         events: list[PipelineEvent] = []
         if self.pending is not None:
             events += self._emit_step(self.pending, rec)
@@ -732,6 +732,7 @@ class PdrPipeline:
             gyro_heading_deg=None if rec.gyro_yaw is None else heading_gyro,
             up_time_s=rec.up_time,
             gyro_bias_dps=None if rec.gyro_bias is None else np.degrees(rec.gyro_bias).tolist(),
+            pocket_side=rec.pocket_side,
             position_fix=landmark is not None, landmark_heading=landmark_heading)
         flight = self.flights.step(rec.t_start, rec.t_end, mode, rec.up, rec.floor)
         if flight is not None:

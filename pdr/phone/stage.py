@@ -102,7 +102,9 @@ class StepHeading:
     """Typed output of a heading stage: the step's heading estimate (rad, rad^2; second UKF for a pocket), the RMPCA
     direction ``psi0`` (rad) it was resolved to, the walking axis used (rad), the scatter matrix ``m1`` (3, 3) of
     eq. 26 in the device frame of ``att_q`` (zero where no landmark can use it), and whether the 180-degree vote
-    reversed the walking direction (the step waiting for output must then be reversed too).
+    reversed the walking direction (the step waiting for output must then be reversed too). ``pocket_side``: a
+    walking trouser-pocket stride's side evidence (:meth:`pdr.phone.walking_direction.PocketSide.mean_corr`), None
+    for other carriages and running strides.
     """
 
     est: HeadingEstimate
@@ -110,6 +112,7 @@ class StepHeading:
     axis: float
     m1: FloatArray
     reversed_direction: bool = False
+    pocket_side: float | None = None
 
 
 @dataclass
@@ -117,7 +120,8 @@ class PendingStep:
     """A processed step waiting one step for output (the neighbour-step correction of its landmark label needs the
     next step's): grid indices, times (s), patterns, heading (rad, rad^2), RMPCA direction and axis (rad), label,
     height (m) and floor, the scatter matrix and the attitude it is expressed in, the detector's peak, and the
-    heading smoother's inputs (gyro yaw (rad), up time (s), gyro bias (rad/s)). Saved as a plain dict.
+    heading smoother's inputs (gyro yaw (rad), up time (s), gyro bias (rad/s), the pocket's side evidence). Saved as
+    a plain dict.
     """
 
     s: int
@@ -138,6 +142,7 @@ class PendingStep:
     gyro_yaw: Any = None
     up_time: Any = None
     gyro_bias: list[float] | None = None
+    pocket_side: float | None = None
 
     def reverse(self) -> None:
         """Turn the step's heading and direction by 180 degrees (the vote refuted the direction it was resolved to)."""
@@ -149,5 +154,6 @@ class PendingStep:
 
     @classmethod
     def from_state(cls, d: dict[str, Any]) -> PendingStep:
-        # The gyro yaw, up time and gyro bias are absent in states saved before the heading smoother.
-        return cls(**{**{"gyro_yaw": None, "up_time": None, "gyro_bias": None}, **d})
+        # The gyro yaw, up time and gyro bias are absent in states saved before the heading smoother, the pocket's
+        # side before the smoother split the turn lag by it.
+        return cls(**{**{"gyro_yaw": None, "up_time": None, "gyro_bias": None, "pocket_side": None}, **d})

@@ -496,9 +496,15 @@ class PocketSide:
             c = float(np.corrcoef(fwd, up)[0, 1])
         self.score = self.decay * self.score + c
 
+    def mean_corr(self) -> float:
+        """The strides' exponentially weighted mean correlation of forward and vertical specific force: positive in
+        front of the thigh, negative behind it (a back pocket), near 0 while undecided.
+        """
+        return self.score * (1.0 - self.decay)
+
     def lead_weight(self) -> float:
         """Share in [0, 1] of the half-step turn lead (:func:`step_lead`) for the pocket's walking direction."""
-        return min(max(self.score * (1.0 - self.decay) / self.full_corr, 0.0), 1.0)
+        return min(max(self.mean_corr() / self.full_corr, 0.0), 1.0)
 
     def state(self) -> dict[str, Any]:
         return {"decay": self.decay, "full_corr": self.full_corr, "score": self.score}

@@ -65,3 +65,24 @@ def wait_processed(client: Client, session_id: str, timeout_s: float = 600.0) ->
             return s
         assert time.monotonic() < deadline, s
         time.sleep(0.3)
+
+
+def legacy_session(url: str, revision: str) -> tuple[Any, Any, int, str]:
+    """A database at the older migration ``revision`` with one user and one session, as a migration test starts:
+    the Alembic configuration, the engine (dispose it), the user's id and the session's id.
+    """
+    import sqlalchemy as sa
+    from alembic import command
+
+    from server import auth, db, migrations
+    from server.store import Store
+
+    cfg = migrations.alembic_config(url)
+    command.upgrade(cfg, revision)
+    engine = sa.create_engine(url)
+    with engine.begin() as conn:
+        auth.add_user(conn, "legacy")
+    with engine.connect() as conn:
+        user = int(conn.execute(sa.select(db.users.c.id)).scalar_one())
+    sid, _ = Store(engine).create_session(user, source="native", client_session_id="walk")
+    return cfg, engine, user, sid

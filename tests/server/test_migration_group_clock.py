@@ -8,23 +8,15 @@ import sqlalchemy as sa
 from alembic import command
 
 from pdr.fusion.group import Group
-from server import auth, db, migrations
+from server import db
 from server.group_store import GroupStore, encode_state
-from server.store import Store
+from tests.server.helpers import legacy_session
 from tests.server.realservers import database_url, pg_database  # noqa: F401  (fixtures)
 
 
 def test_existing_session_fed_agents_get_offset_zero(database_url: str) -> None:  # noqa: F811
-    url = database_url
-    cfg = migrations.alembic_config(url)
-    command.upgrade(cfg, "0009_typed_steps")
-    engine = sa.create_engine(url)
+    cfg, engine, user, sid = legacy_session(database_url, "0009_typed_steps")
     try:
-        with engine.begin() as conn:
-            auth.add_user(conn, "legacy")
-        with engine.connect() as conn:
-            user = int(conn.execute(sa.select(db.users.c.id)).scalar_one())
-        sid, _ = Store(engine).create_session(user, source="native", client_session_id="walk")
         meta = sa.MetaData()
         groups = sa.Table("groups", meta, autoload_with=engine)
         agents = sa.Table("group_agents", meta, autoload_with=engine)

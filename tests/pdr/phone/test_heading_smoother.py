@@ -427,6 +427,33 @@ def test_a_measurement_that_lags_through_turns_is_not_followed_beyond_its_share(
     assert err < 0.75 * meas_err
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize(("gyro_lead_s", "meas_lag_s", "pocket_side", "gain"),
+                         [(0.3, 0.0, -0.3, 0.8), (0.0, 0.3, 0.3, 1.0)])
+def test_a_known_pocket_side_gives_the_lag_to_the_side_that_has_it(seed, gyro_lead_s, meas_lag_s, pocket_side, gain):
+    # A back pocket (side evidence below -pocket_side_corr) whose gyro leads, or a front pocket (above it) whose
+    # measurement lags: with the side known the whole lag goes where it is, and the smoothed heading through turns
+    # beats the prior split's: clearly behind the thigh, where the prior gives the gyro too small a share
+    # (gyro_lag_share 0.29 of a lag that is all the gyro's), and still in front of it.
+    c = HeadingSmootherConfig()
+    t, truth, gyro, mag = _turning_walk(seed, gyro_lead_s=gyro_lead_s, meas_lag_s=meas_lag_s)
+    sigma = np.full(t.size, math.radians(30))
+    shares = c.step_lag_shares([pocket_side] * t.size)
+    assert set(shares.tolist()) == {1.0 if pocket_side < 0 else 0.0}
+    sided = smooth_offsets(t, gyro, mag, sigma, c, lag_share=shares)
+    prior = smooth_offsets(t, gyro, mag, sigma, c)
+    err = {name: float(np.degrees(np.abs(wrap_angle(gyro + sm.offset - truth))).mean())
+           for name, sm in (("sided", sided), ("prior", prior))}
+    assert err["sided"] < gain * err["prior"]
+
+
+def test_the_lag_share_moves_from_the_prior_with_the_side_evidence():
+    c = HeadingSmootherConfig()
+    prior = c.gyro_lag_share
+    shares = c.step_lag_shares([None, 0.0, -0.1, -0.2, -0.5, 0.1, 0.2, 0.5, math.nan])
+    np.testing.assert_allclose(shares, [prior, prior, 0.5 * (prior + 1.0), 1.0, 1.0, 0.5 * prior, 0.0, 0.0, prior])
+
+
 def test_without_turns_the_lag_is_unobserved_and_the_straight_leg_smoother_is_returned():
     # A walk along one line: the gyro yaw never turns, so the turn lag multiplies zero and the smoothed offsets
     # are the straight-leg model's; the lag keeps its prior.
