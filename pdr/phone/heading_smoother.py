@@ -227,12 +227,9 @@ class HeadingSmootherConfig:
         trouser-pocket stride, the prior share; ``pocket_side_corr``).
         """
         prior = self.gyro_lag_share
-        out = np.full(len(pocket_side), prior)
-        for k, side in enumerate(pocket_side):
-            if side is not None and math.isfinite(side):
-                decided = min(abs(side) / self.pocket_side_corr, 1.0)
-                out[k] = prior + decided * ((1.0 if side < 0.0 else 0.0) - prior)
-        return out
+        side = np.array([math.nan if v is None else v for v in pocket_side], dtype=np.float64)
+        decided = np.nan_to_num(np.minimum(np.abs(side) / self.pocket_side_corr, 1.0))     # 0 where unknown
+        return prior + decided * (np.where(side < 0.0, 1.0, 0.0) - prior)
 
     def __post_init__(self) -> None:
         if not 0.0 < self.consistency_p < 1.0:
@@ -346,8 +343,10 @@ def smooth_offsets(t_s: FloatArray, gyro_yaw: FloatArray, meas_yaw: FloatArray, 
         xs, ps = _rts(t, z, r, w, jump, bias_sigma, c)
         resid = np.abs(np.asarray(wrap_angle(z - xs[:, 0] - w * xs[:, 2])))
     share = np.full(n, c.gyro_lag_share) if lag_share is None else np.asarray(lag_share, dtype=np.float64)
-    # The gyro's lag is share * delta, plus what the data cannot split: its prior variance given the sum.
-    split_var = c.gyro_lag_sigma_s ** 2 * c.measured_lag_sigma_s ** 2 / _lag_sigma(c) ** 2
+    # The gyro's lag is share * delta, plus what the data cannot split: its variance given the sum, share (1 - share)
+    # times the sum's prior variance (with the prior share, gyro_lag_sigma_s^2 measured_lag_sigma_s^2 / their sum;
+    # none once a pocket's side has decided the split).
+    split_var = share * (1.0 - share) * _lag_sigma(c) ** 2
     var = ps[:, 0, 0] + 2.0 * share * w * ps[:, 0, 2] + w ** 2 * (share ** 2 * ps[:, 2, 2] + split_var)
     return SmoothedOffsets(offset=xs[:, 0] + share * w * xs[:, 2], offset_sigma=np.sqrt(np.maximum(var, 0.0)),
                            bias=xs[:, 1], turn_lag_s=float(xs[0, 2]),
@@ -548,7 +547,7 @@ def smooth_track(steps: list[dict[str, Any]], config: HeadingSmootherConfig | No
     return out, (f"heading smoothed over {len(out)} steps: residual gyro bias about the vertical "
                  f"{math.degrees(float(np.median(sm.bias))):+.3f} deg/s; the measured direction lags the gyro "
                  f"yaw through turns by {-sm.turn_lag_s:+.2f} +/- {sm.turn_lag_sigma_s:.2f} s (the gyro's share "
-                 f"{float(np.mean(shares)):.2f} applied)" + "".join(f"; {n}" for n in notes))
+                 f"{float(np.mean(shares)):.2f} applied, mean over the steps)" + "".join(f"; {n}" for n in notes))
 
 
 def chi2_quantile(q: float, dof: float) -> float:
