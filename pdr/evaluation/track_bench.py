@@ -30,6 +30,8 @@ from typing import Any
 
 import numpy as np
 
+from pdr.errors import InputError
+
 #: Stage names in the order they are printed.
 STAGES = ("read", "grid", "attitude", "steps", "heading", "other", "smoother", "write")
 #: GetSensorData records whose third field is a SensorTimestamp (shifted with the AppTimestamp by tiling).
@@ -45,6 +47,9 @@ def tile_ipin_log(src: str | Path, copies: int, out: str | Path) -> Path:
     """
     if copies < 1:
         raise ValueError(f"copies must be at least 1, got {copies}")
+    if not Path(src).is_file():
+        raise InputError("tiling needs a GetSensorData .txt log file" + (", got a folder" if Path(src).is_dir()
+                                                                          else ": no such file"), source=str(src))
     lines = Path(src).read_text(encoding="ascii").splitlines()
     header = [ln for ln in lines if ln.startswith("%")]
     body = [ln.split(";") for ln in lines if ln and not ln.startswith("%")]

@@ -61,7 +61,7 @@ from pdr.io.text import (
     timestamps_ns,
 )
 from pdr.io.time_order import keep_increasing
-from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, SensorStream
+from pdr.recording import LOCATION_META, DeviceInfo, GroundTruth, PositionTruth, Recording, SensorStream
 
 FORMAT = "ipin"
 DESCRIPTION = "GetSensorData / IPIN competition logfile (.txt[.gz]) or its .mat export, with POSI landmarks"
@@ -134,7 +134,35 @@ def _read_text(p: Path) -> Recording:
     raw = drop_cut_off_last_line(read_bytes(p), str(p), b";", cut)
     fast = _read_text_fast(p, raw, _use_compiled(len(raw)))
     rec = fast if fast is not None else _read_text_exact(p, raw)
+    fix = first_gnss_fix(raw)
+    if fix is not None:
+        fix["fixes"] = int(rec.meta["ignored_records"].get("GNSS", 0))
+        rec = replace(rec, meta={**rec.meta, LOCATION_META: fix})
     return replace(rec, warnings=(*cut, *rec.warnings)) if cut else rec
+
+
+def first_gnss_fix(raw: bytes) -> dict[str, Any] | None:
+    """The log's first usable ``GNSS`` record as a location fix (:data:`~pdr.recording.LOCATION_META`): ``lat_deg``,
+    ``lon_deg``, ``alt_m``, ``horizontal_accuracy_m`` and ``unix_time_s`` (its SensorTimestamp, UTC seconds), or
+    None when it has none. GNSS records are otherwise skipped (counted in ``meta["ignored_records"]``); one that
+    does not parse, or lies off the globe, is passed over: the location is optional and never refuses a log.
+
+    Record: ``GNSS;AppTimestamp;SensorTimeStamp;Latit;Long;Altitude;Bearing;Accuracy;Speed;SatInView;SatInUse``.
+    """
+    at = -1
+    while (at := raw.find(b"GNSS;", at + 1)) >= 0:
+        if at > 0 and raw[at - 1] != ord("\n"):
+            continue                                    # not at the start of a line
+        end = raw.find(b"\n", at)
+        fields = raw[at:end if end >= 0 else len(raw)].decode("ascii", "replace").strip().split(";")
+        try:
+            unix_s, lat, lon, alt, accuracy = (float(fields[i]) for i in (2, 3, 4, 5, 7))
+        except (IndexError, ValueError):
+            continue
+        if abs(lat) <= 90.0 and abs(lon) <= 180.0 and np.isfinite([unix_s, alt]).all():
+            return {"lat_deg": lat, "lon_deg": lon, "alt_m": alt, "horizontal_accuracy_m": accuracy,
+                    "unix_time_s": unix_s}
+    return None
 
 
 def _use_compiled(size: int) -> bool:

@@ -25,8 +25,8 @@ Readings and streams
 Location
     ``location`` readings (``latitude``, ``longitude`` in degrees, WGS-84; ``horizontalAccuracy`` in m when given)
     geo-reference the recording: the first fix goes to ``meta["location"]`` (:data:`LOCATION_META`:
-    ``lat_deg``, ``lon_deg``, ``t_ns``, ``horizontal_accuracy_m``, ``fixes``), which the service takes as the
-    session's origin (the track's local east/north frame starts there).
+    ``lat_deg``, ``lon_deg``, ``t_ns``, ``horizontal_accuracy_m``, ``unix_time_s``, ``fixes``), which the service
+    takes as the session's origin (the track's local east/north frame starts there).
 
 Specific force
     Without ``totalacceleration`` (iOS never logs it), ``acc = accelerometer + gravity``: gravity is linearly
@@ -253,7 +253,7 @@ def _fix(t_ns: int, values: Mapping[str, Any], source: str, where: str) -> dict[
         return None
     if abs(lat) > 90.0 or abs(lon) > 180.0:
         return None
-    return {"lat_deg": lat, "lon_deg": lon, "t_ns": t_ns, "horizontal_accuracy_m": accuracy}
+    return {"lat_deg": lat, "lon_deg": lon, "t_ns": t_ns, "horizontal_accuracy_m": accuracy, "unix_time_s": t_ns / 1e9}
 
 
 def _csv_location(text: str, source: str, notes: list[str]) -> dict[str, Any] | None:

@@ -5,6 +5,7 @@ The inverse of :func:`pdr.io.sensor_logger.parse_push_message` for the streams t
 ``magnetometer``, ``baro`` -> ``barometer.pressure``, ``orientation`` -> ``orientation`` (qw, qx, qy, qz),
 uncalibrated variants. One message per ``period_s`` of data, with consecutive ``messageId`` from 0.
 Timestamps are the streams' raw ``t_ns``, offset by ``epoch_offset_ns`` (Sensor Logger sends UTC epoch ns).
+A log's location fix (``meta["location"]``) is not replayed: the messages carry sensor streams only.
 """
 
 from __future__ import annotations

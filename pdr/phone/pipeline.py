@@ -46,6 +46,7 @@ from numpy.typing import NDArray
 from pdr.errors import InputError
 from pdr.filters import iir
 from pdr.frames import GRAVITY_MPS2, heading_deg_to_yaw, yaw_to_heading_deg
+from pdr.geomagnetic import field_at_fix
 from pdr.phone.attitude import AttitudeConfig, AttitudeFilter, AttitudeState, gyro_compensated
 from pdr.phone.attitude_derived import attitude_derived
 from pdr.phone.events import (
@@ -79,7 +80,7 @@ from pdr.phone.stage import PendingStep, StepObserver, StepStage, StepWindow
 from pdr.phone.step_length import StepLengthModel, step_patterns
 from pdr.phone.steps import StepConfig, StepDetector
 from pdr.phone.track import TrackState
-from pdr.recording import Recording
+from pdr.recording import LOCATION_META, Recording
 
 FloatArray = NDArray[np.float64]
 #: The row form of an event (:meth:`pdr.phone.events.StepEvent.to_row` and the others).
@@ -340,6 +341,8 @@ class PdrPipeline:
             events += self._start(batch)
             if self.grid is None:
                 return events
+        if self.attitude.config.earth_dip_deg is None and LOCATION_META in batch.meta:
+            events += self._use_location(batch)
         self.n_input_samples += max((len(s) for s in batch.streams.values()), default=0)
         self.grid.push(batch)
         t, vals = self.grid.pull()
@@ -394,6 +397,7 @@ class PdrPipeline:
             "gyro_yaw": self.gyro_yaw.state(), "phone_yaw_updates": self.phone_yaw_updates,
             "att_q_now": None if self.att_q_now is None else self.att_q_now.tolist(),
             "gyro_compensated": self.gyro_compensated,
+            "earth_dip_deg": self.attitude.config.earth_dip_deg,
         }
         if self.stages:
             d["stages"] = {st.name: st.state() for st in self.stages}
@@ -455,6 +459,9 @@ class PdrPipeline:
             p.gyro_compensated = bool(d.get("gyro_compensated", False))
             if p.gyro_compensated:
                 p._use_compensated_prior()
+            # Absent in states saved before the earth's-field gate, and None where no location was known.
+            if d.get("earth_dip_deg") is not None:
+                p._use_earth_dip(float(d["earth_dip_deg"]))
             saved = d.get("stages") or {}
             p.stages = [st.from_state(saved[st.name]) if st.name in saved else st for st in stages]
             if p.pending is not None or p.track.n_steps:      # a step was processed (see _placement_known)
@@ -602,6 +609,23 @@ class PdrPipeline:
                 self.floors.floors_between(float(self.history.up[sl][0]), float(self.history.up[sl][-1]))
                 if self._has_baro() and self.history.up[sl].size else None))
         return out
+
+    def _use_location(self, batch: Recording) -> list[PipelineEvent]:
+        """The earth's field at the batch's location fix gates the magnetometer from here on
+        (:attr:`~pdr.phone.attitude.AttitudeConfig.earth_dip_deg`); a notice says so. Nothing without a usable fix.
+        """
+        earth = field_at_fix(batch.meta.get(LOCATION_META))
+        if earth is None:
+            return []
+        self._use_earth_dip(earth.inclination_deg)
+        msg = (f"magnetometer rows are checked against the earth's field at the log's location (dip "
+               f"{earth.inclination_deg:.1f} deg, World Magnetic Model)")
+        self.notices.append(msg)
+        return [NoticeEvent(msg)]
+
+    def _use_earth_dip(self, dip_deg: float) -> None:
+        """Field rows whose dip departs from the earth's ``dip_deg`` (deg) are not used (the attitude filter's gate)."""
+        self.attitude.set_config(replace(self.attitude.config, earth_dip_deg=float(dip_deg)))
 
     def _use_compensated_prior(self) -> None:
         """The gyro is the OS's bias-compensated stream (:func:`pdr.phone.attitude.gyro_compensated`): its residual bias

@@ -63,9 +63,10 @@ def test_empty_payload_is_accepted_without_a_session(client, tokens):
 
 
 def _ipin_walk_start() -> Recording:
-    """The first 20 s of a real hand-held IPIN log, whose reader knows the placement (``hand``)."""
+    """The first 20 s of a real hand-held IPIN log, whose reader knows the placement (``hand``), without the log's
+    GNSS fix, which its push messages do not carry (:func:`~pdr.io.sensor_logger_writer.to_push_messages`)."""
     rec = read_recording(data_path("ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial01_repetition01.txt"))
-    return rec.slice_time(0.0, 20.0)
+    return replace(rec, meta={k: v for k, v in rec.meta.items() if k != "location"}).slice_time(0.0, 20.0)
 
 
 def _pushed_track(app, client, token: str, rec: Recording, query: str) -> tuple[dict, list[dict]]:

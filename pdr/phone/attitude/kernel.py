@@ -449,6 +449,7 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
     nu_steady = prm[31]
     undo_keep = math.exp(-ts / prm[32]) if prm[32] > 0 else 0.0
     magnet_rise = prm[33]
+    earth_dip = prm[34]                 # NaN: unknown (AttitudeConfig.earth_dip_deg)
     n = acc.shape[0]
     out = np.empty((n, 4))
     used = np.zeros(n, dtype=np.int64)
@@ -642,7 +643,7 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
                 matvec3_into(c, mv, hn)         # c @ mv
                 dip = math.atan2(-hn[2], math.sqrt(hn[0] * hn[0] + hn[1] * hn[1]))
                 use_m = (abs(mn - href_n) < eps_m1 and aux[AUX_VAR_M_SQ] < eps_m2 and abs(dip - dip_ref) < eps_dip
-                         and mn <= earth_max)
+                         and mn <= earth_max and not abs(dip - earth_dip) >= eps_dip)
                 stronger = mn > href_n + magnet_rise
                 if undo_keep > 0:
                     # A field stronger than the earth's: the rows of the seconds before saw it coming and turned

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from pdr.cli import main
+from pdr.errors import InputError
 from pdr.evaluation import track_bench as bench_track
 from pdr.io import ipin
 from tests.conftest import data_path
@@ -65,3 +66,10 @@ def test_ahrs_ekf_reference_runs_on_the_same_samples() -> None:
     start = rec.time_span_s()[0]
     res = bench_track.time_ahrs_ekf(rec.slice_time(start, start + 20.0))
     assert res is not None and res["samples"] > 500 and res["samples_per_s"] > 0
+
+
+def test_tiling_a_folder_or_a_missing_file_is_a_clear_error(tmp_path):
+    with pytest.raises(InputError, match="got a folder"):
+        bench_track.tile_ipin_log(tmp_path, 2, tmp_path / "out.txt")
+    with pytest.raises(InputError, match="no such file"):
+        bench_track.tile_ipin_log(tmp_path / "absent.txt", 2, tmp_path / "out.txt")

@@ -60,11 +60,17 @@ def test_sm_a520f_logfile_rates_units_and_truth():
     assert 950.0 < np.median(rec.values("baro")) < 1000.0
     assert np.median(np.linalg.norm(rec.values("acc"), axis=1)) == pytest.approx(9.8, abs=0.5)
     assert rec.meta["ignored_records"]["WIFI"] == 982
+    # the first GNSS fix geo-references the log (the earth's field model's place and date), near the first landmark
+    fix = rec.meta["location"]
+    assert fix["fixes"] == rec.meta["ignored_records"]["GNSS"] > 0
+    assert 2023.0 < 1970.0 + fix["unix_time_s"] / (365.25 * 86400) < 2024.0
     pos = rec.truth.positions
     assert pos is not None and len(pos) == 14
     assert pos.kind == "landmark" and pos.frame == "enu"
     # the origin is the file's first POSI (no hard-coded venue): the first landmark is at (0, 0)
     assert pos.origin_lat_lon_deg is not None and np.all(pos.pos_m[0] == 0.0)
+    assert abs(fix["lat_deg"] - pos.origin_lat_lon_deg[0]) < 0.01
+    assert abs(fix["lon_deg"] - pos.origin_lat_lon_deg[1]) < 0.01
     assert np.all(pos.floor == 0.0)
     assert pos.t_s[0] == pytest.approx(61.4235)
 
@@ -353,3 +359,11 @@ def test_plain_decimals_parse_to_the_values_float_gives() -> None:
         got = lines.fields(np.ones(len(rows), bool), 3, compiled=compiled)
         assert got is not None
         assert got.tobytes() == want
+
+
+def test_first_gnss_fix_passes_over_bad_records_and_lines_that_only_contain_the_tag():
+    log = (b"ACCE;1.0;2.0;0;0;9.8;3\nWIFI;1;GNSS;x\nGNSS;1.1;1686732686;not-a-number;11.1;365;0;20;0;1;1\n"
+           b"GNSS;1.2;1686732687;95.0;11.1;365;0;20;0;1;1\nGNSS;1.3;1686732688;49.4614;11.1115;365;0;12;0;9;7")
+    assert ipin.first_gnss_fix(log) == {"lat_deg": 49.4614, "lon_deg": 11.1115, "alt_m": 365.0,
+                                        "horizontal_accuracy_m": 12.0, "unix_time_s": 1686732688.0}
+    assert ipin.first_gnss_fix(b"ACCE;1.0;2.0;0;0;9.8;3\nGNSS;1.1\n") is None

@@ -382,7 +382,7 @@ def test_location_fixes_geo_reference_the_recording(tmp_path):
         "1717000000100000000,0.1,,,3.0,,0.1,,301.5,11.1109,49.4610\n")
     loc = sensor_logger.read(folder).meta["location"]
     assert loc == {"lat_deg": 49.4610, "lon_deg": 11.1109, "t_ns": 1717000000100000000,
-                   "horizontal_accuracy_m": None, "fixes": 2}
+                   "horizontal_accuracy_m": None, "unix_time_s": 1717000000.1, "fixes": 2}
     msg = _ios_message()
     t = msg["payload"][0]["time"]
     msg["payload"] += [{"name": "location", "time": t, "values": {"latitude": 91.0, "longitude": 0.0}},
@@ -390,5 +390,5 @@ def test_location_fixes_geo_reference_the_recording(tmp_path):
                                                                   "horizontalAccuracy": "7"}}]
     rec = sensor_logger.parse_push_message(msg)
     assert rec.meta["location"] == {"lat_deg": 51.5, "lon_deg": -0.12, "t_ns": int(t), "horizontal_accuracy_m": 7.0,
-                                    "fixes": 1}
+                                    "unix_time_s": int(t) / 1e9, "fixes": 1}
     assert rec.meta["ignored_readings"] == {"location": 1}

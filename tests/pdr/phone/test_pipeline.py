@@ -392,3 +392,31 @@ def test_stair_flights_of_the_ipin_stairs_walk_count_the_floors_they_change():
         assert f["floors"] == np.count_nonzero((changes >= f["t_start_s"]) & (changes <= closing))
         assert (f["direction"] == "up") == (f["altitude_change_m"] > 0)
         assert f["steps"] >= 3
+
+
+def test_a_location_fix_gates_the_magnetometer_by_the_earths_dip_there_and_survives_a_resume(hand_walk):
+    """A log with a location fix (``meta["location"]``): the attitude filter takes the earth's dip there (World
+    Magnetic Model; pdr.geomagnetic), says so in a notice, and a session resumed from its saved state keeps it and
+    gives the track of one run. Without a fix nothing changes."""
+    from dataclasses import replace
+
+    from pdr.geomagnetic import earth_field
+    fix = {"lat_deg": 49.4614, "lon_deg": 11.1115, "alt_m": 365.0, "unix_time_s": 1686732686.0}
+    located = replace(hand_walk, meta={**hand_walk.meta, "location": fix})
+    earth = earth_field(49.4614, 11.1115, 1686732686.0, 365.0)
+    assert earth is not None
+    p = PdrPipeline(PipelineConfig())
+    one = p.run(located)
+    assert p.attitude.config.earth_dip_deg == earth.inclination_deg
+    assert any(e["type"] == "notice" and "earth's field" in e["message"] for e in one)
+    t0, t1 = located.time_span_s()
+    mid = 0.5 * (t0 + t1)
+    first = PdrPipeline(PipelineConfig())
+    ev = first.update(located.slice_time(t0, mid))
+    resumed = PdrPipeline.from_state(state_codec.loads(state_codec.dumps(first.state())))
+    assert resumed.attitude.config.earth_dip_deg == earth.inclination_deg
+    ev += resumed.update(hand_walk.slice_time(mid, t1 + 1)) + resumed.finish()    # later batches carry no fix
+    assert track_rows(ev) == track_rows(one)
+    plain = PdrPipeline(PipelineConfig())
+    assert not any("earth's field" in str(e.get("message")) for e in plain.run(hand_walk))
+    assert plain.attitude.config.earth_dip_deg is None

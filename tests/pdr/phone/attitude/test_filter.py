@@ -384,3 +384,41 @@ def test_the_turn_a_nearing_magnet_gave_the_yaw_is_taken_back_when_it_is_seen():
     weaker[first:] = field[first:]
     assert yaw_error(AttitudeConfig(), weaker) == pytest.approx(
         yaw_error(replace(AttitudeConfig(), magnet_undo_tau_s=0.0), weaker), abs=1e-9)
+
+
+def _bent_field(dip_deg: float, turn_deg: float, magnitude_uT: float) -> FloatArray:
+    """A field (ENU, uT) of the given dip below the horizontal, its horizontal part turned ``turn_deg`` from
+    north (counter-clockwise seen from above), as steel bends the earth's indoors."""
+    d = math.radians(dip_deg)
+    north_down = magnitude_uT * np.array([0.0, math.cos(d), -math.sin(d)])
+    return quat.rotate(quat.from_euler(0.0, 0.0, math.radians(turn_deg)), north_down)
+
+
+def test_a_field_far_from_the_earths_dip_is_not_north():
+    """5 s standing, then 30 s of walking-like motion, in a building's bent field (dip 35 deg where the earth's is
+    65.6, 26 uT): standing where it is turned 5 deg, walking where it is turned 30 deg; then 40 s in the earth's
+    field. The reference follows the bent field, so its gates pass the walk's rows and the yaw turns with them;
+    with the earth's dip known (``earth_dip_deg``) they are refused and the yaw is carried on the gyro, and the
+    earth's field later sets it as before.
+    """
+    n0, n1, n2 = int(5 * FS), int(30 * FS), int(40 * FS)
+    t_walk, q_walk, acc_walk, gyro_walk = _tilted_walk(n1 + n2)
+    q_stand = np.tile(q_walk[0], (n0, 1))
+    acc_stand = np.tile(quat.rotate(quat.conjugate(q_walk[0]), np.array([0.0, 0.0, GRAVITY_MPS2])), (n0, 1))
+    field = np.vstack([np.tile(_bent_field(35.0, 5.0, 26.0), (n0, 1)), np.tile(_bent_field(35.0, 30.0, 26.0), (n1, 1)),
+                       np.tile(H_ENU, (n2, 1))])
+    q_true = np.vstack([q_stand, q_walk])
+    acc = np.vstack([acc_stand, acc_walk])
+    gyro = np.vstack([np.zeros((n0, 3)), gyro_walk])
+    mag = quat.rotate(quat.conjugate(q_true), field)
+    earth_dip = math.degrees(math.atan2(-H_ENU[2], H_ENU[1]))
+    bent = slice(n0, n0 + n1)
+    late = n0 + n1 - 1                                      # the last sample in the bent field
+    q_free, used_free = AttitudeFilter(FS).run(acc, gyro, mag)
+    q, used = AttitudeFilter(FS, replace(AttitudeConfig(), earth_dip_deg=earth_dip)).run(acc, gyro, mag)
+    assert (used_free[bent] & 2).mean() > 0.9 and not (used[bent] & 2).any()
+    followed = math.degrees(quat.angle_between(q_free[late], q_true[late]))
+    carried = math.degrees(quat.angle_between(q[late], q_true[late]))
+    assert followed > 20.0 and carried < 8.0
+    assert (used[n0 + n1:] & 2).any()
+    assert math.degrees(quat.angle_between(q[-1], q_true[-1])) < 5.0
