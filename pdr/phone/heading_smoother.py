@@ -128,6 +128,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from pdr.chi_square import chi2_quantile
 from pdr.errors import InputError
 from pdr.filters.rotation_kernels import wrap_pi
 from pdr.filters.rts import rts_smooth
@@ -548,17 +549,6 @@ def smooth_track(steps: list[dict[str, Any]], config: HeadingSmootherConfig | No
                  f"{math.degrees(float(np.median(sm.bias))):+.3f} deg/s; the measured direction lags the gyro "
                  f"yaw through turns by {-sm.turn_lag_s:+.2f} +/- {sm.turn_lag_sigma_s:.2f} s (the gyro's share "
                  f"{float(np.mean(shares)):.2f} applied, mean over the steps)" + "".join(f"; {n}" for n in notes))
-
-
-def chi2_quantile(q: float, dof: float) -> float:
-    """The ``q`` quantile (0 < q < 1) of the chi-square distribution with ``dof`` degrees of freedom:
-    ``2 P^-1(dof / 2, q)``, ``P`` the regularised lower incomplete gamma function.
-
-    The value ``scipy.stats.chi2.ppf(q, dof)`` gives, bit for bit (it computes the same expression), without
-    importing :mod:`scipy.stats` (about 2 s of a ``pdr track`` process's CPU).
-    """
-    from scipy.special import gammaincinv  # imported when a walk is smoothed (about 0.3 s)
-    return float(2.0 * gammaincinv(dof / 2.0, q))
 
 
 def smoothed_rows(rows: list[dict[str, Any]], notices: list[str]) -> list[dict[str, Any]]:

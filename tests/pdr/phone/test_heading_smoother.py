@@ -15,7 +15,6 @@ from pdr.phone.heading_smoother import (
     HeadingSmootherConfig,
     _forward,
     check_model,
-    chi2_quantile,
     smooth_offsets,
     smooth_track,
     turn_rate,
@@ -354,19 +353,6 @@ def test_the_model_check_counts_innovations_against_their_variances():
 def test_consistency_p_is_checked():
     with pytest.raises(InputError, match="consistency_p"):
         HeadingSmootherConfig(consistency_p=1.5)
-
-
-def test_chi2_quantile_is_scipy_stats_chi2_ppf_bit_for_bit():
-    """The smoother's chi-square bounds without scipy.stats: the same float64 as scipy.stats.chi2.ppf (so no
-    decision of the model checks moves), and the textbook 95 % / 99 % points of one degree of freedom.
-    """
-    from scipy.stats import chi2
-    rng = np.random.default_rng(3)
-    for q in (0.9, 0.95, 0.99, 1.0 - 0.01, 0.999, 0.5):
-        for dof in [1.0, 2.0, 0.5, 7.0, *rng.uniform(1.0, 5000.0, 200)]:
-            assert chi2_quantile(q, dof) == float(chi2.ppf(q, dof))
-    assert chi2_quantile(0.95, 1.0) == pytest.approx(3.841459, abs=1e-6)
-    assert chi2_quantile(0.99, 1.0) == pytest.approx(6.634897, abs=1e-6)
 
 
 def _turning_walk(seed: int, gyro_lead_s: float, meas_lag_s: float, n: int = 220, dt: float = 0.55,
