@@ -54,7 +54,8 @@ def _gamma_regularised(a: float, x: float) -> tuple[float, float]:
 
 def chi2_quantile(q: float, dof: float) -> float:
     """The ``q`` quantile (0 <= q <= 1; 0 and infinity at the ends, as scipy gives them) of the chi-square
-    distribution with ``dof`` (> 0) degrees of freedom."""
+    distribution with ``dof`` (> 0) degrees of freedom.
+    """
     if not (0.0 <= q <= 1.0 and dof > 0.0):
         raise ValueError(f"chi2_quantile needs 0 <= q <= 1 and dof > 0, got q={q}, dof={dof}")
     if q in (0.0, 1.0):
