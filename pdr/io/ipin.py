@@ -37,6 +37,7 @@ Positions
 
 from __future__ import annotations
 
+import math
 import re
 import sys
 from collections.abc import Callable, Sequence
@@ -142,10 +143,9 @@ def _read_text(p: Path) -> Recording:
 
 
 def first_gnss_fix(raw: bytes) -> dict[str, Any] | None:
-    """The log's first usable ``GNSS`` record as a location fix (:data:`~pdr.recording.LOCATION_META`): ``lat_deg``,
-    ``lon_deg``, ``alt_m``, ``horizontal_accuracy_m`` and ``unix_time_s`` (its SensorTimestamp, UTC seconds), or
-    None when it has none. GNSS records are otherwise skipped (counted in ``meta["ignored_records"]``); one that
-    does not parse, or lies off the globe, is passed over: the location is optional and never refuses a log.
+    """The log's first usable ``GNSS`` record as a location fix (:func:`_gnss_fix`), or None when it has none.
+    GNSS records are otherwise skipped (counted in ``meta["ignored_records"]``); one that does not parse, or lies
+    off the globe, is passed over: the location is optional and never refuses a log.
 
     Record: ``GNSS;AppTimestamp;SensorTimeStamp;Latit;Long;Altitude;Bearing;Accuracy;Speed;SatInView;SatInUse``.
     """
@@ -154,15 +154,27 @@ def first_gnss_fix(raw: bytes) -> dict[str, Any] | None:
         if at > 0 and raw[at - 1] != ord("\n"):
             continue                                    # not at the start of a line
         end = raw.find(b"\n", at)
-        fields = raw[at:end if end >= 0 else len(raw)].decode("ascii", "replace").strip().split(";")
+        fields = raw[at:end if end >= 0 else len(raw)].decode("ascii", "replace").strip().split(";")[1:]
         try:
-            unix_s, lat, lon, alt, accuracy = (float(fields[i]) for i in (2, 3, 4, 5, 7))
-        except (IndexError, ValueError):
+            fix = _gnss_fix([float(v) for v in fields[:7]])
+        except ValueError:
             continue
-        if abs(lat) <= 90.0 and abs(lon) <= 180.0 and np.isfinite([unix_s, alt]).all():
-            return {"lat_deg": lat, "lon_deg": lon, "alt_m": alt, "horizontal_accuracy_m": accuracy,
-                    "unix_time_s": unix_s}
+        if fix is not None:
+            return fix
     return None
+
+
+def _gnss_fix(values: Sequence[float]) -> dict[str, Any] | None:
+    """A location fix (:data:`~pdr.recording.LOCATION_META`: ``lat_deg``, ``lon_deg``, ``alt_m``,
+    ``horizontal_accuracy_m``, ``unix_time_s`` = the SensorTimestamp, UTC s) of a GNSS record's first seven numbers
+    (AppTimestamp, SensorTimestamp, Latit, Long, Altitude, Bearing, Accuracy), or None when it is not one.
+    """
+    if len(values) < 7:
+        return None
+    _, unix_s, lat, lon, alt, _, accuracy = (float(v) for v in values[:7])
+    if not (abs(lat) <= 90.0 and abs(lon) <= 180.0 and math.isfinite(unix_s) and math.isfinite(alt)):
+        return None
+    return {"lat_deg": lat, "lon_deg": lon, "alt_m": alt, "horizontal_accuracy_m": accuracy, "unix_time_s": unix_s}
 
 
 def _use_compiled(size: int) -> bool:
@@ -316,6 +328,11 @@ def _read_mat(p: Path) -> Recording:
     meta: dict[str, Any] = {"header": {}, "ignored_records": {
         k: int(np.shape(v)[0]) for k, v in mat.items()
         if not k.startswith("__") and k not in MAT_VARIABLES and k != "Posi" and np.ndim(v) >= 1}}
+    gnss = mat.get("Gnss")
+    if isinstance(gnss, np.ndarray) and gnss.ndim == 2 and gnss.dtype.kind in "fiu":
+        fix = next((f for f in map(_gnss_fix, gnss.astype(np.float64)) if f is not None), None)
+        if fix is not None:
+            meta[LOCATION_META] = {**fix, "fixes": int(gnss.shape[0])}
     return _assemble(p, arrays, posi, model="", meta=meta)
 
 

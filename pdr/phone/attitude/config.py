@@ -43,8 +43,9 @@ class AttitudeConfig:
         walked 15-27 deg off for the first 35 s (the phone's own fusion did not). The gate's width is the reference
         gate's (``eps_dip_deg``), chosen on the repetition-01 walks of ``pdr eval ipin`` (mean of the walks' p75,
         causal, with the model's dip given to every walk: 10, 15, 20, 25, 30 deg gave 3.84, 3.46, 3.31, 3.41,
-        3.37 m, 3.57 without) and confirmed on the held-out repetition-02 walks (3.35 -> 3.27 m causal,
-        3.03 -> 2.89 smoothed).
+        3.37 m, 3.57 without; smoothed 3.33 at 20, 3.35 without) and confirmed on the held-out repetition-02
+        walks (3.35 -> 3.26 m causal, 3.03 -> 2.89 smoothed). It costs the elevator walk (trial 53, whose field dips
+        40-47 deg along stretches of walking: 4.17 -> 4.33 m causal, 4.26 -> 5.55 smoothed).
     var_window_s
         Time constant of the trailing exponential windows for the variances of eqs. 12-13 (s).
     alpha, beta, kappa
