@@ -2,7 +2,7 @@
 
 The walker's body vaults over the stance leg once per step (inverted pendulum), so the phone, on the thigh or in
 the hand, rises and falls once per step: :func:`mocap_step_times` finds those rises in the captured height.
-Used by ``pdr eval steps`` (:func:`pdr.cli.track.eval_steps`) and ``tools/walking_steps.py``.
+Used by ``pdr eval steps`` (:func:`pdr.cli.eval_walks.eval_steps`) and ``tools/walking_steps.py``.
 """
 
 from __future__ import annotations

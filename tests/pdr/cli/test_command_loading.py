@@ -60,6 +60,7 @@ def test_inspect_does_not_import_the_heavy_plugins() -> None:
 
 def test_help_lists_every_command_without_importing_the_plugins() -> None:
     heavy = ("numba", "scipy", "sklearn", "flask", "matplotlib", "classifiers.cli", "server.cli", "pdr.cli.track",
+             "pdr.cli.eval_walks", "pdr.cli.bench_phone",
              "pdr.cli.allan", "pdr.pipeline", "rich")   # rich: imported by a progress bar drawn on a terminal only
     code = ("import json, sys; from pdr.cli import build_parser; p = build_parser(['--help']); "
             "sub = next(a for a in p._actions if a.dest == 'command'); "

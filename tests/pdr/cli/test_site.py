@@ -123,3 +123,21 @@ def test_eval_ms_calibrates_each_trace_on_the_other_floors(tmp_path: Path, capsy
     for line in ("CALIBRATED --calibrate cross (K on the other floors'", "MAP online CALIBRATED --calibrate cross (3",
                  "MAP bound:", "| F3 (2): median"):
         assert line in text
+
+
+@pytest.mark.data
+@pytest.mark.slow
+def test_bench_phone_times_the_map_matching_stage_on_a_site(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``pdr bench phone --site SITE --start E,N`` (it failed with a NameError: the site's plan class was imported
+    for type checking only)."""
+    from pdr.io import read_recording
+    from pdr.site.ms import site_from_ms_floor
+    floor = data_path("ms_indoor_location", "site2", "F3")
+    site = tmp_path / "f3.json"
+    site.write_text(json.dumps(site_from_ms_floor(floor)))
+    truth = read_recording(sorted((floor / "path_data_files").iterdir())[3]).truth.positions
+    assert truth is not None
+    e, n = truth.pos_m[0, :2]
+    assert main(["bench", "phone", "--duration", "30", "--site", str(site), "--start", f"{e},{n}", "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert res["map"]["stage_steps"] > 0

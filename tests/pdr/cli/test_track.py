@@ -341,7 +341,8 @@ def test_ms_eval_per_floor_with_reference(tmp_path, capsys):
 
 
 def test_reference_is_none_without_an_orientation_stream():
-    from pdr.cli.track import _reference_lines, reference_rows
+    from pdr.cli.eval_walks import _reference_lines
+    from pdr.cli.track import reference_rows
     from pdr.io import read_recording
     from pdr.phone.pipeline import PipelineConfig
 
