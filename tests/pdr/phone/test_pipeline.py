@@ -420,3 +420,20 @@ def test_a_location_fix_gates_the_magnetometer_by_the_earths_dip_there_and_survi
     plain = PdrPipeline(PipelineConfig())
     assert not any("earth's field" in str(e.get("message")) for e in plain.run(hand_walk))
     assert plain.attitude.config.earth_dip_deg is None
+
+
+def test_a_native_batchs_meta_location_reaches_the_pipeline(hand_walk, tmp_path):
+    """The README's promise to app developers: ``meta.location`` of a native JSON batch is the fix the pipeline
+    takes the earth's dip from."""
+    import json
+    from dataclasses import replace
+
+    from pdr.io.native import batch_to_json
+    fix = {"lat_deg": 49.4614, "lon_deg": 11.1115, "unix_time_s": 1686732686.0, "alt_m": 365.0}
+    batch = batch_to_json(replace(hand_walk, meta={"location": fix}), session_id="s", batch_id="b-1")
+    path = tmp_path / "batch.json"
+    path.write_text(json.dumps(batch))
+    p = PdrPipeline(PipelineConfig())
+    events = p.run(read_recording(path))
+    assert p.attitude.config.earth_dip_deg is not None and 60.0 < p.attitude.config.earth_dip_deg < 70.0
+    assert any("earth's field" in str(e.get("message")) for e in events)
