@@ -40,7 +40,7 @@ from pdr.phone.events import (
     to_rows,
 )
 from pdr.phone.pipeline import PdrPipeline
-from pdr.recording import Recording
+from pdr.recording import LOCATION_META, Recording
 from server.processing import ProcessorOutput, SessionContext
 from server.processing_options import session_options
 from server.sites import session_site
@@ -55,6 +55,7 @@ class PhoneProcessor:
         options = session_options(ctx.meta)
         named = session_site(options, ctx.site)
         self.stages = [] if named is None else named.stages()   # the map matcher when the session has a start
+        self._session_fix: dict[str, float] | None = None
         if state:
             d = state_codec.loads(state)
             self.pipeline = PdrPipeline.from_state(d["pipeline"], stages=self.stages)
@@ -69,11 +70,19 @@ class PhoneProcessor:
             config = pipeline_config(placement_group(ctx.placement), step_length=options.step_length)
             site = options.site if named is None else named.checked.site
             self.pipeline = PdrPipeline(config, site, stages=self.stages)
+            # The session's origin: where the earth's field is taken unless the first batch has its own fix.
+            self._session_fix = ctx.location
             self.step_modes = StepModes()
             self.classifier_status = "pending"
 
     def update(self, recording: Recording) -> ProcessorOutput:
-        events = self.pipeline.update_events(recording)
+        events: list[PipelineEvent] = []
+        if self._session_fix is not None:
+            # A new session's first batch: its own location fix (a log's GNSS, with the log's date) goes first.
+            if LOCATION_META not in recording.meta:
+                events += self.pipeline.use_location(self._session_fix)
+            self._session_fix = None
+        events += self.pipeline.update_events(recording)
         modes, notice = self._classify(recording)
         stops = self.stops.update(recording, to_rows(events))
         step_modes = self.classifier_status != "active"

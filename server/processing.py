@@ -14,6 +14,7 @@ import logging
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from datetime import UTC
 from typing import Any, Protocol
 
 from pdr.errors import InputError
@@ -66,6 +67,10 @@ class SessionContext:
     meta: dict[str, Any]
     #: The session's copy of the uploaded site its options name (server.sites), or None.
     site: SiteDocument | None = None
+    #: The session's origin as a location fix (``lat_deg``, ``lon_deg``; ``unix_time_s``: the session's creation),
+    #: or None: the phone pipeline takes the earth's magnetic field there
+    #: (:meth:`pdr.phone.pipeline.PdrPipeline.use_location`).
+    location: dict[str, float] | None = None
 
 
 ProcessorFactory = Callable[[SessionContext, bytes | None], Processor]
@@ -208,7 +213,12 @@ class SessionProcessing:
                 placement = dev.placement
         meta = json.loads(row.meta or "{}")
         site = SiteStore(self.store.engine).session_site(session_id) if site_id_of(meta) else None
-        return SessionContext(session_id, role, placement, meta, site)
+        location = None
+        if row.origin_lat_deg is not None and row.origin_lon_deg is not None:
+            created = row.created_at if row.created_at.tzinfo else row.created_at.replace(tzinfo=UTC)
+            location = {"lat_deg": float(row.origin_lat_deg), "lon_deg": float(row.origin_lon_deg),
+                        "unix_time_s": created.timestamp()}
+        return SessionContext(session_id, role, placement, meta, site, location)
 
     def _process_batch(self, session_id: str, batch: BatchRecord, with_tail: bool = True,
                        live: dict[str, Processor] | None = None) -> None:

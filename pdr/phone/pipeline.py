@@ -342,7 +342,7 @@ class PdrPipeline:
             if self.grid is None:
                 return events
         if self.attitude.config.earth_dip_deg is None and LOCATION_META in batch.meta:
-            events += self._use_location(batch)
+            events += self.use_location(batch.meta[LOCATION_META])
         self.n_input_samples += max((len(s) for s in batch.streams.values()), default=0)
         self.grid.push(batch)
         t, vals = self.grid.pull()
@@ -610,15 +610,17 @@ class PdrPipeline:
                 if self._has_baro() and self.history.up[sl].size else None))
         return out
 
-    def _use_location(self, batch: Recording) -> list[PipelineEvent]:
-        """The earth's field at the batch's location fix gates the magnetometer from here on
-        (:attr:`~pdr.phone.attitude.AttitudeConfig.earth_dip_deg`); a notice says so. Nothing without a usable fix.
+    def use_location(self, fix: object) -> list[PipelineEvent]:
+        """The earth's field at a location fix (a batch's ``meta["location"]``, or a session's origin:
+        :func:`pdr.geomagnetic.field_at_fix`) gates the magnetometer from here on
+        (:attr:`~pdr.phone.attitude.AttitudeConfig.earth_dip_deg`); a notice says so. Nothing without a usable fix, or
+        when the dip is set already.
         """
-        earth = field_at_fix(batch.meta.get(LOCATION_META))
+        earth = None if self.attitude.config.earth_dip_deg is not None else field_at_fix(fix)
         if earth is None:
             return []
         self._use_earth_dip(earth.inclination_deg)
-        msg = (f"magnetometer rows are checked against the earth's field at the log's location (dip "
+        msg = (f"magnetometer rows are checked against the earth's field at the recording's location (dip "
                f"{earth.inclination_deg:.1f} deg, World Magnetic Model)")
         self.notices.append(msg)
         return [NoticeEvent(msg)]

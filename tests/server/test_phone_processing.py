@@ -176,3 +176,26 @@ def test_the_no_classifier_notice_says_whether_the_placement_was_given_or_detect
             assert "detected as carried in the hand (the session names no placement)" in notice
         else:
             assert "for a phone carried in the hand" in notice and "detected" not in notice
+
+
+def test_a_session_created_with_an_origin_checks_the_magnetometer_against_the_earths_field_there(real_app):
+    """A session whose creator says where it is (``origin``) gets the earth's magnetic dip there (World Magnetic
+    Model) for its phone pipeline's magnetometer gate, though its batches carry no location; the first batch's
+    warnings say so. A session without an origin does not."""
+    from pdr.io.native import batch_to_json
+    from pdr.sim import load_scenario, simulate
+    from tests.conftest import REPO_ROOT
+
+    app, token = real_app
+    c = app.test_client()
+    walk = simulate(load_scenario(REPO_ROOT / "mobile_logs" / "sim" / "hand_escalator.json"), 1).slice_time(0.0, 30.0)
+    warnings = {}
+    for name, extra in (("geo", {"origin": {"lat_deg": 49.4614, "lon_deg": 11.1115}}), ("plain", {})):
+        sid = c.post("/api/v1/sessions", json={"session_id": name, **extra}, headers=bearer(token)).get_json()["id"]
+        r = c.post(f"/api/v1/sessions/{sid}/batches", json=batch_to_json(walk, session_id=name, batch_id="b0"),
+                   headers=bearer(token))
+        assert r.status_code in (200, 201, 202), r.get_json()
+        assert app.extensions["pdr"].worker.wait_idle(120)
+        warnings[name] = c.get(f"/api/v1/sessions/{sid}", headers=bearer(token)).get_json()["warnings"]
+    assert any("earth's field at the recording's location (dip 65." in w for w in warnings["geo"]), warnings["geo"]
+    assert not any("earth's field" in w for w in warnings["plain"]), warnings["plain"]
