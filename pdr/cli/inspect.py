@@ -12,6 +12,7 @@ import json
 import math
 import sys
 from collections.abc import Mapping
+from datetime import UTC, datetime
 from typing import Any
 
 import numpy as np
@@ -106,9 +107,29 @@ def summarize(recording: Recording, gap_factor: float = GAP_FACTOR) -> dict[str,
         "duration_s": end - start,
         "streams": [stream_summary(s, recording.origin_ns, gap_factor) for s in recording.streams.values()],
         "truth": truth_summary(recording.truth),
+        "location": location_summary(recording),
         "warnings": list(recording.warnings),
         "meta": _jsonable(recording.meta),
     }
+
+
+def location_summary(recording: Recording) -> dict[str, Any] | None:
+    """The log's location fix (``meta["location"]``) and the earth's field there (World Magnetic Model,
+    :func:`pdr.geomagnetic.field_at_fix`: what the attitude filter's magnetometer gate checks), or None without a
+    fix. ``earth_field`` is None when the model does not answer (no date, or one outside its years).
+    """
+    from pdr.geomagnetic import field_at_fix
+    from pdr.recording import LOCATION_META
+
+    fix = recording.meta.get(LOCATION_META)
+    if not isinstance(fix, Mapping) or fix.get("lat_deg") is None or fix.get("lon_deg") is None:
+        return None
+    earth = field_at_fix(fix)
+    return {"lat_deg": float(fix["lat_deg"]), "lon_deg": float(fix["lon_deg"]),
+            "unix_time_s": fix.get("unix_time_s"), "fixes": fix.get("fixes"),
+            "earth_field": None if earth is None else {"inclination_deg": earth.inclination_deg,
+                                                       "declination_deg": earth.declination_deg,
+                                                       "intensity_uT": earth.intensity_uT}}
 
 
 def _fmt(x: float | None, spec: str) -> str:
@@ -147,6 +168,17 @@ def format_text(summary: dict[str, Any]) -> str:
                 lines.append(f"  {name}: " + ", ".join(f"{k} {v}" for k, v in info.items()))
             else:
                 lines.append(f"  {name}: {info}")
+    loc = summary["location"]
+    if loc is not None:
+        when = ("" if loc["unix_time_s"] is None else
+                f", {datetime.fromtimestamp(loc['unix_time_s'], tz=UTC):%Y-%m-%d %H:%M} UTC")
+        fixes = f" (first of {loc['fixes']} fixes)" if loc["fixes"] else ""
+        lines.append(f"location:  {loc['lat_deg']:.5f}, {loc['lon_deg']:.5f}{when}{fixes}")
+        e = loc["earth_field"]
+        lines.append("  earth's field there (World Magnetic Model): " + (
+            "unknown (no date, or one outside the model's years)" if e is None else
+            f"dip {e['inclination_deg']:.1f} deg, declination {e['declination_deg']:+.1f} deg, "
+            f"{e['intensity_uT']:.1f} uT (the magnetometer gate's dip)"))
     if summary["warnings"]:
         lines.append("warnings:")
         lines += [f"  - {w}" for w in summary["warnings"]]

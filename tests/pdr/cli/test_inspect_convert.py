@@ -194,3 +194,24 @@ def test_convert_errors(capsys, tmp_path, native_log):
     blocker.write_text("x")
     code, _, err = _run(capsys, "convert", str(native_log), "--to", "native", str(blocker))
     assert code == 2 and err.startswith(f"error: {blocker}")
+
+
+def test_inspect_shows_the_location_fix_and_the_earths_field_there(capsys, tmp_path):
+    """A log with a location fix: ``pdr inspect`` prints it with the World Magnetic Model's field there (the dip the
+    magnetometer gate checks); a fix without a date says the field is unknown; a log without a fix prints nothing."""
+    from dataclasses import replace
+
+    fix = {"lat_deg": 49.4614, "lon_deg": 11.1115, "unix_time_s": 1686732686.0, "alt_m": 365.0, "fixes": 3}
+    with_fix = native.write(replace(_recording(), meta={"location": fix}), tmp_path / "fix")
+    code, out, _ = _run(capsys, "inspect", str(with_fix))
+    assert code == 0
+    assert "location:  49.46140, 11.11150, 2023-06-14 08:51 UTC (first of 3 fixes)" in out
+    assert "dip 65.5 deg, declination +4.0 deg, 49.0 uT" in out
+    code, out, _ = _run(capsys, "inspect", str(with_fix), "--json")
+    assert json.loads(out)["location"]["earth_field"]["inclination_deg"] == pytest.approx(65.47, abs=0.05)
+    undated = native.write(replace(_recording(), meta={"location": {"lat_deg": 49.46, "lon_deg": 11.11}}),
+                           tmp_path / "undated")
+    _, out, _ = _run(capsys, "inspect", str(undated))
+    assert "location:  49.46000, 11.11000" in out and "unknown (no date" in out
+    _, out, _ = _run(capsys, "inspect", str(native.write(_recording(), tmp_path / "none")))
+    assert "location:" not in out
