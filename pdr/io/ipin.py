@@ -137,8 +137,8 @@ def _read_text(p: Path) -> Recording:
     rec = fast if fast is not None else _read_text_exact(p, raw)
     fix = first_gnss_fix(raw)
     if fix is not None:
-        fix["fixes"] = int(rec.meta["ignored_records"].get("GNSS", 0))
-        rec = replace(rec, meta={**rec.meta, LOCATION_META: fix})
+        fixes = int(rec.meta["ignored_records"].get("GNSS", 0))
+        rec = replace(rec, meta={**rec.meta, LOCATION_META: {**fix, "fixes": fixes}})
     return replace(rec, warnings=(*cut, *rec.warnings)) if cut else rec
 
 

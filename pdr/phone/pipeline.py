@@ -341,8 +341,8 @@ class PdrPipeline:
             events += self._start(batch)
             if self.grid is None:
                 return events
-        if self.attitude.config.earth_dip_deg is None and LOCATION_META in batch.meta:
-            events += self.use_location(batch.meta[LOCATION_META])
+        if LOCATION_META in batch.meta:
+            events += self.use_location(batch.meta[LOCATION_META])     # nothing once the dip is set
         self.n_input_samples += max((len(s) for s in batch.streams.values()), default=0)
         self.grid.push(batch)
         t, vals = self.grid.pull()
