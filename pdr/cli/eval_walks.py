@@ -35,6 +35,7 @@ from pdr.evaluation.scoring import (
     distance_ratio_same_floor,
     floors_at,
     landmark_errors,
+    leg_direction_errors,
     plain_step_count,
     step_count_error_pct,
     unmatched_by_phase,
@@ -114,6 +115,10 @@ def _register_eval(targets: argparse._SubParsersAction, name: str, helptext: str
                             "heading of each straight leg, with its length scaled to the truth, and both "
                             "(pdr.evaluation.error_budget): how much of the error heading and step-length "
                             "scale explain")
+        p.add_argument("--legs", action="store_true",
+                       help="also print, per leg between two landmarks on one floor at least 3 m apart, the true "
+                            "bearing and the direction error of the causal, smoothed and reference tracks over it "
+                            "(where a walk's heading goes wrong)")
         p.add_argument("--trim-start", type=float, default=0.0, metavar="S",
                        help="drop each log's first S seconds (refused if that reaches its first landmark): "
                             "shows how much the figures depend on the start conditions")
@@ -189,13 +194,17 @@ def _floor_changes(events: list[dict[str, Any]]) -> tuple[np.ndarray, np.ndarray
     return np.array([c[0] for c in ch]), np.array([c[1] for c in ch])
 
 
+def _track_arrays(rows: list[dict[str, Any]]) -> tuple[np.ndarray, np.ndarray]:
+    """A track's step times (s) and east/north positions (N, 2; m)."""
+    return np.array([r["t_s"] for r in rows]), np.array([[r["east_m"], r["north_m"]] for r in rows])
+
+
 def _ipin_scores(rows: list[dict[str, Any]], t_truth: np.ndarray, pt: Any,
                  changes: tuple[np.ndarray, np.ndarray] = (np.zeros(0), np.zeros(0))) -> dict[str, Any]:
     """Landmark errors, distance ratios and floor agreement of one track (see :mod:`pdr.evaluation.scoring`;
     ``changes``: the times (s) and floors of the pipeline's floor changes, for the floor at each landmark).
     """
-    t = np.array([r["t_s"] for r in rows])
-    en = np.array([[r["east_m"], r["north_m"]] for r in rows])
+    t, en = _track_arrays(rows)
     e_abs = landmark_errors(t, en, t_truth, pt.pos_m, "none")
     e_al = landmark_errors(t, en, t_truth, pt.pos_m, "first-segment")
     floors = pt.floor if pt.floor is not None else np.zeros(len(t_truth))
@@ -207,6 +216,51 @@ def _ipin_scores(rows: list[dict[str, Any]], t_truth: np.ndarray, pt: Any,
             "distance_ratio": distance_ratio(t, en, t_truth, pt.pos_m),
             "distance_ratio_same_floor": distance_ratio_same_floor(t, en, t_truth, pt.pos_m, floors),
             "floors_right": floors_ok, "floor_landmarks": len(t_truth), "_abs": e_abs, "_aligned": e_al}
+
+
+def _ipin_legs(tracks: dict[str, list[dict[str, Any]] | None], t_truth: np.ndarray, pt: Any) -> list[dict[str, Any]]:
+    """Per leg of the landmark truth (:func:`pdr.evaluation.scoring.leg_direction_errors`): its times, length and
+    true bearing, and each named track's direction error over it (deg; None where the track is absent).
+    """
+    legs: list[dict[str, Any]] = []
+    for name, rows in tracks.items():
+        if rows is None or len(rows) < 2:
+            continue
+        t, en = _track_arrays(rows)
+        for i, leg in enumerate(leg_direction_errors(t, en, t_truth, pt.pos_m, pt.floor)):
+            if i == len(legs):
+                legs.append({k: v for k, v in leg.items() if k != "error_deg"} | {n: None for n in tracks})
+            legs[i][name] = leg["error_deg"]
+    return legs
+
+
+def _legs_lines(legs: list[dict[str, Any]], t_first_s: float) -> Iterator[str]:
+    """One line per leg, times from the first landmark."""
+    for leg in legs:
+        errors = ", ".join(f"{name} " + ("n/a" if leg[name] is None else f"{leg[name]:+.1f}")
+                           for name in LEG_TRACKS)
+        yield (f"  leg {leg['t0_s'] - t_first_s:6.1f}-{leg['t1_s'] - t_first_s:6.1f} s, {leg['length_m']:5.1f} m, "
+               f"true bearing {leg['true_deg']:5.1f} deg: direction error {errors} deg")
+
+
+def _legs_summary(per: list[dict[str, Any]]) -> dict[str, Any]:
+    """Mean absolute direction error (deg) per track over every leg of the scored walks (None: no such track)."""
+    legs = [leg for p in per for leg in p.get("legs", [])]
+    means: dict[str, float | None] = {}
+    for n in LEG_TRACKS:
+        e = [abs(leg[n]) for leg in legs if leg[n] is not None]
+        means[f"{n}_mean_abs_deg"] = float(np.mean(e)) if e else None
+    return {"legs": len(legs), **means}
+
+
+def _legs_summary_line(m: dict[str, Any]) -> str:
+    means = ", ".join(f"{n} " + ("n/a" if m[f"{n}_mean_abs_deg"] is None else f"{m[f'{n}_mean_abs_deg']:.1f}")
+                      for n in LEG_TRACKS)
+    return f"LEGS: mean |direction error| over {m['legs']} legs: {means} deg"
+
+
+#: The tracks whose direction per leg ``--legs`` prints, in order.
+LEG_TRACKS = ("ours", "smoothed", "reference")
 
 
 def _ipin_summary(scores: list[dict[str, Any]]) -> dict[str, Any]:
@@ -327,6 +381,9 @@ def eval_ipin(args: argparse.Namespace) -> int:
             p["reference"] = _ipin_scores(ref, t_truth, pt, changes)   # floors: the same barometer
             if args.smoother == "both":
                 p["reference"]["smoothed"] = _ipin_scores(smoothed_rows(ref, []), t_truth, pt, changes)
+        if args.legs:
+            p["legs"] = _ipin_legs({"ours": rows, "smoothed": smoothed, "reference": ref}, t_truth, pt)
+            p["_t_first_s"] = float(t_truth[0])
         if args.budget:
             p["budget"] = {name: _ipin_scores(track, t_truth, pt) for name, track in
                            budget_tracks(smoothed or rows, t_truth, pt.pos_m, pt.floor).items()}
@@ -340,6 +397,8 @@ def eval_ipin(args: argparse.Namespace) -> int:
     if args.smoother == "both":
         summary["smoothed"] = _ipin_summary([d["per"]["smoothed"] for d in done])
     summary["reference"] = _reference_summary([d["per"] for d in done], args.smoother == "both")
+    if args.legs:
+        summary["legs"] = _legs_summary([d["per"] for d in done])
     if args.budget:
         summary["budget"] = {"of": "smoothed" if args.smoother == "both" else "causal",
                              **{name: _ipin_summary([d["per"]["budget"][name] for d in done])
@@ -396,7 +455,11 @@ def eval_ipin(args: argparse.Namespace) -> int:
                          f"p75 {c['p75_abs_m']:.2f} m absolute" + (
                              f" (smoothed {c['smoothed']['p75_abs_m']:.2f} m)" if "smoothed" in c else ""))
             yield line
+            if "legs" in p:
+                yield from _legs_lines(p["legs"], p["_t_first_s"])
         yield _ipin_summary_line("ALL", summary)
+        if "legs" in summary:
+            yield _legs_summary_line(summary["legs"])
         if "smoothed" in summary:
             yield _ipin_summary_line("SMOOTHED (offline, pdr track's default)", summary["smoothed"])
         yield from _reference_lines(summary["reference"])

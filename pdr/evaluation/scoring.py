@@ -11,6 +11,8 @@ The conventions of ``../shared/data/README.md`` and its independent reference ``
 * distance ratio: path length of the track between the first and last landmark times over the true path
   length through the landmarks; :func:`distance_ratio_same_floor` keeps only the landmark intervals on one
   floor (the straight line across a floor change is not the walked path);
+* leg direction error (IPIN, :func:`leg_direction_errors`): the bearing of the track's displacement between two
+  consecutive landmarks less the true bearing, leg by leg;
 * step-count error: ``100 (detected - true) / true`` percent;
 * floors right (IPIN multi-floor walks): the landmarks whose true floor is the track's floor at the landmark time,
   the floor in effect then (the start floor and the floor changes up to that time, :func:`floors_at`), not the floor
@@ -59,6 +61,33 @@ def landmark_errors(track_t: FloatArray, track_en: FloatArray, truth_t: FloatArr
         c, s = math.cos(a), math.sin(a)
         est = gt[0] + (est - est[0]) @ np.array([[c, s], [-s, c]])
     return np.asarray(np.linalg.norm(est[1:] - gt[1:], axis=1))
+
+
+def leg_direction_errors(track_t: FloatArray, track_en: FloatArray, truth_t: FloatArray, truth_en: FloatArray,
+                         floors: FloatArray | None = None, min_leg_m: float = 3.0) -> list[dict[str, float]]:
+    """Per leg of the landmark truth: how far the track's direction over the leg is from the true one.
+
+    A leg joins two consecutive landmarks on one floor (``floors`` (L,), or None) at least ``min_leg_m`` apart.
+    Per leg: its start and end times ``t0_s``/``t1_s`` (the track's clock), length ``length_m``, the true bearing
+    ``true_deg`` (clockwise from north) of the straight line, and ``error_deg``: the bearing of the track's
+    displacement between the two landmark times less the true one, in [-180, 180) (positive: the track walked
+    clockwise of the truth). This is the heading part of the landmark error, leg by leg, free of the errors
+    accumulated before the leg.
+    """
+    tt = np.asarray(truth_t, dtype=np.float64)
+    gt = np.asarray(truth_en, dtype=np.float64)[:, :2]
+    est = _interp(np.asarray(track_t, dtype=np.float64), np.asarray(track_en, dtype=np.float64)[:, :2], tt)
+    legs: list[dict[str, float]] = []
+    for i in range(tt.size - 1):
+        d_true, d_est = gt[i + 1] - gt[i], est[i + 1] - est[i]
+        length = float(np.hypot(*d_true))
+        if length < min_leg_m or (floors is not None and floors[i] != floors[i + 1]):
+            continue
+        true_deg = math.degrees(math.atan2(d_true[0], d_true[1])) % 360.0
+        est_deg = math.degrees(math.atan2(d_est[0], d_est[1]))
+        legs.append({"t0_s": float(tt[i]), "t1_s": float(tt[i + 1]), "length_m": length, "true_deg": true_deg,
+                     "error_deg": (est_deg - true_deg + 180.0) % 360.0 - 180.0})
+    return legs
 
 
 def waypoint_errors(track_t: FloatArray, track_xy: FloatArray, truth_t: FloatArray, truth_xy: FloatArray,

@@ -321,6 +321,30 @@ def test_ipin_eval_scores_the_phones_own_attitude_as_reference(tmp_path, capsys)
 
 
 @pytest.mark.data
+def test_ipin_eval_legs_give_each_tracks_direction_between_landmarks(tmp_path, capsys):
+    """--legs: per leg the true bearing and each track's direction error; the summary is their mean."""
+    src = data_path("ipin2023_t3", "logfiles") / "IPIN2023_T3_TrainingTrial22_repetition01.txt"
+    one = tmp_path / "logs"
+    one.mkdir()
+    (one / src.name).symlink_to(src)
+    assert main(["eval", "ipin", str(one), "--json", "--legs"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    legs = res["files"][0]["legs"]
+    assert len(legs) >= 5
+    for leg in legs:
+        assert leg["length_m"] >= 3.0 and 0.0 <= leg["true_deg"] < 360.0 and leg["t1_s"] > leg["t0_s"]
+        assert all(-180.0 <= leg[n] < 180.0 for n in ("ours", "smoothed", "reference"))
+    m = res["overall"]["legs"]
+    assert m["legs"] == len(legs)
+    assert m["ours_mean_abs_deg"] == pytest.approx(np.mean([abs(leg["ours"]) for leg in legs]))
+    # A walk's legs come out straight on a corridor walk: most legs within 20 deg for our causal track.
+    assert np.mean([abs(leg["ours"]) <= 20.0 for leg in legs]) >= 0.5
+    assert main(["eval", "ipin", str(one), "--legs", "--smoother", "off"]) == 0
+    text = capsys.readouterr().out
+    assert text.count("  leg ") == len(legs) and "smoothed n/a" in text and "LEGS: mean |direction error|" in text
+
+
+@pytest.mark.data
 def test_ms_eval_per_floor_with_reference(tmp_path, capsys):
     root = data_path("ms_indoor_location", "site2")
     picked = tmp_path / "site2"

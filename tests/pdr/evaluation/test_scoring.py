@@ -14,6 +14,7 @@ from pdr.evaluation.scoring import (
     distance_ratio_same_floor,
     floors_at,
     landmark_errors,
+    leg_direction_errors,
     match_steps,
     plain_step_count,
     step_count_error_pct,
@@ -51,6 +52,22 @@ def test_a_rotated_track_costs_the_chord_unless_aligned():
     np.testing.assert_allclose(waypoint_errors(t, en, TRUTH_T, TRUTH_EN), 0.0, atol=1e-9)   # least-squares rotation
     with pytest.raises(InputError, match="align must be"):
         landmark_errors(t, en, TRUTH_T, TRUTH_EN, align="best")
+
+
+def test_leg_direction_errors_are_the_tracks_turn_away_from_each_true_leg():
+    t, en = _track(rotate_deg=10.0, offset=(7.0, -3.0))    # counter-clockwise: each leg's bearing 10 deg less
+    legs = leg_direction_errors(t, en, TRUTH_T, TRUTH_EN)
+    assert [leg["true_deg"] for leg in legs] == pytest.approx([90.0, 0.0, 90.0])
+    assert [leg["error_deg"] for leg in legs] == pytest.approx([-10.0, -10.0, -10.0])
+    np.testing.assert_allclose([(leg["t0_s"], leg["t1_s"], leg["length_m"]) for leg in legs],
+                               [(0.0, 10.0, 10.0), (10.0, 20.0, 10.0), (20.0, 30.0, 10.0)])
+    # Across a bearing of north the error wraps into [-180, 180): a track 10 deg clockwise of north is +10.
+    t2, en2 = _track(rotate_deg=-10.0)
+    assert leg_direction_errors(t2, en2, TRUTH_T, TRUTH_EN)[1]["error_deg"] == pytest.approx(10.0)
+    # A leg across floors, or shorter than min_leg_m, is no leg.
+    floors = np.array([0.0, 0.0, 1.0, 1.0])
+    assert [leg["t0_s"] for leg in leg_direction_errors(t, en, TRUTH_T, TRUTH_EN, floors)] == [0.0, 20.0]
+    assert leg_direction_errors(t, en, TRUTH_T, TRUTH_EN, min_leg_m=10.5) == []
 
 
 def test_the_hindsight_rotation_and_scale_undo_a_constant_heading_offset_and_step_scale():
