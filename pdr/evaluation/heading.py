@@ -82,6 +82,8 @@ FIELD_SMOOTH_S = 1.0
 #: The pipeline placement each carriage should be detected as.
 EXPECTED_PLACEMENT = {"FrontPocket": "pocket", "BackPocket": "pocket", "RunningPocket": "pocket",
                       "Swinging": "swinging", "Texting": "hand"}
+#: The tracks whose error :func:`offset_and_turn_lag` splits: (name, step-table column).
+DECOMPOSED = (("causal", "heading_deg"), ("smoothed", "smoothed_heading_deg"))
 #: Walker of each protocol half.
 TUNING_WALKER, CONFIRMATION_WALKER = "Guillaume", "Jakob"
 
@@ -135,6 +137,7 @@ class RecordingScore:
         return {"recording": self.name, "walker": self.walker, "carriage": self.carriage,
                 "disturbed": self.disturbed, "placement": self.placement, "steps": self.steps,
                 **{k: self.errors[k].summary() for k in ERROR_SETS},
+                "offset_and_lag": {name: offset_and_turn_lag(self.step_table, col) for name, col in DECOMPOSED},
                 "field_azimuth_mocap_deg": self.field_azimuth_deg, "notices": self.notices}
 
 
@@ -330,6 +333,50 @@ def device_y_step_errors(rows: list[dict[str, Any]], rec: Recording) -> ErrorSet
     if not rows:
         return ErrorSet()
     return abs_errors(device_y_yaw(rows, rec), true_step_yaw(rec, *_step_times(rows)))
+
+
+#: Errors larger than this (deg) are left out of :func:`offset_and_turn_lag`'s fit: a reversed direction is no
+#: offset or lag.
+FIT_MAX_ERROR_DEG = 60.0
+#: Largest time (s) between a step's two neighbours for the true turn rate at the step (longer: a pause).
+TURN_RATE_MAX_SPAN_S = 3.0
+
+
+def offset_and_turn_lag(table: dict[str, Any], column: str) -> dict[str, float]:
+    """How much of a track's walking-direction error is a constant offset and how much a time lag through turns.
+
+    ``table`` is a :attr:`RecordingScore.step_table`; ``column`` the estimate (``heading_deg`` or
+    ``smoothed_heading_deg``). The true turn rate at a step ``w_k`` (deg/s, clockwise positive) is the change of the
+    true direction between its two neighbours over their mid-times (not where they are more than
+    :data:`TURN_RATE_MAX_SPAN_S` apart). The error ``e_k`` (estimate less truth, deg) is fitted by least squares as
+    ``offset - lag * w_k``: an estimate that trails the path through turns by ``lag`` seconds (positive) and is
+    turned by ``offset`` (clockwise positive) from it. Errors over :data:`FIT_MAX_ERROR_DEG` are left out
+    (``excluded``). Returns ``n`` (steps fitted), ``offset_deg``, ``lag_s``, ``mean_abs_deg`` (their mean absolute
+    error) and ``residual_mean_abs_deg`` (what is left once offset and lag are removed): where these two differ the
+    error is the walker's, the carriage's or the filter's timing, not noise.
+    """
+    nan = {"n": 0, "excluded": 0, "offset_deg": math.nan, "lag_s": math.nan, "mean_abs_deg": math.nan,
+           "residual_mean_abs_deg": math.nan}
+    if not table or column not in table:
+        return nan
+    t = 0.5 * (np.asarray(table["t_start_s"], dtype=np.float64) + np.asarray(table["t_s"], dtype=np.float64))
+    true = np.asarray(table["true_heading_deg"], dtype=np.float64)
+    est = np.asarray(table[column], dtype=np.float64)
+    w = np.full(t.size, np.nan)
+    if t.size >= 3:
+        span = t[2:] - t[:-2]
+        turn = (true[2:] - true[:-2] + 180.0) % 360.0 - 180.0
+        w[1:-1] = np.where(span <= TURN_RATE_MAX_SPAN_S, turn / np.maximum(span, 1e-9), np.nan)
+    e = (est - true + 180.0) % 360.0 - 180.0
+    ok = np.isfinite(w) & np.isfinite(e)
+    fit = ok & (np.abs(e) <= FIT_MAX_ERROR_DEG)
+    if fit.sum() < 3:
+        return nan | {"n": int(fit.sum()), "excluded": int((ok & ~fit).sum())}
+    a = np.column_stack([np.ones(int(fit.sum())), w[fit]])
+    coef, *_ = np.linalg.lstsq(a, e[fit], rcond=None)
+    return {"n": int(fit.sum()), "excluded": int((ok & ~fit).sum()), "offset_deg": float(coef[0]),
+            "lag_s": float(-coef[1]), "mean_abs_deg": float(np.mean(np.abs(e[fit]))),
+            "residual_mean_abs_deg": float(np.mean(np.abs(e[fit] - a @ coef)))}
 
 
 # -- running the product ------------------------------------------------------------------------------------
@@ -558,6 +605,10 @@ def report_lines(scores: list[RecordingScore], agg: dict[str, Any]) -> list[str]
             out.append(f"    {c:<14}" + "".join(f"{m.get(p, 0):>10d}" for p in cols))
     out += ["", HEADER, _line(f"ALL ({agg['all']['recordings']} rec.)", agg["all"], str(agg["all"]["walk_causal"]["n"]),
                               False)]
+    out += ["", f"walking-direction error split into a constant offset (deg, clockwise) and a lag through turns (s): "
+            f"least squares on the true turn rate, errors over {FIT_MAX_ERROR_DEG:g} deg left out "
+            f"(mean |error| of the fitted steps -> what is left without offset and lag)", DECOMPOSITION_HEADER]
+    out += [_decomposition_line(s.name, s.to_dict()["offset_and_lag"]) for s in scores]
     out += ["", "attitude yaw (mean, deg) inside and outside disturbed stretches (field off the walker's NoDist "
             f"median by > {DISTURBED_FIELD_UT:g} uT or > {DISTURBED_DIP_DEG:g} deg dip)", DIST_HEADER]
     out += [_dist_line(s.name, s.to_dict()) for s in scores]
@@ -565,6 +616,17 @@ def report_lines(scores: list[RecordingScore], agg: dict[str, Any]) -> list[str]
     out += [_dist_line(f"{name} ({d['recordings']} rec.)", d) for name, d in agg["by_walker"].items()]
     out.append(_dist_line(f"ALL ({agg['all']['recordings']} rec.)", agg["all"]))
     return out
+
+
+DECOMPOSITION_HEADER = (f"{'':<48} | {'causal':<38} | smoothed\n"
+                        f"{'':<48} | {'offset   lag  |error| -> left (out)':<38} | offset   lag  |error| -> left (out)")
+
+
+def _decomposition_line(label: str, d: dict[str, dict[str, float]]) -> str:
+    def part(m: dict[str, float]) -> str:
+        return (f"{_f(m['offset_deg'], '+6.1f')} {_f(m['lag_s'], '+5.2f')}  {_f(m['mean_abs_deg'])} -> "
+                f"{_f(m['residual_mean_abs_deg'])} ({m['excluded']:>3d})")
+    return f"{label:<48} | {part(d['causal']):<38} | {part(d['smoothed'])}"
 
 
 DIST_HEADER = (f"{'':<48} | {'disturbed frames':<25} | clean frames\n"

@@ -126,14 +126,19 @@ def _ipin_ref():
     return mod
 
 
-@pytest.mark.data
-def test_ipin_eval_agrees_with_the_reference_scorer(tmp_path, capsys):
-    logdir = data_path("ipin2023_t3", "logfiles")
-    ref = _ipin_ref()
+def _ipin_log_folder(tmp_path, name: str):
+    """A folder holding one shared IPIN log (a symlink), as ``pdr eval ipin`` takes one."""
     one = tmp_path / "logs"
     one.mkdir()
-    src = logdir / "IPIN2023_T3_TrainingTrial22_repetition01.txt"
+    src = data_path("ipin2023_t3", "logfiles") / name
     (one / src.name).symlink_to(src)
+    return one, src
+
+
+@pytest.mark.data
+def test_ipin_eval_agrees_with_the_reference_scorer(tmp_path, capsys):
+    ref = _ipin_ref()
+    one, src = _ipin_log_folder(tmp_path, "IPIN2023_T3_TrainingTrial22_repetition01.txt")
     tracks = tmp_path / "tracks"
     assert main(["eval", "ipin", str(one), "--placement", "hand", "--tracks", str(tracks), "--json"]) == 0
     res = json.loads(capsys.readouterr().out)
@@ -175,11 +180,7 @@ def test_ipin_eval_scores_a_walk_given_in_both_formats_once(tmp_path, capsys):
 
 @pytest.mark.data
 def test_ipin_eval_trim_start_drops_samples_before_the_first_landmark(tmp_path, capsys):
-    logdir = data_path("ipin2023_t3", "logfiles")
-    one = tmp_path / "logs"
-    one.mkdir()
-    src = logdir / "IPIN2023_T3_TrainingTrial23_repetition01.txt"
-    (one / src.name).symlink_to(src)
+    one, src = _ipin_log_folder(tmp_path, "IPIN2023_T3_TrainingTrial23_repetition01.txt")
     tracks = tmp_path / "tracks"
     assert main(["eval", "ipin", str(one), "--placement", "hand", "--json", "--budget"]) == 0
     result = json.loads(capsys.readouterr().out)
@@ -300,10 +301,7 @@ def test_steps_eval_on_sensor_logger_walks_with_plain_detector_beside(capsys):
 @pytest.mark.data
 def test_ipin_eval_scores_the_phones_own_attitude_as_reference(tmp_path, capsys):
     """The reference (the same pipeline on the log's AHRS attitude) is scored next to ours and counted."""
-    src = data_path("ipin2023_t3", "logfiles") / "IPIN2023_T3_TrainingTrial22_repetition01.txt"
-    one = tmp_path / "logs"
-    one.mkdir()
-    (one / src.name).symlink_to(src)
+    one, src = _ipin_log_folder(tmp_path, "IPIN2023_T3_TrainingTrial22_repetition01.txt")
     assert main(["eval", "ipin", str(one), "--placement", "hand", "--json"]) == 0
     res = json.loads(capsys.readouterr().out)
     f = res["files"][0]
@@ -323,10 +321,7 @@ def test_ipin_eval_scores_the_phones_own_attitude_as_reference(tmp_path, capsys)
 @pytest.mark.data
 def test_ipin_eval_legs_give_each_tracks_direction_between_landmarks(tmp_path, capsys):
     """--legs: per leg the true bearing and each track's direction error; the summary is their mean."""
-    src = data_path("ipin2023_t3", "logfiles") / "IPIN2023_T3_TrainingTrial22_repetition01.txt"
-    one = tmp_path / "logs"
-    one.mkdir()
-    (one / src.name).symlink_to(src)
+    one, src = _ipin_log_folder(tmp_path, "IPIN2023_T3_TrainingTrial22_repetition01.txt")
     assert main(["eval", "ipin", str(one), "--json", "--legs"]) == 0
     res = json.loads(capsys.readouterr().out)
     legs = res["files"][0]["legs"]

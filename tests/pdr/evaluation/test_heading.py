@@ -223,3 +223,27 @@ def test_eval_heading_on_the_whole_benchmark_keeps_the_reference_figures(capsys,
         if r["carriage"] == "Texting":
             assert r["walk_rv_y"]["median_deg"] < 25.0, r["recording"]
     assert out["by_field"]["Dist"]["rv_yaw"]["mean_deg"] > out["by_field"]["NoDist"]["rv_yaw"]["mean_deg"]
+
+
+def _loop_table(offset_deg: float, lag_s: float, flips: int = 0) -> dict[str, np.ndarray]:
+    """Steps of 0.5 s round loops whose turn rate varies (0 to 60 deg/s clockwise), with an estimate turned by
+    ``offset_deg`` and trailing the path by ``lag_s``; the first ``flips`` estimates reversed."""
+    t0 = 0.5 * np.arange(200)
+    rate = 30.0 + 30.0 * np.sin(2 * np.pi * t0 / 17.0)                  # deg/s, clockwise
+    heading = np.cumsum(rate * 0.5) % 360.0                             # the path's direction at each step
+    est = (heading + offset_deg - lag_s * rate) % 360.0
+    est[:flips] = (est[:flips] + 180.0) % 360.0
+    return {"t_start_s": t0, "t_s": t0 + 0.5, "true_heading_deg": heading, "heading_deg": est}
+
+
+def test_offset_and_turn_lag_recover_a_constant_offset_and_a_lag():
+    d = ev.offset_and_turn_lag(_loop_table(-8.0, 0.25), "heading_deg")
+    assert d["offset_deg"] == pytest.approx(-8.0, abs=0.3) and d["lag_s"] == pytest.approx(0.25, abs=0.01)
+    assert d["residual_mean_abs_deg"] < 0.5 < d["mean_abs_deg"]
+    assert d["n"] == 198 and d["excluded"] == 0           # the two end steps have no neighbours
+    # Reversed steps are left out of the fit, not taken for an offset.
+    flipped = ev.offset_and_turn_lag(_loop_table(-8.0, 0.25, flips=10), "heading_deg")
+    assert flipped["excluded"] == 9 and flipped["offset_deg"] == pytest.approx(-8.0, abs=0.3)
+    # No estimate column, or too few steps: nothing to fit.
+    assert ev.offset_and_turn_lag({}, "heading_deg")["n"] == 0
+    assert math.isnan(ev.offset_and_turn_lag(_loop_table(0.0, 0.0), "smoothed_heading_deg")["lag_s"])
