@@ -101,6 +101,23 @@ def sniff(path: str | Path) -> bool:
     return strip_gz(p.name) in SENSOR_FILES and _has_header(p)
 
 
+def near_miss(path: str | Path) -> str | None:
+    """Why a folder that looks like a trip (its ``viagem.json``) is not read as one, or None: the accelerometer file
+    that :func:`sniff` needs is missing or does not start with the trip files' header.
+    """
+    p = Path(path)
+    if not p.is_dir() or find_member(p, "viagem.json") is None:
+        return None
+    acc = find_member(p, "acelerometro_terra.csv")
+    if acc is not None:
+        return None if _has_header(acc) else (
+            f"a driverBehaviorDataset trip folder whose {acc.name} does not start with the header "
+            f"{','.join(HEADER)}")
+    others = [name for name in SENSOR_FILES if find_member(p, name) is not None]
+    return ("a driverBehaviorDataset trip folder (viagem.json) without acelerometro_terra.csv, the accelerometer "
+            "it is read from" + (f" (it has {', '.join(others)})" if others else "; it has no sensor file at all"))
+
+
 def _has_header(p: Path) -> bool:
     first = head(p, 256).split(b"\n", 1)[0].strip()
     return tuple(f.strip() for f in first.decode("latin-1").split(",")) == HEADER

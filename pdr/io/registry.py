@@ -71,6 +71,11 @@ def detect_format(path: str | Path) -> str:
             for module in _modules():
                 if module.sniff(inner):
                     return str(module.FORMAT)
+    for module in _modules():
+        # A reader may recognise a log of its format that lacks what it needs (``near_miss``: why, or None).
+        why = module.near_miss(p) if hasattr(module, "near_miss") else None
+        if why:
+            raise UnknownFormatError(f"not a readable log: {why}", source=str(p))
     raise UnknownFormatError(
         "not a supported log format (supported: " + ", ".join(format_names()) + "); "
         "pass --format to force one", source=str(p))

@@ -9,8 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pdr.errors import InputError
-from pdr.io import driving
+from pdr.errors import InputError, UnknownFormatError
+from pdr.io import detect_format, driving
+from tests.conftest import data_path
 from tests.pdr.io.dataset_samples import detect_or_skip, foreign_to, sample_path, samples_of
 
 HEADER = "timestamp,uptimeNanos,x,y,z"
@@ -207,3 +208,26 @@ def test_bad_files(tmp_path):
     with pytest.raises(InputError, match="no \\*_terra.csv"):
         driving.read(empty)
     assert driving.sniff(tmp_path / "missing.csv") is False
+
+
+def test_a_trip_folder_without_its_accelerometer_says_what_is_missing(tmp_path):
+    folder = _trip(tmp_path)
+    (folder / "acelerometro_terra.csv").unlink()
+    with pytest.raises(UnknownFormatError, match=r"without acelerometro_terra\.csv.*no sensor file at all"):
+        detect_format(folder)
+    (folder / "giroscopio_terra.csv").write_text(HEADER + "\n" + "\n".join(_rows(5)) + "\n")
+    with pytest.raises(UnknownFormatError, match=r"without acelerometro_terra\.csv.*\(it has giroscopio_terra\.csv\)"):
+        detect_format(folder)
+    (folder / "acelerometro_terra.csv").write_text("time,x,y,z\n1,0,0,9.8\n")
+    with pytest.raises(UnknownFormatError, match=r"does not start with the header timestamp,uptimeNanos,x,y,z"):
+        detect_format(folder)
+    # A folder without viagem.json is nobody's near miss: the generic message.
+    (folder / "viagem.json").unlink()
+    with pytest.raises(UnknownFormatError, match="not a supported log format"):
+        detect_format(folder)
+
+
+@pytest.mark.data
+def test_trip_16_of_the_shared_data_names_its_missing_sensor_files():
+    with pytest.raises(UnknownFormatError, match="trip folder .* without acelerometro_terra.csv"):
+        detect_format(data_path("driving_phone_mount", "16"))
