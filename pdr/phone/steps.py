@@ -85,6 +85,15 @@ together by the walk's periodicity (the first two on by default, the third off, 
   filled; that walk's causal p75 3.61 -> 2.67 m, smoothed 2.36 -> 2.51 m). On by default: that one step's 0.02 m of
   smoothed p75 against the counts of slow held walks nearer their truth; the motion-capture walking direction is
   unchanged by the added texting steps (361 -> 384 steps, causal mean 16.3 deg either way, ``pdr eval heading``).
+  Before the first confirmed walk guard (1) has no tilt to compare with; a walker who reads while walking from the
+  moment the recording starts then got no step until the ordinary rules confirmed a walk (Guillaume Dist: none in
+  the first 65 s, about 65 true steps). There the held rules judge a candidate only if every one of its starts was a
+  held one (``_held_run``: consecutive starts decided at a steady tilt, periodic, the long axis across the vertical),
+  and it needs the ordinary ``min_bout_steps`` starts, not ``held_min_bout_steps``: handling before a walk is not
+  periodic at a steady tilt, and the double crossings of a walk's first steps come before the held-phone gate opens
+  (it starts closed). Guillaume Dist 57 -> 76 steps (39 -> 51 matched) of 131; the 333 other recordings of
+  ``tools/walking_steps.py ../shared/data`` (Oxford, MobiFall walking and not walking, sensor_logger_walks, IPIN, MS,
+  the other motion-capture walks) give the same steps.
 * Slow walker's missed steps (``slow_missed_steps``): at 0.9 s steps one missed step leaves a gap longer than
   ``max_step_s``, which must not end the walk; a confirmed bout whose shortest missed-step gap
   (``min_missed_ratio`` strides) exceeds ``max_step_s`` infers the step in a gap of up to ``max_missed_ratio``
@@ -698,11 +707,15 @@ class StepDetector:
         self._walk_peak = 0.0                   # and its median peak (m/s^2)
         self._held_rules = replace(c, min_bout_steps=c.held_min_bout_steps,
                                    bout_spread=c.held_bout_spread, step_spread=c.held_step_spread)
+        self._held_first_rules = replace(self._held_rules, min_bout_steps=c.min_bout_steps)
+        self._held_run = 0
 
     @property
     def _rules(self) -> StepConfig:
         """The bout rules of the last start: the held walk's or the configured ones."""
-        return self._held_rules if self._held_mode else self.config
+        if not self._held_mode:
+            return self.config
+        return self._held_first_rules if self._walk_up is None else self._held_rules
 
     # -- state -------------------------------------------------------------------------------------
     @property
@@ -724,6 +737,7 @@ class StepDetector:
                 "short": [[list(r) for r in run] for run in self._short], "soft": [list(b) for b in self._soft],
                 "lone": [[list(r) for r in run] for run in self._lone], "walk_end": self._walk_end,
                 "walked": None if self._walked is None else list(self._walked), "held_mode": self._held_mode,
+                "held_run": self._held_run,
                 "walk_up": None if self._walk_up is None else list(self._walk_up), "walk_peak": self._walk_peak}
 
     @classmethod
@@ -753,6 +767,7 @@ class StepDetector:
             det._held = [(int(s), int(e), float(p), bool(h), float(r)) for s, e, p, h, r in d["held"]]
             det._n_seen = int(d["n_seen"])
             det._held_mode = bool(d.get("held_mode", False))   # absent in states saved before held walks
+            det._held_run = int(d.get("held_run", 0))          # absent in states saved before held first walks
             up = d.get("walk_up")
             det._walk_up = None if up is None else (float(up[0]), float(up[1]), float(up[2]))
             det._walk_peak = float(d.get("walk_peak", 0.0))
@@ -946,11 +961,11 @@ class StepDetector:
         (module docstring, held walk): its long axis (y) more than ``held_min_axis_tilt_deg`` from the vertical, and
         ``g`` within ``handling_angle_deg`` of its direction at the latest start of a confirmed walk.
         """
-        if self._walk_up is None:
-            return False
         g_norm = float(np.linalg.norm(g))
         if not g_norm > 0.0 or abs(float(g[1])) / g_norm >= math.cos(math.radians(self.config.held_min_axis_tilt_deg)):
             return False
+        if self._walk_up is None:
+            return True
         w = np.asarray(self._walk_up, dtype=np.float64)
         n = g_norm * float(np.linalg.norm(w))
         cos = max(-1.0, min(1.0, float(g @ w) / n)) if n > 0.0 else -1.0
@@ -1227,9 +1242,12 @@ class StepDetector:
             k = at - n0
             # Held walk (module docstring): this start's bout rules are the held phone's while it holds its tilt and
             # the signal repeats at a stride.
-            self._held_mode = bool(c.held_walks and steady[k] and corr >= c.steady_min_corr
-                                   and self._held_in_front(grav[k])
-                                   and p >= c.short_bout_peak_ratio * self._walk_peak)
+            held = bool(c.held_walks and steady[k] and corr >= c.steady_min_corr
+                        and self._held_in_front(grav[k])
+                        and p >= c.short_bout_peak_ratio * self._walk_peak)
+            self._held_run = self._held_run + 1 if held and not soft else (self._held_run if soft else 0)
+            # Before the first walk, the held rules judge only a candidate all of whose starts were held ones.
+            self._held_mode = held and (self._walk_up is not None or self._held_run > len(self._bout))
             max_step = int(round(self._rules.max_step_s * fs))
             row: _Start = (s, p, at, float(energy[k]), float(grav[k, 0]), float(grav[k, 1]), float(grav[k, 2]))
             if soft:

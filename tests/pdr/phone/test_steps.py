@@ -734,6 +734,38 @@ def test_real_slow_texting_walk_is_counted_as_a_held_walk():
 
 
 @pytest.mark.data
+def test_a_held_walk_from_the_recordings_start_is_counted():
+    # Guillaume_Nexus5_Dist_Texting: the walker reads while walking from the start. Before any confirmed walk the
+    # held walk's rules did not apply, and the first 65 s (about 65 true steps) gave no step. Now they judge a
+    # candidate all of whose starts were held ones (at a steady tilt, periodic, the long axis across the vertical),
+    # with the ordinary number of starts: 57 -> 76 steps for 131 in the motion capture, 39 -> 51 paired with one.
+    from pdr.evaluation.mocap_steps import matched_steps, mocap_step_times, mocap_trajectory
+    from pdr.io import read_recording
+    from pdr.phone.pipeline import PipelineConfig
+    tool = load_tool("walking_steps")
+    rec = read_recording(data_path("attitude_smartphones", "android", "Guillaume_Nexus5_Dist_Texting"))
+    trajectory = mocap_trajectory(rec)
+    assert trajectory is not None
+    truth = mocap_step_times(*trajectory)
+    times, _ = tool.pipeline_step_times(rec, StepConfig(), PipelineConfig().rate_hz)
+    hits, _ = matched_steps(times, truth)
+    first_minute = truth[truth < truth[0] + 60.0]
+    assert np.sum(times < first_minute[-1]) >= 0.2 * first_minute.size       # main: none
+    assert hits >= 0.35 * truth.size and times.size <= truth.size
+    # The same steps in random chunks with state round trips (the count of held starts is in the state).
+    _, acc = tool.grid_acc(rec, PipelineConfig().rate_hz)
+    one = StepDetector(PipelineConfig().rate_hz).update(acc, final=True)[0].start_idx
+    rng = np.random.default_rng(3)
+    det, got, i = StepDetector(PipelineConfig().rate_hz), [], 0
+    while i < len(acc):
+        k = int(rng.integers(50, 2000))
+        det = StepDetector.from_state(json.loads(json.dumps(det.state())))
+        got.append(det.update(acc[i:i + k], final=i + k >= len(acc))[0].start_idx)
+        i += k
+    assert np.array_equal(np.concatenate(got), one)
+
+
+@pytest.mark.data
 def test_held_walk_rules_stay_out_of_a_back_pocket():
     # Guillaume_Nexus5_NoDist_BackPocket: the phone holds a steady tilt in the pocket too, and the held walk's rules
     # added 25 steps there (172 -> 197 for 157 motion-capture steps). A phone whose long axis is near the vertical is
