@@ -5,6 +5,7 @@ truth (landmarks, waypoints, step counts), beside the phone's own attitude and a
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import math
 import re
@@ -855,6 +856,38 @@ _STEP_LOG_FILES = ("accelerometer.csv", "accelerometer.csv.gz", "Accelerometer.c
                    "accelerometer.txt", "accelerometer.txt.gz", "*_acc_*.txt", "*_acc_*.txt.gz")
 
 
+def _distinct_logs(logs: list[Path]) -> tuple[list[Path], dict[str, str]]:
+    """``logs`` less every log whose content is byte-identical to an earlier one's, and {left out: kept} by name: a
+    dataset that ships one recording under two names (``../shared/data/sensor_logger_walks``: ``inhand-30-steps-Zyf``
+    and ``texting-30-steps-Zyf``) would count it twice.
+    """
+    kept: dict[str, Path] = {}
+    out: list[Path] = []
+    identical: dict[str, str] = {}
+    for log in logs:
+        key = _content_digest(log)
+        if key in kept:
+            identical[log.name] = kept[key].name
+        else:
+            kept[key] = log
+            out.append(log)
+    return out, identical
+
+
+def _content_digest(log: Path) -> str:
+    """SHA-256 of a log's content: a file's bytes, or a folder's files (relative names and bytes, in name order)."""
+    h = hashlib.sha256()
+    files = sorted(f for f in log.rglob("*") if f.is_file()) if log.is_dir() else [log]
+    for f in files:
+        h.update(f.relative_to(log).as_posix().encode() if log.is_dir() else b"")
+        h.update(b"\0")
+        with f.open("rb") as fh:
+            for block in iter(lambda: fh.read(1 << 20), b""):
+                h.update(block)
+        h.update(b"\0")
+    return h.hexdigest()
+
+
 def _step_log(f: Path) -> Path:
     """The log ``pdr eval steps`` reads for one of :data:`_STEP_LOG_FILES`: the file when it is a log of its own (a
     MobiFall trial's acc file, :func:`pdr.io.mobifall.sniff`), else its folder.
@@ -921,7 +954,8 @@ def eval_steps(args: argparse.Namespace) -> int:
     steps that pair with them). MobiFall trials count no steps: their counts are printed per activity, with no error.
     """
     step = _step_config(args.step)
-    logs = sorted({_step_log(p) for p in _files(args.dir, _STEP_LOG_FILES, log_of=_step_log)})
+    logs, identical = _distinct_logs(sorted({_step_log(p) for p in _files(args.dir, _STEP_LOG_FILES,
+                                                                           log_of=_step_log)}))
     if args.limit:
         logs = logs[:args.limit]
     per: list[dict[str, Any]] = []
@@ -1011,6 +1045,8 @@ def eval_steps(args: argparse.Namespace) -> int:
     no_truth = _no_truth_summary(per)
     if no_truth:
         summary["no_step_truth"] = no_truth
+    if identical:
+        summary["left_out_identical"] = identical
 
     def lines() -> Iterator[str]:
         for p in per:
@@ -1052,6 +1088,9 @@ def eval_steps(args: argparse.Namespace) -> int:
             yield "pocket/hand/bag/armband, against the filled truth: " + _unmatched_text(unmatched)
         if no_truth:
             yield from _no_truth_lines(no_truth)
+        if identical:
+            yield ("left out, byte-identical to another log (counted once): "
+                   + ", ".join(f"{dup} (= {orig})" for dup, orig in identical.items()))
     _emit(summary, per, args.json, lines())
     return 0
 

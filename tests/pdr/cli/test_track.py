@@ -281,9 +281,11 @@ def test_steps_eval_on_sensor_logger_walks_with_plain_detector_beside(capsys):
     # low-pass + find_peaks count printed beside it.
     root = data_path("sensor_logger_walks")
     assert main(["eval", "steps", str(root), "--json"]) == 0
-    files = {r["walk"]: r for r in json.loads(capsys.readouterr().out)["files"]}
-    assert set(files) == {"inhand-20-steps-Zyf", "inhand-30-steps-Zyf", "texting-30-steps-Zyf",
-                          "inpocket-27-steps-Matan"}
+    res = json.loads(capsys.readouterr().out)
+    files = {r["walk"]: r for r in res["files"]}
+    # texting-30-steps-Zyf is a byte-identical copy of inhand-30-steps-Zyf (every file): counted once, named.
+    assert set(files) == {"inhand-20-steps-Zyf", "inhand-30-steps-Zyf", "inpocket-27-steps-Matan"}
+    assert res["overall"]["left_out_identical"] == {"texting-30-steps-Zyf": "inhand-30-steps-Zyf"}
     for name, r in files.items():
         assert "error" not in r, r
         assert r["true"] == int(name.split("-")[1])
@@ -443,3 +445,20 @@ def test_steps_eval_on_every_mocap_walk_of_attitude_smartphones(capsys):
     for carriage in ("FrontPocket", "BackPocket", "Swinging", "Texting", "RunningPocket"):
         assert any(t.startswith(f"{carriage}: ") and "true steps matched" in t for t in text)
     assert text[-1].startswith("ALL: mean |error|") and "motion-capture truth" in text[-1]
+
+
+def test_eval_steps_counts_a_log_shipped_twice_once(tmp_path):
+    from pdr.cli.eval_walks import _distinct_logs
+    for name, extra in (("a-walk", b""), ("b-copy", b""), ("c-other", b"1")):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "Accelerometer.csv").write_bytes(b"time,x\n0,1\n" + extra)
+        (tmp_path / name / "Metadata.csv").write_bytes(b"version\n3\n")
+    (tmp_path / "d.txt").write_bytes(b"same")
+    (tmp_path / "e.txt").write_bytes(b"same")
+    logs = sorted(tmp_path.iterdir())
+    kept, identical = _distinct_logs(logs)
+    assert [p.name for p in kept] == ["a-walk", "c-other", "d.txt"]
+    assert identical == {"b-copy": "a-walk", "e.txt": "d.txt"}
+    # A file renamed inside a folder is another log (the names are part of a folder's content).
+    (tmp_path / "b-copy" / "Metadata.csv").rename(tmp_path / "b-copy" / "Meta.csv")
+    assert _distinct_logs(logs)[1] == {"e.txt": "d.txt"}
