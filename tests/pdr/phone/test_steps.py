@@ -709,6 +709,16 @@ def test_real_texting_walks_keep_their_steps():
     assert matched >= 0.5 * true
 
 
+def _mocap_walk(name: str):
+    """A motion-capture recording of ``../shared/data/attitude_smartphones`` and its true step times (s)."""
+    from pdr.evaluation.mocap_steps import mocap_step_times, mocap_trajectory
+    from pdr.io import read_recording
+    rec = read_recording(data_path("attitude_smartphones", "android", name))
+    trajectory = mocap_trajectory(rec)
+    assert trajectory is not None
+    return rec, mocap_step_times(*trajectory)
+
+
 @pytest.mark.data
 def test_real_slow_texting_walk_is_counted_as_a_held_walk():
     # Guillaume_Nexus5_NoDist_Texting: a slow reader (0.7-1.2 s steps) whose starts are too irregular for the bout
@@ -716,14 +726,10 @@ def test_real_slow_texting_walk_is_counted_as_a_held_walk():
     # steps for 134 in the motion capture), with no more steps than true and no fewer paired with a true step (73 ->
     # 76: few of the added starts fall within 0.3 s of a true step after the walk's median lag). Off (the default),
     # the detector is as before.
-    from pdr.evaluation.mocap_steps import matched_steps, mocap_step_times, mocap_trajectory
-    from pdr.io import read_recording
+    from pdr.evaluation.mocap_steps import matched_steps
     from pdr.phone.pipeline import PipelineConfig
     tool = load_tool("walking_steps")
-    rec = read_recording(data_path("attitude_smartphones", "android", "Guillaume_Nexus5_NoDist_Texting"))
-    trajectory = mocap_trajectory(rec)
-    assert trajectory is not None
-    truth = mocap_step_times(*trajectory)
+    rec, truth = _mocap_walk("Guillaume_Nexus5_NoDist_Texting")
     hits, counts = {}, {}
     for on in (False, True):
         times, _ = tool.pipeline_step_times(rec, StepConfig(held_walks=on), PipelineConfig().rate_hz)
@@ -739,14 +745,10 @@ def test_a_held_walk_from_the_recordings_start_is_counted():
     # held walk's rules did not apply, and the first 65 s (about 65 true steps) gave no step. Now they judge a
     # candidate all of whose starts were held ones (at a steady tilt, periodic, the long axis across the vertical),
     # with the ordinary number of starts: 57 -> 76 steps for 131 in the motion capture, 39 -> 51 paired with one.
-    from pdr.evaluation.mocap_steps import matched_steps, mocap_step_times, mocap_trajectory
-    from pdr.io import read_recording
+    from pdr.evaluation.mocap_steps import matched_steps
     from pdr.phone.pipeline import PipelineConfig
     tool = load_tool("walking_steps")
-    rec = read_recording(data_path("attitude_smartphones", "android", "Guillaume_Nexus5_Dist_Texting"))
-    trajectory = mocap_trajectory(rec)
-    assert trajectory is not None
-    truth = mocap_step_times(*trajectory)
+    rec, truth = _mocap_walk("Guillaume_Nexus5_Dist_Texting")
     times, _ = tool.pipeline_step_times(rec, StepConfig(), PipelineConfig().rate_hz)
     hits, _ = matched_steps(times, truth)
     first_minute = truth[truth < truth[0] + 60.0]
