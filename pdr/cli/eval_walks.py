@@ -562,12 +562,7 @@ def eval_ms(args: argparse.Namespace) -> int:
     ours_ref: list[np.ndarray] = []         # ours on the traces that have a reference
     ref_errs: list[np.ndarray] = []
     by_floor: dict[str, dict[str, list[np.ndarray]]] = {}
-    for f in progress.each(files, "eval ms"):
-        try:
-            rec = read_recording(f)
-        except InputError as exc:
-            per.append({"file": f.name, "error": str(exc)})
-            continue
+    for f, rec in progress.each_recording(files, "eval ms", per):
         pt = rec.truth.positions
         if pt is None or len(pt) < 3:
             continue
@@ -962,12 +957,7 @@ def eval_steps(args: argparse.Namespace) -> int:
     by_place: dict[str, list[float]] = {}
     by_place_bf: dict[str, list[float]] = {}
     by_place_alt: dict[str, list[float]] = {}
-    for d in progress.each(logs, "eval steps"):
-        try:
-            rec = read_recording(d)
-        except InputError as exc:
-            per.append({"walk": d.name, "error": str(exc)})
-            continue
+    for d, rec in progress.each_recording(logs, "eval steps", per, key="walk"):
         true = rec.truth.step_count
         named = _STEPS_IN_NAME.match(d.name)
         if true is None and named:

@@ -417,18 +417,11 @@ def eval_xio(d: Path, args: argparse.Namespace, tracks: Path | None, method: str
 
 def eval_gcp(d: Path, args: argparse.Namespace, tracks: Path | None, method: str) -> dict[str, Any]:
     """Per-stride errors at the footprint ground-control points and the final error in % of distance."""
-    from pdr.io import read_recording
-
     rows: list[dict[str, Any]] = []
     files = sorted((d / "own").glob("*.csv")) if (d / "own").is_dir() else sorted(d.glob("*.csv"))
     if args.limit:
         files = files[: args.limit]
-    for f in progress.each(files, "eval foot"):
-        try:
-            rec = read_recording(f)
-        except InputError as exc:
-            rows.append({"file": f.name, "error": str(exc)})
-            continue
+    for f, rec in progress.each_recording(files, "eval foot", rows):
         truth = rec.truth.positions
         if truth is None or truth.kind != "stride" or len(truth) < 2:
             continue

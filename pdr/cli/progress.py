@@ -13,13 +13,16 @@ from __future__ import annotations
 import io
 import sys
 import time
-from collections.abc import Iterable, Iterator, Sized
+from collections.abc import Iterable, Iterator, Sequence, Sized
+from pathlib import Path
 from types import TracebackType
-from typing import TYPE_CHECKING, TextIO, TypeVar
+from typing import TYPE_CHECKING, Any, TextIO, TypeVar
 
 if TYPE_CHECKING:
     from rich.progress import Progress as RichProgress
     from rich.progress import TaskID
+
+    from pdr.recording import Recording
 
 T = TypeVar("T")
 
@@ -162,3 +165,20 @@ def each(items: Iterable[T], label: str, total: int | None = None, name: bool = 
                 bar.set_note(str(getattr(item, "name", item)))
             yield item
             bar.advance()
+
+
+def each_recording(paths: Sequence[Path], label: str, rows: list[dict[str, Any]], key: str = "file"
+                   ) -> Iterator[tuple[Path, Recording]]:
+    """Yield each readable log of ``paths`` with its recording while a :class:`Progress` counts them; a log that
+    cannot be read (:class:`pdr.errors.InputError`) becomes the row ``{key: its name, "error": why}`` in ``rows``
+    (the evaluations' per-file output) and the loop goes on.
+    """
+    from pdr.errors import InputError
+    from pdr.io import read_recording
+    for path in each(paths, label):
+        try:
+            rec = read_recording(path)
+        except InputError as exc:
+            rows.append({key: path.name, "error": str(exc)})
+            continue
+        yield path, rec

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pdr.evaluation.scoring import distance_ratio, distance_ratio_same_floor
+from pdr.evaluation.scoring import distance_ratio, distance_ratio_same_floor, straight_legs
 from pdr.frames import heading_deg_to_yaw
 from pdr.phone.track import redo_steps
 
@@ -50,15 +50,10 @@ def leg_headings(t_steps: FloatArray, t_truth: FloatArray, en_truth: FloatArray,
     A step belongs to the leg ``(t_truth[i], t_truth[i + 1]]``.
     """
     t = np.asarray(t_steps, dtype=np.float64)
-    tt = np.asarray(t_truth, dtype=np.float64)
-    en = np.asarray(en_truth, dtype=np.float64)[:, :2]
     out = np.full(t.size, np.nan)
-    leg = np.searchsorted(tt, t, side="left") - 1          # step in (tt[leg], tt[leg + 1]]
-    for i in range(tt.size - 1):
-        d = en[i + 1] - en[i]
-        same_floor = floors is None or floors[i] == floors[i + 1]
-        if same_floor and float(np.hypot(*d)) >= min_leg_m:
-            out[leg == i] = float(np.degrees(np.arctan2(d[0], d[1])))
+    leg = np.searchsorted(np.asarray(t_truth, dtype=np.float64), t, side="left") - 1   # step in (tt[leg], tt[leg + 1]]
+    for i, bearing, _ in straight_legs(en_truth, floors, min_leg_m):
+        out[leg == i] = bearing
     return out
 
 

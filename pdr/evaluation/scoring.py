@@ -63,31 +63,43 @@ def landmark_errors(track_t: FloatArray, track_en: FloatArray, truth_t: FloatArr
     return np.asarray(np.linalg.norm(est[1:] - gt[1:], axis=1))
 
 
+def straight_legs(truth_en: FloatArray, floors: FloatArray | None = None, min_leg_m: float = 3.0
+                  ) -> list[tuple[int, float, float]]:
+    """The legs of a landmark truth: ``(i, bearing_deg, length_m)`` for each pair of consecutive landmarks ``i``,
+    ``i + 1`` (``truth_en`` (L, 2+) east/north, m) on one floor (``floors`` (L,), or None) at least ``min_leg_m``
+    apart; the bearing of the straight line between them in (-180, 180] deg clockwise from north.
+    """
+    en = np.asarray(truth_en, dtype=np.float64)[:, :2]
+    legs = []
+    for i in range(en.shape[0] - 1):
+        d = en[i + 1] - en[i]
+        length = float(np.hypot(*d))
+        if length >= min_leg_m and (floors is None or floors[i] == floors[i + 1]):
+            legs.append((i, float(np.degrees(np.arctan2(d[0], d[1]))), length))
+    return legs
+
+
 def leg_direction_errors(track_t: FloatArray, track_en: FloatArray, truth_t: FloatArray, truth_en: FloatArray,
                          floors: FloatArray | None = None, min_leg_m: float = 3.0) -> list[dict[str, float]]:
-    """Per leg of the landmark truth: how far the track's direction over the leg is from the true one.
+    """Per leg of the landmark truth (:func:`straight_legs`): how far the track's direction over the leg is from the
+    true one.
 
-    A leg joins two consecutive landmarks on one floor (``floors`` (L,), or None) at least ``min_leg_m`` apart.
     Per leg: its start and end times ``t0_s``/``t1_s`` (the track's clock), length ``length_m``, the true bearing
-    ``true_deg`` (clockwise from north) of the straight line, and ``error_deg``: the bearing of the track's
-    displacement between the two landmark times less the true one, in [-180, 180) (positive: the track walked
-    clockwise of the truth). This is the heading part of the landmark error, leg by leg, free of the errors
+    ``true_deg`` in [0, 360) (clockwise from north) of the straight line, and ``error_deg``: the bearing of the
+    track's displacement between the two landmark times less the true one, in [-180, 180) (positive: the track
+    walked clockwise of the truth). This is the heading part of the landmark error, leg by leg, free of the errors
     accumulated before the leg.
     """
     tt = np.asarray(truth_t, dtype=np.float64)
-    gt = np.asarray(truth_en, dtype=np.float64)[:, :2]
     est = _interp(np.asarray(track_t, dtype=np.float64), np.asarray(track_en, dtype=np.float64)[:, :2], tt)
-    legs: list[dict[str, float]] = []
-    for i in range(tt.size - 1):
-        d_true, d_est = gt[i + 1] - gt[i], est[i + 1] - est[i]
-        length = float(np.hypot(*d_true))
-        if length < min_leg_m or (floors is not None and floors[i] != floors[i + 1]):
-            continue
-        true_deg = math.degrees(math.atan2(d_true[0], d_true[1])) % 360.0
+    out: list[dict[str, float]] = []
+    for i, bearing, length in straight_legs(truth_en, floors, min_leg_m):
+        d_est = est[i + 1] - est[i]
+        true_deg = bearing % 360.0
         est_deg = math.degrees(math.atan2(d_est[0], d_est[1]))
-        legs.append({"t0_s": float(tt[i]), "t1_s": float(tt[i + 1]), "length_m": length, "true_deg": true_deg,
-                     "error_deg": (est_deg - true_deg + 180.0) % 360.0 - 180.0})
-    return legs
+        out.append({"t0_s": float(tt[i]), "t1_s": float(tt[i + 1]), "length_m": length, "true_deg": true_deg,
+                    "error_deg": (est_deg - true_deg + 180.0) % 360.0 - 180.0})
+    return out
 
 
 def waypoint_errors(track_t: FloatArray, track_xy: FloatArray, truth_t: FloatArray, truth_xy: FloatArray,

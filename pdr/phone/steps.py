@@ -1245,7 +1245,8 @@ class StepDetector:
             held = bool(c.held_walks and steady[k] and corr >= c.steady_min_corr
                         and self._held_in_front(grav[k])
                         and p >= c.short_bout_peak_ratio * self._walk_peak)
-            self._held_run = self._held_run + 1 if held and not soft else (self._held_run if soft else 0)
+            if not soft:                        # consecutive held starts (a soft start is not in the bout)
+                self._held_run = self._held_run + 1 if held else 0
             # Before the first walk, the held rules judge only a candidate all of whose starts were held ones.
             self._held_mode = held and (self._walk_up is not None or self._held_run > len(self._bout))
             max_step = int(round(self._rules.max_step_s * fs))
