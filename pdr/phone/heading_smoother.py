@@ -94,6 +94,18 @@ Turns (the model without long straight legs)
     line reports ``delta`` and its standard deviation: a lag many standard deviations from zero says that the
     straight-leg model would not have held.
 
+Limbs (the gyro yaw over a stride)
+    A phone in a trouser pocket or a swinging hand turns about the vertical with the limb, forth and back once per
+    stride, and ``g_k`` is its mean over one step: half a stride, the forward swing on one step and the backward
+    swing on the next. So ``g_k`` alternates from step to step about the direction of the stride, by up to tens of
+    degrees in a swinging hand, while the measured direction ``m_k`` is read from the limb's motion over a whole
+    stride and does not. For these placements the smoother takes, per step, the gyro yaw over the stride centred
+    on it (:func:`stride_mean_yaw`): the step itself and the neighbouring halves of the steps before and after, in
+    which the limb's swing cancels. A hand-held or torso phone's yaw and its measured device heading swing
+    together, so there ``g_k`` is kept: averaging only ``g`` would put the swing into ``m - g``. Smoothed mean error
+    on the motion-capture benchmark (``pdr eval heading``, all recordings, automatic placement): 11.54 -> 11.12
+    deg; swinging hand 19.2, 23.6, 27.9, 20.3 -> 18.9, 23.6, 28.5, 16.3 deg.
+
 Track
     Positions are re-integrated with the causal step lengths,
     ``p_k = p_k^causal + sum_j L_j (u(psi_j) - u(psi_j^causal))`` over the steps since the last position fix (a site
@@ -126,7 +138,7 @@ from typing import Any
 
 import numpy as np
 from numba import njit
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from pdr.chi_square import chi2_quantile
 from pdr.errors import InputError
@@ -141,6 +153,8 @@ FloatArray = NDArray[np.float64]
 #: trouser pocket and swinging hand (the step heading is the walking direction from the thigh's or arm's motion;
 #: the phone's yaw keeps a fixed offset to it while it stays in the pocket or the hand's grip).
 SMOOTHED_PLACEMENTS = ("hand", "torso", "pocket", "swinging")
+#: Placements whose phone rides a limb, its yaw swinging with the limb once per stride (module doc "Limbs").
+LIMB_PLACEMENTS = ("pocket", "swinging")
 
 
 @dataclass(frozen=True)
@@ -272,6 +286,31 @@ def _offset_measurements(t_s: FloatArray, gyro_yaw: FloatArray, meas_yaw: FloatA
     after = csum[np.minimum(k + window, t.size)] - csum[k]
     jump[1:] = np.abs(np.angle(after * np.conj(before))) > math.radians(jump_deg)
     return t, z, jump
+
+
+def stride_mean_yaw(t_start_s: ArrayLike, t_end_s: ArrayLike, yaw: ArrayLike, limb: ArrayLike) -> FloatArray:
+    """(N,) each step's yaw over the stride centred on it (rad, unwrapped; module doc "Limbs").
+
+    ``t_start_s``, ``t_end_s`` (s) bound each step, ``yaw`` (rad) is a step's mean yaw, ``limb`` marks the steps to
+    average. A marked step whose neighbours are both marked and adjacent (each begins within its own duration of the
+    other's end: no stop between them) gets the mean of the three over the stride from the middle of the step before
+    to the middle of the step after, each weighted by its share of that stride (1/4, 1/2, 1/4 for equal steps); any
+    other step keeps its own yaw.
+    """
+    y = np.unwrap(np.asarray(yaw, dtype=np.float64))
+    t0 = np.asarray(t_start_s, dtype=np.float64)
+    t1 = np.asarray(t_end_s, dtype=np.float64)
+    out = y.copy()
+    if y.size < 3:
+        return out
+    limb = np.asarray(limb, dtype=bool)
+    dur = t1 - t0
+    gap = t0[1:] - t1[:-1]                          # gap[k]: from the end of step k to the start of step k + 1
+    adjacent = (gap < dur[1:]) & (gap < dur[:-1])
+    mid = np.flatnonzero(limb[1:-1] & limb[:-2] & limb[2:] & adjacent[:-1] & adjacent[1:]) + 1
+    w = np.column_stack([0.5 * dur[mid - 1], dur[mid], 0.5 * dur[mid + 1]])
+    out[mid] = np.sum(w * np.column_stack([y[mid - 1], y[mid], y[mid + 1]]), axis=1) / np.sum(w, axis=1)
+    return out
 
 
 def turn_rate(t_s: FloatArray, gyro_yaw: FloatArray) -> FloatArray:
@@ -526,6 +565,9 @@ def smooth_track(steps: list[dict[str, Any]], config: HeadingSmootherConfig | No
                 bias_sigma = c.bias_sigma_deg
                 notes.append(f"the stationary gyro bias estimate disagrees with the magnetometer (likelihood ratio "
                              f"{lr:.1f}): the bias is learnt from the magnetometer")
+    limb = np.array([s.get("placement") in LIMB_PLACEMENTS for s in out])
+    if limb.any():
+        gyro = stride_mean_yaw(np.array([s.get("t_start_s", s["t_s"]) for s in out], dtype=np.float64), t, gyro, limb)
     check = check_model(t, gyro, raw, sigma, c, bias_sigma)
     dof = check.dof / per_deflection
     bound = chi2_quantile(1.0 - c.consistency_p, max(dof, 1.0))

@@ -17,6 +17,7 @@ from pdr.phone.heading_smoother import (
     check_model,
     smooth_offsets,
     smooth_track,
+    stride_mean_yaw,
     turn_rate,
 )
 from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
@@ -482,3 +483,62 @@ def test_the_summary_says_when_the_walk_is_not_a_straight_leg_walk():
     assert "straight-leg" not in str(smooth_track(rows)[1])
     t, _, gyro, mag = route(0)
     assert "straight-leg" not in str(smooth_track(_steps(mag, mag, gyro))[1])
+
+
+def test_the_stride_mean_cancels_a_limbs_swing_and_keeps_a_steady_turn():
+    # Equal 0.5-s steps: a yaw alternating by +/-0.4 rad about a steady turn (the limb's swing, forth on one step and
+    # back on the next) becomes the turn itself; a steady turn alone is unchanged; the ends keep their own values.
+    n = 12
+    t0 = np.arange(n) * 0.5
+    t1 = t0 + 0.5
+    turn = 0.05 * np.arange(n)
+    swing = 0.4 * (-1.0) ** np.arange(n)
+    limb = np.ones(n, dtype=bool)
+    out = stride_mean_yaw(t0, t1, turn + swing, limb)
+    np.testing.assert_allclose(out[1:-1], turn[1:-1], atol=1e-12)
+    np.testing.assert_allclose(out[[0, -1]], (turn + swing)[[0, -1]])
+    np.testing.assert_allclose(stride_mean_yaw(t0, t1, turn, limb), turn, atol=1e-12)
+
+
+def test_the_stride_mean_keeps_held_phones_stops_and_wraps_across_north():
+    n = 8
+    t0 = np.arange(n) * 0.5
+    t1 = t0 + 0.5
+    yaw = np.asarray(wrap_angle(math.pi - 0.01 + 0.3 * (-1.0) ** np.arange(n)), dtype=np.float64)
+    held = np.zeros(n, dtype=bool)
+    np.testing.assert_allclose(stride_mean_yaw(t0, t1, yaw, held), np.unwrap(yaw))
+    # Averaged across north: the swing about 179.4 deg cancels in the unwrapped yaw.
+    limb = np.ones(n, dtype=bool)
+    out = stride_mean_yaw(t0, t1, yaw, limb)
+    np.testing.assert_allclose(np.asarray(wrap_angle(out[1:-1] - (math.pi - 0.01))), 0.0, atol=1e-12)
+    # A 5-s stop after step 3: steps 3 and 4 have no neighbour on that side and keep their own yaw.
+    t0s, t1s = t0.copy(), t1.copy()
+    t0s[4:] += 5.0
+    t1s[4:] += 5.0
+    stopped = stride_mean_yaw(t0s, t1s, yaw, limb)
+    np.testing.assert_allclose(stopped[[3, 4]], np.unwrap(yaw)[[3, 4]])
+    np.testing.assert_allclose(stopped[[1, 2, 5, 6]], out[[1, 2, 5, 6]])
+
+
+def test_a_swinging_phones_alternating_yaw_does_not_reach_the_smoothed_heading():
+    # Simulate-then-recover on step rows: a straight-then-turning walk with the phone swinging in the hand, its
+    # per-step gyro yaw alternating by +/-25 deg about the walking direction, the measured (stride) direction right.
+    n = 120
+    t0 = np.arange(n) * 0.55
+    truth = np.where(np.arange(n) < 60, 0.3, 0.3 + 0.04 * (np.arange(n) - 60))
+    gyro = truth + 1.0 + math.radians(25) * (-1.0) ** np.arange(n)
+    rows = [{"t_s": float(t0[k] + 0.55), "t_start_s": float(t0[k]), "placement": "swinging",
+             "gyro_heading_deg": float(yaw_to_heading_deg(gyro[k])),
+             "heading_raw_deg": float(yaw_to_heading_deg(truth[k])),
+             "heading_deg": float(yaw_to_heading_deg(truth[k])), "heading_sigma_deg": 30.0, "step_length_m": 0.7,
+             "east_m": 0.0, "north_m": 0.0} for k in range(n)]
+    out, _ = smooth_track(rows)
+    err = np.degrees(np.abs(wrap_angle(heading_deg_to_yaw(np.array([s["heading_deg"] for s in out])) - truth)))
+    assert err[1:-1].max() < 2.0
+    # A hand-held phone's device heading swings with its yaw, so its gyro yaw is taken step by step.
+    held = [{**r, "placement": "hand", "heading_raw_deg": float(yaw_to_heading_deg(gyro[k] - 1.0))}
+            for k, r in enumerate(rows)]
+    out_held, _ = smooth_track(held)
+    err_held = np.degrees(np.abs(wrap_angle(heading_deg_to_yaw(np.array([s["heading_deg"] for s in out_held]))
+                                            - (gyro - 1.0))))
+    assert err_held.max() < 1.0
