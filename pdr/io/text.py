@@ -108,7 +108,7 @@ MAX_EXACT_ROWS = 64
 class Lines:
     """The lines of an ASCII text as byte offsets, for readers that classify and parse lines with array operations.
 
-    ``buf`` holds a LF, the text (CR LF made LF) and a LF; line ``i`` (0-based) is
+    ``buf`` holds the text (CR LF made LF), a LF ending its last line; line ``i`` (0-based) is
     ``buf[start[i]:start[i] + length[i]]``: these are the lines :meth:`str.splitlines` finds in the decoded text.
     """
 
@@ -120,14 +120,18 @@ class Lines:
         """The first four bytes of every line as a little-endian uint32 (bytes past a line's end zero) and the
         fifth byte (zero past the end): a record tag and its separator, compared with one integer per line.
         """
-        padded = np.concatenate([self.buf, np.zeros(8, np.uint8)])
-        words = np.ndarray((padded.size - 3,), dtype="<u4", buffer=padded, strides=(1,))
-        code = words[self.start]
+        # Unaligned little-endian words read in place: a padded copy of a long text costs more than its lines' tags.
+        n = self.buf.size
+        words = np.ndarray((max(n - 3, 0),), dtype="<u4", buffer=self.buf, strides=(1,))
+        late = self.start > n - 4                       # a word from here would run past the end: short lines
+        code = words[np.where(late, 0, self.start)] if n >= 4 else np.zeros(self.start.size, np.uint32)
+        for i in np.flatnonzero(late).tolist():
+            code[i] = int.from_bytes(self.text(i)[:4], "little")
         short = self.length < 4
         if short.any():
             keep = np.where(self.length[short] > 0, (1 << (8 * np.minimum(self.length[short], 4))) - 1, 0)
             code[short] &= keep.astype(np.uint32)
-        fifth = padded[self.start + 4]
+        fifth = self.buf[np.minimum(self.start + 4, n - 1)] if n else np.zeros(0, np.uint8)
         fifth[self.length < 5] = 0
         return code, fifth
 
@@ -249,16 +253,23 @@ def _split_lines(raw: bytes) -> Lines | None:
         raw = raw.replace(b"\r\n", b"\n")
     if any(c in raw for c in _UNUSUAL_BREAKS):
         return None
-    # LF + text (+ LF) in one copy into the array (concatenating the bytes first copied them twice).
-    n, tail = len(raw), 0 if raw.endswith(b"\n") or not raw else 1
-    buf = np.empty(1 + n + tail, np.uint8)
-    buf[0] = buf[-1] = _NEWLINE
-    if n:
-        buf[1:1 + n] = np.frombuffer(raw, np.uint8)
-    buf.flags.writeable = False
-    newline = np.flatnonzero(buf == _NEWLINE)
-    start = newline[:-1] + 1
-    return Lines(buf, start, newline[1:] - start)
+    if raw and not raw.endswith(b"\n"):
+        raw += b"\n"
+    # A read-only view of the bytes: a copy of a log of tens of MB costs more than finding its lines.
+    buf = np.frombuffer(raw, np.uint8)
+    newline = _newlines(buf)
+    start = np.concatenate([np.zeros(min(newline.size, 1), np.int64), newline[:-1] + 1])
+    return Lines(buf, start, newline - start)
+
+
+#: Bytes per block of :func:`_newlines`: the block's comparison stays in the cache instead of a mask of the whole text.
+_NEWLINE_BLOCK = 1 << 20
+
+
+def _newlines(buf: NDArray[np.uint8]) -> NDArray[np.int64]:
+    """Indices (int64, increasing) of the LF bytes of ``buf``."""
+    blocks = [np.flatnonzero(buf[a:a + _NEWLINE_BLOCK] == _NEWLINE) + a for a in range(0, buf.size, _NEWLINE_BLOCK)]
+    return np.concatenate(blocks).astype(np.int64, copy=False) if blocks else np.zeros(0, np.int64)
 
 
 #: UTF-8 encodings of the line breaks of :meth:`str.splitlines` beyond ASCII (NEL, LINE and PARAGRAPH SEPARATOR).
