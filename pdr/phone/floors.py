@@ -12,6 +12,11 @@ only once the altitude has settled (its rate, low-passed with ``smooth_s``, belo
 (the standard deviation of the specific-force magnitude over about ``smooth_s`` above ``walking_acc_std_mps2``: a
 rider stands still in the cabin). An elevator ride thus changes the floor once, when the cabin stops or the rider
 walks out, by the floors it crossed, and not at each floor passed on the way; on stairs the floor changes at once.
+
+Whether the altitude is still moving at each sample (its low-passed rate at ``settle_mps`` or more:
+:attr:`FloorSamples.moving`) is also what the attitude filter needs: a user who stands in a moving cabin is carried
+through the building's field and may turn with it, so such a stand does not calibrate the gyro
+(:class:`pdr.phone.attitude.AttitudeFilter`, ``carried``).
 """
 
 from __future__ import annotations
@@ -80,6 +85,17 @@ class FloorConfig:
 LEVEL_SPAN = 100
 
 
+@dataclass(frozen=True)
+class FloorSamples:
+    """Per sample: the smoothed altitude above the start ``up_m`` (m), the floor, and whether the altitude is still
+    moving (``moving``: its low-passed rate at ``settle_mps`` or more; module doc).
+    """
+
+    up_m: FloatArray
+    floor: FloatArray
+    moving: NDArray[np.bool_]
+
+
 class FloorTracker:
     """Online floor estimate from pressure samples on a uniform grid."""
 
@@ -98,9 +114,14 @@ class FloorTracker:
 
     def update(self, p_hpa: FloatArray, flat: FloatArray, acc_norm: FloatArray | None = None
                ) -> tuple[FloatArray, FloatArray]:
-        """Smoothed altitude above the start (m) and floor per sample; ``flat`` (bool) allows re-anchoring;
-        ``acc_norm``: the specific-force magnitude (m/s^2) on the same samples (None: the user is taken as walking,
-        the floor changes as soon as it is passed).
+        """Smoothed altitude above the start (m) and floor per sample (:meth:`track`)."""
+        out = self.track(p_hpa, flat, acc_norm)
+        return out.up_m, out.floor
+
+    def track(self, p_hpa: FloatArray, flat: FloatArray, acc_norm: FloatArray | None = None) -> FloorSamples:
+        """Smoothed altitude above the start (m), floor and whether the altitude moves, per sample; ``flat`` (bool)
+        allows re-anchoring; ``acc_norm``: the specific-force magnitude (m/s^2) on the same samples (None: the user is
+        taken as walking, the floor changes as soon as it is passed).
         """
         a = np.full(len(p_hpa), np.nan) if acc_norm is None else np.asarray(acc_norm, dtype=np.float64)
         h = pressure_to_altitude_m(np.asarray(p_hpa, dtype=np.float64))
@@ -109,12 +130,13 @@ class FloorTracker:
         kd = 1.0 / (1.0 + c.drift_tau_s * self.rate_hz)
         up = np.empty(h.size)
         fl = np.empty(h.size)
+        moving = np.empty(h.size, dtype=np.bool_)
         st = np.array([self.alt, self.ref, self.v, self.acc_mean, self.acc_var])
         self.n, self.shown = _track_floors(
             h, a, np.asarray(flat, dtype=np.bool_), ks, kd, self.levels, c.hysteresis, c.settle_mps,
-            c.walking_acc_std_mps2 ** 2, self.rate_hz, self.floor0, st, self.n, self.shown, up, fl)
+            c.walking_acc_std_mps2 ** 2, self.rate_hz, self.floor0, st, self.n, self.shown, up, fl, moving)
         self.alt, self.ref, self.v, self.acc_mean, self.acc_var = (float(x) for x in st)
-        return up, fl
+        return FloorSamples(up, fl, moving)
 
     def floors_between(self, up0_m: float, up1_m: float) -> int:
         """Floors between the levels nearest two altitudes above the start (m, as :meth:`update` gives them)."""
@@ -142,10 +164,11 @@ class FloorTracker:
 def _track_floors(h: FloatArray, acc: FloatArray, flat: NDArray[np.bool_], ks: float, kd: float, levels: FloatArray,
                   hysteresis: float, settle_mps: float, walking_var: float, rate_hz: float, floor0: float,
                   st: FloatArray, n: int, shown: int, up: FloatArray,
-                  fl: FloatArray) -> tuple[int, int]:  # pragma: no cover - compiled
-    """The per-sample loop of :meth:`FloorTracker.update` (module doc): altitudes ``h`` (m) in, the smoothed
-    altitude above the reference ``up`` (m) and the floor ``fl`` out; ``st`` is the state ``(alt, ref, v, acc_mean,
-    acc_var)``, updated in place; returns ``(n, shown)``. ``acc``: the specific-force magnitude (m/s^2; NaN: walking).
+                  fl: FloatArray, moving: NDArray[np.bool_]) -> tuple[int, int]:  # pragma: no cover - compiled
+    """The per-sample loop of :meth:`FloorTracker.track` (module doc): altitudes ``h`` (m) in, the smoothed
+    altitude above the reference ``up`` (m), the floor ``fl`` and whether the altitude moves ``moving`` out; ``st``
+    is the state ``(alt, ref, v, acc_mean, acc_var)``, updated in place; returns ``(n, shown)``. ``acc``: the
+    specific-force magnitude (m/s^2; NaN: walking).
     ``levels[k]``: the level (m) of floor ``floor0 + k - (levels.size - 1) // 2`` (:meth:`FloorConfig.levels`).
     """
     mid = (levels.size - 1) // 2
@@ -169,8 +192,10 @@ def _track_floors(h: FloatArray, acc: FloatArray, flat: NDArray[np.bool_], ks: f
             n -= 1
         elif flat[i]:
             ref += kd * rel
-        if abs(v) < settle_mps or av > walking_var or math.isnan(acc[i]):   # settled, walking, no accelerometer
+        settled = abs(v) < settle_mps
+        if settled or av > walking_var or math.isnan(acc[i]):   # settled, walking, no accelerometer
             shown = n
+        moving[i] = not settled
         up[i] = alt - ref
         fl[i] = floor0 + shown
     st[0], st[1], st[2], st[3], st[4] = alt, ref, v, am, av

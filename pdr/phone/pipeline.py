@@ -532,7 +532,8 @@ class PdrPipeline:
             mag = self.magcal.update(mag, gyro, self.attitude.state.bias)
         mag_n = np.linalg.norm(mag, axis=1) if mag is not None else np.full(n, np.nan)
         if "baro" in kinds and n:
-            up, floor = self.floors.update(vals["baro"][:, 0], np.ones(n, dtype=bool), np.linalg.norm(acc, axis=1))
+            fs = self.floors.track(vals["baro"][:, 0], np.ones(n, dtype=bool), np.linalg.norm(acc, axis=1))
+            up, floor, carried = fs.up_m, fs.floor, fs.moving
             changes = np.flatnonzero(np.diff(np.concatenate([[self.last_floor], floor])) != 0)
             for i in changes:
                 events.append(FloorChangeEvent(float(t[i]), float(floor[i]),
@@ -540,7 +541,7 @@ class PdrPipeline:
             if floor.size:
                 self.last_floor = float(floor[-1])
         else:
-            up, floor = np.zeros(n), np.full(n, self.last_floor)
+            up, floor, carried = np.zeros(n), np.full(n, self.last_floor), np.zeros(n, dtype=bool)
         self.history.append(g0, t, acc, an, mag_n, up, floor)
         # Attitude in segments ending where steps become known (landmark updates at fixed samples).
         by_confirm: dict[int, list[int]] = {}
@@ -553,7 +554,7 @@ class PdrPipeline:
             if n and cut >= pos:
                 a, b = pos - g0, cut - g0 + 1
                 qs, _ = self.attitude.run(acc[a:b], None if gyro is None else gyro[a:b],
-                                          None if mag is None else mag[a:b])
+                                          None if mag is None else mag[a:b], carried[a:b])
                 if q_phone is not None and qs.shape[0]:
                     if self.config.attitude_source == "phone":
                         # The phone's attitude where it has one (the grid holds its last sample at the end).

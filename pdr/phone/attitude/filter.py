@@ -52,8 +52,8 @@ class AttitudeFilter:
         self.config = config
         self._params = config.params()
 
-    def run(self, acc_b: FloatArray, gyro_b: FloatArray | None = None, mag_b: FloatArray | None = None
-            ) -> tuple[FloatArray, NDArray[np.int64]]:
+    def run(self, acc_b: FloatArray, gyro_b: FloatArray | None = None, mag_b: FloatArray | None = None,
+            carried: NDArray[np.bool_] | None = None) -> tuple[FloatArray, NDArray[np.int64]]:
         """Filter a batch of uniform samples.
 
         Parameters
@@ -62,6 +62,14 @@ class AttitudeFilter:
             (N, 3) specific force (m/s^2), angular rate (rad/s) and magnetic field (uT), body frame;
             gyro and magnetometer may be None (the filter degrades: no gyro -> accelerometer/magnetometer
             only; no magnetometer -> yaw relative to the start).
+        carried
+            (N,) where the user is carried vertically (the barometric altitude still moves,
+            :attr:`pdr.phone.floors.FloorSamples.moving`): a stand there (in a moving elevator cabin) does not
+            calibrate the gyro. The building's field changes along the shaft, which the field's rows would take for
+            a turn, and a rider may turn slowly, which the stillness tests (spreads, not means) do not see. On IPIN
+            trial 53 (elevator rides between floors -2 and 0) the stands in moving cabins turned the bias estimate
+            about the vertical from -0.1 to -0.5 deg/s where the walk's legs against the truth give -0.27.
+            None: nowhere.
 
         Returns
         -------
@@ -76,14 +84,15 @@ class AttitudeFilter:
             raise InputError(f"acc must be (N, 3), got {acc.shape}", source="attitude", field="acc")
         gyro = np.zeros((n, 3)) if gyro_b is None else np.ascontiguousarray(gyro_b, dtype=np.float64)
         mag = np.zeros((n, 3)) if mag_b is None else np.ascontiguousarray(mag_b, dtype=np.float64)
-        if gyro.shape != (n, 3) or mag.shape != (n, 3):
-            raise InputError("gyro and mag must have the shape of acc", source="attitude")
+        lift = np.zeros(n, dtype=np.bool_) if carried is None else np.ascontiguousarray(carried, dtype=np.bool_)
+        if gyro.shape != (n, 3) or mag.shape != (n, 3) or lift.shape != (n,):
+            raise InputError("gyro, mag and carried must have the length of acc", source="attitude")
         if n == 0:
             return np.zeros((0, 4)), np.zeros(0, dtype=np.int64)
         s = self.state
         decl = math.sin(math.radians(self.config.mag_declination_deg))
         return run_kernel(acc, gyro, mag, gyro_b is not None, mag_b is not None, 1.0 / self.rate_hz, s.q, s.P,
-                           s.bias, s.aux, self._params, self.method == "ukf", decl)
+                           s.bias, s.aux, self._params, self.method == "ukf", decl, lift)
 
 
 def yaw_of_axis(q_nb: FloatArray, axis_b: FloatArray) -> FloatArray:

@@ -429,8 +429,9 @@ def _commit_block(aux: FloatArray, bias: FloatArray, has_mag: bool, fb: float, b
 @numba.njit(cache=True)
 def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: bool, has_mag: bool, ts: float,
                 q: FloatArray, p: FloatArray, bias: FloatArray, aux: FloatArray, prm: FloatArray,
-                unscented: bool, h_east: float) -> tuple[FloatArray, NDArray[np.int64]]:
-    """Run the filter over uniform samples; state arrays are updated in place.
+                unscented: bool, h_east: float, carried: NDArray[np.bool_]) -> tuple[FloatArray, NDArray[np.int64]]:
+    """Run the filter over uniform samples; state arrays are updated in place. ``carried`` (N,): the user is carried
+    vertically (a moving cabin), so a stand there gives no gyro bias rows.
 
     Returns the (N, 4) posterior attitudes and (N,) bit flags (USED_ACC, USED_MAG, STATIONARY).
     """
@@ -529,26 +530,31 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
         else:
             aux[AUX_STATIC_S] = 0.0
         stationary = aux[AUX_STATIC_S] >= static_min_s
-        period_start = stationary and aux[AUX_WAS_STILL] == 0
-        period_end = not stationary and aux[AUX_WAS_STILL] > 0
-        aux[AUX_WAS_STILL] = 1.0 if stationary else 0.0
+        # A stand that calibrates the gyro: not in a moving cabin, which carries the user through the building's
+        # field (the field's rows would take its change for a turn) and in which the user may turn slowly (the
+        # stillness tests see the spread of the rate, not its mean).
+        calibrating = stationary and not carried[k]
+        period_start = calibrating and aux[AUX_WAS_STILL] == 0
+        period_end = not calibrating and aux[AUX_WAS_STILL] > 0
+        aux[AUX_WAS_STILL] = 1.0 if calibrating else 0.0
         if has_gyro:
-            # Gyro bias by least squares over stationary samples. Gravity is fixed in the navigation frame while
-            # the user stands (also in a moving elevator cabin: its acceleration is vertical); the local magnetic
-            # field only while the user is not carried through the building's field (elevator, escalator), and
-            # only then may its rows set the bias component about the vertical. Otherwise that component comes
-            # from the gyro alone (at rest the mean of the gyro about the vertical is the bias).
+            # Gyro bias by least squares over the calibrating stands (not in a moving cabin, ``carried``). Gravity is
+            # fixed in the navigation frame while the user stands; the local magnetic field only while the field
+            # does not move (the stand's disturbance test below), and only then may its rows set the bias component
+            # about the vertical. Otherwise that component comes from the gyro alone (at rest the mean of the gyro
+            # about the vertical is the bias).
             d = max(an, 1e-9)
             for i in range(3):
                 u[i] = a[i] / d
-            _bias_rows(aux, AUX_VS_A, AUX_CW_A, u, gyro[k], ks, ts, stationary, 1.0, AUX_P1)
+            _bias_rows(aux, AUX_VS_A, AUX_CW_A, u, gyro[k], ks, ts, calibrating, 1.0, AUX_P1)
             if has_mag:
                 d = max(mn, 1e-9)
                 for i in range(3):
                     u[i] = mag[k, i] / d
-                _bias_rows(aux, AUX_VS_M, AUX_CW_M, u, gyro[k], ks, ts, stationary, 1.0, AUX_M1)
+                _bias_rows(aux, AUX_VS_M, AUX_CW_M, u, gyro[k], ks, ts, calibrating, 1.0, AUX_M1)
             if stationary:
                 used[k] |= 4
+            if calibrating:
                 _vertical_rows(aux, AUX_V1, gyro[k], ts)
                 if has_mag:
                     # Magnetic-disturbance test of eq. 13 for the bias rows: a field fixed in the navigation frame

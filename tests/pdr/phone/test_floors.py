@@ -104,6 +104,20 @@ def test_an_elevator_ride_changes_the_floor_once_when_it_ends():
     assert tracker.floors_between(0.0, float(up[-1])) == 2 and tracker.floors_between(-3.0, -0.2) == 1
 
 
+def test_the_altitude_moves_while_the_cabin_rides_and_not_on_a_floor():
+    # A 1 m/s ride down 5.7 m between flat stretches: moving within a second or two of the start, to within a few
+    # seconds of the end (the rate is low-passed), never on the floors.
+    alt = _ride(0.0, -5.7, 1.0)
+    out = FloorTracker(RATE_HZ, MUSEUM).track(pressures(alt), np.ones(alt.size, dtype=bool), np.full(alt.size, 9.81))
+    start, end = 300, 300 + int(5.7 * RATE_HZ)
+    assert out.moving[start + int(2 * RATE_HZ):end].all()
+    assert not out.moving[:start].any() and not out.moving[end + int(5 * RATE_HZ):].any()
+    up, floor = FloorTracker(RATE_HZ, MUSEUM).update(pressures(alt), np.ones(alt.size, dtype=bool),
+                                                     np.full(alt.size, 9.81))
+    np.testing.assert_array_equal(up, out.up_m)
+    np.testing.assert_array_equal(floor, out.floor)
+
+
 def test_floor_altitudes_are_checked():
     with pytest.raises(InputError, match="rise with the floor number"):
         FloorConfig(altitudes_m=((0, 0.0), (1, -3.0)))

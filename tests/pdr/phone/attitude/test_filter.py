@@ -118,6 +118,35 @@ def test_gyro_bias_and_attitude_kept_in_a_moving_field():
     assert math.degrees(quat.angle_between(q[-1], q_true)) < 2.0  # field rows in the bias: 28 degrees off
 
 
+def test_a_stand_in_a_moving_cabin_does_not_calibrate_the_gyro():
+    """A rider holds the phone (a trembling hand) 20 s on the ground, then 30 s in a cabin that moves along its shaft,
+    where the building's field turns by 20 degrees about the vertical, keeping its magnitude and dip (so the stand's
+    disturbance test cannot see it). Taken for a stand, the field's rows read the field's turn as a gyro bias about
+    the vertical; with the cabin's samples marked ``carried`` (the barometric altitude moving) the bias learnt on the
+    ground stays.
+    """
+    rng = np.random.default_rng(4)
+    n0, n1 = int(20 * FS), int(30 * FS)
+    n = n0 + n1
+    q_true, omega, acc, _ = trembling_hand(n, rng)
+    turn = np.r_[np.zeros(n0), np.linspace(0.0, math.radians(20.0), n1)]
+    field_n = quat.rotate(quat.from_euler(np.zeros(n), np.zeros(n), turn), H_ENU)
+    mag = quat.rotate(quat.conjugate(q_true), field_n) + rng.normal(0, 0.3, (n, 3))
+    bias = np.array([0.004, -0.006, 0.008])
+    gyro = omega + bias + rng.normal(0, 0.005, (n, 3))
+    up_b = quat.rotate(quat.conjugate(q_true[-1]), np.array([0.0, 0.0, 1.0]))
+    carried = np.r_[np.zeros(n0, dtype=bool), np.ones(n1, dtype=bool)]
+    f = AttitudeFilter(FS)
+    _, used = f.run(acc, gyro, mag, carried)
+    assert (used[n0:] & 4).mean() > 0.9                            # the rider stands still
+    assert abs(float(up_b @ (f.state.bias - bias))) < 1e-3         # about the vertical, rad/s
+    taken = AttitudeFilter(FS)
+    taken.run(acc, gyro, mag)
+    assert abs(float(up_b @ (taken.state.bias - bias))) > 4e-3     # the field's turn (0.012 rad/s) taken for bias
+    with pytest.raises(InputError, match="carried"):
+        AttitudeFilter(FS).run(acc, gyro, mag, carried[:-1])
+
+
 @pytest.mark.parametrize("method", ["ukf", "ekf"])
 def test_heading_recovers_from_a_disturbed_start(method):
     """20 s standing where the field is turned by 60 degrees and 30 % stronger, then 60 s of walking-like
