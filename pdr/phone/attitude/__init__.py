@@ -43,7 +43,12 @@ partial one lasted at least ``var_window_s``, the time constant within which the
 step), with forgetting ``bias_tau_s`` and a small ridge
 towards zero, and solved for ``b``. Unlike the mean of the raw gyro, the
 gravity and (fixed) field rows are not biased by the slow rotation of a hand-held phone. A field that
-moves only in azimuth, at constant magnitude and dip, while a hand-held phone rotates still enters the bias.
+moves only in azimuth, at constant magnitude and dip, while a hand-held phone rotates passes that test: a cabin
+carried along its shaft through a building's field does this. So a stand while the barometric altitude moves
+(:meth:`AttitudeFilter.run`'s ``carried``, :attr:`pdr.phone.floors.FloorSamples.moving`) gives no rows at all: on
+IPIN trial 53 such stands had turned the bias about the vertical from -0.1 to -0.5 deg/s, where the walk's legs
+against the truth give -0.27 (``pdr eval ipin``: smoothed p75 5.55 -> 4.44 m). Without a barometer they still
+enter.
 
 Magnetometer rows (eq. 13, adapted to disturbed buildings): the reference magnitude and dip follow the
 measured field with time constant ``mag_ref_tau_s`` (so the gates reject abrupt disturbances, not a
