@@ -103,8 +103,10 @@ Limbs (the gyro yaw over a stride)
     on it (:func:`stride_mean_yaw`): the step itself and the neighbouring halves of the steps before and after, in
     which the limb's swing cancels. A hand-held or torso phone's yaw and its measured device heading swing
     together, so there ``g_k`` is kept: averaging only ``g`` would put the swing into ``m - g``. Smoothed mean error
-    on the motion-capture benchmark (``pdr eval heading``, all recordings, automatic placement): 11.54 -> 11.12
-    deg; swinging hand 19.2, 23.6, 27.9, 20.3 -> 18.9, 23.6, 28.5, 16.3 deg.
+    on the motion-capture benchmark (``pdr eval heading``, all recordings, automatic placement): 11.54 -> 11.18
+    deg (tuning walker 10.72 -> 10.53, the other 12.33 -> 11.79); swinging hand 19.2, 23.6, 27.9, 20.3 -> 18.7,
+    23.4, 28.2, 16.1 deg. Averaging the hand-held IPIN walks' ``g`` too raised their smoothed landmark p75 from 3.07
+    to 3.36 m (``pdr eval ipin``).
 
 Track
     Positions are re-integrated with the causal step lengths,
