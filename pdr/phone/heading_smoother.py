@@ -147,6 +147,7 @@ from pdr.errors import InputError
 from pdr.filters.rotation_kernels import wrap_pi
 from pdr.filters.rts import rts_smooth
 from pdr.frames import heading_deg_to_yaw, wrap_angle
+from pdr.phone.heading_stages import STRIDE_HEADING_PLACEMENTS
 from pdr.phone.track import redo_steps
 
 FloatArray = NDArray[np.float64]
@@ -155,8 +156,6 @@ FloatArray = NDArray[np.float64]
 #: trouser pocket and swinging hand (the step heading is the walking direction from the thigh's or arm's motion;
 #: the phone's yaw keeps a fixed offset to it while it stays in the pocket or the hand's grip).
 SMOOTHED_PLACEMENTS = ("hand", "torso", "pocket", "swinging")
-#: Placements whose phone rides a limb, its yaw swinging with the limb once per stride (module doc "Limbs").
-LIMB_PLACEMENTS = ("pocket", "swinging")
 
 
 @dataclass(frozen=True)
@@ -536,7 +535,7 @@ def smooth_track(steps: list[dict[str, Any]], config: HeadingSmootherConfig | No
         return out, ("heading not smoothed: the smoother needs a hand-held, torso or trouser-pocket phone with a "
                      f"gyroscope ({sum(usable)} of {len(out)} steps qualify)")
     c = config or HeadingSmootherConfig()
-    if any(s.get("placement") in ("pocket", "swinging") for s in out):
+    if any(s.get("placement") in STRIDE_HEADING_PLACEMENTS for s in out):
         # A swinging phone's step heading (thigh or arm) jumps more than a held one's; a walk whose placement
         # changed has the offset jump at the change.
         c = replace(c, jump_deg=c.pocket_jump_deg, jump_window_steps=c.limb_jump_window_steps)
@@ -567,7 +566,8 @@ def smooth_track(steps: list[dict[str, Any]], config: HeadingSmootherConfig | No
                 bias_sigma = c.bias_sigma_deg
                 notes.append(f"the stationary gyro bias estimate disagrees with the magnetometer (likelihood ratio "
                              f"{lr:.1f}): the bias is learnt from the magnetometer")
-    limb = np.array([s.get("placement") in LIMB_PLACEMENTS for s in out])
+    # A limb's phone (pocket, swinging hand) swings with it once per stride (module doc "Limbs").
+    limb = np.array([s.get("placement") in STRIDE_HEADING_PLACEMENTS for s in out])
     if limb.any():
         gyro = stride_mean_yaw(np.array([s.get("t_start_s", s["t_s"]) for s in out], dtype=np.float64), t, gyro, limb)
     check = check_model(t, gyro, raw, sigma, c, bias_sigma)

@@ -649,7 +649,7 @@ class PdrPipeline:
             return      # set from these very (frozen) objects last time: ``want`` would equal ``att``
         sg, sa = self.config.device_heading_sigma_gyro, self.config.limb_sigma_a_moving
         mb = self.config.limb_mag_bias_gain
-        limb = self.placement in ("pocket", "swinging")
+        limb = self.placement in STRIDE_HEADING_PLACEMENTS
         want = replace(att, sigma_gyro=base.sigma_gyro if sg is None or self.placement not in ("hand", "torso")
                        else float(sg),
                        sigma_a_moving=base.sigma_a_moving if sa is None or not limb else float(sa),

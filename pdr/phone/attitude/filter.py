@@ -84,15 +84,15 @@ class AttitudeFilter:
             raise InputError(f"acc must be (N, 3), got {acc.shape}", source="attitude", field="acc")
         gyro = np.zeros((n, 3)) if gyro_b is None else np.ascontiguousarray(gyro_b, dtype=np.float64)
         mag = np.zeros((n, 3)) if mag_b is None else np.ascontiguousarray(mag_b, dtype=np.float64)
-        lift = np.zeros(n, dtype=np.bool_) if carried is None else np.ascontiguousarray(carried, dtype=np.bool_)
-        if gyro.shape != (n, 3) or mag.shape != (n, 3) or lift.shape != (n,):
+        riding = np.zeros(n, dtype=np.bool_) if carried is None else np.ascontiguousarray(carried, dtype=np.bool_)
+        if gyro.shape != (n, 3) or mag.shape != (n, 3) or riding.shape != (n,):
             raise InputError("gyro, mag and carried must have the length of acc", source="attitude")
         if n == 0:
             return np.zeros((0, 4)), np.zeros(0, dtype=np.int64)
         s = self.state
         decl = math.sin(math.radians(self.config.mag_declination_deg))
         return run_kernel(acc, gyro, mag, gyro_b is not None, mag_b is not None, 1.0 / self.rate_hz, s.q, s.P,
-                           s.bias, s.aux, self._params, self.method == "ukf", decl, lift)
+                           s.bias, s.aux, self._params, self.method == "ukf", decl, riding)
 
 
 def yaw_of_axis(q_nb: FloatArray, axis_b: FloatArray) -> FloatArray:
