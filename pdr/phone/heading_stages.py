@@ -49,6 +49,7 @@ from pdr.phone.walking_direction import (
     DeviceSwingAxis,
     PocketSide,
     WalkingLineFilter,
+    axis_variance,
     step_frequency_axis,
     step_lead,
     swing_plane_axis,
@@ -223,12 +224,13 @@ class PocketHeading:
         else:
             if swing_axis:
                 # The swing plane's axis of the thigh (pdr.phone.walking_direction), not the device yaw.
-                axis, _ratio = swing_plane_axis(q_str, self.rate_hz)
+                axis, ratio = swing_plane_axis(q_str, self.rate_hz)
                 # The step-frequency axis of a walking stride (not running: module doc of
                 # pdr.phone.walking_direction) learns the swing plane's offset.
                 step_axis = step_frequency_axis(f_str)[0] if harmonics else None
                 # Carried from stride to stride by the walker's turn (pdr.phone.walking_direction module doc).
-                axis = self.pocket_line.update(axis, h.q, h.start, s0, s, e, self.rate_hz, step_axis, walking)
+                axis = self.pocket_line.update(axis, h.q, h.start, s0, s, e, self.rate_hz, step_axis, walking,
+                                               axis_variance(ratio, q_str.shape[0]))
             else:
                 axis, _ratio = pca_axis(f_str[:, :2])             # RMPCA over the stride
             # Continuity in the device frame, and the 180-degree rule from the thigh's fast swing (pdr.phone.heading

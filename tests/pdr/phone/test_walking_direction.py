@@ -13,6 +13,7 @@ from pdr.phone.walking_direction import (
     DeviceSwingAxis,
     PocketSide,
     WalkingLineFilter,
+    axis_variance,
     body_angular_rate,
     step_frequency_axis,
     step_lead,
@@ -306,6 +307,48 @@ def test_walking_line_filter_learns_the_swing_planes_offset(seed):
     old = {k: v for k, v in filt.state().items() if k in ("line_sigma_deg", "turn_sigma_deg", "max_gap_s", "line",
                                                             "var", "window")}
     assert WalkingLineFilter.from_state(old).bias == 0.0
+
+
+@pytest.mark.parametrize("ratio", [1.5, 3.0, 10.0])
+def test_axis_variance_is_the_sampling_spread_of_a_principal_axis(ratio):
+    # Simulate then recover: n samples of a 2-D Gaussian whose scatter has the eigenvalue ratio `ratio` along a
+    # known axis; the angles of the measured principal axis scatter by the predicted variance.
+    from pdr.phone.heading import pca_axis
+
+    rng = np.random.default_rng(7)
+    n, axis = 400, 0.4
+    rot = np.array([[math.cos(axis), -math.sin(axis)], [math.sin(axis), math.cos(axis)]])
+    angles = []
+    for _ in range(3000):
+        xy = rng.normal(size=(n, 2)) * np.array([math.sqrt(ratio), 1.0]) @ rot.T
+        angles.append(0.5 * float(wrap_angle(2 * (pca_axis(xy)[0] - axis))))
+    assert np.var(angles) == pytest.approx(axis_variance(ratio, n), rel=0.25)
+
+
+def test_axis_variance_limits():
+    # No axis at all (a round scatter, or no samples): the variance of an angle spread over the half circle.
+    assert axis_variance(1.0, 50) == axis_variance(3.0, 0) == pytest.approx(math.pi ** 2 / 12)
+    assert axis_variance(1.01, 50) == pytest.approx(math.pi ** 2 / 12)
+    assert axis_variance(1e6, 50) < 1e-6
+    assert axis_variance(4.0, 100) == pytest.approx(4.0 / (9.0 * 100))
+
+
+def test_a_stride_without_a_clear_swing_plane_moves_the_line_less():
+    # Two filters on the same walk; one stride's swing plane is 40 deg off, once with a sharp plane (its
+    # variance 0) and once with a nearly round scatter (its axis variance large): the second barely moves.
+    # A third filter, fed the true line, is the reference.
+    q, yaw = _continuous_thigh_walk(quat.from_rotvec([0.2, 1.0, 0.1]), 10.0)
+    sharp, blurred, ref = WalkingLineFilter(), WalkingLineFilter(), WalkingLineFilter()
+    for f in (sharp, blurred, ref):
+        f.update(float(yaw[55]), q, 0, 0, 55, 110, RATE)
+        f.update(float(yaw[165]), q, 0, 110, 165, 220, RATE)
+    truth = float(yaw[275])
+    on_line = ref.update(truth, q, 0, 220, 275, 330, RATE)
+    off_sharp = 0.5 * float(wrap_angle(2 * (sharp.update(truth + math.radians(40), q, 0, 220, 275, 330, RATE)
+                                            - on_line)))
+    off_blurred = 0.5 * float(wrap_angle(2 * (blurred.update(truth + math.radians(40), q, 0, 220, 275, 330, RATE,
+                                                             line_var=axis_variance(1.1, 110)) - on_line)))
+    assert math.radians(10) < off_sharp and abs(off_blurred) < 0.25 * off_sharp
 
 
 def test_running_strides_take_the_swing_plane_as_it_is():
