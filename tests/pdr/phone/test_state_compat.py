@@ -4,8 +4,6 @@ are refused with a message saying to reprocess."""
 
 import gzip
 import json
-import math
-from typing import Any
 
 import pytest
 
@@ -15,21 +13,7 @@ from pdr.phone.pipeline import STATE_FORMAT, PdrPipeline
 from tests.conftest import load_tool
 
 regen_golden = load_tool("regen_golden")
-
-
-def same_rows(a: Any, b: Any, rel: float = 1e-9) -> bool:
-    """Equal event rows, numbers to within floating-point rounding (``rel``): the frozen rows were written with
-    the numpy/numba of their day, and a later release may round the last bit of a sum differently."""
-    if isinstance(a, dict) and isinstance(b, dict):
-        return a.keys() == b.keys() and all(same_rows(a[k], b[k], rel) for k in a)
-    if isinstance(a, list) and isinstance(b, list):
-        return len(a) == len(b) and all(same_rows(x, y, rel) for x, y in zip(a, b, strict=True))
-    if isinstance(a, float) or isinstance(b, float):
-        numbers = all(isinstance(x, int | float) and not isinstance(x, bool) for x in (a, b))
-        if not numbers:
-            return False
-        return (math.isnan(a) and math.isnan(b)) or math.isclose(a, b, rel_tol=rel, abs_tol=rel)
-    return bool(a == b)
+same_rows = regen_golden.same_rows
 
 
 def test_same_rows_tolerates_rounding_only():
