@@ -112,12 +112,6 @@ class FloorTracker:
         self.acc_var = 0.0           # its low-passed variance (m^2/s^4)
         self.levels = self.config.levels(self.floor0)
 
-    def update(self, p_hpa: FloatArray, flat: FloatArray, acc_norm: FloatArray | None = None
-               ) -> tuple[FloatArray, FloatArray]:
-        """Smoothed altitude above the start (m) and floor per sample (:meth:`track`)."""
-        out = self.track(p_hpa, flat, acc_norm)
-        return out.up_m, out.floor
-
     def track(self, p_hpa: FloatArray, flat: FloatArray, acc_norm: FloatArray | None = None) -> FloorSamples:
         """Smoothed altitude above the start (m), floor and whether the altitude moves, per sample; ``flat`` (bool)
         allows re-anchoring; ``acc_norm``: the specific-force magnitude (m/s^2) on the same samples (None: the user is
@@ -139,7 +133,7 @@ class FloorTracker:
         return FloorSamples(up, fl, moving)
 
     def floors_between(self, up0_m: float, up1_m: float) -> int:
-        """Floors between the levels nearest two altitudes above the start (m, as :meth:`update` gives them)."""
+        """Floors between the levels nearest two altitudes above the start (m, as :meth:`track` gives them)."""
         return abs(int(np.argmin(np.abs(self.levels - up1_m))) - int(np.argmin(np.abs(self.levels - up0_m))))
 
     def state(self) -> dict[str, Any]:

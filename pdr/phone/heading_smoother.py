@@ -147,7 +147,7 @@ from pdr.errors import InputError
 from pdr.filters.rotation_kernels import wrap_pi
 from pdr.filters.rts import rts_smooth
 from pdr.frames import heading_deg_to_yaw, wrap_angle
-from pdr.phone.heading_stages import STRIDE_HEADING_PLACEMENTS
+from pdr.phone.heading_stages import DEVICE_HEADING_PLACEMENTS, STRIDE_HEADING_PLACEMENTS
 from pdr.phone.track import redo_steps
 
 FloatArray = NDArray[np.float64]
@@ -155,7 +155,7 @@ FloatArray = NDArray[np.float64]
 #: Placements the smoother handles: hand-held and torso (the step heading is the device heading plus an offset),
 #: trouser pocket and swinging hand (the step heading is the walking direction from the thigh's or arm's motion;
 #: the phone's yaw keeps a fixed offset to it while it stays in the pocket or the hand's grip).
-SMOOTHED_PLACEMENTS = ("hand", "torso", "pocket", "swinging")
+SMOOTHED_PLACEMENTS = DEVICE_HEADING_PLACEMENTS + STRIDE_HEADING_PLACEMENTS
 
 
 @dataclass(frozen=True)

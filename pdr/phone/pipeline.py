@@ -64,6 +64,7 @@ from pdr.phone.grid import OnlineGrid
 from pdr.phone.gyro_yaw import GyroYaw
 from pdr.phone.heading import DriftEliminationConfig, HeadingEstimate, StepDriftElimination, pca_axis
 from pdr.phone.heading_stages import (
+    DEVICE_HEADING_PLACEMENTS,
     STRIDE_HEADING_PLACEMENTS,
     DeviceHeading,
     DriftElimination,
@@ -650,7 +651,7 @@ class PdrPipeline:
         sg, sa = self.config.device_heading_sigma_gyro, self.config.limb_sigma_a_moving
         mb = self.config.limb_mag_bias_gain
         limb = self.placement in STRIDE_HEADING_PLACEMENTS
-        want = replace(att, sigma_gyro=base.sigma_gyro if sg is None or self.placement not in ("hand", "torso")
+        want = replace(att, sigma_gyro=base.sigma_gyro if sg is None or self.placement not in DEVICE_HEADING_PLACEMENTS
                        else float(sg),
                        sigma_a_moving=base.sigma_a_moving if sa is None or not limb else float(sa),
                        mag_bias_gain=base.mag_bias_gain if mb is None or not limb else float(mb))

@@ -65,11 +65,7 @@ class AttitudeFilter:
         carried
             (N,) where the user is carried vertically (the barometric altitude still moves,
             :attr:`pdr.phone.floors.FloorSamples.moving`): a stand there (in a moving elevator cabin) does not
-            calibrate the gyro. The building's field changes along the shaft, which the field's rows would take for
-            a turn, and a rider may turn slowly, which the stillness tests (spreads, not means) do not see. On IPIN
-            trial 53 (elevator rides between floors -2 and 0) the stands in moving cabins turned the bias estimate
-            about the vertical from -0.1 to -0.5 deg/s where the walk's legs against the truth give -0.27.
-            None: nowhere.
+            calibrate the gyro (:mod:`pdr.phone.attitude` module doc, gyro bias). None: nowhere.
 
         Returns
         -------
