@@ -33,7 +33,8 @@ def pipeline_config(placement: str = "auto", *, attitude_method: str = "ukf", in
     step_length
         A calibrated step-length model (``pdr calibrate``); default: the uncalibrated one.
     floor_height_m
-        Height of a floor (m); default: :class:`pdr.phone.floors.FloorConfig`'s.
+        Height of a floor (m), kept as stated (not learnt from the flights walked); default:
+        :class:`pdr.phone.floors.FloorConfig`'s.
     use_phone_orientation
         Use the phone's own attitude (``orientation`` stream) as a yaw measurement of our attitude filter.
     attitude_source
@@ -44,5 +45,5 @@ def pipeline_config(placement: str = "auto", *, attitude_method: str = "ukf", in
     if step_length is not None:
         cfg = replace(cfg, step_length=step_length)
     if floor_height_m is not None:
-        cfg = replace(cfg, floors=replace(cfg.floors, floor_height_m=float(floor_height_m)))
+        cfg = replace(cfg, floors=replace(cfg.floors, floor_height_m=float(floor_height_m), learn_height=False))
     return cfg

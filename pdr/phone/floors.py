@@ -13,6 +13,16 @@ only once the altitude has settled (its rate, low-passed with ``smooth_s``, belo
 rider stands still in the cabin). An elevator ride thus changes the floor once, when the cabin stops or the rider
 walks out, by the floors it crossed, and not at each floor passed on the way; on stairs the floor changes at once.
 
+Without a site and without a stated floor height (:meth:`FloorConfig.assumes_default_height`), the floor height is
+learnt from the first flight walked between two levels: stairs join adjacent floors, so a climb walked from one
+level to the next measures one floor height. A level is an altitude that stayed settled for ``level_hold_s`` (a
+landing between two flights lasts a stride or two; a floor is walked on for longer). The climb counts when the
+user walked through it (the specific force varied as in walking for most of its moving samples: an elevator rider
+stands, and a ride may cross several floors) and it is within ``floor_height_range_m``, the floor-to-floor heights
+of buildings (a continuous climb over two floors is at least twice the lower bound, so longer climbs are left
+alone). A smaller altitude change is a ramp or a half landing: the level the climb started from is kept. From the
+learnt height on, every level is that far apart (:attr:`FloorTracker.learnt_height_m`).
+
 Whether the altitude is still moving at each sample (its low-passed rate at ``settle_mps`` or more:
 :attr:`FloorSamples.moving`) is also what the attitude filter needs: a user who stands in a moving cabin is carried
 through the building's field and may turn with it, so such a stand does not calibrate the gyro
@@ -41,6 +51,8 @@ class FloorConfig:
     speed (m/s) below which the altitude has settled on a floor (an elevator moves at 0.3-2 m/s, a walker on stairs
     at about 0.3 m/s), the specific-force standard deviation (m/s^2) above which the user walks, and the site's
     per-floor altitudes ``altitudes_m``: ``(floor, altitude m)`` pairs (empty: every floor ``floor_height_m`` apart).
+    ``learn_height``: learn the floor height from the first flight walked when the height is the default
+    (module doc), with the time (s) a level holds and the range (m) of floor-to-floor heights.
     """
 
     floor_height_m: float = 4.0
@@ -50,6 +62,9 @@ class FloorConfig:
     settle_mps: float = 0.2
     walking_acc_std_mps2: float = 1.0
     altitudes_m: tuple[tuple[float, float], ...] = ()
+    learn_height: bool = True
+    level_hold_s: float = 5.0
+    floor_height_range_m: tuple[float, float] = (2.0, 5.0)
 
     def __post_init__(self) -> None:
         if not self.floor_height_m > 0:
@@ -63,10 +78,19 @@ class FloorConfig:
             raise InputError("floor altitudes must rise with the floor number, one altitude per floor",
                              field="altitudes_m", source="floor config")
         object.__setattr__(self, "altitudes_m", alts)
+        lo, hi = (float(x) for x in self.floor_height_range_m)
+        if not 0 < lo < hi:
+            raise InputError("floor_height_range_m must be [low, high] with 0 < low < high",
+                             field="floor_height_range_m", source="floor config")
+        object.__setattr__(self, "floor_height_range_m", (lo, hi))
 
     def assumes_default_height(self) -> bool:
         """True when neither floor altitudes nor another floor height than the default were given."""
         return not self.altitudes_m and self.floor_height_m == FloorConfig.floor_height_m
+
+    def learns_height(self) -> bool:
+        """True when the floor height is learnt from the flights walked (module doc)."""
+        return self.learn_height and self.assumes_default_height()
 
     def altitude_m(self, floor: float) -> float:
         """Altitude of ``floor`` (m): the site's, else continued from the nearest listed floor by the floor height."""
@@ -110,7 +134,24 @@ class FloorTracker:
         self.v = 0.0                 # low-passed vertical speed (m/s)
         self.acc_mean = math.nan     # low-passed specific-force magnitude (m/s^2)
         self.acc_var = 0.0           # its low-passed variance (m^2/s^4)
+        self.level_up = math.nan     # altitude above the reference of the last level (m; learning the height)
+        self.held = 0                # samples settled in a row
+        self.walked = 0              # moving samples walked since that level
+        self.ridden = 0              # moving samples not walked since that level
+        self.learnt_height_m = math.nan   # floor height learnt from a flight (m; NaN: not learnt)
         self.levels = self.config.levels(self.floor0)
+
+    @property
+    def floor_height_m(self) -> float:
+        """The floor height in use (m): the learnt one, else the configured one."""
+        return self.config.floor_height_m if math.isnan(self.learnt_height_m) else self.learnt_height_m
+
+    def _set_levels(self) -> None:
+        """The floors' levels: the configured ones, or every learnt height apart (as the kernel rewrites them)."""
+        if math.isnan(self.learnt_height_m):
+            self.levels = self.config.levels(self.floor0)
+        else:
+            self.levels = np.arange(-LEVEL_SPAN, LEVEL_SPAN + 1, dtype=np.float64) * self.learnt_height_m
 
     def track(self, p_hpa: FloatArray, flat: FloatArray, acc_norm: FloatArray | None = None) -> FloorSamples:
         """Smoothed altitude above the start (m), floor and whether the altitude moves, per sample; ``flat`` (bool)
@@ -125,11 +166,16 @@ class FloorTracker:
         up = np.empty(h.size)
         fl = np.empty(h.size)
         moving = np.empty(h.size, dtype=np.bool_)
-        st = np.array([self.alt, self.ref, self.v, self.acc_mean, self.acc_var])
-        self.n, self.shown = _track_floors(
-            h, a, np.asarray(flat, dtype=np.bool_), ks, kd, self.levels, c.hysteresis, c.settle_mps,
-            c.walking_acc_std_mps2 ** 2, self.rate_hz, self.floor0, st, self.n, self.shown, up, fl, moving)
-        self.alt, self.ref, self.v, self.acc_mean, self.acc_var = (float(x) for x in st)
+        st = np.array([self.alt, self.ref, self.v, self.acc_mean, self.acc_var, self.level_up, self.learnt_height_m])
+        counts = np.array([self.n, self.shown, self.held, self.walked, self.ridden], dtype=np.int64)
+        learn = c.learns_height() and math.isnan(self.learnt_height_m)
+        _track_floors(h, a, np.asarray(flat, dtype=np.bool_), ks, kd, self.levels, c.hysteresis, c.settle_mps,
+                      c.walking_acc_std_mps2 ** 2, self.rate_hz, self.floor0, learn,
+                      max(1, int(round(c.level_hold_s * self.rate_hz))), c.floor_height_range_m[0],
+                      c.floor_height_range_m[1], st, counts, up, fl, moving)
+        self.alt, self.ref, self.v, self.acc_mean, self.acc_var, self.level_up, self.learnt_height_m = (
+            float(x) for x in st)
+        self.n, self.shown, self.held, self.walked, self.ridden = (int(x) for x in counts)
         return FloorSamples(up, fl, moving)
 
     def floors_between(self, up0_m: float, up1_m: float) -> int:
@@ -139,7 +185,8 @@ class FloorTracker:
     def state(self) -> dict[str, Any]:
         return {"rate_hz": self.rate_hz, "config": asdict(self.config), "floor0": self.floor0, "alt": self.alt,
                 "ref": self.ref, "n": self.n, "v": self.v, "shown": self.shown, "acc_mean": self.acc_mean,
-                "acc_var": self.acc_var}
+                "acc_var": self.acc_var, "level_up": self.level_up, "held": self.held, "walked": self.walked,
+                "ridden": self.ridden, "learnt_height_m": self.learnt_height_m}
 
     @classmethod
     def from_state(cls, d: dict[str, Any]) -> FloorTracker:
@@ -149,6 +196,11 @@ class FloorTracker:
             # States saved before the settling rule showed n at once.
             t.v, t.shown = float(d.get("v", 0.0)), int(d.get("shown", t.n))
             t.acc_mean, t.acc_var = float(d.get("acc_mean", math.nan)), float(d.get("acc_var", 0.0))
+            # States saved before the floor height was learnt have no level yet.
+            t.level_up = float(d.get("level_up", math.nan))
+            t.learnt_height_m = float(d.get("learnt_height_m", math.nan))
+            t.held, t.walked, t.ridden = int(d.get("held", 0)), int(d.get("walked", 0)), int(d.get("ridden", 0))
+            t._set_levels()
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"bad floor state ({exc})", source="floor state") from None
         return t
@@ -157,16 +209,19 @@ class FloorTracker:
 @njit(cache=True)
 def _track_floors(h: FloatArray, acc: FloatArray, flat: NDArray[np.bool_], ks: float, kd: float, levels: FloatArray,
                   hysteresis: float, settle_mps: float, walking_var: float, rate_hz: float, floor0: float,
-                  st: FloatArray, n: int, shown: int, up: FloatArray,
-                  fl: FloatArray, moving: NDArray[np.bool_]) -> tuple[int, int]:  # pragma: no cover - compiled
+                  learn: bool, hold_n: int, min_h: float, max_h: float, st: FloatArray, counts: NDArray[np.int64],
+                  up: FloatArray, fl: FloatArray, moving: NDArray[np.bool_]) -> None:  # pragma: no cover - compiled
     """The per-sample loop of :meth:`FloorTracker.track` (module doc): altitudes ``h`` (m) in, the smoothed
     altitude above the reference ``up`` (m), the floor ``fl`` and whether the altitude moves ``moving`` out; ``st``
-    is the state ``(alt, ref, v, acc_mean, acc_var)``, updated in place; returns ``(n, shown)``. ``acc``: the
-    specific-force magnitude (m/s^2; NaN: walking).
-    ``levels[k]``: the level (m) of floor ``floor0 + k - (levels.size - 1) // 2`` (:meth:`FloorConfig.levels`).
+    is the state ``(alt, ref, v, acc_mean, acc_var, level_up, learnt_height)`` and ``counts`` ``(n, shown, held,
+    walked, ridden)``, both updated in place. ``acc``: the specific-force magnitude (m/s^2; NaN: walking).
+    ``levels[k]``: the level (m) of floor ``floor0 + k - (levels.size - 1) // 2`` (:meth:`FloorConfig.levels`),
+    rewritten in place when the floor height is learnt (``learn``: a level holds ``hold_n`` samples, a floor's
+    height is within ``[min_h, max_h]`` m).
     """
     mid = (levels.size - 1) // 2
-    alt, ref, v, am, av = st[0], st[1], st[2], st[3], st[4]
+    alt, ref, v, am, av, level_up, learnt = st[0], st[1], st[2], st[3], st[4], st[5], st[6]
+    n, shown, held, walked, ridden = counts[0], counts[1], counts[2], counts[3], counts[4]
     for i in range(h.size):
         if math.isnan(alt):
             alt = ref = h[i]
@@ -187,13 +242,37 @@ def _track_floors(h: FloatArray, acc: FloatArray, flat: NDArray[np.bool_], ks: f
         elif flat[i]:
             ref += kd * rel
         settled = abs(v) < settle_mps
-        if settled or av > walking_var or math.isnan(acc[i]):   # settled, walking, no accelerometer
+        walking = av > walking_var or math.isnan(acc[i])
+        if settled or walking:   # settled, walking, no accelerometer
             shown = n
         moving[i] = not settled
         up[i] = alt - ref
+        if learn and math.isnan(learnt):
+            held = held + 1 if settled else 0
+            if not settled:
+                if walking:
+                    walked += 1
+                else:
+                    ridden += 1
+            elif held >= hold_n:
+                # On a level: the first, the same one again (a new climb starts from it), a ramp or half landing
+                # (the level the climb started from is kept), a flight walked between adjacent floors, or a ride or
+                # a climb of several floors (a new level to start from). A level's altitude is taken once it has
+                # held, not followed: the low-passed rate lags the first second of a climb.
+                d = abs(up[i] - level_up)
+                if d < 0.5 * min_h:
+                    walked = ridden = 0
+                elif math.isnan(level_up) or not (d < min_h or (d <= max_h and walked > ridden)):
+                    level_up, walked, ridden = up[i], 0, 0
+                elif d >= min_h:
+                    learnt = d
+                    for j in range(levels.size):
+                        levels[j] = (j - mid) * learnt
+                    n = int(round(up[i] / learnt))
+                    shown = n
         fl[i] = floor0 + shown
-    st[0], st[1], st[2], st[3], st[4] = alt, ref, v, am, av
-    return n, shown
+    st[0], st[1], st[2], st[3], st[4], st[5], st[6] = alt, ref, v, am, av, level_up, learnt
+    counts[0], counts[1], counts[2], counts[3], counts[4] = n, shown, held, walked, ridden
 
 
 #: Stairs steps in a row that make a flight: building codes ask for at least three risers per flight.

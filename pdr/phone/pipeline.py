@@ -500,7 +500,9 @@ class PdrPipeline:
                 events.append(NoticeEvent(msg))
         if "baro" in kinds and self.floors.config.assumes_default_height():
             msg = (f"no site with the building's floor height or floor altitudes: floor numbers assume floors "
-                   f"{self.floors.config.floor_height_m:g} m apart (the default floor height)")
+                   f"{self.floors.config.floor_height_m:g} m apart (the default floor height)"
+                   + (" until a flight walked between two levels measures the height"
+                      if self.floors.config.learns_height() else ""))
             self.notices.append(msg)
             events.append(NoticeEvent(msg))
         if "gyro" in kinds and batch.has("gyro_uncal") and gyro_compensated(
@@ -533,8 +535,14 @@ class PdrPipeline:
             mag = self.magcal.update(mag, gyro, self.attitude.state.bias)
         mag_n = np.linalg.norm(mag, axis=1) if mag is not None else np.full(n, np.nan)
         if "baro" in kinds and n:
+            learning = math.isnan(self.floors.learnt_height_m)
             fs = self.floors.track(vals["baro"][:, 0], np.ones(n, dtype=bool), np.linalg.norm(acc, axis=1))
             up, floor, carried = fs.up_m, fs.floor, fs.moving
+            if learning and not math.isnan(self.floors.learnt_height_m):
+                msg = (f"floor height {self.floors.learnt_height_m:.2f} m learnt from the flight walked between two "
+                       f"levels (pdr.phone.floors): floor numbers from here on assume floors that far apart")
+                self.notices.append(msg)
+                events.append(NoticeEvent(msg))
             changes = np.flatnonzero(np.diff(np.concatenate([[self.last_floor], floor])) != 0)
             for i in changes:
                 events.append(FloorChangeEvent(float(t[i]), float(floor[i]),
@@ -594,7 +602,7 @@ class PdrPipeline:
         for s, e, direction in self.elevator.update(dv, np.zeros(dv.size, dtype=bool)):
             sl = self.history.sl(s, e + 1)
             dh = float(self.history.up[sl][-1] - self.history.up[sl][0]) if self.history.up[sl].size else 0.0
-            if self._has_baro() and abs(dh) < 0.5 * self.floors.config.floor_height_m:
+            if self._has_baro() and abs(dh) < 0.5 * self.floors.floor_height_m:
                 continue
             mags = self.history.mag_n[sl]
             site_landmark = None

@@ -29,7 +29,9 @@ def test_choices_land_in_the_right_fields():
     model = StepLengthModel(k=0.5)
     cfg = pipeline_config("pocket", attitude_method="ekf", initial_floor=2.0, step_length=model, floor_height_m=3.5)
     base = PipelineConfig(placement="pocket", attitude_method="ekf", initial_floor=2.0)
-    assert cfg == replace(base, step_length=model, floors=replace(base.floors, floor_height_m=3.5))
+    assert cfg == replace(base, step_length=model, floors=replace(base.floors, floor_height_m=3.5, learn_height=False))
+    # A stated floor height is kept, even the default's: it is not learnt from the flights walked.
+    assert not pipeline_config(floor_height_m=4.0).floors.learns_height() and PipelineConfig().floors.learns_height()
 
 
 def test_cli_options_build_the_same_config(tmp_path):

@@ -5,9 +5,10 @@ import pytest
 
 from pdr.errors import InputError
 from pdr.frames import altitude_to_pressure_hpa
-from pdr.phone.floors import FloorConfig, FloorTracker
+from pdr.phone.floors import LEVEL_SPAN, FloorConfig, FloorTracker
 
 RATE_HZ = 10.0
+LEVEL_MID = LEVEL_SPAN
 
 
 def pressures(altitude_m: np.ndarray, base_m: float = 300.0) -> np.ndarray:
@@ -88,10 +89,15 @@ def test_site_floor_altitudes_count_a_mezzanine_and_continue_by_the_floor_height
     assert floor[half - 1] == -1.0 and floor[-1] == -2.0
     # Floors beyond the listed ones continue from the nearest by the floor height.
     assert MUSEUM.altitude_m(1) == pytest.approx(2.85) and MUSEUM.altitude_m(-3) == pytest.approx(-8.55)
-    # Uniform 3.1 m floors put -5.7 m on floor -2 as well, but 2.6 m (the mezzanine gap) at 0.6 floor hysteresis
-    # would not reach floor -1 from 0 at 1.8 m: the site's levels decide, not the default height.
-    _, floor4 = _up_and_floor(FloorTracker(RATE_HZ).track(pressures(alt), flat, walking))
+    # Uniform 4 m floors (the default, not learnt) put -5.7 m on floor -1: 2.6 m below the mezzanine is less than
+    # 0.6 of a 4 m floor. Learning the height from the first flight (3.1 m) gets floor -2 without the site.
+    _, floor4 = _up_and_floor(FloorTracker(RATE_HZ, FloorConfig(learn_height=False)).track(pressures(alt), flat,
+                                                                                            walking))
     assert floor4[-1] == -1.0
+    learner = FloorTracker(RATE_HZ)
+    _, learnt = _up_and_floor(learner.track(pressures(alt), flat, walking))
+    assert learnt[half - 1] == -1.0 and learnt[-1] == -2.0
+    assert learner.learnt_height_m == pytest.approx(3.1, abs=0.1)
 
 
 def test_an_elevator_ride_changes_the_floor_once_when_it_ends():
@@ -157,3 +163,76 @@ def test_stair_flights_are_runs_of_three_or_more_stairs_steps_with_their_height_
     assert flights[0][0] == 1.5 and flights[0][1] == 7.5          # first step's start, last step's end (s)
     with pytest.raises(InputError, match="stair flight state"):
         StairFlights.from_state({"min_steps": 3})
+
+
+def _walking(n: int) -> np.ndarray:
+    """Specific-force magnitudes (m/s^2) of a walker: 2 m/s^2 at 2 Hz about gravity."""
+    return 9.81 + 2.0 * np.sin(np.arange(n) * 2 * np.pi * 2.0 / RATE_HZ)
+
+
+def _flights(*legs: tuple[float, float, float]) -> np.ndarray:
+    """Altitudes (m): for each leg ``(seconds level, metres climbed, climbing speed m/s)``, a level then a climb."""
+    alt, level = [], 0.0
+    for hold_s, climb_m, speed in legs:
+        alt.append(np.full(int(hold_s * RATE_HZ), level))
+        if climb_m:
+            n = int(abs(climb_m) / speed * RATE_HZ)
+            alt.append(np.linspace(level, level + climb_m, n))
+            level += climb_m
+    return np.concatenate(alt)
+
+
+def test_the_floor_height_is_learnt_from_the_first_flight_walked_between_two_levels():
+    # Two 3.2 m floors up, each as two half flights with a 2 s landing between them (too short for a level), then
+    # 30 s on the floor. The default 4 m floors would read 6.4 m as floor 1; the learnt height reads floor 2.
+    alt = _flights((30, 1.6, 0.3), (2, 1.6, 0.3), (30, 1.6, 0.3), (2, 1.6, 0.3), (30, 0, 0))
+    flat = np.ones(alt.size, dtype=bool)
+    tracker = FloorTracker(RATE_HZ)
+    _, floor = _up_and_floor(tracker.track(pressures(alt), flat, _walking(alt.size)))
+    assert tracker.learnt_height_m == pytest.approx(3.2, abs=0.15) and tracker.floor_height_m == tracker.learnt_height_m
+    assert floor[-1] == 2.0
+    assert tracker.levels[LEVEL_MID + 2] == pytest.approx(2 * tracker.learnt_height_m)
+    _, default = _up_and_floor(FloorTracker(RATE_HZ, FloorConfig(learn_height=False)).track(
+        pressures(alt), flat, _walking(alt.size)))
+    assert default[-1] == 1.0
+    # Batches of any size, with the state saved and restored between them, learn the same at the same sample.
+    chunked = FloorTracker(RATE_HZ)
+    parts = []
+    for a, b in zip([0, 13, 320, 321, 700, 1500], [13, 320, 321, 700, 1500, alt.size], strict=True):
+        parts.append(chunked.track(pressures(alt[a:b]), flat[a:b], _walking(alt.size)[a:b]).floor)
+        chunked = FloorTracker.from_state(chunked.state())
+    np.testing.assert_array_equal(np.concatenate(parts), floor)
+    assert chunked.learnt_height_m == tracker.learnt_height_m
+
+
+def test_no_height_is_learnt_from_a_ride_a_double_climb_or_with_a_stated_height():
+    # An elevator ride of one 3 m floor: the rider stands.
+    ride = _flights((30, 3.0, 1.0), (30, 0, 0))
+    t = FloorTracker(RATE_HZ)
+    t.track(pressures(ride), np.ones(ride.size, dtype=bool), np.full(ride.size, 9.81))
+    assert np.isnan(t.learnt_height_m)
+    # Two 3 m floors walked without a level between them (6 m: more than a floor can be).
+    double = _flights((30, 6.0, 0.3), (30, 0, 0))
+    t = FloorTracker(RATE_HZ)
+    t.track(pressures(double), np.ones(double.size, dtype=bool), _walking(double.size))
+    assert np.isnan(t.learnt_height_m)
+    # A pause of 10 s on the half landing (1.5 m) is no floor: the flight is measured from the floor it left.
+    landing = _flights((30, 1.5, 0.3), (10, 1.5, 0.3), (30, 0, 0))
+    t = FloorTracker(RATE_HZ)
+    t.track(pressures(landing), np.ones(landing.size, dtype=bool), _walking(landing.size))
+    assert t.learnt_height_m == pytest.approx(3.0, abs=0.25)
+    # A stated height (or a site's) is kept.
+    one = _flights((30, 3.0, 0.3), (30, 0, 0))
+    for config in (FloorConfig(floor_height_m=3.5), MUSEUM, FloorConfig(learn_height=False)):
+        t = FloorTracker(RATE_HZ, config)
+        t.track(pressures(one), np.ones(one.size, dtype=bool), _walking(one.size))
+        assert np.isnan(t.learnt_height_m) and t.floor_height_m == config.floor_height_m
+
+
+def test_states_saved_before_the_height_was_learnt_resume():
+    t = FloorTracker(RATE_HZ)
+    old = {k: v for k, v in t.state().items() if k not in ("level_up", "held", "walked", "ridden", "learnt_height_m")}
+    resumed = FloorTracker.from_state(old)
+    assert np.isnan(resumed.learnt_height_m) and resumed.held == 0
+    with pytest.raises(InputError, match="floor_height_range_m"):
+        FloorConfig(floor_height_range_m=(5.0, 2.0))
