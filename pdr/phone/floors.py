@@ -19,9 +19,10 @@ level to the next measures one floor height. A level is an altitude that stayed 
 landing between two flights lasts a stride or two; a floor is walked on for longer). The climb counts when the
 user walked through it (the specific force varied as in walking for most of its moving samples: an elevator rider
 stands, and a ride may cross several floors) and it is within ``floor_height_range_m``, the floor-to-floor heights
-of buildings (a continuous climb over two floors is at least twice the lower bound, so longer climbs are left
-alone). A smaller altitude change is a ramp or a half landing: the level the climb started from is kept. From the
-learnt height on, every level is that far apart (:attr:`FloorTracker.learnt_height_m`).
+of buildings: 2.5 m (a 2.2-2.4 m room height plus the slab) to 5 m. A continuous climb over two floors is at least
+twice the lower bound, so it is left alone, and so is a longer one. A smaller altitude change, at least half the
+lower bound, is a ramp or a half landing: the level the climb started from is kept. From the learnt height on,
+every level is that far apart (:attr:`FloorTracker.learnt_height_m`).
 
 Whether the altitude is still moving at each sample (its low-passed rate at ``settle_mps`` or more:
 :attr:`FloorSamples.moving`) is also what the attitude filter needs: a user who stands in a moving cabin is carried
@@ -64,7 +65,7 @@ class FloorConfig:
     altitudes_m: tuple[tuple[float, float], ...] = ()
     learn_height: bool = True
     level_hold_s: float = 5.0
-    floor_height_range_m: tuple[float, float] = (2.0, 5.0)
+    floor_height_range_m: tuple[float, float] = (2.5, 5.0)
 
     def __post_init__(self) -> None:
         if not self.floor_height_m > 0:
