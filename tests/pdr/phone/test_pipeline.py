@@ -10,6 +10,7 @@ from pdr import state_codec
 from pdr.errors import InputError
 from pdr.frames import heading_deg_to_yaw, wrap_angle
 from pdr.io.registry import read_recording
+from pdr.phone.floors import FloorConfig
 from pdr.phone.landmarks import Site
 from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
 from pdr.recording import Recording, SensorStream
@@ -377,6 +378,25 @@ def test_a_saved_configuration_with_a_removed_parameter_still_reads():
 
 @pytest.mark.data
 @pytest.mark.slow
+def test_without_a_site_the_ipin_stairs_walk_learns_its_floor_height_and_every_landmark_floor_is_right():
+    # IPIN 2023 .mat trial 51 walks from floor 0 down the stairs to the mezzanine (-1, 3.1 m down) and on to floor
+    # -2, and back, twice. Without a site the first flight measures the floor height (pdr.phone.floors).
+    rec = read_recording(data_path("ipin2023_t3", "mat", "IPIN2023_T3_TrainingTrial51_repetition01.mat"))
+    pipe = PdrPipeline(PipelineConfig(initial_floor=0.0))
+    events = pipe.run(rec)
+    assert any("learnt from the flight walked" in e["message"] for e in events if e["type"] == "notice")
+    assert 2.6 < pipe.floors.learnt_height_m < 3.4
+    changes = [(e["t_s"], e["floor"]) for e in events if e["type"] == "floor_change"]
+    truth = rec.truth.positions
+    assert truth is not None and truth.floor is not None
+    for t_s, floor in zip(rec.origin_ns / 1e9 + truth.t_s, truth.floor, strict=True):
+        shown = [f for t, f in changes if t <= t_s]
+        assert (shown[-1] if shown else 0.0) == floor
+    # With the default height kept (the height stated), floor -2 (5.7 m down) reads as -1.
+    kept = PdrPipeline(PipelineConfig(initial_floor=0.0, floors=FloorConfig(learn_height=False))).run(rec)
+    assert min(e["floor"] for e in kept if e["type"] == "floor_change") == -1.0
+
+
 def test_stair_flights_of_the_ipin_stairs_walk_count_the_floors_they_change():
     # IPIN 2023 .mat trial 52 walks from floor 0 down the stairs to floor -2, back up, down and up again; the site
     # gives the floors' altitudes (0, -3.1, -5.7 m).
