@@ -256,16 +256,18 @@ def _track_floors(h: FloatArray, acc: FloatArray, flat: NDArray[np.bool_], ks: f
                 else:
                     ridden += 1
             elif held >= hold_n:
-                # On a level: the first, the same one again (a new climb starts from it), a ramp or half landing
-                # (the level the climb started from is kept), a flight walked between adjacent floors, or a ride or
-                # a climb of several floors (a new level to start from). A level's altitude is taken once it has
-                # held, not followed: the low-passed rate lags the first second of a climb.
+                # On a level. Its altitude is taken once it has held, not followed: the low-passed rate lags the
+                # first second of a climb.
                 d = abs(up[i] - level_up)
-                if d < 0.5 * min_h:
-                    walked = ridden = 0
-                elif math.isnan(level_up) or not (d < min_h or (d <= max_h and walked > ridden)):
+                if math.isnan(level_up):                # the first level
                     level_up, walked, ridden = up[i], 0, 0
-                elif d >= min_h:
+                elif d < 0.5 * min_h:                   # the same level again: a new climb starts from it
+                    walked = ridden = 0
+                elif d < min_h:                         # a ramp or half landing: the level the climb left is kept
+                    pass
+                elif not (d <= max_h and walked > ridden):   # a ride, or a climb over floors: a new level
+                    level_up, walked, ridden = up[i], 0, 0
+                else:                                   # a flight walked between adjacent floors
                     learnt = d
                     for j in range(levels.size):
                         levels[j] = (j - mid) * learnt
