@@ -397,6 +397,8 @@ def test_without_a_site_the_ipin_stairs_walk_learns_its_floor_height_and_every_l
     assert min(e["floor"] for e in kept if e["type"] == "floor_change") == -1.0
 
 
+@pytest.mark.data
+@pytest.mark.slow
 def test_stair_flights_of_the_ipin_stairs_walk_count_the_floors_they_change():
     # IPIN 2023 .mat trial 52 walks from floor 0 down the stairs to floor -2, back up, down and up again; the site
     # gives the floors' altitudes (0, -3.1, -5.7 m).
