@@ -169,7 +169,7 @@ class FloorTracker:
         moving = np.empty(h.size, dtype=np.bool_)
         st = np.array([self.alt, self.ref, self.v, self.acc_mean, self.acc_var, self.level_up, self.learnt_height_m])
         counts = np.array([self.n, self.shown, self.held, self.walked, self.ridden], dtype=np.int64)
-        learn = c.learns_height() and math.isnan(self.learnt_height_m)
+        learn = c.learns_height()          # the kernel stops learning once a height is learnt
         _track_floors(h, a, np.asarray(flat, dtype=np.bool_), ks, kd, self.levels, c.hysteresis, c.settle_mps,
                       c.walking_acc_std_mps2 ** 2, self.rate_hz, self.floor0, learn,
                       max(1, int(round(c.level_hold_s * self.rate_hz))), c.floor_height_range_m[0],
