@@ -14,14 +14,16 @@ rider stands still in the cabin). An elevator ride thus changes the floor once, 
 walks out, by the floors it crossed, and not at each floor passed on the way; on stairs the floor changes at once.
 
 Without a site and without a stated floor height (:meth:`FloorConfig.assumes_default_height`), the floor height is
-learnt from the first flight walked between two levels: stairs join adjacent floors, so a climb walked from one
-level to the next measures one floor height. A level is an altitude that stayed settled for ``level_hold_s`` (a
-landing between two flights lasts a stride or two; a floor is walked on for longer). The climb counts when the
-user walked through it (the specific force varied as in walking for most of its moving samples: an elevator rider
-stands, and a ride may cross several floors) and it is within ``floor_height_range_m``, the floor-to-floor heights
-of buildings: 2.5 m (a 2.2-2.4 m room height plus the slab) to 5 m. A continuous climb over two floors is at least
-twice the lower bound, so it is left alone, and so is a longer one. A smaller altitude change, at least half the
-lower bound, is a ramp or a half landing: the level the climb started from is kept. From the learnt height on,
+learnt from the first climb walked between two levels: stairs join floors, so a climb walked from one level to
+another spans a whole number of floors. A level is an altitude that stayed settled for ``level_hold_s`` (a landing
+between two flights lasts a stride or two; a floor is walked on for longer). The climb counts when the user walked
+through it (the specific force varied as in walking for most of its moving samples: an elevator rider stands, and
+a ride may cross several floors) and when exactly one whole number of floors, each within
+``floor_height_range_m``, fits it (:func:`whole_floors`). The range is the floor-to-floor heights of buildings:
+2.5 m (a 2.2-2.4 m room height plus the slab) to 5 m. A climb of 2.5-5 m is then one floor and one of 5-7.5 m two
+(IPIN trial 52 walks down two floors without stopping between them: 5.9 m, 2.93 m a floor against the museum's 3.1
+and 2.6 m); a longer one may be two floors or three, and is left alone. A smaller altitude change, at least half
+the lower bound, is a ramp or a half landing: the level the climb started from is kept. From the learnt height on,
 every level is that far apart (:attr:`FloorTracker.learnt_height_m`).
 
 Whether the altitude is still moving at each sample (its low-passed rate at ``settle_mps`` or more:
@@ -52,7 +54,7 @@ class FloorConfig:
     speed (m/s) below which the altitude has settled on a floor (an elevator moves at 0.3-2 m/s, a walker on stairs
     at about 0.3 m/s), the specific-force standard deviation (m/s^2) above which the user walks, and the site's
     per-floor altitudes ``altitudes_m``: ``(floor, altitude m)`` pairs (empty: every floor ``floor_height_m`` apart).
-    ``learn_height``: learn the floor height from the first flight walked when the height is the default
+    ``learn_height``: learn the floor height from the first climb walked when the height is the default
     (module doc), with the time (s) a level holds and the range (m) of floor-to-floor heights.
     """
 
@@ -90,7 +92,7 @@ class FloorConfig:
         return not self.altitudes_m and self.floor_height_m == FloorConfig.floor_height_m
 
     def learns_height(self) -> bool:
-        """True when the floor height is learnt from the flights walked (module doc)."""
+        """True when the floor height is learnt from the climbs walked (module doc)."""
         return self.learn_height and self.assumes_default_height()
 
     def altitude_m(self, floor: float) -> float:
@@ -208,6 +210,16 @@ class FloorTracker:
 
 
 @njit(cache=True)
+def whole_floors(climb_m: float, min_h: float, max_h: float) -> int:
+    """The number of floors a climb of ``climb_m`` (m) between two levels spans when exactly one whole number of
+    floors, each ``min_h`` to ``max_h`` m high, fits it; 0 when none or several do (a 2.5-5 m floor: 1 floor up to
+    5 m, 2 floors from 5 to 7.5 m, then 2 or 3).
+    """
+    fewest, most = math.ceil(climb_m / max_h), math.floor(climb_m / min_h)
+    return int(fewest) if fewest == most and fewest >= 1 else 0
+
+
+@njit(cache=True)
 def _track_floors(h: FloatArray, acc: FloatArray, flat: NDArray[np.bool_], ks: float, kd: float, levels: FloatArray,
                   hysteresis: float, settle_mps: float, walking_var: float, rate_hz: float, floor0: float,
                   learn: bool, hold_n: int, min_h: float, max_h: float, st: FloatArray, counts: NDArray[np.int64],
@@ -265,14 +277,15 @@ def _track_floors(h: FloatArray, acc: FloatArray, flat: NDArray[np.bool_], ks: f
                     walked = ridden = 0
                 elif d < min_h:                         # a ramp or half landing: the level the climb left is kept
                     pass
-                elif not (d <= max_h and walked > ridden):   # a ride, or a climb over floors: a new level
-                    level_up, walked, ridden = up[i], 0, 0
-                else:                                   # a flight walked between adjacent floors
-                    learnt = d
+                elif walked > ridden and whole_floors(d, min_h, max_h) > 0:
+                    # Flights walked between floors a whole number apart: the height of each floor
+                    learnt = d / whole_floors(d, min_h, max_h)
                     for j in range(levels.size):
                         levels[j] = (j - mid) * learnt
                     n = int(round(up[i] / learnt))
                     shown = n
+                else:                                   # a ride, or a climb of an ambiguous floor count: a new level
+                    level_up, walked, ridden = up[i], 0, 0
         fl[i] = floor0 + shown
     st[0], st[1], st[2], st[3], st[4], st[5], st[6] = alt, ref, v, am, av, level_up, learnt
     counts[0], counts[1], counts[2], counts[3], counts[4] = n, shown, held, walked, ridden

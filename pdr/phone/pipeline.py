@@ -501,7 +501,7 @@ class PdrPipeline:
         if "baro" in kinds and self.floors.config.assumes_default_height():
             msg = (f"no site with the building's floor height or floor altitudes: floor numbers assume floors "
                    f"{self.floors.config.floor_height_m:g} m apart (the default floor height)"
-                   + (" until a flight walked between two levels measures the height"
+                   + (" until stairs walked between two levels measure the height"
                       if self.floors.config.learns_height() else ""))
             self.notices.append(msg)
             events.append(NoticeEvent(msg))
@@ -539,7 +539,7 @@ class PdrPipeline:
             fs = self.floors.track(vals["baro"][:, 0], np.ones(n, dtype=bool), np.linalg.norm(acc, axis=1))
             up, floor, carried = fs.up_m, fs.floor, fs.moving
             if learning and not math.isnan(self.floors.learnt_height_m):
-                msg = (f"floor height {self.floors.learnt_height_m:.2f} m learnt from the flight walked between two "
+                msg = (f"floor height {self.floors.learnt_height_m:.2f} m learnt from the stairs walked between two "
                        f"levels (pdr.phone.floors): floor numbers from here on assume floors that far apart")
                 self.notices.append(msg)
                 events.append(NoticeEvent(msg))

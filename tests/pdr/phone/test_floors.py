@@ -5,7 +5,7 @@ import pytest
 
 from pdr.errors import InputError
 from pdr.frames import altitude_to_pressure_hpa
-from pdr.phone.floors import LEVEL_SPAN, FloorConfig, FloorTracker
+from pdr.phone.floors import LEVEL_SPAN, FloorConfig, FloorTracker, whole_floors
 
 RATE_HZ = 10.0
 LEVEL_MID = LEVEL_SPAN
@@ -205,16 +205,26 @@ def test_the_floor_height_is_learnt_from_the_first_flight_walked_between_two_lev
     assert chunked.learnt_height_m == tracker.learnt_height_m
 
 
-def test_no_height_is_learnt_from_a_ride_a_double_climb_or_with_a_stated_height():
+def test_whole_floors_counts_a_climb_only_when_one_count_fits():
+    assert [whole_floors(d, 2.5, 5.0) for d in (2.0, 2.5, 3.1, 4.9, 5.5, 5.9, 7.4, 7.6, 9.0, 20.0)] == [
+        0, 1, 1, 1, 2, 2, 2, 0, 0, 0]         # under a floor; one; two; 2 or 3 floors (and more) are ambiguous
+
+
+def test_no_height_is_learnt_from_a_ride_an_ambiguous_climb_or_with_a_stated_height():
     # An elevator ride of one 3 m floor: the rider stands.
     ride = _flights((30, 3.0, 1.0), (30, 0, 0))
     t = FloorTracker(RATE_HZ)
     t.track(pressures(ride), np.ones(ride.size, dtype=bool), np.full(ride.size, 9.81))
     assert np.isnan(t.learnt_height_m)
-    # Two 3 m floors walked without a level between them (6 m: more than a floor can be).
+    # Two 3 m floors walked without a level between them: 6 m is two floors (one cannot be so high).
     double = _flights((30, 6.0, 0.3), (30, 0, 0))
     t = FloorTracker(RATE_HZ)
     t.track(pressures(double), np.ones(double.size, dtype=bool), _walking(double.size))
+    assert t.learnt_height_m == pytest.approx(3.0, abs=0.25)
+    # Three 3 m floors at once: 9 m may be two floors of 4.5 m or three of 3 m.
+    triple = _flights((30, 9.0, 0.3), (30, 0, 0))
+    t = FloorTracker(RATE_HZ)
+    t.track(pressures(triple), np.ones(triple.size, dtype=bool), _walking(triple.size))
     assert np.isnan(t.learnt_height_m)
     # A pause of 10 s on the half landing (1.5 m) is no floor: the flight is measured from the floor it left.
     landing = _flights((30, 1.5, 0.3), (10, 1.5, 0.3), (30, 0, 0))

@@ -1,6 +1,7 @@
 """Online pipeline: simulated walks with truth, random chunking == one batch, state round trip, bad input."""
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -381,20 +382,47 @@ def test_a_saved_configuration_with_a_removed_parameter_still_reads():
 def test_without_a_site_the_ipin_stairs_walk_learns_its_floor_height_and_every_landmark_floor_is_right():
     # IPIN 2023 .mat trial 51 walks from floor 0 down the stairs to the mezzanine (-1, 3.1 m down) and on to floor
     # -2, and back, twice. Without a site the first flight measures the floor height (pdr.phone.floors).
-    rec = read_recording(data_path("ipin2023_t3", "mat", "IPIN2023_T3_TrainingTrial51_repetition01.mat"))
-    pipe = PdrPipeline(PipelineConfig(initial_floor=0.0))
-    events = pipe.run(rec)
-    assert any("learnt from the flight walked" in e["message"] for e in events if e["type"] == "notice")
+    rec, pipe, events = _ipin_mat_walk_without_site(51)
+    assert any("learnt from the stairs walked" in e["message"] for e in events if e["type"] == "notice")
     assert 2.6 < pipe.floors.learnt_height_m < 3.4
-    changes = [(e["t_s"], e["floor"]) for e in events if e["type"] == "floor_change"]
-    truth = rec.truth.positions
-    assert truth is not None and truth.floor is not None
-    for t_s, floor in zip(rec.origin_ns / 1e9 + truth.t_s, truth.floor, strict=True):
-        shown = [f for t, f in changes if t <= t_s]
-        assert (shown[-1] if shown else 0.0) == floor
+    assert all(shown == floor for _, floor, shown in _landmark_floors(rec, events))
     # With the default height kept (the height stated), floor -2 (5.7 m down) reads as -1.
     kept = PdrPipeline(PipelineConfig(initial_floor=0.0, floors=FloorConfig(learn_height=False))).run(rec)
     assert min(e["floor"] for e in kept if e["type"] == "floor_change") == -1.0
+
+
+@pytest.mark.data
+@pytest.mark.slow
+def test_without_a_site_the_two_floor_descent_measures_the_floor_height_from_the_floor_reached():
+    # IPIN 2023 .mat trial 52 walks from floor 0 down two floors (5.7 m) without stopping on the mezzanine: one
+    # floor cannot be so high, so the climb is two floors (pdr.phone.floors.whole_floors). The height is learnt once
+    # the walker has stood on floor -2 (level_hold_s), and from there every landmark's floor is right.
+    rec, pipe, events = _ipin_mat_walk_without_site(52)
+    assert 2.6 < pipe.floors.learnt_height_m < 3.1                # the museum's floors: 3.1 and 2.6 m
+    learnt_at = next(e["t_s"] for e in events if e["type"] == "floor_change" and e["floor"] == -2.0)
+    after = [(floor, shown) for t_s, floor, shown in _landmark_floors(rec, events) if t_s >= learnt_at]
+    assert len(after) >= 10 and all(shown == floor for floor, shown in after)
+
+
+def _ipin_mat_walk_without_site(trial: int) -> tuple[Recording, PdrPipeline, list[dict[str, Any]]]:
+    """An IPIN 2023 .mat walk (repetition 01) run from floor 0 without a site: the recording, pipeline, events."""
+    rec = read_recording(data_path("ipin2023_t3", "mat", f"IPIN2023_T3_TrainingTrial{trial}_repetition01.mat"))
+    pipe = PdrPipeline(PipelineConfig(initial_floor=0.0))
+    return rec, pipe, pipe.run(rec)
+
+
+def _landmark_floors(rec: Recording, events: list[dict[str, Any]]) -> list[tuple[float, float, float]]:
+    """(log-clock time s, true floor, floor shown then) at each of a recording's truth positions (floor 0 before
+    the first floor change).
+    """
+    changes = [(e["t_s"], e["floor"]) for e in events if e["type"] == "floor_change"]
+    truth = rec.truth.positions
+    assert truth is not None and truth.floor is not None
+    out = []
+    for t_s, floor in zip(rec.origin_ns / 1e9 + truth.t_s, truth.floor, strict=True):
+        shown = [f for t, f in changes if t <= t_s]
+        out.append((float(t_s), float(floor), shown[-1] if shown else 0.0))
+    return out
 
 
 @pytest.mark.data
