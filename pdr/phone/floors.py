@@ -17,13 +17,15 @@ Without a site and without a stated floor height (:meth:`FloorConfig.assumes_def
 learnt from the first climb walked between two levels: stairs join floors, so a climb walked from one level to
 another spans a whole number of floors. A level is an altitude that stayed settled for ``level_hold_s`` (a landing
 between two flights lasts a stride or two; a floor is walked on for longer). The climb counts when the user walked
-through it (the specific force varied as in walking for most of its moving samples: an elevator rider stands, and
-a ride may cross several floors) and when exactly one whole number of floors, each within
-``floor_height_range_m``, fits it (:func:`whole_floors`). The range is the floor-to-floor heights of buildings:
-2.5 m (a 2.2-2.4 m room height plus the slab) to 5 m. A climb of 2.5-5 m is then one floor and one of 5-7.5 m two
-(IPIN trial 52 walks down two floors without stopping between them: 5.9 m, 2.93 m a floor against the museum's 3.1
-and 2.6 m); a longer one may be two floors or three, and is left alone. A smaller altitude change, at least half
-the lower bound, is a ramp or a half landing: the level the climb started from is kept. From the learnt height on,
+through it (the specific force varied as in walking for most of its moving samples) and when exactly one whole
+number of floors, each within ``floor_height_range_m``, fits it (:func:`whole_floors`). The range is the
+floor-to-floor heights of buildings: 2.5 m (a 2.2-2.4 m room height plus the slab) to 5 m. A climb of 2.5-5 m is
+then one floor and one of 5-7.5 m two (IPIN trial 52 walks down two floors without stopping between them: 5.9 m,
+2.93 m a floor against the museum's 3.1 and 2.6 m); a longer one may be two floors or three, and is left alone. A
+ground floor over 5 m high climbed in one go is read as two floors: a site's floor altitudes are the way to state
+such a building. Rides are not counted: the same rule would take an elevator's, but a car climbing a road carries
+a seated user as a cabin does, between levels it holds at lights. A smaller altitude change, at least half the
+lower bound, is a ramp or a half landing: the level the climb started from is kept. From the learnt height on,
 every level is that far apart (:attr:`FloorTracker.learnt_height_m`).
 
 Whether the altitude is still moving at each sample (its low-passed rate at ``settle_mps`` or more:
