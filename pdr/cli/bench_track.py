@@ -1,4 +1,5 @@
-"""``pdr bench track LOG [--repeat N] [--tile K]``: wall time per stage of ``pdr track`` (:mod:`pdr.bench_track`).
+"""``pdr bench track LOG [--repeat N] [--tile K] [--cold]``: wall time per stage of ``pdr track``
+(:mod:`pdr.evaluation.track_bench`), and of separate processes (start-up).
 
 Light on purpose: the parser imports nothing of the pipeline; the bench module is imported when the command runs.
 """
@@ -17,6 +18,9 @@ def register(targets: argparse._SubParsersAction) -> None:
     p.add_argument("--tile", type=int, default=1,
                    help="first tile the GetSensorData log this many times in a temporary folder (24: a 154 s "
                         "walk becomes one hour)")
+    p.add_argument("--cold", action="store_true",
+                   help="also time one pdr track process with empty bytecode and compiled-kernel caches (a fresh "
+                        "install's first run: every kernel compiles, a minute or more)")
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
     p.set_defaults(func=run)
 
@@ -27,7 +31,7 @@ def run(args: argparse.Namespace) -> int:
     if args.repeat < 1 or args.tile < 1:
         print("error: --repeat and --tile must be at least 1", flush=True)
         return 2
-    res = bench_track.run(args.log, args.repeat, args.tile)
+    res = bench_track.run(args.log, args.repeat, args.tile, args.cold)
     if args.json:
         print(json.dumps(res, indent=2, default=str))
         return 0
@@ -41,8 +45,16 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {stage:9s} {best['stages_s'][stage]:8.3f} s {cpu[stage]:8.3f} s")
     print(f"  {'total':9s} {best['total_s']:8.3f} s {cpu['total']:8.3f} s = {res['samples_per_s']:.0f} samples/s "
           "(in process)")
+    up = res["start_up"]
     print(f"  {'process':9s} {res['process_s']:8.3f} s = {res['process_samples_per_s']:.0f} samples/s "
-          f"(a separate `pdr track` process: start-up and imports included)")
+          f"(a separate `pdr track` process, start-up and imports included; warm: bytecode and compiled kernels "
+          f"cached, as after an install and one run)")
+    print(f"start-up (separate processes): `pdr track` with the bytecode cache empty (every module compiled from "
+          f"source, the dependencies' too) {up['track_first_s']:.3f} s; "
+          f"warm `pdr --help` {up['help_s']:.3f} s, `pdr inspect` of the untiled log {up['inspect_s']:.3f} s")
+    if up["track_cold_s"] is not None:
+        print(f"  cold `pdr track` (bytecode and compiled-kernel caches empty: a fresh install's first run) "
+              f"{up['track_cold_s']:.1f} s")
     e = res["ahrs_ekf"]
     if e is None:
         print("ahrs EKF: n/a (the ahrs package is not installed)")

@@ -20,6 +20,7 @@ track) on the same accelerometer, gyroscope and magnetometer samples, timed in t
 from __future__ import annotations
 
 import functools
+import os
 import subprocess
 import sys
 import tempfile
@@ -181,25 +182,60 @@ def time_ahrs_ekf(rec: Any) -> dict[str, Any] | None:
     return {"wall_s": wall, "samples": len(t), "samples_per_s": len(t) / wall}
 
 
-def time_process(log: str | Path, out_csv: str | Path) -> float:
-    """Wall time of a separate ``pdr track LOG --out OUT`` process (interpreter start, imports, compiled-kernel
-    loading included), in s.
+def process_env(pycache: Path, numba_cache: Path | None = None) -> dict[str, str]:
+    """The environment of a ``pdr`` process as an installed package runs: bytecode written and read (here under
+    ``pycache``, so that the checkout is not written to; ``PYTHONDONTWRITEBYTECODE`` dropped), and numba's cache
+    ``numba_cache`` when given (an empty folder: a cold start).
+    """
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env["PYTHONPYCACHEPREFIX"] = str(pycache)
+    if numba_cache is not None:
+        env["NUMBA_CACHE_DIR"] = str(numba_cache)
+    return env
+
+
+def time_command(args: list[str], env: dict[str, str] | None = None) -> float:
+    """Wall time (s) of a separate ``pdr ARGS`` process (interpreter start, imports, compiled-kernel loading
+    included), in the environment ``env`` (None: this process's).
     """
     t0 = time.perf_counter()
-    done = subprocess.run([sys.executable, "-c", "import sys; from pdr.cli import main; sys.exit(main())", "track",
-                           str(log), "--out", str(out_csv)],
-                          capture_output=True, text=True, check=False)
+    done = subprocess.run([sys.executable, "-c", "import sys; from pdr.cli import main; sys.exit(main())", *args],
+                          capture_output=True, text=True, check=False, env=env)
     wall = time.perf_counter() - t0
     if done.returncode != 0:
-        raise RuntimeError(f"pdr track failed ({done.returncode}): {done.stderr.strip()[-500:]}")
+        raise RuntimeError(f"pdr {args[0]} failed ({done.returncode}): {done.stderr.strip()[-500:]}")
     return wall
 
 
-def run(log: str | Path, repeat: int = 1, tile: int = 1) -> dict[str, Any]:
+def time_start_up(log: str | Path, tiled: str | Path, tmp: Path, repeat: int, cold: bool) -> dict[str, Any]:
+    """Wall times (s) of separate processes, as an installed package runs them (:func:`process_env`):
+
+    - ``track_s``: ``pdr track TILED`` warm (bytecode and compiled kernels cached: best of ``repeat`` after one
+      untimed run), and ``track_first_s``: that untimed run (the bytecode cache empty, the kernels cached);
+    - ``help_s``: ``pdr --help`` and ``inspect_s``: ``pdr inspect LOG``, warm (best of ``repeat``);
+    - ``track_cold_s`` with ``cold``: ``pdr track TILED`` with both caches empty, a fresh install's first run
+      (None without).
+    """
+    env = process_env(tmp / "pycache")
+    out_csv = str(tmp / "track_process.csv")
+    track = ["track", str(tiled), "--out", out_csv]
+    first = time_command(track, env)
+    res: dict[str, Any] = {"track_first_s": first,
+                           "track_s": min(time_command(track, env) for _ in range(repeat)),
+                           "help_s": min(time_command(["--help"], env) for _ in range(repeat)),
+                           "inspect_s": min(time_command(["inspect", str(log)], env) for _ in range(repeat)),
+                           "track_cold_s": None}
+    if cold:
+        res["track_cold_s"] = time_command(track, process_env(tmp / "pycache-cold", tmp / "numba-cache-cold"))
+    return res
+
+
+def run(log: str | Path, repeat: int = 1, tile: int = 1, cold: bool = False) -> dict[str, Any]:
     """Best-of-``repeat`` stage times of ``pdr track`` on ``log`` (tiled ``tile`` times first when > 1), and the
     ``ahrs`` EKF on the same data in the same run (best of ``repeat`` as well). ``least_cpu`` holds each stage's
     and the total's least CPU time over the runs (the first run's one-off costs, such as loading the compiled kernels,
-    left out when ``repeat`` > 1).
+    left out when ``repeat`` > 1). ``start_up``: the separate processes of :func:`time_start_up` (``cold``: also
+    one with empty caches).
     """
     from pdr.machine import environment
 
@@ -213,14 +249,15 @@ def run(log: str | Path, repeat: int = 1, tile: int = 1) -> dict[str, Any]:
         for r in runs:
             r.pop("recording", None)
         ekf = [e for e in (time_ahrs_ekf(rec) for _ in range(max(1, repeat))) if e is not None]
-        process = [time_process(src, Path(tmp) / "track_process.csv") for _ in range(max(1, repeat))]
+        start_up = time_start_up(log, src, Path(tmp), max(1, repeat), cold)
         size = src.stat().st_size
     out: dict[str, Any] = {"environment": environment(), "log": str(log), "tile": tile, "bytes": size,
                            "repeat": repeat, "best": best, "all_totals_s": [r["total_s"] for r in runs]}
     out["least_cpu"] = {k: min(r["stages_cpu_s"][k] for r in runs) for k in STAGES}
     out["least_cpu"]["total"] = min(r["total_cpu_s"] for r in runs)
     out["samples_per_s"] = best["acc_samples"] / best["total_s"]
-    out["process_s"] = min(process)
+    out["start_up"] = start_up
+    out["process_s"] = start_up["track_s"]
     out["process_samples_per_s"] = best["acc_samples"] / out["process_s"]
     if ekf:
         e = min(ekf, key=lambda r: r["wall_s"])

@@ -73,3 +73,16 @@ def test_tiling_a_folder_or_a_missing_file_is_a_clear_error(tmp_path):
         bench_track.tile_ipin_log(tmp_path, 2, tmp_path / "out.txt")
     with pytest.raises(InputError, match="no such file"):
         bench_track.tile_ipin_log(tmp_path / "absent.txt", 2, tmp_path / "out.txt")
+
+
+def test_start_up_processes_run_as_installed_with_their_bytecode_kept_apart(tmp_path, monkeypatch) -> None:
+    # The product's processes write their bytecode under the bench's own prefix, not into the checkout, even where
+    # the caller's environment forbids bytecode.
+    monkeypatch.setenv("PYTHONDONTWRITEBYTECODE", "1")
+    env = bench_track.process_env(tmp_path / "pycache", tmp_path / "numba")
+    assert "PYTHONDONTWRITEBYTECODE" not in env and env["NUMBA_CACHE_DIR"] == str(tmp_path / "numba")
+    assert bench_track.time_command(["--help"], env) > 0
+    written = list((tmp_path / "pycache").rglob("*.pyc"))
+    assert any(p.name.startswith("__init__") and "pdr" in p.parts for p in written)
+    with pytest.raises(RuntimeError, match="pdr inspect failed"):
+        bench_track.time_command(["inspect", str(tmp_path / "absent.txt")], env)
