@@ -24,7 +24,6 @@ batch by batch, JSON-able state) so that the ride's profile can be read once the
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -32,10 +31,9 @@ import numpy as np
 
 from pdr.errors import InputError
 from pdr.frames import pressure_to_altitude_m
+from pdr.phone.baro_rides import ESCALATOR_MAX_VERTICAL_MPS
 from pdr.recording import Recording
 
-#: Highest vertical speed (m/s) of an escalator: 0.75 m/s along a 30 deg incline (EN 115-1's upper limit).
-ESCALATOR_MAX_VERTICAL_MPS = 0.75 * math.sin(math.radians(30.0))
 #: Longest time (s) from the end of the climb to the first step off an escalator: its exit landing's flat travel
 #: (1.6 m at most) at 0.75 m/s, plus the stop rule's block (0.5 s).
 ESCALATOR_MAX_TAIL_S = 1.6 / 0.75 + 0.5

@@ -13,8 +13,10 @@ turns what it reports into timeline entries (:class:`ModeEntry`):
   who takes no step and holds the phone still while the altitude changes by a floor rides a cabin or a belt;
   ``vertical_speed_mps`` and ``tail_s`` are the ride's profile;
 * any other stop is ``standing``;
-* an ``elevator`` event of the pipeline (vertical-acceleration impulse pair) is an ``elevator_up/down`` entry
-  with its altitude change (the pipeline's detector drops a pair of impulses with a walk between them).
+* an ``elevator`` event of the pipeline from the vertical-acceleration impulse pair (a phone without a barometer)
+  is an ``elevator_up/down`` entry with its altitude change (the pipeline's detector drops a pair of impulses with
+  a walk between them). One from the barometer (``source`` ``barometer``, :mod:`pdr.phone.baro_rides`) is the ride
+  the stop rule above finds with its floor change and profile, and is not added twice.
 
 The state (:meth:`StopTimeline.state`) is JSON-able, for the session processor's stored state.
 
@@ -116,7 +118,7 @@ class StopTimeline:
             elif kind == "floor_change":
                 self.floor_changes.append((float(e["t_s"]), float(e.get("from_floor", float("nan"))),
                                            float(e["floor"])))
-            elif kind == "elevator":
+            elif kind == "elevator" and e.get("source", "impulses") == "impulses":
                 a, b = float(e["t_start_s"]), float(e["t_end_s"])
                 busy.append((a, b))
                 data = {"altitude_change_m": e.get("altitude_change_m"), "source": "impulses"}

@@ -133,7 +133,9 @@ class ElevatorEvent(_Event):
     (m), the magnetic field's range over the ride (uT, None without magnetometer), the site landmark that fixed
     the position (None: no match; then absent from the row) and the floors the ride crossed (the floors nearest the
     barometric altitudes at its start and end, with the site's floor altitudes or floor height; None without a
-    barometer).
+    barometer). ``source``: ``barometer`` (a climb stood through and walked out of, :mod:`pdr.phone.baro_rides`: the
+    ride from its start to the cabin stopping) or ``impulses`` (the vertical specific force's start and stop
+    impulses, without a barometer).
     """
 
     KIND: ClassVar[str] = "elevator"
@@ -144,6 +146,7 @@ class ElevatorEvent(_Event):
     mag_change_uT: float | None
     site_landmark: str | None = None
     floors: int | None = None
+    source: str = "impulses"
 
     def to_row(self) -> EventRow:
         row = super().to_row()

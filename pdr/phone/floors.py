@@ -116,13 +116,17 @@ LEVEL_SPAN = 100
 
 @dataclass(frozen=True)
 class FloorSamples:
-    """Per sample: the smoothed altitude above the start ``up_m`` (m), the floor, and whether the altitude is still
-    moving (``moving``: its low-passed rate at ``settle_mps`` or more; module doc).
+    """Per sample: the smoothed altitude above the start ``up_m`` (m), the floor, whether the altitude is still
+    moving (``moving``: its low-passed rate ``rate_mps`` (m/s, up positive) at ``settle_mps`` or more) and whether
+    the user walks (``walking``: the specific-force magnitude varies as in walking, or there is no accelerometer;
+    module doc).
     """
 
     up_m: FloatArray
     floor: FloatArray
     moving: NDArray[np.bool_]
+    walking: NDArray[np.bool_]
+    rate_mps: FloatArray
 
 
 class FloorTracker:
@@ -171,17 +175,19 @@ class FloorTracker:
         up = np.empty(h.size)
         fl = np.empty(h.size)
         moving = np.empty(h.size, dtype=np.bool_)
+        walking = np.empty(h.size, dtype=np.bool_)
+        rate = np.empty(h.size)
         st = np.array([self.alt, self.ref, self.v, self.acc_mean, self.acc_var, self.level_up, self.learnt_height_m])
         counts = np.array([self.n, self.shown, self.held, self.walked, self.ridden], dtype=np.int64)
         learn = c.learns_height()          # the kernel stops learning once a height is learnt
         _track_floors(h, a, np.asarray(flat, dtype=np.bool_), ks, kd, self.levels, c.hysteresis, c.settle_mps,
                       c.walking_acc_std_mps2 ** 2, self.rate_hz, self.floor0, learn,
                       max(1, int(round(c.level_hold_s * self.rate_hz))), c.floor_height_range_m[0],
-                      c.floor_height_range_m[1], st, counts, up, fl, moving)
+                      c.floor_height_range_m[1], st, counts, up, fl, moving, walking, rate)
         self.alt, self.ref, self.v, self.acc_mean, self.acc_var, self.level_up, self.learnt_height_m = (
             float(x) for x in st)
         self.n, self.shown, self.held, self.walked, self.ridden = (int(x) for x in counts)
-        return FloorSamples(up, fl, moving)
+        return FloorSamples(up, fl, moving, walking, rate)
 
     def floors_between(self, up0_m: float, up1_m: float) -> int:
         """Floors between the levels nearest two altitudes above the start (m, as :meth:`track` gives them)."""
@@ -225,9 +231,11 @@ def whole_floors(climb_m: float, min_h: float, max_h: float) -> int:
 def _track_floors(h: FloatArray, acc: FloatArray, flat: NDArray[np.bool_], ks: float, kd: float, levels: FloatArray,
                   hysteresis: float, settle_mps: float, walking_var: float, rate_hz: float, floor0: float,
                   learn: bool, hold_n: int, min_h: float, max_h: float, st: FloatArray, counts: NDArray[np.int64],
-                  up: FloatArray, fl: FloatArray, moving: NDArray[np.bool_]) -> None:  # pragma: no cover - compiled
+                  up: FloatArray, fl: FloatArray, moving: NDArray[np.bool_], walks: NDArray[np.bool_],
+                  rate: FloatArray) -> None:  # pragma: no cover - compiled
     """The per-sample loop of :meth:`FloorTracker.track` (module doc): altitudes ``h`` (m) in, the smoothed
-    altitude above the reference ``up`` (m), the floor ``fl`` and whether the altitude moves ``moving`` out; ``st``
+    altitude above the reference ``up`` (m), the floor ``fl``, whether the altitude moves ``moving``, whether
+    the user walks ``walks`` and the low-passed vertical speed ``rate`` (m/s) out; ``st``
     is the state ``(alt, ref, v, acc_mean, acc_var, level_up, learnt_height)`` and ``counts`` ``(n, shown, held,
     walked, ridden)``, both updated in place. ``acc``: the specific-force magnitude (m/s^2; NaN: walking).
     ``levels[k]``: the level (m) of floor ``floor0 + k - (levels.size - 1) // 2`` (:meth:`FloorConfig.levels`),
@@ -261,6 +269,8 @@ def _track_floors(h: FloatArray, acc: FloatArray, flat: NDArray[np.bool_], ks: f
         if settled or walking:   # settled, walking, no accelerometer
             shown = n
         moving[i] = not settled
+        walks[i] = walking
+        rate[i] = v
         up[i] = alt - ref
         if learn and math.isnan(learnt):
             held = held + 1 if settled else 0

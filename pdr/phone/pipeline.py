@@ -17,7 +17,8 @@ big batch):
    (:mod:`pdr.phone.landmarks`, with the neighbour-step correction, which delays each step by one step),
    site landmarks (a flight of stairs: position fix at its first step, heading rows of both UKFs at every
    step of it), floor (:mod:`pdr.phone.floors`), and the PDR position (:mod:`pdr.phone.track`, eqs. 20-22);
-5. elevator rides from the vertical specific force (:class:`pdr.phone.landmarks.ElevatorDetector`);
+5. elevator rides: with a barometer, a climb stood through and walked out of (:mod:`pdr.phone.baro_rides`),
+   else the vertical specific force's impulses (:class:`pdr.phone.landmarks.ElevatorDetector`);
 6. stair flights from the steps' modes and altitudes (:class:`pdr.phone.floors.StairFlights`), each with its floor
    count, emitted with the first step after the flight.
 
@@ -49,6 +50,7 @@ from pdr.frames import GRAVITY_MPS2, heading_deg_to_yaw, yaw_to_heading_deg
 from pdr.geomagnetic import field_at_fix
 from pdr.phone.attitude import AttitudeConfig, AttitudeFilter, AttitudeState, gyro_compensated
 from pdr.phone.attitude_derived import attitude_derived
+from pdr.phone.baro_rides import BaroRide, BaroRides
 from pdr.phone.events import (
     ElevatorEvent,
     EventRow,
@@ -279,6 +281,7 @@ class PdrPipeline:
         self.floors = FloorTracker(c.rate_hz, c.floors if site is None else replace(
             c.floors, floor_height_m=site.floor_height_m, altitudes_m=site.floor_altitudes_m), c.initial_floor)
         self.elevator = ElevatorDetector(c.rate_hz, c.landmarks)
+        self.baro_rides = BaroRides(c.rate_hz, c.landmarks.elevator_max_ride_s)
         self.flights = StairFlights()
         self.track = TrackState(float(start_en_m[0]), float(start_en_m[1]))
         self.history = SampleHistory(int(c.history_s * c.rate_hz))
@@ -386,7 +389,8 @@ class PdrPipeline:
             "site": None if self.site is None else self.site.to_dict(),
             "grid": None if self.grid is None else self.grid.state(), "steps": self.steps.state(),
             "attitude": self.attitude.state.state(), "magcal": self.magcal.state(), "floors": self.floors.state(),
-            "elevator": self.elevator.state(), "stair_flights": self.flights.state(), "track": self.track.state(),
+            "elevator": self.elevator.state(), "baro_rides": self.baro_rides.state(),
+            "stair_flights": self.flights.state(), "track": self.track.state(),
             **self.device_heading.state(),
             **self.drift.state(), "history": self.history.state(), "placement": self.placement,
             "auto_placement": self.auto_placement, "placement_detector": self.placement_detector.state(),
@@ -431,6 +435,8 @@ class PdrPipeline:
                 p.magcal = HardIronEstimator.from_state(d["magcal"], c.rate_hz, c.magcal)
             p.floors = FloorTracker.from_state(d["floors"])
             p.elevator = ElevatorDetector.from_state(d["elevator"], c.landmarks)
+            if d.get("baro_rides") is not None:         # absent in states saved before rides from the barometer
+                p.baro_rides = BaroRides.from_state(d["baro_rides"])
             if d.get("stair_flights") is not None:      # absent in states saved before stair flights were events
                 p.flights = StairFlights.from_state(d["stair_flights"])
             p.track = TrackState.from_state(d["track"])
@@ -538,6 +544,9 @@ class PdrPipeline:
             learning = math.isnan(self.floors.learnt_height_m)
             fs = self.floors.track(vals["baro"][:, 0], np.ones(n, dtype=bool), np.linalg.norm(acc, axis=1))
             up, floor, carried = fs.up_m, fs.floor, fs.moving
+            # A ride crosses at least one floor: half the lowest floor height is the least (pdr.phone.baro_rides).
+            rides = self.baro_rides.update(t, fs.moving, fs.walking, fs.up_m, fs.rate_mps, 0.5 * min(
+                self.floors.config.floor_height_range_m[0], self.floors.config.floor_height_m))
             if learning and not math.isnan(self.floors.learnt_height_m):
                 msg = (f"floor height {self.floors.learnt_height_m:.2f} m learnt from the stairs walked between two "
                        f"levels (pdr.phone.floors): floor numbers from here on assume floors that far apart")
@@ -551,6 +560,7 @@ class PdrPipeline:
                 self.last_floor = float(floor[-1])
         else:
             up, floor, carried = np.zeros(n), np.full(n, self.last_floor), np.zeros(n, dtype=bool)
+            rides = []
         self.history.append(g0, t, acc, an, mag_n, up, floor)
         # Attitude in segments ending where steps become known (landmark updates at fixed samples).
         by_confirm: dict[int, list[int]] = {}
@@ -588,37 +598,51 @@ class PdrPipeline:
             for j in by_confirm.get(cut, []):
                 events += self._step(int(steps.start_idx[j]), int(steps.end_idx[j]), float(steps.peak[j]))
         if n:
-            events += self._elevator(t, g0)
+            events += self._elevator(t, g0, rides)
         self.history.trim()
         return events
 
-    def _elevator(self, t: FloatArray, g0: int) -> list[PipelineEvent]:
+    def _elevator(self, t: FloatArray, g0: int, rides: list[BaroRide]) -> list[PipelineEvent]:
+        """Elevator rides of the batch: from the barometer when the phone has one (``rides``,
+        :mod:`pdr.phone.baro_rides`), else from the vertical specific force's impulses
+        (:class:`pdr.phone.landmarks.ElevatorDetector`, which is fed either way).
+        """
         av = self.history.f_n[self.history.sl(g0, g0 + t.size), 2] - GRAVITY_MPS2
         b, a = self._av_ba
         if self._av_zi is None:
             self._av_zi = iir.lfilter_zi(b, a) * av[0]
         dv, self._av_zi = iir.lfilter(b, a, av, self._av_zi)
+        impulse_rides = self.elevator.update(dv, np.zeros(dv.size, dtype=bool))
+        if self._has_baro():
+            return [self._ride_event(r.start, r.end, r.t_start_s, r.t_end_s, r.altitude_change_m,
+                                     self.floors.floors_between(r.up_start_m, r.up_start_m + r.altitude_change_m),
+                                     source="barometer")
+                    for r in rides]
         out: list[PipelineEvent] = []
-        for s, e, direction in self.elevator.update(dv, np.zeros(dv.size, dtype=bool)):
+        for s, e, direction in impulse_rides:
             sl = self.history.sl(s, e + 1)
-            dh = float(self.history.up[sl][-1] - self.history.up[sl][0]) if self.history.up[sl].size else 0.0
-            if self._has_baro() and abs(dh) < 0.5 * self.floors.floor_height_m:
-                continue
-            mags = self.history.mag_n[sl]
-            site_landmark = None
-            if self.site is not None:
-                lm = self.site.match("elevator", self.track.east_m, self.track.north_m, math.nan)
-                if lm is not None:
-                    self.track.fix(lm.east_m, lm.north_m, 1.0)
-                    site_landmark = lm.id
-            out.append(ElevatorEvent(
-                float(self.history.t[sl][0]) if mags.size else float(t[0]),
-                float(self.history.t[sl][-1]) if mags.size else float(t[-1]),
-                "up" if direction > 0 else "down", dh,
-                float(np.nanmax(mags) - np.nanmin(mags)) if np.isfinite(mags).any() else None, site_landmark,
-                self.floors.floors_between(float(self.history.up[sl][0]), float(self.history.up[sl][-1]))
-                if self._has_baro() and self.history.up[sl].size else None))
+            ts = self.history.t[sl]
+            out.append(self._ride_event(s, e, float(ts[0]) if ts.size else float(t[0]),
+                                        float(ts[-1]) if ts.size else float(t[-1]), 0.0, None, direction))
         return out
+
+    def _ride_event(self, s: int, e: int, t_start_s: float, t_end_s: float, dh: float, floors: int | None,
+                    direction: int = 0, source: str = "impulses") -> ElevatorEvent:
+        """The event of a ride over grid samples ``s..e`` (its direction from ``dh`` m, else ``direction``): the
+        magnetic field's range over the part still in the history, and a site's elevator landmark fixing the
+        position.
+        """
+        mags = self.history.mag_n[self.history.sl(s, e + 1)]
+        site_landmark = None
+        if self.site is not None:
+            lm = self.site.match("elevator", self.track.east_m, self.track.north_m, math.nan)
+            if lm is not None:
+                self.track.fix(lm.east_m, lm.north_m, 1.0)
+                site_landmark = lm.id
+        up = dh > 0 if dh else direction > 0
+        return ElevatorEvent(t_start_s, t_end_s, "up" if up else "down", dh,
+                             float(np.nanmax(mags) - np.nanmin(mags)) if np.isfinite(mags).any() else None,
+                             site_landmark, floors, source)
 
     def use_location(self, fix: object) -> list[PipelineEvent]:
         """The earth's field at a location fix (a batch's ``meta["location"]``, or a session's origin:
