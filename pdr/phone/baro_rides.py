@@ -40,6 +40,8 @@ FloatArray = NDArray[np.float64]
 
 #: Highest vertical speed (m/s) of an escalator: 0.75 m/s along a 30 deg incline (EN 115-1's upper limit).
 ESCALATOR_MAX_VERTICAL_MPS = 0.75 * math.sin(math.radians(30.0))
+#: Longest time (s) from the altitude settling to the rider's first step out: doors open, a few seconds' pause.
+WALK_OUT_S = 10.0
 
 
 @dataclass(frozen=True)
@@ -69,7 +71,7 @@ class BaroRides:
 
     rate_hz: float
     max_ride_s: float = 60.0
-    walk_out_s: float = 10.0
+    walk_out_s: float = WALK_OUT_S
     index: int = 0
     start: int = -1
     up0: float = math.nan

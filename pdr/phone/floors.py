@@ -14,19 +14,24 @@ rider stands still in the cabin). An elevator ride thus changes the floor once, 
 walks out, by the floors it crossed, and not at each floor passed on the way; on stairs the floor changes at once.
 
 Without a site and without a stated floor height (:meth:`FloorConfig.assumes_default_height`), the floor height is
-learnt from the first climb walked between two levels: stairs join floors, so a climb walked from one level to
-another spans a whole number of floors. A level is an altitude that stayed settled for ``level_hold_s`` (a landing
-between two flights lasts a stride or two; a floor is walked on for longer). The climb counts when the user walked
-through it (the specific force varied as in walking for most of its moving samples) and when exactly one whole
-number of floors, each within ``floor_height_range_m``, fits it (:func:`whole_floors`). The range is the
-floor-to-floor heights of buildings: 2.5 m (a 2.2-2.4 m room height plus the slab) to 5 m. A climb of 2.5-5 m is
-then one floor and one of 5-7.5 m two (IPIN trial 52 walks down two floors without stopping between them: 5.9 m,
-2.93 m a floor against the museum's 3.1 and 2.6 m); a longer one may be two floors or three, and is left alone. A
-ground floor over 5 m high climbed in one go is read as two floors: a site's floor altitudes are the way to state
-such a building. Rides are not counted: the same rule would take an elevator's, but a car climbing a road carries
-a seated user as a cabin does, between levels it holds at lights. A smaller altitude change, at least half the
-lower bound, is a ramp or a half landing: the level the climb started from is kept. From the learnt height on,
-every level is that far apart (:attr:`FloorTracker.learnt_height_m`).
+learnt from the first climb between two levels that stairs or an elevator made: both join floors, so such a climb
+spans a whole number of floors. A level is an altitude that stayed settled for ``level_hold_s`` (a landing between
+two flights lasts a stride or two; a floor is walked on for longer). The climb counts when it is one of these:
+
+* stairs: the user walked through it (the specific force varied as in walking for most of its moving samples);
+* an elevator ride (:mod:`pdr.phone.baro_rides`, the same rule as its events): stood through, peaking faster than
+  an escalator can climb (``ESCALATOR_MAX_VERTICAL_MPS``), and walked out of within ``WALK_OUT_S`` of the
+  altitude settling (the level waits for that). A car climbing a road carries a still user as a cabin does, but
+  nobody walks off a hill seconds after it levels out.
+
+and when exactly one whole number of floors, each within ``floor_height_range_m``, fits it (:func:`whole_floors`).
+The range is the floor-to-floor heights of buildings: 2.5 m (a 2.2-2.4 m room height plus the slab) to 5 m. A climb
+of 2.5-5 m is then one floor and one of 5-7.5 m two (IPIN trial 52 walks down two floors without stopping between
+them: 5.9 m, 2.93 m a floor against the museum's 3.1 and 2.6 m; trial 53's first ride with a walk out, 0 to -2:
+3.0 m); a longer one may be two floors or three, and is left alone. A ground floor over 5 m high climbed in one
+go is read as two floors: a site's floor altitudes are the way to state such a building. A smaller altitude
+change, at least half the lower bound, is a ramp or a half landing: the level the climb started from is kept.
+From the learnt height on, every level is that far apart (:attr:`FloorTracker.learnt_height_m`).
 
 Whether the altitude is still moving at each sample (its low-passed rate at ``settle_mps`` or more:
 :attr:`FloorSamples.moving`) is also what the attitude filter needs: a user who stands in a moving cabin is carried
@@ -46,6 +51,7 @@ from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.frames import pressure_to_altitude_m
+from pdr.phone.baro_rides import ESCALATOR_MAX_VERTICAL_MPS, WALK_OUT_S
 
 FloatArray = NDArray[np.float64]
 
@@ -147,6 +153,8 @@ class FloorTracker:
         self.held = 0                # samples settled in a row
         self.walked = 0              # moving samples walked since that level
         self.ridden = 0              # moving samples not walked since that level
+        self.peak_mps = 0.0          # largest low-passed vertical speed of those samples (m/s)
+        self.walked_out = 0          # samples walked since the last one climbed standing
         self.learnt_height_m = math.nan   # floor height learnt from a flight (m; NaN: not learnt)
         self.levels = self.config.levels(self.floor0)
 
@@ -177,16 +185,18 @@ class FloorTracker:
         moving = np.empty(h.size, dtype=np.bool_)
         walking = np.empty(h.size, dtype=np.bool_)
         rate = np.empty(h.size)
-        st = np.array([self.alt, self.ref, self.v, self.acc_mean, self.acc_var, self.level_up, self.learnt_height_m])
-        counts = np.array([self.n, self.shown, self.held, self.walked, self.ridden], dtype=np.int64)
+        st = np.array([self.alt, self.ref, self.v, self.acc_mean, self.acc_var, self.level_up, self.learnt_height_m,
+                       self.peak_mps])
+        counts = np.array([self.n, self.shown, self.held, self.walked, self.ridden, self.walked_out], dtype=np.int64)
         learn = c.learns_height()          # the kernel stops learning once a height is learnt
         _track_floors(h, a, np.asarray(flat, dtype=np.bool_), ks, kd, self.levels, c.hysteresis, c.settle_mps,
                       c.walking_acc_std_mps2 ** 2, self.rate_hz, self.floor0, learn,
                       max(1, int(round(c.level_hold_s * self.rate_hz))), c.floor_height_range_m[0],
-                      c.floor_height_range_m[1], st, counts, up, fl, moving, walking, rate)
-        self.alt, self.ref, self.v, self.acc_mean, self.acc_var, self.level_up, self.learnt_height_m = (
-            float(x) for x in st)
-        self.n, self.shown, self.held, self.walked, self.ridden = (int(x) for x in counts)
+                      c.floor_height_range_m[1], ESCALATOR_MAX_VERTICAL_MPS, int(round(WALK_OUT_S * self.rate_hz)),
+                      st, counts, up, fl, moving, walking, rate)
+        (self.alt, self.ref, self.v, self.acc_mean, self.acc_var, self.level_up, self.learnt_height_m,
+         self.peak_mps) = (float(x) for x in st)
+        self.n, self.shown, self.held, self.walked, self.ridden, self.walked_out = (int(x) for x in counts)
         return FloorSamples(up, fl, moving, walking, rate)
 
     def floors_between(self, up0_m: float, up1_m: float) -> int:
@@ -197,7 +207,8 @@ class FloorTracker:
         return {"rate_hz": self.rate_hz, "config": asdict(self.config), "floor0": self.floor0, "alt": self.alt,
                 "ref": self.ref, "n": self.n, "v": self.v, "shown": self.shown, "acc_mean": self.acc_mean,
                 "acc_var": self.acc_var, "level_up": self.level_up, "held": self.held, "walked": self.walked,
-                "ridden": self.ridden, "learnt_height_m": self.learnt_height_m}
+                "ridden": self.ridden, "learnt_height_m": self.learnt_height_m, "peak_mps": self.peak_mps,
+                "walked_out": self.walked_out}
 
     @classmethod
     def from_state(cls, d: dict[str, Any]) -> FloorTracker:
@@ -211,6 +222,8 @@ class FloorTracker:
             t.level_up = float(d.get("level_up", math.nan))
             t.learnt_height_m = float(d.get("learnt_height_m", math.nan))
             t.held, t.walked, t.ridden = int(d.get("held", 0)), int(d.get("walked", 0)), int(d.get("ridden", 0))
+            # States saved before rides counted: no climb's peak speed, no walk out.
+            t.peak_mps, t.walked_out = float(d.get("peak_mps", 0.0)), int(d.get("walked_out", 0))
             t._set_levels()
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"bad floor state ({exc})", source="floor state") from None
@@ -230,21 +243,23 @@ def whole_floors(climb_m: float, min_h: float, max_h: float) -> int:
 @njit(cache=True)
 def _track_floors(h: FloatArray, acc: FloatArray, flat: NDArray[np.bool_], ks: float, kd: float, levels: FloatArray,
                   hysteresis: float, settle_mps: float, walking_var: float, rate_hz: float, floor0: float,
-                  learn: bool, hold_n: int, min_h: float, max_h: float, st: FloatArray, counts: NDArray[np.int64],
-                  up: FloatArray, fl: FloatArray, moving: NDArray[np.bool_], walks: NDArray[np.bool_],
-                  rate: FloatArray) -> None:  # pragma: no cover - compiled
+                  learn: bool, hold_n: int, min_h: float, max_h: float, ride_min_v: float, walk_out_n: int,
+                  st: FloatArray,
+                  counts: NDArray[np.int64], up: FloatArray, fl: FloatArray, moving: NDArray[np.bool_],
+                  walks: NDArray[np.bool_], rate: FloatArray) -> None:  # pragma: no cover - compiled
     """The per-sample loop of :meth:`FloorTracker.track` (module doc): altitudes ``h`` (m) in, the smoothed
     altitude above the reference ``up`` (m), the floor ``fl``, whether the altitude moves ``moving``, whether
     the user walks ``walks`` and the low-passed vertical speed ``rate`` (m/s) out; ``st``
-    is the state ``(alt, ref, v, acc_mean, acc_var, level_up, learnt_height)`` and ``counts`` ``(n, shown, held,
-    walked, ridden)``, both updated in place. ``acc``: the specific-force magnitude (m/s^2; NaN: walking).
+    is the state ``(alt, ref, v, acc_mean, acc_var, level_up, learnt_height, peak_mps)`` and ``counts`` ``(n, shown,
+    held, walked, ridden, walked_out)``, both updated in place. ``acc``: the specific-force magnitude (m/s^2; NaN:
+    walking).
     ``levels[k]``: the level (m) of floor ``floor0 + k - (levels.size - 1) // 2`` (:meth:`FloorConfig.levels`),
     rewritten in place when the floor height is learnt (``learn``: a level holds ``hold_n`` samples, a floor's
     height is within ``[min_h, max_h]`` m).
     """
     mid = (levels.size - 1) // 2
-    alt, ref, v, am, av, level_up, learnt = st[0], st[1], st[2], st[3], st[4], st[5], st[6]
-    n, shown, held, walked, ridden = counts[0], counts[1], counts[2], counts[3], counts[4]
+    alt, ref, v, am, av, level_up, learnt, peak = st[0], st[1], st[2], st[3], st[4], st[5], st[6], st[7]
+    n, shown, held, walked, ridden, walked_out = counts[0], counts[1], counts[2], counts[3], counts[4], counts[5]
     for i in range(h.size):
         if math.isnan(alt):
             alt = ref = h[i]
@@ -275,32 +290,41 @@ def _track_floors(h: FloatArray, acc: FloatArray, flat: NDArray[np.bool_], ks: f
         if learn and math.isnan(learnt):
             held = held + 1 if settled else 0
             if not settled:
+                peak = max(peak, abs(v))
                 if walking:
                     walked += 1
                 else:
                     ridden += 1
-            elif held >= hold_n:
+                    walked_out = 0
+            if walking:
+                walked_out += 1                         # walking since the last sample climbed standing
+            if settled and held >= hold_n:
                 # On a level. Its altitude is taken once it has held, not followed: the low-passed rate lags the
                 # first second of a climb.
                 d = abs(up[i] - level_up)
+                floors = whole_floors(d, min_h, max_h)
+                # Stairs walked, or an elevator ride: stood through, faster than an escalator, walked out of
+                stairs_or_lift = walked > ridden or (peak > ride_min_v and walked_out > 0)
                 if math.isnan(level_up):                # the first level
-                    level_up, walked, ridden = up[i], 0, 0
+                    level_up, walked, ridden, peak, walked_out = up[i], 0, 0, 0.0, 0
                 elif d < 0.5 * min_h:                   # the same level again: a new climb starts from it
-                    walked = ridden = 0
+                    walked, ridden, peak, walked_out = 0, 0, 0.0, 0
                 elif d < min_h:                         # a ramp or half landing: the level the climb left is kept
                     pass
-                elif walked > ridden and whole_floors(d, min_h, max_h) > 0:
-                    # Flights walked between floors a whole number apart: the height of each floor
-                    learnt = d / whole_floors(d, min_h, max_h)
+                elif stairs_or_lift and floors > 0:
+                    # Floors a whole number apart: the height of each floor
+                    learnt = d / floors
                     for j in range(levels.size):
                         levels[j] = (j - mid) * learnt
                     n = int(round(up[i] / learnt))
                     shown = n
-                else:                                   # a ride, or a climb of an ambiguous floor count: a new level
-                    level_up, walked, ridden = up[i], 0, 0
+                elif floors > 0 and peak > ride_min_v and held < walk_out_n:
+                    pass                                # a ride whose rider has not walked out yet
+                else:                                   # a car's climb, or an ambiguous floor count: a new level
+                    level_up, walked, ridden, peak, walked_out = up[i], 0, 0, 0.0, 0
         fl[i] = floor0 + shown
-    st[0], st[1], st[2], st[3], st[4], st[5], st[6] = alt, ref, v, am, av, level_up, learnt
-    counts[0], counts[1], counts[2], counts[3], counts[4] = n, shown, held, walked, ridden
+    st[0], st[1], st[2], st[3], st[4], st[5], st[6], st[7] = alt, ref, v, am, av, level_up, learnt, peak
+    counts[0], counts[1], counts[2], counts[3], counts[4], counts[5] = n, shown, held, walked, ridden, walked_out
 
 
 #: Stairs steps in a row that make a flight: building codes ask for at least three risers per flight.

@@ -507,7 +507,7 @@ class PdrPipeline:
         if "baro" in kinds and self.floors.config.assumes_default_height():
             msg = (f"no site with the building's floor height or floor altitudes: floor numbers assume floors "
                    f"{self.floors.config.floor_height_m:g} m apart (the default floor height)"
-                   + (" until stairs walked between two levels measure the height"
+                   + (" until stairs or an elevator between two levels measure the height"
                       if self.floors.config.learns_height() else ""))
             self.notices.append(msg)
             events.append(NoticeEvent(msg))
@@ -548,8 +548,9 @@ class PdrPipeline:
             rides = self.baro_rides.update(t, fs.moving, fs.walking, fs.up_m, fs.rate_mps, 0.5 * min(
                 self.floors.config.floor_height_range_m[0], self.floors.config.floor_height_m))
             if learning and not math.isnan(self.floors.learnt_height_m):
-                msg = (f"floor height {self.floors.learnt_height_m:.2f} m learnt from the stairs walked between two "
-                       f"levels (pdr.phone.floors): floor numbers from here on assume floors that far apart")
+                msg = (f"floor height {self.floors.learnt_height_m:.2f} m learnt from the climb between two levels "
+                       f"(stairs or an elevator, pdr.phone.floors): floor numbers from here on assume floors that "
+                       f"far apart")
                 self.notices.append(msg)
                 events.append(NoticeEvent(msg))
             changes = np.flatnonzero(np.diff(np.concatenate([[self.last_floor], floor])) != 0)

@@ -211,7 +211,7 @@ def test_whole_floors_counts_a_climb_only_when_one_count_fits():
 
 
 def test_no_height_is_learnt_from_a_ride_an_ambiguous_climb_or_with_a_stated_height():
-    # An elevator ride of one 3 m floor: the rider stands.
+    # An elevator ride of one 3 m floor that nobody walks out of (pdr.phone.baro_rides.WALK_OUT_S).
     ride = _flights((30, 3.0, 1.0), (30, 0, 0))
     t = FloorTracker(RATE_HZ)
     t.track(pressures(ride), np.ones(ride.size, dtype=bool), np.full(ride.size, 9.81))
@@ -237,6 +237,36 @@ def test_no_height_is_learnt_from_a_ride_an_ambiguous_climb_or_with_a_stated_hei
         t = FloorTracker(RATE_HZ, config)
         t.track(pressures(one), np.ones(one.size, dtype=bool), _walking(one.size))
         assert np.isnan(t.learnt_height_m) and t.floor_height_m == config.floor_height_m
+
+
+def _lift(climb_m: float, speed: float, walk_after_s: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """Altitudes (m) and specific-force magnitudes (m/s^2): walk 20 s, stand 5 s, ride ``climb_m`` at ``speed``
+    (m/s) standing, stand until ``walk_after_s`` after the climb (None: 40 s, no walk), then walk 20 s.
+    """
+    alt = _flights((25, climb_m, speed), (40, 0, 0))
+    acc = np.full(alt.size, 9.81)
+    acc[:int(20 * RATE_HZ)] = _walking(int(20 * RATE_HZ))
+    if walk_after_s is not None:
+        out = int((25 + abs(climb_m) / speed + walk_after_s) * RATE_HZ)
+        acc[out:] = _walking(alt.size - out)
+    return alt, acc
+
+
+@pytest.mark.parametrize(("climb_m", "speed", "walk_after_s", "learnt"), [
+    (-5.6, 1.0, 3.0, 2.8),          # two 2.8 m floors down in an elevator, walked out of after 3 s
+    (5.6, 1.0, 8.0, 2.8),           # the doors took longer: the level waits for the walk out (WALK_OUT_S)
+    (5.6, 1.0, None, None),         # nobody walks off: a car climbing a road
+    (3.0, 0.3, 1.0, None),          # at an escalator's speed (EN 115-1: 0.375 m/s at most)
+    (9.0, 1.5, 2.0, None),          # 2 floors of 4.5 m or 3 of 3 m
+])
+def test_an_elevator_ride_walked_out_of_measures_the_floor_height(climb_m, speed, walk_after_s, learnt):
+    alt, acc = _lift(climb_m, speed, walk_after_s)
+    t = FloorTracker(RATE_HZ)
+    t.track(pressures(alt), np.ones(alt.size, dtype=bool), acc)
+    if learnt is None:
+        assert np.isnan(t.learnt_height_m)
+    else:
+        assert t.learnt_height_m == pytest.approx(learnt, abs=0.2)
 
 
 def test_states_saved_before_the_height_was_learnt_resume():

@@ -383,7 +383,7 @@ def test_without_a_site_the_ipin_stairs_walk_learns_its_floor_height_and_every_l
     # IPIN 2023 .mat trial 51 walks from floor 0 down the stairs to the mezzanine (-1, 3.1 m down) and on to floor
     # -2, and back, twice. Without a site the first flight measures the floor height (pdr.phone.floors).
     rec, pipe, events = _ipin_mat_walk_without_site(51)
-    assert any("learnt from the stairs walked" in e["message"] for e in events if e["type"] == "notice")
+    assert any("learnt from the climb between two levels" in e["message"] for e in events if e["type"] == "notice")
     assert 2.6 < pipe.floors.learnt_height_m < 3.4
     assert all(shown == floor for _, floor, shown in _landmark_floors(rec, events))
     # With the default height kept (the height stated), floor -2 (5.7 m down) reads as -1.
@@ -402,6 +402,20 @@ def test_without_a_site_the_two_floor_descent_measures_the_floor_height_from_the
     learnt_at = next(e["t_s"] for e in events if e["type"] == "floor_change" and e["floor"] == -2.0)
     after = [(floor, shown) for t_s, floor, shown in _landmark_floors(rec, events) if t_s >= learnt_at]
     assert len(after) >= 10 and all(shown == floor for floor, shown in after)
+
+
+@pytest.mark.data
+@pytest.mark.slow
+def test_without_a_site_the_elevator_walk_measures_the_floor_height_from_its_first_ride():
+    # IPIN 2023 .mat trial 53 rides a lift between floors 0 and -2 (5.7 m) four times and walks no stairs. The first
+    # ride, walked out of, is two floors (pdr.phone.floors); from the walk out every landmark's floor is right but
+    # one read 0.04 s before the floor change of the third ride's end.
+    rec, pipe, events = _ipin_mat_walk_without_site(53)
+    assert 2.6 < pipe.floors.learnt_height_m < 3.1
+    learnt_at = next(e["t_s"] for e in events if e["type"] == "floor_change" and e["floor"] == -2.0)
+    after = [(floor, shown) for t_s, floor, shown in _landmark_floors(rec, events) if t_s >= learnt_at]
+    assert len(after) >= 12 and sum(shown == floor for floor, shown in after) >= len(after) - 1
+    assert [e["floors"] for e in events if e["type"] == "elevator"][1:] == [2, 2, 2]
 
 
 def _ipin_mat_walk_without_site(trial: int) -> tuple[Recording, PdrPipeline, list[dict[str, Any]]]:
