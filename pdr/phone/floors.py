@@ -255,7 +255,8 @@ def _track_floors(h: FloatArray, acc: FloatArray, flat: NDArray[np.bool_], ks: f
     walking).
     ``levels[k]``: the level (m) of floor ``floor0 + k - (levels.size - 1) // 2`` (:meth:`FloorConfig.levels`),
     rewritten in place when the floor height is learnt (``learn``: a level holds ``hold_n`` samples, a floor's
-    height is within ``[min_h, max_h]`` m).
+    height is within ``[min_h, max_h]`` m, an elevator peaks above ``ride_min_v`` m/s and a level reached by a ride
+    waits ``walk_out_n`` samples for the rider to walk out).
     """
     mid = (levels.size - 1) // 2
     alt, ref, v, am, av, level_up, learnt, peak = st[0], st[1], st[2], st[3], st[4], st[5], st[6], st[7]
