@@ -606,21 +606,20 @@ class PdrPipeline:
     def _elevator(self, t: FloatArray, g0: int, rides: list[BaroRide]) -> list[PipelineEvent]:
         """Elevator rides of the batch: from the barometer when the phone has one (``rides``,
         :mod:`pdr.phone.baro_rides`), else from the vertical specific force's impulses
-        (:class:`pdr.phone.landmarks.ElevatorDetector`, which is fed either way).
+        (:class:`pdr.phone.landmarks.ElevatorDetector`).
         """
-        av = self.history.f_n[self.history.sl(g0, g0 + t.size), 2] - GRAVITY_MPS2
-        b, a = self._av_ba
-        if self._av_zi is None:
-            self._av_zi = iir.lfilter_zi(b, a) * av[0]
-        dv, self._av_zi = iir.lfilter(b, a, av, self._av_zi)
-        impulse_rides = self.elevator.update(dv, np.zeros(dv.size, dtype=bool))
         if self._has_baro():
             return [self._ride_event(r.start, r.end, r.t_start_s, r.t_end_s, r.altitude_change_m,
                                      self.floors.floors_between(r.up_start_m, r.up_start_m + r.altitude_change_m),
                                      source="barometer")
                     for r in rides]
+        av = self.history.f_n[self.history.sl(g0, g0 + t.size), 2] - GRAVITY_MPS2
+        b, a = self._av_ba
+        if self._av_zi is None:
+            self._av_zi = iir.lfilter_zi(b, a) * av[0]
+        dv, self._av_zi = iir.lfilter(b, a, av, self._av_zi)
         out: list[PipelineEvent] = []
-        for s, e, direction in impulse_rides:
+        for s, e, direction in self.elevator.update(dv, np.zeros(dv.size, dtype=bool)):
             sl = self.history.sl(s, e + 1)
             ts = self.history.t[sl]
             out.append(self._ride_event(s, e, float(ts[0]) if ts.size else float(t[0]),
@@ -721,7 +720,8 @@ class PdrPipeline:
     def _step(self, s: int, e: int, peak: float) -> list[PipelineEvent]:
         """One confirmed step ``[s, e)``: its heading and label now, output one step later (:meth:`_emit_step`)."""
         h = self.history
-        self.elevator.add_step(s)
+        if not self._has_baro():         # the impulse detector decides rides only without a barometer
+            self.elevator.add_step(s)
         for o in self.observers:
             o.confirmed(s, e, h)
         sl = h.sl(s, e)

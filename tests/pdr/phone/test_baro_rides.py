@@ -86,8 +86,11 @@ def test_the_simulated_elevator_ride_is_an_elevator_event_of_the_pipeline():
     # mobile_logs/sim/torso_elevator: walk to an elevator, ride two floors up (5.6 m), walk out. The impulse
     # detector missed it; the barometer does not.
     rec = read_recording(REPO_ROOT / "mobile_logs" / "sim" / "torso_elevator.zip")
-    rides = [e for e in PdrPipeline(PipelineConfig()).run(rec) if e["type"] == "elevator"]
+    pipe = PdrPipeline(PipelineConfig())
+    rides = [e for e in pipe.run(rec) if e["type"] == "elevator"]
     assert len(rides) == 1 and rides[0]["direction"] == "up" and rides[0]["altitude_change_m"] > 4.5
+    assert rides[0]["source"] == "barometer"
+    assert pipe.elevator.steps == []       # the impulse detector is not fed: its state stays small
 
 
 @pytest.mark.data
