@@ -28,7 +28,7 @@ and when exactly one whole number of floors, each within ``floor_height_range_m`
 The range is the floor-to-floor heights of buildings: 2.5 m (a 2.2-2.4 m room height plus the slab) to 5 m. A climb
 of 2.5-5 m is then one floor and one of 5-7.5 m two (IPIN trial 52 walks down two floors without stopping between
 them: 5.9 m, 2.93 m a floor against the museum's 3.1 and 2.6 m; trial 53's first ride with a walk out, 0 to -2:
-3.0 m); a longer one may be two floors or three, and is left alone. A ground floor over 5 m high climbed in one
+2.87 m); a longer one may be two floors or three, and is left alone. A ground floor over 5 m high climbed in one
 go is read as two floors: a site's floor altitudes are the way to state such a building. A smaller altitude
 change, at least half the lower bound, is a ramp or a half landing: the level the climb started from is kept.
 From the learnt height on, every level is that far apart (:attr:`FloorTracker.learnt_height_m`).
