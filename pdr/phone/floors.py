@@ -303,26 +303,26 @@ def _track_floors(h: FloatArray, acc: FloatArray, flat: NDArray[np.bool_], ks: f
                 # On a level. Its altitude is taken once it has held, not followed: the low-passed rate lags the
                 # first second of a climb.
                 d = abs(up[i] - level_up)
-                floors = whole_floors(d, min_h, max_h)
-                # Stairs walked, or an elevator ride: stood through, faster than an escalator, walked out of
-                stairs_or_lift = walked > ridden or (peak > ride_min_v and walked_out > 0)
                 if math.isnan(level_up):                # the first level
                     level_up, walked, ridden, peak, walked_out = up[i], 0, 0, 0.0, 0
                 elif d < 0.5 * min_h:                   # the same level again: a new climb starts from it
                     walked, ridden, peak, walked_out = 0, 0, 0.0, 0
                 elif d < min_h:                         # a ramp or half landing: the level the climb left is kept
                     pass
-                elif stairs_or_lift and floors > 0:
-                    # Floors a whole number apart: the height of each floor
-                    learnt = d / floors
-                    for j in range(levels.size):
-                        levels[j] = (j - mid) * learnt
-                    n = int(round(up[i] / learnt))
-                    shown = n
-                elif floors > 0 and peak > ride_min_v and held < walk_out_n:
-                    pass                                # a ride whose rider has not walked out yet
-                else:                                   # a car's climb, or an ambiguous floor count: a new level
-                    level_up, walked, ridden, peak, walked_out = up[i], 0, 0, 0.0, 0
+                else:
+                    floors = whole_floors(d, min_h, max_h)
+                    lift = peak > ride_min_v            # faster than an escalator climbs
+                    if floors > 0 and (walked > ridden or (lift and walked_out > 0)):
+                        # Stairs walked, or a lift walked out of, between floors a whole number apart
+                        learnt = d / floors
+                        for j in range(levels.size):
+                            levels[j] = (j - mid) * learnt
+                        n = int(round(up[i] / learnt))
+                        shown = n
+                    elif floors > 0 and lift and held < walk_out_n:
+                        pass                            # a ride whose rider has not walked out yet
+                    else:                               # a car's climb, or an ambiguous floor count: a new level
+                        level_up, walked, ridden, peak, walked_out = up[i], 0, 0, 0.0, 0
         fl[i] = floor0 + shown
     st[0], st[1], st[2], st[3], st[4], st[5], st[6], st[7] = alt, ref, v, am, av, level_up, learnt, peak
     counts[0], counts[1], counts[2], counts[3], counts[4], counts[5] = n, shown, held, walked, ridden, walked_out
