@@ -9,7 +9,12 @@ turns what it reports into timeline entries (:class:`ModeEntry`):
   ``elevator_up/down`` or, when its altitude profile is an escalator's (:mod:`classifiers.rides`, from the
   batches' barometer), ``escalator_up/down``, with its floor change (``from_floor``, ``floor``, ``floors``; the floors
   are the pipeline's, counted with its floor height unless a site gives the floors' altitudes) and the altitude
-  change between the steps before and after it (``altitude_change_m``): a person
+  change between the steps before and after it (``altitude_change_m``). While the pipeline's floor numbers still
+  assume the default floor height (its ``floor_change`` events say ``height_assumed``), the floor count is the
+  whole number of floors that altitude change spans (:func:`pdr.phone.floors.whole_floors`: exactly one count of
+  2.5-5 m floors fits it), when one does: the rule by which the pipeline then learns the height from this very ride
+  once its rider walks out, renumbering the floors (a 5.7 m ride with the 4 m default reads as one floor until
+  then; it is two of 2.9 m). A person
   who takes no step and holds the phone still while the altitude changes by a floor rides a cabin or a belt;
   ``vertical_speed_mps`` and ``tail_s`` are the ride's profile;
 * any other stop is ``standing``;
@@ -43,7 +48,7 @@ from typing import Any
 from classifiers.rides import AltitudeRecord, ride_kind
 from classifiers.stops import STOP_LABEL, Stop, StopDetector
 from pdr.errors import InputError
-from pdr.phone.floors import FloorConfig
+from pdr.phone.floors import FloorConfig, whole_floors
 from pdr.phone.landmarks import RATE_WINDOW_S
 from pdr.recording import Recording
 
@@ -87,20 +92,25 @@ class StopTimeline:
     def __init__(self) -> None:
         self.detector = StopDetector()
         self.altitude = AltitudeRecord()
-        self.floor_changes: list[tuple[float, float, float]] = []  # (t_s, from_floor, floor)
+        # (t_s, from_floor, floor, 1.0 when the floor numbers assume the default height else 0.0)
+        self.floor_changes: list[tuple[float, float, float, float]] = []
         self.step_up: list[tuple[float, float, float]] = []  # recent steps: (t_start_s, t_s, up_m)
 
     def update(self, batch: Recording, events: Sequence[dict[str, Any]]) -> list[ModeEntry]:
         """Entries that became final with this batch and the pipeline's events for it (time order)."""
         busy, rides = self._read(events)
         self.altitude.update(batch)
-        return rides + self._entries(self.detector.update(batch, busy))
+        entries = rides + self._entries(self.detector.update(batch, busy))
+        self._trim()
+        return entries
 
     def finish(self, events: Sequence[dict[str, Any]] = ()) -> list[ModeEntry]:
         """End of the session: the entries still open, with the pipeline's last events."""
         busy, rides = self._read(events)
         self.detector.add_busy(busy)
-        return rides + self._entries(self.detector.finish())
+        entries = rides + self._entries(self.detector.finish())
+        self._trim()
+        return entries
 
     def pending(self, events: Sequence[dict[str, Any]] = ()) -> list[ModeEntry]:
         """What :meth:`finish` would add if the session ended now (this object is not changed)."""
@@ -117,7 +127,7 @@ class StopTimeline:
                     self.step_up.append((busy[-1][0], busy[-1][1], float(e["up_m"])))
             elif kind == "floor_change":
                 self.floor_changes.append((float(e["t_s"]), float(e.get("from_floor", float("nan"))),
-                                           float(e["floor"])))
+                                           float(e["floor"]), float(bool(e.get("height_assumed", False)))))
             elif kind == "elevator" and e.get("source", "impulses") == "impulses":
                 a, b = float(e["t_start_s"]), float(e["t_end_s"])
                 busy.append((a, b))
@@ -125,9 +135,14 @@ class StopTimeline:
                 if e.get("floors") is not None:
                     data["floors"] = e["floors"]
                 rides.append(ModeEntry(a, b, f"elevator_{e.get('direction', 'up')}", data))
+        return busy, rides
+
+    def _trim(self) -> None:
+        """Keep the recent floor changes and steps only, once the stops they label have been reported (a batch
+        with many steps, or a whole recording, reads them all first).
+        """
         self.floor_changes = self.floor_changes[-KEEP_FLOOR_CHANGES:]
         self.step_up = self.step_up[-KEEP_STEPS:]
-        return busy, rides
 
     def _altitude_change(self, s: Stop) -> float | None:
         """Barometric altitude (m) of the first step after the stop minus that of the last step before it."""
@@ -142,12 +157,18 @@ class StopTimeline:
             if inside:
                 start, end = inside[0][1], inside[-1][2]
                 change = end - start
+                climb = self._altitude_change(s)
+                if math.isfinite(change) and change != 0 and climb is not None and any(f[3] for f in inside):
+                    floors = whole_floors(abs(climb), *FloorConfig().floor_height_range_m)
+                    if floors > 0 and (climb > 0) == (change > 0):
+                        end = start + math.copysign(floors, change)
+                        change = end - start
                 if math.isfinite(change) and change != 0:
                     profile = self.altitude.profile(s.t_start_s, s.t_end_s)
                     kind = ride_kind(profile)
                     out.append(ModeEntry(s.t_start_s, s.t_end_s, f"{kind}_up" if change > 0 else f"{kind}_down",
                                          {"from_floor": start, "floor": end, "floors": abs(change),
-                                          "altitude_change_m": self._altitude_change(s),
+                                          "altitude_change_m": climb,
                                           "vertical_speed_mps": None if profile is None
                                           else profile.vertical_speed_mps,
                                           "tail_s": None if profile is None else profile.tail_s,
@@ -169,7 +190,9 @@ class StopTimeline:
                                  field="version")
             tl = cls()
             tl.detector = StopDetector.from_state(state["detector"])
-            tl.floor_changes = [(float(a), float(b), float(c)) for a, b, c in state["floor_changes"]]
+            # States saved before floor changes said whether the height was assumed: not assumed.
+            tl.floor_changes = [(float(f[0]), float(f[1]), float(f[2]), float(f[3]) if len(f) > 3 else 0.0)
+                                for f in state["floor_changes"]]
             tl.step_up = [(float(a), float(b), float(c)) for a, b, c in state.get("step_up", [])]
             if state.get("altitude") is not None:  # states saved before the record existed start one
                 tl.altitude = AltitudeRecord.from_state(state["altitude"])

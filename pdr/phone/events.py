@@ -109,12 +109,15 @@ class StepEvent(_Event):
 
 @dataclass(frozen=True)
 class FloorChangeEvent(_Event):
-    """The floor number changed at ``t_s`` (s) from ``from_floor`` to ``floor``."""
+    """The floor number changed at ``t_s`` (s) from ``from_floor`` to ``floor``; ``height_assumed``: the floor
+    numbers still assume the default floor height (no site gave the building's, none was learnt yet).
+    """
 
     KIND: ClassVar[str] = "floor_change"
     t_s: float
     floor: float
     from_floor: float
+    height_assumed: bool = False
 
 
 @dataclass(frozen=True)

@@ -133,6 +133,8 @@ class FloorSamples:
     moving: NDArray[np.bool_]
     walking: NDArray[np.bool_]
     rate_mps: FloatArray
+    #: Whether the floor numbers still assume the default floor height (no site, none learnt yet).
+    height_assumed: NDArray[np.bool_]
 
 
 class FloorTracker:
@@ -185,6 +187,7 @@ class FloorTracker:
         moving = np.empty(h.size, dtype=np.bool_)
         walking = np.empty(h.size, dtype=np.bool_)
         rate = np.empty(h.size)
+        assumed = np.empty(h.size, dtype=np.bool_)
         st = np.array([self.alt, self.ref, self.v, self.acc_mean, self.acc_var, self.level_up, self.learnt_height_m,
                        self.peak_mps])
         counts = np.array([self.n, self.shown, self.held, self.walked, self.ridden, self.walked_out], dtype=np.int64)
@@ -193,11 +196,11 @@ class FloorTracker:
                       c.walking_acc_std_mps2 ** 2, self.rate_hz, self.floor0, learn,
                       max(1, int(round(c.level_hold_s * self.rate_hz))), c.floor_height_range_m[0],
                       c.floor_height_range_m[1], ESCALATOR_MAX_VERTICAL_MPS, int(round(WALK_OUT_S * self.rate_hz)),
-                      st, counts, up, fl, moving, walking, rate)
+                      c.assumes_default_height(), st, counts, up, fl, moving, walking, rate, assumed)
         (self.alt, self.ref, self.v, self.acc_mean, self.acc_var, self.level_up, self.learnt_height_m,
          self.peak_mps) = (float(x) for x in st)
         self.n, self.shown, self.held, self.walked, self.ridden, self.walked_out = (int(x) for x in counts)
-        return FloorSamples(up, fl, moving, walking, rate)
+        return FloorSamples(up, fl, moving, walking, rate, assumed)
 
     def floors_between(self, up0_m: float, up1_m: float) -> int:
         """Floors between the levels nearest two altitudes above the start (m, as :meth:`track` gives them)."""
@@ -244,12 +247,14 @@ def whole_floors(climb_m: float, min_h: float, max_h: float) -> int:
 def _track_floors(h: FloatArray, acc: FloatArray, flat: NDArray[np.bool_], ks: float, kd: float, levels: FloatArray,
                   hysteresis: float, settle_mps: float, walking_var: float, rate_hz: float, floor0: float,
                   learn: bool, hold_n: int, min_h: float, max_h: float, ride_min_v: float, walk_out_n: int,
-                  st: FloatArray,
+                  default_height: bool, st: FloatArray,
                   counts: NDArray[np.int64], up: FloatArray, fl: FloatArray, moving: NDArray[np.bool_],
-                  walks: NDArray[np.bool_], rate: FloatArray) -> None:  # pragma: no cover - compiled
+                  walks: NDArray[np.bool_], rate: FloatArray,
+                  assumed: NDArray[np.bool_]) -> None:  # pragma: no cover - compiled
     """The per-sample loop of :meth:`FloorTracker.track` (module doc): altitudes ``h`` (m) in, the smoothed
     altitude above the reference ``up`` (m), the floor ``fl``, whether the altitude moves ``moving``, whether
-    the user walks ``walks`` and the low-passed vertical speed ``rate`` (m/s) out; ``st``
+    the user walks ``walks``, the low-passed vertical speed ``rate`` (m/s) and whether the floor numbers still
+    assume the default height ``assumed`` (``default_height`` and none learnt) out; ``st``
     is the state ``(alt, ref, v, acc_mean, acc_var, level_up, learnt_height, peak_mps)`` and ``counts`` ``(n, shown,
     held, walked, ridden, walked_out)``, both updated in place. ``acc``: the specific-force magnitude (m/s^2; NaN:
     walking).
@@ -324,6 +329,7 @@ def _track_floors(h: FloatArray, acc: FloatArray, flat: NDArray[np.bool_], ks: f
                     else:                               # a car's climb, or an ambiguous floor count: a new level
                         level_up, walked, ridden, peak, walked_out = up[i], 0, 0, 0.0, 0
         fl[i] = floor0 + shown
+        assumed[i] = default_height and math.isnan(learnt)
     st[0], st[1], st[2], st[3], st[4], st[5], st[6], st[7] = alt, ref, v, am, av, level_up, learnt, peak
     counts[0], counts[1], counts[2], counts[3], counts[4], counts[5] = n, shown, held, walked, ridden, walked_out
 

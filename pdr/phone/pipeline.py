@@ -556,7 +556,8 @@ class PdrPipeline:
             changes = np.flatnonzero(np.diff(np.concatenate([[self.last_floor], floor])) != 0)
             for i in changes:
                 events.append(FloorChangeEvent(float(t[i]), float(floor[i]),
-                                               float(self.last_floor if i == 0 else floor[i - 1])))
+                                               float(self.last_floor if i == 0 else floor[i - 1]),
+                                               bool(fs.height_assumed[i])))
             if floor.size:
                 self.last_floor = float(floor[-1])
         else:

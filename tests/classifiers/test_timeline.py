@@ -120,6 +120,23 @@ def test_timeline_labels_a_stop_with_a_floor_change_as_an_elevator_ride():
     assert tl2.update(rec, events)[0].label == "elevator_up"
 
 
+@pytest.mark.parametrize(("assumed", "floors"), [(True, 2.0), (False, 1.0)])
+def test_a_ride_counts_the_whole_floors_of_its_climb_while_the_height_is_assumed(assumed, floors):
+    # 5.8 m down read with the 4 m default as one floor (0 -> -1); only two 2.5-5 m floors fit 5.8 m. With a
+    # site's or a learnt height the pipeline's own count stands. More steps come before the ride than the
+    # timeline keeps, all in one batch (a whole recording): the ride still has its altitude change.
+    rec = _walk_and_stand([("walk", 40.0), ("still", 20.0), ("walk", 5.0)])
+    events = [{"type": "step", "t_start_s": a, "t_s": b, "up_m": 0.0 if b < 50 else -5.8}
+              for a, b in _steps(0, 40) + _steps(60, 65)]
+    events.insert(90, {"type": "floor_change", "t_s": 55.0, "floor": -1.0, "from_floor": 0.0,
+                       "height_assumed": assumed})
+    tl = StopTimeline()
+    entries = tl.update(rec, events) + tl.finish()
+    assert [e.label for e in entries] == ["elevator_down"]
+    assert entries[0].data["floors"] == floors and entries[0].data["floor"] == -floors
+    assert entries[0].data["altitude_change_m"] == pytest.approx(-5.8)
+
+
 def _labels(pattern: str) -> tuple[tuple[str, ...], np.ndarray, np.ndarray, tuple[str, ...]]:
     names = {"w": "walking", "s": "stationary", "i": "car_step_in", "o": "car_step_out", "v": "vehicle"}
     classes = ("car_step_in", "car_step_out", "stationary", "vehicle", "walking")

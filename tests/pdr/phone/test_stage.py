@@ -114,7 +114,7 @@ def test_event_rows_round_trip_and_keep_their_fields():
         FloorChangeEvent(1.5, 1.0, 0.0), LandmarkEvent(2.0, "S1", "stairs_up"), NoticeEvent("no barometer"),
         ElevatorEvent(3.0, 9.0, "up", 4.1, None), ElevatorEvent(3.0, 9.0, "down", -4.0, 12.5, "E1")]
     rows = [e.to_row() for e in ev]
-    assert rows[0] == {"type": "floor_change", "t_s": 1.5, "floor": 1.0, "from_floor": 0.0}
+    assert rows[0] == {"type": "floor_change", "t_s": 1.5, "floor": 1.0, "from_floor": 0.0, "height_assumed": False}
     assert "site_landmark" not in rows[3] and rows[4]["site_landmark"] == "E1"
     assert [event_from_row(r) for r in rows] == ev
     with pytest.raises(InputError, match="unknown event type"):
