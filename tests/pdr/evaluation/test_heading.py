@@ -176,6 +176,11 @@ def test_eval_heading_on_a_real_texting_walk(capsys):
     # reading position its +y axis points where the walker goes.
     assert rec["rv_yaw"]["mean_deg"] < 8.0 and rec["rv_tilt"]["mean_deg"] < 4.0
     assert rec["walk_rv_y"]["median_deg"] < 20.0
+    # A perfect attitude's +y trails the truth through the loops' turns as the rotation vector's does: the truth
+    # is the phone's path, which a phone held ahead of the body runs on a wider circle.
+    lag = rec["offset_and_lag"]
+    assert lag["mocap_y"]["lag_s"] > 0.2 and lag["rv_y"]["lag_s"] > 0.2
+    assert rec["walk_mocap_y"]["median_deg"] < 15.0
     for key in ("walk_causal", "walk_smoothed", "att_yaw", "att_tilt"):
         assert np.isfinite(rec[key]["mean_deg"])
 
@@ -193,7 +198,7 @@ def test_native_conversions_are_scored_like_the_folder(synthetic, tmp_path, caps
     assert rec["recording"] == "Alice_walk" and rec["carriage"] == "FrontPocket" and rec["walker"] == "Alice"
     lines = (steps / "Alice_walk.csv").read_text().splitlines()
     assert lines[0] == ("t_start_s,t_s,placement,true_heading_deg,heading_deg,smoothed_heading_deg,"
-                        "rv_y_heading_deg")
+                        "rv_y_heading_deg,mocap_y_heading_deg")
     assert len(lines) == rec["steps"] + 1
 
 
@@ -223,6 +228,17 @@ def test_eval_heading_on_the_whole_benchmark_keeps_the_reference_figures(capsys,
         if r["carriage"] == "Texting":
             assert r["walk_rv_y"]["median_deg"] < 25.0, r["recording"]
     assert out["by_field"]["Dist"]["rv_yaw"]["mean_deg"] > out["by_field"]["NoDist"]["rv_yaw"]["mean_deg"]
+
+
+def test_mean_y_yaw_of_a_phone_turning_at_a_constant_rate_is_its_yaw_at_mid_interval():
+    t = np.arange(0.0, 10.0, 0.01)
+    yaw = np.radians(30.0) * t                                    # device x axis, CCW from east
+    q = np.column_stack([np.cos(yaw / 2), np.zeros_like(t), np.zeros_like(t), np.sin(yaw / 2)])
+    t0, t1 = np.array([1.0, 4.0, 20.0]), np.array([1.5, 5.0, 21.0])
+    got = ev.mean_y_yaw(t, q, t0, t1)
+    want = np.radians(30.0) * 0.5 * (t0 + t1 - 0.01) + np.pi / 2  # +y is 90 deg CCW of x; samples in [t0, t1)
+    assert np.allclose(np.angle(np.exp(1j * (got[:2] - want[:2]))), 0.0, atol=1e-3)
+    assert np.isnan(got[2])                                      # no sample in the interval
 
 
 def _loop_table(offset_deg: float, lag_s: float, flips: int = 0) -> dict[str, np.ndarray]:
