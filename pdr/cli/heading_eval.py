@@ -42,6 +42,9 @@ def register_eval(targets: argparse._SubParsersAction) -> None:
                         "Swinging -> swinging, Texting -> hand)")
     p.add_argument("--calibration", help="step-length calibration JSON from `pdr calibrate`")
     p.add_argument("--method", default="ukf", choices=("ukf", "ekf"), help="attitude filter")
+    p.add_argument("--perfect-attitude", action="store_true",
+                   help="also run the pipeline on the motion capture's own attitude in place of its filter's, and "
+                        "print what the walking-direction methods leave when the attitude is exact (twice the time)")
     p.add_argument("--use-phone-orientation", action="store_true",
                    help="ours WITH the phone's rotation vector as a gated yaw measurement of our attitude filter "
                         "(as pdr track --use-phone-orientation); the headline figures are without it")
@@ -65,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
                 bar.write(msg)
                 bar.advance()
 
-        scores, agg = evaluate(args.dir, cfg_for, smoothed_rows, args.limit, progress)
+        scores, agg = evaluate(args.dir, cfg_for, smoothed_rows, args.limit, progress, args.perfect_attitude)
     if args.steps:
         out = Path(args.steps)
         out.mkdir(parents=True, exist_ok=True)

@@ -39,6 +39,13 @@ and the pipeline applies no declination unless configured (``attitude.mag_declin
 all three are compared in that frame as they are. A declination configured in the pipeline is reported in the
 output (``declination_deg``) and removed from the estimates before scoring.
 
+With a perfect attitude (``--perfect-attitude``; error set ``walk_perfect``)
+    The same pipeline run on the motion capture's own attitude in place of its attitude filter's (the phone
+    attitude path, ``attitude_source="phone"``, fed the mocap rotation as the orientation stream:
+    :func:`mocap_attitude_recording`), its causal steps scored like ours: what the walking-direction methods leave
+    when the attitude is exact, against what ours leave with our attitude. Where the two are close, the attitude is
+    not what limits the walking direction.
+
 Placement (per step)
     The placement the pipeline used for each step (detected online unless ``--placement`` names one) against the
     carriage: :data:`EXPECTED_PLACEMENT` (a trouser pocket front, back or running is ``pocket``, a swinging hand
@@ -55,7 +62,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -68,7 +75,7 @@ from pdr.errors import InputError
 from pdr.frames import heading_deg_to_yaw, wrap_angle, yaw_to_heading_deg
 from pdr.io.registry import read_recording
 from pdr.phone.pipeline import PLACEMENT_GROUPS, PdrPipeline, PipelineConfig, track_rows
-from pdr.recording import Recording
+from pdr.recording import Recording, SensorStream
 
 FloatArray = NDArray[np.float64]
 
@@ -111,9 +118,10 @@ class ErrorSet:
                 "within_10_deg": float(np.mean(e <= 10.0)), "within_20_deg": float(np.mean(e <= 20.0))}
 
 
-#: Error sets kept per recording: walking direction (causal, smoothed, rotation vector +y) and attitude.
-ERROR_SETS = ("walk_causal", "walk_smoothed", "walk_rv_y", "walk_mocap_y", "att_yaw", "att_tilt", "rv_yaw", "rv_tilt",
-              "att_yaw_dist", "att_yaw_clean", "rv_yaw_dist", "rv_yaw_clean")
+#: Error sets kept per recording: walking direction (causal, smoothed, rotation vector +y, motion capture +y, the
+#: pipeline on a perfect attitude) and attitude.
+ERROR_SETS = ("walk_causal", "walk_smoothed", "walk_rv_y", "walk_mocap_y", "walk_perfect", "att_yaw", "att_tilt",
+              "rv_yaw", "rv_tilt", "att_yaw_dist", "att_yaw_clean", "rv_yaw_dist", "rv_yaw_clean")
 
 
 @dataclass
@@ -448,9 +456,33 @@ def placement_for(rec: Recording, placement: str) -> str:
     return group
 
 
+def mocap_attitude_recording(rec: Recording) -> Recording:
+    """A copy of ``rec`` whose ``orientation`` stream is the motion capture's attitude ``q_nb`` at its frames (where
+    defined): the phone attitude path of the pipeline then runs on a perfect attitude.
+    """
+    ex = rec.truth.extra
+    q = np.asarray(ex["q_nb"], dtype=np.float64)
+    ok = np.all(np.isfinite(q), axis=1)
+    t_ns = rec.origin_ns + np.round(np.asarray(ex["trajectory_t_s"], dtype=np.float64)[ok] * 1e9).astype(np.int64)
+    return rec.with_streams({"orientation": SensorStream("orientation", t_ns, q[ok])})
+
+
+def perfect_attitude_errors(rec: Recording, cfg: PipelineConfig) -> ErrorSet:
+    """Causal walking-direction errors (deg) of the pipeline on the motion capture's attitude (module doc)."""
+    rows = track_rows(PdrPipeline(replace(cfg, attitude_source="phone", use_phone_orientation=False))
+                      .run(mocap_attitude_recording(rec)))
+    if not rows:
+        return ErrorSet()
+    decl = float(cfg.attitude.mag_declination_deg)
+    return abs_errors(track_yaw(rows, decl), true_step_yaw(rec, *_step_times(rows)))
+
+
 def score_recording(rec: Recording, cfg: PipelineConfig,
-                    smooth: Callable[[list[dict[str, Any]], list[str]], list[dict[str, Any]]]) -> RecordingScore:
-    """Every figure of one recording (module doc); ``smooth`` makes the offline-smoothed track (the same steps)."""
+                    smooth: Callable[[list[dict[str, Any]], list[str]], list[dict[str, Any]]],
+                    perfect_attitude: bool = False) -> RecordingScore:
+    """Every figure of one recording (module doc); ``smooth`` makes the offline-smoothed track (the same steps);
+    ``perfect_attitude``: also the pipeline on the motion capture's attitude (``walk_perfect``).
+    """
     decl = float(cfg.attitude.mag_declination_deg)
     rows, notices, t_att, q_att = run_with_attitude(rec, cfg)
     smoothed = smooth(rows, notices)
@@ -459,7 +491,8 @@ def score_recording(rec: Recording, cfg: PipelineConfig,
     causal, smooth_yaw, rv_y = track_yaw(rows, decl), track_yaw(smoothed, decl), device_y_yaw(rows, rec)
     mocap_y = mocap_y_yaw(rows, rec)
     errors = {"walk_causal": abs_errors(causal, truth), "walk_smoothed": abs_errors(smooth_yaw, truth),
-              "walk_rv_y": abs_errors(rv_y, truth), "walk_mocap_y": abs_errors(mocap_y, truth)}
+              "walk_rv_y": abs_errors(rv_y, truth), "walk_mocap_y": abs_errors(mocap_y, truth),
+              "walk_perfect": perfect_attitude_errors(rec, cfg) if perfect_attitude else ErrorSet()}
     errors["att_yaw"], errors["att_tilt"] = attitude_errors(t_att, q_att, rec, decl)
     field_ut, dip_deg = frame_field(rec)
     frames = {"field_uT": field_ut, "dip_deg": dip_deg, "att_yaw_deg": frame_yaw_errors(t_att, q_att, rec, decl),
@@ -631,6 +664,15 @@ def report_lines(scores: list[RecordingScore], agg: dict[str, Any]) -> list[str]
             f"rotation vector's +y: the lag it shares is the truth's, the path of a phone held ahead of the body, "
             f"which leads the body's heading through a turn", DECOMPOSITION_HEADER]
     out += [_decomposition_line(s.name, s.to_dict()["offset_and_lag"], s.carriage == "Texting") for s in scores]
+    if agg["all"]["walk_perfect"]["n"]:
+        out += ["", "the same pipeline on the motion capture's own attitude (a perfect attitude) against ours: what "
+                "the walking-direction methods leave when the attitude is exact (causal; mean, median, <=10, <=20 deg)",
+                f"{'':<48} | {'ours':<25} | perfect attitude"]
+        groups = [(s.name, s.to_dict()) for s in scores]
+        groups += [(f"{name} ({d['recordings']} rec.)", d) for key in ("by_carriage", "by_walker")
+                   for name, d in agg[key].items()]
+        groups.append((f"ALL ({agg['all']['recordings']} rec.)", agg["all"]))
+        out += [f"{label:<48} | {_walk(d['walk_causal'])} | {_walk(d['walk_perfect'])}" for label, d in groups]
     out += ["", "texting: the device +y axis by the motion capture's own attitude (a perfect attitude) against this "
             "truth, the floor of a heading taken from the phone's attitude (mean, median, <=10, <=20 deg)",
             f"{'':<48} | {'ours (causal)':<25} | {'rot. vector +y':<25} | motion-capture +y"]
@@ -677,10 +719,11 @@ def _dist_line(label: str, d: dict[str, Any]) -> str:
 
 def evaluate(root: str | Path, cfg_for: Callable[[Recording], PipelineConfig],
              smooth: Callable[[list[dict[str, Any]], list[str]], list[dict[str, Any]]],
-             limit: int = 0, progress: Callable[[str], None] | None = None
+             limit: int = 0, progress: Callable[[str], None] | None = None, perfect_attitude: bool = False
              ) -> tuple[list[RecordingScore], dict[str, Any]]:
     """Score every recording under ``root`` (``limit`` > 0: the first ``limit``); per-recording scores and
-    :func:`protocol` aggregates. ``cfg_for`` gives each recording's pipeline configuration.
+    :func:`protocol` aggregates. ``cfg_for`` gives each recording's pipeline configuration; ``perfect_attitude``:
+    also the pipeline on the motion capture's attitude (module doc).
     """
     folders = recordings_in(root)
     if limit:
@@ -692,7 +735,7 @@ def evaluate(root: str | Path, cfg_for: Callable[[Recording], PipelineConfig],
             if progress:
                 progress(f"{f.name}: no motion-capture truth (walking path and attitude), skipped")
             continue
-        scores.append(score_recording(rec, cfg_for(rec), smooth))
+        scores.append(score_recording(rec, cfg_for(rec), smooth, perfect_attitude))
         if progress:
             progress(f"{f.name}: done")
     split_disturbed(scores)

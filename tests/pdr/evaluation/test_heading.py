@@ -230,6 +230,25 @@ def test_eval_heading_on_the_whole_benchmark_keeps_the_reference_figures(capsys,
     assert out["by_field"]["Dist"]["rv_yaw"]["mean_deg"] > out["by_field"]["NoDist"]["rv_yaw"]["mean_deg"]
 
 
+@pytest.mark.data
+def test_eval_heading_with_a_perfect_attitude_runs_the_pipeline_on_the_motion_capture(capsys):
+    folder = sample_path("tyrex:folder")
+    rec = ev.read_recording(folder)
+    mocap = ev.mocap_attitude_recording(rec)
+    q = np.asarray(rec.truth.extra["q_nb"])
+    ok = np.all(np.isfinite(q), axis=1)
+    assert np.allclose(mocap.values("orientation"), q[ok])
+    assert np.allclose(mocap.t_s("orientation"), np.asarray(rec.truth.extra["trajectory_t_s"])[ok], atol=1e-9)
+    assert main(["eval", "heading", str(folder), "--json", "--placement", "label", "--perfect-attitude"]) == 0
+    (r,) = json.loads(capsys.readouterr().out)["recordings"]
+    # Held in reading position with an exact attitude, the walking direction is about as good as with ours (a
+    # clean-field walk, where our attitude's yaw is within a few degrees).
+    assert r["walk_perfect"]["n"] >= 0.9 * r["walk_causal"]["n"]
+    assert abs(r["walk_perfect"]["median_deg"] - r["walk_causal"]["median_deg"]) < 5.0
+    assert main(["eval", "heading", str(folder), "--placement", "label"]) == 0
+    assert "perfect attitude" not in capsys.readouterr().out.split("texting:")[0]   # the section needs the option
+
+
 def test_mean_y_yaw_of_a_phone_turning_at_a_constant_rate_is_its_yaw_at_mid_interval():
     t = np.arange(0.0, 10.0, 0.01)
     yaw = np.radians(30.0) * t                                    # device x axis, CCW from east
