@@ -1,11 +1,7 @@
 """Figures of the modes timeline on multi-floor walks with surveyed landmarks (IPIN trials 51-53).
 
 The timeline is the one the service builds for a phone the shipped mode model does not take (hand-held,
-torso): the phone pipeline (:class:`pdr.phone.pipeline.PdrPipeline`, placement from the log's metadata) gives
-per-step modes, :class:`classifiers.timeline.StepModes` turns them into entries (a stairs entry needs a flight),
-:class:`classifiers.timeline.StopTimeline` adds the stops and the elevator and escalator rides, placed among the
-steps as the service places them. Each step takes the label of the
-latest entry opened at or before its start (a stop or ride covers only its own interval).
+torso): :func:`classifiers.step_timeline.step_timeline`.
 
 A *floor leg* is the interval between two consecutive landmarks on different floors. It is a stairs leg when
 the barometric vertical intervals inside it (:func:`classifiers.datasets.ipin_mode_labels`) are stepped, an
@@ -29,18 +25,17 @@ A recording whose floor legs are all elevator legs is an *elevator walk*: its st
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from classifiers.datasets import ELEVATOR_MAX_DISTANCE_M, ipin_mode_labels
-from classifiers.timeline import STAIRS_MODES, ModeEntry, StepModes, StopTimeline
-from pdr.phone.configure import pipeline_config, placement_group
+from classifiers.step_timeline import TimelineOf, step_timeline
+from classifiers.timeline import STAIRS_MODES
 from pdr.phone.landmarks import Site
-from pdr.phone.pipeline import PdrPipeline
 from pdr.recording import Recording
 
 
@@ -79,64 +74,6 @@ def floor_legs(rec: Recording) -> list[FloorLeg]:
             kinds = {"elevator" if dist < ELEVATOR_MAX_DISTANCE_M else "stairs"}
         out.append(FloorLeg(t0, t1, f0, f1, kinds.pop()))
     return out
-
-
-@dataclass(frozen=True)
-class StepTimeline:
-    """The service's step-mode timeline of one recording: step intervals and the label each step shows, the stop
-    and ride entries, and every entry as ``/modes`` lists it (``opened``: ``(t_s, label)`` in time order).
-    """
-
-    step_t0_s: np.ndarray
-    step_t1_s: np.ndarray
-    step_label: np.ndarray
-    entries: tuple[ModeEntry, ...]
-    opened: tuple[tuple[float, str], ...] = ()
-
-    def label_at(self, t_s: np.ndarray) -> np.ndarray:
-        """The timeline's label at each time (s): the latest entry opened at or before it (``""`` before any)."""
-        times = np.array([t for t, _ in self.opened])
-        names = np.array([lab for _, lab in self.opened] or [""], dtype=object)
-        idx = np.searchsorted(times, np.asarray(t_s, dtype=np.float64), side="right") - 1
-        return np.where(idx >= 0, names[np.clip(idx, 0, None)], "").astype(object)
-
-
-#: A function giving a recording's step-mode timeline (to compute it once for several figures).
-TimelineOf = Callable[[Recording], StepTimeline]
-
-
-def step_timeline(rec: Recording, site: Site | None = None) -> StepTimeline:
-    """Run the pipeline over ``rec`` in one batch and build its step-mode timeline (module docstring); ``site``:
-    the building's floor height or floor altitudes (None: the default floor height).
-    """
-    pipe = PdrPipeline(pipeline_config(placement_group(rec.device.placement)), site)
-    stops = StopTimeline()
-    events = pipe.update(rec)
-    entries = list(stops.update(rec, events))
-    tail = pipe.finish()
-    entries += stops.finish(tail)
-    events = list(events) + list(tail)
-    modes = StepModes()
-    steps: list[dict[str, Any]] = [dict(e) for e in events if e.get("type") == "step"]
-    opened: list[tuple[float, str]] = []
-    pending = sorted(entries, key=lambda m: m.t_start_s)
-    for e in steps:  # as server.phone_processor.convert_events: an entry placed before the step after it
-        t_start = float(e.get("t_start_s", e["t_s"]))
-        while pending and pending[0].t_start_s <= t_start:
-            en = pending.pop(0)
-            opened.append((en.t_start_s, en.label))
-            modes.entry(en.label, en.t_end_s)
-        opened += modes.step(str(e.get("mode") or ""), t_start, float(e["t_s"]))
-    opened += [(en.t_start_s, en.label) for en in pending]
-    opened.sort()
-    t0 = np.array([float(e.get("t_start_s", e["t_s"])) for e in steps])
-    t1 = np.array([float(e["t_s"]) for e in steps])
-    tl = StepTimeline(t0, t1, np.zeros(0, dtype=object), tuple(sorted(entries, key=lambda m: m.t_start_s)),
-                      tuple(opened))
-    label = tl.label_at(t0 + 1e-9)
-    for en in entries:  # a step inside a stop or ride shows that entry
-        label[(t0 >= en.t_start_s) & (t1 <= en.t_end_s)] = en.label
-    return replace(tl, step_label=label)
 
 
 def floor_figures(recs: Sequence[Recording], site: Site | None = None,

@@ -13,8 +13,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from classifiers.floor_eval import StepTimeline, floor_figures, step_timeline
+from classifiers.floor_eval import floor_figures
 from classifiers.model import ContextModel
+from classifiers.step_timeline import StepTimeline, step_timeline
 from classifiers.timeline_eval import MIN_TRUTH_STOP_S, timeline_figures
 from classifiers.timeline_scores import print_scores, timeline_scores
 from pdr.phone.landmarks import Site

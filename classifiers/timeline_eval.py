@@ -15,7 +15,7 @@
   service shows for the recording's placement cover at least ``MIN_COVERAGE`` of it: for a phone the shipped model
   takes (:func:`classifiers.artifacts.placement_model`, placement from the log's metadata) the model's windows
   labelled one of ``STILL_CLASSES`` (each window holds the hop around its centre); otherwise the step-mode timeline
-  (:func:`classifiers.floor_eval.step_timeline`: the phone pipeline, the stop rule, the rides) and its
+  (:func:`classifiers.step_timeline.step_timeline`: the phone pipeline, the stop rule, the rides) and its
   ``standing`` or ``elevator_up/down`` entries. ``coverage_rule`` is the same for the stop rule alone
   (:func:`classifiers.stops.stop_intervals` on :func:`classifiers.stops.step_intervals`), any label. The issue's
   two stop targets are the stops of ``MIN_TRUTH_STOP_S`` (5 s) or more in the landmark walks, and every stop of
@@ -31,9 +31,9 @@ from typing import Any
 import numpy as np
 
 from classifiers.artifacts import placement_model
-from classifiers.floor_eval import TimelineOf, step_timeline
 from classifiers.model import ContextModel, WindowResults
 from classifiers.posture import window_gravity
+from classifiers.step_timeline import TimelineOf, step_timeline
 from classifiers.stops import MIN_STOP_S, STOP_LABEL, Stop, step_intervals, stop_intervals
 from classifiers.transitions import TRANSITIONS
 from classifiers.windows import make_windows

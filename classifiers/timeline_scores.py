@@ -9,7 +9,7 @@ Truth, on a ``GRID_S`` grid from the first to the last landmark of each recordin
   reads, so this checks the labelling and its lag, not the barometer);
 * ``walking``: the rest.
 
-Predicted: the label the timeline shows at that time (:meth:`classifiers.floor_eval.StepTimeline.label_at`).
+Predicted: the label the timeline shows at that time (:meth:`classifiers.step_timeline.StepTimeline.label_at`).
 Each class's precision, recall and F1 are over time (support in seconds), pooled over the recordings, and
 given per placement group. The figures evaluate a rule (no training), so every recording is held out.
 """
@@ -24,7 +24,7 @@ import numpy as np
 
 from classifiers.datasets import ipin_mode_labels
 from classifiers.evaluation import classification_metrics
-from classifiers.floor_eval import TimelineOf, step_timeline
+from classifiers.step_timeline import TimelineOf, step_timeline
 from classifiers.timeline_eval import truth_stops
 from pdr.phone.configure import placement_group
 from pdr.phone.landmarks import Site

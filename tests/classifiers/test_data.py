@@ -63,6 +63,28 @@ def test_classify_cli_writes_log_clock_rows(tmp_path) -> None:
     assert main(["classify", str(log), "--model", "no_such_model", "--out", str(out)]) == 2
 
 
+def test_classify_cli_lists_a_hand_held_walk_as_the_service_does(tmp_path, capsys) -> None:
+    # No mode classifier is installed for a hand-held phone: the pocket model read hand-held IPIN walks as 41 %
+    # stairs_down. The command writes what /modes lists instead, and says so.
+    log = REPO_ROOT / "mobile_logs" / "sim" / "torso_elevator.zip"
+    out = tmp_path / "modes.csv"
+    assert main(["classify", str(log), "--placement", "hand", "--out", str(out)]) == 0
+    assert "no mode classifier is installed for a phone carried in the hand" in capsys.readouterr().err
+    with out.open(encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    modes = {r["mode"] for r in rows}
+    assert "walking" in modes and modes <= {"walking", "standing", "stairs_up", "stairs_down", "elevator_up",
+                                            "elevator_down", "escalator_up", "escalator_down"}
+    assert all(r["confidence"] == "" for r in rows)
+    starts, ends = [float(r["t_start_s"]) for r in rows], [float(r["t_end_s"]) for r in rows]
+    assert all(a <= b for a, b in zip(starts, ends, strict=True))
+    assert all(b <= c + 1e-6 for b, c in zip(ends, starts[1:], strict=False))      # in time order, no overlap
+    # Named explicitly, a model classifies whatever the placement.
+    assert main(["classify", str(log), "--model", "motion_mode", "--out", str(out)]) == 0
+    with out.open(encoding="utf-8") as f:
+        assert all(r["confidence"] != "" for r in csv.DictReader(f))
+
+
 def test_eval_cli_on_simulated_data(tmp_path, capsys) -> None:
     assert main(["train", "landmark", "--sim", "4", "--out", str(tmp_path / "lm")]) == 0
     assert main(["eval", "classifier", str(tmp_path / "lm"), "--sim", "2", "--json",

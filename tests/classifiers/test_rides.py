@@ -105,7 +105,7 @@ def test_stairs_steps_right_after_a_ride_read_its_climb():
 @pytest.mark.parametrize(("name", "label"), [("hand_escalator.zip", "escalator_down"),
                                              ("torso_elevator.zip", "elevator_up")])
 def test_simulated_rides_are_named_by_their_carrier(name, label):
-    from classifiers.floor_eval import step_timeline
+    from classifiers.step_timeline import step_timeline
     from pdr.io import read_recording
 
     rec = read_recording(SIM / name)

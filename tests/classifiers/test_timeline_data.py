@@ -74,9 +74,20 @@ def test_timeline_scores_of_a_hand_held_walk_with_a_stop():
 
 
 def test_step_timeline_label_at():
-    from classifiers.floor_eval import StepTimeline
+    from classifiers.step_timeline import StepTimeline
 
     tl = StepTimeline(np.zeros(0), np.zeros(0), np.zeros(0, dtype=object), (),
                       ((0.0, "walking"), (5.0, "standing"), (9.0, "walking")))
     assert list(tl.label_at(np.array([-1.0, 0.0, 4.9, 5.0, 8.0, 20.0]))) == [
         "", "walking", "walking", "standing", "standing", "walking"]
+
+
+def test_step_timeline_spans_end_a_stop_at_its_own_end_and_the_rest_at_the_next_entry():
+    from classifiers.step_timeline import StepTimeline
+    from classifiers.timeline import ModeEntry
+
+    stop = ModeEntry(5.0, 8.0, "standing")
+    tl = StepTimeline(np.zeros(0), np.zeros(0), np.zeros(0, dtype=object), (stop,),
+                      ((0.0, "walking"), (5.0, "standing"), (9.0, "walking")))
+    assert tl.spans(20.0) == [(0.0, 5.0, "walking"), (5.0, 8.0, "standing"), (9.0, 20.0, "walking")]
+    assert tl.spans(3.0)[-1] == (9.0, 9.0, "walking")          # an end before the last entry: an empty span
