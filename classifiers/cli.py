@@ -19,9 +19,7 @@
 from __future__ import annotations
 
 import argparse
-import csv
 import json
-import math
 import shlex
 import sys
 import time
@@ -32,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from classifiers.artifacts import DEFAULT_MODEL, library_versions, load_model, model_card, save_model
+from classifiers.artifacts import library_versions, load_model, model_card, save_model
 from classifiers.datasets import LabelledWindows, labelled_windows, load_recordings
 from classifiers.evaluation import classification_metrics, plot_report
 from classifiers.features import extract_features
@@ -43,7 +41,6 @@ from classifiers.training import ESTIMATOR_KINDS, available_groups, cross_valida
 from classifiers.windows import WindowConfig, Windows, make_windows
 from pdr.cli.progress import Progress
 from pdr.errors import InputError
-from pdr.io import read_recording
 from pdr.recording import Recording
 
 #: The classes the MobiFall target is stated over (issue: stand, walk, jog, stairs up, stairs down).
@@ -183,77 +180,6 @@ def _card_metrics(metrics: dict[str, Any]) -> dict[str, Any]:
             "n_groups", "per_class", "confusion_matrix", "windows_per_s", "classifier_windows_per_s",
             "features_and_classifier_windows_per_s", "end_to_end_windows_per_s", "per_placement")
     return {k: metrics[k] for k in keep if k in metrics}
-
-
-# ---------------------------------------------------------------- classify
-def register_classify(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser("classify", help="motion mode (or other context) per window of a log")
-    p.add_argument("log", help="log file or folder (any supported format)")
-    p.add_argument("--model", default=None,
-                   help="model name or folder (default: the motion-mode model installed for the phone's placement, "
-                        f"{DEFAULT_MODEL} for a trouser pocket; for a placement without one, the modes the service "
-                        "lists: the phone pipeline's step modes with its stops and elevator rides)")
-    p.add_argument("--placement", default="auto", choices=("auto", "pocket", "hand", "torso", "swinging"),
-                   help="where the phone is carried (auto: from the log's metadata, else detected from its motion)")
-    p.add_argument("--out", required=True, help="CSV to write: t_start_s,t_end_s,mode,confidence")
-    p.add_argument("--online", action="store_true", help="forward filtering as in streaming use")
-    p.set_defaults(func=run_classify)
-
-
-def _placement_modes(rec: Recording, placement: str) -> tuple[str | None, list[dict[str, Any]] | None]:
-    """As the service: the motion-mode model installed for the phone's placement (``placement``; ``auto``: the
-    log's metadata, else the pipeline's detection) as ``(name, None)``; for a placement without one, ``(None,
-    rows)``: the phone pipeline's step modes with its stops and rides (:mod:`classifiers.step_timeline`), a notice on
-    stderr.
-    """
-    from classifiers.artifacts import placement_model
-    from classifiers.step_timeline import step_timeline
-    from pdr.phone.configure import placement_group
-
-    group: str | None = placement if placement != "auto" else placement_group(rec.device.placement)
-    timeline = step_timeline(rec) if group == "auto" else None      # the pipeline detects the placement
-    if timeline is not None:
-        group = timeline.placement
-    name = placement_model(group)
-    if name is not None:
-        return name, None
-    timeline = timeline or step_timeline(rec, placement=group)
-    print(f"motion modes from step patterns: no mode classifier is installed for a phone carried in the "
-          f"{group or 'unknown placement'}; the modes are the phone pipeline's step modes with its stops and "
-          f"elevator rides, as the service lists them (no confidence)", file=sys.stderr)
-    end = rec.origin_ns / 1e9 + rec.time_span_s()[1]
-    return None, [{"t_start_s": a, "t_end_s": b, "mode": label, "confidence": math.nan}
-                  for a, b, label in timeline.spans(end)]
-
-
-def run_classify(args: argparse.Namespace) -> int:
-    rec = read_recording(args.log)
-    t0 = rec.origin_ns / 1e9
-    name, rows = (args.model, None) if args.model else _placement_modes(rec, args.placement)
-    if rows is None:
-        assert name is not None         # a model was named or is installed for the placement
-        model = load_model(name)
-        if args.online:
-            from classifiers.streaming import StreamingClassifier
-
-            clf = StreamingClassifier(model)
-            rows = [r.to_dict() for r in clf.update(rec) + clf.finish()]
-        else:
-            rows = model.classify(rec).rows(t0)
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    with out.open("w", newline="", encoding="utf-8") as f:
-        w = csv.writer(f)
-        w.writerow(["t_start_s", "t_end_s", "mode", "confidence"])
-        for r in rows:
-            conf = "" if math.isnan(r["confidence"]) else f"{r['confidence']:.4f}"
-            w.writerow([f"{r['t_start_s']:.3f}", f"{r['t_end_s']:.3f}", r["mode"], conf])
-    tally: dict[str, int] = {}
-    for r in rows:
-        tally[r["mode"]] = tally.get(r["mode"], 0) + 1
-    what = "timeline entries" if name is None else "windows"
-    print(f"wrote {out}: {len(rows)} {what} (" + ", ".join(f"{m} {c}" for m, c in sorted(tally.items())) + ")")
-    return 0
 
 
 # ---------------------------------------------------------------- eval
@@ -450,7 +376,7 @@ def run_eval(args: argparse.Namespace) -> int:
 
 
 def _append_card(model_name: str, title: str, metrics: dict[str, Any]) -> None:
-    from classifiers.artifacts import resolve_model_dir
+    from classifiers.installed import resolve_model_dir
 
     d = resolve_model_dir(model_name)
     doc = json.loads((d / "model.json").read_text(encoding="utf-8"))

@@ -23,7 +23,8 @@ from typing import Any
 
 import numpy as np
 
-from classifiers.artifacts import DEFAULT_MODEL, load_model, resolve_model_dir
+from classifiers.artifacts import load_model
+from classifiers.installed import DEFAULT_MODEL, resolve_model_dir
 from classifiers.model import ContextModel
 from classifiers.posture import PostureGate, window_gravity
 from classifiers.transitions import TransitionGate

@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from classifiers.artifacts import placement_model
+from classifiers.installed import placement_model
 from classifiers.model import ContextModel, WindowResults
 from classifiers.posture import window_gravity
 from classifiers.step_timeline import TimelineOf, step_timeline

@@ -23,7 +23,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import fields
 
-from classifiers.artifacts import PLACEMENT_MODELS, placement_model
+from classifiers.installed import PLACEMENT_MODELS, placement_model
 from classifiers.streaming import StreamingClassifier
 from classifiers.timeline import ModeEntry, StepModes, StopTimeline
 from pdr import state_codec

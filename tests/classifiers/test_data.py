@@ -8,9 +8,10 @@ import json
 import numpy as np
 import pytest
 
-from classifiers.artifacts import MODELS_DIR, load_model
+from classifiers.artifacts import load_model
 from classifiers.datasets import ipin_mode_labels, labelled_windows, load_recordings
 from classifiers.evaluation import classification_metrics
+from classifiers.installed import MODELS_DIR
 from classifiers.tasks import get_task
 from classifiers.training import available_groups, cross_validate
 from classifiers.windows import WindowConfig

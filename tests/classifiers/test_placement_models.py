@@ -1,15 +1,15 @@
-"""Which motion-mode model the service applies to a placement group (classifiers.artifacts.placement_model)."""
+"""Which motion-mode model the service applies to a placement group (classifiers.installed.placement_model)."""
 
 from __future__ import annotations
 
 
 def test_placement_model_is_the_shipped_pocket_model_and_none_for_uninstalled_ones(tmp_path, monkeypatch):
-    from classifiers import artifacts
+    from classifiers import installed
 
-    assert artifacts.placement_model("pocket") == "motion_mode"
-    assert artifacts.placement_model("swinging") is None
-    monkeypatch.setattr(artifacts, "MODELS_DIR", tmp_path)
-    assert artifacts.placement_model("hand") is None
+    assert installed.placement_model("pocket") == "motion_mode"
+    assert installed.placement_model("swinging") is None
+    monkeypatch.setattr(installed, "MODELS_DIR", tmp_path)
+    assert installed.placement_model("hand") is None
     (tmp_path / "motion_mode_hand").mkdir()
     (tmp_path / "motion_mode_hand" / "model.json").write_text("{}", encoding="utf-8")
-    assert artifacts.placement_model("hand") == "motion_mode_hand"
+    assert installed.placement_model("hand") == "motion_mode_hand"

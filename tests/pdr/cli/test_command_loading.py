@@ -58,6 +58,16 @@ def test_inspect_does_not_import_the_heavy_plugins() -> None:
     assert json.loads(out.stdout) == []
 
 
+def test_classify_registers_without_scikit_learn() -> None:
+    # `pdr classify` on a hand-held log builds the modes from the phone pipeline: registering the command once
+    # imported scikit-learn and XGBoost (1-2 s) through the training and evaluation commands' module.
+    code = ("import json, sys; from pdr.cli import build_parser; build_parser(['classify', 'LOG', '--out', 'X']); "
+            "print(json.dumps([m for m in ('sklearn', 'xgboost', 'classifiers.cli', 'classifiers.artifacts') "
+            "if m in sys.modules]))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120)
+    assert json.loads(out.stdout) == []
+
+
 def test_help_lists_every_command_without_importing_the_plugins() -> None:
     heavy = ("numba", "scipy", "sklearn", "flask", "matplotlib", "classifiers.cli", "server.cli", "pdr.cli.track",
              "pdr.cli.eval_walks", "pdr.cli.bench_phone",
