@@ -13,7 +13,7 @@ turns what it reports into timeline entries (:class:`ModeEntry`):
   assume the default floor height (its ``floor_change`` events say ``height_assumed``), the floor count is the
   whole number of floors that altitude change spans (:func:`pdr.phone.floors.whole_floors`: exactly one count of
   2.5-5 m floors fits it), when one does: the rule by which the pipeline then learns the height from this very ride
-  once its rider walks out, renumbering the floors (a 5.7 m ride with the 4 m default reads as one floor until
+  once its rider walks out, renumbering the floors (a 5.8 m ride with the 4 m default reads as one floor until
   then; it is two of 2.9 m). A person
   who takes no step and holds the phone still while the altitude changes by a floor rides a cabin or a belt;
   ``vertical_speed_mps`` and ``tail_s`` are the ride's profile;
