@@ -13,7 +13,7 @@
   cabin). In recordings with mode truth (simulated logs), every interval labelled one of ``STILL_TRUTH_LABELS`` for
   ``MIN_STOP_S`` or more is a standing stop. A stop *appears* when the entries of its kind in the timeline the
   service shows for the recording's placement cover at least ``MIN_COVERAGE`` of it: for a phone the shipped model
-  takes (:func:`classifiers.artifacts.placement_model`, placement from the log's metadata) the model's windows
+  takes (:func:`classifiers.installed.placement_model`, placement from the log's metadata) the model's windows
   labelled one of ``STILL_CLASSES`` (each window holds the hop around its centre); otherwise the step-mode timeline
   (:func:`classifiers.step_timeline.step_timeline`: the phone pipeline, the stop rule, the rides) and its
   ``standing`` or ``elevator_up/down`` entries. ``coverage_rule`` is the same for the stop rule alone

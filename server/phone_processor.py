@@ -6,7 +6,7 @@ holding the whole :class:`~pdr.phone.events.StepEvent` (its fields include the i
 ``landmark`` events; floor changes ``floor`` events; notices session warnings. Motion modes
 come from the streaming classifier (:class:`classifiers.streaming.StreamingClassifier`, one ``mode`` event per
 window with its confidence) of the model for the placement the pipeline has found
-(:func:`classifiers.artifacts.placement_model`: the shipped pocket model, or a hand-held/torso model when one is
+(:func:`classifiers.installed.placement_model`: the shipped pocket model, or a hand-held/torso model when one is
 installed); for placements without a model, or when the recording lacks a sensor the model needs, from the
 pipeline's per-step modes, with the stops and elevator rides of :class:`classifiers.timeline.StopTimeline`
 (``standing`` for 2 s or more without a step and with a still phone; ``elevator_up/down`` with the floor change).
