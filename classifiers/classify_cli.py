@@ -28,7 +28,9 @@ def register_classify(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--placement", default="auto", choices=("auto", "pocket", "hand", "torso", "swinging"),
                    help="where the phone is carried (auto: from the log's metadata, else detected from its motion)")
     p.add_argument("--out", required=True, help="CSV to write: t_start_s,t_end_s,mode,confidence")
-    p.add_argument("--online", action="store_true", help="forward filtering as in streaming use")
+    p.add_argument("--online", action="store_true",
+                   help="forward filtering as in streaming use (a model's windows; the step-mode timeline of a "
+                        "placement without a model is built online already)")
     p.set_defaults(func=run_classify)
 
 
