@@ -65,10 +65,9 @@ def run_classify(args: argparse.Namespace) -> int:
     name, rows = (args.model, None) if args.model else _placement_modes(rec, args.placement)
     if rows is None:
         from classifiers.artifacts import load_model
-        from classifiers.installed import resolve_model_dir
 
         assert name is not None         # a model was named or is installed for the placement
-        model = load_model(resolve_model_dir(name))
+        model = load_model(name)
         if args.online:
             from classifiers.streaming import StreamingClassifier
 

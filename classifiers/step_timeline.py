@@ -93,5 +93,3 @@ def step_timeline(rec: Recording, site: Site | None = None, placement: str | Non
     for en in entries:  # a step inside a stop or ride shows that entry
         label[(t0 >= en.t_start_s) & (t1 <= en.t_end_s)] = en.label
     return replace(tl, step_label=label)
-
-

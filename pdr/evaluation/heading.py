@@ -341,12 +341,20 @@ def mocap_y_yaw(rows: list[dict[str, Any]], rec: Recording) -> FloatArray:
     direction from the device's heading against this benchmark's truth (the phone's own path).
     """
     t0, t1 = _step_times(rows)
-    ex = rec.truth.extra
-    if not rows or "q_nb" not in ex:
+    if not rows or "q_nb" not in rec.truth.extra:
         return np.full(t0.size, np.nan)
+    t, q = mocap_attitude(rec)
+    return mean_y_yaw(rec.origin_ns / 1e9 + t, q, t0, t1)
+
+
+def mocap_attitude(rec: Recording) -> tuple[FloatArray, FloatArray]:
+    """The motion capture's frame times (s, relative to ``rec.origin_ns``) and attitudes ``q_nb`` (M, 4; ENU with
+    magnetic north, device frame) at the frames where it is defined.
+    """
+    ex = rec.truth.extra
     q = np.asarray(ex["q_nb"], dtype=np.float64)
     ok = np.all(np.isfinite(q), axis=1)
-    return mean_y_yaw(rec.origin_ns / 1e9 + np.asarray(ex["trajectory_t_s"], dtype=np.float64)[ok], q[ok], t0, t1)
+    return np.asarray(ex["trajectory_t_s"], dtype=np.float64)[ok], q[ok]
 
 
 def mean_y_yaw(t_s: FloatArray, q_nb: FloatArray, t_start_s: FloatArray, t_end_s: FloatArray) -> FloatArray:
@@ -460,11 +468,9 @@ def mocap_attitude_recording(rec: Recording) -> Recording:
     """A copy of ``rec`` whose ``orientation`` stream is the motion capture's attitude ``q_nb`` at its frames (where
     defined): the phone attitude path of the pipeline then runs on a perfect attitude.
     """
-    ex = rec.truth.extra
-    q = np.asarray(ex["q_nb"], dtype=np.float64)
-    ok = np.all(np.isfinite(q), axis=1)
-    t_ns = rec.origin_ns + np.round(np.asarray(ex["trajectory_t_s"], dtype=np.float64)[ok] * 1e9).astype(np.int64)
-    return rec.with_streams({"orientation": SensorStream("orientation", t_ns, q[ok])})
+    t, q = mocap_attitude(rec)
+    t_ns = rec.origin_ns + np.round(t * 1e9).astype(np.int64)
+    return rec.with_streams({"orientation": SensorStream("orientation", t_ns, q)})
 
 
 def perfect_attitude_errors(rec: Recording, cfg: PipelineConfig) -> ErrorSet:
@@ -629,8 +635,9 @@ HEADER = (f"{'':<48} {'steps':>9} | {'causal walking direction':<25} | {'smoothe
 def report_lines(scores: list[RecordingScore], agg: dict[str, Any]) -> list[str]:
     """The text table: one line per recording, then the aggregates (degrees; shares in %)."""
     out = ["per recording (placement: what the pipeline used)", HEADER]
+    figures = {s.name: s.to_dict() for s in scores}     # each computes its offset-and-lag fits
     for s in scores:
-        d = s.to_dict()
+        d = figures[s.name]
         label = f"{s.name} [{s.placement}]"
         out.append(_line(label, d, f"{d['walk_causal']['n']}/{s.steps}", s.carriage == "Texting"))
     for title, key in (("per carriage", "by_carriage"), ("per carriage and field", "by_carriage_and_field")):
@@ -663,12 +670,12 @@ def report_lines(scores: list[RecordingScore], agg: dict[str, Any]) -> list[str]
             f"(mean |error| of the fitted steps -> what is left without offset and lag); for texting also the "
             f"rotation vector's +y: the lag it shares is the truth's, the path of a phone held ahead of the body, "
             f"which leads the body's heading through a turn", DECOMPOSITION_HEADER]
-    out += [_decomposition_line(s.name, s.to_dict()["offset_and_lag"], s.carriage == "Texting") for s in scores]
+    out += [_decomposition_line(s.name, figures[s.name]["offset_and_lag"], s.carriage == "Texting") for s in scores]
     if agg["all"]["walk_perfect"]["n"]:
         out += ["", "the same pipeline on the motion capture's own attitude (a perfect attitude) against ours: what "
                 "the walking-direction methods leave when the attitude is exact (causal; mean, median, <=10, <=20 deg)",
                 f"{'':<48} | {'ours':<25} | perfect attitude"]
-        groups = [(s.name, s.to_dict()) for s in scores]
+        groups = [(s.name, figures[s.name]) for s in scores]
         groups += [(f"{name} ({d['recordings']} rec.)", d) for key in ("by_carriage", "by_walker")
                    for name, d in agg[key].items()]
         groups.append((f"ALL ({agg['all']['recordings']} rec.)", agg["all"]))
@@ -676,7 +683,7 @@ def report_lines(scores: list[RecordingScore], agg: dict[str, Any]) -> list[str]
     out += ["", "texting: the device +y axis by the motion capture's own attitude (a perfect attitude) against this "
             "truth, the floor of a heading taken from the phone's attitude (mean, median, <=10, <=20 deg)",
             f"{'':<48} | {'ours (causal)':<25} | {'rot. vector +y':<25} | motion-capture +y"]
-    texting = [(s.name, s.to_dict()) for s in scores if s.carriage == "Texting"]
+    texting = [(s.name, figures[s.name]) for s in scores if s.carriage == "Texting"]
     texting += [(f"{name} ({d['recordings']} rec.)", d) for name, d in agg["by_walker_and_carriage"].items()
                 if name.endswith("Texting")]
     texting += [(f"{name} ({d['recordings']} rec.)", d) for name, d in agg["by_carriage"].items()
@@ -685,7 +692,7 @@ def report_lines(scores: list[RecordingScore], agg: dict[str, Any]) -> list[str]
             for label, d in texting]
     out += ["", "attitude yaw (mean, deg) inside and outside disturbed stretches (field off the walker's NoDist "
             f"median by > {DISTURBED_FIELD_UT:g} uT or > {DISTURBED_DIP_DEG:g} deg dip)", DIST_HEADER]
-    out += [_dist_line(s.name, s.to_dict()) for s in scores]
+    out += [_dist_line(s.name, figures[s.name]) for s in scores]
     out += [_dist_line(f"{name} ({d['recordings']} rec.)", d) for name, d in agg["by_field"].items()]
     out += [_dist_line(f"{name} ({d['recordings']} rec.)", d) for name, d in agg["by_walker"].items()]
     out.append(_dist_line(f"ALL ({agg['all']['recordings']} rec.)", agg["all"]))
