@@ -45,6 +45,7 @@ from pdr.phone.landmarks import Site
 from pdr.phone.stage import PendingStep, StepHeading, StepWindow
 from pdr.phone.track import TrackState
 from pdr.phone.walking_direction import (
+    TURN_SPEED_MPS,
     DeviceFrameDirection,
     DeviceSwingAxis,
     PocketSide,
@@ -63,10 +64,9 @@ FloatArray = NDArray[np.float64]
 DEVICE_HEADING_PLACEMENTS = ("hand", "torso")
 #: Placements whose walking direction comes from the stride's motion (swing plane or RMPCA, 180-degree vote).
 STRIDE_HEADING_PLACEMENTS = ("pocket", "swinging")
-#: Walking speeds (m/s) whose centripetal acceleration is taken as turn evidence in a pocket (walking to running),
-#: and the weight of that evidence in the pocket's vote beside the thigh-swing skewness
+#: Weight of the centripetal turn evidence (taken at walking to running speeds,
+#: :data:`pdr.phone.walking_direction.TURN_SPEED_MPS`) in the pocket's vote beside the thigh-swing skewness
 #: (pdr.phone.walking_direction module doc, "Trouser pocket: continuity").
-POCKET_TURN_SPEED_MPS = (0.4, 4.0)
 POCKET_TURN_WEIGHT = 0.1
 #: Shortest median stride (s) of a walking bout, whose step-frequency axis the pocket's walking-line filter takes:
 #: a cadence of 2 steps/s. Faster bouts may be running, where the stance leg no longer vaults the body and the
@@ -237,7 +237,7 @@ class PocketHeading:
             # module doc) and the centripetal acceleration in turns (pdr.phone.walking_direction module doc,
             # "Trouser pocket: continuity").
             psi0 = self.pocket_direction.resolve(axis, q_str)
-            turn = turn_evidence(f_str, yaw_rate(q_str, self.rate_hz), psi0, speed_range_mps=POCKET_TURN_SPEED_MPS)
+            turn = turn_evidence(f_str, yaw_rate(q_str, self.rate_hz), psi0, speed_range_mps=TURN_SPEED_MPS)
             reversed_direction = self.direction_vote.update(thigh_swing_evidence(q_str, self.rate_hz, psi0)
                                                             + POCKET_TURN_WEIGHT * turn)
             if reversed_direction:

@@ -47,7 +47,8 @@ Device-frame swing axis of a swinging hand (:class:`DeviceSwingAxis`; item 5 of 
     part, averaged over the stride). Two things follow that the per-stride swing plane lacks: the line comes
     from tens of strides of gyro data instead of one, and the forward/backward choice is the sign of ``r_b``,
     one bit for the whole grip: the turn evidence (above) of every turning stride is summed on that one sign
-    (memory ``1 / (1 - sign_decay)`` strides) instead of being carried from stride to stride through the
+    (memory ``1 / (1 - sign_decay)`` strides; as in the pocket, only strides that turn steadily at a walking or
+    running speed count, :data:`TURN_SPEED_MPS`) instead of being carried from stride to stride through the
     yaw's continuity, where a misread turn flipped the direction for several strides. When the principal axis
     moves by more than ``regrip_deg`` between strides (the phone changed hands or grip) the sign's evidence
     restarts. The memories were checked on the benchmark's tuning walker only, where the error is flat over a
@@ -204,6 +205,10 @@ FloatArray = NDArray[np.float64]
 #: Reference walking speed (m/s) and turn rate (rad/s) of a full vote: 1 m/s turning 17 deg/s.
 V_REF_MPS = 1.0
 OMEGA_REF_RPS = 0.3
+#: Speeds (m/s), walking to running, at which a stride's centripetal acceleration is taken as turn evidence
+#: (:func:`turn_evidence`'s ``speed_range_mps``): outside them it is a pivot on the spot, a start or a stop, or a tilt
+#: error.
+TURN_SPEED_MPS = (0.4, 4.0)
 
 
 def nav_angular_rate(q_nb: FloatArray, rate_hz: float) -> FloatArray:
@@ -368,7 +373,8 @@ class DeviceSwingAxis:
                 self.score = 0.0                                     # a new grip: decide the sign again
         r_n = quat.rotate(q_nb, np.tile(r, (q_nb.shape[0], 1))).sum(axis=0)
         yaw = math.atan2(float(r_n[0]), float(-r_n[1]))              # f = u x r_n = (-r_y, r_x)
-        self.score = self.sign_decay * self.score + turn_evidence(f_n, yaw_rate(q_nb, rate_hz), yaw)
+        self.score = self.sign_decay * self.score + turn_evidence(f_n, yaw_rate(q_nb, rate_hz), yaw,
+                                                                  speed_range_mps=TURN_SPEED_MPS)
         if self.score < 0.0:
             r, self.score = -r, -self.score
             yaw = float(math.atan2(math.sin(yaw + math.pi), math.cos(yaw + math.pi)))
