@@ -25,11 +25,9 @@ from typing import Any
 
 import numpy as np
 
-from classifiers.bayes import GaussianBayesClassifier
-from classifiers.boosting import BoostedTreeClassifier, booster_json_version
 from classifiers.features import FEATURE_GROUPS, FEATURE_SET_VERSION, feature_names
+from classifiers.gaussian_densities import GaussianDensities
 from classifiers.installed import resolve_model_dir
-from classifiers.landmark_tree import LandmarkTreeClassifier
 from classifiers.model import ContextModel
 from classifiers.windows import WindowConfig
 from pdr.errors import InputError
@@ -145,6 +143,8 @@ def load_model(name_or_path: str | Path, window: WindowConfig | None = None) -> 
             raise IncompatibleModelError("booster.json is missing", source=str(d))
         import xgboost
 
+        from classifiers.boosting import BoostedTreeClassifier, booster_json_version
+
         saved = versions.get("xgboost", ".".join(str(v) for v in booster_json_version(str(booster))))
         if _major_minor(xgboost.__version__) < _major_minor(saved):
             raise IncompatibleModelError(f"model was saved by xgboost {saved}; installed xgboost "
@@ -153,8 +153,12 @@ def load_model(name_or_path: str | Path, window: WindowConfig | None = None) -> 
             raise IncompatibleModelError(f"model was saved by xgboost {saved} (< 2.0); retrain it", source=src)
         estimator: Any = BoostedTreeClassifier.load(str(booster), doc["estimator"])
     elif kind == "bayes":
-        estimator = GaussianBayesClassifier.from_dict(doc["estimator"])
+        # The densities alone: classifying needs neither scikit-learn nor the estimator (module doc of
+        # classifiers.gaussian_densities).
+        estimator = GaussianDensities.from_dict(doc["estimator"])
     elif kind == "landmark_tree":
+        from classifiers.landmark_tree import LandmarkTreeClassifier
+
         estimator = LandmarkTreeClassifier.from_dict(doc["estimator"])
     else:
         raise IncompatibleModelError(f"unknown estimator kind {kind!r}", source=src)

@@ -21,11 +21,12 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.special import logsumexp
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.covariance import ledoit_wolf_shrinkage
 from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted, validate_data
+
+from classifiers.gaussian_densities import GaussianDensities
 
 FloatArray = NDArray[np.float64]
 
@@ -121,36 +122,24 @@ class GaussianBayesClassifier(ClassifierMixin, BaseEstimator):
         return self
 
     def _prepare(self) -> None:
-        """Inverse Cholesky factors and log-determinants of the covariances used by eq. 23."""
-        chol = np.linalg.cholesky(self.covariances_)
-        eye = np.eye(chol.shape[1])
-        self._chol_inv = np.stack([np.linalg.solve(c, eye) for c in chol]) if chol.size else chol
-        self._log_det = 2.0 * np.log(np.diagonal(chol, axis1=1, axis2=2)).sum(axis=1)
-        self._tied = bool(np.all(self.covariances_ == self.covariances_[:1]))
+        """The fitted densities (:class:`classifiers.gaussian_densities.GaussianDensities`) that eqs. 23-25 use."""
+        self.densities_ = GaussianDensities.of(self.classes_, self.mean_, self.scale_, self.means_, self.covariances_,
+                                               self.priors_, self._params())
+
+    def _params(self) -> dict[str, Any]:
+        return {"covariance": self.covariance,
+                "shrinkage": self.shrinkage if not isinstance(self.shrinkage, np.generic) else float(self.shrinkage),
+                "reg": float(self.reg)}
 
     def log_likelihood(self, X: Any) -> FloatArray:
         """(n, r) log densities ``log p_j(z)`` of eq. 23 (in standardised feature units)."""
         check_is_fitted(self)
-        X = validate_data(self, X, dtype=np.float64, reset=False)
-        Z = (X - self.mean_) / self.scale_
-        q = Z.shape[1]
-        r = self.classes_.size
-        if self._tied:
-            # One whitening for all classes: |L^-1 (z - mu_j)|^2 = |w|^2 - 2 w.m_j + |m_j|^2.
-            w = Z @ self._chol_inv[0].T
-            m = self.means_ @ self._chol_inv[0].T
-            maha = np.sum(w * w, axis=1)[:, None] - 2.0 * (w @ m.T) + np.sum(m * m, axis=1)[None, :]
-        else:
-            maha = np.empty((Z.shape[0], r))
-            for j in range(r):
-                w = (Z - self.means_[j]) @ self._chol_inv[j].T
-                maha[:, j] = np.sum(w * w, axis=1)
-        return np.asarray(-0.5 * (maha + self._log_det[None, :] + q * np.log(2.0 * np.pi)))
+        return self.densities_.log_likelihood(validate_data(self, X, dtype=np.float64, reset=False))
 
     def predict_log_proba(self, X: Any) -> FloatArray:
         """(n, r) log posteriors ``log P(C=j | z)`` (eqs. 24-25)."""
-        joint = self.log_likelihood(X) + np.log(np.maximum(self.priors_, 1e-300))
-        return np.asarray(joint - logsumexp(joint, axis=1, keepdims=True))
+        check_is_fitted(self)
+        return self.densities_.predict_log_proba(validate_data(self, X, dtype=np.float64, reset=False))
 
     def predict_proba(self, X: Any) -> FloatArray:
         """(n, r) posteriors ``P(C=j | z)`` (eqs. 24-25)."""
@@ -165,29 +154,18 @@ class GaussianBayesClassifier(ClassifierMixin, BaseEstimator):
     def to_dict(self) -> dict[str, Any]:
         """Parameters and fitted state as JSON-serialisable lists."""
         check_is_fitted(self)
-        return {
-            "params": {"covariance": self.covariance,
-                       "shrinkage": self.shrinkage if not isinstance(self.shrinkage, np.generic) else float(
-                           self.shrinkage), "reg": float(self.reg)},
-            "classes": [str(c) for c in self.classes_],
-            "mean": self.mean_.tolist(), "scale": self.scale_.tolist(),
-            "means": self.means_.tolist(),
-            # A tied model stores its single pooled covariance once.
-            "covariances": (self.covariances_[:1] if self.covariance == "tied" else self.covariances_).tolist(),
-            "priors": self.priors_.tolist(), "n_features_in": int(self.n_features_in_),
-        }
+        return self.densities_.to_dict()
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> GaussianBayesClassifier:
         """Inverse of :meth:`to_dict`."""
-        m = cls(**d["params"])
-        m.classes_ = np.asarray(d["classes"], dtype=object)
-        m.mean_ = np.asarray(d["mean"], dtype=np.float64)
-        m.scale_ = np.asarray(d["scale"], dtype=np.float64)
-        m.means_ = np.asarray(d["means"], dtype=np.float64)
-        covs = np.asarray(d["covariances"], dtype=np.float64)
-        m.covariances_ = np.broadcast_to(covs, (m.classes_.size, *covs.shape[1:])).copy()
-        m.priors_ = np.asarray(d["priors"], dtype=np.float64)
-        m.n_features_in_ = int(d["n_features_in"])
-        m._prepare()
+        return cls.from_densities(GaussianDensities.from_dict(d))
+
+    @classmethod
+    def from_densities(cls, g: GaussianDensities) -> GaussianBayesClassifier:
+        """The fitted estimator of saved densities."""
+        m = cls(**g.params)
+        m.classes_, m.mean_, m.scale_, m.means_ = g.classes, g.mean, g.scale, g.means
+        m.covariances_, m.priors_, m.n_features_in_ = g.covariances, g.priors, g.n_features_in
+        m.densities_ = g
         return m

@@ -3,13 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import json
-import subprocess
-import sys
 
 import pytest
 
 from pdr.cli import build_parser, main
+from tests.fresh_process import python_json
 
 COMMANDS = {"allan", "bench", "calibrate", "classify", "convert", "eval", "foot", "inspect", "phyphox", "serve",
             "simulate", "site", "track", "train", "users", "worker"}
@@ -54,8 +52,7 @@ def test_inspect_does_not_import_the_heavy_plugins() -> None:
              "classifiers", "server", "rich")
     code = ("import json, sys; from pdr.cli import build_parser; build_parser(['inspect', 'LOG']); "
             f"print(json.dumps([m for m in {heavy!r} if m in sys.modules]))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120)
-    assert json.loads(out.stdout) == []
+    assert python_json(code) == []
 
 
 def test_classify_registers_without_scikit_learn() -> None:
@@ -64,8 +61,7 @@ def test_classify_registers_without_scikit_learn() -> None:
     code = ("import json, sys; from pdr.cli import build_parser; build_parser(['classify', 'LOG', '--out', 'X']); "
             "print(json.dumps([m for m in ('sklearn', 'xgboost', 'classifiers.cli', 'classifiers.artifacts') "
             "if m in sys.modules]))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120)
-    assert json.loads(out.stdout) == []
+    assert python_json(code) == []
 
 
 def test_help_lists_every_command_without_importing_the_plugins() -> None:
@@ -75,8 +71,7 @@ def test_help_lists_every_command_without_importing_the_plugins() -> None:
     code = ("import json, sys; from pdr.cli import build_parser; p = build_parser(['--help']); "
             "sub = next(a for a in p._actions if a.dest == 'command'); "
             f"print(json.dumps([sorted(sub.choices), [m for m in {heavy!r} if m in sys.modules]]))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120)
-    names, imported = json.loads(out.stdout)
+    names, imported = python_json(code)
     assert set(names) == COMMANDS
     assert imported == []
 
@@ -105,17 +100,15 @@ def test_numpys_unused_submodules_load_on_first_use_only() -> None:
             "lazy = [m for m in EXTRAS if type(sys.modules[m]).__name__ == '_LazyModule']; "
             "ok = numpy.ma.masked_invalid(numpy.array([1.0, numpy.nan])).count() == 1; "
             "print(json.dumps([lazy, type(sys.modules['numpy.ma']).__name__, bool(ok)]))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120)
-    lazy, ma_type, ok = json.loads(out.stdout)
+    lazy, ma_type, ok = python_json(code)
     assert "numpy.f2py" in lazy and "numpy.testing" in lazy
     assert ma_type == "module" and ok
 
 
 def test_defer_numpy_extras_does_not_import_numpy() -> None:
     code = ("import sys; from pdr.cli.lazy_numpy import defer_numpy_extras; defer_numpy_extras(); "
-            "print('numpy' in sys.modules)")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120)
-    assert out.stdout.strip() == "False"
+            "print(str('numpy' in sys.modules).lower())")
+    assert python_json(code) is False
 
 
 def test_numba_blas_loads_without_the_scipy_linalg_package() -> None:
@@ -130,8 +123,7 @@ def test_numba_blas_loads_without_the_scipy_linalg_package() -> None:
             "import scipy.linalg; "
             "print(json.dumps([loaded, before, x.ravel().tolist(), sys.modules['scipy.linalg.cython_blas'] is blas, "
             "scipy.linalg.solve(np.array([[1.0, 2.0], [2.0, 1.0]]), np.array([3.0, 3.0])).tolist()]))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=300)
-    loaded, before, x, same, y = json.loads(out.stdout)
+    loaded, before, x, same, y = python_json(code, timeout_s=300)
     assert loaded and not before
     assert x == [1.0, 1.0]      # the indefinite matrix goes through LAPACK's LU
     assert same and y == pytest.approx([1.0, 1.0])
