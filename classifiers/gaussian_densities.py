@@ -47,15 +47,19 @@ class GaussianDensities:
            priors: ArrayLike, params: dict[str, Any]) -> GaussianDensities:
         """The densities with the inverse Cholesky factors and log-determinants that eq. 23 needs."""
         covs = np.asarray(covariances, dtype=np.float64)
-        chol = np.linalg.cholesky(covs)
+        tied = bool(np.all(covs == covs[:1]))
+        # A tied model's classes share one covariance: factor it once.
+        chol = np.linalg.cholesky(covs[:1] if tied else covs)
         eye = np.eye(chol.shape[1])
         chol_inv = np.asarray(np.stack([np.linalg.solve(c, eye) for c in chol]) if chol.size else chol,
                               dtype=np.float64)
+        log_det = np.asarray(2.0 * np.log(np.diagonal(chol, axis1=1, axis2=2)).sum(axis=1), dtype=np.float64)
+        if tied:
+            chol_inv = np.repeat(chol_inv, covs.shape[0], axis=0)
+            log_det = np.repeat(log_det, covs.shape[0])
         return cls(np.asarray(classes, dtype=object), np.asarray(mean, dtype=np.float64),
                    np.asarray(scale, dtype=np.float64), np.asarray(means, dtype=np.float64), covs,
-                   np.asarray(priors, dtype=np.float64), dict(params), chol_inv,
-                   np.asarray(2.0 * np.log(np.diagonal(chol, axis1=1, axis2=2)).sum(axis=1), dtype=np.float64),
-                   bool(np.all(covs == covs[:1])))
+                   np.asarray(priors, dtype=np.float64), dict(params), chol_inv, log_det, tied)
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> GaussianDensities:
