@@ -25,6 +25,7 @@ from collections.abc import Sequence
 from importlib.metadata import EntryPoint, entry_points
 from pathlib import Path
 
+from pdr.cli.blas_threads import single_threaded_blas
 from pdr.cli.collector import collection_paused, freeze_at_exit
 from pdr.errors import InputError
 
@@ -145,6 +146,7 @@ def build_parser(argv: Sequence[str] = ()) -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``pdr`` command line; returns the process exit code."""
     words = list(sys.argv[1:] if argv is None else argv)
+    single_threaded_blas()      # before numpy loads (pdr.cli.blas_threads)
     freeze_at_exit()            # the interpreter's last collections would walk every object (pdr.cli.collector)
     with collection_paused():   # the command's modules: many long-lived objects (pdr.cli.collector)
         parser = build_parser(words)
