@@ -46,6 +46,15 @@ With a perfect attitude (``--perfect-attitude``; error set ``walk_perfect``)
     when the attitude is exact, against what ours leave with our attitude. Where the two are close, the attitude is
     not what limits the walking direction.
 
+Gyro against the motion capture (per recording)
+    The calibrated gyro stream's residual bias (deg/s, device frame): the median of the gyro, interpolated to the
+    middle of each pair of consecutive valid mocap frames, less the motion capture's body rate between them
+    (:func:`gyro_residual_bias`); and its component about the mean up direction of the device, the yaw drift an
+    attitude filter carries until it learns the bias. Phone operating systems estimate and remove the gyro's bias;
+    what they leave is learnt by our attitude filter at stands, or from the magnetometer in a steady field, so a walk
+    with neither keeps it as a steady yaw error (about ``bias * tau`` with the magnetometer rows' time constant
+    ``tau``).
+
 Placement (per step)
     The placement the pipeline used for each step (detected online unless ``--placement`` names one) against the
     carriage: :data:`EXPECTED_PLACEMENT` (a trouser pocket front, back or running is ``pocket``, a swinging hand
@@ -75,6 +84,7 @@ from pdr.errors import InputError
 from pdr.frames import heading_deg_to_yaw, wrap_angle, yaw_to_heading_deg
 from pdr.io.registry import read_recording
 from pdr.phone.pipeline import PLACEMENT_GROUPS, PdrPipeline, PipelineConfig, track_rows
+from pdr.phone.walking_direction import body_angular_rate
 from pdr.recording import Recording, SensorStream
 
 FloatArray = NDArray[np.float64]
@@ -145,13 +155,18 @@ class RecordingScore:
     #: Per mocap frame: the smoothed field magnitude (uT) and dip (deg) (:func:`frame_field`), and the attitude yaw
     #: errors (deg) of ours and of the rotation vector (:func:`frame_yaw_errors`); NaN where undefined.
     frames: dict[str, FloatArray] = field(default_factory=dict)
+    #: The gyro's residual bias against the motion capture (deg/s, device frame) and its component about the mean up
+    #: direction (:func:`gyro_residual_bias`); None without a gyro or valid frames.
+    gyro_bias_dps: list[float] | None = None
+    gyro_bias_up_dps: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return {"recording": self.name, "walker": self.walker, "carriage": self.carriage,
                 "disturbed": self.disturbed, "placement": self.placement, "steps": self.steps,
                 **{k: self.errors[k].summary() for k in ERROR_SETS},
                 "offset_and_lag": {name: offset_and_turn_lag(self.step_table, col) for name, col in DECOMPOSED},
-                "field_azimuth_mocap_deg": self.field_azimuth_deg, "notices": self.notices}
+                "field_azimuth_mocap_deg": self.field_azimuth_deg, "gyro_bias_dps": self.gyro_bias_dps,
+                "gyro_bias_up_dps": self.gyro_bias_up_dps, "notices": self.notices}
 
 
 # -- truth ------------------------------------------------------------------------------------------------
@@ -357,6 +372,32 @@ def mocap_attitude(rec: Recording) -> tuple[FloatArray, FloatArray]:
     return np.asarray(ex["trajectory_t_s"], dtype=np.float64)[ok], q[ok]
 
 
+def gyro_residual_bias(rec: Recording) -> tuple[FloatArray, float] | None:
+    """The ``gyro`` stream's residual bias (deg/s, (3,), device frame) against the motion capture, and its component
+    (deg/s) about the device's mean up direction (module doc); None without a gyro or two consecutive valid frames.
+    """
+    if not rec.has("gyro") or rec.t_s("gyro").size < 2:
+        return None
+    t, q = mocap_attitude(rec)
+    if t.size < 3:
+        return None
+    dt = np.diff(t)
+    rate = 1.0 / float(np.median(dt))
+    consecutive = np.abs(dt * rate - 1.0) < 0.5            # frames one period apart (none hidden between)
+    w_mocap = body_angular_rate(q, rate)
+    tg = rec.t_s("gyro")
+    mid = 0.5 * (t[1:] + t[:-1])
+    inside = consecutive & (mid >= tg[0]) & (mid <= tg[-1])
+    if not inside.any():
+        return None
+    g = rec.values("gyro")
+    w_gyro = np.column_stack([np.interp(mid[inside], tg, g[:, i]) for i in range(3)])
+    bias = np.median(w_gyro - w_mocap[inside], axis=0)
+    up = quat.rotate(quat.conjugate(q), np.tile([0.0, 0.0, 1.0], (q.shape[0], 1))).mean(axis=0)
+    up /= max(float(np.linalg.norm(up)), 1e-12)
+    return np.degrees(bias), math.degrees(float(bias @ up))
+
+
 def mean_y_yaw(t_s: FloatArray, q_nb: FloatArray, t_start_s: FloatArray, t_end_s: FloatArray) -> FloatArray:
     """(N,) ENU yaw (rad) of the mean horizontal direction of the device +y axis of attitudes ``q_nb`` (M, 4) at
     times ``t_s`` (M,) over each interval ``[t_start_s, t_end_s)`` (s); NaN for an interval without a sample.
@@ -518,10 +559,13 @@ def score_recording(rec: Recording, cfg: PipelineConfig,
              "smoothed_heading_deg": yaw_to_heading_deg(smooth_yaw), "rv_y_heading_deg": yaw_to_heading_deg(rv_y),
              "mocap_y_heading_deg": yaw_to_heading_deg(mocap_y)}
     m = rec.meta
+    gyro = gyro_residual_bias(rec)
     return RecordingScore(name=Path(rec.source).name.removesuffix(".zip"), walker=str(m.get("walker", "")),
                           carriage=str(m.get("carriage", "")), disturbed=bool(m.get("disturbed", False)),
                           placement=used, steps=len(rows), errors=errors, notices=notices, step_table=table,
-                          field_azimuth_deg=m.get("field_azimuth_mocap_deg"), frames=frames)
+                          field_azimuth_deg=m.get("field_azimuth_mocap_deg"), frames=frames,
+                          gyro_bias_dps=None if gyro is None else gyro[0].tolist(),
+                          gyro_bias_up_dps=None if gyro is None else gyro[1])
 
 
 def recordings_in(root: str | Path) -> list[Path]:
@@ -696,7 +740,19 @@ def report_lines(scores: list[RecordingScore], agg: dict[str, Any]) -> list[str]
     out += [_dist_line(f"{name} ({d['recordings']} rec.)", d) for name, d in agg["by_field"].items()]
     out += [_dist_line(f"{name} ({d['recordings']} rec.)", d) for name, d in agg["by_walker"].items()]
     out.append(_dist_line(f"ALL ({agg['all']['recordings']} rec.)", agg["all"]))
+    out += ["", "the gyro stream's residual bias against the motion capture (deg/s; the OS removes its own estimate): "
+            "device x, y, z and about the mean up direction, the yaw drift an attitude filter carries until it learns "
+            "it; beside it our attitude's yaw error (mean, deg)",
+            f"{'':<48} | {'x      y      z':<21} | {'up':>6} | attitude yaw"]
+    out += [_gyro_line(s, figures[s.name]) for s in scores]
     return out
+
+
+def _gyro_line(s: RecordingScore, d: dict[str, Any]) -> str:
+    if s.gyro_bias_dps is None or s.gyro_bias_up_dps is None:
+        return f"{s.name:<48} | {'-':<21} | {'-':>6} | {_f(d['att_yaw']['mean_deg'])}"
+    b = " ".join(f"{v:+.3f}" for v in s.gyro_bias_dps)
+    return f"{s.name:<48} | {b:<21} | {s.gyro_bias_up_dps:+.3f} | {_f(d['att_yaw']['mean_deg'])}"
 
 
 DECOMPOSITION_HEADER = (f"{'':<48} | {'causal':<38} | {'smoothed':<38} | rot. vector +y (texting)\n"

@@ -183,6 +183,9 @@ def test_eval_heading_on_a_real_texting_walk(capsys):
     assert rec["walk_mocap_y"]["median_deg"] < 15.0
     for key in ("walk_causal", "walk_smoothed", "att_yaw", "att_tilt"):
         assert np.isfinite(rec[key]["mean_deg"])
+    # The OS-calibrated gyro leaves a residual bias of tenths of a degree per second (the report's gyro section).
+    assert len(rec["gyro_bias_dps"]) == 3 and max(abs(v) for v in rec["gyro_bias_dps"]) < 1.0
+    assert abs(rec["gyro_bias_up_dps"]) <= float(np.linalg.norm(rec["gyro_bias_dps"])) + 1e-9
 
 
 def test_native_conversions_are_scored_like_the_folder(synthetic, tmp_path, capsys):
@@ -282,3 +285,13 @@ def test_offset_and_turn_lag_recover_a_constant_offset_and_a_lag():
     # No estimate column, or too few steps: nothing to fit.
     assert ev.offset_and_turn_lag({}, "heading_deg")["n"] == 0
     assert math.isnan(ev.offset_and_turn_lag(_loop_table(0.0, 0.0), "smoothed_heading_deg")["lag_s"])
+
+
+def test_the_gyros_residual_bias_is_recovered_against_the_motion_capture(synthetic):
+    # The synthetic phone turns about its z axis (up) at the rate its calibrated gyro reports, plus 0.001 rad/s about
+    # x: the residual bias is that, and nothing of it lies about the vertical.
+    found = ev.gyro_residual_bias(synthetic)
+    assert found is not None
+    bias, up = found
+    np.testing.assert_allclose(bias, [math.degrees(0.001), 0.0, 0.0], atol=0.01)
+    assert abs(up) < 0.01
