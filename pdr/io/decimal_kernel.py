@@ -15,8 +15,9 @@ the caller takes a slower exact path.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
+
+from pdr.filters.compiled import kernel
 
 _SEMICOLON, _DOT, _MINUS, _PLUS, _ZERO, _NINE, _E, _E_UPPER, _SPACE = 59, 46, 45, 43, 48, 57, 101, 69, 32
 #: Digits of a field's mantissa the fast path takes (10**18 < 2**63: no int64 overflow).
@@ -27,7 +28,7 @@ MAX_EXACT_INT = 2**53
 MAX_EXACT_POWER = 22
 
 
-@njit(cache=True)
+@kernel
 def _end_of_field(buf: NDArray[np.uint8], p: int, end: int, sep: int) -> int:  # pragma: no cover - compiled
     """Index after the blanks at ``buf[p]`` that end a field (at the separator or the line's ``end``); -1 when
     anything else follows them (a blank inside a number).
@@ -39,7 +40,7 @@ def _end_of_field(buf: NDArray[np.uint8], p: int, end: int, sep: int) -> int:  #
     return p
 
 
-@njit(cache=True)
+@kernel
 def parse_lines(buf: NDArray[np.uint8], start: NDArray[np.int64], length: NDArray[np.int64], ncol: int,
                 trailing_separator: bool, sep: int, out: NDArray[np.float64]) -> int:  # pragma: no cover - compiled
     """Parse line ``i`` (``buf[start[i]:start[i] + length[i]]``, ``ncol`` fields separated by ``sep``) into
