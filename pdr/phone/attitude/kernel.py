@@ -75,8 +75,15 @@ def _rotmat(q: FloatArray) -> FloatArray:
 @kernel
 def _rotmat_entries(q: FloatArray) -> tuple[float, float, float, float, float, float, float, float, float]:
     """The entries ``c00, c01, ..., c22`` (row by row) of :func:`_rotmat` as scalars (kept in registers)."""
-    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-    w, x, y, z = q[0] / n, q[1] / n, q[2] / n, q[3] / n
+    return _rotmat_entries_of(q[0], q[1], q[2], q[3])
+
+
+@kernel
+def _rotmat_entries_of(q0: float, q1: float, q2: float, q3: float
+                       ) -> tuple[float, float, float, float, float, float, float, float, float]:
+    """:func:`_rotmat_entries` of the quaternion ``(q0, q1, q2, q3)`` given as scalars."""
+    n = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+    w, x, y, z = q0 / n, q1 / n, q2 / n, q3 / n
     return (1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
             2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
             2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y))
@@ -94,32 +101,34 @@ def _rotmat_into(q: FloatArray, c: FloatArray) -> None:
 @kernel
 def measurement(q: FloatArray, g_ref: FloatArray, h_ref: FloatArray, use_a: bool, use_m: bool, m: int) -> FloatArray:
     """Measurement function of eq. 10 restricted to the accepted rows: [R^T g; R^T h]."""
-    out = np.empty(m)
-    _measurement_into(q, g_ref, h_ref, use_a, use_m, out)
-    return out
+    out = np.empty((1, m))
+    _measurement_rows(q.reshape(1, 4), g_ref, h_ref, use_a, use_m, out)
+    return out[0]
 
 
 @kernel
-def _measurement_into(q: FloatArray, g_ref: FloatArray, h_ref: FloatArray, use_a: bool, use_m: bool,
+def _measurement_rows(qs: FloatArray, g_ref: FloatArray, h_ref: FloatArray, use_a: bool, use_m: bool,
                       out: FloatArray) -> None:
-    """:func:`measurement` into the first rows of ``out``.
+    """:func:`measurement` of each quaternion ``qs[i]`` ((K, 4): the UKF's sigma points) into the first columns of
+    ``out[i]``.
 
-    The rotation's entries stay scalars: nine of these run per UKF update (the sigma points), and going through
-    a (3, 3) array cost three times the arithmetic.
+    The quaternion's components and the rotation's entries stay scalars, read and written by index: a row view per
+    sigma point (``qs[i]``, ``out[i]``), like a (3, 3) array, cost more than the arithmetic.
     """
-    c00, c01, c02, c10, c11, c12, c20, c21, c22 = _rotmat_entries(q)
-    k = 0
-    if use_a:
-        g0, g1, g2 = g_ref[0], g_ref[1], g_ref[2]
-        out[0] = c00 * g0 + c10 * g1 + c20 * g2
-        out[1] = c01 * g0 + c11 * g1 + c21 * g2
-        out[2] = c02 * g0 + c12 * g1 + c22 * g2
-        k = 3
-    if use_m:
-        h0, h1, h2 = h_ref[0], h_ref[1], h_ref[2]
-        out[k] = c00 * h0 + c10 * h1 + c20 * h2
-        out[k + 1] = c01 * h0 + c11 * h1 + c21 * h2
-        out[k + 2] = c02 * h0 + c12 * h1 + c22 * h2
+    for i in range(qs.shape[0]):
+        c00, c01, c02, c10, c11, c12, c20, c21, c22 = _rotmat_entries_of(qs[i, 0], qs[i, 1], qs[i, 2], qs[i, 3])
+        k = 0
+        if use_a:
+            g0, g1, g2 = g_ref[0], g_ref[1], g_ref[2]
+            out[i, 0] = c00 * g0 + c10 * g1 + c20 * g2
+            out[i, 1] = c01 * g0 + c11 * g1 + c21 * g2
+            out[i, 2] = c02 * g0 + c12 * g1 + c22 * g2
+            k = 3
+        if use_m:
+            h0, h1, h2 = h_ref[0], h_ref[1], h_ref[2]
+            out[i, k] = c00 * h0 + c10 * h1 + c20 * h2
+            out[i, k + 1] = c01 * h0 + c11 * h1 + c21 * h2
+            out[i, k + 2] = c02 * h0 + c12 * h1 + c22 * h2
 
 
 @kernel
@@ -233,8 +242,7 @@ def ukf_update_into(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatAr
     wm0 = lam / c
     wc0 = wm0 + (1.0 - alpha * alpha + beta)
     wi = 0.5 / c
-    for i in range(2 * n + 1):
-        _measurement_into(sig[i], g_ref, h_ref, use_a, use_m, zs[i])
+    _measurement_rows(sig, g_ref, h_ref, use_a, use_m, zs)
     # eq. 38: predicted mean. The centre point is subtracted first to avoid cancellation of the
     # large weights (wm0 is about -1e6 for alpha = 1e-3).
     for a in range(m):
