@@ -33,9 +33,17 @@ def quat_mul(a: Array, b: Array) -> Array:  # pragma: no cover - compiled
 @kernel
 def quat_exp(phi: Array) -> Array:  # pragma: no cover - compiled
     """Unit quaternion of the rotation vector ``phi`` (3,), rad (series near zero)."""
-    angle = math.sqrt(phi[0] ** 2 + phi[1] ** 2 + phi[2] ** 2)
+    return np.array(quat_exp_of(phi[0], phi[1], phi[2]))
+
+
+@kernel
+def quat_exp_of(phi0: float, phi1: float, phi2: float) -> tuple[float, float, float, float]:  # pragma: no cover
+    """:func:`quat_exp` of the rotation vector ``(phi0, phi1, phi2)`` (rad) given as scalars, as scalars (a per-sample
+    loop then allocates no array).
+    """
+    angle = math.sqrt(phi0 ** 2 + phi1 ** 2 + phi2 ** 2)
     k = 0.5 - angle * angle / 48.0 if angle < 1e-8 else math.sin(0.5 * angle) / angle
-    return np.array([math.cos(0.5 * angle), k * phi[0], k * phi[1], k * phi[2]])
+    return math.cos(0.5 * angle), k * phi0, k * phi1, k * phi2
 
 
 @kernel

@@ -39,7 +39,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.filters.compiled import kernel
-from pdr.filters.rotation_kernels import quat_exp, wrap_pi
+from pdr.filters.rotation_kernels import quat_exp_of, wrap_pi
 
 FloatArray = NDArray[np.float64]
 
@@ -103,11 +103,11 @@ def _gyro_yaw_kernel(q: FloatArray, gyro: FloatArray, ts: float, q_prev: FloatAr
         up = _up_row(qk)
         if has_prev or k > 0:
             # Gyro-only prediction q_{k-1} exp(w ts), then the filter's correction q_k (q^-)^*, about the vertical.
-            e = quat_exp(gyro[k] * ts)
-            p0 = prev[0] * e[0] - prev[1] * e[1] - prev[2] * e[2] - prev[3] * e[3]
-            p1 = prev[0] * e[1] + prev[1] * e[0] + prev[2] * e[3] - prev[3] * e[2]
-            p2 = prev[0] * e[2] - prev[1] * e[3] + prev[2] * e[0] + prev[3] * e[1]
-            p3 = prev[0] * e[3] + prev[1] * e[2] - prev[2] * e[1] + prev[3] * e[0]
+            e0, e1, e2, e3 = quat_exp_of(gyro[k, 0] * ts, gyro[k, 1] * ts, gyro[k, 2] * ts)
+            p0 = prev[0] * e0 - prev[1] * e1 - prev[2] * e2 - prev[3] * e3
+            p1 = prev[0] * e1 + prev[1] * e0 + prev[2] * e3 - prev[3] * e2
+            p2 = prev[0] * e2 - prev[1] * e3 + prev[2] * e0 + prev[3] * e1
+            p3 = prev[0] * e3 + prev[1] * e2 - prev[2] * e1 + prev[3] * e0
             d0 = qk[0] * p0 + qk[1] * p1 + qk[2] * p2 + qk[3] * p3
             d1 = -qk[0] * p1 + qk[1] * p0 - qk[2] * p3 + qk[3] * p2
             d2 = -qk[0] * p2 + qk[1] * p3 + qk[2] * p0 - qk[3] * p1
