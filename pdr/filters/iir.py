@@ -18,8 +18,9 @@ to the last bit on the pipeline's filters):
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike, NDArray
+
+from pdr.filters.compiled import kernel
 
 Array = NDArray[np.float64]
 
@@ -112,7 +113,7 @@ def lfilter(b: ArrayLike, a: ArrayLike, x: ArrayLike, zi: ArrayLike) -> tuple[Ar
     return y.reshape(xx.shape), (z2.reshape(k) if xx.ndim == 1 else z2)
 
 
-@njit(cache=True)
+@kernel
 def _df2t(b: Array, a: Array, x: Array, y: Array, z: Array) -> None:  # pragma: no cover - compiled
     """Direct form II transposed, channel by channel: ``x``, ``y`` (N, C), state ``z`` (K, C) updated in place."""
     k = b.size - 1

@@ -32,16 +32,16 @@ own backward loop.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from pdr.errors import InputError
+from pdr.filters.compiled import kernel
 from pdr.filters.small_linalg import cholesky_solve, matmul
 
 Array = NDArray[np.float64]
 
 
-@njit(cache=True)
+@kernel
 def rts_step(x_f: Array, P_f: Array, F_next: Array, x_p_next: Array, P_p_next: Array, x_s_next: Array,
              P_s_next: Array, x_s: Array, P_s: Array) -> None:  # pragma: no cover - compiled
     """One backward RTS step from sample ``k + 1`` to ``k``, results written into ``x_s`` and ``P_s``.
@@ -79,7 +79,7 @@ def rts_step(x_f: Array, P_f: Array, F_next: Array, x_p_next: Array, P_p_next: A
             P_s[j, i] = v
 
 
-@njit(cache=True)
+@kernel
 def _rts_kernel(x_f: Array, P_f: Array, x_p: Array, P_p: Array, F: Array, x_s: Array,
                 P_s: Array) -> None:  # pragma: no cover - compiled
     n = x_f.shape[0]

@@ -15,9 +15,11 @@ from typing import Any, cast
 
 import numpy as np
 from llvmlite import ir
-from numba import njit, types
+from numba import types
 from numba.extending import intrinsic
 from numpy.typing import NDArray
+
+from pdr.filters.compiled import kernel
 
 Array = NDArray[np.float64]
 
@@ -40,7 +42,7 @@ def _fma(typingctx: Any, a: Any, b: Any, c: Any) -> Any:  # pragma: no cover - c
 fma = cast(Callable[[float, float, float], float], _fma)
 
 
-@njit(cache=True)
+@kernel
 def matvec3_into(A: Array, x: Array, out: Array) -> None:  # pragma: no cover - compiled
     """``A x`` for a (3, 3) ``A`` and a (3,) ``x`` into ``out`` (not ``x``): the values of ``A @ x`` in compiled
     code, which calls BLAS ``dgemv`` (the bundled OpenBLAS sums ``a1 x1``, then ``a0 x0``, then ``a2 x2`` with fused
@@ -51,7 +53,7 @@ def matvec3_into(A: Array, x: Array, out: Array) -> None:  # pragma: no cover - 
         out[i] = fma(A[i, 2], x[2], fma(A[i, 0], x[0], A[i, 1] * x[1]))
 
 
-@njit(cache=True)
+@kernel
 def cholesky_lower(A: Array, L: Array) -> bool:  # pragma: no cover - compiled
     """Lower Cholesky factor of the symmetric (n, n) ``A`` (only its lower triangle is read) written into ``L``.
 
@@ -74,7 +76,7 @@ def cholesky_lower(A: Array, L: Array) -> bool:  # pragma: no cover - compiled
     return True
 
 
-@njit(cache=True)
+@kernel
 def substitute(L: Array, X: Array) -> None:  # pragma: no cover - compiled
     """``X <- (L L^T)^-1 X`` in place, for a lower Cholesky factor ``L`` (n, n) and (n, m) ``X``."""
     # Row by row over all columns at once: each column's chain of divisions is independent of the others', so
@@ -96,7 +98,7 @@ def substitute(L: Array, X: Array) -> None:  # pragma: no cover - compiled
             X[i, c] = acc / d
 
 
-@njit(cache=True)
+@kernel
 def _solve_factored(L: Array, B: Array) -> Array:  # pragma: no cover - compiled
     """``(L L^T)^-1 B`` for a lower Cholesky factor ``L`` (n, n) and (n, m) ``B``."""
     X = B.copy()
@@ -104,7 +106,7 @@ def _solve_factored(L: Array, B: Array) -> Array:  # pragma: no cover - compiled
     return X
 
 
-@njit(cache=True)
+@kernel
 def cholesky_solve(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
     """``A^-1 B`` for a symmetric positive-definite (n, n) ``A`` and (n, m) ``B``.
 
@@ -117,7 +119,7 @@ def cholesky_solve(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
     return _solve_factored(L, B)
 
 
-@njit(cache=True)
+@kernel
 def solve_symmetric(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
     """``A^-1 B`` for a symmetric (n, n) ``A`` that is positive definite in all but corner cases (an innovation
     covariance): by Cholesky, or by LU (``np.linalg.solve``) when the factorisation fails.
@@ -129,7 +131,7 @@ def solve_symmetric(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
     return np.linalg.solve(A, B)  # type: ignore[return-value]  # float64 in, float64 out
 
 
-@njit(cache=True)
+@kernel
 def congruence(F: Array, P: Array) -> Array:  # pragma: no cover - compiled
     """``F P F^T`` for an (n, k) ``F`` and a symmetric (k, k) ``P``; the result is exactly symmetric."""
     n, k = F.shape
@@ -138,7 +140,7 @@ def congruence(F: Array, P: Array) -> Array:  # pragma: no cover - compiled
     return out
 
 
-@njit(cache=True)
+@kernel
 def congruence_into(F: Array, P: Array, FP: Array, out: Array) -> None:  # pragma: no cover - compiled
     """:func:`congruence` into ``out`` (n, n), with ``FP`` (n, k) as scratch (no allocation)."""
     n, k = F.shape
@@ -152,7 +154,7 @@ def congruence_into(F: Array, P: Array, FP: Array, out: Array) -> None:  # pragm
             out[j, i] = acc
 
 
-@njit(cache=True)
+@kernel
 def symmetric_inverse(A: Array) -> tuple[Array, float]:  # pragma: no cover - compiled
     """Inverse and log-determinant (of ``|A|``) of a symmetric (n, n) ``A`` that is positive definite in all but
     corner cases: from one Cholesky factor, or by LU (``np.linalg.inv``, ``np.linalg.slogdet``) when it fails.
@@ -182,7 +184,7 @@ def symmetric_inverse(A: Array) -> tuple[Array, float]:  # pragma: no cover - co
     return inv, logdet
 
 
-@njit(cache=True)
+@kernel
 def matmul(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
     """``A B`` for an (n, k) ``A`` and a (k, m) ``B``, skipping the zero entries of ``A``."""
     out = np.empty((A.shape[0], B.shape[1]))
@@ -190,7 +192,7 @@ def matmul(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
     return out
 
 
-@njit(cache=True)
+@kernel
 def matmul_into(A: Array, B: Array, out: Array) -> None:  # pragma: no cover - compiled
     """:func:`matmul` into ``out`` (n, m) (no allocation)."""
     n, k = A.shape
@@ -205,7 +207,7 @@ def matmul_into(A: Array, B: Array, out: Array) -> None:  # pragma: no cover - c
                     out[i, j] += x * B[a, j]
 
 
-@njit(cache=True)
+@kernel
 def matmul_bt(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
     """``A B^T`` for an (n, k) ``A`` and an (m, k) ``B``."""
     n, k = A.shape
@@ -220,7 +222,7 @@ def matmul_bt(A: Array, B: Array) -> Array:  # pragma: no cover - compiled
     return out
 
 
-@njit(cache=True)
+@kernel
 def matvec(A: Array, x: Array) -> Array:  # pragma: no cover - compiled
     """``A x`` for an (n, k) ``A`` and a (k,) ``x``."""
     out = np.empty(A.shape[0])
@@ -228,7 +230,7 @@ def matvec(A: Array, x: Array) -> Array:  # pragma: no cover - compiled
     return out
 
 
-@njit(cache=True)
+@kernel
 def matvec_into(A: Array, x: Array, out: Array) -> None:  # pragma: no cover - compiled
     """:func:`matvec` into ``out`` (n,), which must not be ``x`` (no allocation)."""
     n, k = A.shape
@@ -239,7 +241,7 @@ def matvec_into(A: Array, x: Array, out: Array) -> None:  # pragma: no cover - c
         out[i] = acc
 
 
-@njit(cache=True)
+@kernel
 def quadratic_form(x: Array, A: Array) -> float:  # pragma: no cover - compiled
     """``x^T A x`` for an (n,) ``x`` and an (n, n) ``A``."""
     n = x.size

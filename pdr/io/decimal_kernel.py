@@ -15,10 +15,11 @@ the caller takes a slower exact path.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
-_SEMICOLON, _DOT, _MINUS, _PLUS, _ZERO, _NINE, _E, _E_UPPER, _SPACE = 59, 46, 45, 43, 48, 57, 101, 69, 32
+from pdr.filters.compiled import kernel
+
+_DOT, _MINUS, _PLUS, _ZERO, _NINE, _E, _E_UPPER, _SPACE = 46, 45, 43, 48, 57, 101, 69, 32
 #: Digits of a field's mantissa the fast path takes (10**18 < 2**63: no int64 overflow).
 MAX_DIGITS = 18
 #: Largest mantissa that is exact in float64 (2**53); a larger one only as a whole number (no power of ten).
@@ -27,25 +28,15 @@ MAX_EXACT_INT = 2**53
 MAX_EXACT_POWER = 22
 
 
-@njit(cache=True)
-def _end_of_field(buf: NDArray[np.uint8], p: int, end: int, sep: int) -> int:  # pragma: no cover - compiled
-    """Index after the blanks at ``buf[p]`` that end a field (at the separator or the line's ``end``); -1 when
-    anything else follows them (a blank inside a number).
-    """
-    while p < end and buf[p] == _SPACE:
-        p += 1
-    if p < end and buf[p] != sep:
-        return -1
-    return p
-
-
-@njit(cache=True)
+@kernel
 def parse_lines(buf: NDArray[np.uint8], start: NDArray[np.int64], length: NDArray[np.int64], ncol: int,
                 trailing_separator: bool, sep: int, out: NDArray[np.float64]) -> int:  # pragma: no cover - compiled
     """Parse line ``i`` (``buf[start[i]:start[i] + length[i]]``, ``ncol`` fields separated by ``sep``) into
     ``out[i]`` for every line; returns -1, or the index of the first line that is not of that plain form.
 
     With ``trailing_separator`` one separator ending a line (an empty last field) is accepted and dropped.
+    A field is read part by part: blanks, a sign, the integer digits, a point and the decimals, an exponent, blanks;
+    a run of digits in a loop of its own, which tests each byte once.
     """
     pow10 = np.empty(MAX_EXACT_POWER + 1)
     p10 = 1.0
@@ -68,35 +59,34 @@ def parse_lines(buf: NDArray[np.uint8], start: NDArray[np.int64], length: NDArra
             m = 0
             digits = 0
             decimals = -1
+            for part in range(2):               # the integer digits, then the decimals after a point
+                first = p
+                while p < end:
+                    d = int(buf[p]) - _ZERO
+                    if d < 0 or d > 9:
+                        break
+                    m = m * 10 + d
+                    p += 1
+                if part == 1:
+                    decimals = p - first
+                    digits += decimals
+                else:
+                    digits = p - first
+                    if not (p < end and buf[p] == _DOT):
+                        break
+                    p += 1
             exponent = 0
-            while p < end and buf[p] != sep:
+            if p < end and buf[p] != sep:
                 ch = buf[p]
-                if ch == _SPACE:
-                    p = _end_of_field(buf, p, end, sep)
-                    if p < 0:
-                        return i
-                    break
-                if _ZERO <= ch <= _NINE:
-                    m = m * 10 + (ch - _ZERO)
-                    digits += 1
-                    if decimals >= 0:
-                        decimals += 1
-                elif ch == _DOT and decimals < 0:
-                    decimals = 0
-                elif (ch == _E or ch == _E_UPPER) and digits > 0:
+                if (ch == _E or ch == _E_UPPER) and digits > 0:
                     p += 1
                     exp_negative = False
                     if p < end and (buf[p] == _MINUS or buf[p] == _PLUS):
                         exp_negative = buf[p] == _MINUS
                         p += 1
                     exp_digits = 0
-                    while p < end and buf[p] != sep and exp_digits <= 3:
+                    while p < end and buf[p] != sep and buf[p] != _SPACE and exp_digits <= 3:
                         ch = buf[p]
-                        if ch == _SPACE:
-                            p = _end_of_field(buf, p, end, sep)
-                            if p < 0:
-                                return i
-                            break
                         if not _ZERO <= ch <= _NINE:
                             return i
                         exponent = exponent * 10 + (ch - _ZERO)
@@ -106,10 +96,10 @@ def parse_lines(buf: NDArray[np.uint8], start: NDArray[np.int64], length: NDArra
                         return i
                     if exp_negative:
                         exponent = -exponent
-                    break
-                else:
-                    return i
-                p += 1
+                while p < end and buf[p] == _SPACE:
+                    p += 1
+                if p < end and buf[p] != sep:
+                    return i            # a second point, a blank inside the number, another character
             if digits == 0 or digits > MAX_DIGITS:
                 return i
             scale = exponent - max(decimals, 0)

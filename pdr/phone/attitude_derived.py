@@ -9,14 +9,15 @@ last bit, so it stays numpy's).
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
+
+from pdr.filters.compiled import kernel
 
 FloatArray = NDArray[np.float64]
 
 
-@numba.njit(cache=True)
+@kernel
 def _rotate(q: FloatArray, acc: FloatArray) -> tuple[FloatArray, FloatArray]:  # pragma: no cover - compiled
     """``f_n = C_nb(q) acc`` (N, 3) and the elements ``c01, c11, c02, c12, c21`` of ``C_nb`` (5, N) per sample."""
     n = q.shape[0]

@@ -46,10 +46,10 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
+from pdr.filters.compiled import kernel
 from pdr.frames import pressure_to_altitude_m
 from pdr.phone.baro_rides import ESCALATOR_MAX_VERTICAL_MPS, WALK_OUT_S
 
@@ -233,7 +233,7 @@ class FloorTracker:
         return t
 
 
-@njit(cache=True)
+@kernel
 def whole_floors(climb_m: float, min_h: float, max_h: float) -> int:
     """The number of floors a climb of ``climb_m`` (m) between two levels spans when exactly one whole number of
     floors, each ``min_h`` to ``max_h`` m high, fits it; 0 when none or several do (a 2.5-5 m floor: 1 floor up to
@@ -243,7 +243,7 @@ def whole_floors(climb_m: float, min_h: float, max_h: float) -> int:
     return int(fewest) if fewest == most and fewest >= 1 else 0
 
 
-@njit(cache=True)
+@kernel
 def _track_floors(h: FloatArray, acc: FloatArray, flat: NDArray[np.bool_], ks: float, kd: float, levels: FloatArray,
                   hysteresis: float, settle_mps: float, walking_var: float, rate_hz: float, floor0: float,
                   learn: bool, hold_n: int, min_h: float, max_h: float, ride_min_v: float, walk_out_n: int,

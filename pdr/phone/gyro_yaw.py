@@ -36,10 +36,10 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
-from pdr.filters.rotation_kernels import quat_exp, wrap_pi
+from pdr.filters.compiled import kernel
+from pdr.filters.rotation_kernels import quat_exp_of, wrap_pi
 
 FloatArray = NDArray[np.float64]
 
@@ -47,7 +47,7 @@ FloatArray = NDArray[np.float64]
 AXIS_SWITCH = 0.9
 
 
-@njit(cache=True)
+@kernel
 def _vertical_angle(w: float, vx: float, vy: float, vz: float) -> float:  # pragma: no cover - compiled
     """Vertical component of the rotation vector of the unit quaternion ``(w, vx, vy, vz)`` (rad)."""
     if w < 0.0:                                   # the shorter of the two rotations
@@ -60,7 +60,7 @@ def _vertical_angle(w: float, vx: float, vy: float, vz: float) -> float:  # prag
 
 # The two functions below give single rows/columns of C_nb as scalars. pdr.filters.rotation_kernels.rotmat gives the
 # whole matrix, but as a new array per call, which doubles this kernel's cost (0.17 against 0.085 s per hour at 100 Hz).
-@njit(cache=True)
+@kernel
 def _axis_column(q: FloatArray, axis: int) -> tuple[float, float, float]:  # pragma: no cover - compiled
     """Column ``axis`` of ``C_nb(q)``: the device axis in ENU."""
     w, x, y, z = q[0], q[1], q[2], q[3]
@@ -71,14 +71,14 @@ def _axis_column(q: FloatArray, axis: int) -> tuple[float, float, float]:  # pra
     return 2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)
 
 
-@njit(cache=True)
+@kernel
 def _up_row(q: FloatArray) -> tuple[float, float, float]:  # pragma: no cover - compiled
     """Last row of ``C_nb(q)``: the up direction in the device frame."""
     w, x, y, z = q[0], q[1], q[2], q[3]
     return 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
 
 
-@njit(cache=True)
+@kernel
 def _nearest_horizontal(u: tuple[float, float, float]) -> int:  # pragma: no cover - compiled
     """Device axis whose vertical component ``u[i]`` is smallest."""
     axis = 0
@@ -88,7 +88,7 @@ def _nearest_horizontal(u: tuple[float, float, float]) -> int:  # pragma: no cov
     return axis
 
 
-@njit(cache=True)
+@kernel
 def _gyro_yaw_kernel(q: FloatArray, gyro: FloatArray, ts: float, q_prev: FloatArray, has_prev: bool, axis: int,
                      yaw0: float, up0: FloatArray, switch: float, yaw: FloatArray, up_time: FloatArray
                      ) -> int:  # pragma: no cover - compiled
@@ -103,11 +103,11 @@ def _gyro_yaw_kernel(q: FloatArray, gyro: FloatArray, ts: float, q_prev: FloatAr
         up = _up_row(qk)
         if has_prev or k > 0:
             # Gyro-only prediction q_{k-1} exp(w ts), then the filter's correction q_k (q^-)^*, about the vertical.
-            e = quat_exp(gyro[k] * ts)
-            p0 = prev[0] * e[0] - prev[1] * e[1] - prev[2] * e[2] - prev[3] * e[3]
-            p1 = prev[0] * e[1] + prev[1] * e[0] + prev[2] * e[3] - prev[3] * e[2]
-            p2 = prev[0] * e[2] - prev[1] * e[3] + prev[2] * e[0] + prev[3] * e[1]
-            p3 = prev[0] * e[3] + prev[1] * e[2] - prev[2] * e[1] + prev[3] * e[0]
+            e0, e1, e2, e3 = quat_exp_of(gyro[k, 0] * ts, gyro[k, 1] * ts, gyro[k, 2] * ts)
+            p0 = prev[0] * e0 - prev[1] * e1 - prev[2] * e2 - prev[3] * e3
+            p1 = prev[0] * e1 + prev[1] * e0 + prev[2] * e3 - prev[3] * e2
+            p2 = prev[0] * e2 - prev[1] * e3 + prev[2] * e0 + prev[3] * e1
+            p3 = prev[0] * e3 + prev[1] * e2 - prev[2] * e1 + prev[3] * e0
             d0 = qk[0] * p0 + qk[1] * p1 + qk[2] * p2 + qk[3] * p3
             d1 = -qk[0] * p1 + qk[1] * p0 - qk[2] * p3 + qk[3] * p2
             d2 = -qk[0] * p2 + qk[1] * p3 + qk[2] * p0 - qk[3] * p1

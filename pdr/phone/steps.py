@@ -244,12 +244,12 @@ from collections.abc import Sequence
 from dataclasses import asdict, dataclass, replace
 from typing import Any
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.filters import iir
+from pdr.filters.compiled import kernel
 from pdr.phone.placement_detect import PlacementDetectConfig
 
 FloatArray = NDArray[np.float64]
@@ -533,7 +533,7 @@ def _initial_ms(c: StepConfig) -> float:
     return (c.min_peak / c.floor_gain) ** 2 if c.floor_gain > 0 and not c.gait_min_corr > 0 else 0.0
 
 
-@numba.njit(cache=True)
+@kernel
 def _detect_kernel(d: FloatArray, st: FloatArray, fs: float, min_peak: float, peak_ratio: float,
                    min_rate: float, max_rise: int, min_interval: int,
                    amp_tau: float, beat_peak: float, beat_tol: float,

@@ -7,10 +7,10 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from pdr.filters.compiled import kernel
 from pdr.filters.rotation_kernels import rotate_yaw
 from pdr.filters.small_linalg import (
     cholesky_lower,
@@ -64,7 +64,7 @@ from pdr.phone.attitude.state import (
 FloatArray = NDArray[np.float64]
 
 
-@numba.njit(cache=True)
+@kernel
 def _rotmat(q: FloatArray) -> FloatArray:
     """C_nb of a (not necessarily unit) quaternion, normalised first (eq. 5)."""
     c = np.empty((3, 3))
@@ -72,17 +72,24 @@ def _rotmat(q: FloatArray) -> FloatArray:
     return c
 
 
-@numba.njit(cache=True)
+@kernel
 def _rotmat_entries(q: FloatArray) -> tuple[float, float, float, float, float, float, float, float, float]:
     """The entries ``c00, c01, ..., c22`` (row by row) of :func:`_rotmat` as scalars (kept in registers)."""
-    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-    w, x, y, z = q[0] / n, q[1] / n, q[2] / n, q[3] / n
+    return _rotmat_entries_of(q[0], q[1], q[2], q[3])
+
+
+@kernel
+def _rotmat_entries_of(q0: float, q1: float, q2: float, q3: float
+                       ) -> tuple[float, float, float, float, float, float, float, float, float]:
+    """:func:`_rotmat_entries` of the quaternion ``(q0, q1, q2, q3)`` given as scalars."""
+    n = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+    w, x, y, z = q0 / n, q1 / n, q2 / n, q3 / n
     return (1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
             2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
             2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y))
 
 
-@numba.njit(cache=True)
+@kernel
 def _rotmat_into(q: FloatArray, c: FloatArray) -> None:
     """:func:`_rotmat` into ``c`` (3, 3)."""
     c00, c01, c02, c10, c11, c12, c20, c21, c22 = _rotmat_entries(q)
@@ -91,38 +98,40 @@ def _rotmat_into(q: FloatArray, c: FloatArray) -> None:
     c[2, 0], c[2, 1], c[2, 2] = c20, c21, c22
 
 
-@numba.njit(cache=True)
+@kernel
 def measurement(q: FloatArray, g_ref: FloatArray, h_ref: FloatArray, use_a: bool, use_m: bool, m: int) -> FloatArray:
     """Measurement function of eq. 10 restricted to the accepted rows: [R^T g; R^T h]."""
-    out = np.empty(m)
-    _measurement_into(q, g_ref, h_ref, use_a, use_m, out)
-    return out
+    out = np.empty((1, m))
+    _measurement_rows(q.reshape(1, 4), g_ref, h_ref, use_a, use_m, out)
+    return out[0]
 
 
-@numba.njit(cache=True)
-def _measurement_into(q: FloatArray, g_ref: FloatArray, h_ref: FloatArray, use_a: bool, use_m: bool,
+@kernel
+def _measurement_rows(qs: FloatArray, g_ref: FloatArray, h_ref: FloatArray, use_a: bool, use_m: bool,
                       out: FloatArray) -> None:
-    """:func:`measurement` into the first rows of ``out``.
+    """:func:`measurement` of each quaternion ``qs[i]`` ((K, 4): the UKF's sigma points) into the first columns of
+    ``out[i]``.
 
-    The rotation's entries stay scalars: nine of these run per UKF update (the sigma points), and going through
-    a (3, 3) array cost three times the arithmetic.
+    The quaternion's components and the rotation's entries stay scalars, read and written by index: a row view per
+    sigma point (``qs[i]``, ``out[i]``), like a (3, 3) array, cost more than the arithmetic.
     """
-    c00, c01, c02, c10, c11, c12, c20, c21, c22 = _rotmat_entries(q)
-    k = 0
-    if use_a:
-        g0, g1, g2 = g_ref[0], g_ref[1], g_ref[2]
-        out[0] = c00 * g0 + c10 * g1 + c20 * g2
-        out[1] = c01 * g0 + c11 * g1 + c21 * g2
-        out[2] = c02 * g0 + c12 * g1 + c22 * g2
-        k = 3
-    if use_m:
-        h0, h1, h2 = h_ref[0], h_ref[1], h_ref[2]
-        out[k] = c00 * h0 + c10 * h1 + c20 * h2
-        out[k + 1] = c01 * h0 + c11 * h1 + c21 * h2
-        out[k + 2] = c02 * h0 + c12 * h1 + c22 * h2
+    for i in range(qs.shape[0]):
+        c00, c01, c02, c10, c11, c12, c20, c21, c22 = _rotmat_entries_of(qs[i, 0], qs[i, 1], qs[i, 2], qs[i, 3])
+        k = 0
+        if use_a:
+            g0, g1, g2 = g_ref[0], g_ref[1], g_ref[2]
+            out[i, 0] = c00 * g0 + c10 * g1 + c20 * g2
+            out[i, 1] = c01 * g0 + c11 * g1 + c21 * g2
+            out[i, 2] = c02 * g0 + c12 * g1 + c22 * g2
+            k = 3
+        if use_m:
+            h0, h1, h2 = h_ref[0], h_ref[1], h_ref[2]
+            out[i, k] = c00 * h0 + c10 * h1 + c20 * h2
+            out[i, k + 1] = c01 * h0 + c11 * h1 + c21 * h2
+            out[i, k + 2] = c02 * h0 + c12 * h1 + c22 * h2
 
 
-@numba.njit(cache=True)
+@kernel
 def _transition(w: FloatArray, ts: float) -> FloatArray:
     """F = exp(0.5 Ts Omega(w)) (eqs. 6-7) in closed form."""
     f = np.empty((4, 4))
@@ -130,7 +139,7 @@ def _transition(w: FloatArray, ts: float) -> FloatArray:
     return f
 
 
-@numba.njit(cache=True)
+@kernel
 def _transition_into(w: FloatArray, ts: float, f: FloatArray, om: FloatArray) -> None:
     """:func:`_transition` into ``f`` (4, 4), with ``om`` (4, 4) as scratch."""
     om[:, :] = 0.0
@@ -146,7 +155,7 @@ def _transition_into(w: FloatArray, ts: float, f: FloatArray, om: FloatArray) ->
             f[i, j] = (1.0 if i == j else 0.0) * cs + om[i, j] * sn     # I cos + Omega sin / |w|
 
 
-@numba.njit(cache=True)
+@kernel
 def _process_noise(q: FloatArray, ts: float, sigma_gyro: float) -> FloatArray:
     """W = Xi W_gyro Xi^T (eqs. 8-9), scalar-first Xi = Ts/2 [-e^T; q0 I + [e x]]."""
     out = np.empty((4, 4))
@@ -154,7 +163,7 @@ def _process_noise(q: FloatArray, ts: float, sigma_gyro: float) -> FloatArray:
     return out
 
 
-@numba.njit(cache=True)
+@kernel
 def _process_noise_into(q: FloatArray, ts: float, sigma_gyro: float, out: FloatArray, xi: FloatArray) -> None:
     """:func:`_process_noise` into ``out`` (4, 4), with ``xi`` (4, 3) as scratch."""
     q0, e1, e2, e3 = q[0], q[1], q[2], q[3]
@@ -170,7 +179,7 @@ def _process_noise_into(q: FloatArray, ts: float, sigma_gyro: float, out: FloatA
             out[j, i] = v
 
 
-@numba.njit(cache=True)
+@kernel
 def _normalise(q: FloatArray) -> None:
     n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
     s = 1.0 / n if q[0] >= 0 else -1.0 / n
@@ -178,7 +187,7 @@ def _normalise(q: FloatArray) -> None:
         q[i] *= s
 
 
-@numba.njit(cache=True)
+@kernel
 def _sqrt_psd(sym: FloatArray, low: FloatArray) -> FloatArray:
     """Lower Cholesky factor of the symmetric ``sym`` (into ``low``, which is returned); falls back to an
     eigen-decomposition with clipped eigenvalues (a new array).
@@ -191,7 +200,7 @@ def _sqrt_psd(sym: FloatArray, low: FloatArray) -> FloatArray:
     return vecs * vals
 
 
-@numba.njit(cache=True)
+@kernel
 def ukf_workspace() -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
                              FloatArray, FloatArray, FloatArray]:
     """Scratch arrays of :func:`ukf_update_into` for up to 6 measurement rows (state dimension 4)."""
@@ -199,14 +208,14 @@ def ukf_workspace() -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, Flo
             np.empty((4, 6)), np.empty(6), np.empty((6, 4)), np.empty((6, 6)))
 
 
-@numba.njit(cache=True)
+@kernel
 def ukf_update(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatArray, g_ref: FloatArray,
                 h_ref: FloatArray, use_a: bool, use_m: bool, alpha: float, beta: float, kappa: float) -> None:
     """Unscented measurement update (eqs. 35-40), in place."""
     ukf_update_into(q, p, z, r_diag, g_ref, h_ref, use_a, use_m, alpha, beta, kappa, ukf_workspace())
 
 
-@numba.njit(cache=True)
+@kernel
 def ukf_update_into(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatArray, g_ref: FloatArray,
                     h_ref: FloatArray, use_a: bool, use_m: bool, alpha: float, beta: float, kappa: float,
                     ws: tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
@@ -233,8 +242,7 @@ def ukf_update_into(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatAr
     wm0 = lam / c
     wc0 = wm0 + (1.0 - alpha * alpha + beta)
     wi = 0.5 / c
-    for i in range(2 * n + 1):
-        _measurement_into(sig[i], g_ref, h_ref, use_a, use_m, zs[i])
+    _measurement_rows(sig, g_ref, h_ref, use_a, use_m, zs)
     # eq. 38: predicted mean. The centre point is subtracted first to avoid cancellation of the
     # large weights (wm0 is about -1e6 for alpha = 1e-3).
     for a in range(m):
@@ -283,7 +291,7 @@ def ukf_update_into(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatAr
     _normalise(q)
 
 
-@numba.njit(cache=True)
+@kernel
 def ekf_update(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatArray, g_ref: FloatArray,
                 h_ref: FloatArray, use_a: bool, use_m: bool) -> None:
     """Linearised (EKF) update with a central-difference Jacobian of phi, in place."""
@@ -316,7 +324,7 @@ def ekf_update(q: FloatArray, p: FloatArray, z: FloatArray, r_diag: FloatArray, 
     _normalise(q)
 
 
-@numba.njit(cache=True)
+@kernel
 def _bias_rows(aux: FloatArray, vs: int, cw: int, u: FloatArray, w_raw: FloatArray, ks: float, ts: float,
                accumulate: bool, weight: float, o: int) -> None:
     """Low-pass ``u`` and ``u x omega_raw``; if ``accumulate``, add the rows ``[us]x b = cw - d(us)/dt`` to the
@@ -356,7 +364,7 @@ def _bias_rows(aux: FloatArray, vs: int, cw: int, u: FloatArray, w_raw: FloatArr
     aux[o + 11] += c * (y0 * s1 - y1 * s0)
 
 
-@numba.njit(cache=True)
+@kernel
 def _vertical_rows(aux: FloatArray, o: int, w_raw: FloatArray, ts: float) -> None:
     """Add the row ``us^T b = us^T omega_raw`` (``us`` the low-passed unit specific force, i.e. up in the body
     frame) to the pending block at ``aux[o:o + 12]``: a standing user's device does not turn about the
@@ -383,7 +391,7 @@ def _vertical_rows(aux: FloatArray, o: int, w_raw: FloatArray, ts: float) -> Non
     aux[o + 11] += ts * s2 * y
 
 
-@numba.njit(cache=True)
+@kernel
 def _field_invariants(aux: FloatArray) -> tuple[float, float]:
     """Vertical and horizontal components (uT) of the low-passed field relative to the low-passed gravity
     direction: the two quantities a device rotation leaves unchanged while the field is fixed in the navigation
@@ -397,7 +405,7 @@ def _field_invariants(aux: FloatArray) -> tuple[float, float]:
     return v, math.sqrt(max(h2, 0.0))
 
 
-@numba.njit(cache=True)
+@kernel
 def _commit_block(aux: FloatArray, bias: FloatArray, has_mag: bool, fb: float, bias_prior: float) -> None:
     """Add the older pending block of bias rows (gravity rows, and the field's rows if neither block saw the field
     move, else the vertical mean-gyro rows) to the forgotten normal equations (factor ``fb``), move the newer
@@ -426,7 +434,7 @@ def _commit_block(aux: FloatArray, bias: FloatArray, has_mag: bool, fb: float, b
             bias[i] = sol[i]
 
 
-@numba.njit(cache=True)
+@kernel
 def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: bool, has_mag: bool, ts: float,
                 q: FloatArray, p: FloatArray, bias: FloatArray, aux: FloatArray, prm: FloatArray,
                 unscented: bool, h_east: float, carried: NDArray[np.bool_]) -> tuple[FloatArray, NDArray[np.int64]]:
@@ -729,7 +737,7 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
     return out, used
 
 
-@numba.njit(cache=True)
+@kernel
 def _field_yaw_innovation(h_n: FloatArray, h_east: float) -> float:
     """Azimuth (rad, clockwise from north, in [-pi, pi)) of the field ``h_n`` (uT, ENU: the measured field carried
     into the navigation frame by the current attitude) less the reference's (magnetic north turned by the
@@ -739,7 +747,7 @@ def _field_yaw_innovation(h_n: FloatArray, h_east: float) -> float:
     return (math.atan2(h_n[0], h_n[1]) - az_ref + math.pi) % (2 * math.pi) - math.pi
 
 
-@numba.njit(cache=True)
+@kernel
 def mag_yaw_update(q: FloatArray, p: FloatArray, m_b: FloatArray, h_east: float, sigma_m: float) -> None:
     """The magnetometer's row on the yaw alone, in place (``AttitudeConfig.mag_yaw_only``).
 
@@ -767,7 +775,7 @@ def mag_yaw_update(q: FloatArray, p: FloatArray, m_b: FloatArray, h_east: float,
     p[:, :] = 0.5 * (pn + pn.T)
 
 
-@numba.njit(cache=True)
+@kernel
 def _set_yaw_covariance(q: FloatArray, p: FloatArray, sigma_yaw: float) -> None:
     """Covariance of ``q`` for a yaw uncertainty ``sigma_yaw`` (rad) about the navigation up axis, tilt kept.
 
@@ -782,7 +790,7 @@ def _set_yaw_covariance(q: FloatArray, p: FloatArray, sigma_yaw: float) -> None:
     p[:, :] = 0.5 * (pn + pn.T)
 
 
-@numba.njit(cache=True)
+@kernel
 def _init_attitude(q: FloatArray, a: FloatArray, m: FloatArray, has_mag: bool, h_east: float) -> None:
     """TRIAD: up from the specific force, north from the horizontal magnetic field (or device y)."""
     up = a / math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
