@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from classifiers.installed import DEFAULT_MODEL, placement_model
+from pdr.cli.one_shot import one_shot_process
 from pdr.io.registry import read_recording
 from pdr.recording import Recording
 
@@ -60,6 +61,12 @@ def _placement_modes(rec: Recording, placement: str) -> tuple[str | None, list[d
 
 
 def run_classify(args: argparse.Namespace) -> int:
+    with one_shot_process():    # pdr.cli.one_shot
+        return _classify(args)
+
+
+def _classify(args: argparse.Namespace) -> int:
+    """``pdr classify``: read, classify, write (:func:`run_classify`)."""
     rec = read_recording(args.log)
     t0 = rec.origin_ns / 1e9
     name, rows = (args.model, None) if args.model else _placement_modes(rec, args.placement)

@@ -12,9 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pdr.cli.collector import collection_paused
-from pdr.cli.lazy_numpy import defer_numpy_extras
-from pdr.cli.numba_blas import load_numba_blas
+from pdr.cli.one_shot import one_shot_process
 from pdr.errors import InputError
 from pdr.io import read_recording
 from pdr.phone.configure import pipeline_config
@@ -114,9 +112,7 @@ def write_plot(rows: list[dict[str, Any]], path: str | Path, rec: Recording, tit
 
 
 def run_track(args: argparse.Namespace) -> int:
-    defer_numpy_extras()    # before the first compiled kernel loads (pdr.cli.lazy_numpy)
-    load_numba_blas()       # BLAS and LAPACK without the scipy.linalg package (pdr.cli.numba_blas)
-    with collection_paused():   # one recording's long-lived objects (pdr.cli.collector)
+    with one_shot_process():    # pdr.cli.one_shot
         return _track(args)
 
 
