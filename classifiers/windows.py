@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
+from pdr.filters.compiled import kernel
 from pdr.recording import Recording
 
 FloatArray = NDArray[np.float64]
@@ -159,19 +160,13 @@ def resample_box(t_s: FloatArray, values: FloatArray, grid_s: FloatArray, max_ga
     if t_s.size < 2 or grid_s.size == 0:
         return out
     h = float(grid_s[1] - grid_s[0]) if grid_s.size > 1 else 0.0
-    # Cumulative trapezoid integral; I(t) at arbitrary t by integrating the linear interpolant.
-    seg = 0.5 * (values[1:] + values[:-1]) * np.diff(t_s)[:, None]
-    cum = np.vstack([np.zeros((1, values.shape[1])), np.cumsum(seg, axis=0)])
     # The grid cells share their edges: integrate once at the K + 1 edges.
     edges = np.clip(np.append(grid_s - h / 2, grid_s[-1] + h / 2), t_s[0], t_s[-1])
     i = np.clip(np.searchsorted(t_s, edges, side="right") - 1, 0, t_s.size - 2)
-    dt = (edges - t_s[i])[:, None]
-    slope = (values[i + 1] - values[i]) / (t_s[i + 1] - t_s[i])[:, None]
-    at_edges = cum[i] + values[i] * dt + 0.5 * slope * dt**2
     width = np.diff(edges)
-    avg = np.empty_like(out)
+    avg = _cell_means(np.ascontiguousarray(t_s, dtype=np.float64), np.ascontiguousarray(values, dtype=np.float64),
+                      edges, i, width)
     wide = width > 1e-12
-    avg[wide] = (at_edges[1:][wide] - at_edges[:-1][wide]) / width[wide, None]
     if (~wide).any():
         avg[~wide] = np.stack([np.interp(grid_s[~wide], t_s, values[:, c]) for c in range(values.shape[1])],
                               axis=1)
@@ -180,6 +175,38 @@ def resample_box(t_s: FloatArray, values: FloatArray, grid_s: FloatArray, max_ga
     gap = t_s[j] - t_s[j - 1]
     ok = (grid_s >= t_s[0] - h / 2) & (grid_s <= t_s[-1] + h / 2) & (gap <= max_gap_s)
     out[ok] = avg[ok]
+    return out
+
+
+@kernel
+def _cell_means(t_s: FloatArray, values: FloatArray, edges: FloatArray, i: NDArray[np.int64],
+                width: FloatArray) -> FloatArray:
+    """(K, k) mean over each cell ``[edges[j], edges[j + 1])`` (s) of the linear interpolant of ``values`` (N, k) at
+    ``t_s`` (N,), ``i`` (K + 1,) the sample at or before each edge (clipped to ``[0, N - 2]``) and ``width`` (K,) the
+    cells' widths (s; a cell of no width gives inf or nan, for the caller to replace).
+
+    The interpolant's integral ``I(t)`` is the cumulative trapezoid sum to the sample before ``t`` plus the part of the
+    segment up to ``t``; a cell's mean is ``(I(end) - I(start)) / width``. The arithmetic is that of the numpy
+    expressions it replaced, operation by operation, so the results are the same bits.
+    """
+    n, k = values.shape
+    cum = np.zeros((n, k))
+    for r in range(n - 1):
+        dt = t_s[r + 1] - t_s[r]
+        for c in range(k):
+            cum[r + 1, c] = cum[r, c] + 0.5 * (values[r + 1, c] + values[r, c]) * dt
+    at_edges = np.empty((edges.size, k))
+    for e in range(edges.size):
+        j = i[e]
+        dt = edges[e] - t_s[j]
+        span = t_s[j + 1] - t_s[j]
+        for c in range(k):
+            slope = (values[j + 1, c] - values[j, c]) / span
+            at_edges[e, c] = cum[j, c] + values[j, c] * dt + 0.5 * slope * (dt * dt)
+    out = np.empty((width.size, k))
+    for e in range(width.size):
+        for c in range(k):
+            out[e, c] = (at_edges[e + 1, c] - at_edges[e, c]) / width[e]
     return out
 
 
