@@ -1,4 +1,5 @@
-"""The decorator of the compiled (numba) kernels on ``pdr track``'s path: :func:`kernel`.
+"""The decorator of the compiled (numba) kernels on the paths of ``pdr track`` and ``pdr classify`` (the phone
+pipeline, the readers, the classifier windows' resampling): :func:`kernel`.
 
 ``kernel`` is ``numba.njit(cache=True, error_model="numpy")``. The error model decides only what a division by zero
 does (numba's ``ErrorModel`` in :mod:`numba.core.callconv`, used by the division and modulo lowering of
