@@ -26,8 +26,8 @@ All windows are computed at once with cumulative sums and running extrema over t
 from __future__ import annotations
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
-from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -63,10 +63,16 @@ def moving_average(x: FloatArray, width: int, min_fraction: float = 0.5) -> Floa
 def span_extrema(x: FloatArray, lo: IntArray, span: int) -> tuple[FloatArray, FloatArray]:
     """Maximum and minimum of the finite values of (K,) ``x`` over ``[lo, lo + span)``; NaN if none."""
     ok = np.isfinite(x)
-    centre = np.clip(lo + span // 2, 0, x.shape[0] - 1)
-    # scipy: output[i] covers input[i - span // 2 : i - span // 2 + span] for origin 0.
-    mx = maximum_filter1d(np.where(ok, x, -np.inf), span, mode="constant", cval=-np.inf)[centre]
-    mn = minimum_filter1d(np.where(ok, x, np.inf), span, mode="constant", cval=np.inf)[centre]
+    half = span // 2
+    # The span of a window is centred on it as a filter of ``span`` taps is (``lo`` clipped to the grid):
+    # x[c - half : c - half + span] with c = lo + half, which is padded[c : c + span] once ``half`` samples lead.
+    centre = np.clip(lo + half, 0, x.shape[0] - 1)
+
+    def extreme(fill: float, reduce: np.ufunc) -> FloatArray:
+        padded = np.concatenate([np.full(half, fill), np.where(ok, x, fill), np.full(span, fill)])
+        return np.asarray(reduce.reduce(sliding_window_view(padded, span)[centre], axis=1))
+
+    mx, mn = extreme(-np.inf, np.maximum), extreme(np.inf, np.minimum)
     return np.where(np.isfinite(mx), mx, np.nan), np.where(np.isfinite(mn), mn, np.nan)
 
 

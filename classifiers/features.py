@@ -55,7 +55,6 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
-import scipy.fft as sfft
 from numpy.typing import NDArray
 
 from classifiers import feature_kernels as kernels
@@ -169,7 +168,7 @@ def _next_pow2(n: int) -> int:
 
 def _power(tapered: FloatArray, n_fft: int) -> FloatArray:
     """One-sided power spectrum ``|FFT|^2`` of rows already mean-removed and tapered."""
-    spec = sfft.rfft(tapered, n=n_fft, axis=1)
+    spec = np.fft.rfft(tapered, n=n_fft, axis=1)
     pairs = spec.view(np.float64).reshape(*spec.shape, 2)
     return np.asarray(np.einsum("wki,wki->wk", pairs, pairs))
 
@@ -276,9 +275,9 @@ def gait_features(avert: FloatArray, rate_hz: float) -> FloatArray:
     pct = srt[:, lo] + (pos - lo) * (srt[:, hi] - srt[:, lo])
     xc = avert - avert.mean(axis=1, keepdims=True)
     n_fft = 1 << int(np.ceil(np.log2(2 * n)))
-    spec = sfft.rfft(xc, n_fft, axis=1)
+    spec = np.fft.rfft(xc, n_fft, axis=1)
     pairs = spec.view(np.float64).reshape(*spec.shape, 2)
-    ac = sfft.irfft(np.einsum("wki,wki->wk", pairs, pairs), n_fft, axis=1)[:, :n]
+    ac = np.fft.irfft(np.einsum("wki,wki->wk", pairs, pairs), n_fft, axis=1)[:, :n]
     ac = ac / np.maximum(ac[:, :1], 1e-12)
     lo, hi = int(round(0.4 * rate_hz)), min(n - 1, int(round(2.0 * rate_hz)))
     lag = lo + np.argmax(ac[:, lo:hi], axis=1)
