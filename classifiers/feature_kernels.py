@@ -11,14 +11,15 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
+
+from pdr.filters.compiled import cached_njit
 
 FloatArray = NDArray[np.float64]
 
 
-@numba.njit(cache=True)
+@cached_njit()
 def row_moments(x: FloatArray, taper: FloatArray, n_sub: int, sub_taper: FloatArray) -> tuple[
         FloatArray, FloatArray, FloatArray]:
     """Moments, zero crossings and tapered copies of each row of ``x`` (W, n).
@@ -77,7 +78,7 @@ def row_moments(x: FloatArray, taper: FloatArray, n_sub: int, sub_taper: FloatAr
     return stats, tapered, sub_tapered
 
 
-@numba.njit(cache=True, inline="always")
+@cached_njit(inline="always")
 def _exp(px: float, py: float, pz: float) -> tuple[float, float, float, float]:
     """Unit quaternion of a rotation vector (rad), exact exponential map with a Taylor branch near zero."""
     angle = math.sqrt(px * px + py * py + pz * pz)
@@ -86,7 +87,7 @@ def _exp(px: float, py: float, pz: float) -> tuple[float, float, float, float]:
     return math.cos(half), k * px, k * py, k * pz
 
 
-@numba.njit(cache=True, inline="always")
+@cached_njit(inline="always")
 def _mul(aw: float, ax: float, ay: float, az: float, bw: float, bx: float, by: float,
          bz: float) -> tuple[float, float, float, float]:
     """Hamilton product ``a * b`` (same convention as :func:`pdr.quaternion.multiply`)."""
@@ -96,7 +97,7 @@ def _mul(aw: float, ax: float, ay: float, az: float, bw: float, bx: float, by: f
             aw * bz + ax * by - ay * bx + az * bw)
 
 
-@numba.njit(cache=True, inline="always")
+@cached_njit(inline="always")
 def _angle(aw: float, ax: float, ay: float, az: float, bw: float, bx: float, by: float, bz: float) -> float:
     """Rotation angle (rad) between two attitudes, sign-invariant (as :func:`pdr.quaternion.angle_between`)."""
     na = math.sqrt(aw * aw + ax * ax + ay * ay + az * az)
@@ -105,7 +106,7 @@ def _angle(aw: float, ax: float, ay: float, az: float, bw: float, bx: float, by:
     return 2.0 * math.acos(min(max(d, 0.0), 1.0))
 
 
-@numba.njit(cache=True)
+@cached_njit()
 def coning(gyro: FloatArray, dt: float, n_blocks: int) -> FloatArray:
     """Coning feature (seed 004 eqs. 26-27) and total rotation of each window; (W, n, 3) rad/s -> (W, 2) rad.
 
@@ -138,7 +139,7 @@ def coning(gyro: FloatArray, dt: float, n_blocks: int) -> FloatArray:
     return out
 
 
-@numba.njit(cache=True)
+@cached_njit()
 def rotate_to_first(f: FloatArray, gyro: FloatArray, dt: float) -> FloatArray:
     """Specific force of each window in the body frame of its first sample; (W, n, 3) -> (W, n, 3).
 

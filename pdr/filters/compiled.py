@@ -1,7 +1,10 @@
-"""The decorator of the compiled (numba) kernels on the paths of ``pdr track`` and ``pdr classify`` (the phone
-pipeline, the readers, the classifier windows' resampling): :func:`kernel`.
+"""The decorators of the compiled (numba) kernels: :func:`kernel` on the paths of ``pdr track`` and ``pdr classify``
+(the phone pipeline, the readers, the classifier windows' resampling), :func:`cached_njit` for the others.
 
-``kernel`` is ``numba.njit(cache=True, error_model="numpy")``. The error model decides only what a division by zero
+Both compile with ``numba.njit`` and keep the machine code in numba's disk cache, as ``cache=True`` does, but load it
+without numba's registry refresh (:class:`LeanFunctionCache`).
+
+``kernel`` is ``cached_njit(error_model="numpy")``. The error model decides only what a division by zero
 does (numba's ``ErrorModel`` in :mod:`numba.core.callconv`, used by the division and modulo lowering of
 :mod:`numba.cpython.numbers`): numba's default, ``python``, tests every divisor and raises :class:`ZeroDivisionError`;
 ``numpy`` lets IEEE arithmetic give ``inf`` or ``nan`` (an integer division gives 0). Every other operation, and every
@@ -10,6 +13,14 @@ from a kernel (it ends the command, or fails the service's batch), so every inpu
 comes out bit for bit the same. Without a test and a possible exit at each division, LLVM keeps a kernel's arithmetic
 in registers and schedules it freely: the attitude UKF's sigma points (one rotation matrix, with its divisions by the
 norm, per point) cost a fraction of what they did.
+
+**Loading from the cache.** numba's cache, before it loads a kernel's machine code, refreshes the CPU target: it
+imports and registers every lowering that numba implements (its numpy, unicode, typed-container, random and
+datetime support; :meth:`numba.core.cpu.CPUContext.load_additional_registries`), 0.4-0.5 s on a 2-core machine,
+the largest part of the first kernel call of a ``pdr track`` or ``pdr classify`` process. Machine code loaded from the
+cache is linked already and needs none of them: only numba's runtime (its allocator, for kernels that make arrays)
+must be up. :class:`LeanFunctionCache` loads with that alone. When a kernel is not in the cache (a first run, a new
+signature, an edited source), numba compiles it, and its compiler refreshes the target as before.
 """
 
 from __future__ import annotations
@@ -18,8 +29,31 @@ from collections.abc import Callable
 from typing import Any
 
 import numba
+from numba.core.caching import FunctionCache
+from numba.core.runtime import rtsys
+
+
+class LeanFunctionCache(FunctionCache):
+    """numba's disk cache of one function, whose loads start only numba's runtime, not the target's registries
+    (module doc).
+    """
+
+    def load_overload(self, sig: Any, target_context: Any) -> Any:
+        """The cached compile result of ``sig``, or None (numba then compiles, refreshing the target itself)."""
+        rtsys.initialize(target_context)
+        with self._guard_against_spurious_io_errors():
+            return self._load_overload(sig, target_context)
+
+
+def cached_njit(**options: Any) -> Callable[[Callable[..., Any]], Any]:
+    """``numba.njit(cache=True, **options)`` whose cache loads through :class:`LeanFunctionCache`."""
+    def decorate(fn: Callable[..., Any]) -> Any:
+        dispatcher = numba.njit(**options)(fn)
+        dispatcher._cache = LeanFunctionCache(dispatcher.py_func)     # as Dispatcher.enable_caching does
+        return dispatcher
+    return decorate
 
 
 def kernel(fn: Callable[..., Any]) -> Any:
     """``fn`` compiled by numba in nopython mode, cached on disk, with numpy's division semantics (module doc)."""
-    return numba.njit(cache=True, error_model="numpy")(fn)
+    return cached_njit(error_model="numpy")(fn)

@@ -48,11 +48,11 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
+from pdr.filters.compiled import cached_njit
 from pdr.filters.rotation_kernels import quat_exp, quat_mul, rotate_yaw, rotmat
 from pdr.filters.small_linalg import congruence, matmul, matmul_bt, matvec, quadratic_form, symmetric_inverse
 from pdr.foot.drift import drift_predict, drift_update, initial_state
@@ -301,12 +301,12 @@ class BCTrack:
         return np.asarray(self.stance_prob > 0.5)
 
 
-@njit(cache=True)
+@cached_njit()
 def _skew(x: Array) -> Array:  # pragma: no cover - compiled
     return np.array([[0.0, -x[2], x[1]], [x[2], 0.0, -x[0]], [-x[1], x[0], 0.0]])
 
 
-@njit(cache=True)
+@cached_njit()
 def _imu_rows(c: Array, s_n: Array, bf: Array, w: Array, bw: Array, f_k: Array,
               w_k: Array) -> tuple[Array, Array]:  # pragma: no cover - compiled
     # Rows of the IMU measurement (eqs. 5-6) and their residuals y - h: the accelerometer h_f = C^T s_n + b_f with
@@ -331,7 +331,7 @@ def _imu_rows(c: Array, s_n: Array, bf: Array, w: Array, bw: Array, f_k: Array,
     return H, e
 
 
-@njit(cache=True)
+@cached_njit()
 def _bc_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Array, P0: Array,
                jerk: float, squat: float, somega: float, sbias: float, sbias_w: float, r_f: float, r_w: float,
                alpha: Array, mu: Array, var: Array, logc: Array, stance: int,

@@ -28,9 +28,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from pdr.filters.compiled import cached_njit
 from pdr.filters.rotation_kernels import wrap_pi
 
 Array = NDArray[np.float64]
@@ -48,7 +48,7 @@ def initial_state(sigma_drift0: float) -> Array:
     return h
 
 
-@njit(cache=True)
+@cached_njit()
 def drift_predict(hde: Array, dt: float, par: Array) -> float:  # pragma: no cover - compiled
     """Propagate the drift filter over ``dt``; returns the yaw turn (rad) that removes the estimated drift.
 
@@ -62,7 +62,7 @@ def drift_predict(hde: Array, dt: float, par: Array) -> float:  # pragma: no cov
     return -hde[HDE_RATE] * dt
 
 
-@njit(cache=True)
+@cached_njit()
 def drift_update(hde: Array, x: float, y: float, par: Array) -> float:  # pragma: no cover - compiled
     """Drift elimination at the end of a stance with the foot at ``(x, y)`` (m, navigation frame).
 

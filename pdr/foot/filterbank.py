@@ -58,11 +58,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
+from pdr.filters.compiled import cached_njit
 from pdr.filters.rotation_kernels import quat_exp, quat_mul, rotate_yaw, rotmat
 from pdr.filters.small_linalg import (
     congruence,
@@ -353,7 +353,7 @@ def polar_rotation(m: ArrayLike) -> Array:
     return np.asarray(u @ np.diag([1.0, 1.0, d]) @ vt)
 
 
-@njit(cache=True)
+@cached_njit()
 def _polar(m: Array) -> Array:  # pragma: no cover - compiled
     u, _, vt = np.linalg.svd(m)
     d = np.linalg.det(u @ vt)
@@ -362,7 +362,7 @@ def _polar(m: Array) -> Array:  # pragma: no cover - compiled
     return u @ s @ vt
 
 
-@njit(cache=True)
+@cached_njit()
 def _rotvec_of(c: Array) -> Array:  # pragma: no cover - compiled
     # Rotation vector of a rotation matrix (small and moderate angles).
     cos_a = min(1.0, max(-1.0, 0.5 * (c[0, 0] + c[1, 1] + c[2, 2] - 1.0)))
@@ -372,13 +372,13 @@ def _rotvec_of(c: Array) -> Array:  # pragma: no cover - compiled
     return k * w
 
 
-@njit(cache=True)
+@cached_njit()
 def _quat_of(c: Array) -> Array:  # pragma: no cover - compiled
     phi = _rotvec_of(c)
     return quat_exp(phi)
 
 
-@njit(cache=True)
+@cached_njit()
 def _log_density(dim: int, logdet: float, chi2: float, nu: float) -> float:  # pragma: no cover - compiled
     # log N(e; 0, S) (nu <= 0) or log of the multivariate Student-t with nu degrees of freedom and scale S,
     # from dim, log|S| and chi2 = e' S^-1 e.
@@ -388,7 +388,7 @@ def _log_density(dim: int, logdet: float, chi2: float, nu: float) -> float:  # p
             - 0.5 * logdet - 0.5 * (nu + dim) * math.log1p(chi2 / nu))
 
 
-@njit(cache=True)
+@cached_njit()
 def _constraint_rows(v: Array, w_k: Array, f_n: Array, g_n: Array,
                      dh: float) -> tuple[Array, Array]:  # pragma: no cover - compiled
     # Rows of h_0 (eq. 12c) and of the height constraint (eq. 13b) with their residuals y - h = -h:
@@ -412,7 +412,7 @@ def _constraint_rows(v: Array, w_k: Array, f_n: Array, g_n: Array,
     return H, e
 
 
-@njit(cache=True)
+@cached_njit()
 def _bank_kernel(t: Array, f_b: Array, w_b: Array, start: int, q0: Array, g_n: Array, qa: float, qg: float,
                  P0: Array, log_pi: Array, sv: Array, sw: Array, ss: Array, snc: float, sh: float, height: bool,
                  max_leaves: int, pos: Array, vel: Array, qs: Array, pvar: Array, vvar: Array, avar: Array,

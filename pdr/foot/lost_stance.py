@@ -24,10 +24,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
+from pdr.filters.compiled import cached_njit
 
 Array = NDArray[np.float64]
 
@@ -43,13 +43,13 @@ def check_lost_stance(max_swing_s: float, lost_sigma_v: float) -> None:
         raise InputError(f"must be a positive number, got {lost_sigma_v}", field="lost_sigma_v")
 
 
-@njit(cache=True)
+@cached_njit()
 def swing_lasts(swing_s: float, in_stance: bool, dt: float) -> float:  # pragma: no cover - compiled
     """Duration (s) of the current swing after a sample of ``dt`` s: 0 in a stance."""
     return 0.0 if in_stance else swing_s + dt
 
 
-@njit(cache=True)
+@cached_njit()
 def reopen_velocity(P: Array, v0: int, swing_s: float, max_swing: float,
                     lost_var: float) -> None:  # pragma: no cover - compiled
     """In a swing longer than ``max_swing`` (s; 0: never), raise the velocity variances ``P[v0+a, v0+a]`` of the

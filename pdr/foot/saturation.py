@@ -20,10 +20,10 @@ about ``s t (1 - t / T)`` (a parabola), so short runs add little and long flat r
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from pdr.errors import InputError
+from pdr.filters.compiled import cached_njit
 
 Array = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -73,7 +73,7 @@ def _run_positions(flags: BoolArray) -> NDArray[np.int64]:
     return np.where(flags, idx - run_start + 1, 0)
 
 
-@njit(cache=True)
+@cached_njit()
 def add_clip_attitude_noise(P: Array, att: int, c_bn: Array, var_b: Array,
                             dt: float) -> None:  # pragma: no cover - compiled
     """``P[att:att+3, att:att+3] += C diag(var_b) C^T dt^2`` in place: the attitude process noise of one step

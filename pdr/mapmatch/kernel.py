@@ -13,16 +13,16 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from pdr.filters.compiled import cached_njit
 from pdr.site.wall_index import WallIndex, step_crosses, step_hit
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 
 
-@njit(cache=True)
+@cached_njit()
 def _move(pos: FloatArray, offset: FloatArray, scale: FloatArray, noise: FloatArray, yaw: float, length_m: float,
           heading_sigma: float, length_sigma: float, walls: FloatArray, start: NDArray[np.int64],
           wall_ids: NDArray[np.int64], ox: float, oy: float, cell: float, reach: float, nx: int, ny: int
@@ -68,7 +68,7 @@ def advance_particles(pos: FloatArray, offset: FloatArray, scale: FloatArray, no
                     walls.nx, walls.ny)
 
 
-@njit(cache=True)
+@cached_njit()
 def _advance(pos: FloatArray, offset: FloatArray, scale: FloatArray, noise: FloatArray, turn: float, relax: float,
              offset_walk: float, scale_walk: float, lo: float, hi: float, yaw: float, length_m: float,
              heading_sigma: float, length_sigma: float, inflate: float, walls: FloatArray, start: NDArray[np.int64],
@@ -88,7 +88,7 @@ def _advance(pos: FloatArray, offset: FloatArray, scale: FloatArray, noise: Floa
     return new, alive, across, n_alive
 
 
-@njit(cache=True)
+@cached_njit()
 def resample_summary(new: FloatArray, offset: FloatArray, scale: FloatArray, alive: BoolArray,
                      draws: NDArray[np.int64], across: FloatArray, graze_sin: float
                      ) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.int64], float, float, float, float,
@@ -121,7 +121,7 @@ def resample_summary(new: FloatArray, offset: FloatArray, scale: FloatArray, ali
     return pos, off, sc, pick, mx, my, spread, mean_off, mean_scale
 
 
-@njit(cache=True)
+@cached_njit()
 def cloud_summary(pos: FloatArray, offset: FloatArray, scale: FloatArray) -> tuple[float, float, float, float, float]:
     """Mean position (m), RMS distance from it (m), circular mean of the offsets (rad) and mean scale."""
     n = pos.shape[0]

@@ -139,11 +139,11 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from pdr.chi_square import chi2_quantile
 from pdr.errors import InputError
+from pdr.filters.compiled import cached_njit
 from pdr.filters.rotation_kernels import wrap_pi
 from pdr.filters.rts import rts_smooth
 from pdr.frames import heading_deg_to_yaw, wrap_angle
@@ -464,7 +464,7 @@ def _rts(t: FloatArray, z: FloatArray, r: FloatArray, w: FloatArray, jump: NDArr
     return rts_smooth(xf, pf, xp, pp, fs)
 
 
-@njit(cache=True)
+@cached_njit()
 def _forward(t: FloatArray, z: FloatArray, r: FloatArray, w: FloatArray, jump: NDArray[np.bool_], bias_var: float,
              lag_var: float, q_d: float, q_b: float, xf: FloatArray, pf: FloatArray, xp: FloatArray,
              pp: FloatArray) -> None:  # pragma: no cover - compiled

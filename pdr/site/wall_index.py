@@ -13,8 +13,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
+
+from pdr.filters.compiled import cached_njit
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -65,7 +66,7 @@ class WallIndex:
                         self.reach_m, self.nx, self.ny)
 
 
-@njit(cache=True)
+@cached_njit()
 def _segment_hits(ax0: float, ay0: float, ax1: float, ay1: float, w: FloatArray, k: int) -> bool:
     bx0, by0, bx1, by1 = w[k, 0], w[k, 1], w[k, 2], w[k, 3]
     if (min(ax0, ax1) > max(bx0, bx1) or min(bx0, bx1) > max(ax0, ax1)
@@ -78,7 +79,7 @@ def _segment_hits(ax0: float, ay0: float, ax1: float, ay1: float, w: FloatArray,
     return d1 * d2 <= 0.0 and d3 * d4 <= 0.0
 
 
-@njit(cache=True)
+@cached_njit()
 def _start_cell(x0: float, y0: float, x1: float, y1: float, ox: float, oy: float, cell: float, reach: float,
                 nx: int, ny: int) -> int:
     """The grid cell (row-major index) whose wall list covers the step ``(x0, y0) -> (x1, y1)`` (m): the cell of its
@@ -91,7 +92,7 @@ def _start_cell(x0: float, y0: float, x1: float, y1: float, ox: float, oy: float
     return gy * nx + gx
 
 
-@njit(cache=True)
+@cached_njit()
 def step_crosses(x0: float, y0: float, x1: float, y1: float, walls: FloatArray, start: IntArray, wall_ids: IntArray,
                  ox: float, oy: float, cell: float, reach: float, nx: int, ny: int) -> bool:
     """Compiled test of one step against the indexed walls (the arrays of a :class:`WallIndex`)."""
@@ -107,7 +108,7 @@ def step_crosses(x0: float, y0: float, x1: float, y1: float, walls: FloatArray, 
     return False
 
 
-@njit(cache=True)
+@cached_njit()
 def _hit_fraction(ax0: float, ay0: float, ax1: float, ay1: float, w: FloatArray, k: int) -> float:
     """Where along the step ``a`` (fraction 0..1) it meets wall ``k``; 2 when it does not."""
     if not _segment_hits(ax0, ay0, ax1, ay1, w, k):
@@ -120,7 +121,7 @@ def _hit_fraction(ax0: float, ay0: float, ax1: float, ay1: float, w: FloatArray,
     return min(max(((bx0 - ax0) * sy - (by0 - ay0) * sx) / den, 0.0), 1.0)
 
 
-@njit(cache=True)
+@cached_njit()
 def step_hit(x0: float, y0: float, x1: float, y1: float, walls: FloatArray, start: IntArray, wall_ids: IntArray,
              ox: float, oy: float, cell: float, reach: float, nx: int, ny: int) -> int:
     """The first wall (index into ``walls``) that the step ``(x0, y0) -> (x1, y1)`` (m) meets; -1: none. Meets a
@@ -141,7 +142,7 @@ def step_hit(x0: float, y0: float, x1: float, y1: float, walls: FloatArray, star
     return first
 
 
-@njit(cache=True)
+@cached_njit()
 def _crosses(x0: FloatArray, y0: FloatArray, x1: FloatArray, y1: FloatArray, walls: FloatArray, start: IntArray,
              wall_ids: IntArray, ox: float, oy: float, cell: float, reach: float, nx: int, ny: int) -> BoolArray:
     out = np.zeros(x0.shape[0], dtype=np.bool_)

@@ -9,9 +9,9 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from pdr.filters.compiled import cached_njit
 from pdr.filters.rotation_kernels import quat_exp, quat_mul, rotate_yaw, yaw_of
 from pdr.foot.drift import HDE_SIZE, drift_predict, drift_update, initial_state
 from pdr.foot.zupt.config import Segmentation, ZuptConfig
@@ -30,7 +30,7 @@ def init_lengths(rate_hz: float, init_window_s: float) -> tuple[int, int]:
     return min_len, max(min_len, int(round(init_window_s * rate_hz)))
 
 
-@njit(cache=True)
+@cached_njit()
 def zaru_update(bias: Array, pbias: Array, counters: IntArray, w_k: Array, still: bool, dt: float,
                 par: Array) -> None:  # pragma: no cover - compiled
     """One sample of the gyroscope-bias filter (module doc) in place: random-walk prediction over ``dt``, then,
@@ -47,7 +47,7 @@ def zaru_update(bias: Array, pbias: Array, counters: IntArray, w_k: Array, still
             pbias[i] *= 1.0 - gain
 
 
-@njit(cache=True)
+@cached_njit()
 def zupt_update(p: Array, v: Array, q: Array, P: Array, r_var: float,
                 dx_out: Array) -> float:  # pragma: no cover - compiled
     """Zero-velocity update (eqs. 3-4) with feedback (eq. 5) in place; returns the NIS of the innovation.
@@ -72,7 +72,7 @@ def zupt_update(p: Array, v: Array, q: Array, P: Array, r_var: float,
     return float(innov @ S_inv @ innov)
 
 
-@njit(cache=True)
+@cached_njit()
 def zupt_kernel(t: Array, f_b: Array, w_b: Array, zv: BoolArray, first: int, g_n: Array, qa: float, qg: float,
                 r_var: float, interval: bool, seg_on: bool, gamma_p: float, c_min: int, c_max: int, p: Array,
                 v: Array, q: Array, P: Array, dr: Array, counters: IntArray, pos: Array, vel: Array, qs: Array,

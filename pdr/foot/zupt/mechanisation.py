@@ -6,9 +6,9 @@ error-state indices, the two-sample strapdown step, the error transition and the
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from pdr.filters.compiled import cached_njit
 from pdr.filters.rotation_kernels import quat_exp, quat_mul, rotmat
 
 Array = NDArray[np.float64]
@@ -21,7 +21,7 @@ ATT = slice(6, 9)
 YAW = 8
 
 
-@njit(cache=True)
+@cached_njit()
 def mechanize(p: Array, v: Array, q: Array, f0_b: Array, w0_b: Array, f_b: Array, w_b: Array, dt: float,
               g_n: Array) -> Array:  # pragma: no cover - compiled
     """Second-order strapdown step (eq. 1 as :mod:`pdr.strapdown`) in place; returns the mean specific force f_n.
@@ -49,7 +49,7 @@ def mechanize(p: Array, v: Array, q: Array, f0_b: Array, w0_b: Array, f_b: Array
     return f_n
 
 
-@njit(cache=True)
+@cached_njit()
 def error_transition(f_n: Array, dt: float) -> Array:  # pragma: no cover - compiled
     """Transition matrix of the 9 error states (eq. 2) over ``dt`` with specific force ``f_n``."""
     F = np.eye(9)
@@ -65,7 +65,7 @@ def error_transition(f_n: Array, dt: float) -> Array:  # pragma: no cover - comp
     return F
 
 
-@njit(cache=True)
+@cached_njit()
 def zupt_predict(p: Array, v: Array, q: Array, P: Array, f0_b: Array, w0_b: Array, f_b: Array, w_b: Array,
                  dt: float, g_n: Array, qa: float, qg: float) -> Array:  # pragma: no cover - compiled
     """Mechanization (eq. 1) and covariance propagation (eq. 2) in place; returns the specific force f_n."""
@@ -74,7 +74,7 @@ def zupt_predict(p: Array, v: Array, q: Array, P: Array, f0_b: Array, w0_b: Arra
     return f_n
 
 
-@njit(cache=True)
+@cached_njit()
 def propagate_covariance(P: Array, F: Array, dt: float, qa: float, qg: float) -> None:  # pragma: no cover
     """``P := F P F^T + Q`` in place (eq. 2), white velocity noise ``qa dt^2`` and attitude noise ``qg dt^2``.
 

@@ -7,9 +7,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from pdr.filters.compiled import cached_njit
 from pdr.filters.rotation_kernels import quat_exp, quat_mul
 from pdr.filters.rts import rts_step
 from pdr.foot.zupt.config import ZuptConfig
@@ -20,7 +20,7 @@ Array = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 
 
-@njit(cache=True)
+@cached_njit()
 def zupt_smooth_kernel(t: Array, first: int, qa: float, qg: float, sm_P: Array, sm_fn: Array, sm_dx: Array,
                        pos: Array, vel: Array, qs: Array, pvar: Array, vvar: Array, avar: Array,
                        e_next: Array) -> None:  # pragma: no cover - compiled

@@ -1,0 +1,42 @@
+"""pdr.filters.compiled: a kernel compiled in one process loads from the disk cache in the next without numba's
+registry refresh, and computes the same (its arrays allocated by numba's runtime, numpy's division semantics)."""
+
+from __future__ import annotations
+
+import os
+import textwrap
+from pathlib import Path
+
+from tests.fresh_process import python_json
+
+_MODULE = textwrap.dedent('''
+    import numpy as np
+
+    from pdr.filters.compiled import kernel
+
+
+    @kernel
+    def ratios(x, d):
+        out = np.empty(x.size)          # numba's runtime allocates it
+        for i in range(x.size):
+            out[i] = x[i] / d           # inf or nan for d == 0 (error_model="numpy")
+        return out
+''')
+
+_RUN = ("import json, sys; import numpy as np; import lean_kernel_probe as m; "
+        "a = m.ratios(np.array([1.0, -2.0, 0.0]), 0.0); b = m.ratios(np.arange(3.0), 4); "
+        "print(json.dumps({'values': [repr(float(v)) for v in np.concatenate([a, b])], "
+        "'cache_hits': sum(m.ratios.stats.cache_hits.values()), "
+        "'refreshed': 'numba.np.arraymath' in sys.modules}))")
+
+
+def test_a_kernel_loads_from_the_cache_without_the_registry_refresh(tmp_path: Path) -> None:
+    (tmp_path / "lean_kernel_probe.py").write_text(_MODULE)
+    repo = Path(__file__).resolve().parents[3]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), str(repo)]),
+           "NUMBA_CACHE_DIR": str(tmp_path / "numba_cache")}
+    compiled = python_json(_RUN, env=env)          # compiles two signatures (float and int divisor): numba refreshes
+    loaded = python_json(_RUN, env=env)
+    assert compiled["cache_hits"] == 0 and compiled["refreshed"]
+    assert loaded["cache_hits"] == 2 and not loaded["refreshed"]
+    assert loaded["values"] == compiled["values"] == ["inf", "-inf", "nan", "0.0", "0.25", "0.5"]
