@@ -83,6 +83,19 @@ def _classify(args: argparse.Namespace) -> int:
         else:
             rows = model.classify(rec).rows(t0)
     out = Path(args.out)
+    write_modes_csv(rows, out)
+    tally: dict[str, int] = {}
+    for r in rows:
+        tally[r["mode"]] = tally.get(r["mode"], 0) + 1
+    what = "timeline entries" if name is None else "windows"
+    print(f"wrote {out}: {len(rows)} {what} (" + ", ".join(f"{m} {c}" for m, c in sorted(tally.items())) + ")")
+    return 0
+
+
+def write_modes_csv(rows: list[dict[str, Any]], out: Path) -> None:
+    """The CSV of ``pdr classify``: ``t_start_s,t_end_s,mode,confidence`` (s on the log's clock; confidence empty
+    where there is none), its folder made.
+    """
     out.parent.mkdir(parents=True, exist_ok=True)
     with out.open("w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
@@ -90,9 +103,3 @@ def _classify(args: argparse.Namespace) -> int:
         for r in rows:
             conf = "" if math.isnan(r["confidence"]) else f"{r['confidence']:.4f}"
             w.writerow([f"{r['t_start_s']:.3f}", f"{r['t_end_s']:.3f}", r["mode"], conf])
-    tally: dict[str, int] = {}
-    for r in rows:
-        tally[r["mode"]] = tally.get(r["mode"], 0) + 1
-    what = "timeline entries" if name is None else "windows"
-    print(f"wrote {out}: {len(rows)} {what} (" + ", ".join(f"{m} {c}" for m, c in sorted(tally.items())) + ")")
-    return 0

@@ -28,7 +28,7 @@ ROOTS = ("pdr", "classifiers", "server")
 NON_PRODUCT = ("pdr.cli", "pdr.evaluation", "server.bench", "classifiers.cli")
 FORBIDDEN_FOR_PRODUCT = ("pdr.cli", "pdr.evaluation", "server.bench")
 # Modules that are commands themselves: they may import the evaluation side (they are the CLI's registrars).
-COMMAND_MODULES = ("server.cli", "server.worker_cli", "classifiers.classify_cli")
+COMMAND_MODULES = ("server.cli", "server.worker_cli", "classifiers.classify_cli", "classifiers.classify_bench")
 
 
 def module_files(repo: Path) -> dict[str, Path]:

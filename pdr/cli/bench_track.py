@@ -13,11 +13,7 @@ import json
 def register(targets: argparse._SubParsersAction) -> None:
     p = targets.add_parser("track", help="pdr track on a real log: wall time per stage and total, against the "
                                          "ahrs package's EKF on the same data when it is installed")
-    p.add_argument("log", help="log file (any supported format; --tile needs a GetSensorData .txt)")
-    p.add_argument("--repeat", type=int, default=1, help="runs; the best is reported (default 1)")
-    p.add_argument("--tile", type=int, default=1,
-                   help="first tile the GetSensorData log this many times in a temporary folder (24: a 154 s "
-                        "walk becomes one hour)")
+    add_log_arguments(p)
     p.add_argument("--cold", action="store_true",
                    help="also time one pdr track process with empty bytecode and compiled-kernel caches (a fresh "
                         "install's first run: every kernel compiles, a minute or more)")
@@ -25,11 +21,27 @@ def register(targets: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
+def add_log_arguments(p: argparse.ArgumentParser) -> None:
+    """The arguments of a benchmark of a command on one real log: ``LOG``, ``--repeat``, ``--tile``
+    (:func:`log_arguments_error`).
+    """
+    p.add_argument("log", help="log file (any supported format; --tile needs a GetSensorData .txt)")
+    p.add_argument("--repeat", type=int, default=1, help="runs; the best is reported (default 1)")
+    p.add_argument("--tile", type=int, default=1,
+                   help="first tile the GetSensorData log this many times in a temporary folder (24: a 154 s "
+                        "walk becomes one hour)")
+
+
+def log_arguments_error(args: argparse.Namespace) -> str | None:
+    """What is wrong with the arguments of :func:`add_log_arguments`, or None."""
+    return "--repeat and --tile must be at least 1" if args.repeat < 1 or args.tile < 1 else None
+
+
 def run(args: argparse.Namespace) -> int:
     from pdr.evaluation import track_bench as bench_track
     from pdr.machine import environment_line
-    if args.repeat < 1 or args.tile < 1:
-        print("error: --repeat and --tile must be at least 1", flush=True)
+    if (error := log_arguments_error(args)) is not None:
+        print(f"error: {error}", flush=True)
         return 2
     res = bench_track.run(args.log, args.repeat, args.tile, args.cold)
     if args.json:

@@ -78,12 +78,12 @@ def tile_ipin_log(src: str | Path, copies: int, out: str | Path) -> Path:
     return p
 
 
-class _StageClock:
-    """Accumulated wall and CPU time per stage name, filled by :meth:`wrap`-ped methods and :meth:`add`."""
+class StageClock:
+    """Accumulated wall and CPU time per stage name (``stages``), filled by :meth:`wrap`-ped methods and :meth:`add`."""
 
-    def __init__(self) -> None:
-        self.seconds: dict[str, float] = dict.fromkeys(STAGES, 0.0)
-        self.cpu_seconds: dict[str, float] = dict.fromkeys(STAGES, 0.0)
+    def __init__(self, stages: tuple[str, ...] = STAGES) -> None:
+        self.seconds: dict[str, float] = dict.fromkeys(stages, 0.0)
+        self.cpu_seconds: dict[str, float] = dict.fromkeys(stages, 0.0)
 
     @staticmethod
     def now() -> tuple[float, float]:
@@ -96,8 +96,10 @@ class _StageClock:
         self.seconds[stage] += wall - since[0]
         self.cpu_seconds[stage] += cpu - since[1]
 
-    def wrap(self, obj: Any, method: str, stage: str) -> None:
-        """Replace ``obj.method`` by a timed call that adds its wall and CPU time to ``stage``."""
+    def wrap(self, obj: Any, method: str, stage: str) -> Callable[..., Any]:
+        """Replace ``obj.method`` (an object's method or a module's function) by a timed call that adds its wall and
+        CPU time to ``stage``; returns the original, for the caller to put back where ``obj`` outlives the timing.
+        """
         inner: Callable[..., Any] = getattr(obj, method)
 
         @functools.wraps(inner)
@@ -109,6 +111,7 @@ class _StageClock:
                 self.add(stage, t0)
 
         setattr(obj, method, timed)
+        return inner
 
 
 def time_track(log: str | Path, out_csv: str | Path) -> dict[str, Any]:
@@ -120,7 +123,7 @@ def time_track(log: str | Path, out_csv: str | Path) -> dict[str, Any]:
     from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
     from pdr.phone.track_schema import write_csv
 
-    clock = _StageClock()
+    clock = StageClock()
     t_start = clock.now()
     rec = read_recording(log)
     clock.add("read", t_start)

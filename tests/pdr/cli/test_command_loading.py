@@ -12,7 +12,7 @@ from tests.fresh_process import python_json
 COMMANDS = {"allan", "bench", "calibrate", "classify", "convert", "eval", "foot", "inspect", "phyphox", "serve",
             "simulate", "site", "track", "train", "users", "worker"}
 EVAL_TARGETS = {"classifier", "coop", "foot", "heading", "ipin", "ms", "placement", "pocket-heading", "steps"}
-BENCH_TARGETS = {"faults", "load", "phone", "processor", "server", "track"}
+BENCH_TARGETS = {"classify", "faults", "load", "phone", "processor", "server", "track"}
 
 
 def _choices(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
