@@ -1,5 +1,7 @@
-"""The decorators of the compiled (numba) kernels: :func:`kernel` on the paths of ``pdr track`` and ``pdr classify``
-(the phone pipeline, the readers, the classifier windows' resampling), :func:`cached_njit` for the others.
+"""The decorators of every compiled (numba) kernel: :func:`kernel`, with numpy's division semantics (the phone
+pipeline's filters, steps and floors, the readers, the classifier windows' resampling), and :func:`cached_njit`, with
+numba's own (the heading smoother, the classifier features, map matching and the site's wall index, the foot
+navigators).
 
 Both compile with ``numba.njit`` and keep the machine code in numba's disk cache, as ``cache=True`` does, but load it
 without numba's registry refresh (:class:`LeanFunctionCache`).
