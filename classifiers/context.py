@@ -20,7 +20,8 @@ from (``Windows.grid``, which :func:`classifiers.windows.make_windows` extends b
     least-squares pressure slope (hPa/s) over ``BARO_CONTEXT_SPAN_S`` and over ``CONTEXT_SPAN_S``.
 
 Every statistic uses only the samples with data; a span with under half its samples present gives NaN.
-All windows are computed at once with cumulative sums and running extrema over the grid (O(grid)).
+All windows are computed at once: sums and slopes from cumulative sums over the grid (O(grid)), extrema by one
+reduction over each window's span (O(windows x span)).
 """
 
 from __future__ import annotations
