@@ -51,7 +51,8 @@ def cached_njit(**options: Any) -> Callable[[Callable[..., Any]], Any]:
     """``numba.njit(cache=True, **options)`` whose cache loads through :class:`LeanFunctionCache`."""
     def decorate(fn: Callable[..., Any]) -> Any:
         dispatcher = numba.njit(**options)(fn)
-        dispatcher._cache = LeanFunctionCache(dispatcher.py_func)     # as Dispatcher.enable_caching does
+        if hasattr(dispatcher, "py_func"):     # not with NUMBA_DISABLE_JIT=1: numba then gives back the function
+            dispatcher._cache = LeanFunctionCache(dispatcher.py_func)     # as Dispatcher.enable_caching does
         return dispatcher
     return decorate
 

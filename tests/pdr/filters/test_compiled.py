@@ -40,3 +40,13 @@ def test_a_kernel_loads_from_the_cache_without_the_registry_refresh(tmp_path: Pa
     assert compiled["cache_hits"] == 0 and compiled["refreshed"]
     assert loaded["cache_hits"] == 2 and not loaded["refreshed"]
     assert loaded["values"] == compiled["values"] == ["inf", "-inf", "nan", "0.0", "0.25", "0.5"]
+
+
+def test_with_the_jit_disabled_a_kernel_runs_as_python(tmp_path: Path) -> None:
+    (tmp_path / "lean_kernel_probe.py").write_text(_MODULE)
+    repo = Path(__file__).resolve().parents[3]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), str(repo)]), "NUMBA_DISABLE_JIT": "1"}
+    out = python_json("import json; import numpy as np; import lean_kernel_probe as m; "
+                      "print(json.dumps({'compiled': hasattr(m.ratios, 'py_func'), "
+                      "'values': m.ratios(np.arange(3.0), 4).tolist()}))", env=env)
+    assert out == {"compiled": False, "values": [0.0, 0.25, 0.5]}
