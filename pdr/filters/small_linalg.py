@@ -242,6 +242,18 @@ def matvec_into(A: Array, x: Array, out: Array) -> None:  # pragma: no cover - c
 
 
 @kernel
+def outer(a: Array, b: Array) -> Array:  # pragma: no cover - compiled
+    """(n, m) ``a[i] * b[j]`` for an (n,) ``a`` and an (m,) ``b``: ``np.outer``'s products, without numba's
+    ``np.outer``, whose ``np.asarray`` makes loading the caller from the cache import numba's array-math module.
+    """
+    out = np.empty((a.shape[0], b.shape[0]))
+    for i in range(a.shape[0]):
+        for j in range(b.shape[0]):
+            out[i, j] = a[i] * b[j]
+    return out
+
+
+@kernel
 def quadratic_form(x: Array, A: Array) -> float:  # pragma: no cover - compiled
     """``x^T A x`` for an (n,) ``x`` and an (n, n) ``A``."""
     n = x.size

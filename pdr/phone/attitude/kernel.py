@@ -21,6 +21,7 @@ from pdr.filters.small_linalg import (
     matvec,
     matvec3_into,
     matvec_into,
+    outer,
     solve_symmetric,
     substitute,
 )
@@ -771,7 +772,7 @@ def mag_yaw_update(q: FloatArray, p: FloatArray, m_b: FloatArray, h_east: float,
     for i in range(4):
         q[i] += gain[i] * nu
     _normalise(q)
-    pn = p - np.outer(gain, ph)
+    pn = p - outer(gain, ph)
     p[:, :] = 0.5 * (pn + pn.T)
 
 
@@ -786,7 +787,7 @@ def _set_yaw_covariance(q: FloatArray, p: FloatArray, sigma_yaw: float) -> None:
     pg = p @ g
     gpg = g @ pg
     # Remove the existing variance along g, then add the new one.
-    pn = p - np.outer(pg, pg) / max(gpg, 1e-18) + 0.25 * sigma_yaw * sigma_yaw * np.outer(g, g)
+    pn = p - outer(pg, pg) / max(gpg, 1e-18) + 0.25 * sigma_yaw * sigma_yaw * outer(g, g)
     p[:, :] = 0.5 * (pn + pn.T)
 
 
@@ -802,7 +803,10 @@ def _init_attitude(q: FloatArray, a: FloatArray, m: FloatArray, has_mag: bool, h
         north = ref - (ref @ up) * up
         nn = math.sqrt(north @ north)
     north = north / nn
-    east = np.cross(north, up)
+    # north x up term by term, as numpy's cross product forms it (numba's np.cross would make loading this kernel
+    # from the cache import numba's array-math module: 0.25-0.4 s of a process's start).
+    east = np.array([north[1] * up[2] - north[2] * up[1], north[2] * up[0] - north[0] * up[2],
+                     north[0] * up[1] - north[1] * up[0]])
     # Rows of C_bn are the ENU axes in the body frame: C_nb = [east; north; up] (rows).
     c = np.empty((3, 3))
     c[0], c[1], c[2] = east, north, up

@@ -7,6 +7,9 @@ import os
 import textwrap
 from pathlib import Path
 
+import pytest
+
+from tests.conftest import data_path
 from tests.fresh_process import python_json
 
 _MODULE = textwrap.dedent('''
@@ -50,3 +53,17 @@ def test_with_the_jit_disabled_a_kernel_runs_as_python(tmp_path: Path) -> None:
                       "print(json.dumps({'compiled': hasattr(m.ratios, 'py_func'), "
                       "'values': m.ratios(np.arange(3.0), 4).tolist()}))", env=env)
     assert out == {"compiled": False, "values": [0.0, 0.25, 0.5]}
+
+
+@pytest.mark.data
+def test_pdr_track_loads_its_kernels_without_numbas_array_math(tmp_path: Path) -> None:
+    """The pipeline's kernels call no numba implementation that lives in ``numba.np.arraymath`` (``np.cross``,
+    ``np.outer``, ...): rebuilding their environments from the cache would import that module, 0.25-0.4 s of a
+    ``pdr track`` process's start."""
+    log = data_path("ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial02_repetition01.txt")
+    argv = ["track", str(log), "--out", str(tmp_path / "track.csv")]
+    code = ("import json, sys, contextlib, io; from pdr.cli import main\n"
+            f"with contextlib.redirect_stdout(io.StringIO()):\n    rc = main({argv!r})\n"
+            "print(json.dumps({'rc': rc, 'array_math': 'numba.np.arraymath' in sys.modules}))")
+    python_json(code, timeout_s=600)                   # compiles what the cache does not hold yet
+    assert python_json(code, timeout_s=600) == {"rc": 0, "array_math": False}

@@ -20,6 +20,7 @@ from pdr.filters.small_linalg import (
     matvec,
     matvec3_into,
     matvec_into,
+    outer,
     quadratic_form,
     solve_symmetric,
     substitute,
@@ -166,3 +167,11 @@ def test_substitute_equals_column_by_column_solution_bit_for_bit() -> None:
                 ref[i, c] = acc / low[i, i]
         substitute(low, x)
         assert np.array_equal(x, ref)
+
+
+def test_outer_is_numpys_outer_bit_for_bit() -> None:
+    rng = np.random.default_rng(7)
+    for n, m in ((1, 1), (3, 4), (4, 4), (7, 2)):
+        a = rng.normal(size=n) * 10.0 ** rng.uniform(-8, 8, n)
+        b = rng.normal(size=m) * 10.0 ** rng.uniform(-8, 8, m)
+        assert np.array_equal(outer(a, b), np.outer(a, b))
