@@ -57,7 +57,9 @@ gives one, possibly disturbed, measurement of north however many samples it has)
 first stationary period that gives gyro-bias rows (at least one complete ``bias_hold_s`` block; a shorter
 stand would make the reopening depend on where the recording starts) the yaw variance is reopened to
 ``init_yaw_sigma_deg``: the yaw propagated through the calibration motion with a still unknown gyro bias is
-not trusted, and the walk's magnetometer rows, averaged by a large ``sigma_m``, set it.
+not trusted, and the walk's magnetometer rows, averaged by a large ``sigma_m``, set it. While the user stands
+the yaw's variance grows with the gyro's residual bias, ``(b T)^2`` over ``T`` s (``stand_bias_dps``), so that
+the rows after a long stand correct what the bias turned.
 
 The :class:`AttitudeFilter` ``method="ekf"`` runs the same models with a linearised update
 (finite-difference Jacobian of ``phi(q)``), the attitude filter of the original RMPCA (seed 003 ref. [14]),

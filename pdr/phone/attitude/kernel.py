@@ -45,6 +45,7 @@ from pdr.phone.attitude.state import (
     AUX_MAG_DYAW,
     AUX_ML,
     AUX_N,
+    AUX_NO_FIELD_S,
     AUX_NU,
     AUX_P0,
     AUX_P1,
@@ -460,6 +461,7 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
     undo_keep = math.exp(-ts / prm[32]) if prm[32] > 0 else 0.0
     magnet_rise = prm[33]
     earth_dip = prm[34]                 # NaN: unknown (AttitudeConfig.earth_dip_deg)
+    stand_bias = prm[35]
     n = acc.shape[0]
     out = np.empty((n, 4))
     used = np.zeros(n, dtype=np.int64)
@@ -625,6 +627,12 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
                     p[i, j] = pn[i, j] + wq[i, j]
             matvec_into(f, q, qn)
             q[:] = qn
+            if stand_bias > 0 and stationary and aux[AUX_H_READY] == 1:
+                # A stand gives the yaw no field rows (mag_when_static), and the gyro's residual bias turns it by
+                # up to b T over T seconds: the yaw's variance grows to (b T)^2 (AttitudeConfig.stand_bias_dps).
+                t_gap = aux[AUX_NO_FIELD_S]
+                _add_yaw_variance(q, p, stand_bias * stand_bias * (2.0 * t_gap + ts) * ts)
+                aux[AUX_NO_FIELD_S] = t_gap + ts
         else:
             # Without a gyro the attitude is a random walk driven by a large rate noise.
             _process_noise_into(q, ts, 1.0, wq, xi)
@@ -730,6 +738,8 @@ def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: boo
             _normalise(q)
         if yaw_row:
             mag_yaw_update(q, p, mag[k], h_east, sigma_m)
+        if use_m or yaw_row:
+            aux[AUX_NO_FIELD_S] = 0.0
         if field_turn:
             # The yaw this sample's field rows turned the attitude by: dq = 0.5 dpsi g (mag_yaw_update).
             aux[AUX_MAG_DYAW] += 2.0 * (-q_prior[3] * (q[0] - q_prior[0]) - q_prior[2] * (q[1] - q_prior[1])
@@ -789,6 +799,18 @@ def _set_yaw_covariance(q: FloatArray, p: FloatArray, sigma_yaw: float) -> None:
     # Remove the existing variance along g, then add the new one.
     pn = p - outer(pg, pg) / max(gpg, 1e-18) + 0.25 * sigma_yaw * sigma_yaw * outer(g, g)
     p[:, :] = 0.5 * (pn + pn.T)
+
+
+@kernel
+def _add_yaw_variance(q: FloatArray, p: FloatArray, var_yaw: float) -> None:
+    """Add ``var_yaw`` (rad^2) to the covariance of ``q`` along the rotation about the navigation up axis, in place
+    (``dq = 0.5 dpsi g``, ``g = [0, 0, 0, 1] * q``, as :func:`_set_yaw_covariance`).
+    """
+    g = (-q[3], -q[2], q[1], q[0])
+    c = 0.25 * var_yaw
+    for i in range(4):
+        for j in range(4):
+            p[i, j] += c * g[i] * g[j]
 
 
 @kernel

@@ -30,10 +30,12 @@ AUX_FBAD = 118                         # (3) field moved: in the older block, in
 AUX_NU = 121                           # (2) trailing mean and variance of the field's yaw innovation (rad, rad^2)
 AUX_MAG_DYAW = 123                     # yaw (rad) the field's rows turned the attitude by, recently (decaying sum)
 AUX_IN_MAGNET = 124                    # the last field sample was stronger than the earth's (1) or not (0)
-AUX_SIZE = 125
+AUX_NO_FIELD_S = 125                   # time (s) stood since the field's rows were last used
+AUX_SIZE = 126
 AUX_SIZE_V1 = 65                       # size of the layout before the blocks above
 AUX_SIZE_V2 = 121                      # size of the layout before the yaw innovation's moments
 AUX_SIZE_V3 = 123                      # size of the layout before the recent field turn
+AUX_SIZE_V4 = 125                      # size of the layout before the time without the field's rows
 #: Bit flags of the per-sample ``used`` output.
 USED_ACC, USED_MAG, STATIONARY = 1, 2, 4
 
@@ -57,9 +59,10 @@ class AttitudeState:
                      np.array(d["bias"], dtype=np.float64), np.array(d["aux"], dtype=np.float64))
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"bad attitude state ({exc})", source="attitude state") from None
-        if st.aux.shape in ((AUX_SIZE_V1,), (AUX_SIZE_V2,), (AUX_SIZE_V3,)):
+        if st.aux.shape in ((AUX_SIZE_V1,), (AUX_SIZE_V2,), (AUX_SIZE_V3,), (AUX_SIZE_V4,)):
             # State saved before the magnetic and vertical bias rows had blocks of their own (nothing pending),
-            # before the yaw innovation's moments (none yet), or before the field's recent turn (none).
+            # before the yaw innovation's moments (none yet), before the field's recent turn (none), or before the
+            # time stood without the field's rows (none).
             st.aux = np.concatenate([st.aux, np.zeros(AUX_SIZE - st.aux.shape[0])])
         if st.q.shape != (4,) or st.P.shape != (4, 4) or st.bias.shape != (3,) or st.aux.shape != (AUX_SIZE,):
             raise InputError("attitude state arrays have wrong shapes", source="attitude state")

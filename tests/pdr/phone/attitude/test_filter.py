@@ -451,3 +451,44 @@ def test_a_field_far_from_the_earths_dip_is_not_north():
     assert followed > 20.0 and carried < 8.0
     assert (used[n0 + n1:] & 2).any()
     assert math.degrees(quat.angle_between(q[-1], q_true[-1])) < 5.0
+
+
+@pytest.mark.parametrize("method", ["ukf", "ekf"])
+def test_a_stand_without_field_rows_grows_the_yaw_variance_with_the_residual_bias(method):
+    """Standing, the yaw gets no field rows (``mag_when_static`` off) and the gyro's residual bias ``b`` may turn it
+    by ``b T`` over a stand of ``T`` s: the yaw's variance grows by about ``(b T)^2`` (the stillness tests take the
+    stand's first seconds), from zero again at each stand, and hardly at all with ``stand_bias_dps = 0``.
+    """
+    from pdr.phone.heading import yaw_variance
+
+    q_true = quat.from_euler(0.1, -0.2, 1.0)
+    bias = np.array([0.01, -0.02, 0.015])
+
+    def run(stand_bias_dps):
+        rng = np.random.default_rng(5)
+        f = AttitudeFilter(FS, AttitudeConfig(stand_bias_dps=stand_bias_dps), method=method)
+
+        def stand(seconds):
+            n = int(seconds * FS)
+            acc, mag = body_measurements(q_true, n, rng, 0.02)
+            f.run(acc, bias + rng.normal(0, 0.002, (n, 3)), mag)
+            return yaw_variance(f.state.q, f.state.P)
+
+        def move(seconds):      # shaken: no stillness and no gravity rows, the field's rows taken
+            n = int(seconds * FS)
+            acc, mag = body_measurements(q_true, n)
+            used = f.run(acc + rng.normal(0, 3.0, acc.shape), np.tile(bias, (n, 1)), mag)[1]
+            assert (used[-50:] & 2).all()
+            return yaw_variance(f.state.q, f.state.P)
+
+        stand(6.0)              # the gyro bias; the yaw reopens when it ends
+        grown = []
+        for _ in range(2):
+            before = move(20.0)
+            grown.append(stand(20.0) - before)
+        return grown
+
+    b = math.radians(0.2)
+    for g in run(0.2):
+        assert (b * 15.0) ** 2 < g < (b * 20.0) ** 2
+    assert max(run(0.0)) < 0.01 * (b * 15.0) ** 2
