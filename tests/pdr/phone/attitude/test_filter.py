@@ -220,6 +220,21 @@ def test_state_round_trip_and_bad_input():
         AttitudeState.from_state({"q": [1, 0, 0]})
 
 
+def test_a_state_saved_before_the_stand_timer_resumes_with_no_time_stood():
+    from pdr.phone.attitude.state import AUX_NO_FIELD_S, AUX_SIZE, AUX_SIZE_V4
+
+    f = AttitudeFilter(FS)
+    acc, mag = body_measurements(quat.IDENTITY, 20)
+    f.run(acc, np.zeros((20, 3)), mag)
+    old = f.state.state()
+    old["aux"] = old["aux"][:AUX_SIZE_V4]
+    st = AttitudeState.from_state(old)
+    assert st.aux.shape == (AUX_SIZE,) and st.aux[AUX_NO_FIELD_S] == 0.0
+    assert np.array_equal(st.aux[:AUX_SIZE_V4], f.state.aux[:AUX_SIZE_V4])
+    with pytest.raises(InputError, match="attitude state"):
+        AttitudeState.from_state({**old, "aux": old["aux"][:AUX_SIZE_V4 - 1]})
+
+
 def test_chunked_run_equals_one_batch():
     rng = np.random.default_rng(3)
     n = 400
