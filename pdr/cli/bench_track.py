@@ -63,7 +63,8 @@ def run(args: argparse.Namespace) -> int:
           f"cached, as after an install and one run)")
     print(f"start-up (separate processes): `pdr track` with the bytecode cache empty (every module compiled from "
           f"source, the dependencies' too) {up['track_first_s']:.3f} s; "
-          f"warm `pdr --help` {up['help_s']:.3f} s, `pdr inspect` of the untiled log {up['inspect_s']:.3f} s")
+          f"warm `pdr --help` {up['help_s']:.3f} s, `pdr inspect LOG` (the log as given, not tiled) "
+          f"{up['inspect_s']:.3f} s")
     if up["track_cold_s"] is not None:
         print(f"  cold `pdr track` (bytecode and compiled-kernel caches empty: a fresh install's first run) "
               f"{up['track_cold_s']:.1f} s")
