@@ -161,8 +161,9 @@ class AttitudeConfig:
         an RMS of 0.22 deg/s (0.25 on the tuning walker, 0.20 on the other); not tuned on the figures below.
         ``pdr eval ipin`` (p75, m, causal / smoothed, without -> with): repetition-01 walks 3.58 / 2.86 -> 3.44 /
         2.87, repetition-02 walks 3.22 / 2.63 -> 3.31 / 2.43, all 27 walks 3.59 / 3.07 -> 3.54 / 2.96; the elevator
-        walk (trial 53, stands of 20-40 s in the cabin) 4.88 / 4.44 -> 4.37 / 4.40. ``pdr eval heading`` (no stands)
-        and ``pdr eval steps`` do not change; ``pdr eval ms`` only with ``--map`` (F3 online 3.01 -> 2.93 m).
+        walk (trial 53: stops of 12-36 s between its walking legs, four of them rides) 4.88 / 4.44 -> 4.37 / 4.40.
+        ``pdr eval heading`` (no stands) and ``pdr eval steps`` do not change; ``pdr eval ms`` only with ``--map``
+        (F3 online 3.01 -> 2.93 m).
     init_yaw_sigma_deg
         Standard deviation of the initial yaw (deg) set at the magnetic alignment.
     mag_declination_deg
