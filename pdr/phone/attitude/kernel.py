@@ -774,7 +774,7 @@ def mag_yaw_update(q: FloatArray, p: FloatArray, m_b: FloatArray, h_east: float,
     if hh < 1e-6:
         return
     nu = _field_yaw_innovation(hn, h_east)
-    g = np.array([-q[3], -q[2], q[1], q[0]])
+    g = np.array(_yaw_direction(q))
     h = 2.0 * g
     ph = p @ h
     s = h @ ph + (sigma_m / hh) ** 2
@@ -787,13 +787,21 @@ def mag_yaw_update(q: FloatArray, p: FloatArray, m_b: FloatArray, h_east: float,
 
 
 @kernel
+def _yaw_direction(q: FloatArray) -> tuple[float, float, float, float]:
+    """``g = [0, 0, 0, 1] * q``: the direction in which a rotation ``dpsi`` (rad) about the navigation up axis moves
+    ``q_nb``, ``dq = 0.5 dpsi g`` (a tuple: no allocation).
+    """
+    return -q[3], -q[2], q[1], q[0]
+
+
+@kernel
 def _set_yaw_covariance(q: FloatArray, p: FloatArray, sigma_yaw: float) -> None:
     """Covariance of ``q`` for a yaw uncertainty ``sigma_yaw`` (rad) about the navigation up axis, tilt kept.
 
     A rotation ``dpsi`` about up moves ``q`` by ``0.5 [0, 0, 0, dpsi] * q = 0.5 dpsi g`` with
     ``g = [0, 0, 0, 1] * q``; the tilt part of the existing covariance is kept.
     """
-    g = np.array([-q[3], -q[2], q[1], q[0]])
+    g = np.array(_yaw_direction(q))
     pg = p @ g
     gpg = g @ pg
     # Remove the existing variance along g, then add the new one.
@@ -806,7 +814,7 @@ def _add_yaw_variance(q: FloatArray, p: FloatArray, var_yaw: float) -> None:
     """Add ``var_yaw`` (rad^2) to the covariance of ``q`` along the rotation about the navigation up axis, in place
     (``dq = 0.5 dpsi g``, ``g = [0, 0, 0, 1] * q``, as :func:`_set_yaw_covariance`).
     """
-    g = (-q[3], -q[2], q[1], q[0])
+    g = _yaw_direction(q)
     c = 0.25 * var_yaw
     for i in range(4):
         for j in range(4):
