@@ -54,6 +54,23 @@ When every particle dies, the step is retried once with three times the heading 
 again, map matching is suspended with a notice and the track goes on as PDR (the last estimate walked with the
 mean offset and scale) until it is back in the walkable area, where the particles are drawn again about it.
 
+What limits it: the step-length scale. The walls give one-sided evidence about it: a particle that strides too far
+dies head-on at a corridor's end, one that strides too short and turns early into a wide corridor or hall kills
+nobody. So deaths only ever pull the scale down, and the prior (``scale_sigma`` 0.06 about 1) keeps it near 1 on
+nearly every MS site2 trace, where the hindsight scales (PDR against the truth) run from 0.57 to 1.46. With each
+trace's hindsight scale given, online p75 would be F3 2.35 / F4 3.03 m (no F3 and 4 F4 traces over 5 m); with its
+hindsight rotation instead, 3.13 / 4.77 (8 seeds, cached tracks, in a session's study, not a shipped command). A
+wider prior lets the ratchet act: with ``scale_sigma`` 0.15 the scale of trace 5dd398d3 fell from 1.00 to 0.90 at the
+first corridor wall and its error grew from 1.7 to 6.4 m down the corridor. Also tried and not adopted (means over 8
+seeds, online / smoothed p75, F3 and F4): ``length_sigma_m`` 0.10 (3.11 / 3.16, 5.05 / 4.68 against 3.09 / 3.11,
+5.47 / 5.05: nearly all of F4's gain is one trace, 5dd3ac5f, whose particles no longer all die, while two F3
+traces lose 0.7 m), reseeding about the last cloud instead of suspending (the same one-trace gain), no gyro
+term, ``scale_walk`` 0.01, ``graze_deg`` 0 and 90, ``heading_offset_walk_deg`` 1. What does help is an outside
+scale: the phone's K from its walks elsewhere (``pdr eval ms --map --calibrate cross``: online p75 F3 2.93 -> 2.60,
+F4 5.49 -> 4.83 m). Two-sided evidence (a turn made where the walls
+allow it says the walker got there) is not built. Traces with a step heading 47-68 deg off in open halls
+(5dd52053, 5dd3a34c) lie outside the offset prior (20 deg) with no wall within reach: no map corrects those.
+
 Online: :meth:`MapMatcher.update` takes a batch of steps and returns one :class:`MatchedStep` each; its
 :meth:`~MapMatcher.state` (particle arrays, the random generator's state and a few scalars: size independent of
 the walk's length) resumes bit-identically with :meth:`~MapMatcher.from_state`. Offline: :func:`smooth_walk` runs

@@ -68,6 +68,10 @@ Device-frame swing axis of a swinging hand (:class:`DeviceSwingAxis`; item 5 of 
     not learnt as the pocket's is: the step-frequency axis of the specific force (the pocket's unbiased second
     measurement) carries no fore-aft signal in a swinging hand (per stride its error scatters over the whole half
     circle, 1.48 MAD 51-67 deg; pooled over a walk in the walking frame its ellipse's axis ratio is 1.1-1.4).
+    Removing the arm's own motion first does not rescue it: with the motion-capture attitude, the phone's linear
+    acceleration less that of a rigid lever ``rho_b`` turning with the gyro's rate (``alpha x rho + omega x (omega x
+    rho)``, ``rho_b`` fitted by least squares per walk: 0.25-0.41 m) leaves a step-frequency axis whose per-stride
+    error still scatters by 1.48 MAD 32-56 deg, with walk medians of +12, +17, -19 and +7 deg (not unbiased).
 
 Trouser pocket: the walking line from stride to stride (:class:`WalkingLineFilter`)
     One stride's swing plane is a noisy measurement of the walking line. The walker's turn between two strides
@@ -113,6 +117,14 @@ Trouser pocket: the walking line from stride to stride (:class:`WalkingLineFilte
     0.1 and 0 deg (pocket walks' causal mean, front / back: 8.2/7.3, 8.0/7.2, 7.8/7.2, 7.8/7.2, 7.8/7.2, 7.8/7.2;
     ``pdr eval heading``), confirmed on the other (13.4/8.7, 13.1/8.3, 12.7/7.8, 12.3/7.4, 12.4/7.4, 12.3/7.4);
     the simulated pocket walks (``pdr eval pocket-heading``) 13.1 -> 12.9 deg, MobiFall and Oxford flips unchanged.
+
+    The simulator's thighs disagree: there the step-frequency axis is off by +13 to +17 deg on the left thigh and
+    -13 to -18 on the right (median per walk, five walks each) even with the true attitude, 1.48 MAD 0.9-1.4 deg,
+    and the filter duly learns that offset, which is why the simulated pocket walks stay at 12-25 deg (left) and
+    5-13 (right). Most of it comes from the simulated pelvis' rotation (its yaw times the thigh's swing has a
+    step-frequency part across the walking direction: without it the left walks' axis moved from +20, +12, +27 to
+    +8, +1, +14 deg with the filter's attitude). The real walks' +1 to +9 deg above say the simulator exaggerates it;
+    which real thigh the phone was on is not recorded, so the side dependence is not checked on real data.
 
     Running is not an inverted pendulum (the stance leg is a spring, with a flight phase): the step-frequency
     axis was 25 and 17 deg off on the benchmark's running walks, where the swing plane was within 4 and 7 deg.
