@@ -26,7 +26,9 @@ zero). On a calibrated magnetometer the estimate stays near zero and nothing is 
 sits above what calibrated phones show: on the IPIN 2023 track-3 logs (hand-held, OS-calibrated) the estimates
 end at 0.2-7.8 uT, spread by the building's field and by soft iron (a few uT on simulated consumer parts too), with
 residual-based standard deviations of only 0.1-0.7 uT, so the standard deviation alone would open the gate there.
-An uncalibrated hard-iron offset is typically tens of uT.
+An uncalibrated hard-iron offset is typically tens of uT. Applying every significant, well-conditioned estimate
+(``apply_min_ut`` 0) cost the IPIN walks: ``pdr eval ipin`` p75 causal 3.54 -> 3.74 m, smoothed 2.96 -> 3.19 m
+(trial 23 repetition 01 1.07 -> 4.13 m causal): there the estimate is the building's field, not the phone's.
 
 Rows at low rotation rate (``|w_bar| < min_rate_rps``) carry no information and are skipped; the gyro bias
 estimated by the attitude filter is removed from the rate first.
