@@ -121,6 +121,13 @@ stationary bias prior is the one setting the repetition-01 figure is sensitive t
 0.01 deg/s). What is left is mostly the deflection averaged over a whole walk (about 18 deg on both walks of one
 IPIN trial), which no magnetometer-referenced heading can see.
 
+Tried and not adopted: the local field as the measurement, ``m_k`` replaced by the step heading turned by the field's
+yaw innovation over the step (the field's azimuth in the attitude's frame against north, at the samples whose field
+rows the filter used), so that the causal filter's memory (a slowly converging start) stays out of ``z_k``. On the
+motion-capture benchmark the smoothed mean went 11.2 -> 11.6 deg (a disturbed swinging walk 18.7 -> 12.0, a run
+6.3 -> 11.1), on the IPIN walks 2.96 -> 3.91 m p75 (trial 03 8.97 -> 15.0 m). A hand-held trial-03 smoothed track
+is worse than its causal one for another reason: :class:`pdr.phone.heading_stages.DeviceHeading`, "What limits it".
+
 Trouser pocket: ``m_k`` is the pocket step's causal heading, the RMPCA walking direction (:mod:`pdr.phone.heading`),
 and the gyro yaw is that of a device axis (:mod:`pdr.phone.gyro_yaw`; the vertical rate integrated directly would gain
 the swinging thigh's geometric phase, 1-2 deg per stride). The offset is the phone's yaw in the pocket relative to the

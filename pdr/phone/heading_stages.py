@@ -94,6 +94,17 @@ class DeviceHeading:
     of a hand-held phone, the z axis of one on the torso) plus an offset (``zero``, or ``pca``: the running offset of
     the RMPCA axis, :class:`pdr.phone.heading.OffsetEstimator`); variance from the attitude covariance plus the
     process noise ``process_var`` (rad^2) of eq. 41.
+
+    What limits it: the yaw of ``y`` moves with the phone's roll in the screen plane when ``y`` is steep. On IPIN
+    trial 03 the phone is held nearly upright (``y`` about 62 deg above the horizontal); it rolls by about 12 deg over
+    the walk, which turns the gyro-only yaw of ``y`` against the walking direction by -0.17 and -0.12 deg/s (the two
+    repetitions). The offline smoother fits that trend, with the route's magnetic deflection, as a residual gyro
+    bias, and the smoothed track of both repetitions is worse than the causal one (``pdr eval ipin``: 3.26 ->
+    8.97 m and 4.47 -> 8.21 m p75). The roll-free forward direction ``u x x`` (perpendicular to the screen's width
+    axis ``x`` and to up) keeps the leg errors within a few degrees there. Taken for both this heading and the
+    smoother's gyro yaw, it lowered the rms of the walks' leg errors (6.10 -> 5.99 deg) but moved most walks' mean
+    heading by about +4 deg, and the smoothed p75 went 3.36 -> 3.51 m (repetition-01 walks), 2.43 -> 2.58 m
+    (repetition-02), 2.96 -> 3.04 m (all 27). Not adopted; it would need the drift elimination retuned with it.
     """
 
     def __init__(self, heading_offset: str, process_var: float, offset: OffsetEstimator | None = None) -> None:
