@@ -72,6 +72,16 @@ Device-frame swing axis of a swinging hand (:class:`DeviceSwingAxis`; item 5 of 
     acceleration less that of a rigid lever ``rho_b`` turning with the gyro's rate (``alpha x rho + omega x (omega x
     rho)``, ``rho_b`` fitted by least squares per walk: 0.25-0.41 m) leaves a step-frequency axis whose per-stride
     error still scatters by 1.48 MAD 32-56 deg, with walk medians of +12, +17, -19 and +7 deg (not unbiased).
+    The pooled axis is not always the shoulder's: in three of the benchmark's four swinging walks it is mostly the
+    forearm's twist about the vertical (its vertical component in the navigation frame, median per walk: 0.76, 0.66
+    and 0.52; 0.11 on the one clean swing), so the walking direction comes from its horizontal remainder, and a small
+    change in how the hand twists the phone moves the output by 70-150 deg without moving the axis by
+    ``regrip_deg`` (the other walker's disturbed walk at 93-96 s). Tried and not adopted: a stride whose own
+    horizontal swing plane is planar (eigenvalue ratio 5 or more) and more than 2.58 sigma from the pooled direction
+    takes its own line, with the direction nearer the last stride's turned by the gyro. It changed six strides of
+    one walk of the confirmation walker (causal 29.6 -> 25.1 deg) and no scored stride of the tuning walker; the
+    smoothed means went 21.2 -> 21.3 deg over the four walks. Restarting the pooled scatter from such a stride, with
+    the sign by continuity, was much worse (disturbed walks 19.4 -> 42-48 and 29.6 -> 49-63 deg).
 
 Trouser pocket: the walking line from stride to stride (:class:`WalkingLineFilter`)
     One stride's swing plane is a noisy measurement of the walking line. The walker's turn between two strides
