@@ -3,10 +3,12 @@ with the real processors (``real_app``) and its user's ``token``."""
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import shutil
 import subprocess
+import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -85,14 +87,30 @@ CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic"
                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 
 
+#: Held while one test process installs chromium: the suite's xdist workers each start the browser fixture, and on a
+#: machine without chromium the second one's apt-get found dpkg locked by the first's and skipped its browser tests.
+CHROMIUM_INSTALL_LOCK = Path(tempfile.gettempdir()) / "pdr-tests-chromium-install.lock"
+
+
 def _install_chromium() -> str | None:
-    """Install Debian's chromium when missing; returns why it is unavailable, or None when it is there."""
+    """Install Debian's chromium when missing; returns why it is unavailable, or None when it is there.
+
+    One test process installs at a time (:data:`CHROMIUM_INSTALL_LOCK`), and apt-get waits for a dpkg lock held by
+    another program (``DPkg::Lock::Timeout``) instead of failing at once.
+    """
     if CHROMIUM.exists():
         return None
     if not hasattr(os, "geteuid") or os.geteuid() != 0 or shutil.which("apt-get") is None:
         return f"{CHROMIUM} is missing and cannot be installed here (needs root and apt-get)"
+    with CHROMIUM_INSTALL_LOCK.open("w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)          # released when the file closes
+        return None if CHROMIUM.exists() else _apt_install_chromium()
+
+
+def _apt_install_chromium() -> str | None:
     env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
-    for cmd in (["apt-get", "update"], ["apt-get", "install", "-y", "chromium"]):
+    wait = ["-o", "DPkg::Lock::Timeout=600"]
+    for cmd in (["apt-get", *wait, "update"], ["apt-get", *wait, "install", "-y", "chromium"]):
         try:
             done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=1200)
         except (OSError, subprocess.TimeoutExpired) as exc:
