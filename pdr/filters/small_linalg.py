@@ -242,6 +242,14 @@ def matvec_into(A: Array, x: Array, out: Array) -> None:  # pragma: no cover - c
 
 
 @kernel
+def cross3(a: Array, b: Array) -> tuple[float, float, float]:  # pragma: no cover - compiled
+    """``a x b`` of two 3-vectors as a tuple (no allocation), each term formed as ``np.cross`` forms it, without
+    numba's ``np.cross``, whose loading from the cache imports numba's array-math module (as :func:`outer`).
+    """
+    return a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]
+
+
+@kernel
 def outer(a: Array, b: Array) -> Array:  # pragma: no cover - compiled
     """(n, m) ``a[i] * b[j]`` for an (n,) ``a`` and an (m,) ``b``: ``np.outer``'s products, without numba's
     ``np.outer``, whose ``np.asarray`` makes loading the caller from the cache import numba's array-math module.

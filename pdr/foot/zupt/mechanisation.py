@@ -10,6 +10,7 @@ from numpy.typing import NDArray
 
 from pdr.filters.compiled import cached_njit
 from pdr.filters.rotation_kernels import quat_exp, quat_mul, rotmat
+from pdr.filters.small_linalg import cross3
 
 Array = NDArray[np.float64]
 
@@ -29,10 +30,10 @@ def mechanize(p: Array, v: Array, q: Array, f0_b: Array, w0_b: Array, f_b: Array
     ``f0_b, w0_b`` are the samples at the start of the interval, ``f_b, w_b`` at its end: two-sample rotation
     vector (trapezoid + coning term), acceleration integrated as varying linearly between the two ends.
     """
+    coning = cross3(w0_b, w_b)
     theta = np.empty(3)
-    theta[0] = 0.5 * (w0_b[0] + w_b[0]) * dt + (w0_b[1] * w_b[2] - w0_b[2] * w_b[1]) * dt * dt / 12.0
-    theta[1] = 0.5 * (w0_b[1] + w_b[1]) * dt + (w0_b[2] * w_b[0] - w0_b[0] * w_b[2]) * dt * dt / 12.0
-    theta[2] = 0.5 * (w0_b[2] + w_b[2]) * dt + (w0_b[0] * w_b[1] - w0_b[1] * w_b[0]) * dt * dt / 12.0
+    for i in range(3):
+        theta[i] = 0.5 * (w0_b[i] + w_b[i]) * dt + coning[i] * dt * dt / 12.0
     c0 = rotmat(q)
     q1 = quat_mul(q, quat_exp(theta))
     c1 = rotmat(q1)

@@ -16,6 +16,7 @@ from pdr.filters.small_linalg import (
     cholesky_lower,
     congruence,
     congruence_into,
+    cross3,
     matmul,
     matmul_bt,
     matvec,
@@ -340,9 +341,10 @@ def _bias_rows(aux: FloatArray, vs: int, cw: int, u: FloatArray, w_raw: FloatArr
     aux[vs] += ks * (u[0] - p0)
     aux[vs + 1] += ks * (u[1] - p1)
     aux[vs + 2] += ks * (u[2] - p2)
-    aux[cw] += ks * (u[1] * w_raw[2] - u[2] * w_raw[1] - aux[cw])
-    aux[cw + 1] += ks * (u[2] * w_raw[0] - u[0] * w_raw[2] - aux[cw + 1])
-    aux[cw + 2] += ks * (u[0] * w_raw[1] - u[1] * w_raw[0] - aux[cw + 2])
+    c0, c1, c2 = cross3(u, w_raw)
+    aux[cw] += ks * (c0 - aux[cw])
+    aux[cw + 1] += ks * (c1 - aux[cw + 1])
+    aux[cw + 2] += ks * (c2 - aux[cw + 2])
     if not accumulate:
         return
     s0, s1, s2 = aux[vs], aux[vs + 1], aux[vs + 2]
@@ -833,10 +835,9 @@ def _init_attitude(q: FloatArray, a: FloatArray, m: FloatArray, has_mag: bool, h
         north = ref - (ref @ up) * up
         nn = math.sqrt(north @ north)
     north = north / nn
-    # north x up term by term, as numpy's cross product forms it (numba's np.cross would make loading this kernel
-    # from the cache import numba's array-math module: 0.25-0.4 s of a process's start).
-    east = np.array([north[1] * up[2] - north[2] * up[1], north[2] * up[0] - north[0] * up[2],
-                     north[0] * up[1] - north[1] * up[0]])
+    # cross3, not numba's np.cross, which would make loading this kernel from the cache import numba's array-math
+    # module (0.25-0.4 s of a process's start).
+    east = np.array(cross3(north, up))
     # Rows of C_bn are the ENU axes in the body frame: C_nb = [east; north; up] (rows).
     c = np.empty((3, 3))
     c[0], c[1], c[2] = east, north, up

@@ -13,6 +13,7 @@ from pdr.filters.small_linalg import (
     cholesky_solve,
     congruence,
     congruence_into,
+    cross3,
     fma,
     matmul,
     matmul_bt,
@@ -175,3 +176,11 @@ def test_outer_is_numpys_outer_bit_for_bit() -> None:
         a = rng.normal(size=n) * 10.0 ** rng.uniform(-8, 8, n)
         b = rng.normal(size=m) * 10.0 ** rng.uniform(-8, 8, m)
         assert np.array_equal(outer(a, b), np.outer(a, b))
+
+
+def test_cross3_is_numpys_cross_bit_for_bit() -> None:
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        a = rng.normal(size=3) * 10.0 ** rng.uniform(-8, 8, 3)
+        b = rng.normal(size=3) * 10.0 ** rng.uniform(-8, 8, 3)
+        assert np.array_equal(np.array(cross3(a, b)), np.cross(a, b))
