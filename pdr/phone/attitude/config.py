@@ -172,6 +172,11 @@ class AttitudeConfig:
         included, forgets it at the exit. Reopening the yaw variance to ``init_yaw_sigma_deg`` at the first field row
         after a ride (the barometer's ``carried``) was tried: trial 53 went 4.37 / 4.40 -> 4.98 / 3.82 m (causal /
         smoothed), the 27 walks' causal p75 3.54 -> 3.75; not adopted.
+        Reopening it (30, 60 or 120 deg) at the first, third or sixth step after each ride instead: trial 53 causal
+        4.24-4.51 m, smoothed 4.35-4.40, the other 26 walks unchanged. The rides are not what is left: the two legs
+        between the start and the first ride (42-50 s and 62-73 s) are already 23 and 15 deg off against the rotation
+        vector's 6 and 3, after a start 38 deg off (the rotation vector 31) beside the shaft; with legs of 7-14 s the
+        field's rows cannot pull the yaw back within the filter's time constant.
     init_yaw_sigma_deg
         Standard deviation of the initial yaw (deg) set at the magnetic alignment.
     mag_declination_deg
