@@ -37,6 +37,14 @@ FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 
 FRAMES: tuple[str, ...] = ("metric", "lonlat")
+#: Largest distance (m) of a metric position from the frame's origin: beyond it no place on Earth is meant (UTM
+#: northings stay below 1e7 m), and coordinates that large lose the centimetres of a wall.
+MAX_COORDINATE_M = 1e8
+#: Widest floor plan (m, either side of its bounding box): no building is wider; a plan this wide is in other units
+#: (millimetres) or lon/lat given as metric.
+MAX_FLOOR_EXTENT_M = 20_000.0
+#: Largest floor number (either sign): no building has more floors.
+MAX_FLOOR_NUMBER = 1000
 
 
 @dataclass(frozen=True)
@@ -218,6 +226,9 @@ def _floor(f: Any, origin: tuple[float, float] | None, where: str) -> FloorPlan:
         raise InputError("floor must be an integer", source=where, field="floor") from None
     if not number.is_integer():
         raise InputError(f"floor must be an integer, not {number}", source=where, field="floor")
+    if abs(number) > MAX_FLOOR_NUMBER:
+        raise InputError(f"floor {number:.0f} is not a floor of a building (at most {MAX_FLOOR_NUMBER} either side of "
+                         f"the ground floor)", source=where, field="floor")
     alt = f.get("altitude_m")
     if alt is not None and not (isinstance(alt, int | float) and math.isfinite(alt)):
         raise InputError("altitude_m must be a number of metres", source=where, field="altitude_m")
@@ -233,6 +244,12 @@ def _floor(f: Any, origin: tuple[float, float] | None, where: str) -> FloorPlan:
              for k, p in enumerate(_geojson_polygons(f["walkable"], f"{where} walkable"))]
     if not polys:
         raise InputError("no polygon in 'walkable'", source=where, field="walkable")
+    pts = np.vstack([p.outer for p in polys])
+    extent = float(np.max(pts.max(axis=0) - pts.min(axis=0)))
+    if extent > MAX_FLOOR_EXTENT_M:
+        raise InputError(f"the walkable area spans {extent / 1000:.4g} km: a floor plan is in metres and at most "
+                         f"{MAX_FLOOR_EXTENT_M / 1000:.0f} km wide (millimetres? lon/lat without \"frame\": "
+                         f"\"lonlat\"?)", source=where, field="walkable")
     return FloorPlan(int(number), tuple(polys), None if alt is None else float(alt))
 
 
@@ -274,6 +291,9 @@ def _polygon(coords: Any, frame: str, origin: tuple[float, float] | None, where:
         a = a[:, :2]
         if not np.isfinite(a).all():
             raise InputError("ring has a non-finite coordinate", source=rw, field="coordinates")
+        if frame == "metric" and (np.abs(a) > MAX_COORDINATE_M).any():
+            raise InputError(f"ring has a position more than {MAX_COORDINATE_M:.0e} m from the frame's origin",
+                             source=rw, field="coordinates")
         if not np.array_equal(a[0], a[-1]):
             raise InputError("ring is not closed (its last position must repeat the first)", source=rw,
                              field="coordinates")

@@ -1,6 +1,8 @@
 """A grid of wall segments for many short-segment crossing tests (the map matcher's particle steps).
 
-The floor's bounding box is cut into square cells of ``cell_m``; each cell lists the walls whose bounding box
+The floor's bounding box is cut into square cells of ``cell_m`` (larger where the box would need more than
+:data:`MAX_CELLS` of them, or the walls more than :data:`MAX_ENTRIES` listings: a step's test stays exact, a cell
+only lists more walls); each cell lists the walls whose bounding box
 meets the cell grown by ``reach_m`` on every side. A step that starts in a cell and is at most ``reach_m`` long
 lies in that grown cell, so only the cell's list is tested; a longer step, or one that starts outside the grid,
 is tested against every wall. The per-step loop is compiled (numba): a few walls per particle instead of
@@ -21,6 +23,11 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 BoolArray = NDArray[np.bool_]
 
+#: Most cells of one floor's grid (the index holds an int64 per cell): 1000 x 1000 cells of 2 m cover 2 km square.
+MAX_CELLS = 1_000_000
+#: Most (cell, wall) entries (an int64 each): a long diagonal wall is listed in every cell of its bounding box.
+MAX_ENTRIES = 10_000_000
+
 
 @dataclass(frozen=True)
 class WallIndex:
@@ -40,15 +47,18 @@ class WallIndex:
         w = np.ascontiguousarray(walls, dtype=np.float64).reshape(-1, 4)
         if len(w) == 0:
             return cls(w, (0.0, 0.0), cell_m, reach_m, 1, 1, np.zeros(2, dtype=np.int64), np.zeros(0, np.int64))
-        lo = np.minimum(w[:, :2], w[:, 2:]).min(axis=0) - cell_m
-        hi = np.maximum(w[:, :2], w[:, 2:]).max(axis=0) + cell_m
-        nx, ny = (int(math.ceil((hi[i] - lo[i]) / cell_m)) for i in range(2))
-        wlo = (np.minimum(w[:, :2], w[:, 2:]) - reach_m - lo) / cell_m
-        whi = (np.maximum(w[:, :2], w[:, 2:]) + reach_m - lo) / cell_m
-        i0 = np.clip(np.floor(wlo).astype(np.int64), 0, [nx - 1, ny - 1])
-        i1 = np.clip(np.floor(whi).astype(np.int64), 0, [nx - 1, ny - 1])
-        span = i1 - i0 + 1                                   # cells per wall along x and y
-        count = span[:, 0] * span[:, 1]
+        w_lo, w_hi = np.minimum(w[:, :2], w[:, 2:]), np.maximum(w[:, :2], w[:, 2:])
+        while True:
+            lo = w_lo.min(axis=0) - cell_m
+            hi = w_hi.max(axis=0) + cell_m
+            nx, ny = (int(math.ceil((hi[i] - lo[i]) / cell_m)) for i in range(2))
+            i0 = np.clip(np.floor((w_lo - reach_m - lo) / cell_m).astype(np.int64), 0, [nx - 1, ny - 1])
+            i1 = np.clip(np.floor((w_hi + reach_m - lo) / cell_m).astype(np.int64), 0, [nx - 1, ny - 1])
+            span = i1 - i0 + 1                                   # cells per wall along x and y
+            count = span[:, 0] * span[:, 1]
+            if nx * ny <= MAX_CELLS and (int(count.sum()) <= MAX_ENTRIES or nx * ny <= 16):
+                break               # (a grid of 4 x 4 cells lists each wall a few times: linear in the walls)
+            cell_m *= 1.25          # a huge plan, or long diagonal walls: coarser cells (module doc)
         wid = np.repeat(np.arange(len(w), dtype=np.int64), count)
         rank = np.arange(wid.size) - np.repeat(np.cumsum(count) - count, count)   # position in the wall's box
         cell = (i0[wid, 1] + rank // span[wid, 0]) * nx + i0[wid, 0] + rank % span[wid, 0]

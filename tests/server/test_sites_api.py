@@ -94,6 +94,13 @@ def _bad(site_change) -> dict:
                                             "floor": 7, "heading_deg": [0, 360]}]), "landmark 0", "floor"),
     (lambda s: s["floors"][0]["walkable"]["coordinates"][0].pop(), "floors[0] walkable polygon 0 ring 0",
      "coordinates"),
+    # Accepted before, then every batch of a session on the site failed (a TypeError in the wall index).
+    (lambda s: s["floors"][0]["walkable"]["coordinates"].__setitem__(0, [[0, 0], [1e308, 0], [1e308, 1e308],
+                                                                         [0, 0]]),
+     "floors[0] walkable polygon 0 ring 0", "coordinates"),
+    (lambda s: s["floors"][0]["walkable"]["coordinates"].__setitem__(0, [[0, 0], [5e4, 0], [5e4, 5e4], [0, 0]]),
+     "floors[0]", "walkable"),
+    (lambda s: s["floors"][0].__setitem__("floor", 10 ** 30), "floors[0]", "floor"),
 ])
 def test_a_bad_site_is_refused_naming_the_floor_polygon_and_field(client: FlaskClient, tokens: dict, change, where,
                                                                    field) -> None:

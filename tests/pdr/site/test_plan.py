@@ -10,7 +10,7 @@ import pytest
 from pdr.errors import InputError
 from pdr.site.geometry import points_in_rings, ring_edges, segments_cross
 from pdr.site.plan import SitePlan
-from pdr.site.wall_index import WallIndex, step_hit
+from pdr.site.wall_index import MAX_CELLS, MAX_ENTRIES, WallIndex, step_hit
 from tests.conftest import data_path
 
 
@@ -65,6 +65,26 @@ def test_the_wall_index_agrees_with_testing_every_wall() -> None:
             assert _fraction(s, walls[k]) <= min(_fraction(s, w) for w in walls[others]) + 1e-12
 
 
+def test_a_wide_plan_or_long_diagonal_walls_get_coarser_cells_with_the_same_answers() -> None:
+    # A 19 km plan at 2 m cells would be 9500^2 cells; diagonal walls list every cell of their bounding box.
+    rng = np.random.default_rng(5)
+    wide = np.array([[0.0, 0.0, 19_000.0, 0.0], [0.0, 0.0, 0.0, 12_000.0]]
+                    + [[x, 0.0, x + 9_000.0, 9_000.0] for x in range(0, 10_000, 500)])
+    idx = WallIndex.build(wide)
+    assert idx.nx * idx.ny <= MAX_CELLS
+    assert idx.wall_ids.size <= MAX_ENTRIES
+    assert idx.cell_m > 2.0
+    k, u = rng.integers(0, len(wide), 3000), rng.uniform(0, 1, (3000, 1))     # steps starting beside the walls
+    start = wide[k, :2] + u * (wide[k, 2:] - wide[k, :2]) + rng.normal(0, 1.5, (3000, 2))
+    ang, length = rng.uniform(0, 2 * np.pi, 3000), rng.uniform(0, 3.0, 3000)
+    end = start + length[:, None] * np.column_stack([np.cos(ang), np.sin(ang)])
+    got = idx.crosses(start[:, 0], start[:, 1], end[:, 0], end[:, 1])
+    assert got.tolist() == segments_cross(np.hstack([start, end]), wide).any(axis=1).tolist()
+    assert 0.1 < got.mean() < 0.9
+    # A building-sized plan keeps its 2 m cells.
+    assert WallIndex.build(np.array([[0.0, 0.0, 300.0, 200.0]])).cell_m == 2.0
+
+
 def _fraction(step: np.ndarray, w: np.ndarray) -> float:
     """Where along ``step`` (0..1) it meets the line of wall ``w`` (0 when collinear)."""
     r, s, q = step[2:] - step[:2], w[2:] - w[:2], w[:2] - step[:2]
@@ -86,6 +106,11 @@ def _fraction(step: np.ndarray, w: np.ndarray) -> float:
     ({"floors": [{"floor": 0, "walkable": ROOM}, {"floor": 0, "walkable": ROOM}]}, ["floor 0", "twice"]),
     ({"floors": []}, ["floors"]),
     ({**site(ROOM), "origin": {"lat": 100, "lon": 0}}, ["origin"]),
+    # Sizes no building has: accepted, they broke or exhausted the map matcher's wall index (a TypeError for
+    # every batch of a session using the site; a grid growing with the square of the plan's width).
+    (site({"type": "Polygon", "coordinates": [square(0, 0, 1e308, 1e308)]}), ["ring 0", "from the frame's origin"]),
+    (site({"type": "Polygon", "coordinates": [square(0, 0, 200_000, 100_000)]}), ["200 km", "millimetres"]),
+    (site(ROOM, floor=10 ** 30), ["floor 1000000000000000019884624838656", "building"]),
 ])
 def test_bad_sites_are_refused_naming_what_is_wrong(doc: dict[str, Any], words: list[str]) -> None:
     with pytest.raises(InputError) as exc:
