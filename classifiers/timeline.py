@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from classifiers.rides import AltitudeRecord, ride_kind
@@ -73,7 +73,8 @@ RATE_DELAY_S = 0.5 * STEP_RATE_WINDOW_S + ALTITUDE_SMOOTH_S
 #: Labels of rides (entries the stairs rule looks back to).
 RIDE_PREFIXES = ("elevator_", "escalator_")
 
-STATE_VERSION = 1
+#: 2: the detector's and altitude record's times are on the log clock (version 1: on the first batch's axis).
+STATE_VERSION = 2
 
 
 @dataclass(frozen=True)
@@ -98,6 +99,9 @@ class StopTimeline:
 
     def update(self, batch: Recording, events: Sequence[dict[str, Any]]) -> list[ModeEntry]:
         """Entries that became final with this batch and the pipeline's events for it (time order)."""
+        # The detector and the altitude record read the batch's own time axis (t_ns - t0_ns): put it on the log
+        # clock of the events and entries (t_ns / 1e9), whatever t0_ns each batch of the session carries.
+        batch = batch if batch.t0_ns == 0 else replace(batch, t0_ns=0)
         busy, rides = self._read(events)
         self.altitude.update(batch)
         entries = rides + self._entries(self.detector.update(batch, busy))
@@ -185,16 +189,20 @@ class StopTimeline:
     @classmethod
     def from_state(cls, state: dict[str, Any]) -> StopTimeline:
         try:
-            if state["version"] != STATE_VERSION:
+            if state["version"] not in (1, STATE_VERSION):
                 raise InputError(f"stop timeline state version {state['version']} is not {STATE_VERSION}",
                                  field="version")
             tl = cls()
-            tl.detector = StopDetector.from_state(state["detector"])
+            # A version 1 state's detector and altitude record count from its first batch's t0_ns, not the log
+            # clock: they start again (the stop in progress is lost); its steps and floor changes are on the log clock.
+            old_clock = state["version"] == 1
+            if not old_clock:
+                tl.detector = StopDetector.from_state(state["detector"])
             # States saved before floor changes said whether the height was assumed: not assumed.
             tl.floor_changes = [(float(f[0]), float(f[1]), float(f[2]), float(f[3]) if len(f) > 3 else 0.0)
                                 for f in state["floor_changes"]]
             tl.step_up = [(float(a), float(b), float(c)) for a, b, c in state.get("step_up", [])]
-            if state.get("altitude") is not None:  # states saved before the record existed start one
+            if state.get("altitude") is not None and not old_clock:  # states saved before the record: a new one
                 tl.altitude = AltitudeRecord.from_state(state["altitude"])
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"not a stop timeline state ({exc})", field="state") from None

@@ -118,6 +118,10 @@ def test_timeline_labels_a_stop_with_a_floor_change_as_an_elevator_ride():
     assert entries[0].data["altitude_change_m"] == pytest.approx(8.1)
     tl2 = StopTimeline.from_state(json.loads(json.dumps(StopTimeline().state())))
     assert tl2.update(rec, events)[0].label == "elevator_up"
+    # A version 1 state counted the detector's time from its first batch's t0_ns: its detector starts again.
+    old = {**tl.state(), "version": 1}
+    assert StopTimeline.from_state(old).detector.state() == StopTimeline().detector.state()
+    assert StopTimeline.from_state(old).floor_changes == tl.floor_changes
 
 
 @pytest.mark.parametrize(("assumed", "floors"), [(True, 2.0), (False, 1.0)])

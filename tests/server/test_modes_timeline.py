@@ -68,3 +68,37 @@ def test_escalator_ride_appears_in_modes_with_its_floor_change(tmp_path):
     assert [m["label"] for m in rides] == ["escalator_down"], modes
     assert rides[0]["floors"] == 1 and rides[0]["t_s"] < 26.0 and rides[0]["t_end_s"] > 14.0
     assert not any(m["label"].startswith("stairs") for m in modes), modes  # walking off is not stairs
+
+
+@pytest.mark.timeout(300)
+def test_a_stop_streamed_in_batches_is_on_the_log_clock_whatever_their_t0_ns(tmp_path):
+    # A phone at rest streamed as native batches on Unix-time timestamps, each batch without t0_ns (so its axis
+    # starts at its own first sample) and one with a t0_ns of its own choosing: the standing entry of /modes was
+    # on the first batch's axis (t_s 0, or none at all), not the log clock of the track and of every other entry;
+    # a batch with t0_ns -5 made the stop detector allocate 25 GiB (the batch failed, MemoryError).
+    from server import auth
+    from tests.server.conftest import bearer, make_app
+    from tests.server.helpers import phone_batch
+
+    app = make_app(tmp_path, processor_factory=None)
+    try:
+        with app.extensions["pdr"].store.engine.begin() as conn:
+            h = bearer(auth.add_user(conn, "walker"))
+        c = app.test_client()
+        sid = c.post("/api/v1/sessions", json={"session_id": "rest"}, headers=h).get_json()["id"]
+        for i in range(6):
+            batch = phone_batch(f"b{i}", float(i))
+            del batch["t0_ns"]
+            if i == 3:
+                batch["t0_ns"] = 1_600_000_000_000_000_000
+            assert c.post(f"/api/v1/sessions/{sid}/batches", json=batch, headers=h).status_code == 201
+        assert app.extensions["pdr"].worker.wait_idle(240)
+        detail = c.get(f"/api/v1/sessions/{sid}", headers=h).get_json()
+        modes = c.get(f"/api/v1/sessions/{sid}/modes", headers=h).get_json()["modes"]
+    finally:
+        app.extensions["pdr"].worker.stop()
+    assert [b["status"] for b in detail["batch_list"]] == ["done"] * 6, detail["batch_list"]
+    t0 = 1_700_000_000.0  # the first sample, s on the log clock (phone_batch's timestamps)
+    standing = [m for m in modes if m["label"] == "standing"]
+    assert len(standing) == 1, modes
+    assert t0 <= standing[0]["t_s"] < t0 + 1.0 and t0 + 5.0 <= standing[0]["t_end_s"] <= t0 + 6.0, modes
