@@ -414,6 +414,9 @@ class Recording:
         elif isinstance(self.t0_ns, bool) or not isinstance(self.t0_ns, int | np.integer):
             raise InputError(f"t0_ns must be an integer number of nanoseconds, got {self.t0_ns!r}",
                              source=self.source or None, field="t0_ns")
+        elif not -(2**63) <= int(self.t0_ns) < 2**63:  # the time axis subtracts it from int64 timestamps
+            raise InputError(f"t0_ns {self.t0_ns} is outside the int64 nanosecond range",
+                             source=self.source or None, field="t0_ns")
         else:
             object.__setattr__(self, "t0_ns", int(self.t0_ns))
         object.__setattr__(self, "warnings", tuple(self.warnings))

@@ -103,6 +103,8 @@ CASES: dict[str, tuple[Any, int, str]] = {
     "Infinity value": (json.dumps(phone_batch("inf", 100.0)).replace("9.81", "Infinity", 1).encode(), 422,
                        "not finite"),
     "timestamp beyond int64": (_overflow(), 422, "int64"),
+    # once stored (201), then its processing failed: OverflowError on the time axis (t_ns - t0_ns)
+    "t0_ns beyond int64": (_batch(t0_ns=2**64), 422, "t0_ns 18446744073709551616 is outside the int64"),
     "timestamps 10 years after the session": (_far_future(), 422, "days away"),
     "one batch spanning 3 days": (_long_span(), 422, "span"),
     "accelerometer in g": (_in_g(), 422, "looks like g"),
