@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import gzip
 import zipfile
+import zlib
 from pathlib import Path
 
 from pdr.errors import InputError
@@ -45,7 +46,7 @@ class Bundle:
             try:
                 with zipfile.ZipFile(self.path) as zf:
                     self._zip = {i.filename: zf.read(i) for i in zf.infolist() if not i.is_dir()}
-            except (zipfile.BadZipFile, OSError, EOFError, ValueError) as exc:
+            except (zipfile.BadZipFile, OSError, EOFError, ValueError, zlib.error) as exc:
                 raise InputError(f"not a readable zip archive ({exc})", source=str(self.path)) from None
             self._prefix = self._root(anchor)
         elif not self.path.is_dir():
@@ -86,7 +87,7 @@ class Bundle:
                     if cand.endswith(".gz"):
                         try:
                             return gzip.decompress(raw)
-                        except (OSError, EOFError) as exc:
+                        except (OSError, EOFError, zlib.error) as exc:
                             raise InputError(f"corrupt gzip data ({exc})", source=self.name(member)) from None
                     return raw
             return None

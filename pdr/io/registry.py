@@ -12,6 +12,7 @@ import dataclasses
 import importlib
 import tempfile
 import zipfile
+import zlib
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -113,7 +114,7 @@ def unzipped(path: Path) -> Iterator[Path]:
                     if name.startswith(("__MACOSX/", "/")) or ".." in Path(name).parts:
                         continue
                     zf.extract(info, root)
-        except (zipfile.BadZipFile, OSError, EOFError, ValueError) as exc:
+        except (zipfile.BadZipFile, OSError, EOFError, ValueError, zlib.error) as exc:
             raise InputError(f"not a readable zip archive ({exc})", source=str(path)) from None
         entries = list(root.iterdir()) if root.is_dir() else []
         yield entries[0] if len(entries) == 1 else root

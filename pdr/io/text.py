@@ -9,6 +9,7 @@ from __future__ import annotations
 import gzip
 import io
 import warnings as warning_filters
+import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -39,7 +40,7 @@ def read_bytes(path: str | Path) -> bytes:
     if p.name.endswith(".gz") or raw[:2] == b"\x1f\x8b":
         try:
             raw = gzip.decompress(raw)
-        except (OSError, EOFError) as exc:
+        except (OSError, EOFError, zlib.error) as exc:      # zlib.error: a bad deflate block inside the gzip
             raise InputError(f"corrupt gzip data ({exc})", source=str(p)) from None
     return raw
 
@@ -78,7 +79,7 @@ def head(path: str | Path, n: int = SNIFF_BYTES) -> bytes:
         with p.open("rb") as f:
             start = f.read(n)
         return b"" if start.startswith(b"PK\x03\x04") else start
-    except (OSError, EOFError):
+    except (OSError, EOFError, zlib.error):
         return b""
 
 

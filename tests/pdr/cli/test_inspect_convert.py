@@ -215,3 +215,47 @@ def test_inspect_shows_the_location_fix_and_the_earths_field_there(capsys, tmp_p
     assert "location:  49.46000, 11.11000" in out and "unknown (no date" in out
     _, out, _ = _run(capsys, "inspect", str(native.write(_recording(), tmp_path / "none")))
     assert "location:" not in out
+
+
+def _bad_deflate(text: bytes, at: int) -> bytes:
+    """A gzip of ``text`` whose deflate stream is good up to ``text[:at]`` and then holds a block of the reserved type
+    3: gzip.decompress raises zlib.error ("invalid block type"), not the gzip layer's OSError."""
+    import zlib
+
+    c = zlib.compressobj(9, zlib.DEFLATED, -15)
+    good = c.compress(text[:at]) + c.flush(zlib.Z_FULL_FLUSH)          # ends on a byte boundary
+    return b"\x1f\x8b\x08\x00\x00\x00\x00\x00\x00\xff" + good + b"\x07" + b"\x00" * 16
+
+
+@pytest.mark.parametrize("command", ["inspect", "track", "convert"])
+def test_a_gzip_log_with_a_bad_deflate_block_is_a_clean_error(capsys, tmp_path, command):
+    """A ``.gz`` log whose compressed data is damaged past its first bytes (the sniffer reads its start, the reader
+    then meets the damage) is an error naming the file, exit code 2; it was zlib.error's traceback."""
+    import gzip
+
+    from tests.conftest import REPO_ROOT
+
+    text = gzip.decompress((REPO_ROOT / "mobile_logs" / "real" / "ms_indoor_site2_F3_5dd51a7650e04e0006f5642c.txt.gz")
+                           .read_bytes())
+    bad = tmp_path / "trace.txt.gz"
+    bad.write_bytes(_bad_deflate(text, len(text) * 2 // 3))
+    tail = {"inspect": [], "track": ["--out", str(tmp_path / "t.csv")],
+            "convert": ["--to", "native", str(tmp_path / "n")]}[command]
+    code, out, err = _run(capsys, command, str(bad), *tail)
+    assert code == 2 and out == ""
+    assert err.startswith(f"error: {bad}: corrupt gzip data") and "Traceback" not in err
+
+
+def test_a_zipped_log_with_a_bad_deflate_member_is_a_clean_error(tmp_path):
+    """The same damage in a ``.gz`` member of a zip (Bundle.get) names the member."""
+    import zipfile
+
+    from pdr.errors import InputError
+    from pdr.io.bundle import Bundle
+
+    z = tmp_path / "log.zip"
+    with zipfile.ZipFile(z, "w") as zf:
+        zf.writestr("Accelerometer.csv.gz", _bad_deflate(b"t,x\n1,2\n" * 100, 400))
+    with pytest.raises(InputError, match="corrupt gzip data") as err:
+        Bundle(z).get("Accelerometer.csv")
+    assert "log.zip:Accelerometer.csv" in str(err.value)
