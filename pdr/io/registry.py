@@ -21,6 +21,7 @@ from typing import Any
 
 from pdr.errors import InputError, UnknownFormatError
 from pdr.io.bundle import is_zip
+from pdr.io.text import read_bytes
 from pdr.recording import Recording
 
 #: Reader modules in the order they are sniffed (more specific formats first).
@@ -59,6 +60,15 @@ def format_descriptions() -> dict[str, str]:
     return {name: str(getattr(m, "DESCRIPTION", "")) for name, m in _by_name().items()}
 
 
+def _is_gzip(path: Path) -> bool:
+    """The file starts with the gzip magic bytes."""
+    try:
+        with path.open("rb") as f:
+            return f.read(2) == b"\x1f\x8b"
+    except OSError:
+        return False
+
+
 def detect_format(path: str | Path) -> str:
     """Name of the format of ``path``; :class:`UnknownFormatError` if no reader recognises it."""
     p = Path(path)
@@ -72,6 +82,8 @@ def detect_format(path: str | Path) -> str:
             for module in _modules():
                 if module.sniff(inner):
                     return str(module.FORMAT)
+    if p.is_file() and _is_gzip(p):
+        read_bytes(p)       # a gzip no reader recognised may be one damaged at its start: InputError naming it
     for module in _modules():
         # A reader may recognise a log of its format that lacks what it needs (``near_miss``: why, or None).
         why = module.near_miss(p) if hasattr(module, "near_miss") else None

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gzip
 import json
 
 import numpy as np
@@ -231,8 +232,6 @@ def _bad_deflate(text: bytes, at: int) -> bytes:
 def test_a_gzip_log_with_a_bad_deflate_block_is_a_clean_error(capsys, tmp_path, command):
     """A ``.gz`` log whose compressed data is damaged past its first bytes (the sniffer reads its start, the reader
     then meets the damage) is an error naming the file, exit code 2; it was zlib.error's traceback."""
-    import gzip
-
     from tests.conftest import REPO_ROOT
 
     text = gzip.decompress((REPO_ROOT / "mobile_logs" / "real" / "ms_indoor_site2_F3_5dd51a7650e04e0006f5642c.txt.gz")
@@ -259,3 +258,19 @@ def test_a_zipped_log_with_a_bad_deflate_member_is_a_clean_error(tmp_path):
     with pytest.raises(InputError, match="corrupt gzip data") as err:
         Bundle(z).get("Accelerometer.csv")
     assert "log.zip:Accelerometer.csv" in str(err.value)
+
+
+@pytest.mark.parametrize("damage", ["bad first block", "cut after the header"])
+def test_a_gzip_damaged_at_its_start_says_corrupt_gzip_not_unsupported_format(capsys, tmp_path, damage):
+    """A ``.gz`` whose first bytes no longer decompress gives the sniffers nothing to recognise; the error is the
+    damaged gzip, not 'not a supported log format' (what it said before)."""
+    bad = tmp_path / "trace.txt.gz"
+    text = b"1574142012005\tTYPE_ACCELEROMETER\t0.1\t0.2\t9.8\t3\n" * 200
+    bad.write_bytes(_bad_deflate(text, 0) if damage == "bad first block" else gzip.compress(text)[:14])
+    code, out, err = _run(capsys, "inspect", str(bad))
+    assert code == 2 and out == ""
+    assert err.startswith(f"error: {bad}: corrupt gzip data"), err
+    plain = tmp_path / "other.txt.gz"                   # an intact gzip of no log format is still that
+    plain.write_bytes(gzip.compress(b"just some text\n"))
+    code, _, err = _run(capsys, "inspect", str(plain))
+    assert code == 2 and "not a supported log format" in err
