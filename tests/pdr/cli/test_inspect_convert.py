@@ -274,3 +274,19 @@ def test_a_gzip_damaged_at_its_start_says_corrupt_gzip_not_unsupported_format(ca
     plain.write_bytes(gzip.compress(b"just some text\n"))
     code, _, err = _run(capsys, "inspect", str(plain))
     assert code == 2 and "not a supported log format" in err
+
+
+@pytest.mark.parametrize("command", ["convert", "track"])
+def test_an_output_path_that_cannot_be_written_is_a_one_line_error(capsys, tmp_path, native_log, command):
+    """--out (or convert's OUT) inside a folder that is a file: 'error: PATH: reason', exit 2; it was the OSError's
+    traceback (exit 1) for every command that writes (track, foot, classify, convert, allan)."""
+    blocker = tmp_path / "a_file"
+    blocker.write_text("x")
+    out = blocker / "out.csv"
+    argv = ["convert", str(native_log), "--to", "native", str(out)] if command == "convert" else \
+        ["track", str(native_log), "--out", str(out)]
+    code, stdout, err = _run(capsys, *argv)
+    assert code == 2
+    last = err.strip().splitlines()[-1]
+    assert last.startswith(f"error: {out}") or last.startswith(f"error: {blocker}"), err
+    assert "Traceback" not in err
