@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from pdr.errors import InputError
 from pdr.evaluation.foot_metrics import pyshoe_turn
 from pdr.evaluation.scoring import start_offset
 from pdr.recording import Recording
@@ -119,5 +120,9 @@ def plot_track(path: str | Path, t_s: FloatArray, en_m: FloatArray, title: str, 
     import matplotlib.pyplot as plt
 
     fig = track_figure(t_s, en_m, title, truth, label, extra, turn)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    try:
+        fig.savefig(path, dpi=100)
+    except ValueError as exc:   # an image format matplotlib does not write, from the name's suffix (e.g. '.pdfx')
+        raise InputError(str(exc), source=str(path), field="--plot") from None
+    finally:
+        plt.close(fig)

@@ -99,6 +99,21 @@ def test_pdr_track_plot_titles_the_walk(tmp_path: Path, capsys: pytest.CaptureFi
     assert " steps, " in capsys.readouterr().out
 
 
+def test_a_plot_name_of_an_image_format_matplotlib_cannot_write_is_a_clean_error(tmp_path: Path) -> None:
+    """``--plot F.pdfx``: 'error: F, field '--plot': Format 'pdfx' is not supported ...' (an InputError); it was
+    matplotlib's ValueError traceback after the CSV was written."""
+    from pdr.cli.plots import plot_track
+    from pdr.errors import InputError
+
+    bad = tmp_path / "track.pdfx"
+    with pytest.raises(InputError, match="'pdfx' is not supported") as err:
+        plot_track(bad, np.arange(3.0), np.zeros((3, 2)), "walk")
+    assert str(err.value).startswith(f"{bad}, field '--plot'")
+    svg = tmp_path / "track.svg"                # a format it writes is still written
+    plot_track(svg, np.arange(3.0), np.zeros((3, 2)), "walk")
+    assert svg.read_bytes().lstrip().startswith(b"<?xml")
+
+
 def test_eval_ipin_refuses_what_it_cannot_score(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     # A file that is not an IPIN log, a folder without any, a missing path: each a clear error, never "ALL (0 files)".
     assert main(["eval", "ipin", str(SIM / "hand_escalator.zip")]) == 2
