@@ -109,7 +109,8 @@ def track_figure(t_s: FloatArray, en_m: FloatArray, title: str, truth: PlotTruth
     ax.grid(True, lw=0.3, alpha=0.6)
     lines = textwrap.wrap(title, TITLE_CHARS) + ([TURNED_NOTE if turn else ALIGNED_NOTE] if aligned else [])
     ax.set_title("\n".join(lines), fontsize=9)
-    ax.legend(loc="best", fontsize=8)
+    if ax.get_legend_handles_labels()[0]:     # an empty track without truth has nothing to list
+        ax.legend(loc="best", fontsize=8)
     fig.tight_layout()
     return fig
 

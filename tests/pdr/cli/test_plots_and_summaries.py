@@ -99,6 +99,20 @@ def test_pdr_track_plot_titles_the_walk(tmp_path: Path, capsys: pytest.CaptureFi
     assert " steps, " in capsys.readouterr().out
 
 
+def test_an_empty_track_without_truth_plots_without_a_legend_warning() -> None:
+    """No steps and no truth (pdr track --plot on the car trip driving_phone_mount/17): no legend, and no matplotlib
+    'No artists with labels found to put in legend' UserWarning on stderr as before."""
+    import warnings
+
+    import matplotlib.pyplot as plt
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        fig = track_figure(np.zeros(0), np.zeros((0, 2)), "pdr track trip: 0 steps, 0.0 m")
+    assert fig.axes[0].get_legend() is None
+    plt.close(fig)
+
+
 def test_a_plot_name_of_an_image_format_matplotlib_cannot_write_is_a_clean_error(tmp_path: Path) -> None:
     """``--plot F.pdfx``: 'error: F, field '--plot': Format 'pdfx' is not supported ...' (an InputError); it was
     matplotlib's ValueError traceback after the CSV was written."""
