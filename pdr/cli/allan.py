@@ -108,7 +108,13 @@ def run(args: argparse.Namespace) -> int:
             rec = read_recording(log, format=args.format)
             t_read = time.perf_counter() - t0
             bar.advance(note="analysis")
-            res = characterise_recording(rec, sensors=sensors, axes=tuple(args.axis), settings=settings)
+            try:
+                res = characterise_recording(rec, sensors=sensors, axes=tuple(args.axis), settings=settings)
+            except InputError as exc:   # e.g. "stream 'gyro': has 3 samples": say which of the logs
+                if exc.source is not None and str(log) in str(exc.source):
+                    raise
+                where = f"{log}, {exc.source}" if exc.source else str(log)
+                raise InputError(exc.message, source=where, line=exc.line, field=exc.field) from None
             t_char = time.perf_counter() - t0 - t_read
             bar.advance(note="writing the report")
             out = args.out if len(args.logs) == 1 else args.out / _unique(Path(log).name, names)

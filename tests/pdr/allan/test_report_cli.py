@@ -129,6 +129,16 @@ def test_cli_bad_input(tmp_path, capsys):
     assert "too short for tau = 100 s" in capsys.readouterr().err
 
 
+def test_cli_error_of_one_of_several_logs_names_that_log(tmp_path, capsys):
+    """With several LOGs, a record the analysis refuses (3 samples) is named: it said only "error: stream 'gyro':
+    has 3 samples; ..." after the first log's report."""
+    good = _write_npz(tmp_path / "good.npz", n=3000)
+    tiny = _write_npz(tmp_path / "tiny.npz", n=3)
+    assert main(["allan", str(good), str(tiny), "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {tiny}, stream 'gyro': has 3 samples"), err
+
+
 def test_html_names_the_file_the_axes_and_the_paper(tmp_path):
     """A report read from a temporary copy shows only the file name; each grade row names its axis; the grade
     table cites the paper (not the project's seed number); a lab IMU is not called a phone."""
