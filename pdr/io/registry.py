@@ -94,10 +94,32 @@ def detect_format(path: str | Path) -> str:
         "pass --format to force one", source=str(p))
 
 
+#: At most this many entries of a folder are sniffed for :func:`_logs_in`.
+_MAX_LISTED = 50
+
+
+def _logs_in(folder: Path) -> list[Path]:
+    """The entries of ``folder`` (files and sub-folders, the first :data:`_MAX_LISTED` by name) a reader recognises."""
+    found = []
+    for child in sorted(folder.iterdir())[:_MAX_LISTED]:
+        if not child.name.startswith(".") and any(m.sniff(child) for m in _modules()):
+            found.append(child)
+    return found
+
+
 def read_recording(path: str | Path, format: str | None = None) -> Recording:
     """Read a log into a :class:`Recording`, detecting its format unless ``format`` is given."""
     p = Path(path)
-    name = format or detect_format(p)
+    try:
+        name = format or detect_format(p)
+    except UnknownFormatError as exc:
+        logs = _logs_in(p) if p.is_dir() and "not a supported log format" in exc.message else []
+        if logs:    # a folder of several logs (a dataset's trials), not one log: --format would not help either
+            shown = ", ".join(c.name for c in logs[:3]) + (", ..." if len(logs) > 3 else "")
+            many = f"{len(logs)}{'+' if len(logs) >= _MAX_LISTED else ''}"
+            raise UnknownFormatError(f"not one log but a folder that holds logs ({many} of its entries: {shown}); "
+                                     "pass one of them", source=str(p)) from None
+        raise
     module = _by_name().get(name)
     if module is None:
         raise UnknownFormatError(f"unknown format '{name}' (supported: {', '.join(format_names())})",

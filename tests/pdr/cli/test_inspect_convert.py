@@ -290,3 +290,25 @@ def test_an_output_path_that_cannot_be_written_is_a_one_line_error(capsys, tmp_p
     last = err.strip().splitlines()[-1]
     assert last.startswith(f"error: {out}") or last.startswith(f"error: {blocker}"), err
     assert "Traceback" not in err
+
+
+def test_a_folder_of_several_logs_says_so_instead_of_unsupported_format(capsys, tmp_path):
+    """``pdr inspect pyshoe_vicon/`` (a dataset folder) said 'not a supported log format ...; pass --format to force
+    one', which no --format fixes; it now names logs it holds and asks for one. A folder of no logs is unchanged."""
+    from tests.conftest import REPO_ROOT
+
+    ms = (REPO_ROOT / "mobile_logs" / "real" / "ms_indoor_site2_F3_5dd51a7650e04e0006f5642c.txt.gz").read_bytes()
+    trials = tmp_path / "trials"
+    trials.mkdir()
+    for name in ("a.txt.gz", "b.txt.gz"):
+        (trials / name).write_bytes(ms)
+    (trials / "notes.md").write_text("two walks\n")
+    code, out, err = _run(capsys, "inspect", str(trials))
+    assert code == 2 and out == ""
+    assert err.strip() == (f"error: {trials}: not one log but a folder that holds logs (2 of its entries: a.txt.gz, "
+                           "b.txt.gz); pass one of them")
+    empty = tmp_path / "nothing"
+    empty.mkdir()
+    (empty / "notes.md").write_text("no walks\n")
+    code, _, err = _run(capsys, "inspect", str(empty))
+    assert code == 2 and "not a supported log format" in err
