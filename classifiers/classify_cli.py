@@ -82,13 +82,20 @@ def _classify(args: argparse.Namespace) -> int:
             rows = [r.to_dict() for r in clf.update(rec) + clf.finish()]
         else:
             rows = model.classify(rec).rows(t0)
+    if not rows:     # an empty CSV says why (a log shorter than one window, or no step, stop or ride in it)
+        span = rec.time_span_s()
+        why = (f"the log's {span[1] - span[0]:.1f} s hold no full {model.window.length_s:g} s window of the streams "
+               f"the '{name}' model needs" if name is not None else
+               "the phone pipeline found no step, stop or elevator ride in the log")
+        print(f"note: no motion modes: {why}; the CSV has its header only", file=sys.stderr)
     out = Path(args.out)
     write_modes_csv(rows, out)
     tally: dict[str, int] = {}
     for r in rows:
         tally[r["mode"]] = tally.get(r["mode"], 0) + 1
     what = "timeline entries" if name is None else "windows"
-    print(f"wrote {out}: {len(rows)} {what} (" + ", ".join(f"{m} {c}" for m, c in sorted(tally.items())) + ")")
+    counts = " (" + ", ".join(f"{m} {c}" for m, c in sorted(tally.items())) + ")" if tally else ""
+    print(f"wrote {out}: {len(rows)} {what}{counts}")
     return 0
 
 

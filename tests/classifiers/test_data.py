@@ -127,3 +127,23 @@ def test_landmark_tree_recall_target_on_simulated_and_ipin_logs() -> None:
     m = classification_metrics(data.y, res.label, res.confidence, classes, ["stairs", "elevator"])
     assert m["per_class"]["stairs"]["recall"] >= 0.99
     assert m["per_class"]["elevator"]["recall"] >= 0.99
+
+
+@pytest.mark.parametrize("placement", ["pocket", "hand"])
+def test_classify_cli_says_why_its_csv_is_empty(tmp_path, capsys, placement) -> None:
+    """A 1 s log (shorter than one model window; no step for the step timeline) gave a header-only CSV and
+    'wrote ...: 0 windows ()' with no word of why; now a note says why and the summary has no empty '()'."""
+    from pdr.io import native
+    from pdr.recording import DeviceInfo, Recording, SensorStream
+
+    t = np.arange(50, dtype=np.int64) * 20_000_000          # 1 s at 50 Hz, phone at rest
+    rest = np.tile([0.0, 0.0, 9.81], (50, 1))
+    rec = Recording({"acc": SensorStream("acc", t, rest), "gyro": SensorStream("gyro", t, np.zeros((50, 3)))},
+                    device=DeviceInfo(platform="android", model="x", role="phone"))
+    log = native.write(rec, tmp_path / "short")
+    out = tmp_path / "modes.csv"
+    assert main(["classify", str(log), "--placement", placement, "--out", str(out)]) == 0
+    std = capsys.readouterr()
+    assert out.read_text(encoding="utf-8").strip() == "t_start_s,t_end_s,mode,confidence"
+    assert "note: no motion modes: " in std.err and "the CSV has its header only" in std.err
+    assert std.out.strip().endswith(f"{out}: 0 windows" if placement == "pocket" else f"{out}: 0 timeline entries")
