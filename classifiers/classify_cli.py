@@ -52,9 +52,13 @@ def _placement_modes(rec: Recording, placement: str) -> tuple[str | None, list[d
     if name is not None:
         return name, None
     timeline = timeline or step_timeline(rec, placement=group)
-    print(f"motion modes from step patterns: no mode classifier is installed for a phone carried in the "
-          f"{group or 'unknown placement'}; the modes are the phone pipeline's step modes with its stops and "
-          f"elevator rides, as the service lists them (no confidence)", file=sys.stderr)
+    named = rec.device.placement if rec.device.placement not in (None, "", "unknown") else None
+    how = (f"carried in the {group}" if group is not None else
+           "whose placement is unknown (" + (f"the log's '{named}' is not one the pipeline tracks" if named else
+                                             "the log names none") + " and no walking was detected to find it)")
+    print(f"motion modes from step patterns: no mode classifier is installed for a phone {how}; the modes are the "
+          f"phone pipeline's step modes with its stops and elevator rides, as the service lists them (no confidence)",
+          file=sys.stderr)
     end = rec.origin_ns / 1e9 + rec.time_span_s()[1]
     return None, [{"t_start_s": a, "t_end_s": b, "mode": label, "confidence": math.nan}
                   for a, b, label in timeline.spans(end)]

@@ -147,3 +147,25 @@ def test_classify_cli_says_why_its_csv_is_empty(tmp_path, capsys, placement) -> 
     assert out.read_text(encoding="utf-8").strip() == "t_start_s,t_end_s,mode,confidence"
     assert "note: no motion modes: " in std.err and "the CSV has its header only" in std.err
     assert std.out.strip().endswith(f"{out}: 0 windows" if placement == "pocket" else f"{out}: 0 timeline entries")
+
+
+def test_classify_cli_names_an_undetected_placement_plainly(tmp_path, capsys) -> None:
+    """No placement in the log and no walking to detect it (the car trip driving_phone_mount/17): the notice said
+    'a phone carried in the unknown placement'."""
+    from pdr.io import native
+    from pdr.recording import DeviceInfo, Recording, SensorStream
+
+    t = np.arange(500, dtype=np.int64) * 20_000_000          # 10 s at 50 Hz, phone at rest
+    rec = Recording({"acc": SensorStream("acc", t, np.tile([0.0, 0.0, 9.81], (500, 1))),
+                     "gyro": SensorStream("gyro", t, np.zeros((500, 3)))},
+                    device=DeviceInfo(platform="android", model="x", role="phone"))
+    log = native.write(rec, tmp_path / "still")
+    assert main(["classify", str(log), "--out", str(tmp_path / "modes.csv")]) == 0
+    err = capsys.readouterr().err
+    assert "for a phone whose placement is unknown (the log names none and no walking was detected" in err
+    assert "the unknown placement" not in err
+    mounted = Recording(rec.streams, device=DeviceInfo(platform="android", model="x", role="phone",
+                                                       placement="vehicle_mount"))
+    log = native.write(mounted, tmp_path / "mounted")
+    assert main(["classify", str(log), "--out", str(tmp_path / "modes.csv")]) == 0
+    assert "(the log's 'vehicle_mount' is not one the pipeline tracks and no walking" in capsys.readouterr().err
