@@ -17,13 +17,18 @@ from pdr.errors import InputError
 from pdr.io.text import decode_text, read_bytes, strip_gz
 
 
-def is_zip(path: Path) -> bool:
-    """True for a readable file starting with the zip signature (never raises)."""
+def starts_with(path: Path, magic: bytes) -> bool:
+    """True for a readable file whose first bytes are ``magic`` (never raises)."""
     try:
         with path.open("rb") as f:
-            return f.read(4) == b"PK\x03\x04"
+            return f.read(len(magic)) == magic
     except OSError:
         return False
+
+
+def is_zip(path: Path) -> bool:
+    """True for a readable file starting with the zip signature (never raises)."""
+    return starts_with(path, b"PK\x03\x04")
 
 
 class Bundle:

@@ -20,7 +20,7 @@ from types import ModuleType
 from typing import Any
 
 from pdr.errors import InputError, UnknownFormatError
-from pdr.io.bundle import is_zip
+from pdr.io.bundle import is_zip, starts_with
 from pdr.io.text import read_bytes
 from pdr.recording import Recording
 
@@ -60,15 +60,6 @@ def format_descriptions() -> dict[str, str]:
     return {name: str(getattr(m, "DESCRIPTION", "")) for name, m in _by_name().items()}
 
 
-def _is_gzip(path: Path) -> bool:
-    """The file starts with the gzip magic bytes."""
-    try:
-        with path.open("rb") as f:
-            return f.read(2) == b"\x1f\x8b"
-    except OSError:
-        return False
-
-
 def detect_format(path: str | Path) -> str:
     """Name of the format of ``path``; :class:`UnknownFormatError` if no reader recognises it."""
     p = Path(path)
@@ -82,7 +73,7 @@ def detect_format(path: str | Path) -> str:
             for module in _modules():
                 if module.sniff(inner):
                     return str(module.FORMAT)
-    if p.is_file() and _is_gzip(p):
+    if p.is_file() and starts_with(p, b"\x1f\x8b"):
         read_bytes(p)       # a gzip no reader recognised may be one damaged at its start: InputError naming it
     for module in _modules():
         # A reader may recognise a log of its format that lacks what it needs (``near_miss``: why, or None).
