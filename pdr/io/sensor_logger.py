@@ -12,8 +12,9 @@ Export: a folder or zip with one CSV per sensor, ``time,seconds_elapsed,<compone
 order is ``z,y,x``: columns are always read by name), plus ``Metadata.csv`` (``platform``, ``standardisation``,
 ``device name``, ...). The export of early 2021 (Metadata ``version`` 2) has ``time,<components>`` (no
 ``seconds_elapsed``) and no ``standardisation`` column; it is read the same way. The app writes empty (0-byte)
-files for streams that recorded nothing: they are skipped with a warning. The JSON export (a list of flat
-records ``{"sensor": "Accelerometer", "time": .., "x": ..}`` including a ``Metadata`` record) is read too.
+files for streams that recorded nothing, and a file may hold its header only: either is skipped with a warning
+naming it. The JSON export (a list of flat records ``{"sensor": "Accelerometer", "time": .., "x": ..}``
+including a ``Metadata`` record) is read too.
 
 Readings and streams
     ``accelerometer`` -> ``lin_acc`` (gravity removed!), ``totalacceleration`` -> ``acc``, ``gravity`` ->
@@ -410,6 +411,9 @@ def _read_bundle(bundle: Bundle, source: str) -> Recording:
         comps = READINGS[name][1]
         for c in ("time", *comps):
             table.column(c)  # InputError naming the missing column
+        if not len(table):
+            notes.append(f"{member}: header only, no samples: {READINGS[name][0]} skipped")
+            continue
         raw[name] = _Raw(table.column("time").astype(np.int64), table.stack(comps),
                          [f"{fname}, line {table.line(i)}" for i in range(len(table))])
     if not raw:

@@ -309,12 +309,14 @@ def test_empty_sensor_csv_is_skipped_with_a_warning(tmp_path):
     assert any("Barometer.csv: empty file" in w for w in rec.warnings)
 
 
-def test_every_sensor_csv_empty_is_refused_naming_them(tmp_path):
+@pytest.mark.parametrize(("content", "match"), [("", "empty file"),
+                                               ("time,seconds_elapsed,z,y,x\n", "header only, no samples")])
+def test_every_sensor_csv_empty_is_refused_naming_them(tmp_path, content, match):
     folder = tmp_path / "export"
     folder.mkdir()
     (folder / "Metadata.csv").write_text("version,device name,recording time,platform\n2,SM-N960F,x,android\n")
-    (folder / "Accelerometer.csv").write_text("")
-    with pytest.raises(InputError, match="Accelerometer.csv: empty file"):
+    (folder / "Accelerometer.csv").write_text(content)
+    with pytest.raises(InputError, match=f"Accelerometer.csv: {match}"):
         sensor_logger.read(folder)
 
 
@@ -392,3 +394,14 @@ def test_location_fixes_geo_reference_the_recording(tmp_path):
     assert rec.meta["location"] == {"lat_deg": 51.5, "lon_deg": -0.12, "t_ns": int(t), "horizontal_accuracy_m": 7.0,
                                     "unix_time_s": int(t) / 1e9, "fixes": 1}
     assert rec.meta["ignored_readings"] == {"location": 1}
+
+
+def test_header_only_sensor_csv_is_skipped_with_a_warning_naming_it(tmp_path):
+    # A header and no rows (an export whose accelerometer recorded nothing) was dropped without a word.
+    folder = _copy_export(tmp_path)
+    acc = folder / "Accelerometer.csv"
+    acc.write_text(acc.read_text().splitlines()[0] + "\n")
+    rec = sensor_logger.read(folder)
+    assert not rec.has("lin_acc") and rec.has("gyro")
+    assert any("Accelerometer.csv: header only, no samples" in w for w in rec.warnings), rec.warnings
+
