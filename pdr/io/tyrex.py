@@ -123,21 +123,50 @@ def _is_archive(p: Path) -> bool:
     return p.is_file() and (p.name.lower().endswith(".zip") or is_zip(p))
 
 
-def sniff(path: str | Path) -> bool:
-    """A folder (or a zip of it) with ``record.properties`` (a ``[Device]`` section) and a numeric
-    ``accelerometer.txt[.gz]``.
+def _logger_folder(path: str | Path) -> tuple[Bundle, bytes | None] | None:
+    """A folder (or a zip of it) with ``record.properties`` holding a ``[Device]`` section, and the bytes of its
+    ``accelerometer.txt[.gz]`` (None when missing); None for anything else (never raises on foreign input).
     """
     try:
         p = Path(path)
         if not (p.is_dir() or _is_archive(p)):
-            return False
+            return None
         bundle = Bundle(p, anchor=PROPERTIES)
-        props, acc = bundle.get(PROPERTIES), bundle.get("accelerometer.txt")
+        props = bundle.get(PROPERTIES)
+        if props is None or b"[Device]" not in props[:1024]:
+            return None
+        return bundle, bundle.get("accelerometer.txt")
     except Exception:  # noqa: BLE001 - sniffing must never raise on foreign input
-        return False
-    if props is None or acc is None or b"[Device]" not in props[:1024]:
-        return False
+        return None
+
+
+def _numeric_start(acc: bytes) -> bool:
     return _NUMERIC_LINE.match(acc[:512].split(b"\n", 1)[0]) is not None
+
+
+def sniff(path: str | Path) -> bool:
+    """A folder (or a zip of it) with ``record.properties`` (a ``[Device]`` section) and a numeric
+    ``accelerometer.txt[.gz]``.
+    """
+    found = _logger_folder(path)
+    return found is not None and found[1] is not None and _numeric_start(found[1])
+
+
+def near_miss(path: str | Path) -> str | None:
+    """Why a logger folder (its ``record.properties`` with a ``[Device]`` section) is not read as a recording, or
+    None: the ``accelerometer.txt[.gz]`` that :func:`sniff` needs is missing or does not start with a row of numbers.
+    """
+    found = _logger_folder(path)
+    if found is None:
+        return None
+    bundle, acc = found
+    if acc is not None:
+        return None if _numeric_start(acc) else (
+            f"a Tyrex logger recording whose {bundle.name('accelerometer.txt')} does not start with a row of "
+            "numbers (t ax ay az)")
+    others = [name for name in FILES if bundle.get(name) is not None]
+    return ("a Tyrex logger recording (record.properties) without accelerometer.txt[.gz], the accelerometer it is "
+            "read from" + (f" (it has {', '.join(others)})" if others else "; it has no sensor file at all"))
 
 
 def read(path: str | Path) -> Recording:

@@ -12,7 +12,7 @@ import pytest
 from scipy.io import savemat
 
 from pdr import quaternion as quat
-from pdr.errors import InputError
+from pdr.errors import InputError, UnknownFormatError
 from pdr.frames import GRAVITY_MPS2, wrap_angle
 from pdr.io import detect_format, tyrex
 from tests.pdr.io.dataset_samples import detect_or_skip, foreign_to, sample_path, samples_of
@@ -267,6 +267,20 @@ def test_bad_properties_and_missing_files(tmp_path):
         tyrex.read(folder)
     with pytest.raises(InputError, match="is a folder"):
         tyrex.read(folder / "record.properties")
+
+
+def test_a_logger_folder_without_its_accelerometer_says_what_is_missing(tmp_path):
+    # Detection said only "not a supported log format": sniff needs accelerometer.txt, read() alone named it.
+    folder = write_recording(tmp_path, mocap=False)
+    (folder / "accelerometer.txt.gz").unlink()
+    with pytest.raises(UnknownFormatError, match=r"Tyrex .* without accelerometer\.txt\[\.gz\].*\(it has gyroscope"):
+        detect_format(folder)
+    (folder / "accelerometer.txt").write_text("time,x,y,z\n1,0,0,9.8\n")
+    with pytest.raises(UnknownFormatError, match=r"accelerometer\.txt does not start with a row of numbers"):
+        detect_format(folder)
+    (folder / "record.properties").unlink()     # nobody's near miss: the generic message
+    with pytest.raises(UnknownFormatError, match="not a supported log format"):
+        detect_format(folder)
 
 
 def test_bad_mocap_file_is_named(tmp_path):
