@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -34,27 +36,46 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--format", default=None, help="force the log format (default: detect)")
     p.add_argument("--sensor", choices=("gyro", "acc", "both"), default="both")
     p.add_argument("--axis", nargs="+", choices=AXES, default=list(AXES), help="axes to analyse")
-    p.add_argument("--taus-per-decade", type=float, default=6.0, help="density of the log-spaced averaging times")
+    p.add_argument("--taus-per-decade", type=_positive, default=6.0, help="density of the log-spaced averaging times")
     p.add_argument("--all-taus", action="store_true", help="every averaging factor m (slow for long records)")
-    p.add_argument("--tau-min", type=float, default=None, help="shortest averaging time [s]")
-    p.add_argument("--tau-max", type=float, default=None,
+    p.add_argument("--tau-min", type=_positive, default=None, help="shortest averaging time [s]")
+    p.add_argument("--tau-max", type=_positive, default=None,
                    help="longest averaging time [s] (default: a quarter of the record)")
     p.add_argument("--estimators", nargs="+", choices=("overlapping", "nonoverlapping", "modified"),
                    default=["overlapping"], help="curves in the report (the fit always uses the overlapping one)")
-    p.add_argument("--confidence", type=float, default=ONE_SIGMA, help="confidence level of the intervals")
-    p.add_argument("--disagreement", type=float, default=0.25,
+    p.add_argument("--confidence", type=_fraction, default=ONE_SIGMA, help="confidence level of the intervals")
+    p.add_argument("--disagreement", type=_non_negative, default=0.25,
                    help="relative difference between fit and slope reading that is flagged")
     p.add_argument("--gaps", choices=("longest", "error"), default="longest",
                    help="on gaps: analyse the longest unbroken segment, or refuse")
     p.add_argument("--motion", choices=("flag", "error"), default="flag",
                    help="on motion during the record: flag the report, or refuse")
-    p.add_argument("--scale-factor-error", type=float, default=None, metavar="PCT",
+    p.add_argument("--scale-factor-error", type=_finite, default=None, metavar="PCT",
                    help="stated gyro scale-factor error in %% for the PDR impact (default: Table 1 value of the grade)")
-    p.add_argument("--step-length", type=float, default=0.75, help="walker step length [m] for the PDR impact")
-    p.add_argument("--step-rate", type=float, default=2.0, help="walker step rate [steps/s] for the PDR impact")
+    p.add_argument("--step-length", type=_positive, default=0.75, help="walker step length [m] for the PDR impact")
+    p.add_argument("--step-rate", type=_positive, default=2.0, help="walker step rate [steps/s] for the PDR impact")
     p.add_argument("--benchmark", action="store_true",
                    help="also time the overlapping estimator on all axes against allantools.oadev (if installed)")
     p.set_defaults(func=run)
+
+
+def _number(kind: str, ok: Callable[[float], bool]) -> Callable[[str], float]:
+    """An argparse ``type``: a float that ``ok`` accepts, else an argument error naming the option and ``kind``."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and ok(value)):
+            raise argparse.ArgumentTypeError(f"must be {kind}, got {text!r}")
+        return value
+    return parse
+
+
+_finite = _number("a finite number", lambda v: True)
+_positive = _number("a positive number", lambda v: v > 0)
+_non_negative = _number("a number >= 0", lambda v: v >= 0)
+_fraction = _number("a number between 0 and 1 (exclusive)", lambda v: 0 < v < 1)
 
 
 def _best_of(fn, repeats: int = 3) -> tuple[float, float]:  # noqa: ANN001
@@ -88,8 +109,8 @@ def _benchmark(values: np.ndarray, rate: float, per_decade: float) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.scale_factor_error is not None and not np.isfinite(args.scale_factor_error):
-        raise InputError("scale-factor error must be a number of percent", field="--scale-factor-error")
+    if args.tau_min is not None and args.tau_max is not None and args.tau_min > args.tau_max:
+        raise InputError(f"{args.tau_min:g} s is above --tau-max {args.tau_max:g} s", field="--tau-min")
     settings = Settings(per_decade=args.taus_per_decade, tau_min_s=args.tau_min, tau_max_s=args.tau_max,
                         all_taus=args.all_taus,
                         extra_estimators=tuple(e for e in args.estimators if e != "overlapping"),

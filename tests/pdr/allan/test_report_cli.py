@@ -129,6 +129,32 @@ def test_cli_bad_input(tmp_path, capsys):
     assert "too short for tau = 100 s" in capsys.readouterr().err
 
 
+
+@pytest.mark.parametrize(("option", "value", "match"), [
+    ("--tau-min", "-1", "must be a positive number"), ("--tau-min", "0", "must be a positive number"),
+    ("--tau-min", "nan", "must be a positive number"), ("--tau-max", "-1", "must be a positive number"),
+    ("--taus-per-decade", "0", "must be a positive number"), ("--confidence", "1", "must be a number between 0 and 1"),
+    ("--disagreement", "-0.1", "must be a number >= 0"), ("--scale-factor-error", "inf", "must be a finite number"),
+    ("--step-length", "0", "must be a positive number"), ("--step-rate", "-2", "must be a positive number"),
+])
+def test_cli_refuses_invalid_numeric_options_naming_them(tmp_path, capsys, option, value, match):
+    """``--tau-min -1`` was taken (``nan`` even ended in a traceback), others were refused only after reading the log,
+    naming an internal field ('per_decade') or the log instead of the option."""
+    log = _write_npz(tmp_path / "short.npz", n=3000)
+    with pytest.raises(SystemExit) as exit_:
+        main(["allan", str(log), "--out", str(tmp_path / "r"), option, value])
+    assert exit_.value.code == 2
+    assert f"argument {option}: {match}" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()
+
+
+def test_cli_refuses_tau_min_above_tau_max_naming_the_options(tmp_path, capsys):
+    """It said "field 'tau_min_s': no averaging time between 0.3 s and 0.1 s for this record", naming the log."""
+    log = _write_npz(tmp_path / "short.npz", n=3000)
+    assert main(["allan", str(log), "--out", str(tmp_path / "r"), "--tau-min", "0.3", "--tau-max", "0.1"]) == 2
+    assert "'--tau-min': 0.3 s is above --tau-max 0.1 s" in capsys.readouterr().err
+
+
 def test_cli_error_of_one_of_several_logs_names_that_log(tmp_path, capsys):
     """With several LOGs, a record the analysis refuses (3 samples) is named: it said only "error: stream 'gyro':
     has 3 samples; ..." after the first log's report."""
