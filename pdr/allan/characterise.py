@@ -104,9 +104,21 @@ class RecordingResult:
     settings: Settings
 
 
-def _disagreements(fit: NoiseFit, sl: SlopeReadings, tol: float) -> tuple[str, ...]:
+def _line_reading(line: str, at_s: float, through_s: float | None, tau_s: FloatArray) -> str:
+    """How a slope reading of ``line`` at ``at_s`` was taken: on the curve, or extrapolated beyond its taus from the
+    point at ``through_s`` (a short record has no tau of 3 s, nor even of 1 s).
+    """
+    if through_s is None or tau_s[0] <= at_s <= tau_s[-1]:
+        return f"{line} at {at_s:g} s"
+    why = ("the record is too short to read it there" if at_s > tau_s[-1] else
+           f"the curve starts at {tau_s[0]:.3g} s")
+    return f"{line} through tau {through_s:.3g} s extrapolated to {at_s:g} s: {why}"
+
+
+def _disagreements(fit: NoiseFit, sl: SlopeReadings, tol: float, tau_s: FloatArray) -> tuple[str, ...]:
     out = []
-    for k, what in (("N", "-1/2 line at 1 s"), ("B", "minimum / 0.664"), ("K", "+1/2 line at 3 s")):
+    for k, what in (("N", _line_reading("-1/2 line", 1.0, sl.tau_n_s, tau_s)), ("B", "minimum / 0.664"),
+                    ("K", _line_reading("+1/2 line", 3.0, sl.tau_k_s, tau_s))):
         f, s = fit.value[k], getattr(sl, k)
         if f is not None and s is not None:
             rel = abs(f - s) / s
@@ -168,7 +180,7 @@ def characterise_samples(samples: ArrayLike, rate_hz: float, sensor: str, *, axi
         sl = read_slopes(curve.tau_s, positive, edf=fit.edf)
         axes[name] = AxisResult(axis=name, adev=curve.adev[:, j], adev_lo=np.sqrt(lo), adev_hi=np.sqrt(hi),
                                 edf=fit.edf, fit=fit, slopes=sl,
-                                disagreements=_disagreements(fit, sl, st.disagreement_tolerance),
+                                disagreements=_disagreements(fit, sl, st.disagreement_tolerance, curve.tau_s),
                                 extra_adev={k: v[:, j] for k, v in extra.items()})
     calls: list[grade.GradeCall] = []
     for ax in axes.values():

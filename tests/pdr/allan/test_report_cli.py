@@ -185,3 +185,17 @@ def test_html_names_the_file_the_axes_and_the_paper(tmp_path):
     assert "seed 004" not in html and "Collin et al. (2019), Table 1" in html
     assert "Handbook of Signal Processing Systems" in html
     assert "Handbook of Signal" in data["gyro"]["grade"]["reference"]
+
+
+def test_slope_readings_beyond_a_short_record_say_they_are_extrapolated():
+    """A 2 s record (longest tau 0.5 s) flagged a "slope reading (+1/2 line at 3 s)" and "(-1/2 line at 1 s)" as if
+    read on the curve: they are the lines through a point at tau <= 0.5 s extended to 3 s and 1 s."""
+    rng = np.random.default_rng(4)
+    gyro = np.column_stack([sy.white_noise(200, FS, 1e-3, rng) + sy.random_walk(200, FS, 1e-2, rng) for _ in range(3)])
+    res = characterise_samples(gyro, FS, "gyro")
+    assert res.curve.tau_s[-1] < 1.0
+    flags = [d for ax in res.axes.values() for d in ax.disagreements]
+    assert not [f for f in flags if "line at" in f], flags
+    k = [f for f in flags if f.startswith("K: slope reading")]
+    assert k and all(re.search(r"\(\+1/2 line through tau 0\.[0-9]+ s extrapolated to 3 s: the record is too short to "
+                               r"read it there\) ", f) for f in k), k
