@@ -15,6 +15,7 @@ from typing import Any
 
 from classifiers.installed import DEFAULT_MODEL, placement_model
 from pdr.cli.one_shot import one_shot_process
+from pdr.cli.outputs import in_made_folder
 from pdr.io.registry import read_recording
 from pdr.recording import Recording
 
@@ -107,8 +108,7 @@ def write_modes_csv(rows: list[dict[str, Any]], out: Path) -> None:
     """The CSV of ``pdr classify``: ``t_start_s,t_end_s,mode,confidence`` (s on the log's clock; confidence empty
     where there is none), its folder made.
     """
-    out.parent.mkdir(parents=True, exist_ok=True)
-    with out.open("w", newline="", encoding="utf-8") as f:
+    with in_made_folder(out).open("w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
         w.writerow(["t_start_s", "t_end_s", "mode", "confidence"])
         for r in rows:

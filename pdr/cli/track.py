@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from pdr.cli.one_shot import one_shot_process
+from pdr.cli.outputs import in_made_folder
 from pdr.errors import InputError
 from pdr.io import read_recording
 from pdr.phone.configure import pipeline_config
@@ -35,7 +36,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("log", help="log file or folder (any supported format)")
     common_options(p)
     p.add_argument("--out", required=True, help="track CSV (t_s,east_m,north_m,up_m,floor,heading_deg,"
-                                               "step_length_m,mode) on the log's clock")
+                                               "step_length_m,mode) on the log's clock (its folder is made)")
     p.add_argument("--geojson", help="also write the track as GeoJSON (RFC 7946: lon/lat; only for a geo-referenced "
                                      "log: a GPS fix or a surveyed origin)")
     p.add_argument("--plot", help="also write a PNG plot of the track")
@@ -149,13 +150,14 @@ def _track(args: argparse.Namespace) -> int:
             notices = [*notices, *more]
     for n in notices:
         print(f"note: {n}", file=sys.stderr)
-    write_csv(rows, args.out)
+    write_csv(rows, in_made_folder(args.out))     # the folders of the outputs are made (pdr.cli.outputs)
     if args.geojson:
-        write_geojson(rows, args.geojson, geo_origin(rec))
+        write_geojson(rows, in_made_folder(args.geojson), geo_origin(rec))
     dist = sum(r["step_length_m"] for r in rows)
     if args.plot:
-        write_plot(rows, args.plot, rec, f"pdr track {Path(args.log).name}: {len(rows)} steps, {dist:.1f} m, "
-                                         f"heading {'smoothed' if args.smoother == 'on' else 'causal'}")
+        write_plot(rows, in_made_folder(args.plot), rec,
+                   f"pdr track {Path(args.log).name}: {len(rows)} steps, {dist:.1f} m, "
+                   f"heading {'smoothed' if args.smoother == 'on' else 'causal'}")
     print(f"{len(rows)} steps, {dist:.1f} m walked -> {args.out}")
     return 0
 

@@ -55,6 +55,23 @@ def test_track_writes_csv_and_geojson(tmp_path, capsys):
     assert "steps" in capsys.readouterr().out
 
 
+
+def test_track_makes_the_folders_of_its_outputs_as_classify_does(tmp_path, capsys):
+    """``--out missing/x.csv`` failed ("No such file or directory") after the whole track, where ``pdr classify``
+    makes the folder; so did --geojson and --plot."""
+    from dataclasses import replace
+
+    from pdr.io import native, read_recording
+
+    rec = read_recording(SIM / "hand_escalator.zip")
+    located = native.write(replace(rec, meta={**rec.meta, "location": {"lat_deg": 49.4611, "lon_deg": 11.111}}),
+                           tmp_path / "located")
+    out, gj, png = tmp_path / "a" / "b" / "t.csv", tmp_path / "c" / "t.geojson", tmp_path / "d" / "t.png"
+    assert main(["track", str(located), "--out", str(out), "--geojson", str(gj), "--plot", str(png)]) == 0, \
+        capsys.readouterr().err
+    assert read_rows(out) and json.loads(gj.read_text())["features"] and png.read_bytes().startswith(b"\x89PNG")
+
+
 def test_track_smooths_offline_unless_told_not_to(tmp_path, capsys):
     smoothed, causal = tmp_path / "s.csv", tmp_path / "c.csv"
     assert main(["track", str(SIM / "hand_escalator.zip"), "--out", str(smoothed)]) == 0
