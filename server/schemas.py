@@ -89,10 +89,30 @@ CLASSIFY_WINDOW = {
 
 
 def validate(body: Any, schema: dict[str, Any], what: str) -> None:
-    """Raise a 422 naming the offending JSON path when ``body`` does not match ``schema``."""
+    """Raise a 422 naming the offending JSON path when ``body`` does not match ``schema``.
+
+    The details give it as ``field`` (as every error body does; for a missing or unexpected property, that
+    property) and as ``path`` (the object or value that failed, as before ``field`` was added).
+    """
     validator = jsonschema.Draft202012Validator(schema)
     error = next(iter(sorted(validator.iter_errors(body), key=lambda e: list(e.absolute_path))), None)
     if error is not None:
         path = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in error.absolute_path).lstrip(".")
+        field = ".".join(p for p in (path, _property(error)) if p)
         raise APIError(422, f"invalid {what}: {path or '(body)'}: {error.message}",
-                       details={"path": path, "validator": error.validator})
+                       details={"path": path, "validator": error.validator} | ({"field": field} if field else {}))
+
+
+def _property(error: jsonschema.ValidationError) -> str:
+    """The property a ``required`` or ``additionalProperties`` error is about (the first missing or unexpected
+    one), else ``""``.
+    """
+    if not isinstance(error.instance, dict):
+        return ""
+    if error.validator == "required":
+        required = error.validator_value if isinstance(error.validator_value, list) else []
+        return next((str(k) for k in required if k not in error.instance), "")
+    if error.validator == "additionalProperties":
+        known = error.schema.get("properties", {}) if isinstance(error.schema, dict) else {}
+        return next((str(k) for k in error.instance if k not in known), "")
+    return ""

@@ -87,13 +87,25 @@ def test_415_not_json(client, tokens):
 
 
 @pytest.mark.parametrize(
-    ("body", "match"),
-    [({"session_id": "bad id with spaces"}, "session_id"), ({"placement": "shoe"}, "placement"),
-     ({"unexpected": 1}, "unexpected")],
+    ("body", "match", "field", "path"),
+    [({"session_id": "bad id with spaces"}, "session_id", "session_id", "session_id"),
+     ({"placement": "shoe"}, "placement", "placement", "placement"),
+     ({"unexpected": 1}, "unexpected", "unexpected", ""),
+     ({"processing": {"start": "x"}}, "processing.start", "processing.start", "processing.start"),
+     ({"origin": {"lat_deg": 1}}, "lon_deg", "origin.lon_deg", "origin")],
 )
-def test_422_schema_violations_name_the_field(client, tokens, body, match):
+def test_422_schema_violations_name_the_field(client, tokens, body, match, field, path):
+    """A schema error names the field in details.field, as every other error does (details.path kept)."""
     err = assert_error(client.post("/api/v1/sessions", json=body, headers=bearer(tokens["alice"])), 422, match)
-    assert "path" in err["details"]
+    assert err["details"]["field"] == field
+    assert err["details"]["path"] == path
+
+
+def test_422_schema_violation_of_processing_options_names_the_field(client, tokens):
+    sid = _session(client, tokens["alice"])
+    resp = client.put(f"/api/v1/sessions/{sid}/processing", json={"foot": {"zaru": 1}},
+                      headers=bearer(tokens["alice"]))
+    assert assert_error(resp, 422, "foot.zaru")["details"]["field"] == "foot.zaru"
 
 
 def test_422_invalid_batch_names_stream_and_sample(client, tokens):
