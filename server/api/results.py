@@ -94,7 +94,7 @@ def parse_heading() -> str:
     """The ``?heading=`` query parameter, ``causal`` (default) or ``smoothed`` (module doc)."""
     heading = request.args.get("heading", "causal")
     if heading not in ("causal", "smoothed"):
-        raise APIError(400, f"unknown heading '{heading[:20]}'; use causal or smoothed")
+        raise APIError(400, f"unknown heading '{heading[:20]}'; use causal or smoothed", details={"field": "heading"})
     return heading
 
 
@@ -184,7 +184,7 @@ def track(session_id: str) -> Response:
     row = svc.store.session_row(session_id, user.id)
     fmt = request.args.get("format", "json")
     if fmt not in ("json", "csv", "geojson"):
-        raise APIError(400, f"unknown format '{fmt[:20]}'; use json, csv or geojson")
+        raise APIError(400, f"unknown format '{fmt[:20]}'; use json, csv or geojson", details={"field": "format"})
     heading = parse_heading()
     since = parse_since()
     rows, smoothing = track_points(session_id, parse_device(session_id), since, heading)

@@ -150,3 +150,10 @@ def test_openapi_documents_every_api_route(app: Flask, client):
         assert rule.methods is not None
         for method in rule.methods - {"HEAD", "OPTIONS"}:
             assert (path, method.lower()) in documented, f"{method} {path} missing from the OpenAPI document"
+
+
+@pytest.mark.parametrize(("query", "field"), [("format=xml", "format"), ("heading=bogus", "heading")])
+def test_400_unknown_track_format_or_heading_names_the_parameter(client, tokens, query, field):
+    sid = _session(client, tokens["alice"])
+    resp = client.get(f"/api/v1/sessions/{sid}/track?{query}", headers=bearer(tokens["alice"]))
+    assert assert_error(resp, 400, f"unknown {field}")["details"]["field"] == field
