@@ -38,7 +38,7 @@ from pdr.phone.track_schema import TRACK_COLUMNS
 from server import db
 from server.api import current_user, services
 from server.errors import APIError
-from server.feet import primary_role
+from server.feet import ROLE_PRIORITY, primary_role
 from server.processing_options import map_matched
 from server.session_clock import session_clock
 from server.store import step_fields
@@ -81,9 +81,12 @@ def parse_after() -> int | None:
 
 def parse_device(session_id: str) -> str | None:
     """The ``?device=`` query parameter: a device role, ``primary`` (the session's primary track,
-    :mod:`server.feet`), or None (every device's rows).
+    :mod:`server.feet`), or None (every device's rows); a 400 naming it for anything else.
     """
     device = request.args.get("device") or None
+    if device is not None and device not in ("primary", *ROLE_PRIORITY):
+        raise APIError(400, f"unknown device '{device[:40]}'; use one of {', '.join(ROLE_PRIORITY)} or primary",
+                       details={"field": "device"})
     if device == "primary":
         store = services().store
         return primary_role(store.track_summary(session_id, previous=store.rebuilding(session_id))) or device

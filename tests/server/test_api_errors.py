@@ -157,3 +157,13 @@ def test_400_unknown_track_format_or_heading_names_the_parameter(client, tokens,
     sid = _session(client, tokens["alice"])
     resp = client.get(f"/api/v1/sessions/{sid}/track?{query}", headers=bearer(tokens["alice"]))
     assert assert_error(resp, 400, f"unknown {field}")["details"]["field"] == field
+
+
+@pytest.mark.parametrize("route", ["track", "track/columns"])
+def test_400_unknown_track_device_names_the_parameter(client, tokens, route):
+    sid = _session(client, tokens["alice"])
+    h = bearer(tokens["alice"])
+    resp = client.get(f"/api/v1/sessions/{sid}/{route}?device=bogus", headers=h)
+    assert assert_error(resp, 400, "unknown device 'bogus'")["details"]["field"] == "device"
+    for known in ("phone", "left_foot", "fused", "primary", ""):   # a known role without rows is no error
+        assert client.get(f"/api/v1/sessions/{sid}/{route}?device={known}", headers=h).status_code == 200
