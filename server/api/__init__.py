@@ -67,6 +67,16 @@ def current_user(allow_query_token: bool = False, scope: str | None = None) -> U
     return user
 
 
+def no_query_parameters() -> None:
+    """400 naming the first query parameter of a request to a list that takes none (every item is listed: no
+    paging or filter), rather than ignoring it (``?limit=5`` would answer them all).
+    """
+    name = next(iter(request.args), None)
+    if name is not None:
+        raise APIError(400, f"unknown query parameter '{name[:40]}': this list takes none (it answers every item)",
+                       details={"field": name[:40]})
+
+
 def json_body() -> Any:
     """The request's JSON body: 415 if it is not declared JSON, 400 if it does not parse."""
     if not request.is_json:

@@ -35,7 +35,7 @@ from pdr.errors import InputError
 from pdr.fusion.centre import FusionConfig
 from pdr.fusion.group import Group
 from pdr.fusion.measurements import StepSummary, parse_event
-from server.api import current_user, json_body, services
+from server.api import current_user, json_body, no_query_parameters, services
 from server.errors import APIError
 from server.feet import FOOT_SIDES, ROLE_SIDES, foot_role
 from server.group_feed import feed_groups
@@ -229,6 +229,7 @@ def create_group() -> tuple[Response, int]:
 @bp.get("")
 def list_groups() -> Response:
     user = current_user()
+    no_query_parameters()
     return jsonify({"groups": [group_json(r) for r in store().list_for(user.id)]})
 
 

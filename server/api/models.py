@@ -10,7 +10,7 @@ from typing import Any
 from flask import Blueprint, Response, jsonify, send_file
 
 from pdr.errors import InputError
-from server.api import current_user, json_body, services
+from server.api import current_user, json_body, no_query_parameters, services
 from server.errors import APIError
 from server.schemas import CLASSIFY_WINDOW, validate
 
@@ -76,6 +76,7 @@ def _card(name: str, d: Path) -> dict[str, Any]:
 @bp.get("/models")
 def list_models() -> Response:
     current_user()
+    no_query_parameters()
     return jsonify({"models": [_card(n, d) for n, d in _model_dirs().items()]})
 
 

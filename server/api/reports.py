@@ -19,7 +19,7 @@ from flask import Blueprint, Response, jsonify
 from sqlalchemy import delete, select
 
 from server import db
-from server.api import current_user, services, uploaded_log
+from server.api import current_user, no_query_parameters, services, uploaded_log
 from server.errors import APIError
 
 log = logging.getLogger(__name__)
@@ -47,6 +47,7 @@ def _report(report_id: str) -> Any:
 @bp.get("")
 def list_reports() -> Response:
     user = current_user()
+    no_query_parameters()
     with services().store.engine.connect() as conn:
         rows = conn.execute(select(db.reports.c.id, db.reports.c.kind, db.reports.c.status, db.reports.c.source_name,
                                    db.reports.c.created_at, db.reports.c.error)

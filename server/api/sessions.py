@@ -12,7 +12,7 @@ from flask import Blueprint, Response, jsonify, request
 from pdr.errors import InputError
 from pdr.recording import DEVICE_ROLES, FOOT_ROLES, Recording, geo_origin
 from server import plausibility
-from server.api import current_user, json_body, services, uploaded_log
+from server.api import current_user, json_body, no_query_parameters, services, uploaded_log
 from server.api.sites import give_session_site, named_site
 from server.errors import APIError
 from server.feet import primary_role, session_feet
@@ -141,6 +141,7 @@ def geo_reference(session_id: str, recording: Recording) -> None:
 @bp.get("")
 def list_sessions() -> Response:
     user = current_user()
+    no_query_parameters()
     rows = services().store.list_sessions(user.id)
     return jsonify({"sessions": [session_json(r) for r in rows]})
 

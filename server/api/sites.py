@@ -15,7 +15,7 @@ from typing import Any
 
 from flask import Blueprint, Response, jsonify, request
 
-from server.api import current_user, json_body, services
+from server.api import current_user, json_body, no_query_parameters, services
 from server.errors import APIError
 from server.processing_options import ProcessingOptions, session_options
 from server.site_store import SiteDocument, SiteStore
@@ -71,6 +71,7 @@ def create_site() -> tuple[Response, int]:
 @bp.get("/sites")
 def list_sites() -> Response:
     user = current_user()
+    no_query_parameters()
     return jsonify({"sites": [site_json(r) for r in site_store().list_for(user.id)]})
 
 

@@ -167,3 +167,13 @@ def test_400_unknown_track_device_names_the_parameter(client, tokens, route):
     assert assert_error(resp, 400, "unknown device 'bogus'")["details"]["field"] == "device"
     for known in ("phone", "left_foot", "fused", "primary", ""):   # a known role without rows is no error
         assert client.get(f"/api/v1/sessions/{sid}/{route}?device={known}", headers=h).status_code == 200
+
+
+@pytest.mark.parametrize("route", ["sessions", "sites", "groups", "reports", "models"])
+@pytest.mark.parametrize("query", ["limit=abc", "limit=5", "offset=-1"])
+def test_400_a_list_refuses_query_parameters_it_does_not_take(client, tokens, route, query):
+    """The lists take no paging or filter: a parameter is refused naming it, not ignored (all items answered)."""
+    h = bearer(tokens["alice"])
+    resp = client.get(f"/api/v1/{route}?{query}", headers=h)
+    assert assert_error(resp, 400, "unknown query parameter")["details"]["field"] == query.split("=")[0]
+    assert client.get(f"/api/v1/{route}", headers=h).status_code == 200
