@@ -36,6 +36,7 @@ from pdr.fusion.centre import FusionConfig
 from pdr.fusion.group import Group
 from pdr.fusion.measurements import StepSummary, parse_event
 from server.api import current_user, json_body, no_query_parameters, services
+from server.api.results import parse_since
 from server.errors import APIError
 from server.feet import FOOT_SIDES, ROLE_SIDES, foot_role
 from server.group_feed import feed_groups
@@ -355,11 +356,7 @@ def tracks(group_id: str) -> Response:
     user = current_user()
     repo = store()
     repo.row(group_id, user.id)
-    since = request.args.get("since_s")
-    try:
-        since_s = float(since) if since is not None else None
-    except ValueError:
-        raise APIError(422, "since_s must be a number (s)", details={"field": "since_s"}) from None
+    since_s = parse_since("since_s", status=422)
     out: dict[str, dict[str, list[list[float]]]] = {}
     for r in repo.track(group_id, request.args.getlist("agent") or None, since_s):
         out.setdefault(r.agent, {}).setdefault(foot_role(r.foot), []).append(

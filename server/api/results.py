@@ -50,9 +50,9 @@ bp = Blueprint("results", __name__, url_prefix="/api/v1/sessions")
 EVENT_KINDS = {"modes": "mode", "landmarks": "landmark", "floors": "floor"}
 
 
-def _query_value(name: str, convert: Callable[[str], T], expected: str) -> T | None:
-    """The query parameter ``name`` converted by ``convert``; None when absent, a 400 naming it (as ``expected``)
-    when it does not convert.
+def _query_value(name: str, convert: Callable[[str], T], expected: str, status: int = 400) -> T | None:
+    """The query parameter ``name`` converted by ``convert``; None when absent, a 400 (``status``) naming it (as
+    ``expected``) when it does not convert.
     """
     raw = request.args.get(name)
     if raw is None:
@@ -60,14 +60,16 @@ def _query_value(name: str, convert: Callable[[str], T], expected: str) -> T | N
     try:
         return convert(raw)
     except ValueError:
-        raise APIError(400, f"'{name}' must be {expected}, got '{raw[:40]}'", details={"field": name}) from None
+        raise APIError(status, f"'{name}' must be {expected}, got '{raw[:40]}'", details={"field": name}) from None
 
 
-def parse_since() -> float | None:
-    """The ``?since=`` query parameter (seconds on the log's clock), validated; None when absent."""
-    value = _query_value("since", float, "a number of seconds")
+def parse_since(name: str = "since", status: int = 400) -> float | None:
+    """The ``?since=`` query parameter (seconds on the log's clock; or the one called ``name``), a finite number;
+    None when absent, a 400 (``status``) naming it otherwise.
+    """
+    value = _query_value(name, float, "a number of seconds", status)
     if value is not None and not math.isfinite(value):
-        raise APIError(400, "'since' must be finite", details={"field": "since"})
+        raise APIError(status, f"'{name}' must be finite", details={"field": name})
     return value
 
 
@@ -76,7 +78,14 @@ def parse_after() -> int | None:
     value = _query_value("after", int, "an entry's seq (an integer)")
     if value is not None and value < 0:
         raise APIError(400, "'after' must not be negative", details={"field": "after"})
+    if value is not None and value > MAX_SEQ:
+        raise APIError(400, f"'after' must be at most {MAX_SEQ} (no entry's seq is larger)", details={"field": "after"})
     return value
+
+
+#: The largest ``seq`` an entry can have: ``events.id`` is an ``Integer`` column, PostgreSQL's 4-byte ``integer``
+#: (SQLite's is wider); a larger ``?after=`` would fail in the database rather than match nothing.
+MAX_SEQ = 2**31 - 1
 
 
 def parse_device(session_id: str) -> str | None:

@@ -177,3 +177,22 @@ def test_400_a_list_refuses_query_parameters_it_does_not_take(client, tokens, ro
     resp = client.get(f"/api/v1/{route}?{query}", headers=h)
     assert assert_error(resp, 400, "unknown query parameter")["details"]["field"] == query.split("=")[0]
     assert client.get(f"/api/v1/{route}", headers=h).status_code == 200
+
+
+@pytest.mark.parametrize("route", ["modes", "landmarks", "floors"])
+def test_400_an_after_beyond_any_seq_names_the_parameter_not_500(client, tokens, route):
+    sid = _session(client, tokens["alice"])
+    h = bearer(tokens["alice"])
+    for bad in ("99999999999999999999999", str(2**31)):
+        resp = client.get(f"/api/v1/sessions/{sid}/{route}?after={bad}", headers=h)
+        assert assert_error(resp, 400, "'after' must be at most")["details"]["field"] == "after"
+    assert client.get(f"/api/v1/sessions/{sid}/{route}?after={2**31 - 1}", headers=h).status_code == 200
+
+
+def test_a_non_finite_group_since_s_is_refused_naming_it(client, tokens):
+    h = bearer(tokens["alice"])
+    gid = client.post("/api/v1/groups", headers=h, json={"name": "t"}).get_json()["id"]
+    for bad in ("nan", "inf", "-inf", "1e999", "abc"):
+        resp = client.get(f"/api/v1/groups/{gid}/tracks?since_s={bad}", headers=h)
+        assert assert_error(resp, 422, "'since_s' must be")["details"]["field"] == "since_s"
+    assert client.get(f"/api/v1/groups/{gid}/tracks?since_s=1.5", headers=h).status_code == 200
