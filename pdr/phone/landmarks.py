@@ -46,7 +46,7 @@ from numpy.typing import NDArray
 from pdr.errors import InputError
 from pdr.frames import heading_deg_to_yaw
 from pdr.phone.history import SampleHistory
-from pdr.site.document import read_site_document
+from pdr.site.document import floors_list, read_site_document
 
 FloatArray = NDArray[np.float64]
 
@@ -222,7 +222,8 @@ class Site:
     def from_dict(cls, d: Any, source: str = "site") -> Site:
         if not isinstance(d, dict):
             raise InputError("expected an object with a 'landmarks' list", source=source)
-        landmarks = d.get("landmarks", [] if isinstance(d.get("floors"), list) else None)   # a plan-only site
+        floors = floors_list(d, source, required=False)   # before the landmarks: a bad one is not a missing list
+        landmarks = d.get("landmarks", [] if d.get("floors") is not None else None)   # a plan-only site
         if not isinstance(landmarks, list):
             raise InputError("expected an object with a 'landmarks' list (it may be left out where a 'floors' list "
                              "of floor plans is given)", source=source, field="landmarks")
@@ -248,7 +249,7 @@ class Site:
         except (TypeError, ValueError):
             raise InputError("floor_height_m must be a number", source=source, field="floor_height_m") from None
         decl, grid = (_site_angle(d, name, source) for name in ("declination_deg", "grid_deg"))
-        return cls(str(d.get("name", "")), tuple(out), fh, decl, grid, _floor_altitudes(d.get("floors"), source))
+        return cls(str(d.get("name", "")), tuple(out), fh, decl, grid, _floor_altitudes(floors, source))
 
     @classmethod
     def load(cls, path: str | Path) -> Site:
@@ -373,12 +374,8 @@ class ElevatorDetector:
         return e
 
 
-def _floor_altitudes(floors: Any, source: str) -> tuple[tuple[float, float], ...]:
-    """``(floor, altitude m)`` of the ``floors`` entries that state ``altitude_m`` (None: no ``floors`` list)."""
-    if floors is None:
-        return ()
-    if not isinstance(floors, list):
-        raise InputError("floors must be a list", source=source, field="floors")
+def _floor_altitudes(floors: list[Any], source: str) -> tuple[tuple[float, float], ...]:
+    """``(floor, altitude m)`` of the ``floors`` entries that state ``altitude_m``."""
     out = []
     for i, f in enumerate(floors):
         if not isinstance(f, dict) or f.get("altitude_m") is None:

@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.frames import geodetic_to_local_enu
-from pdr.site.document import read_site_document
+from pdr.site.document import floors_list, read_site_document
 from pdr.site.geometry import points_in_rings, ring_area, ring_edges, ring_self_intersection
 from pdr.site.wall_index import WallIndex
 
@@ -160,9 +160,7 @@ class SitePlan:
         """Parse and validate a site description's floors (errors name the floor, polygon, ring and field)."""
         if not isinstance(d, dict):
             raise InputError("a site description is a JSON object", source=source)
-        floors_raw = d.get("floors")
-        if not isinstance(floors_raw, list) or not floors_raw:
-            raise InputError("expected a non-empty 'floors' list of floor plans", source=source, field="floors")
+        floors_raw = floors_list(d, source)
         origin = _origin(d.get("origin"), source)
         try:
             fh = float(d.get("floor_height_m", 4.0))

@@ -123,6 +123,25 @@ def test_a_site_upload_that_is_not_a_site_gets_a_4xx(client: FlaskClient, tokens
     assert resp.status_code == 422 and "site" in resp.get_json()["error"]["message"]
 
 
+@pytest.mark.parametrize("site", [{"floors": "x"}, {"floors": {"floor": 0}}, {"landmarks": [], "floors": "x"}])
+def test_an_inline_site_with_bad_floors_is_refused_as_post_sites_refuses_it(client: FlaskClient, tokens: dict,
+                                                                            site: dict) -> None:
+    """A session's inline processing.site gets the message and field POST /api/v1/sites gives the same body (not
+    a complaint about a 'landmarks' list)."""
+    auth = bearer(tokens["alice"])
+    uploaded = client.post("/api/v1/sites", json=site, headers=auth)
+    assert uploaded.status_code == 422
+    expected = uploaded.get_json()["error"]
+    assert expected["details"]["field"] == "floors"
+    sid = client.post("/api/v1/sessions", json={"session_id": "ok"}, headers=auth).get_json()["id"]
+    for resp in (client.post("/api/v1/sessions", json={"session_id": "s", "processing": {"site": site}}, headers=auth),
+                 client.put(f"/api/v1/sessions/{sid}/processing", json={"site": site}, headers=auth)):
+        error = resp.get_json()["error"]
+        assert resp.status_code == 422, error
+        assert error["details"]["field"] == "floors", error
+        assert error["message"] == expected["message"].replace("site, ", "processing.site, ", 1), error
+
+
 def test_session_options_naming_a_site_are_checked_before_anything_is_stored(client: FlaskClient,
                                                                              tokens: dict) -> None:
     alice, bob = tokens["alice"], tokens["bob"]

@@ -136,7 +136,7 @@ def test_site_round_trip_match_and_landmark_heading():
     (lambda d: d.update(floor_height_m="high"), "floor_height_m must be a number"),
     (lambda d: d.update(grid_deg=400), r"grid_deg must be a number of degrees in \[-180, 180\]"),
     (lambda d: d.pop("landmarks"), "'landmarks' list"),
-    (lambda d: d.update(floors={"floor": 0}), "floors must be a list"),
+    (lambda d: d.update(floors={"floor": 0}), "expected a non-empty 'floors' list"),
     (lambda d: d.update(floors=[{"floor": "ground", "altitude_m": 0.0}]), "floor and altitude_m must be numbers"),
 ])
 def test_bad_site_descriptions_name_the_field(edit, match):
