@@ -41,6 +41,10 @@ READER_MODULES: tuple[str, ...] = (
     "pdr.io.phyphox",
 )
 
+#: The end of the message of a log no reader recognises: how the command line forces a format. Another front end
+#: (the service's upload form field ``format``) replaces it with its own way.
+FORCE_FORMAT_HINT = "pass --format to force one"
+
 
 def _modules() -> list[ModuleType]:
     return [importlib.import_module(name) for name in READER_MODULES]
@@ -81,8 +85,8 @@ def detect_format(path: str | Path) -> str:
         if why:
             raise UnknownFormatError(f"not a readable log: {why}", source=str(p))
     raise UnknownFormatError(
-        "not a supported log format (supported: " + ", ".join(format_names()) + "); "
-        "pass --format to force one", source=str(p))
+        "not a supported log format (supported: " + ", ".join(format_names()) + "); " + FORCE_FORMAT_HINT,
+        source=str(p))
 
 
 #: At most this many entries of a folder are sniffed for :func:`_logs_in`.

@@ -7,6 +7,8 @@ from typing import Any
 
 from flask import current_app, request
 
+from pdr.errors import InputError, UnknownFormatError
+from pdr.io.registry import FORCE_FORMAT_HINT
 from pdr.recording import Recording
 from server.access_log import USER_KEY
 from server.auth import PREFIX_CHARS, FailureLimiter, User, lookup, token_from_request
@@ -121,5 +123,12 @@ def uploaded_log(what: str = "log") -> Upload:
     if not payload:
         raise APIError(422, "uploaded file is empty", details={"field": "file"})
     filename = safe_filename(upload.filename)
-    fmt, recording = read_isolated(payload, filename, request.form.get("format") or None)
+    try:
+        fmt, recording = read_isolated(payload, filename, request.form.get("format") or None)
+    except InputError as exc:
+        if exc.code != UnknownFormatError.code or not exc.message.endswith(FORCE_FORMAT_HINT):
+            raise
+        # The reader's hint is the command line's (--format); this API forces a format with a form field.
+        raise UnknownFormatError(exc.message.removesuffix(FORCE_FORMAT_HINT) + "send the multipart field 'format' "
+                                 "to force one", source=exc.source, field="file") from None
     return Upload(payload, filename, fmt, recording)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import io
+
 import pytest
 from flask import Flask
 from flask.testing import FlaskClient
@@ -196,3 +198,16 @@ def test_a_non_finite_group_since_s_is_refused_naming_it(client, tokens):
         resp = client.get(f"/api/v1/groups/{gid}/tracks?since_s={bad}", headers=h)
         assert assert_error(resp, 422, "'since_s' must be")["details"]["field"] == "since_s"
     assert client.get(f"/api/v1/groups/{gid}/tracks?since_s=1.5", headers=h).status_code == 200
+
+
+def test_422_an_upload_of_no_known_format_names_the_form_field_format(client, tokens):
+    """The reader's hint is the command line's ('pass --format'); the API's answer names its form field."""
+    h = bearer(tokens["alice"])
+    sid = _session(client, tokens["alice"])
+    client.post(f"/api/v1/sessions/{sid}/devices", json={"role": "left_foot"}, headers=h)
+    for route in ("/api/v1/sessions", f"/api/v1/sessions/{sid}/devices/left_foot/upload"):
+        data = {"file": (io.BytesIO(b"hello\n1,2,3\n"), "walk.txt")}
+        err = assert_error(client.post(route, data=data, headers=h, content_type="multipart/form-data"), 422,
+                           "not a supported log format")
+        assert "--format" not in err["message"] and "field 'format' to force one" in err["message"], err
+        assert err["code"] == "unknown_format" and err["details"]["field"] == "file"
