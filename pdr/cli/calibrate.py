@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from pdr.cli.outputs import in_made_folder
 from pdr.errors import InputError
 from pdr.io import read_recording
 from pdr.phone.pipeline import PdrPipeline, PipelineConfig, track_rows
@@ -57,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
         walk = found
         what = f"{walk.length_m:.1f} m between landmarks on one floor"
     model = calibrate_on_walks(base, [walk])
-    model.save(args.out)
+    model.save(in_made_folder(args.out))
     print(f"{walk.patterns.shape[0]} steps over {what}: K = {model.k:.4f} ({model.pattern}^{model.q:g} "
           f"+ {model.b:.3f}) -> {args.out}")
     return 0
@@ -213,7 +214,7 @@ def run_fit(args: argparse.Namespace) -> int:
                       f"         {ph}")
     _, med, best = min(table, key=lambda r: (r[0], r[1]))
     model = StepLengthModel(pattern=best.pattern, k=best.k, q=best.q, b=best.b)
-    model.save(args.out)
+    model.save(in_made_folder(args.out))
     print(f"best (fewest logs outside 3 % with their route left out, then median): {model.pattern}^{model.q:g}, "
           f"K = {model.k:.4f}, b = {model.b:.3f} (left-out median error {med:.3f}) -> {args.out}")
     return 0

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from pdr.cli import progress
+from pdr.cli.outputs import in_made_folder
 from pdr.errors import InputError
 from pdr.evaluation.foot_metrics import (
     PYSHOE_EXCLUDED,
@@ -211,7 +212,7 @@ def run_dual(args: argparse.Namespace) -> int:
     for side, imu in (("left", imu_l), ("right", imu_r)):
         for w in imu.warnings:
             print(f"warning ({side}): {w}", file=sys.stderr)
-    write_csv(args.out, dual_step_rows(track) if args.per_step else dual_rows(imu_l, track))
+    write_csv(in_made_folder(args.out), dual_step_rows(track) if args.per_step else dual_rows(imu_l, track))
     print(f"{track.updates} steps fused, separation constraint active at {track.constraint_active}; right foot "
           f"frame turned by {math.degrees(track.heading_offset_rad):.1f} deg", file=sys.stderr)
     mid = dual_rows(imu_l, track)
@@ -220,8 +221,9 @@ def run_dual(args: argparse.Namespace) -> int:
     if args.plot:
         from pdr.cli.plots import plot_track, truth_of
 
-        plot_track(args.plot, mid["t_s"], mid_en, f"pdr foot {Path(args.left).name} + {Path(args.right).name}: "
-                   + line.split(" ->")[0], truth_of(read_recording(args.left)), label="midpoint of the feet",
+        title = f"pdr foot {Path(args.left).name} + {Path(args.right).name}: " + line.split(" ->")[0]
+        plot_track(in_made_folder(args.plot), mid["t_s"], mid_en, title, truth_of(read_recording(args.left)),
+                   label="midpoint of the feet",
                    extra={"left foot": track.left.pos_n[:, :2], "right foot": track.right.pos_n[:, :2]}, turn=True)
     print(line)
     return 0
@@ -243,20 +245,21 @@ def run_foot(args: argparse.Namespace) -> int:
     if args.format == "foot-steps":
         if not (args.per_step and args.method == "stepwise"):
             raise InputError("--format foot-steps needs --per-step and --method stepwise", field="--format")
-        write_foot_steps(args.out, imu, track, args.role or rec.device.role, Path(args.log).name)
+        write_foot_steps(in_made_folder(args.out), imu, track, args.role or rec.device.role, Path(args.log).name)
     elif args.per_step:
         if args.method != "stepwise":
             raise InputError("--per-step needs --method stepwise", field="--per-step")
-        write_csv(args.out, step_rows(imu, track))
+        write_csv(in_made_folder(args.out), step_rows(imu, track))
     else:
-        write_csv(args.out, track_rows(imu, track))
+        write_csv(in_made_folder(args.out), track_rows(imu, track))
     t = track.t_s + imu.clock_offset_s
     line = _summary(t, track.pos_n, track.zero_velocity, _method_name(args.method, args), args.out)
     if args.plot:
         from pdr.cli.plots import plot_track, truth_of
 
-        plot_track(args.plot, t, track.pos_n[:, :2], f"pdr foot {Path(args.log).name}: " + line.split(" ->")[0],
-                   truth_of(rec), label="foot track", turn=True)
+        title = f"pdr foot {Path(args.log).name}: " + line.split(" ->")[0]
+        plot_track(in_made_folder(args.plot), t, track.pos_n[:, :2], title, truth_of(rec), label="foot track",
+                   turn=True)
     print(line)
     return 0
 

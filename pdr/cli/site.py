@@ -6,6 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
+from pdr.cli.outputs import in_made_folder
 from pdr.errors import InputError
 from pdr.phone.landmarks import Site
 from pdr.site.ms import site_from_ms_floor
@@ -30,7 +31,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run_from_ms(args: argparse.Namespace) -> int:
     doc = site_from_ms_floor(args.floor_dir)
-    Path(args.out).write_text(json.dumps(doc))
+    in_made_folder(args.out).write_text(json.dumps(doc))
     plan = SitePlan.from_dict(doc, source=args.out)
     for f in plan.floors.values():
         print(f"floor {f.floor}: {len(f.polygons)} walkable polygon(s), {sum(len(p.holes) for p in f.polygons)} "
@@ -67,12 +68,12 @@ def run_check(args: argparse.Namespace) -> int:
         if outside:
             return 1
     if args.plot:
-        _plot(plan, args.plot)
+        _plot(plan, in_made_folder(args.plot))
     print(f"{args.site}: valid ({len(plan.floors)} floor(s))")
     return 0
 
 
-def _plot(plan: SitePlan, path: str) -> None:
+def _plot(plan: SitePlan, path: str | Path) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

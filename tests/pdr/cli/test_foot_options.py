@@ -31,14 +31,7 @@ def test_every_method_lists_its_settings() -> None:
 @pytest.mark.parametrize("setting", sorted(FLAGS))
 def test_pdr_foot_refuses_a_setting_the_method_does_not_have(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                                              method: str, setting: str) -> None:
-    from pdr.io.native import write as write_native
-
-    scenario = {"name": "options", "placement": "foot", "rates_hz": {"acc": 200, "gyro": 200},
-                "sensors": {"grade": "consumer"},
-                "segments": [{"type": "stand", "duration_s": 2}, {"type": "walk", "duration_s": 6, "speed_mps": 1.4},
-                             {"type": "stand", "duration_s": 2}]}
-    log = tmp_path / "foot"
-    write_native(simulate(parse_scenario(scenario), 3), log)
+    log = _foot_log(tmp_path, walk_s=6, seed=3)
     out = tmp_path / "track.csv"
     code = main(["foot", str(log), "--method", method, *FLAGS[setting], "--out", str(out)])
     if setting in METHOD_OPTIONS[method]:
@@ -69,3 +62,25 @@ def test_evaluation_runs_each_method_with_the_settings_it_has(monkeypatch: pytes
     with_bias = argparse.Namespace(**{**vars(args), "gyro_bias": "on"})
     assert foot._method_zupt_config("filterbank", with_bias) == (ZuptConfig(interval_samples=True),
                                                                   ["--zaru on", "--gyro-bias on"])
+
+
+def test_pdr_foot_makes_the_folders_of_its_outputs(tmp_path: Path) -> None:
+    # "error: OUT: No such file or directory" before: pdr track and pdr classify make the folder (pdr.cli.outputs).
+    log = _foot_log(tmp_path, walk_s=4, seed=4)
+    out, png = tmp_path / "a" / "b" / "track.csv", tmp_path / "c" / "track.png"
+    assert main(["foot", str(log), "--out", str(out), "--plot", str(png)]) == 0
+    assert out.read_text().startswith("t_s") and png.read_bytes().startswith(b"\x89PNG")
+
+
+def _foot_log(tmp_path: Path, walk_s: float, seed: int) -> Path:
+    """A simulated shoe-IMU log (native folder): stand 2 s, walk ``walk_s`` s at 1.4 m/s, stand 2 s."""
+    from pdr.io.native import write as write_native
+
+    scenario = {"name": "foot", "placement": "foot", "rates_hz": {"acc": 200, "gyro": 200},
+                "sensors": {"grade": "consumer"},
+                "segments": [{"type": "stand", "duration_s": 2},
+                             {"type": "walk", "duration_s": walk_s, "speed_mps": 1.4},
+                             {"type": "stand", "duration_s": 2}]}
+    log = tmp_path / "foot"
+    write_native(simulate(parse_scenario(scenario), seed), log)
+    return log

@@ -40,6 +40,9 @@ def test_from_ms_writes_a_site_that_checks_and_draws(tmp_path: Path, capsys: pyt
     assert "point 1 (0.50, 0.50) on floor 4 is outside" in text and "1 of 2 points walkable" in text
     assert site_command(["check", str(out), "--plot", str(png)]) == 0
     assert png.stat().st_size > 10_000
+    nested = tmp_path / "sites" / "site2" / "f4.json"           # its folder is made (pdr.cli.outputs)
+    assert site_command(["from-ms", str(floor), "--out", str(nested)]) == 0
+    assert json.loads(nested.read_text()) == doc
 
 
 def test_check_refuses_a_self_intersecting_site(tmp_path: Path) -> None:
