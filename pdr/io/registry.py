@@ -64,6 +64,10 @@ def format_descriptions() -> dict[str, str]:
     return {name: str(getattr(m, "DESCRIPTION", "")) for name, m in _by_name().items()}
 
 
+class UnrecognisedLogError(UnknownFormatError):
+    """No reader recognises the input, nor sees a log of its format lacking something (``near_miss``)."""
+
+
 def detect_format(path: str | Path) -> str:
     """Name of the format of ``path``; :class:`UnknownFormatError` if no reader recognises it."""
     p = Path(path)
@@ -84,7 +88,7 @@ def detect_format(path: str | Path) -> str:
         why = module.near_miss(p) if hasattr(module, "near_miss") else None
         if why:
             raise UnknownFormatError(f"not a readable log: {why}", source=str(p))
-    raise UnknownFormatError(
+    raise UnrecognisedLogError(
         "not a supported log format (supported: " + ", ".join(format_names()) + "); " + FORCE_FORMAT_HINT,
         source=str(p))
 
@@ -107,8 +111,8 @@ def read_recording(path: str | Path, format: str | None = None) -> Recording:
     p = Path(path)
     try:
         name = format or detect_format(p)
-    except UnknownFormatError as exc:
-        logs = _logs_in(p) if p.is_dir() and "not a supported log format" in exc.message else []
+    except UnrecognisedLogError:
+        logs = _logs_in(p) if p.is_dir() else []
         if logs:    # a folder of several logs (a dataset's trials), not one log: --format would not help either
             shown = ", ".join(c.name for c in logs[:3]) + (", ..." if len(logs) > 3 else "")
             many = f"{len(logs)}{'+' if len(logs) >= _MAX_LISTED else ''}"
