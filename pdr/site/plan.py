@@ -242,13 +242,14 @@ def _floor(f: Any, origin: tuple[float, float] | None, where: str) -> FloorPlan:
              for k, p in enumerate(_geojson_polygons(f["walkable"], f"{where} walkable"))]
     if not polys:
         raise InputError("no polygon in 'walkable'", source=where, field="walkable")
-    pts = np.vstack([p.outer for p in polys])
-    extent = float(np.max(pts.max(axis=0) - pts.min(axis=0)))
+    plan = FloorPlan(int(number), tuple(polys), None if alt is None else float(alt))
+    x0, y0, x1, y1 = plan.bounds()
+    extent = max(x1 - x0, y1 - y0)
     if extent > MAX_FLOOR_EXTENT_M:
         raise InputError(f"the walkable area spans {extent / 1000:.4g} km: a floor plan is in metres and at most "
                          f"{MAX_FLOOR_EXTENT_M / 1000:.0f} km wide (millimetres? lon/lat without \"frame\": "
                          f"\"lonlat\"?)", source=where, field="walkable")
-    return FloorPlan(int(number), tuple(polys), None if alt is None else float(alt))
+    return plan
 
 
 def _geojson_polygons(g: Any, where: str) -> list[Any]:

@@ -49,6 +49,10 @@ bp = Blueprint("results", __name__, url_prefix="/api/v1/sessions")
 
 EVENT_KINDS = {"modes": "mode", "landmarks": "landmark", "floors": "floor"}
 
+#: The largest ``seq`` an entry can have: ``events.id`` is an ``Integer`` column, PostgreSQL's 4-byte ``integer``
+#: (SQLite's is wider); a larger ``?after=`` would fail in the database rather than match nothing.
+MAX_SEQ = 2**31 - 1
+
 
 def _query_value(name: str, convert: Callable[[str], T], expected: str, status: int = 400) -> T | None:
     """The query parameter ``name`` converted by ``convert``; None when absent, a 400 (``status``) naming it (as
@@ -81,11 +85,6 @@ def parse_after() -> int | None:
     if value is not None and value > MAX_SEQ:
         raise APIError(400, f"'after' must be at most {MAX_SEQ} (no entry's seq is larger)", details={"field": "after"})
     return value
-
-
-#: The largest ``seq`` an entry can have: ``events.id`` is an ``Integer`` column, PostgreSQL's 4-byte ``integer``
-#: (SQLite's is wider); a larger ``?after=`` would fail in the database rather than match nothing.
-MAX_SEQ = 2**31 - 1
 
 
 def parse_device(session_id: str) -> str | None:
