@@ -82,6 +82,10 @@ Device-frame swing axis of a swinging hand (:class:`DeviceSwingAxis`; item 5 of 
     one walk of the confirmation walker (causal 29.6 -> 25.1 deg) and no scored stride of the tuning walker; the
     smoothed means went 21.2 -> 21.3 deg over the four walks. Restarting the pooled scatter from such a stride, with
     the sign by continuity, was much worse (disturbed walks 19.4 -> 42-48 and 29.6 -> 49-63 deg).
+    Nor does the centripetal acceleration give the offset: per turning stride (mean yaw rate above 0.2-0.5 rad/s)
+    the direction it implies, ``u x f`` turned back by 90 deg, scatters about the truth by 1.48 MAD 66-103 deg with
+    the filter's attitude, and its walk medians (-8, +18, -25, -6 deg) carry the same per-walker offsets as the
+    swing axis (an offline study over the four swinging walks, not built).
 
 Trouser pocket: the walking line from stride to stride (:class:`WalkingLineFilter`)
     One stride's swing plane is a noisy measurement of the walking line. The walker's turn between two strides

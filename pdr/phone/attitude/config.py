@@ -148,6 +148,17 @@ class AttitudeConfig:
         walking direction from 13.1 to 12.6 (tuning walker) and 14.3 to 13.9 deg (the other); the steadiness
         limit was chosen on the tuning walker among 1.5, 3, 5 and 8 deg (gains 0.0025 and 0.005 were within
         0.1 deg of each other).
+
+        A robust alternative, measured offline and not built: the yaw corrected by the running median (causal,
+        the last 30 s) of the field's azimuth seen through the estimate, over the rows whose magnitude (25-65 uT)
+        and dip (within 20 deg of the earth's) look like the earth's field. On the motion-capture benchmark's
+        clean walks it removes the residual lag (the tuning walker's clean texting walk 8.3 -> 3.6 deg attitude
+        yaw, its back pocket 4.4 -> 2.5), but where the walk starts in a deflected field the median is the
+        deflection's (the other walker's disturbed front pocket 14.6 -> 26.9 deg); applied only while the window's
+        azimuths agree (1.48 MAD below 5 or 10 deg) it leaves the disturbed walks alone and the mean over all 18
+        walks goes 5.9 -> 5.6 deg. The texting walks' walking direction is not bound by the attitude (the rotation
+        vector's 3.9 deg attitude still gives 18.2 deg there), so the gain in walking direction would be about the
+        pocket walks' 1 deg.
     mag_when_static
         Use magnetometer rows while stationary (False: a standing user sees one, possibly disturbed,
         field; its repeated samples are not independent measurements of north). True, measured: ``pdr eval ipin``
