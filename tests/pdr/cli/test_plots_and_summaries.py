@@ -74,9 +74,31 @@ def test_a_foot_track_is_also_turned_onto_the_truth() -> None:
 
 def test_stance_onsets_count_each_return_to_rest() -> None:
     zv = np.array([1, 1, 0, 0, 1, 1, 0, 1, 0, 0], dtype=bool)
-    assert stance_onsets(zv).tolist() == [4, 7]
+    t = np.arange(10.0) * 0.5
+    assert stance_onsets(zv, t).tolist() == [4, 7]
     pos = np.column_stack([np.arange(10.0), np.zeros(10), np.zeros(10)])
-    assert stride_summary(np.arange(10.0) * 0.5, pos, zv) == (2, pytest.approx(9.0), pytest.approx(4.5))
+    assert stride_summary(t, pos, zv) == (2, pytest.approx(9.0), pytest.approx(4.5))
+
+
+def test_a_stance_broken_by_a_shorter_motion_than_a_swing_is_one_stride() -> None:
+    # 200 Hz: stand 1 s, swing 0.4 s, stance broken by a 0.05 s roll of the foot, swing 0.4 s, stance.
+    runs = [(1, 200), (0, 80), (1, 30), (0, 10), (1, 30), (0, 80), (1, 60)]
+    zv = np.concatenate([np.full(n, bool(v)) for v, n in runs])
+    t = np.arange(zv.size) / 200.0
+    assert stance_onsets(zv, t).tolist() == [280, 430]
+    assert stance_onsets(zv, t, min_swing_s=0.0).tolist() == [280, 320, 430]
+    # A record that starts moving: its first stance counts once the motion before it is a swing.
+    assert stance_onsets(zv[150:], t[150:]).tolist() == [130, 280]
+    assert stance_onsets(zv[270:], t[270:]).tolist() == [160]
+
+
+@pytest.mark.data
+def test_pdr_foot_counts_the_strides_of_a_real_walk(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # SensorConnect walk 31: 33 strides measured on the floor tiles (its .mat, numberOfStrides); the zero-velocity
+    # detector breaks 15 of its stances into pieces (48 returns to rest).
+    log = data_path("foot_stride_gcp", "own", "SensorConnectData_31.csv")
+    assert main(["foot", str(log), "--out", str(tmp_path / "foot.csv")]) == 0
+    assert capsys.readouterr().out.strip().splitlines()[-1].startswith("33 strides, ")
 
 
 def test_pdr_foot_prints_a_summary_and_plots_with_the_truth(tmp_path: Path, capsys: pytest.CaptureFixture[str]
