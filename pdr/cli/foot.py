@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from pdr.cli import progress
-from pdr.cli.outputs import in_made_folder
+from pdr.cli.outputs import check_writable, in_made_folder
 from pdr.errors import InputError
 from pdr.evaluation.foot_metrics import (
     PYSHOE_EXCLUDED,
@@ -206,6 +206,7 @@ def run_dual(args: argparse.Namespace) -> int:
         raise InputError(f"dual-foot fusion uses the step-wise navigation; --method {args.method} is not "
                          "available with --left/--right", field="--method")
     _refuse_unsupported("stepwise", args)
+    check_writable(args.out, args.plot)         # before the work, not after it
     cfg = DualFootConfig(separation=SeparationConfig(gamma_xy=args.gamma_xy, gamma_z=args.gamma_z))
     imu_l, imu_r, track = navigate_feet(read_recording(args.left), read_recording(args.right),
                                         _detector_config(args), zupt=_zupt_config(args), config=cfg)
@@ -237,6 +238,7 @@ def run_foot(args: argparse.Namespace) -> int:
     if not args.log:
         raise InputError("give a foot IMU LOG (or --left and --right for dual-foot fusion)", field="log")
     _refuse_unsupported(args.method, args)
+    check_writable(args.out, args.plot)         # before the work, not after it
     rec = read_recording(args.log)
     imu, track = navigate(rec, args.method, _detector_config(args), zupt=_zupt_config(args),
                           smooth=args.smoother == "on", gyro_bias=args.gyro_bias == "on")

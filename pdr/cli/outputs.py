@@ -1,5 +1,7 @@
 """Files a command writes (``--out``, ``--geojson``, ``--plot``): their folder is made when it does not exist yet
-(``pdr track LOG --out runs/today/walk.csv``), as ``pdr classify`` and ``pdr track`` do.
+(``pdr track LOG --out runs/today/walk.csv``), as ``pdr classify`` and ``pdr track`` do, and a command that works
+for a while checks first that it can write them (:func:`check_writable`), so that a bad path is reported before
+the work, not after it.
 """
 
 from __future__ import annotations
@@ -12,3 +14,19 @@ def in_made_folder(path: str | Path) -> Path:
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
     return p
+
+
+def check_writable(*paths: str | Path | None) -> None:
+    """Make each output's folder and open the file for appending, as writing it later will (None: no such
+    output). Raises the :class:`OSError` that writing would raise (it names the file: the command line prints it
+    as ``error: PATH: reason``). A file that did not exist is removed again; an existing one is left as it was.
+    """
+    for path in paths:
+        if path is None:
+            continue
+        p = in_made_folder(path)
+        existed = p.exists()
+        with p.open("ab"):
+            pass
+        if not existed:
+            p.unlink()

@@ -312,3 +312,21 @@ def test_a_folder_of_several_logs_says_so_instead_of_unsupported_format(capsys, 
     (empty / "notes.md").write_text("no walks\n")
     code, _, err = _run(capsys, "inspect", str(empty))
     assert code == 2 and "not a supported log format" in err
+
+
+@pytest.mark.parametrize("command", ["track", "foot"])
+def test_an_output_that_cannot_be_written_is_refused_before_the_log_is_read(capsys, tmp_path, native_log, command):
+    """pdr track and pdr foot check their outputs first: an unwritable --plot is reported before any work (the log
+    given here does not even exist), and the --out that could be written is not left behind as an empty file."""
+    blocker = tmp_path / "a_file"
+    blocker.write_text("x")
+    out, plot = tmp_path / "runs" / "walk.csv", blocker / "walk.png"
+    code, _, err = _run(capsys, command, str(tmp_path / "no_such_log.csv"), "--out", str(out), "--plot", str(plot))
+    assert code == 2
+    last = err.strip().splitlines()[-1]
+    assert last.startswith(f"error: {blocker}") and "no_such_log" not in err, err
+    assert not out.exists() and blocker.read_text() == "x"
+    # An existing --out is left as it was when another output fails.
+    out.write_text("previous run\n")
+    assert _run(capsys, command, str(native_log), "--out", str(out), "--plot", str(plot))[0] == 2
+    assert out.read_text() == "previous run\n"
