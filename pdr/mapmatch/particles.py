@@ -70,6 +70,13 @@ scale: the phone's K from its walks elsewhere (``pdr eval ms --map --calibrate c
 F4 5.49 -> 4.83 m). Two-sided evidence (a turn made where the walls
 allow it says the walker got there) is not built. Traces with a step heading 47-68 deg off in open halls
 (5dd52053, 5dd3a34c) lie outside the offset prior (20 deg) with no wall within reach: no map corrects those.
+A wider prior does not reach them either: ``heading_offset_sigma_deg`` 30 and 45 (seed 0) took F3 from 2.93 to 3.16
+and 3.66 m online; a tenth or a quarter of the particles drawn uniformly over the circle (3 seeds; 3.17 / 5.39 m
+online F3 / F4 without) gave 3.67 / 5.88 and 4.39 / 6.92 m, the cloud's mean being pulled between the modes that
+survive in halls. Where the walker brushes a wall (5dd3bbc0, the truth passing about 0.5 m from a corner), the
+particles that die are those on the wall's side of the true path, and their survivors' heading offsets move away from
+it (+25 deg there, with the step heading right and even with the hindsight scale): the deaths select position and
+offset together.
 
 Online: :meth:`MapMatcher.update` takes a batch of steps and returns one :class:`MatchedStep` each; its
 :meth:`~MapMatcher.state` (particle arrays, the random generator's state and a few scalars: size independent of
