@@ -3,7 +3,8 @@
 Two inputs, one per session role (not mixed):
 
 * raw foot IMU batches: :class:`pdr.foot.online.OnlineFootNavigator` (the step-wise ZUPT-aided INS of
-  ``pdr foot --method stepwise``); one track row and one ``step`` event per reset (stride of this foot); the
+  ``pdr foot --method stepwise``); one track row and one ``step`` event per reset: a stride of this foot, or, mode
+  ``standing``, a reset while it stands (:attr:`pdr.foot.online.FootStep.stride`; not counted as a step); the
   provisional tail (:meth:`FootProcessor.tail`) is what the end of the recording would add, so the track equals
   ``pdr foot --method stepwise --per-step`` on the same data at any time (with ``--zaru on`` or ``--imu-samples
   interval`` when the session's processing options, :mod:`server.processing_options`, ask for it);
@@ -32,27 +33,31 @@ from pdr.foot.summaries import StepSummaryBatch
 from pdr.frames import yaw_to_heading_deg
 from pdr.recording import Recording
 from pdr.step_increment import StepIncrement
-from server.foot_steps import MODE, increment_to_json
+from server.foot_steps import MODE, STAND_MODE, increment_to_json
 from server.processing import ProcessorOutput, SessionContext
 from server.processing_options import session_options
 from server.store import EventRow, TrackRow
 
 
-def _add_step(out: ProcessorOutput, t_s: float, pos_n: Any, yaw: float, inc: StepIncrement) -> None:
-    """Append a step's track row and its step event (the increment; joined to the row by its step index)."""
+def _add_step(out: ProcessorOutput, t_s: float, pos_n: Any, yaw: float, inc: StepIncrement,
+              stride: bool = True) -> None:
+    """Append a step's track row and its step event (the increment; joined to the row by its step index); mode
+    ``walking``, or ``standing`` for a reset that closes no stride (``stride`` False).
+    """
     heading = float(yaw_to_heading_deg(yaw))
     length = float(math.hypot(float(inc.dp[0]), float(inc.dp[1])))
-    out.events.append(EventRow("step", float(t_s), label=MODE, value=length, step=len(out.track),
+    mode = MODE if stride else STAND_MODE
+    out.events.append(EventRow("step", float(t_s), label=mode, value=length, step=len(out.track),
                                data={"heading_deg": heading, "dpsi_deg": math.degrees(float(inc.dpsi)),
                                      "dz_m": float(inc.dp[2]), "increment": increment_to_json(inc)}))
     out.track.append(TrackRow(float(t_s), float(pos_n[0]), float(pos_n[1]), float(pos_n[2]), None, heading, length,
-                              MODE))
+                              mode))
 
 
 def _output(steps: list[FootStep], warnings: list[str]) -> ProcessorOutput:
     out = ProcessorOutput(warnings=warnings)
     for s in steps:
-        _add_step(out, s.t_s, s.pos_n, s.yaw, s.increment)
+        _add_step(out, s.t_s, s.pos_n, s.yaw, s.increment, s.stride)
     return out
 
 

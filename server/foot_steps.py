@@ -16,8 +16,11 @@ import numpy as np
 from pdr.errors import InputError
 from pdr.step_increment import StepIncrement
 
-#: Mode of every foot track row (foot navigation does not classify the motion).
+#: Mode of a foot track row that closes a stride (foot navigation does not classify the motion further).
 MODE = "walking"
+#: Mode of a foot track row that closes no stride: a reset of the step-wise navigation while the foot stands
+#: (:attr:`pdr.foot.online.FootStep.stride`); kept for its increment (a turn on the spot), not counted as a step.
+STAND_MODE = "standing"
 
 
 def increment_to_json(inc: StepIncrement) -> dict[str, Any]:

@@ -14,16 +14,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pdr.errors import InputError
+from pdr.foot.strides import stance_onsets
 
 Array = NDArray[np.float64]
 
-#: Shortest swing (s) of a stride counted by :func:`stance_onsets`: a foot's swing phase lasts about 40 % of a gait
-#: cycle of 0.8 s or more when walking, and longer when running, so a return to rest after a shorter motion is the
-#: foot rolling or shifting within one stance (the detector breaks a stance of 0.1-0.3 s at 200 Hz into pieces).
-#: Measured on the stride-indexed walks of ``foot_stride_gcp/LLIO_training_data``: every raw return to rest counts
-#: 249 strides too many over 26 walks (0 of 26 right); 0.2-0.35 s gives the 20 PyShoe trials exactly, on which it
-#: was chosen, and 0.3 s also the 6 SensorConnect walks (0.2 s: 5 of 6).
-MIN_SWING_S = 0.3
 #: Distance from the start (m) at which the heading of the estimate is aligned on the truth.
 ALIGN_DISTANCE_M = 0.8
 #: Fallback alignment sample when the estimate never leaves the 0.8 m circle (as the reference scorer).
@@ -89,24 +83,10 @@ def path_length(pos: ArrayLike) -> float:
     return float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1)))
 
 
-def stance_onsets(zero_velocity: ArrayLike, t_s: ArrayLike, min_swing_s: float = MIN_SWING_S) -> NDArray[np.int64]:
-    """Indices where a foot comes to rest after a swing: the samples where ``zero_velocity`` (N,) turns true after a
-    run of false ones that lasted ``min_swing_s`` (s, on the times ``t_s`` (N,) s) or more, from the last true sample
-    before it (or the record's start) to the onset. A record that starts at rest does not count its first stance.
-    One per stride of that foot.
-    """
-    zv = np.asarray(zero_velocity, dtype=bool)
-    t = np.asarray(t_s, dtype=np.float64)
-    onsets = np.flatnonzero(zv[1:] & ~zv[:-1]) + 1
-    ends = np.flatnonzero(zv[:-1] & ~zv[1:])             # last still sample of each stance that a motion follows
-    before = np.searchsorted(ends, onsets) - 1            # the stance before each onset (-1: the record's start)
-    since = np.where(before >= 0, t[ends[np.maximum(before, 0)]], t[0] if t.size else 0.0)
-    return onsets[t[onsets] - since >= min_swing_s].astype(np.int64)
-
-
 def stride_summary(t_s: ArrayLike, pos_n: ArrayLike, zero_velocity: ArrayLike) -> tuple[int, float, float]:
-    """Strides (stance onsets after a swing, :func:`stance_onsets`), horizontal distance (m) through the start,
-    each stance onset and the end, and duration (s) of a foot track (``t_s`` (N,) s, ``pos_n`` (N, >=2) m).
+    """Strides (stance onsets after a swing, :func:`pdr.foot.strides.stance_onsets`), horizontal distance (m)
+    through the start, each stance onset and the end, and duration (s) of a foot track (``t_s`` (N,) s, ``pos_n``
+    (N, >=2) m).
     """
     t = np.asarray(t_s, dtype=np.float64)
     pos = np.asarray(pos_n, dtype=np.float64)

@@ -22,6 +22,7 @@ changes nothing.
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -32,6 +33,7 @@ from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.foot.detectors import DetectorConfig, adaptive_threshold, detector_reach, statistic, still_samples
 from pdr.foot.navigate import RATE_WINDOW_S, check_foot_recording, sampling_rate_hz
+from pdr.foot.strides import SwingsSinceReset
 from pdr.foot.zupt import (
     FilterState,
     KernelSetup,
@@ -67,12 +69,16 @@ class FootStep:
     increment
         The step increment ``(dp_l, dpsi_l, cov)`` of eqs. 7-8 (``t_s`` on the log's clock, ``index`` the
         sample index counted from the first sample of the session).
+    stride
+        Whether the foot swung since the reset before (:class:`pdr.foot.strides.SwingsSinceReset`): False for the
+        resets Algorithm 1 makes while the foot stands (one every ``c_max_s``), which close no stride.
     """
 
     t_s: float
     pos_n: Array
     yaw: float
     increment: StepIncrement
+    stride: bool = True
 
 
 def _ints(a: Any) -> IntArray:
@@ -111,6 +117,7 @@ class OnlineFootNavigator:
         self.start_index = -1                  # first navigated sample (the initial stationary run), -1: not yet
         self.nav_next = 0                      # next sample for the filter
         self.filter: FilterState | None = None
+        self.swings = SwingsSinceReset()       # which resets close a stride (not a stand)
         # Different accelerometer and gyroscope instants: the last gyroscope sample and acc samples after it.
         self.gyro_last: tuple[int, list[float]] | None = None
         self.acc_pending_t_ns = np.zeros(0, dtype=np.int64)
@@ -171,6 +178,8 @@ class OnlineFootNavigator:
             "gyro_last": None if self.gyro_last is None else [self.gyro_last[0], list(self.gyro_last[1])],
             "acc_pending_t_ns": self.acc_pending_t_ns.tolist(), "acc_pending": self.acc_pending.tolist(),
             "warned": list(self.warned), "warnings": list(self.warnings),
+            "swings": {"still_s": None if math.isnan(self.swings.still_s) else self.swings.still_s,
+                       "swung": self.swings.swung, "last_zv": self.swings.last_zv},
         }
 
     @classmethod
@@ -189,6 +198,11 @@ class OnlineFootNavigator:
         nav.gyro_last = None if d["gyro_last"] is None else (int(d["gyro_last"][0]), list(d["gyro_last"][1]))
         nav.acc_pending_t_ns, nav.acc_pending = _ints(d["acc_pending_t_ns"]), _rows(d["acc_pending"])
         nav.warned, nav.warnings = list(d["warned"]), list(d["warnings"])
+        if d.get("swings") is not None:       # absent from states saved before strides were told from stands
+            still = d["swings"]["still_s"]
+            last = d["swings"]["last_zv"]
+            nav.swings = SwingsSinceReset(math.nan if still is None else float(still), bool(d["swings"]["swung"]),
+                                          None if last is None else bool(last))
         return nav
 
     # -- input ----------------------------------------------------------------------------------------------
@@ -317,6 +331,7 @@ class OnlineFootNavigator:
                          np.ascontiguousarray(zv), 1, self.filter, self.zupt, setup,
                          still=None if still is None else np.ascontiguousarray(still[rows]))
         self.nav_next = z1
+        strides = self.swings.update(zv, t, out.step_idx)
         offset = self.origin_ns / 1e9
         yaw = quat.to_euler(quat.normalize(out.qs[out.step_idx]))[2] if out.step_idx.size else np.zeros(0)
         steps = []
@@ -324,7 +339,7 @@ class OnlineFootNavigator:
             t_log = float(t[k] + offset)
             inc = StepIncrement(t_log, int(k0 + k), out.step_dp[i].copy(), float(out.step_dpsi[i]),
                                 out.step_cov[i].copy())
-            steps.append(FootStep(t_log, out.pos[k].copy(), float(yaw[i]), inc))
+            steps.append(FootStep(t_log, out.pos[k].copy(), float(yaw[i]), inc, strides[i]))
         return steps
 
     def _trim(self, keep: int) -> None:

@@ -10,8 +10,9 @@ import pytest
 
 from pdr.cli import main
 from pdr.cli.plots import ALIGNED_NOTE, TURNED_NOTE, PlotTruth, track_figure
-from pdr.evaluation.foot_metrics import pyshoe_turn, stance_onsets, stride_summary
+from pdr.evaluation.foot_metrics import pyshoe_turn, stride_summary
 from pdr.evaluation.scoring import landmark_errors, start_offset
+from pdr.foot.strides import stance_onsets
 from tests.conftest import REPO_ROOT, data_path
 
 SIM = REPO_ROOT / "mobile_logs" / "sim"
