@@ -150,7 +150,7 @@ def openapi_document() -> dict[str, Any]:
                         "NativeBatch": batch_schema, "SensorLoggerMessage": schemas.SENSOR_LOGGER_MESSAGE,
                         "ClassifyWindow": schemas.CLASSIFY_WINDOW, "CreateGroup": groups.CREATE_GROUP,
                         "JoinGroup": groups.JOIN_GROUP, "GroupUpload": groups.UPLOAD,
-                        "FootSteps": FOOT_STEPS, "Site": SITE},
+                        "FootSteps": FOOT_STEPS, "Site": SITE, "LocationFix": schemas.LOCATION_FIX},
         },
         "security": [{"bearer": []}],
         "paths": _scoped({
@@ -195,7 +195,8 @@ def openapi_document() -> dict[str, Any]:
                                 "properties": {"file": {"type": "string", "format": "binary"},
                                                "format": {"type": "string"}}}}}})},
             "/api/v1/sessions/{session_id}/batches": {
-                "post": _op("ingest a native JSON batch (idempotent by batch_id)",
+                "post": _op("ingest a native JSON batch (idempotent by batch_id); its meta.location, when given, "
+                            "must be a LocationFix (422 naming the field)",
                             {"201": _ok("stored"), "200": _ok("duplicate ignored")} | common | _errors(400, 409),
                             parameters=[SESSION_ID, TOKEN_QUERY], requestBody=_json_body("NativeBatch"),
                             security=[{"bearer": []}, {"queryToken": []}])},

@@ -106,6 +106,7 @@ def _create_from_file(user_id: int) -> tuple[Response, int]:
     site = named_site(options, user_id)
     placement = request.form.get("placement") or recording.device.placement
     plausibility.check_device(replace(recording.device, placement=placement))
+    plausibility.check_location(recording)
     digest = hashlib.sha256(payload).hexdigest()
     sid, created = svc.store.create_session(user_id, source="upload",
                                             client_session_id=request.form.get("session_id") or f"file-{digest[:24]}",
@@ -218,6 +219,7 @@ def upload_device_file(session_id: str, role: str) -> tuple[Response, int]:
     t_first, t_last = time_span_ns(recording)
     fmt = FILE_PREFIX + upload.descriptor
     plausibility.check_units(recording)
+    plausibility.check_location(recording)
     plausibility.check_time(svc.store.engine, session_id, role, fmt, t_first, t_last)
     digest = hashlib.sha256(upload.payload).hexdigest()
     accepted = store_batch(svc, session_id, client_batch_id=f"file-{role}-{digest[:32]}", payload_format=fmt,
