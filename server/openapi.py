@@ -181,7 +181,9 @@ def openapi_document() -> dict[str, Any]:
                 "delete": _op("delete the session: raw batches, results, processing state, queued work",
                               {"204": {"description": "deleted"}} | _errors(401, 404), parameters=[SESSION_ID])},
             "/api/v1/sessions/{session_id}/devices": {
-                "post": _op("pair a device (shoe IMUs: left_foot / right_foot)", {"201": _ok("paired")} | common,
+                "post": _op("pair a device (shoe IMUs: left_foot / right_foot); a session with a phone takes a "
+                            "foot's raw batches only once the foot is paired (409 naming device.role), a session "
+                            "without one pairs each foot by its batches", {"201": _ok("paired")} | common,
                             parameters=[SESSION_ID], requestBody=_json_body("Device"))},
             "/api/v1/sessions/{session_id}/devices/{role}/upload": {
                 "post": _op("add a log file of a paired device (any shoe IMU format: PyShoe .mat, SensorConnect "
@@ -196,7 +198,8 @@ def openapi_document() -> dict[str, Any]:
                                                "format": {"type": "string"}}}}}})},
             "/api/v1/sessions/{session_id}/batches": {
                 "post": _op("ingest a native JSON batch (idempotent by batch_id); its meta.location, when given, "
-                            "must be a LocationFix (422 naming the field)",
+                            "must be a LocationFix (422 naming the field); a foot's batch to a session with a "
+                            "phone needs the foot paired first (409 naming device.role)",
                             {"201": _ok("stored"), "200": _ok("duplicate ignored")} | common | _errors(400, 409),
                             parameters=[SESSION_ID, TOKEN_QUERY], requestBody=_json_body("NativeBatch"),
                             security=[{"bearer": []}, {"queryToken": []}])},
