@@ -89,8 +89,8 @@ HEADING = {"name": "heading", "in": "query", "schema": {"enum": ["causal", "smoo
 
 AFTER = {"name": "after", "in": "query", "required": False, "schema": {"type": "integer", "minimum": 0},
          "description": "only entries stored after the one with this seq (incremental polling that also gets "
-                        "entries stored with a time in the past: stops, rides, back-dated stairs); the answer's "
-                        "next_after is the next value"}
+                        "entries stored with a time in the past: stops, rides, back-dated stairs, the steps of a "
+                        "shoe's file uploaded later); the answer's next_after is the next value"}
 
 
 def _results_path(what: str) -> dict[str, Any]:
@@ -221,7 +221,7 @@ def openapi_document() -> dict[str, Any]:
                                 {"name": "format", "in": "query", "schema": {"enum": ["json", "csv", "geojson"]},
                                  "description": "geojson: RFC 7946 lon/lat, for a geo-referenced session only (409 "
                                                 "otherwise)"},
-                                DEVICE, HEADING])},
+                                DEVICE, HEADING, AFTER])},
             "/api/v1/sessions/{session_id}/steps": _results_path("steps") | {
                 "post": _op("ingest a shoe unit's step-wise dead-reckoning summaries (idempotent by batch_id)",
                             {"201": _ok("stored"), "200": _ok("duplicate ignored")} | common | _errors(400, 409),

@@ -181,7 +181,7 @@ def test_400_a_list_refuses_query_parameters_it_does_not_take(client, tokens, ro
     assert client.get(f"/api/v1/{route}", headers=h).status_code == 200
 
 
-@pytest.mark.parametrize("route", ["modes", "landmarks", "floors"])
+@pytest.mark.parametrize("route", ["modes", "landmarks", "floors", "track", "steps"])
 def test_400_an_after_beyond_any_seq_names_the_parameter_not_500(client, tokens, route):
     sid = _session(client, tokens["alice"])
     h = bearer(tokens["alice"])
