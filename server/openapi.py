@@ -15,7 +15,7 @@ import pdr
 from pdr.foot.summaries import SCHEMA as FOOT_STEPS
 from pdr.recording import DEVICE_ROLES, PLACEMENTS
 from server import schemas
-from server.api import groups
+from server.api import groups, results
 
 ERROR = {
     "type": "object", "required": ["error"],
@@ -77,7 +77,7 @@ def _op(summary: str, responses: dict[str, Any], **extra: Any) -> dict[str, Any]
     return {"summary": summary, "responses": responses, **extra}
 
 
-DEVICE = {"name": "device", "in": "query", "schema": {"type": "string"},
+DEVICE = {"name": "device", "in": "query", "schema": {"enum": list(results.DEVICES)},
           "description": "only this device role, or 'primary': the session's primary track (two live feet: fused, "
                          "one: that foot, else the phone)"}
 HEADING = {"name": "heading", "in": "query", "schema": {"enum": ["causal", "smoothed"]},
@@ -87,7 +87,8 @@ HEADING = {"name": "heading", "in": "query", "schema": {"enum": ["causal", "smoo
                           "track as streamed"}
 
 
-AFTER = {"name": "after", "in": "query", "required": False, "schema": {"type": "integer", "minimum": 0},
+AFTER = {"name": "after", "in": "query", "required": False,
+         "schema": {"type": "integer", "minimum": 0, "maximum": results.MAX_SEQ},
          "description": "only entries stored after the one with this seq (incremental polling that also gets "
                         "entries stored with a time in the past: stops, rides, back-dated stairs, the steps of a "
                         "shoe's file uploaded later); the answer's next_after is the next value"}

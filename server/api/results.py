@@ -55,6 +55,9 @@ EVENT_KINDS = {"modes": "mode", "landmarks": "landmark", "floors": "floor"}
 #: (SQLite's is wider); a larger ``?after=`` would fail in the database rather than match nothing.
 MAX_SEQ = 2**31 - 1
 
+#: Values of ``?device=`` (:func:`parse_device`): a device role with a track, or ``primary``.
+DEVICES = (*ROLE_PRIORITY, "primary")
+
 
 def _query_value(name: str, convert: Callable[[str], T], expected: str, status: int = 400) -> T | None:
     """The query parameter ``name`` converted by ``convert``; None when absent, a 400 (``status``) naming it (as
@@ -94,7 +97,7 @@ def parse_device(session_id: str) -> str | None:
     :mod:`server.feet`), or None (every device's rows); a 400 naming it for anything else.
     """
     device = request.args.get("device") or None
-    if device is not None and device not in ("primary", *ROLE_PRIORITY):
+    if device is not None and device not in DEVICES:
         raise APIError(400, f"unknown device '{device[:40]}'; use one of {', '.join(ROLE_PRIORITY)} or primary",
                        details={"field": "device"})
     if device == "primary":
