@@ -1,6 +1,7 @@
 """A session's shoe IMUs and the track that stands for the session (its *primary* track).
 
-*Paired* feet are the session's devices of a foot role (``POST .../devices``, or a foot batch's device);
+*Paired* feet are the session's devices of a foot role (``POST .../devices``, or, in a session without a phone, a
+foot batch's device: a shoe streaming alone names its foot; :func:`pairs_itself`);
 *live* feet are the paired feet with stored data (raw IMU batches, uploaded files or step summaries). The
 fused dual-foot track (:mod:`server.fused_feet`) needs two live feet that have taken steps: a paired foot that
 never sends data is not fused in (it would hold the midpoint at its start). The primary track follows the
@@ -48,6 +49,16 @@ def session_feet(store: Store, session_id: str) -> Feet:
     paired = sorted(d.role for d in store.devices(session_id) if d.role in FOOT_ROLES)
     with_data = store.batch_roles(session_id)
     return Feet(tuple(paired), tuple(r for r in paired if r in with_data))
+
+
+def pairs_itself(store: Store, session_id: str, role: str) -> bool:
+    """Whether a raw batch of ``role`` may pair its device by arriving: a phone, or a foot in a session without a
+    phone. A foot batch to a session with a phone needs the foot paired first: a phone's batch sent with a foot's
+    role would otherwise silently replace the phone's track as the session's primary one.
+    """
+    if role not in FOOT_ROLES:
+        return True
+    return "phone" not in {d.role for d in store.devices(session_id)}
 
 
 def primary_role(roles: Iterable[str]) -> str:

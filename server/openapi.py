@@ -15,7 +15,7 @@ import pdr
 from pdr.foot.summaries import SCHEMA as FOOT_STEPS
 from pdr.recording import DEVICE_ROLES, PLACEMENTS
 from server import schemas
-from server.api import groups
+from server.api import groups, results
 
 ERROR = {
     "type": "object", "required": ["error"],
@@ -77,7 +77,7 @@ def _op(summary: str, responses: dict[str, Any], **extra: Any) -> dict[str, Any]
     return {"summary": summary, "responses": responses, **extra}
 
 
-DEVICE = {"name": "device", "in": "query", "schema": {"type": "string"},
+DEVICE = {"name": "device", "in": "query", "schema": {"enum": list(results.DEVICES)},
           "description": "only this device role, or 'primary': the session's primary track (two live feet: fused, "
                          "one: that foot, else the phone)"}
 HEADING = {"name": "heading", "in": "query", "schema": {"enum": ["causal", "smoothed"]},
@@ -87,10 +87,11 @@ HEADING = {"name": "heading", "in": "query", "schema": {"enum": ["causal", "smoo
                           "track as streamed"}
 
 
-AFTER = {"name": "after", "in": "query", "required": False, "schema": {"type": "integer", "minimum": 0},
+AFTER = {"name": "after", "in": "query", "required": False,
+         "schema": {"type": "integer", "minimum": 0, "maximum": results.MAX_SEQ},
          "description": "only entries stored after the one with this seq (incremental polling that also gets "
-                        "entries stored with a time in the past: stops, rides, back-dated stairs); the answer's "
-                        "next_after is the next value"}
+                        "entries stored with a time in the past: stops, rides, back-dated stairs, the steps of a "
+                        "shoe's file uploaded later); the answer's next_after is the next value"}
 
 
 def _results_path(what: str) -> dict[str, Any]:
@@ -150,7 +151,7 @@ def openapi_document() -> dict[str, Any]:
                         "NativeBatch": batch_schema, "SensorLoggerMessage": schemas.SENSOR_LOGGER_MESSAGE,
                         "ClassifyWindow": schemas.CLASSIFY_WINDOW, "CreateGroup": groups.CREATE_GROUP,
                         "JoinGroup": groups.JOIN_GROUP, "GroupUpload": groups.UPLOAD,
-                        "FootSteps": FOOT_STEPS, "Site": SITE},
+                        "FootSteps": FOOT_STEPS, "Site": SITE, "LocationFix": schemas.LOCATION_FIX},
         },
         "security": [{"bearer": []}],
         "paths": _scoped({
@@ -181,7 +182,9 @@ def openapi_document() -> dict[str, Any]:
                 "delete": _op("delete the session: raw batches, results, processing state, queued work",
                               {"204": {"description": "deleted"}} | _errors(401, 404), parameters=[SESSION_ID])},
             "/api/v1/sessions/{session_id}/devices": {
-                "post": _op("pair a device (shoe IMUs: left_foot / right_foot)", {"201": _ok("paired")} | common,
+                "post": _op("pair a device (shoe IMUs: left_foot / right_foot); a session with a phone takes a "
+                            "foot's raw batches only once the foot is paired (409 naming device.role), a session "
+                            "without one pairs each foot by its batches", {"201": _ok("paired")} | common,
                             parameters=[SESSION_ID], requestBody=_json_body("Device"))},
             "/api/v1/sessions/{session_id}/devices/{role}/upload": {
                 "post": _op("add a log file of a paired device (any shoe IMU format: PyShoe .mat, SensorConnect "
@@ -195,7 +198,9 @@ def openapi_document() -> dict[str, Any]:
                                 "properties": {"file": {"type": "string", "format": "binary"},
                                                "format": {"type": "string"}}}}}})},
             "/api/v1/sessions/{session_id}/batches": {
-                "post": _op("ingest a native JSON batch (idempotent by batch_id)",
+                "post": _op("ingest a native JSON batch (idempotent by batch_id); its meta.location, when given, "
+                            "must be a LocationFix (422 naming the field); a foot's batch to a session with a "
+                            "phone needs the foot paired first (409 naming device.role)",
                             {"201": _ok("stored"), "200": _ok("duplicate ignored")} | common | _errors(400, 409),
                             parameters=[SESSION_ID, TOKEN_QUERY], requestBody=_json_body("NativeBatch"),
                             security=[{"bearer": []}, {"queryToken": []}])},
@@ -217,7 +222,7 @@ def openapi_document() -> dict[str, Any]:
                                 {"name": "format", "in": "query", "schema": {"enum": ["json", "csv", "geojson"]},
                                  "description": "geojson: RFC 7946 lon/lat, for a geo-referenced session only (409 "
                                                 "otherwise)"},
-                                DEVICE, HEADING])},
+                                DEVICE, HEADING, AFTER])},
             "/api/v1/sessions/{session_id}/steps": _results_path("steps") | {
                 "post": _op("ingest a shoe unit's step-wise dead-reckoning summaries (idempotent by batch_id)",
                             {"201": _ok("stored"), "200": _ok("duplicate ignored")} | common | _errors(400, 409),

@@ -6,6 +6,10 @@ promises SI), or timestamps from another clock (a batch days away from the rest 
 spanning days by itself). Those are refused with 422 and a message naming the stream and what to fix;
 the session is left as it was.
 
+A location fix (``meta.location``) that is not one (not an object, a latitude off the globe, a time in ms) is refused
+422 naming its field rather than ignored, which would also lose the session's origin as the place of the earth's
+field.
+
 The device's role picks the processing (phone PDR or foot navigation); a placement that contradicts it (a
 ``phone`` placed on the ``foot``, a shoe IMU placed in the ``hand``) is refused rather than sent to the wrong one.
 
@@ -17,6 +21,7 @@ batch and is not checked.
 
 from __future__ import annotations
 
+import math
 import re
 from typing import Any
 
@@ -24,9 +29,10 @@ import numpy as np
 from sqlalchemy import Engine, func, select
 
 from pdr import units
-from pdr.recording import FOOT_ROLES, DeviceInfo, Recording
+from pdr.recording import FOOT_ROLES, LOCATION_META, DeviceInfo, Recording
 from server import db
 from server.errors import APIError
+from server.schemas import LOCATION_FIX, validate
 
 #: Longest time span of one uploaded batch, s (a day: batches are seconds to minutes long).
 MAX_BATCH_SPAN_S = 86_400.0
@@ -80,6 +86,21 @@ def check_units(recording: Recording) -> None:
                            details={"field": f"streams.{kind}.values", "detected_unit": detected})
 
 
+def check_location(recording: Recording) -> None:
+    """422 naming the field (``meta.location.lat_deg``, ...) if the recording's location fix is not a
+    :data:`server.schemas.LOCATION_FIX` with finite numbers; nothing without one.
+    """
+    if LOCATION_META not in recording.meta:
+        return
+    fix = recording.meta[LOCATION_META]
+    validate({"meta": {LOCATION_META: fix}}, {"properties": {"meta": {"properties": {LOCATION_META: LOCATION_FIX}}}},
+             "batch")
+    for key, value in fix.items():   # JSON bodies may carry NaN and Infinity, which pass a schema's bounds
+        if key in LOCATION_FIX["properties"] and isinstance(value, float) and not math.isfinite(value):
+            raise APIError(422, f"invalid batch: meta.location.{key}: {value} is not finite; batch not stored",
+                           details={"field": f"meta.location.{key}"})
+
+
 def check_time(engine: Engine, session_id: str, role: str, payload_format: str, t_first_ns: int,
                t_last_ns: int) -> None:
     """422 if the batch spans more than a day, or lies more than a day away from the session's other batches
@@ -109,6 +130,7 @@ def check_batch(engine: Engine, session_id: str, payload_format: str, recording:
     """Every plausibility check of a batch about to be stored in ``session_id``."""
     check_device(recording.device)
     check_units(recording)
+    check_location(recording)
     check_time(engine, session_id, recording.device.role, payload_format, t_first_ns, t_last_ns)
 
 

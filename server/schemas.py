@@ -41,6 +41,24 @@ PROCESSING = {
     },
 }
 
+#: WGS-84 latitude and longitude, degrees.
+LAT_DEG = {"type": "number", "minimum": -90, "maximum": 90}
+LON_DEG = {"type": "number", "minimum": -180, "maximum": 180}
+#: Latest ``unix_time_s`` of a location fix, s since 1970 (2**32: year 2106); a time in ms or ns lies far beyond.
+MAX_UNIX_TIME_S = 2**32
+
+#: A batch's location fix, ``meta.location`` (:data:`pdr.recording.LOCATION_META`): where (it geo-references an
+#: uploaded log) and, with its date, the earth's magnetic field there (:func:`pdr.geomagnetic.field_at_fix`). Other
+#: keys (a reader's ``t_ns``, ``horizontal_accuracy_m``, ``fixes``) are kept as they are.
+LOCATION_FIX: dict[str, Any] = {
+    "type": "object", "required": ["lat_deg", "lon_deg"],
+    "description": "location fix: lat_deg, lon_deg (WGS-84, deg); optional unix_time_s (s since 1970, UTC: without "
+                   "it the earth's field there is not known) and alt_m (m)",
+    "properties": {"lat_deg": LAT_DEG, "lon_deg": LON_DEG,
+                   "unix_time_s": {"type": ["number", "null"], "minimum": 0, "maximum": MAX_UNIX_TIME_S},
+                   "alt_m": {"type": ["number", "null"]}},
+}
+
 CREATE_SESSION = {
     "type": "object",
     "additionalProperties": False,
@@ -51,8 +69,7 @@ CREATE_SESSION = {
         "device": DEVICE,
         "origin": {
             "type": "object", "additionalProperties": False, "required": ["lat_deg", "lon_deg"],
-            "properties": {"lat_deg": {"type": "number", "minimum": -90, "maximum": 90},
-                           "lon_deg": {"type": "number", "minimum": -180, "maximum": 180}},
+            "properties": {"lat_deg": LAT_DEG, "lon_deg": LON_DEG},
         },
         "processing": PROCESSING,
     },

@@ -440,31 +440,43 @@ class Store:
         shown = func.substr(role, len(PREVIOUS) + 1).label("device_role")
         return [shown if c.name == "device_role" else c for c in table.c], role.startswith(PREVIOUS)
 
+    @staticmethod
+    def _newer(q: Any, table: Any, since_s: float | None, after_id: int | None) -> Any:
+        """``q`` restricted to the rows of ``table`` with ``t_s`` after ``since_s`` and stored after the row whose
+        ``id`` is ``after_id`` (each bound only when given).
+        """
+        if since_s is not None:
+            q = q.where(table.c.t_s > since_s)
+        if after_id is not None:
+            q = q.where(table.c.id > after_id)
+        return q
+
     def track(self, session_id: str, role: str | None = None, since_s: float | None = None,
-              previous: bool = False) -> list[Row[Any]]:
-        """The track rows (of ``role``; after ``since_s``); ``previous``: those kept during a rebuild."""
+              previous: bool = False, after_id: int | None = None) -> list[Row[Any]]:
+        """The track rows (of ``role``; after ``since_s``; stored after the row whose ``id`` is ``after_id``);
+        ``previous``: those kept during a rebuild.
+        """
         columns, kept = self._role_columns(db.track_points, previous)
         q = select(*columns).where(db.track_points.c.session_id == session_id, kept)
         if role:
             q = q.where(db.track_points.c.device_role == (PREVIOUS + role if previous else role))
-        if since_s is not None:
-            q = q.where(db.track_points.c.t_s > since_s)
+        q = self._newer(q, db.track_points, since_s, after_id)
         with self.engine.connect() as conn:
             return list(conn.execute(q.order_by(db.track_points.c.device_role, db.track_points.c.t_s,
                                                 db.track_points.c.id)))
 
-    def steps(self, session_id: str, since_s: float | None = None, previous: bool = False) -> list[Row[Any]]:
-        """The stored steps of every device role (after ``since_s``) in time order: each track row with the ``data``
-        of its step event (a foot step's increment; null for phone and fused steps), joined by step index;
-        ``previous``: those kept during a rebuild.
+    def steps(self, session_id: str, since_s: float | None = None, previous: bool = False,
+              after_id: int | None = None) -> list[Row[Any]]:
+        """The stored steps of every device role (after ``since_s``; stored after the track row whose ``id`` is
+        ``after_id``) in time order: each track row with the ``data`` of its step event (a foot step's increment;
+        null for phone and fused steps), joined by step index; ``previous``: those kept during a rebuild.
         """
         tp, ev = db.track_points, db.events
         columns, kept = self._role_columns(tp, previous)
         joined = tp.outerjoin(ev, (ev.c.session_id == tp.c.session_id) & (ev.c.device_role == tp.c.device_role)
                               & (ev.c.kind == "step") & (ev.c.step_index == tp.c.step_index))
-        q = select(*columns, ev.c.data).select_from(joined).where(tp.c.session_id == session_id, kept)
-        if since_s is not None:
-            q = q.where(tp.c.t_s > since_s)
+        q = self._newer(select(*columns, ev.c.data).select_from(joined).where(tp.c.session_id == session_id, kept),
+                        tp, since_s, after_id)
         with self.engine.connect() as conn:
             return list(conn.execute(q.order_by(tp.c.t_s, tp.c.id)))
 
@@ -491,9 +503,6 @@ class Store:
         """
         columns, kept = self._role_columns(db.events, previous)
         q = select(*columns).where(db.events.c.session_id == session_id, db.events.c.kind == kind, kept)
-        if since_s is not None:
-            q = q.where(db.events.c.t_s > since_s)
-        if after_id is not None:
-            q = q.where(db.events.c.id > after_id)
+        q = self._newer(q, db.events, since_s, after_id)
         with self.engine.connect() as conn:
             return list(conn.execute(q.order_by(db.events.c.t_s, db.events.c.id)))

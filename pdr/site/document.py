@@ -22,14 +22,14 @@ def read_site_document(path: str | Path) -> Any:
 
 
 def floors_list(document: dict[str, Any], source: str, required: bool = True) -> list[Any]:
-    """The ``floors`` list of a site description: its floor plans (:class:`pdr.site.plan.SitePlan`: ``required``,
-    non-empty), or where they are optional (the floor altitudes :class:`pdr.phone.landmarks.Site` reads) ``[]``
-    when absent. One check, so both halves of a site refuse a bad ``floors`` with the same :class:`InputError`
-    naming the field.
+    """The ``floors`` list of a site description: its floor plans (:class:`pdr.site.plan.SitePlan`: ``required``),
+    or where they are optional (the floor altitudes :class:`pdr.phone.landmarks.Site` reads) ``[]`` when absent.
+    A ``floors`` given is a non-empty list in both (an empty one describes no floor). One check, so both halves of a
+    site refuse a bad ``floors`` with the same :class:`InputError` naming the field.
     """
     floors = document.get("floors")
     if floors is None and not required:
         return []
-    if not isinstance(floors, list) or (required and not floors):
+    if not isinstance(floors, list) or not floors:
         raise InputError("expected a non-empty 'floors' list of floor plans", source=source, field="floors")
     return floors

@@ -5,12 +5,14 @@ steps' headings smoothed over the whole session so far (:mod:`pdr.phone.heading_
 re-integrated. Smoothing moves earlier rows too, so a poller asking with ``since`` gets the rows after it of the
 track smoothed over everything received. ``heading=causal`` (the default) is the track as it was streamed.
 
-Modes, landmarks and floors also take ``?after=SEQ``: every entry stored since the one numbered ``SEQ`` (each entry
-carries its ``seq``; the answer's ``next_after`` is the one to ask with next), whatever its time. ``since`` filters
-by the entry's own time, and some entries are stored with a time in the past: a stop or an elevator ride once it
-has ended, a stairs entry moved back by the barometer's lag. A poller using ``since`` misses those; one using
-``after`` does not. Provisional entries (the session's open end) are replaced at every batch and come again with new
-numbers, as do all entries after a rebuild.
+The track, steps, modes, landmarks and floors also take ``?after=SEQ``: every entry (track row, step) stored since
+the one numbered ``SEQ`` (a mode, landmark or floor carries its ``seq``; every answer's ``next_after``, the largest
+number among its entries, is the one to ask with next), whatever its time. ``since`` filters by the entry's own
+time, and some entries are stored with a time in the past: a stop or an elevator ride once it has ended, a stairs
+entry moved back by the barometer's lag, the steps of a shoe's file uploaded after the phone's walk. A poller using
+``since`` misses those; one using ``after`` does not.
+Provisional entries (the session's open end) are replaced at every batch and come again with new numbers, as do all
+entries after a rebuild.
 While a rebuild runs (reprocessing, new processing options, a late batch) every answer is the results from
 before it, until it ends. A smoothed answer names the devices whose headings the smoother changed
 (``smoothed_devices``; foot sensors and phones without its inputs keep their tracks) and gives its note per
@@ -25,7 +27,7 @@ import json
 import math
 import threading
 from collections import OrderedDict
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
@@ -52,6 +54,9 @@ EVENT_KINDS = {"modes": "mode", "landmarks": "landmark", "floors": "floor"}
 #: The largest ``seq`` an entry can have: ``events.id`` is an ``Integer`` column, PostgreSQL's 4-byte ``integer``
 #: (SQLite's is wider); a larger ``?after=`` would fail in the database rather than match nothing.
 MAX_SEQ = 2**31 - 1
+
+#: Values of ``?device=`` (:func:`parse_device`): a device role with a track, or ``primary``.
+DEVICES = (*ROLE_PRIORITY, "primary")
 
 
 def _query_value(name: str, convert: Callable[[str], T], expected: str, status: int = 400) -> T | None:
@@ -92,7 +97,7 @@ def parse_device(session_id: str) -> str | None:
     :mod:`server.feet`), or None (every device's rows); a 400 naming it for anything else.
     """
     device = request.args.get("device") or None
-    if device is not None and device not in ("primary", *ROLE_PRIORITY):
+    if device is not None and device not in DEVICES:
         raise APIError(400, f"unknown device '{device[:40]}'; use one of {', '.join(ROLE_PRIORITY)} or primary",
                        details={"field": "device"})
     if device == "primary":
@@ -121,32 +126,38 @@ class Smoothing:
         return {"smoothed_devices": list(self.devices)} | ({"heading_notes": list(self.notes)} if self.notes else {})
 
 
-def track_points(session_id: str, device: str | None, since: float | None, heading: str
-                 ) -> tuple[list[dict[str, Any]], Smoothing | None]:
-    """The stored track rows after ``since`` as dicts (the track columns, ``device``, ``provisional``; non-finite
-    values as None) and, for ``heading="smoothed"``, what the smoother did (None for the causal track).
-    ``heading="smoothed"`` smooths the whole stored track before taking the rows after ``since`` (module doc).
+def track_points(session_id: str, device: str | None, since: float | None, heading: str, after: int | None = None
+                 ) -> tuple[list[dict[str, Any]], Smoothing | None, int | None]:
+    """The stored track rows after ``since`` (s) and stored after the row numbered ``after`` as dicts (the track
+    columns, ``device``, ``provisional``; non-finite values as None), for ``heading="smoothed"`` what the smoother
+    did (None for the causal track), and the answer's ``next_after`` (:func:`next_after`).
+    ``heading="smoothed"`` smooths the whole stored track before taking the rows after ``since`` and ``after``
+    (module doc).
     """
     store = services().store
     previous = store.rebuilding(session_id)   # results from before a running rebuild (Store.clear_results)
-    if heading != "smoothed":
-        return _rows(store.track(session_id, device, since, previous=previous)), None
-    if map_matched(json.loads(store.session_row(session_id).meta or "{}")):
-        # Re-integrating smoothed headings would undo the walls: the matched track as streamed, with the reason.
-        return _rows(store.track(session_id, device, since, previous=previous)), Smoothing((MAP_MATCHED_NOTE,))
+    if heading != "smoothed" or map_matched(json.loads(store.session_row(session_id).meta or "{}")):
+        points = store.track(session_id, device, since, previous=previous, after_id=after)
+        # Map-matched: re-integrating smoothed headings would undo the walls; the track as streamed, with the reason.
+        smoothing = None if heading != "smoothed" else Smoothing((MAP_MATCHED_NOTE,))
+        return _rows(points), smoothing, next_after((p.id for p in points), after)
     key = (str(store.engine.url), session_id, device, previous, _results_version(store.engine, session_id))
     with _SMOOTHED_LOCK:
         hit = _SMOOTHED.get(key)
         if hit is not None:
             _SMOOTHED.move_to_end(key)
     if hit is None:
-        hit = _smoothed(store.track(session_id, device, None, previous=previous))
+        points = store.track(session_id, device, None, previous=previous)
+        # Store.track groups the rows by device, as _smoothed does: its rows are in the order of their ids here.
+        hit = (*_smoothed(points), tuple(p.id for p in points))
         with _SMOOTHED_LOCK:
             _SMOOTHED[key] = hit
             while len(_SMOOTHED) > SMOOTHED_CACHE_SIZE:
                 _SMOOTHED.popitem(last=False)
-    rows, smoothing = hit
-    return ([r for r in rows if r["t_s"] > since] if since is not None else list(rows)), smoothing
+    rows, smoothing, ids = hit
+    kept = [(r, i) for r, i in zip(rows, ids, strict=True)
+            if (since is None or r["t_s"] > since) and (after is None or i > after)]
+    return [r for r, _ in kept], smoothing, next_after((i for _, i in kept), after)
 
 
 #: The note of ``?heading=smoothed`` on a session map-matched online (``server.sites``).
@@ -155,9 +166,9 @@ MAP_MATCHED_NOTE = ("phone: not smoothed: the track is map-matched online on the
 
 #: Smoothed tracks kept (:func:`track_points`): the sessions being watched, a few thousand rows each.
 SMOOTHED_CACHE_SIZE = 8
-#: (database URL, session id, device, results version) -> the smoothed rows and what the smoother did. The rows are
-#: shared between answers: read them, never change them.
-_SMOOTHED: OrderedDict[tuple[Any, ...], tuple[list[dict[str, Any]], Smoothing]] = OrderedDict()
+#: (database URL, session id, device, results version) -> the smoothed rows, what the smoother did and the rows'
+#: numbers. The rows are shared between answers: read them, never change them.
+_SMOOTHED: OrderedDict[tuple[Any, ...], tuple[list[dict[str, Any]], Smoothing, tuple[int, ...]]] = OrderedDict()
 _SMOOTHED_LOCK = threading.Lock()
 
 
@@ -181,6 +192,13 @@ def _rows(points: list[Any]) -> list[dict[str, Any]]:
             for p in points]
 
 
+def next_after(seqs: Iterable[int], after: int | None) -> int | None:
+    """The ``next_after`` of an answer: the largest number (``seq``) of its entries, else the ``after`` it was asked
+    with.
+    """
+    return max(seqs, default=after)
+
+
 def _clean(v: Any) -> Any:
     return None if isinstance(v, float) and not math.isfinite(v) else v
 
@@ -188,7 +206,8 @@ def _clean(v: Any) -> Any:
 @bp.get("/<session_id>/track")
 def track(session_id: str) -> Response:
     """The track, one row per step: ``?format=json|csv|geojson``, ``?device=ROLE|primary``, ``?since=T_S``,
-    ``?heading=causal|smoothed`` (module doc). Every form names each row's device (CSV: the last column).
+    ``?after=SEQ``, ``?heading=causal|smoothed`` (module doc). Every form names each row's device (CSV: the last
+    column).
     """
     user = current_user()
     svc = services()
@@ -197,8 +216,8 @@ def track(session_id: str) -> Response:
     if fmt not in ("json", "csv", "geojson"):
         raise APIError(400, f"unknown format '{fmt[:20]}'; use json, csv or geojson", details={"field": "format"})
     heading = parse_heading()
-    since = parse_since()
-    rows, smoothing = track_points(session_id, parse_device(session_id), since, heading)
+    since, after = parse_since(), parse_after()
+    rows, smoothing, after_rows = track_points(session_id, parse_device(session_id), since, heading, after)
     if fmt == "csv":
         buf = io.StringIO()
         writer = csv.writer(buf, lineterminator="\n")
@@ -213,7 +232,8 @@ def track(session_id: str) -> Response:
                         mimetype="application/geo+json")
     next_since = max(r["t_s"] for r in rows) if rows else since
     body: dict[str, Any] = {"session": session_id, "columns": list(TRACK_COLUMNS), "points": rows,
-                            "count": len(rows), "next_since": next_since, "heading": heading,
+                            "count": len(rows), "next_since": next_since,
+                            "next_after": after_rows, "heading": heading,
                             "clock": session_clock(svc.store, row)}
     return jsonify(body | (smoothing.fields() if smoothing else {}))
 
@@ -264,26 +284,28 @@ def _events(session_id: str, what: str) -> Response:
              for r in rows]
     return jsonify({"session": session_id, what: items, "count": len(items),
                     "next_since": items[-1]["t_s"] if items else parse_since(),
-                    "next_after": max((r.id for r in rows), default=after), "clock": session_clock(svc.store, row)})
+                    "next_after": next_after((r.id for r in rows), after), "clock": session_clock(svc.store, row)})
 
 
 @bp.get("/<session_id>/steps")
 def steps(session_id: str) -> Response:
-    """The stored steps of every device in time order (``?since=T_S``): the track columns, ``step_index`` (0, 1, ...
-    per device), ``device``, ``provisional``, a phone step's other fields (:class:`pdr.phone.events.StepEvent`), a
-    foot step's increment; ``label`` (the mode) and ``value`` (the step length, m) as the other event lists have.
+    """The stored steps of every device in time order (``?since=T_S``, ``?after=SEQ``): the track columns,
+    ``step_index`` (0, 1, ... per device), ``device``, ``provisional``, a phone step's other fields
+    (:class:`pdr.phone.events.StepEvent`), a foot step's increment; ``label`` (the mode) and ``value`` (the step
+    length, m) as the other event lists have.
     """
     user = current_user()
     svc = services()
     session = svc.store.session_row(session_id, user.id)
-    since = parse_since()
-    rows = svc.store.steps(session_id, since, previous=svc.store.rebuilding(session_id))
+    since, after = parse_since(), parse_after()
+    rows = svc.store.steps(session_id, since, previous=svc.store.rebuilding(session_id), after_id=after)
     items = [{"t_s": r.t_s, "t_end_s": None, "label": r.mode, "value": _clean(r.step_length_m),
               "device": r.device_role, "provisional": r.provisional, "step_index": r.step_index}
              | {c: _clean(getattr(r, c)) for c in TRACK_COLUMNS} | step_fields(r) | json.loads(r.data or "{}")
              for r in rows]
     return jsonify({"session": session_id, "steps": items, "count": len(items),
-                    "next_since": items[-1]["t_s"] if items else since, "clock": session_clock(svc.store, session)})
+                    "next_since": items[-1]["t_s"] if items else since,
+                    "next_after": next_after((r.id for r in rows), after), "clock": session_clock(svc.store, session)})
 
 
 @bp.get("/<session_id>/modes")

@@ -15,7 +15,7 @@ from server import plausibility
 from server.api import current_user, json_body, no_query_parameters, services, uploaded_log
 from server.api.sites import give_session_site, named_site
 from server.errors import APIError
-from server.feet import primary_role, session_feet
+from server.feet import pairs_itself, primary_role, session_feet
 from server.ingest import store_batch
 from server.processing import FILE_PREFIX, NATIVE_JSON
 from server.processing_options import META_KEY, ProcessingOptions
@@ -106,6 +106,7 @@ def _create_from_file(user_id: int) -> tuple[Response, int]:
     site = named_site(options, user_id)
     placement = request.form.get("placement") or recording.device.placement
     plausibility.check_device(replace(recording.device, placement=placement))
+    plausibility.check_location(recording)
     digest = hashlib.sha256(payload).hexdigest()
     sid, created = svc.store.create_session(user_id, source="upload",
                                             client_session_id=request.form.get("session_id") or f"file-{digest[:24]}",
@@ -218,6 +219,7 @@ def upload_device_file(session_id: str, role: str) -> tuple[Response, int]:
     t_first, t_last = time_span_ns(recording)
     fmt = FILE_PREFIX + upload.descriptor
     plausibility.check_units(recording)
+    plausibility.check_location(recording)
     plausibility.check_time(svc.store.engine, session_id, role, fmt, t_first, t_last)
     digest = hashlib.sha256(upload.payload).hexdigest()
     accepted = store_batch(svc, session_id, client_batch_id=f"file-{role}-{digest[:32]}", payload_format=fmt,
@@ -227,15 +229,17 @@ def upload_device_file(session_id: str, role: str) -> tuple[Response, int]:
                      "duplicate": not accepted.created}), 201 if accepted.created else 200)
 
 
-def require_paired(session_id: str, role: str) -> None:
-    """409 unless a device of ``role`` is paired with the session (``POST .../devices``); 422 for no known role."""
+def require_paired(session_id: str, role: str, field: str = "role", why: str = "") -> None:
+    """409 unless a device of ``role`` is paired with the session (``POST .../devices``); 422 for no known role.
+    ``field`` names where the request gives the role, ``why`` adds the reason to the 409's message.
+    """
     if role not in DEVICE_ROLES:
         raise APIError(422, f"unknown device role '{role[:40]}'; expected one of {', '.join(DEVICE_ROLES)}",
-                       details={"field": "role"})
+                       details={"field": field})
     if role not in {d.role for d in services().store.devices(session_id)}:
         raise APIError(409, f"no {role} is paired with this session: pair it first with POST "
-                            f"/api/v1/sessions/{session_id}/devices {{\"role\": \"{role}\"}}",
-                       details={"field": "role"})
+                            f"/api/v1/sessions/{session_id}/devices {{\"role\": \"{role}\"}}{why}",
+                       details={"field": field})
 
 
 @bp.post("/<session_id>/batches")
@@ -258,6 +262,11 @@ def add_native_batch(session_id: str) -> tuple[Response, int]:
     t_first, t_last = time_span_ns(recording)
     plausibility.check_identity(svc.store.engine, session_id, batch_id, body.get("session_id"), recording)
     plausibility.check_batch(svc.store.engine, session_id, NATIVE_JSON, recording, t_first, t_last)
+    role = recording.device.role
+    if not pairs_itself(svc.store, session_id, role):
+        require_paired(session_id, role, field="device.role",
+                       why="; a session with a phone takes a shoe IMU's batches once its foot is paired (a phone's "
+                           "own batches have device.role 'phone'); batch not stored")
     accepted = store_batch(svc, session_id, client_batch_id=batch_id, payload_format=NATIVE_JSON,
                            payload=request.get_data(), t_first_ns=t_first, t_last_ns=t_last,
                            device=recording.device, content=body, recording=recording)

@@ -44,7 +44,7 @@ def track_columns(session_id: str) -> Response:
     since = parse_since()
     smoothing = None
     if heading == "smoothed":
-        points, smoothing = track_points(session_id, parse_device(session_id), since, heading)
+        points, smoothing, _ = track_points(session_id, parse_device(session_id), since, heading)
         columns = {name: [p["device" if name == "device_role" else name] for p in points] for name in COLUMNS}
         count = len(points)
     elif rows := svc.store.track(session_id, parse_device(session_id), since,

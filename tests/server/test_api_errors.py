@@ -154,6 +154,33 @@ def test_openapi_documents_every_api_route(app: Flask, client):
             assert (path, method.lower()) in documented, f"{method} {path} missing from the OpenAPI document"
 
 
+def test_openapi_states_the_devices_and_the_largest_after_the_results_take(client, tokens):
+    """The document gave ?device= as any string and ?after= without its maximum; both are now stated, and exactly
+    what the service takes: every listed device and the maximum are answered 200, a device not listed and one past
+    the maximum 400 naming the parameter."""
+    sid = _session(client, tokens["alice"])
+    h = bearer(tokens["alice"])
+    paths = client.get("/api/v1/openapi.json").get_json()["paths"]
+
+    def parameters(route: str) -> dict:
+        return {p["name"]: p for p in paths[f"/api/v1/sessions/{{session_id}}/{route}"]["get"]["parameters"]}
+
+    for route in ("track", "track/columns"):
+        devices = parameters(route)["device"]["schema"]["enum"]
+        assert {"primary", "phone", "left_foot", "right_foot", "fused"} <= set(devices)
+        for device in devices:
+            assert client.get(f"/api/v1/sessions/{sid}/{route}?device={device}", headers=h).status_code == 200
+        resp = client.get(f"/api/v1/sessions/{sid}/{route}?device=toe", headers=h)
+        assert assert_error(resp, 400, "unknown device")["details"]["field"] == "device"
+    for route in ("track", "steps", "modes", "landmarks", "floors"):
+        after = parameters(route)["after"]["schema"]
+        assert after["minimum"] == 0 and isinstance(after["maximum"], int)
+        for value, status in ((after["minimum"], 200), (after["maximum"], 200), (after["maximum"] + 1, 400),
+                              (after["minimum"] - 1, 400)):
+            resp = client.get(f"/api/v1/sessions/{sid}/{route}?after={value}", headers=h)
+            assert resp.status_code == status, (route, value, resp.get_json())
+
+
 @pytest.mark.parametrize(("query", "field"), [("format=xml", "format"), ("heading=bogus", "heading")])
 def test_400_unknown_track_format_or_heading_names_the_parameter(client, tokens, query, field):
     sid = _session(client, tokens["alice"])
@@ -181,7 +208,7 @@ def test_400_a_list_refuses_query_parameters_it_does_not_take(client, tokens, ro
     assert client.get(f"/api/v1/{route}", headers=h).status_code == 200
 
 
-@pytest.mark.parametrize("route", ["modes", "landmarks", "floors"])
+@pytest.mark.parametrize("route", ["modes", "landmarks", "floors", "track", "steps"])
 def test_400_an_after_beyond_any_seq_names_the_parameter_not_500(client, tokens, route):
     sid = _session(client, tokens["alice"])
     h = bearer(tokens["alice"])

@@ -140,6 +140,64 @@ def test_hostile_batch_gets_a_clear_4xx_and_leaves_the_session_intact(env, case)
     assert {"users", "batches", "sessions"} <= tables
 
 
+#: Location fixes in ``meta.location`` a client got wrong, and the field the 422 names.
+BAD_FIXES: dict[str, tuple[Any, str]] = {
+    "a place name": ("Nuremberg", "meta.location"),
+    "null": (None, "meta.location"),
+    "latitude off the globe": ({"lat_deg": 91.0, "lon_deg": 11.1, "unix_time_s": 1.7e9}, "meta.location.lat_deg"),
+    "longitude past 180": ({"lat_deg": 49.4, "lon_deg": 191.1, "unix_time_s": 1.7e9}, "meta.location.lon_deg"),
+    "latitude as text": ({"lat_deg": "49.4", "lon_deg": 11.1}, "meta.location.lat_deg"),
+    "no longitude": ({"lat_deg": 49.4, "unix_time_s": 1.7e9}, "meta.location.lon_deg"),
+    "time in ms": ({"lat_deg": 49.4, "lon_deg": 11.1, "unix_time_s": 1.7e12}, "meta.location.unix_time_s"),
+    "NaN altitude": ({"lat_deg": 49.4, "lon_deg": 11.1, "unix_time_s": 1.7e9, "alt_m": math.nan},
+                     "meta.location.alt_m"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_FIXES))
+def test_a_bad_location_fix_is_a_422_naming_its_field_and_leaves_the_session_intact(env, case):
+    """A ``meta.location`` that is not a fix was stored and ignored (201): the magnetometer went unchecked, and the
+    session's origin was not used in its place."""
+    app, c, h, sid = env
+    before = _snapshot(app, c, h, sid)
+    fix, field = BAD_FIXES[case]
+    r = _post_raw(c, sid, h, json.dumps(_batch(meta={"location": fix})).encode())
+    assert r.status_code == 422, r.get_data()[:300]
+    error = r.get_json()["error"]
+    assert error["details"]["field"] == field and "meta.location" in error["message"], error
+    assert _snapshot(app, c, h, sid) == before
+
+
+def test_a_good_location_fix_is_stored_whole(env):
+    """Fixes as clients and readers write them (dated, a Sensor Logger fix with its extra keys, undated: it still
+    geo-references) are accepted and kept as sent."""
+    from server.processing import decode_batch
+
+    app, c, h, sid = env
+    fixes = [{"lat_deg": 49.4614, "lon_deg": 11.1115, "unix_time_s": 1686732686.0, "alt_m": 365.0},
+             {"lat_deg": -33.9, "lon_deg": 151.2, "t_ns": 1686732686000000000, "horizontal_accuracy_m": None,
+              "unix_time_s": 1686732686.0, "fixes": 3},
+             {"lat_deg": 49.46, "lon_deg": 11.11}]
+    for i, fix in enumerate(fixes):
+        r = c.post(f"/api/v1/sessions/{sid}/batches", json=_batch(batch_id=f"fix{i}", meta={"location": fix}),
+                   headers=h)
+        assert r.status_code == 201, r.get_json()
+    app.extensions["pdr"].worker.wait_idle()
+    stored = {b.client_batch_id: decode_batch(b).meta["location"]
+              for b in app.extensions["pdr"].store.batches(sid) if b.client_batch_id.startswith("fix")}
+    assert stored == {f"fix{i}": fix for i, fix in enumerate(fixes)}
+
+
+def test_an_uploaded_native_log_with_a_bad_location_fix_is_a_422_and_creates_nothing(env):
+    app, c, h, sid = env
+    before = c.get("/api/v1/sessions", headers=h).get_json()
+    log = json.dumps(_batch(meta={"location": {"lat_deg": 491.0, "lon_deg": 11.1}})).encode()
+    r = c.post("/api/v1/sessions", data={"file": (io.BytesIO(log), "walk.json")}, headers=h,
+               content_type="multipart/form-data")
+    assert r.status_code == 422 and r.get_json()["error"]["details"]["field"] == "meta.location.lat_deg", r.get_json()
+    assert c.get("/api/v1/sessions", headers=h).get_json() == before
+
+
 def test_wrong_content_type_is_415(env):
     app, c, h, sid = env
     r = _post_raw(c, sid, h, json.dumps(phone_batch("x", 50.0)).encode(), content_type="text/plain")

@@ -1,11 +1,12 @@
-"""Incremental polling of a session's modes: ``?after=SEQ`` gets entries stored with a time in the past."""
+"""Incremental polling of a session's results: ``?after=SEQ`` gets entries stored with a time in the past."""
 
 from __future__ import annotations
 
+import pytest
 from flask import Flask
 from flask.testing import FlaskClient
 
-from server.store import EventRow
+from server.store import EventRow, TrackRow
 from tests.server.conftest import bearer
 from tests.server.web_seed import seed_session
 
@@ -40,9 +41,47 @@ def test_a_stop_stored_after_the_poll_but_dated_before_it_reaches_an_after_polle
     assert _modes(client, token, empty)["next_after"] is None
 
 
-def test_a_bad_after_is_a_400_naming_the_field(client: FlaskClient, tokens: dict[str, str], app: Flask) -> None:
+@pytest.mark.parametrize("route", ["landmarks", "track", "steps"])
+def test_a_bad_after_is_a_400_naming_the_field(client: FlaskClient, tokens: dict[str, str], app: Flask,
+                                              route: str) -> None:
     sid = seed_session(app.extensions["pdr"].store, tokens["alice"], "walk", {"phone": []})
-    for bad in ("abc", "-1", "1.5"):
-        resp = client.get(f"/api/v1/sessions/{sid}/landmarks?after={bad}", headers=bearer(tokens["alice"]))
-        assert resp.status_code == 400
-        assert "'after'" in resp.get_json()["error"]["message"]
+    for bad in ("abc", "-1", "1.5", str(2**31)):
+        resp = client.get(f"/api/v1/sessions/{sid}/{route}?after={bad}", headers=bearer(tokens["alice"]))
+        assert resp.status_code == 400, resp.get_json()
+        error = resp.get_json()["error"]
+        assert "'after'" in error["message"] and error["details"]["field"] == "after"
+
+
+def _steps(t0_s: float, n: int) -> list[TrackRow]:
+    return [TrackRow(t0_s + i, float(i), 0.0, 0.0, 0.0, 90.0, 0.7, "walking") for i in range(n)]
+
+
+@pytest.mark.parametrize("route", ["track", "steps"])
+def test_a_shoe_file_uploaded_after_the_walk_reaches_an_after_poller_of_the_track_and_steps(
+        app: Flask, client: FlaskClient, tokens: dict[str, str], route: str) -> None:
+    """The track and steps ignored ``?after=`` (every row answered) where modes, landmarks and floors honour it; a
+    poller using ``since`` misses rows stored late but dated earlier, as a shoe's steps uploaded after the phone's."""
+    store = app.extensions["pdr"].store
+    token, key = tokens["alice"], "points" if route == "track" else "steps"
+
+    def poll(query: str = "") -> dict:
+        resp = client.get(f"/api/v1/sessions/{sid}/{route}{query}", headers=bearer(token))
+        assert resp.status_code == 200, resp.get_json()
+        return resp.get_json()
+
+    sid = seed_session(store, token, "walk", {"phone": _steps(0.0, 10)})
+    first = poll()
+    assert first["count"] == 10 and isinstance(first["next_after"], int)
+    store.commit_results(sid, "left_foot", None, b"{}", None, _steps(2.0, 3), [])   # dated 2-4 s, stored now
+    store.commit_results(sid, "phone", None, b"{}", None, _steps(10.0, 2), [])
+    assert [r["t_s"] for r in poll(f"?since={first['next_since']}")[key]] == [10.0, 11.0]
+    late = poll(f"?after={first['next_after']}")
+    expected = [("left_foot", 2.0), ("left_foot", 3.0), ("left_foot", 4.0), ("phone", 10.0), ("phone", 11.0)]
+    assert sorted((r["device"], r["t_s"]) for r in late[key]) == expected
+    assert late["next_after"] > first["next_after"]
+    again = poll(f"?after={late['next_after']}")
+    assert again["count"] == 0 and again["next_after"] == late["next_after"]
+    if route == "track":   # the smoothed track: the same rows, smoothed over the whole session
+        smoothed = poll(f"?after={first['next_after']}&heading=smoothed")
+        assert sorted((r["device"], r["t_s"]) for r in smoothed[key]) == expected
+        assert smoothed["next_after"] == late["next_after"]

@@ -143,6 +143,35 @@ def test_duration_spans_every_device_and_the_foot_is_primary(app: Flask, client:
     assert s["feet"] == {"paired": ["left_foot"], "live": ["left_foot"]}
 
 
+def test_a_foot_batch_to_a_session_with_a_phone_needs_the_foot_paired(app: Flask, client: FlaskClient,
+                                                                       tokens: dict[str, str]) -> None:
+    """A raw left_foot batch sent to a phone's session was stored with 201 and paired the foot quietly, and the
+    foot's track replaced the phone's as the session's primary one. Now: 409 naming device.role and the pairing
+    route, nothing stored; once the foot is paired the same batch is taken. A shoe streaming alone (no phone in the
+    session) still pairs its foot by its batches (server.feet.pairs_itself)."""
+    h = bearer(tokens["alice"])
+    sid = _session(client, tokens["alice"], "phone-walk", ())
+    for i in range(3):
+        assert client.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch(f"p{i}", float(i)),
+                           headers=h).status_code == 201
+    assert app.extensions["pdr"].worker.wait_idle(60)
+    before = client.get(f"/api/v1/sessions/{sid}", headers=h).get_json()
+    foot = phone_batch("f0", 1.0, role="left_foot")
+    r = client.post(f"/api/v1/sessions/{sid}/batches", json=foot, headers=h)
+    assert r.status_code == 409, r.get_json()
+    err = r.get_json()["error"]
+    assert err["details"]["field"] == "device.role", err
+    assert f"POST /api/v1/sessions/{sid}/devices" in err["message"] and "batch not stored" in err["message"]
+    after = client.get(f"/api/v1/sessions/{sid}", headers=h).get_json()
+    assert (after["feet"], after["primary_track"], after["batches"]) == (before["feet"], "phone", before["batches"])
+    assert client.post(f"/api/v1/sessions/{sid}/devices", json={"role": "left_foot"}, headers=h).status_code == 201
+    assert client.post(f"/api/v1/sessions/{sid}/batches", json=foot, headers=h).status_code == 201
+    shoe = _session(client, tokens["alice"], "shoe-alone", ())
+    assert client.post(f"/api/v1/sessions/{shoe}/batches", json=foot, headers=h).status_code == 201
+    assert app.extensions["pdr"].worker.wait_idle(60)
+    assert client.get(f"/api/v1/sessions/{shoe}", headers=h).get_json()["feet"]["paired"] == ["left_foot"]
+
+
 def test_session_id_is_a_key_of_one_session(app: Flask, client: FlaskClient, tokens: dict[str, str]) -> None:
     """A second file under an existing session_id is refused (409, naming the session); the same file again is a
     no-op; GET /sessions/{session_id} finds the session by the client's key too."""

@@ -137,6 +137,7 @@ def test_site_round_trip_match_and_landmark_heading():
     (lambda d: d.update(grid_deg=400), r"grid_deg must be a number of degrees in \[-180, 180\]"),
     (lambda d: d.pop("landmarks"), "'landmarks' list"),
     (lambda d: d.update(floors={"floor": 0}), "expected a non-empty 'floors' list"),
+    (lambda d: d.update(floors=[]), "expected a non-empty 'floors' list"),
     (lambda d: d.update(floors=[{"floor": "ground", "altitude_m": 0.0}]), "floor and altitude_m must be numbers"),
 ])
 def test_bad_site_descriptions_name_the_field(edit, match):
@@ -161,7 +162,7 @@ def test_a_plan_only_site_needs_no_landmarks_list():
     site = Site.from_dict({"floors": [{"floor": 0, "altitude_m": 0.0, "walkable": []}]})
     assert site.landmarks == () and site.floor_altitudes_m == ((0.0, 0.0),)
     with pytest.raises(InputError, match="'landmarks' list") as exc:
-        Site.from_dict({"floors": [], "landmarks": {"id": 1}})
+        Site.from_dict({"floors": [{"floor": 0, "altitude_m": 0.0, "walkable": []}], "landmarks": {"id": 1}})
     assert exc.value.field == "landmarks"
 
 
