@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import jsonschema
@@ -105,18 +106,35 @@ CLASSIFY_WINDOW = {
 }
 
 
+def _finite_number(checker: Any, instance: Any) -> bool:
+    """JSON Schema's ``number``, less NaN and the infinities: JSON bodies may carry them (Python's parser takes
+    ``NaN`` and ``Infinity``), and they pass every ``minimum`` and ``maximum``.
+    """
+    return bool(jsonschema.Draft202012Validator.TYPE_CHECKER.is_type(instance, "number") and math.isfinite(instance))
+
+
+#: The request bodies' validator: Draft 2020-12 whose ``number`` is finite.
+_VALIDATOR = jsonschema.validators.extend(
+    jsonschema.Draft202012Validator,
+    type_checker=jsonschema.Draft202012Validator.TYPE_CHECKER.redefine("number", _finite_number))
+
+
 def validate(body: Any, schema: dict[str, Any], what: str) -> None:
-    """Raise a 422 naming the offending JSON path when ``body`` does not match ``schema``.
+    """Raise a 422 naming the offending JSON path when ``body`` does not match ``schema`` (a ``number`` must be
+    finite).
 
     The details give it as ``field`` (as every error body does; for a missing or unexpected property, that
     property) and as ``path`` (the object or value that failed, as before ``field`` was added).
     """
-    validator = jsonschema.Draft202012Validator(schema)
+    validator = _VALIDATOR(schema)
     error = next(iter(sorted(validator.iter_errors(body), key=lambda e: list(e.absolute_path))), None)
     if error is not None:
         path = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in error.absolute_path).lstrip(".")
         field = ".".join(p for p in (path, _property(error)) if p)
-        raise APIError(422, f"invalid {what}: {path or '(body)'}: {error.message}",
+        message = error.message
+        if isinstance(error.instance, float) and not math.isfinite(error.instance):
+            message = f"{error.instance} is not a finite number"
+        raise APIError(422, f"invalid {what}: {path or '(body)'}: {message}",
                        details={"path": path, "validator": error.validator} | ({"field": field} if field else {}))
 
 

@@ -458,3 +458,22 @@ def test_the_reader_sandbox_child_loads_the_readers_but_not_the_service():
              "('flask', 'sqlalchemy', 'server.app', 'pdr.phone.pipeline') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+@pytest.mark.parametrize("value", ["NaN", "Infinity", "-Infinity"])
+@pytest.mark.parametrize("where", ["origin", "start"])
+def test_a_number_that_is_not_finite_is_a_422_naming_its_field(env, value, where):
+    """A session's origin of NaN was created (201) and silently dropped (origin null), and a site's --start of NaN
+    accepted: JSON bodies may carry NaN and Infinity, which pass every minimum and maximum. Every number of a
+    request body is now checked finite (server.schemas.validate)."""
+    app, c, h, _ = env
+    if where == "origin":
+        body, field = f'{{"session_id": "n-{value}", "origin": {{"lat_deg": {value}, "lon_deg": 11.1}}}}', \
+            "origin.lat_deg"
+    else:
+        body, field = f'{{"session_id": "s-{value}", "processing": {{"start": [{value}, 0.0]}}}}', "processing.start[0]"
+    r = c.post("/api/v1/sessions", data=body, headers=h, content_type="application/json")
+    assert r.status_code == 422, r.get_data()[:300]
+    assert r.get_json()["error"]["details"]["field"] == field
+    sessions = c.get("/api/v1/sessions", headers=h).get_json()["sessions"]
+    assert not [s for s in sessions if s["session_id"].endswith(value)]
