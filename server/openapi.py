@@ -233,7 +233,7 @@ def openapi_document() -> dict[str, Any]:
             "/api/v1/sessions/{session_id}/floors": _results_path("floors"),
             "/api/v1/sessions/{session_id}/track/columns": {"get": _op(
                 "track as one array per column", {"200": _ok("track columns")} | _errors(400, 401, 404),
-                parameters=[SESSION_ID, SINCE, DEVICE, HEADING])},
+                parameters=[SESSION_ID, SINCE, DEVICE, HEADING, AFTER])},
             "/api/v1/sessions/{session_id}/truth": {
                 "get": _op("ground truth positions of uploaded logs", {"200": _ok("truth")} | _errors(401, 404),
                            parameters=[SESSION_ID])},

@@ -1,7 +1,7 @@
 """The track as columns: ``GET /api/v1/sessions/{id}/track/columns`` (compact and fast, for the web page).
 
-The same rows as ``/track`` (``?device=ROLE|primary``, ``?since=T_S``, ``?heading=causal|smoothed``, with its
-``smoothed_devices`` and ``heading_notes``), laid out as one
+The same rows as ``/track`` (``?device=ROLE|primary``, ``?since=T_S``, ``?after=SEQ``, ``?heading=causal|smoothed``,
+with its ``smoothed_devices``, ``heading_notes`` and ``next_after``), laid out as one
 array per column instead of
 one object per row: for a 2-hour walk (10 000+ steps) that halves the body and the server's time, which is
 most of the page's first render.
@@ -17,7 +17,7 @@ from flask import Blueprint, Response
 
 from pdr.phone.track_schema import TRACK_COLUMNS
 from server.api import current_user, services
-from server.api.results import parse_device, parse_heading, parse_since, track_points
+from server.api.results import next_after, parse_after, parse_device, parse_heading, parse_since, track_points
 
 bp = Blueprint("track_columns", __name__, url_prefix="/api/v1/sessions")
 
@@ -32,7 +32,8 @@ def _finite(values: list[Any]) -> list[Any]:
 
 @bp.get("/<session_id>/track/columns")
 def track_columns(session_id: str) -> Response:
-    """``{"session", "count", "columns": {name: [...]}, "next_since"}``; ``device`` is the device role per row.
+    """``{"session", "count", "columns": {name: [...]}, "next_since", "next_after"}``; ``device`` is the device role
+    per row.
 
     Provisional rows are replaced when the next batch is processed: a poller drops them and asks again
     from its last final row.
@@ -41,14 +42,16 @@ def track_columns(session_id: str) -> Response:
     svc = services()
     svc.store.session_row(session_id, user.id)
     heading = parse_heading()
-    since = parse_since()
+    since, after = parse_since(), parse_after()
     smoothing = None
+    last = after
     if heading == "smoothed":
-        points, smoothing, _ = track_points(session_id, parse_device(session_id), since, heading)
+        points, smoothing, last = track_points(session_id, parse_device(session_id), since, heading, after)
         columns = {name: [p["device" if name == "device_role" else name] for p in points] for name in COLUMNS}
         count = len(points)
     elif rows := svc.store.track(session_id, parse_device(session_id), since,
-                                 previous=svc.store.rebuilding(session_id)):
+                                 previous=svc.store.rebuilding(session_id), after_id=after):
+        last = next_after((r.id for r in rows), after)
         fields = list(rows[0]._fields)
         transposed = list(zip(*rows, strict=True))
         columns = {name: list(transposed[fields.index(name)]) for name in COLUMNS}
@@ -59,7 +62,8 @@ def track_columns(session_id: str) -> Response:
     columns["provisional"] = [bool(v) for v in columns["provisional"]]
     columns["device"] = columns.pop("device_role")
     body: dict[str, Any] = {"session": session_id, "count": count, "columns": columns,
-                            "next_since": max(columns["t_s"]) if count else since, "heading": heading}
+                            "next_since": max(columns["t_s"]) if count else since, "next_after": last,
+                            "heading": heading}
     if smoothing:
         body |= smoothing.fields()
     try:

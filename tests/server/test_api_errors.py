@@ -172,7 +172,7 @@ def test_openapi_states_the_devices_and_the_largest_after_the_results_take(clien
             assert client.get(f"/api/v1/sessions/{sid}/{route}?device={device}", headers=h).status_code == 200
         resp = client.get(f"/api/v1/sessions/{sid}/{route}?device=toe", headers=h)
         assert assert_error(resp, 400, "unknown device")["details"]["field"] == "device"
-    for route in ("track", "steps", "modes", "landmarks", "floors"):
+    for route in ("track", "track/columns", "steps", "modes", "landmarks", "floors"):
         after = parameters(route)["after"]["schema"]
         assert after["minimum"] == 0 and isinstance(after["maximum"], int)
         for value, status in ((after["minimum"], 200), (after["maximum"], 200), (after["maximum"] + 1, 400),

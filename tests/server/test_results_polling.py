@@ -56,13 +56,20 @@ def _steps(t0_s: float, n: int) -> list[TrackRow]:
     return [TrackRow(t0_s + i, float(i), 0.0, 0.0, 0.0, 90.0, 0.7, "walking") for i in range(n)]
 
 
-@pytest.mark.parametrize("route", ["track", "steps"])
+@pytest.mark.parametrize("route", ["track", "track/columns", "steps"])
 def test_a_shoe_file_uploaded_after_the_walk_reaches_an_after_poller_of_the_track_and_steps(
         app: Flask, client: FlaskClient, tokens: dict[str, str], route: str) -> None:
     """The track and steps ignored ``?after=`` (every row answered) where modes, landmarks and floors honour it; a
-    poller using ``since`` misses rows stored late but dated earlier, as a shoe's steps uploaded after the phone's."""
+    poller using ``since`` misses rows stored late but dated earlier, as a shoe's steps uploaded after the phone's.
+    The track's columns (the web page's form of it) take ``?after=`` too."""
     store = app.extensions["pdr"].store
     token, key = tokens["alice"], "points" if route == "track" else "steps"
+
+    def rows(answer: dict) -> list[tuple[str, float]]:
+        """(device, t_s) of an answer's rows, in its order."""
+        if route == "track/columns":
+            return list(zip(answer["columns"]["device"], answer["columns"]["t_s"], strict=True))
+        return [(r["device"], r["t_s"]) for r in answer[key]]
 
     def poll(query: str = "") -> dict:
         resp = client.get(f"/api/v1/sessions/{sid}/{route}{query}", headers=bearer(token))
@@ -74,14 +81,14 @@ def test_a_shoe_file_uploaded_after_the_walk_reaches_an_after_poller_of_the_trac
     assert first["count"] == 10 and isinstance(first["next_after"], int)
     store.commit_results(sid, "left_foot", None, b"{}", None, _steps(2.0, 3), [])   # dated 2-4 s, stored now
     store.commit_results(sid, "phone", None, b"{}", None, _steps(10.0, 2), [])
-    assert [r["t_s"] for r in poll(f"?since={first['next_since']}")[key]] == [10.0, 11.0]
+    assert [t for _, t in rows(poll(f"?since={first['next_since']}"))] == [10.0, 11.0]
     late = poll(f"?after={first['next_after']}")
     expected = [("left_foot", 2.0), ("left_foot", 3.0), ("left_foot", 4.0), ("phone", 10.0), ("phone", 11.0)]
-    assert sorted((r["device"], r["t_s"]) for r in late[key]) == expected
+    assert sorted(rows(late)) == expected
     assert late["next_after"] > first["next_after"]
     again = poll(f"?after={late['next_after']}")
     assert again["count"] == 0 and again["next_after"] == late["next_after"]
-    if route == "track":   # the smoothed track: the same rows, smoothed over the whole session
+    if route != "steps":   # the smoothed track: the same rows, smoothed over the whole session
         smoothed = poll(f"?after={first['next_after']}&heading=smoothed")
-        assert sorted((r["device"], r["t_s"]) for r in smoothed[key]) == expected
+        assert sorted(rows(smoothed)) == expected
         assert smoothed["next_after"] == late["next_after"]
