@@ -7,7 +7,9 @@ sensor frame (about +1 g along the up-pointing axis at rest).
 
 ``Time`` is in seconds from the start; ``t_ns = round(t * 1e9)``. The x-io logs repeat some rows verbatim
 (the same timestamp and values, about 1 % of the Gait-Tracking example): rows whose time repeats (the first is
-kept) or goes back are dropped with a warning naming the line (:mod:`pdr.io.time_order`).
+kept) or goes back are dropped with a warning naming the line (:mod:`pdr.io.time_order`). The x-io software ends
+every row with a line break: a last line without one (a recording cut off, mid-number or mid-line) is dropped with
+a warning naming the file and line.
 
 The side of the foot is not recorded: role ``right_foot`` with ``meta['foot_side'] = 'unknown'``.
 """
@@ -60,7 +62,7 @@ def read(path: str | Path) -> Recording:
     source = str(p)
     text = read_text(p)
     warnings: list[str] = []
-    table = parse_table(text, source, notes=warnings)
+    table = parse_table(text, source, notes=warnings, terminated=True)
     if "Time (s)" not in table.header:
         raise InputError(f"no 'Time (s)' column (header has {list(table.header)})", source=source, line=1,
                          field="Time (s)")
