@@ -15,7 +15,7 @@ from typing import Any
 
 from classifiers.installed import DEFAULT_MODEL, placement_model
 from pdr.cli.one_shot import one_shot_process
-from pdr.cli.outputs import in_made_folder
+from pdr.cli.outputs import in_made_folder, print_warnings
 from pdr.io.registry import read_recording
 from pdr.recording import Recording
 
@@ -73,6 +73,7 @@ def run_classify(args: argparse.Namespace) -> int:
 def _classify(args: argparse.Namespace) -> int:
     """``pdr classify``: read, classify, write (:func:`run_classify`)."""
     rec = read_recording(args.log)
+    print_warnings(rec.warnings)        # what the reader dropped (a cut-off last line, repeated samples, ...)
     t0 = rec.origin_ns / 1e9
     name, rows = (args.model, None) if args.model else _placement_modes(rec, args.placement)
     if rows is None:

@@ -1,9 +1,12 @@
 """Files a command writes (``--out``, ``--geojson``, ``--plot``): their folder is made when it does not exist yet
-(``pdr track LOG --out runs/today/walk.csv``), as ``pdr classify`` and ``pdr track`` do.
+(``pdr track LOG --out runs/today/walk.csv``), as ``pdr classify`` and ``pdr track`` do. What the reader dropped or
+repaired on the way in is said on stderr (:func:`print_warnings`).
 """
 
 from __future__ import annotations
 
+import sys
+from collections.abc import Iterable
 from pathlib import Path
 
 
@@ -12,3 +15,12 @@ def in_made_folder(path: str | Path) -> Path:
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
     return p
+
+
+def print_warnings(warnings: Iterable[str], side: str | None = None) -> None:
+    """One ``warning: ...`` line on stderr per problem the reader found and repaired (a cut-off last line, repeated
+    samples dropped, ...; :attr:`pdr.recording.Recording.warnings`), ``warning (left): ...`` for a ``side``.
+    """
+    label = f"warning ({side})" if side else "warning"
+    for w in warnings:
+        print(f"{label}: {w}", file=sys.stderr)

@@ -312,3 +312,19 @@ def test_a_folder_of_several_logs_says_so_instead_of_unsupported_format(capsys, 
     (empty / "notes.md").write_text("no walks\n")
     code, _, err = _run(capsys, "inspect", str(empty))
     assert code == 2 and "not a supported log format" in err
+
+
+@pytest.mark.parametrize("command", ["track", "classify", "convert"])
+def test_commands_say_what_the_reader_dropped(capsys, tmp_path, native_log, command):
+    """A log cut off mid-line: its last line is dropped by the reader, and 'pdr track', 'pdr classify' and 'pdr
+    convert' say so on stderr as 'pdr foot' does (they said nothing; only 'pdr inspect' listed it)."""
+    acc = native_log / "acc.csv"
+    acc.write_text(acc.read_text() + "1700000020000000000,0.1")       # no line break: the phone stopped here
+    line = acc.read_text().count("\n") + 1
+    out = tmp_path / "out"
+    argv = {"track": ["track", str(native_log), "--out", str(out / "t.csv")],
+            "classify": ["classify", str(native_log), "--out", str(out / "m.csv")],
+            "convert": ["convert", str(native_log), "--to", "native", str(out / "c.zip")]}[command]
+    code, _, err = _run(capsys, *argv)
+    assert code == 0, err
+    assert f"warning: acc.csv: dropped the cut-off last line {line} (2 of 4 fields): the log ends mid-line" in err
