@@ -83,6 +83,10 @@ def detect_format(path: str | Path) -> str:
                     return str(module.FORMAT)
     if p.is_file() and starts_with(p, b"\x1f\x8b"):
         read_bytes(p)       # a gzip no reader recognised may be one damaged at its start: InputError naming it
+    if p.is_file() and p.stat().st_size == 0:      # no format to force either: say what it is
+        raise UnrecognisedLogError("an empty file (0 bytes): no log in it", source=str(p))
+    if p.is_dir() and not any(not c.name.startswith(".") for c in p.iterdir()):
+        raise UnrecognisedLogError("an empty folder: no log in it", source=str(p))
     for module in _modules():
         # A reader may recognise a log of its format that lacks what it needs (``near_miss``: why, or None).
         why = module.near_miss(p) if hasattr(module, "near_miss") else None

@@ -328,3 +328,21 @@ def test_commands_say_what_the_reader_dropped(capsys, tmp_path, native_log, comm
     code, _, err = _run(capsys, *argv)
     assert code == 0, err
     assert f"warning: acc.csv: dropped the cut-off last line {line} (2 of 4 fields): the log ends mid-line" in err
+
+
+@pytest.mark.parametrize("command", ["inspect", "track", "classify", "convert"])
+def test_an_empty_file_or_folder_is_said_to_be_empty(capsys, tmp_path, command):
+    """An empty file (a recording that never started) or folder was 'not a supported log format (supported: ...);
+    pass --format to force one', which no --format fixes; it is now named for what it is."""
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "empty" / ".hidden").write_text("")
+    (tmp_path / "walk.csv").write_bytes(b"")
+    for name, what in (("walk.csv", "an empty file (0 bytes): no log in it"),
+                       ("empty", "an empty folder: no log in it")):
+        log = str(tmp_path / name)
+        argv = {"inspect": ["inspect", log], "track": ["track", log, "--out", str(tmp_path / "t.csv")],
+                "classify": ["classify", log, "--out", str(tmp_path / "m.csv")],
+                "convert": ["convert", log, "--to", "native", str(tmp_path / "c.zip")]}[command]
+        code, out, err = _run(capsys, *argv)
+        assert code == 2 and out == ""
+        assert err.strip() == f"error: {log}: {what}"
