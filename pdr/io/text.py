@@ -65,19 +65,19 @@ def read_text(path: str | Path) -> str:
 
 
 def head(path: str | Path, n: int = SNIFF_BYTES) -> bytes:
-    """First ``n`` bytes of a file (gunzipped if ``.gz``); empty on any error and for a zip archive (whose stored
-    members would otherwise show their text to a text reader's sniffer: a zip is read from its members). For
-    sniffing only.
+    """First ``n`` bytes of a file, gunzipped as :func:`read_bytes` does (named ``.gz`` or starting with gzip's
+    magic bytes: a trace saved without its ``.gz``); empty on any error and for a zip archive (whose stored members
+    would otherwise show their text to a text reader's sniffer: a zip is read from its members). For sniffing only.
     """
     p = Path(path)
     try:
         if not p.is_file():
             return b""
-        if p.name.endswith(".gz"):
-            with gzip.open(p, "rb") as f:
-                return f.read(n)
         with p.open("rb") as f:
             start = f.read(n)
+        if p.name.endswith(".gz") or start[:2] == b"\x1f\x8b":
+            with gzip.open(p, "rb") as f:
+                return f.read(n)
         return b"" if start.startswith(b"PK\x03\x04") else start
     except (OSError, EOFError, zlib.error):
         return b""
