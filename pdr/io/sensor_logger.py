@@ -134,8 +134,8 @@ def sniff(path: str | Path) -> bool:
             for member in members:
                 stem = member.rsplit("/", 1)[-1].rsplit(".", 1)[0].lower()
                 if "/" not in member and member.lower().endswith(".csv") and stem in READINGS:
-                    raw = bundle.get(member)
-                    if raw is not None and _is_reading_csv_header(raw[:200], stem, "Metadata.csv" in members):
+                    raw = bundle.head(member, 200)      # a member cut short further on: its reader says so
+                    if _is_reading_csv_header(raw, stem, "Metadata.csv" in members):
                         return True
             return False
         if not p.is_file() or not strip_gz(p.name.lower()).endswith(".json"):
