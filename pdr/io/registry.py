@@ -21,6 +21,8 @@ from typing import Any
 
 from pdr.errors import InputError, UnknownFormatError
 from pdr.io.bundle import is_zip, starts_with
+from pdr.io.matfile import is_mat
+from pdr.io.matfile import load as load_mat
 from pdr.io.text import read_bytes
 from pdr.recording import Recording
 
@@ -83,6 +85,8 @@ def detect_format(path: str | Path) -> str:
                     return str(module.FORMAT)
     if p.is_file() and starts_with(p, b"\x1f\x8b"):
         read_bytes(p)       # a gzip no reader recognised may be one damaged at its start: InputError naming it
+    if is_mat(p):
+        load_mat(p)         # a MATLAB file no reader recognised may be one cut short: InputError naming it
     if p.is_file() and p.stat().st_size == 0:      # no format to force either: say what it is
         raise UnrecognisedLogError("an empty file (0 bytes): no log in it", source=str(p))
     if p.is_dir() and not any(not c.name.startswith(".") for c in p.iterdir()):
