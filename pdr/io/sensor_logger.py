@@ -150,6 +150,20 @@ def sniff(path: str | Path) -> bool:
         return False
 
 
+def near_miss(path: str | Path) -> str | None:
+    """Why one reading's CSV of an export (``Accelerometer.csv`` alone, its header ``time,seconds_elapsed,...``) is
+    not read, or None: the export is read as a whole, from its folder or zip.
+    """
+    p = Path(path)
+    name = strip_gz(p.name)
+    stem = name.rsplit(".", 1)[0].lower()
+    if not (p.is_file() and name.lower().endswith(".csv") and stem in READINGS
+            and _is_reading_csv_header(head(p, 200), stem, False)):
+        return None
+    return (f"one reading ({name}) of a Sensor Logger export, which is read as a whole: give the export's folder or "
+            "zip (its Metadata.csv and the other readings beside it)")
+
+
 # --------------------------------------------------------------------------------------------- push messages
 
 def _number(x: Any, source: str, where: str) -> float:

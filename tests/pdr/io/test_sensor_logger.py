@@ -430,3 +430,18 @@ def test_an_export_with_a_member_gzip_cut_short_names_that_member(tmp_path, pack
     with pytest.raises(InputError, match=r"corrupt gzip data") as err:
         read_recording(log)
     assert "Accelerometer.csv" in str(err.value.source)
+
+
+@pytest.mark.parametrize("name", ["Accelerometer.csv", "Gyroscope.csv.gz"])
+def test_one_reading_of_an_export_alone_says_to_give_the_export(tmp_path, name):
+    """One CSV of an export (what a user picks out of the folder) was 'not a supported log format ...; pass --format
+    to force one', and no --format reads it; the error now says the export is read whole, from its folder or zip."""
+    from pdr.errors import UnknownFormatError
+    from pdr.io import read_recording
+
+    raw = (FIXTURES / "android_face_up" / name.removesuffix(".gz")).read_bytes()
+    one = tmp_path / name
+    one.write_bytes(gzip.compress(raw) if name.endswith(".gz") else raw)
+    with pytest.raises(UnknownFormatError, match=rf"one reading \({name.removesuffix('.gz')}\) of a Sensor Logger "
+                                                 r"export, which is read as a whole: give the export's folder or zip"):
+        read_recording(one)
