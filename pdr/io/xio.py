@@ -23,7 +23,7 @@ import numpy as np
 
 from pdr.errors import InputError
 from pdr.io.csvtable import parse_table, split_header
-from pdr.io.text import head, read_text, strip_gz, timestamps_ns
+from pdr.io.text import head, read_text, timestamps_ns
 from pdr.io.time_order import keep_increasing
 from pdr.recording import DeviceInfo, Recording, SensorStream
 from pdr.units import ACC_UNITS, GYRO_UNITS, MAG_UNITS, PRESSURE_UNITS
@@ -39,11 +39,11 @@ _UNIT_ALIASES = {"µT": "uT", "μT": "uT", "m/s²": "m/s^2", "m/s2": "m/s^2", "�
 
 
 def sniff(path: str | Path) -> bool:
-    """A CSV (or .csv.gz) with header ``Time (s)``, ``Gyroscope X (..)`` ... ``Accelerometer X (..)`` ...."""
+    """A file (plain or gzipped) whose header is ``Time (s)``, ``Gyroscope X (..)`` ... ``Accelerometer X (..)``
+    ...: that header says what it is whatever the file's extension (``.csv``, ``.txt``, ``.dat``).
+    """
     try:
         p = Path(path)
-        if not strip_gz(p.name.lower()).endswith(".csv"):
-            return False
         first = head(p).split(b"\n", 1)[0].decode("utf-8-sig", errors="replace").strip()
         fields = [f.strip() for f in first.split(",")]
         return (fields[0] == "Time (s)" and any(f.startswith("Gyroscope X (") for f in fields)

@@ -98,6 +98,17 @@ def test_last_line_cut_mid_number_dropped_with_warning(tmp_path, gz):
     assert len(xio.read(_write(tmp_path, whole, "whole.csv")).stream("acc")) == 6
 
 
+@pytest.mark.parametrize("name", ["walk.txt", "walk.dat", "walk"])
+def test_recognised_by_its_header_whatever_the_extension(tmp_path, name):
+    """An x-io log saved as walk.txt or walk.dat was 'not a supported log format' (the sniffer wanted .csv); its
+    header names it, and it reads as the .csv does."""
+    from pdr.io import detect_format
+
+    p = _write(tmp_path, _text(), name)
+    assert detect_format(p) == "xio"
+    np.testing.assert_array_equal(xio.read(p).values("acc"), xio.read(_write(tmp_path, _text())).values("acc"))
+
+
 def test_garbage_and_foreign(tmp_path):
     g = _write(tmp_path, "", "g.csv")
     g.write_bytes(b"\x00\xff" * 500)
