@@ -346,3 +346,23 @@ def test_an_empty_file_or_folder_is_said_to_be_empty(capsys, tmp_path, command):
         code, out, err = _run(capsys, *argv)
         assert code == 2 and out == ""
         assert err.strip() == f"error: {log}: {what}"
+
+
+def test_a_dataset_folder_with_its_logs_further_down_names_them(capsys, tmp_path):
+    """``pdr inspect ipin2023_t3/`` (its logs in ``logfiles/``) or an MS floor folder (``path_data_files/``) said 'not
+    a supported log format ...; pass --format to force one'; the logs a level or two down are named now, as a
+    folder's own logs were."""
+    from tests.conftest import REPO_ROOT
+
+    ms = (REPO_ROOT / "mobile_logs" / "real" / "ms_indoor_site2_F3_5dd51a7650e04e0006f5642c.txt.gz").read_bytes()
+    root = tmp_path / "dataset"
+    (root / "logfiles").mkdir(parents=True)
+    (root / "supplementary").mkdir()
+    for name in ("a.txt.gz", "b.txt.gz"):
+        (root / "logfiles" / name).write_bytes(ms)
+    (root / "supplementary" / "README.txt").write_text("a map\n")
+    (root / "SOURCE.md").write_text("two walks\n")
+    code, out, err = _run(capsys, "inspect", str(root))
+    assert code == 2 and out == ""
+    assert err.strip() == (f"error: {root}: not one log but a folder that holds logs (2 of its entries: "
+                           "logfiles/a.txt.gz, logfiles/b.txt.gz); pass one of them")
