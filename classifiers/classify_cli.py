@@ -10,12 +10,14 @@ import argparse
 import csv
 import math
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from classifiers.installed import DEFAULT_MODEL, placement_model
 from pdr.cli.one_shot import one_shot_process
-from pdr.cli.outputs import in_made_folder
+from pdr.cli.outputs import in_made_folder, print_warnings
+from pdr.errors import InputError
 from pdr.io.registry import read_recording
 from pdr.recording import Recording
 
@@ -36,11 +38,13 @@ def register_classify(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run_classify)
 
 
-def _placement_modes(rec: Recording, placement: str) -> tuple[str | None, list[dict[str, Any]] | None]:
+def _placement_modes(rec: Recording, placement: str) -> tuple[str | None, list[dict[str, Any]] | None,
+                                                              Callable[[str], list[dict[str, Any]]]]:
     """As the service: the motion-mode model installed for the phone's placement (``placement``; ``auto``: the
-    log's metadata, else the pipeline's detection) as ``(name, None)``; for a placement without one, ``(None,
-    rows)``: the phone pipeline's step modes with its stops and rides (:mod:`classifiers.step_timeline`), a notice on
-    stderr.
+    log's metadata, else the pipeline's detection) as ``(name, None, step_modes)``; for a placement without one,
+    ``(None, rows, step_modes)``: the phone pipeline's step modes with its stops and rides
+    (:mod:`classifiers.step_timeline`), a notice on stderr. ``step_modes(why)`` gives those rows and notice when the
+    installed model cannot use the log.
     """
     from classifiers.step_timeline import step_timeline
     from pdr.phone.configure import placement_group
@@ -49,20 +53,22 @@ def _placement_modes(rec: Recording, placement: str) -> tuple[str | None, list[d
     timeline = step_timeline(rec) if group == "auto" else None      # the pipeline detects the placement
     if timeline is not None:
         group = timeline.placement
+
+    def step_modes(why: str) -> list[dict[str, Any]]:
+        tl = timeline or step_timeline(rec, placement=group)
+        print(f"motion modes from step patterns: {why}; the modes are the phone pipeline's step modes with its stops "
+              f"and elevator rides, as the service lists them (no confidence)", file=sys.stderr)
+        end = rec.origin_ns / 1e9 + rec.time_span_s()[1]
+        return [{"t_start_s": a, "t_end_s": b, "mode": label, "confidence": math.nan} for a, b, label in tl.spans(end)]
+
     name = placement_model(group)
     if name is not None:
-        return name, None
-    timeline = timeline or step_timeline(rec, placement=group)
+        return name, None, step_modes
     named = rec.device.placement if rec.device.placement not in (None, "", "unknown") else None
     how = (f"carried in the {group}" if group is not None else
            "whose placement is unknown (" + (f"the log's '{named}' is not one the pipeline tracks" if named else
                                              "the log names none") + " and no walking was detected to find it)")
-    print(f"motion modes from step patterns: no mode classifier is installed for a phone {how}; the modes are the "
-          f"phone pipeline's step modes with its stops and elevator rides, as the service lists them (no confidence)",
-          file=sys.stderr)
-    end = rec.origin_ns / 1e9 + rec.time_span_s()[1]
-    return None, [{"t_start_s": a, "t_end_s": b, "mode": label, "confidence": math.nan}
-                  for a, b, label in timeline.spans(end)]
+    return None, step_modes(f"no mode classifier is installed for a phone {how}"), step_modes
 
 
 def run_classify(args: argparse.Namespace) -> int:
@@ -73,20 +79,29 @@ def run_classify(args: argparse.Namespace) -> int:
 def _classify(args: argparse.Namespace) -> int:
     """``pdr classify``: read, classify, write (:func:`run_classify`)."""
     rec = read_recording(args.log)
+    print_warnings(rec.warnings)        # what the reader dropped (a cut-off last line, repeated samples, ...)
     t0 = rec.origin_ns / 1e9
-    name, rows = (args.model, None) if args.model else _placement_modes(rec, args.placement)
+    name, rows, step_modes = (args.model, None, None) if args.model else _placement_modes(rec, args.placement)
     if rows is None:
         from classifiers.artifacts import load_model
 
         assert name is not None         # a model was named or is installed for the placement
         model = load_model(name)
-        if args.online:
-            from classifiers.streaming import StreamingClassifier
+        try:
+            if args.online:
+                from classifiers.streaming import StreamingClassifier
 
-            clf = StreamingClassifier(model)
-            rows = [r.to_dict() for r in clf.update(rec) + clf.finish()]
-        else:
-            rows = model.classify(rec).rows(t0)
+                clf = StreamingClassifier(model)
+                rows = [r.to_dict() for r in clf.update(rec) + clf.finish()]
+            else:
+                rows = model.classify(rec).rows(t0)
+        except InputError as exc:
+            if step_modes is None:      # the model was asked for
+                raise
+            # As the service (server.phone_processor): the installed model cannot use the log (an accelerometer-only
+            # pocket log for a model that needs the gyro): the step modes, saying why.
+            rows = step_modes(f"the installed '{name}' model cannot use this log ({exc.message})")
+            name = None
     if not rows:     # an empty CSV says why (a log shorter than one window, or no step, stop or ride in it)
         span = rec.time_span_s()
         why = (f"the log's {span[1] - span[0]:.1f} s hold no full {model.window.length_s:g} s window of the streams "

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pdr.cli.outputs import print_warnings
 from pdr.cli.progress import Progress
 from pdr.errors import InputError
 from pdr.io import native, registry
@@ -139,6 +140,7 @@ def run(args: argparse.Namespace) -> int:
         bar.advance(note=f"writing {Path(args.out).name}")
         out = write_native(recording, args.out)
         bar.advance()
+    print_warnings(recording.warnings)  # kept in the output too ('pdr inspect' lists them)
     n = sum(len(s) for s in recording.streams.values())
     print(f"wrote {out} ({len(recording.streams)} streams, {n} samples, {recording.duration_s:.3f} s)")
     return 0

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from pdr.cli import progress
-from pdr.cli.outputs import check_writable, in_made_folder
+from pdr.cli.outputs import check_writable, in_made_folder, print_warnings
 from pdr.errors import InputError
 from pdr.evaluation.foot_metrics import (
     PYSHOE_EXCLUDED,
@@ -211,8 +211,7 @@ def run_dual(args: argparse.Namespace) -> int:
     imu_l, imu_r, track = navigate_feet(read_recording(args.left), read_recording(args.right),
                                         _detector_config(args), zupt=_zupt_config(args), config=cfg)
     for side, imu in (("left", imu_l), ("right", imu_r)):
-        for w in imu.warnings:
-            print(f"warning ({side}): {w}", file=sys.stderr)
+        print_warnings(imu.warnings, side)
     write_csv(in_made_folder(args.out), dual_step_rows(track) if args.per_step else dual_rows(imu_l, track))
     print(f"{track.updates} steps fused, separation constraint active at {track.constraint_active}; right foot "
           f"frame turned by {math.degrees(track.heading_offset_rad):.1f} deg", file=sys.stderr)
@@ -242,8 +241,7 @@ def run_foot(args: argparse.Namespace) -> int:
     rec = read_recording(args.log)
     imu, track = navigate(rec, args.method, _detector_config(args), zupt=_zupt_config(args),
                           smooth=args.smoother == "on", gyro_bias=args.gyro_bias == "on")
-    for w in track.warnings:
-        print(f"warning: {w}", file=sys.stderr)
+    print_warnings(track.warnings)
     if args.format == "foot-steps":
         if not (args.per_step and args.method == "stepwise"):
             raise InputError("--format foot-steps needs --per-step and --method stepwise", field="--format")

@@ -1,11 +1,14 @@
 """Files a command writes (``--out``, ``--geojson``, ``--plot``): their folder is made when it does not exist yet
 (``pdr track LOG --out runs/today/walk.csv``), as ``pdr classify`` and ``pdr track`` do, and a command that works
 for a while checks first that it can write them (:func:`check_writable`), so that a bad path is reported before
-the work, not after it.
+the work, not after it. What the reader dropped or repaired on the way in is said on stderr
+(:func:`print_warnings`).
 """
 
 from __future__ import annotations
 
+import sys
+from collections.abc import Iterable
 from pathlib import Path
 
 
@@ -30,3 +33,12 @@ def check_writable(*paths: str | Path | None) -> None:
             pass
         if not existed:
             p.unlink()
+
+
+def print_warnings(warnings: Iterable[str], side: str | None = None) -> None:
+    """One ``warning: ...`` line on stderr per problem the reader found and repaired (a cut-off last line, repeated
+    samples dropped, ...; :attr:`pdr.recording.Recording.warnings`), ``warning (left): ...`` for a ``side``.
+    """
+    label = f"warning ({side})" if side else "warning"
+    for w in warnings:
+        print(f"{label}: {w}", file=sys.stderr)

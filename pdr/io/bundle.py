@@ -14,7 +14,7 @@ import zlib
 from pathlib import Path
 
 from pdr.errors import InputError
-from pdr.io.text import decode_text, read_bytes, strip_gz
+from pdr.io.text import SNIFF_BYTES, decode_text, head, read_bytes, strip_gz
 
 
 def starts_with(path: Path, magic: bytes) -> bool:
@@ -100,6 +100,26 @@ class Bundle:
             if file.is_file():
                 return read_bytes(file)
         return None
+
+    def head(self, member: str, n: int = SNIFF_BYTES) -> bytes:
+        """First ``n`` bytes of a member (gunzipped), empty when absent or unreadable. For sniffing: a member damaged
+        further on (a gzip cut short) still shows its header, and the reader then names the damage.
+        """
+        if self._zip is None:
+            for file in (self.path / member, self.path / (member + ".gz")):
+                if file.is_file():
+                    return head(file, n)
+            return b""
+        for cand in (self._prefix + member, self._prefix + member + ".gz"):
+            if cand in self._zip:
+                raw = self._zip[cand]
+                if not cand.endswith(".gz"):
+                    return raw[:n]
+                try:
+                    return zlib.decompressobj(wbits=31).decompress(raw, n)     # 31: a gzip header and trailer
+                except zlib.error:
+                    return b""
+        return b""
 
     def need(self, member: str) -> bytes:
         """Content of a member; :class:`InputError` naming it when absent."""

@@ -73,7 +73,8 @@ def split_header(line: str, delimiter: str = ",", source: str | None = None) -> 
 
 def parse_table(text: str, source: str, *, header_line: int = 1, delimiter: str = ",",
                 int_columns: Collection[str] = (), nan_columns: Collection[str] = (),
-                rename: dict[str, str] | None = None, decimal: str = ".", notes: list[str] | None = None) -> Table:
+                rename: dict[str, str] | None = None, decimal: str = ".", notes: list[str] | None = None,
+                terminated: bool = False) -> Table:
     """Parse a CSV text whose line ``header_line`` (1-based) names the columns and whose later lines are numbers.
 
     Parameters
@@ -95,6 +96,9 @@ def parse_table(text: str, source: str, *, header_line: int = 1, delimiter: str 
     notes
         A reader's warnings: when given, a last line cut off mid-line (:func:`pdr.io.text.drop_cut_off_last_line`)
         is dropped and reported there instead of refused.
+    terminated
+        With ``notes``: the writer ends every row with a line break, so a last line without one is dropped even
+        when it has all its fields (its last value may be cut short).
 
     Raises
     ------
@@ -103,7 +107,7 @@ def parse_table(text: str, source: str, *, header_line: int = 1, delimiter: str 
         naming file, line and column.
     """
     if notes is not None:
-        text = drop_cut_off_last_line(text, source, delimiter, notes)
+        text = drop_cut_off_last_line(text, source, delimiter, notes, terminated=terminated)
     lines = text.splitlines()
     while lines and not lines[-1].strip():
         lines.pop()

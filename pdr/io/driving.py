@@ -166,7 +166,7 @@ _COMMA = ord(",")
 
 def _read_sensor(p: Path, kind: str, warnings: list[str]) -> SensorStream:
     source = str(p)
-    raw = drop_cut_off_last_line(read_bytes(p), source, b",", warnings)
+    raw = drop_cut_off_last_line(read_bytes(p), source, b",", warnings, terminated=True)
     fast = _numbers_fast(raw) if len(raw) >= PANDAS_MIN_BYTES or "pandas" in sys.modules else None
     arr, numbers = fast if fast is not None else _numbers_exact(raw, source)
     keep = keep_increasing(arr[:, 0], source, "uptimeNanos", warnings, lines=numbers, keep_repeats=True)

@@ -132,7 +132,7 @@ COMPILED_MIN_BYTES = 8_000_000
 
 def _read_text(p: Path) -> Recording:
     cut: list[str] = []
-    raw = drop_cut_off_last_line(read_bytes(p), str(p), b";", cut)
+    raw = drop_cut_off_last_line(read_bytes(p), str(p), b";", cut, terminated=True)
     fast = _read_text_fast(p, raw, _use_compiled(len(raw)))
     rec = fast if fast is not None else _read_text_exact(p, raw)
     fix = first_gnss_fix(raw)

@@ -15,10 +15,16 @@ from pdr.io.text import head, read_bytes
 _MAGIC = b"MATLAB 5.0 MAT-file"
 
 
+def is_mat(path: str | Path) -> bool:
+    """``path`` is named ``.mat`` (or ``.mat.gz``) and starts as a MATLAB v5-v7.2 file does. Never raises."""
+    p = Path(path)
+    return p.name.lower().endswith((".mat", ".mat.gz")) and head(p, len(_MAGIC)).startswith(_MAGIC)
+
+
 def variables(path: str | Path) -> set[str]:
     """Names of the variables of a ``.mat`` (or ``.mat.gz``) file; empty for anything else. Never raises."""
     p = Path(path)
-    if not p.name.lower().endswith((".mat", ".mat.gz")) or not head(p, len(_MAGIC)).startswith(_MAGIC):
+    if not is_mat(p):
         return set()
     try:
         from scipy.io import whosmat

@@ -142,7 +142,7 @@ def _activity_code(activity: str) -> str:
 
 def _read_file(p: Path, warnings: list[str]) -> tuple[str, dict[str, str], NDArray[np.int64], NDArray[np.float64]]:
     source = str(p)
-    raw = drop_cut_off_last_line(read_bytes(p), source, b",", warnings)
+    raw = drop_cut_off_last_line(read_bytes(p), source, b",", warnings, terminated=True)
     lines = decode_text(raw, source).splitlines()
     header: dict[str, str] = {}
     data_start = None

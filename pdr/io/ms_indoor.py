@@ -92,7 +92,7 @@ def read(path: str | Path) -> Recording:
     if p.is_dir():
         raise InputError("a Microsoft indoor-location trace is a single .txt file, not a folder", source=str(p))
     cut: list[str] = []
-    raw = drop_cut_off_last_line(read_bytes(p), str(p), b"\t", cut)
+    raw = drop_cut_off_last_line(read_bytes(p), str(p), b"\t", cut, terminated=True)
     parsed = _parse_fast(raw)
     parsed = parsed if parsed is not None else _parse_exact(str(p), raw)
     parsed[3][:0] = cut

@@ -18,7 +18,8 @@ Validation file ``validation/user<k>_<position>_<unixms>.csv``
 An accelerometer file under another name (or not beside its ``stepcounter.csv``) is recognised by its content (every
 complete line of its start has the five fields above) and read alone: no step truth, no names from its folder. A
 validation file under another name is recognised likewise (three whole step counts after the three axes). A last line
-cut off mid-line (the phone stopped) is dropped with a warning.
+cut off (the phone stopped: no line break at its end, which the app writes after every line, so its last value may be
+cut short) is dropped with a warning.
 
 Placement comes from the folder or file name: FrontPocket -> ``trouser_pocket_front``, BackPocket ->
 ``trouser_pocket_back``, InHand/hand and SwingingArm -> ``hand``, NeckPouch -> ``neck``, Armband ->
@@ -159,9 +160,9 @@ def _trial_name(p: Path, bundle: Bundle) -> str:
 def _csv_rows(raw: bytes, source: str, columns: tuple[str, ...], warnings: list[str]
               ) -> tuple[NDArray[np.float64], list[int]]:
     """The numbers of a headerless CSV file and the line of every row (array path; line by line on bad input); a
-    last line cut off mid-line is dropped with a warning.
+    last line cut off (no line break at its end) is dropped with a warning.
     """
-    raw = drop_cut_off_last_line(raw, source, b",", warnings)
+    raw = drop_cut_off_last_line(raw, source, b",", warnings, terminated=True)
     fast = numeric_rows(raw, len(columns))
     if fast is not None and fast[0].shape[0]:
         return fast[0], fast[1].tolist()

@@ -133,10 +133,8 @@ def sniff(path: str | Path) -> bool:
                 return False
             for m in members:
                 if "/" not in m and m.lower().endswith(".csv"):
-                    raw = bundle.get(m)
-                    if raw is None:
-                        continue
-                    first = raw[:1000].decode("utf-8-sig", "replace").split("\n")[0]
+                    raw = bundle.head(m, 1000)      # a member cut short further on: its reader says so
+                    first = raw.decode("utf-8-sig", "replace").split("\n")[0]
                     if _is_data_header(first, _file_kind(m, True)):
                         return True
             return False

@@ -21,6 +21,8 @@ from typing import Any
 
 from pdr.errors import InputError, UnknownFormatError
 from pdr.io.bundle import is_zip, starts_with
+from pdr.io.matfile import is_mat
+from pdr.io.matfile import load as load_mat
 from pdr.io.text import read_bytes
 from pdr.recording import Recording
 
@@ -83,6 +85,12 @@ def detect_format(path: str | Path) -> str:
                     return str(module.FORMAT)
     if p.is_file() and starts_with(p, b"\x1f\x8b"):
         read_bytes(p)       # a gzip no reader recognised may be one damaged at its start: InputError naming it
+    if is_mat(p):
+        load_mat(p)         # a MATLAB file no reader recognised may be one cut short: InputError naming it
+    if p.is_file() and p.stat().st_size == 0:      # no format to force either: say what it is
+        raise UnrecognisedLogError("an empty file (0 bytes): no log in it", source=str(p))
+    if p.is_dir() and not any(not c.name.startswith(".") for c in p.iterdir()):
+        raise UnrecognisedLogError("an empty folder: no log in it", source=str(p))
     for module in _modules():
         # A reader may recognise a log of its format that lacks what it needs (``near_miss``: why, or None).
         why = module.near_miss(p) if hasattr(module, "near_miss") else None
@@ -95,15 +103,23 @@ def detect_format(path: str | Path) -> str:
 
 #: At most this many entries of a folder are sniffed for :func:`_logs_in`.
 _MAX_LISTED = 50
+#: How many folder levels :func:`_logs_in` looks down for logs (a dataset's ``logfiles/``, ``sub2/ADL/WAL/``).
+_MAX_DEPTH = 3
 
 
 def _logs_in(folder: Path) -> list[Path]:
-    """The entries of ``folder`` (files and sub-folders, the first :data:`_MAX_LISTED` by name) a reader recognises."""
-    found = []
-    for child in sorted(folder.iterdir())[:_MAX_LISTED]:
-        if not child.name.startswith(".") and any(m.sniff(child) for m in _modules()):
-            found.append(child)
-    return found
+    """The entries a reader recognises among those of ``folder`` (files and sub-folders, the first
+    :data:`_MAX_LISTED` by name), else among those of its sub-folders, and so on down to :data:`_MAX_DEPTH` levels
+    (at most :data:`_MAX_LISTED` entries sniffed per level): the first level that holds any.
+    """
+    level = [folder]
+    for _ in range(_MAX_DEPTH):
+        entries = [c for f in level for c in sorted(f.iterdir()) if not c.name.startswith(".")][:_MAX_LISTED]
+        found = [c for c in entries if any(m.sniff(c) for m in _modules())]
+        if found:
+            return found
+        level = [c for c in entries if c.is_dir()]
+    return []
 
 
 def read_recording(path: str | Path, format: str | None = None) -> Recording:
@@ -114,7 +130,7 @@ def read_recording(path: str | Path, format: str | None = None) -> Recording:
     except UnrecognisedLogError:
         logs = _logs_in(p) if p.is_dir() else []
         if logs:    # a folder of several logs (a dataset's trials), not one log: --format would not help either
-            shown = ", ".join(c.name for c in logs[:3]) + (", ..." if len(logs) > 3 else "")
+            shown = ", ".join(str(c.relative_to(p)) for c in logs[:3]) + (", ..." if len(logs) > 3 else "")
             many = f"{len(logs)}{'+' if len(logs) >= _MAX_LISTED else ''}"
             raise UnknownFormatError(f"not one log but a folder that holds logs ({many} of its entries: {shown}); "
                                      "pass one of them", source=str(p)) from None

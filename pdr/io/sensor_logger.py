@@ -134,8 +134,8 @@ def sniff(path: str | Path) -> bool:
             for member in members:
                 stem = member.rsplit("/", 1)[-1].rsplit(".", 1)[0].lower()
                 if "/" not in member and member.lower().endswith(".csv") and stem in READINGS:
-                    raw = bundle.get(member)
-                    if raw is not None and _is_reading_csv_header(raw[:200], stem, "Metadata.csv" in members):
+                    raw = bundle.head(member, 200)      # a member cut short further on: its reader says so
+                    if _is_reading_csv_header(raw, stem, "Metadata.csv" in members):
                         return True
             return False
         if not p.is_file() or not strip_gz(p.name.lower()).endswith(".json"):
@@ -148,6 +148,20 @@ def sniff(path: str | Path) -> bool:
         return False
     except Exception:  # noqa: BLE001 - sniffing must never raise on foreign input
         return False
+
+
+def near_miss(path: str | Path) -> str | None:
+    """Why one reading's CSV of an export (``Accelerometer.csv`` alone, its header ``time,seconds_elapsed,...``) is
+    not read, or None: the export is read as a whole, from its folder or zip.
+    """
+    p = Path(path)
+    name = strip_gz(p.name)
+    stem = name.rsplit(".", 1)[0].lower()
+    if not (p.is_file() and name.lower().endswith(".csv") and stem in READINGS
+            and _is_reading_csv_header(head(p, 200), stem, False)):
+        return None
+    return (f"one reading ({name}) of a Sensor Logger export, which is read as a whole: give the export's folder or "
+            "zip (its Metadata.csv and the other readings beside it)")
 
 
 # --------------------------------------------------------------------------------------------- push messages

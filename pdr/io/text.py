@@ -65,19 +65,19 @@ def read_text(path: str | Path) -> str:
 
 
 def head(path: str | Path, n: int = SNIFF_BYTES) -> bytes:
-    """First ``n`` bytes of a file (gunzipped if ``.gz``); empty on any error and for a zip archive (whose stored
-    members would otherwise show their text to a text reader's sniffer: a zip is read from its members). For
-    sniffing only.
+    """First ``n`` bytes of a file, gunzipped as :func:`read_bytes` does (named ``.gz`` or starting with gzip's
+    magic bytes: a trace saved without its ``.gz``); empty on any error and for a zip archive (whose stored members
+    would otherwise show their text to a text reader's sniffer: a zip is read from its members). For sniffing only.
     """
     p = Path(path)
     try:
         if not p.is_file():
             return b""
-        if p.name.endswith(".gz"):
-            with gzip.open(p, "rb") as f:
-                return f.read(n)
         with p.open("rb") as f:
             start = f.read(n)
+        if p.name.endswith(".gz") or start[:2] == b"\x1f\x8b":
+            with gzip.open(p, "rb") as f:
+                return f.read(n)
         return b"" if start.startswith(b"PK\x03\x04") else start
     except (OSError, EOFError, zlib.error):
         return b""
@@ -345,10 +345,13 @@ def parse_float_rows(rows: Sequence[Sequence[str]], line_numbers: Sequence[int],
     return arr
 
 
-def drop_cut_off_last_line(text: AnyStr, source: str, sep: AnyStr | None, warnings: list[str]) -> AnyStr:
+def drop_cut_off_last_line(text: AnyStr, source: str, sep: AnyStr | None, warnings: list[str], *,
+                           terminated: bool = False) -> AnyStr:
     """``text`` without its last line when a phone cut the log off mid-line: the text does not end with a line
     break and its last line has fewer ``sep``-separated fields (whitespace-separated for None) than the line before.
-    The line is reported in ``warnings`` with file and line number; any other text is returned as it is.
+    With ``terminated`` (the writer ends every record with a line break), a last line without one is cut off even
+    when it has all its fields: its last value may be a shorter number than was written. The line is reported in
+    ``warnings`` with file and line number; any other text is returned as it is.
     """
     if isinstance(text, str):
         newline, ends = "\n", ("\n", "\r")
@@ -361,11 +364,14 @@ def drop_cut_off_last_line(text: AnyStr, source: str, sep: AnyStr | None, warnin
     if not nl or not prev.strip():
         return text
     fields, expected = len(last.split(sep)), len(prev.split(sep))
-    if fields >= expected:
-        return text
     line = text.count(newline) + 1
-    warnings.append(f"{file_name(source)}: dropped the cut-off last line {line} ({fields} of {expected} fields): the "
-                    "log ends mid-line")
+    if fields < expected:
+        why = f"{fields} of {expected} fields"
+    elif terminated and last.strip():
+        why = "no line break after its last value, which may be cut short"
+    else:
+        return text
+    warnings.append(f"{file_name(source)}: dropped the cut-off last line {line} ({why}): the log ends mid-line")
     return head + nl
 
 

@@ -7,7 +7,9 @@ sensor frame (about +1 g along the up-pointing axis at rest).
 
 ``Time`` is in seconds from the start; ``t_ns = round(t * 1e9)``. The x-io logs repeat some rows verbatim
 (the same timestamp and values, about 1 % of the Gait-Tracking example): rows whose time repeats (the first is
-kept) or goes back are dropped with a warning naming the line (:mod:`pdr.io.time_order`).
+kept) or goes back are dropped with a warning naming the line (:mod:`pdr.io.time_order`). The x-io software ends
+every row with a line break: a last line without one (a recording cut off, mid-number or mid-line) is dropped with
+a warning naming the file and line.
 
 The side of the foot is not recorded: role ``right_foot`` with ``meta['foot_side'] = 'unknown'``.
 """
@@ -21,7 +23,7 @@ import numpy as np
 
 from pdr.errors import InputError
 from pdr.io.csvtable import parse_table, split_header
-from pdr.io.text import head, read_text, strip_gz, timestamps_ns
+from pdr.io.text import head, read_text, timestamps_ns
 from pdr.io.time_order import keep_increasing
 from pdr.recording import DeviceInfo, Recording, SensorStream
 from pdr.units import ACC_UNITS, GYRO_UNITS, MAG_UNITS, PRESSURE_UNITS
@@ -37,11 +39,11 @@ _UNIT_ALIASES = {"µT": "uT", "μT": "uT", "m/s²": "m/s^2", "m/s2": "m/s^2", "�
 
 
 def sniff(path: str | Path) -> bool:
-    """A CSV (or .csv.gz) with header ``Time (s)``, ``Gyroscope X (..)`` ... ``Accelerometer X (..)`` ...."""
+    """A file (plain or gzipped) whose header is ``Time (s)``, ``Gyroscope X (..)`` ... ``Accelerometer X (..)``
+    ...: that header says what it is whatever the file's extension (``.csv``, ``.txt``, ``.dat``).
+    """
     try:
         p = Path(path)
-        if not strip_gz(p.name.lower()).endswith(".csv"):
-            return False
         first = head(p).split(b"\n", 1)[0].decode("utf-8-sig", errors="replace").strip()
         fields = [f.strip() for f in first.split(",")]
         return (fields[0] == "Time (s)" and any(f.startswith("Gyroscope X (") for f in fields)
@@ -60,7 +62,7 @@ def read(path: str | Path) -> Recording:
     source = str(p)
     text = read_text(p)
     warnings: list[str] = []
-    table = parse_table(text, source, notes=warnings)
+    table = parse_table(text, source, notes=warnings, terminated=True)
     if "Time (s)" not in table.header:
         raise InputError(f"no 'Time (s)' column (header has {list(table.header)})", source=source, line=1,
                          field="Time (s)")

@@ -3,9 +3,11 @@
 Decision tree (seed 003 Fig. 2), evaluated on the intervals the step detector gives:
 
 1. **elevator**: a pair of opposite impulses of the vertical specific force (hyper- then hypo-gravity or
-   the reverse) with a stationary ride between them, no steps during it; the magnetic magnitude change
-   at entry and exit marks the doors (reported as ``mag_change_uT``). When a barometer is present, the
-   altitude change during the ride must exceed half a floor.
+   the reverse) with a stationary ride between them, no steps during it, walked into and out of (a step
+   shortly before the first impulse and shortly after the second: a vehicle's vertical jolts come with no
+   walking around them); the magnetic magnitude change at entry and exit marks the doors (reported as
+   ``mag_change_uT``). When a barometer is present, the altitude change during the ride must exceed half a
+   floor.
 2. **walking/stairs vs escalator/standing**: acceleration variance (steps exist only in the first group);
    between steps, **escalator vs standing** by the variance of the magnetic magnitude.
 3. **walking vs stairs up/down**: for a trouser-pocket phone the leg-pitch pattern (eqs. 1-3: the opening
@@ -45,6 +47,7 @@ from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.frames import heading_deg_to_yaw
+from pdr.phone.baro_rides import WALK_OUT_S
 from pdr.phone.history import SampleHistory
 from pdr.site.document import floors_list, read_site_document
 
@@ -77,6 +80,10 @@ class LandmarkConfig:
     elevator_max_steps
         Most steps between the two impulses of a ride: a rider stands in the cabin (a shuffle or a turn may make a
         step or two); a walk between two jolts (a flight of stairs between landings) is no ride.
+    elevator_walk_s
+        Longest pause (s) from the rider's last step in to the first impulse, and from the second impulse to the
+        first step out: the doors close and open (as :data:`pdr.phone.baro_rides.WALK_OUT_S`). Jolts with no
+        walking that close around them (a car's, a bus's) are no ride.
     """
 
     stairs_rate_mps: float = 0.12
@@ -87,6 +94,7 @@ class LandmarkConfig:
     elevator_impulse_s: float = 0.8
     elevator_max_ride_s: float = 60.0
     elevator_max_steps: int = 2
+    elevator_walk_s: float = WALK_OUT_S
 
 
 def classify_step(vertical_rate_mps: float | None, pitch_max_deg: float | None, pitch_min_deg: float | None,
@@ -298,12 +306,17 @@ def _site_angle(d: dict[str, Any], name: str, source: str) -> float | None:
 
 
 class ElevatorDetector:
-    """First level of the tree: a pair of opposite vertical specific-force impulses with no steps between.
+    """First level of the tree: a pair of opposite vertical specific-force impulses with no steps between, walked
+    into and out of.
 
     Feed the low-passed vertical specific force minus gravity (m/s^2) on the grid; reports
     ``(start_idx, end_idx, direction)`` with direction +1 (up: positive impulse first) or -1. Steps reported with
-    :meth:`add_step` (grid index of their start) before the second impulse ends count against the pair: with more
-    than ``elevator_max_steps`` between them it is no ride, and the second impulse may open a new pair.
+    :meth:`add_step` (grid index of their start) count against the pair when they fall between the impulses: with
+    more than ``elevator_max_steps`` there it is no ride, and the second impulse may open a new pair. A pair is a
+    ride only when a step starts within ``elevator_walk_s`` before the first impulse (the rider walked in) and
+    one within ``elevator_walk_s`` after the second (the rider walks out): it waits in ``pending`` for that step,
+    which the step detector confirms a few seconds late, and is reported by the :meth:`update` after it. A pair
+    still waiting ``elevator_max_ride_s`` after its walk-out window closed is forgotten (no one walked out).
     """
 
     def __init__(self, rate_hz: float, config: LandmarkConfig | None = None) -> None:
@@ -315,6 +328,7 @@ class ElevatorDetector:
         self.first: tuple[int, int, int] | None = None   # (start, end, sign) of a pending first impulse
         self.index = 0
         self.steps: list[int] = []                        # grid indices of recent step starts
+        self.pending: list[tuple[int, int, int]] = []     # walked-in pairs waiting for a step out
 
     def add_step(self, idx: int) -> None:
         """A step starting at grid index ``idx``."""
@@ -339,29 +353,51 @@ class ElevatorDetector:
                 self.run_len = 0
             pos = b
         self.index += sign.size
+        self._walked_out(self.index, max_ride, out)
         return out
 
     def _end_run(self, end: int, need: int, max_ride: int, moving: NDArray[np.bool_], _pos: int,
                  out: list[tuple[int, int, int]]) -> None:
         if self.run_sign == 0 or self.run_len < need:
             return
+        self._walked_out(end, max_ride, out)         # before the steps it needs are forgotten below
         if self.first is not None and end - self.first[1] > max_ride:
             self.first = None
-        self.steps = [i for i in self.steps if i > end - max_ride]
         if self.first is not None and self.first[2] != self.run_sign:
             a = self.first[1]
             if sum(1 for i in self.steps if a < i < self.run_start) > self.config.elevator_max_steps:
                 self.first = None  # a walk between two jolts
         if self.first is None or self.first[2] == self.run_sign:
             self.first = (self.run_start, end, self.run_sign)
-            return
-        out.append((self.first[0], end, self.first[2]))
-        self.first = None
+        else:
+            start = self.first[0]
+            if any(start - self._walk() <= i < start for i in self.steps):   # walked in: else a vehicle's jolts
+                self.pending.append((start, end, self.first[2]))
+                self._walked_out(end, max_ride, out)
+            self.first = None
+        keep = min([end - max_ride, *(p[1] - 1 for p in self.pending)])
+        self.steps = [i for i in self.steps if i > keep]
+
+    def _walk(self) -> int:
+        """``elevator_walk_s`` in grid samples."""
+        return int(round(self.config.elevator_walk_s * self.rate_hz))
+
+    def _walked_out(self, now: int, max_ride: int, out: list[tuple[int, int, int]]) -> None:
+        """Report the pending pairs that a step starts within ``elevator_walk_s`` after; forget those whose window
+        closed ``max_ride`` samples before grid index ``now``.
+        """
+        walk, keep = self._walk(), []
+        for ride in self.pending:
+            if any(ride[1] <= i <= ride[1] + walk for i in self.steps):
+                out.append(ride)
+            elif now <= ride[1] + walk + max_ride:
+                keep.append(ride)
+        self.pending = keep
 
     def state(self) -> dict[str, Any]:
         return {"rate_hz": self.rate_hz, "run_sign": self.run_sign, "run_start": self.run_start,
                 "run_len": self.run_len, "first": list(self.first) if self.first else None, "index": self.index,
-                "steps": list(self.steps)}
+                "steps": list(self.steps), "pending": [list(p) for p in self.pending]}
 
     @classmethod
     def from_state(cls, d: dict[str, Any], config: LandmarkConfig | None = None) -> ElevatorDetector:
@@ -371,6 +407,7 @@ class ElevatorDetector:
         e.first = (int(f[0]), int(f[1]), int(f[2])) if f else None
         e.index = int(d["index"])
         e.steps = [int(i) for i in d.get("steps", [])]  # states saved before steps were counted have none
+        e.pending = [(int(p[0]), int(p[1]), int(p[2])) for p in d.get("pending", [])]
         return e
 
 

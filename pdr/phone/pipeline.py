@@ -599,8 +599,7 @@ class PdrPipeline:
                 pos = cut + 1
             for j in by_confirm.get(cut, []):
                 events += self._step(int(steps.start_idx[j]), int(steps.end_idx[j]), float(steps.peak[j]))
-        if n:
-            events += self._elevator(t, g0, rides)
+        events += self._elevator(t, g0, rides)     # also without samples: a step confirmed at the end walks out
         self.history.trim()
         return events
 
@@ -615,17 +614,18 @@ class PdrPipeline:
                                      source="barometer")
                     for r in rides]
         av = self.history.f_n[self.history.sl(g0, g0 + t.size), 2] - GRAVITY_MPS2
-        b, a = self._av_ba
-        if self._av_zi is None:
-            self._av_zi = iir.lfilter_zi(b, a) * av[0]
-        dv, self._av_zi = iir.lfilter(b, a, av, self._av_zi)
-        out: list[PipelineEvent] = []
-        for s, e, direction in self.elevator.update(dv, np.zeros(dv.size, dtype=bool)):
-            sl = self.history.sl(s, e + 1)
-            ts = self.history.t[sl]
-            out.append(self._ride_event(s, e, float(ts[0]) if ts.size else float(t[0]),
-                                        float(ts[-1]) if ts.size else float(t[-1]), 0.0, None, direction))
-        return out
+        dv = av
+        if av.size:
+            b, a = self._av_ba
+            if self._av_zi is None:
+                self._av_zi = iir.lfilter_zi(b, a) * av[0]
+            dv, self._av_zi = iir.lfilter(b, a, av, self._av_zi)
+        assert self.grid is not None and self.grid.first_k is not None
+        k0, rate = self.grid.first_k, self.config.rate_hz
+        # A ride is reported once the rider walks out, when its start may have left the history: the grid's times
+        # (t_k = k / rate_hz, pdr.phone.grid) of its first and last samples.
+        return [self._ride_event(s, e, (k0 + s) / rate, (k0 + e) / rate, 0.0, None, direction)
+                for s, e, direction in self.elevator.update(dv, np.zeros(dv.size, dtype=bool))]
 
     def _ride_event(self, s: int, e: int, t_start_s: float, t_end_s: float, dh: float, floors: int | None,
                     direction: int = 0, source: str = "impulses") -> ElevatorEvent:

@@ -86,6 +86,28 @@ def test_classify_cli_lists_a_hand_held_walk_as_the_service_does(tmp_path, capsy
         assert all(r["confidence"] != "" for r in csv.DictReader(f))
 
 
+def test_classify_cli_falls_back_to_step_modes_when_the_pocket_model_lacks_a_stream(tmp_path, capsys) -> None:
+    # An accelerometer-only pocket log (an Oxford-style recording): the installed pocket model needs the gyro.
+    # 'pdr classify' stopped with "the 'motion_mode' model needs the gyro stream(s)", where the service lists the
+    # step modes and says why; the command now does the same. Asked for by name, the model still refuses.
+    from dataclasses import replace
+
+    from pdr.io import native
+
+    rec = read_recording(REPO_ROOT / "mobile_logs" / "sim" / "pocket_office.zip")
+    log = native.write(replace(rec, streams={"acc": rec.streams["acc"]}), tmp_path / "acc_only")
+    out = tmp_path / "modes.csv"
+    assert main(["classify", str(log), "--placement", "pocket", "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert ("motion modes from step patterns: the installed 'motion_mode' model cannot use this log (the "
+            "'motion_mode' model needs the gyro stream(s)") in err, err
+    with out.open(encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    assert "walking" in {r["mode"] for r in rows} and all(r["confidence"] == "" for r in rows)
+    assert main(["classify", str(log), "--model", "motion_mode", "--out", str(out)]) == 2
+    assert "needs the gyro stream(s)" in capsys.readouterr().err
+
+
 def test_eval_cli_on_simulated_data(tmp_path, capsys) -> None:
     assert main(["train", "landmark", "--sim", "4", "--out", str(tmp_path / "lm")]) == 0
     assert main(["eval", "classifier", str(tmp_path / "lm"), "--sim", "2", "--json",

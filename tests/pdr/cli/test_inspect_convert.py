@@ -330,3 +330,57 @@ def test_an_output_that_cannot_be_written_is_refused_before_the_log_is_read(caps
     out.write_text("previous run\n")
     assert _run(capsys, command, str(native_log), "--out", str(out), "--plot", str(plot))[0] == 2
     assert out.read_text() == "previous run\n"
+
+
+@pytest.mark.parametrize("command", ["track", "classify", "convert"])
+def test_commands_say_what_the_reader_dropped(capsys, tmp_path, native_log, command):
+    """A log cut off mid-line: its last line is dropped by the reader, and 'pdr track', 'pdr classify' and 'pdr
+    convert' say so on stderr as 'pdr foot' does (they said nothing; only 'pdr inspect' listed it)."""
+    acc = native_log / "acc.csv"
+    acc.write_text(acc.read_text() + "1700000020000000000,0.1")       # no line break: the phone stopped here
+    line = acc.read_text().count("\n") + 1
+    out = tmp_path / "out"
+    argv = {"track": ["track", str(native_log), "--out", str(out / "t.csv")],
+            "classify": ["classify", str(native_log), "--out", str(out / "m.csv")],
+            "convert": ["convert", str(native_log), "--to", "native", str(out / "c.zip")]}[command]
+    code, _, err = _run(capsys, *argv)
+    assert code == 0, err
+    assert f"warning: acc.csv: dropped the cut-off last line {line} (2 of 4 fields): the log ends mid-line" in err
+
+
+@pytest.mark.parametrize("command", ["inspect", "track", "classify", "convert"])
+def test_an_empty_file_or_folder_is_said_to_be_empty(capsys, tmp_path, command):
+    """An empty file (a recording that never started) or folder was 'not a supported log format (supported: ...);
+    pass --format to force one', which no --format fixes; it is now named for what it is."""
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "empty" / ".hidden").write_text("")
+    (tmp_path / "walk.csv").write_bytes(b"")
+    for name, what in (("walk.csv", "an empty file (0 bytes): no log in it"),
+                       ("empty", "an empty folder: no log in it")):
+        log = str(tmp_path / name)
+        argv = {"inspect": ["inspect", log], "track": ["track", log, "--out", str(tmp_path / "t.csv")],
+                "classify": ["classify", log, "--out", str(tmp_path / "m.csv")],
+                "convert": ["convert", log, "--to", "native", str(tmp_path / "c.zip")]}[command]
+        code, out, err = _run(capsys, *argv)
+        assert code == 2 and out == ""
+        assert err.strip() == f"error: {log}: {what}"
+
+
+def test_a_dataset_folder_with_its_logs_further_down_names_them(capsys, tmp_path):
+    """``pdr inspect ipin2023_t3/`` (its logs in ``logfiles/``) or an MS floor folder (``path_data_files/``) said 'not
+    a supported log format ...; pass --format to force one'; the logs a level or two down are named now, as a
+    folder's own logs were."""
+    from tests.conftest import REPO_ROOT
+
+    ms = (REPO_ROOT / "mobile_logs" / "real" / "ms_indoor_site2_F3_5dd51a7650e04e0006f5642c.txt.gz").read_bytes()
+    root = tmp_path / "dataset"
+    (root / "logfiles").mkdir(parents=True)
+    (root / "supplementary").mkdir()
+    for name in ("a.txt.gz", "b.txt.gz"):
+        (root / "logfiles" / name).write_bytes(ms)
+    (root / "supplementary" / "README.txt").write_text("a map\n")
+    (root / "SOURCE.md").write_text("two walks\n")
+    code, out, err = _run(capsys, "inspect", str(root))
+    assert code == 2 and out == ""
+    assert err.strip() == (f"error: {root}: not one log but a folder that holds logs (2 of its entries: "
+                           "logfiles/a.txt.gz, logfiles/b.txt.gz); pass one of them")

@@ -315,3 +315,26 @@ def test_cut_off_last_line_is_dropped_with_a_warning(seed_name, tmp_path):
     line = body.count(b"\n") + 2
     name = Path(seed.root if seed.pack in ("file", "gz") else member).name.removesuffix(".gz")
     assert any(name.split(".")[0] in w and f"cut-off last line {line}" in w for w in rec.warnings), rec.warnings
+
+
+#: Readers whose writers end every line with a line break (``terminated`` in pdr.io.text.drop_cut_off_last_line).
+TERMINATED_SEEDS = [pytest.param(k, marks=[pytest.mark.data] if k in DATA_SEEDS else [])
+                    for k in ("ipin", "ms_indoor", "oxford", "mobifall", "driving", "xio")]
+
+
+@pytest.mark.parametrize("seed_name", TERMINATED_SEEDS)
+def test_last_line_cut_in_its_last_value_is_dropped_with_a_warning(seed_name, tmp_path):
+    """A log cut off in the last value of its last line (every field there but no line break: '1.67953' of
+    '1.6795325') reads as the log without that line, with a warning naming the file and the line; it was read with
+    the value cut short."""
+    seed = (SEEDS | DATA_SEEDS)[seed_name]()
+    member = max((n for n in seed.files if not _is_binary(n)), key=lambda n: seed.files[n].count(b"\n"))
+    body, _, last = seed.files[member].rstrip(b"\r\n").rpartition(b"\n")
+    whole = _samples(seed, {**seed.files, member: body + b"\n"}, tmp_path)
+    value = re.split(rb"[,;\t ]", last)[-1]
+    cut = last[:len(last) - max(1, len(value) // 2)]           # half the last value gone (a one-digit one: all)
+    rec = _samples(seed, {**seed.files, member: body + b"\n" + cut}, tmp_path)
+    assert _count(rec) == _count(whole)
+    line = body.count(b"\n") + 2
+    name = Path(seed.root if seed.pack in ("file", "gz") else member).name.removesuffix(".gz")
+    assert any(name.split(".")[0] in w and f"cut-off last line {line}" in w for w in rec.warnings), rec.warnings

@@ -130,3 +130,17 @@ def test_vicon_positions_are_mirrored_into_a_right_handed_frame(tmp_path):
     rec = pyshoe.read(_write(tmp_path, d))
     assert rec.truth.positions is not None
     np.testing.assert_array_equal(rec.truth.positions.pos_m[0], [1.0, -2.0, 3.0])
+
+
+def test_a_trial_cut_short_is_named_unreadable_not_an_unsupported_format(tmp_path):
+    """A .mat copy cut short (inside its first variable: the sniffer lists no imu and ts) was 'not a supported log
+    format ...; pass --format to force one'; it is now the damaged MATLAB file it is."""
+    from pdr.io import read_recording
+
+    whole = _write(tmp_path, _trial())
+    cut = tmp_path / "cut.mat"
+    cut.write_bytes(whole.read_bytes()[:2000])                  # inside the first variable, imu
+    with pytest.raises(InputError, match=r"not a readable MATLAB \.mat file") as err:
+        read_recording(cut)
+    assert err.value.source == str(cut)
+    assert detect_or_skip(whole) == "pyshoe"

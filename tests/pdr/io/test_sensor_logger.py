@@ -405,3 +405,43 @@ def test_header_only_sensor_csv_is_skipped_with_a_warning_naming_it(tmp_path):
     assert not rec.has("lin_acc") and rec.has("gyro")
     assert any("Accelerometer.csv: header only, no samples" in w for w in rec.warnings), rec.warnings
 
+
+
+@pytest.mark.parametrize("pack", ["folder", "zip"])
+def test_an_export_with_a_member_gzip_cut_short_names_that_member(tmp_path, pack):
+    """An export whose Accelerometer.csv.gz was cut short (a copy or download stopped) was 'not a supported log
+    format': the sniffer read the whole member and the damage made it look like no export. The sniffer reads the
+    member's header only; the reader names the damaged member."""
+    from pdr.io import read_recording
+
+    rec = tmp_path / "rec"
+    shutil.copytree(FIXTURES / "android_face_up", rec)
+    acc = rec / "Accelerometer.csv"
+    packed = gzip.compress(acc.read_bytes())
+    acc.unlink()
+    (rec / "Accelerometer.csv.gz").write_bytes(packed[:len(packed) // 2])
+    log = rec
+    if pack == "zip":
+        log = tmp_path / "rec.zip"
+        with zipfile.ZipFile(log, "w") as z:
+            for f in sorted(rec.iterdir()):
+                z.write(f, f"rec/{f.name}")
+    assert detect_or_skip(log) == "sensor_logger"
+    with pytest.raises(InputError, match=r"corrupt gzip data") as err:
+        read_recording(log)
+    assert "Accelerometer.csv" in str(err.value.source)
+
+
+@pytest.mark.parametrize("name", ["Accelerometer.csv", "Gyroscope.csv.gz"])
+def test_one_reading_of_an_export_alone_says_to_give_the_export(tmp_path, name):
+    """One CSV of an export (what a user picks out of the folder) was 'not a supported log format ...; pass --format
+    to force one', and no --format reads it; the error now says the export is read whole, from its folder or zip."""
+    from pdr.errors import UnknownFormatError
+    from pdr.io import read_recording
+
+    raw = (FIXTURES / "android_face_up" / name.removesuffix(".gz")).read_bytes()
+    one = tmp_path / name
+    one.write_bytes(gzip.compress(raw) if name.endswith(".gz") else raw)
+    with pytest.raises(UnknownFormatError, match=rf"one reading \({name.removesuffix('.gz')}\) of a Sensor Logger "
+                                                 r"export, which is read as a whole: give the export's folder or zip"):
+        read_recording(one)

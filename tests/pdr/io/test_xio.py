@@ -80,6 +80,35 @@ def test_bad_input_names_file_line_field(tmp_path, text, line, field, match):
     assert err.value.source == str(p) and err.value.line == line and err.value.field == field
 
 
+@pytest.mark.parametrize("gz", [False, True])
+def test_last_line_cut_mid_number_dropped_with_warning(tmp_path, gz):
+    """A recording cut off in the last value of its last row (all fields there, no line break: 0.811 of 0.8113459)
+    reads as the log without that row, with a warning naming the file and line; a whole log keeps every row."""
+    whole = _text(5, ["0.0125,1,2,3,-0.5128708,0.3132063,0.8113459"])
+    cut = whole[:-5]
+    assert cut.endswith(",0.811")
+    name = "walk.csv.gz" if gz else "walk.csv"
+    p = tmp_path / name
+    p.write_bytes(gzip.compress(cut.encode()) if gz else cut.encode())
+    rec = xio.read(p)
+    assert len(rec.stream("acc")) == 5
+    np.testing.assert_array_equal(rec.values("acc"), xio.read(_write(tmp_path, _text(5), "ref.csv")).values("acc"))
+    assert rec.warnings == (f"{name}: dropped the cut-off last line 7 (no line break after its last value, which "
+                            "may be cut short): the log ends mid-line",)
+    assert len(xio.read(_write(tmp_path, whole, "whole.csv")).stream("acc")) == 6
+
+
+@pytest.mark.parametrize("name", ["walk.txt", "walk.dat", "walk"])
+def test_recognised_by_its_header_whatever_the_extension(tmp_path, name):
+    """An x-io log saved as walk.txt or walk.dat was 'not a supported log format' (the sniffer wanted .csv); its
+    header names it, and it reads as the .csv does."""
+    from pdr.io import detect_format
+
+    p = _write(tmp_path, _text(), name)
+    assert detect_format(p) == "xio"
+    np.testing.assert_array_equal(xio.read(p).values("acc"), xio.read(_write(tmp_path, _text())).values("acc"))
+
+
 def test_garbage_and_foreign(tmp_path):
     g = _write(tmp_path, "", "g.csv")
     g.write_bytes(b"\x00\xff" * 500)

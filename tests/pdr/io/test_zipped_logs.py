@@ -54,3 +54,12 @@ def test_zipped_folders_of_folder_readers(tmp_path, layout):
     _same_streams(rec, ref)
     assert rec.truth.modes is not None and rec.meta["activity_code"] == "WAL"
     assert rec.source == str(z) and "pdr-unzip-" not in repr(dict(rec.meta))
+
+
+def test_a_gzip_saved_without_its_gz_suffix_is_read_as_one_with_it(tmp_path):
+    """A gzipped trace saved as 'trace.txt' (a browser or a copy that dropped the '.gz') was 'not a supported log
+    format': the readers gunzip by the magic bytes, the sniffers only by the name. Both now do."""
+    plain = tmp_path / "trace.txt"
+    plain.write_bytes(MS.read_bytes())
+    assert detect_format(plain) == "ms_indoor"
+    _same_streams(read_recording(plain), read_recording(MS))

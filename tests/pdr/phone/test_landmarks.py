@@ -50,51 +50,86 @@ def _impulses(rate: float, gap_s: float, first: float) -> np.ndarray:
     return np.concatenate([np.zeros(n), pulse, np.zeros(int(gap_s * rate)), -pulse, np.zeros(n)])
 
 
+def _walked(det: ElevatorDetector, steps_in=(0, 25), steps_out=(660, 685)) -> ElevatorDetector:
+    """``det`` told of the steps walking into the cabin before the first impulse (at 50) and out after the second
+    (grid indices)."""
+    for i in (*steps_in, *steps_out):
+        det.add_step(i)
+    return det
+
+
+def _still(n: int) -> np.ndarray:
+    return np.zeros(n, dtype=bool)
+
+
 @pytest.mark.parametrize("first", [1.0, -1.0])
 def test_elevator_is_a_pair_of_opposite_impulses_in_any_batching(first):
     rate = 50.0
-    dv = _impulses(rate, 10.0, first)
-    one = ElevatorDetector(rate).update(dv, np.zeros(dv.size, dtype=bool))
+    dv = np.concatenate([_impulses(rate, 10.0, first), np.zeros(100)])
+    one = _walked(ElevatorDetector(rate)).update(dv, _still(dv.size))
     assert len(one) == 1 and one[0][2] == int(first)
     s, e, _ = one[0]
     assert s == 50 and e == 50 + 50 + 500 + 50 - 1 + 1        # from the first impulse's start to the second's end
-    det, got = ElevatorDetector(rate), []
+    # Batch by batch, the step out is confirmed after the second impulse has passed: the ride waits for it.
+    det, got = _walked(ElevatorDetector(rate), steps_out=()), []
     for part in np.array_split(dv, 7):
-        got += det.update(part, np.zeros(part.size, dtype=bool))
+        got += det.update(part, _still(part.size))
         det = ElevatorDetector.from_state(json.loads(json.dumps(det.state())))
-    assert got == one
+        if det.pending and 660 not in det.steps:
+            assert got == [] and det.pending == [(s, e, int(first))]
+            det.add_step(660)
+    assert got == one and det.pending == []
 
 
 def test_impulses_too_short_too_far_apart_or_of_one_sign_are_no_elevator():
     rate = 50.0
     short_pulses = np.concatenate([np.zeros(50), np.full(20, 0.5), np.zeros(200), np.full(20, -0.5)])
-    assert ElevatorDetector(rate).update(short_pulses, np.zeros(short_pulses.size, dtype=bool)) == []
+    assert _walked(ElevatorDetector(rate)).update(short_pulses, _still(short_pulses.size)) == []
     far = _impulses(rate, 70.0, 1.0)                            # longer than elevator_max_ride_s
-    assert ElevatorDetector(rate).update(far, np.zeros(far.size, dtype=bool)) == []
+    assert _walked(ElevatorDetector(rate)).update(far, _still(far.size)) == []
     same = np.concatenate([np.zeros(50), np.full(50, 0.5), np.zeros(100), np.full(50, 0.5)])
-    assert ElevatorDetector(rate).update(same, np.zeros(same.size, dtype=bool)) == []
+    assert _walked(ElevatorDetector(rate)).update(same, _still(same.size)) == []
 
 
 def test_impulses_with_a_walk_between_them_are_no_elevator():
     rate = 50.0
     dv = _impulses(rate, 20.0, -1.0)                            # impulses at samples 50-100 and 1100-1150
-    walk = ElevatorDetector(rate)
+    walk = _walked(ElevatorDetector(rate), steps_out=(1160,))
     for i in range(300, 900, 25):                               # steps every 0.5 s between the jolts
         walk.add_step(i)
-    assert walk.update(dv, np.zeros(dv.size, dtype=bool)) == []
+    assert walk.update(dv, _still(dv.size)) == []
     # Turning round in the cabin (two steps) still leaves a ride, also across a state round trip.
-    det = ElevatorDetector(rate)
+    det = _walked(ElevatorDetector(rate), steps_out=(1160,))
     det.add_step(400)
     det.add_step(425)
     det = ElevatorDetector.from_state(json.loads(json.dumps(det.state())))
-    assert len(det.update(dv, np.zeros(dv.size, dtype=bool))) == 1
+    assert len(det.update(dv, _still(dv.size))) == 1
     # After a walk between two jolts, the second jolt opens a pair with a third.
     three = np.concatenate([dv, np.zeros(200), np.full(50, -0.5), np.zeros(50)])
-    walk = ElevatorDetector(rate)
+    walk = _walked(ElevatorDetector(rate), steps_out=(1460,))
     for i in range(300, 900, 25):
         walk.add_step(i)
-    got = walk.update(three, np.zeros(three.size, dtype=bool))
+    walk.add_step(1090)                                         # the walk reaches the second jolt
+    got = walk.update(three, _still(three.size))
     assert len(got) == 1 and got[0][0] == 1100 and got[0][2] == 1
+
+
+@pytest.mark.parametrize(("steps_in", "steps_out"), [
+    ((), ()),                       # a car's jolts: no walking anywhere near (driving_phone_mount trip 17)
+    ((0, 25), ()),                  # walked to the car, drove off: no one walks out
+    ((), (660, 685)),               # drove up, got out
+    ((-600,), (660,)),              # the last step in 13 s before the first jolt (the doors close in a few)
+    ((0,), (1250,)),                # the first step out 12 s after the second jolt
+])
+def test_jolts_not_walked_into_and_out_of_are_no_elevator(steps_in, steps_out):
+    """A ride is walked into and out of within ``elevator_walk_s`` (10 s): the same pair of jolts without the walking
+    around it (a vehicle's) is none, whether the whole log comes in one batch or the rest of the day follows."""
+    rate = 50.0
+    dv = _impulses(rate, 10.0, 1.0)
+    det = _walked(ElevatorDetector(rate), steps_in, steps_out)
+    assert det.update(dv, _still(dv.size)) == []
+    later = np.zeros(int(80 * rate))
+    assert det.update(later, _still(later.size)) == [] and det.pending == []   # forgotten once out of reach
 
 
 SITE = {"name": "museum", "floor_height_m": 3.5, "declination_deg": 2.0, "grid_deg": 69.5, "landmarks": [

@@ -501,3 +501,14 @@ def test_a_native_batchs_meta_location_reaches_the_pipeline(hand_walk, tmp_path)
     events = p.run(read_recording(path))
     assert p.attitude.config.earth_dip_deg is not None and 60.0 < p.attitude.config.earth_dip_deg < 70.0
     assert any("earth's field" in str(e.get("message")) for e in events)
+
+
+@pytest.mark.data
+def test_a_car_trip_without_a_barometer_has_no_elevator_ride():
+    # driving_phone_mount trip 17: a phone on a windscreen mount, no barometer, no step in 406 s. Its vertical jolts
+    # were ten rides of the impulse detector (pdr classify: elevator_down/up entries); nobody walked into or out of
+    # them, as a rider does (pdr.phone.landmarks.ElevatorDetector).
+    rec = read_recording(data_path("driving_phone_mount", "17"))
+    assert "baro" not in rec.streams
+    events = PdrPipeline(PipelineConfig()).run(rec)
+    assert [e for e in events if e["type"] in ("elevator", "step")] == []
