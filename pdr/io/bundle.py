@@ -83,43 +83,47 @@ class Bundle:
                    if f.is_file()}
         return sorted(out)
 
-    def get(self, member: str) -> bytes | None:
-        """Content of a member (gunzipped if stored as ``member.gz``), None if absent."""
+    def _stored(self, member: str) -> tuple[str, bytes] | Path | None:
+        """Where a member is stored, as ``member`` or ``member.gz``: a zip entry's (name, bytes), a file's path, or
+        None if absent.
+        """
         if self._zip is not None:
             for cand in (self._prefix + member, self._prefix + member + ".gz"):
                 if cand in self._zip:
-                    raw = self._zip[cand]
-                    if cand.endswith(".gz"):
-                        try:
-                            return gzip.decompress(raw)
-                        except (OSError, EOFError, zlib.error) as exc:
-                            raise InputError(f"corrupt gzip data ({exc})", source=self.name(member)) from None
-                    return raw
+                    return cand, self._zip[cand]
             return None
         for file in (self.path / member, self.path / (member + ".gz")):
             if file.is_file():
-                return read_bytes(file)
+                return file
         return None
+
+    def get(self, member: str) -> bytes | None:
+        """Content of a member (gunzipped if stored as ``member.gz``), None if absent."""
+        stored = self._stored(member)
+        if stored is None or isinstance(stored, Path):
+            return None if stored is None else read_bytes(stored)
+        name, raw = stored
+        if not name.endswith(".gz"):
+            return raw
+        try:
+            return gzip.decompress(raw)
+        except (OSError, EOFError, zlib.error) as exc:
+            raise InputError(f"corrupt gzip data ({exc})", source=self.name(member)) from None
 
     def head(self, member: str, n: int = SNIFF_BYTES) -> bytes:
         """First ``n`` bytes of a member (gunzipped), empty when absent or unreadable. For sniffing: a member damaged
         further on (a gzip cut short) still shows its header, and the reader then names the damage.
         """
-        if self._zip is None:
-            for file in (self.path / member, self.path / (member + ".gz")):
-                if file.is_file():
-                    return head(file, n)
+        stored = self._stored(member)
+        if stored is None or isinstance(stored, Path):
+            return b"" if stored is None else head(stored, n)
+        name, raw = stored
+        if not name.endswith(".gz"):
+            return raw[:n]
+        try:
+            return zlib.decompressobj(wbits=31).decompress(raw, n)     # 31: a gzip header and trailer
+        except zlib.error:
             return b""
-        for cand in (self._prefix + member, self._prefix + member + ".gz"):
-            if cand in self._zip:
-                raw = self._zip[cand]
-                if not cand.endswith(".gz"):
-                    return raw[:n]
-                try:
-                    return zlib.decompressobj(wbits=31).decompress(raw, n)     # 31: a gzip header and trailer
-                except zlib.error:
-                    return b""
-        return b""
 
     def need(self, member: str) -> bytes:
         """Content of a member; :class:`InputError` naming it when absent."""
