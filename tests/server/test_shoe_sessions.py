@@ -31,6 +31,16 @@ def _session(client: FlaskClient, token: str, name: str, pair: tuple[str, ...]) 
     return sid
 
 
+def _phone_session(app: Flask, client: FlaskClient, token: str, name: str, batches: int) -> str:
+    """A session with ``batches`` one-second phone batches, processed."""
+    sid = _session(client, token, name, ())
+    for i in range(batches):
+        assert client.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch(f"p{i}", float(i)),
+                           headers=bearer(token)).status_code == 201
+    assert app.extensions["pdr"].worker.wait_idle(60)
+    return sid
+
+
 def _upload(client: FlaskClient, token: str, sid: str, role: str, path: Path) -> tuple[int, dict]:
     body, content_type = multipart({"file": (path.read_bytes(), path.name)})
     resp = client.post(f"/api/v1/sessions/{sid}/devices/{role}/upload", headers=bearer(token), data=body,
@@ -150,11 +160,7 @@ def test_a_foot_batch_to_a_session_with_a_phone_needs_the_foot_paired(app: Flask
     route, nothing stored; once the foot is paired the same batch is taken. A shoe streaming alone (no phone in the
     session) still pairs its foot by its batches (server.feet.pairs_itself)."""
     h = bearer(tokens["alice"])
-    sid = _session(client, tokens["alice"], "phone-walk", ())
-    for i in range(3):
-        assert client.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch(f"p{i}", float(i)),
-                           headers=h).status_code == 201
-    assert app.extensions["pdr"].worker.wait_idle(60)
+    sid = _phone_session(app, client, tokens["alice"], "phone-walk", 3)
     before = client.get(f"/api/v1/sessions/{sid}", headers=h).get_json()
     foot = phone_batch("f0", 1.0, role="left_foot")
     r = client.post(f"/api/v1/sessions/{sid}/batches", json=foot, headers=h)
@@ -221,11 +227,7 @@ def test_a_rebuild_keeps_serving_the_previous_results(app: Flask, client: FlaskC
     """Between the start of a rebuild (reprocess, new options, a late batch) and its end the session answers with
     the results from before it and says ``rebuilding``; a second start keeps those, the end drops them."""
     h = bearer(tokens["alice"])
-    sid = _session(client, tokens["alice"], "rebuilt", ())
-    for i in range(5):
-        assert client.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch(f"p{i}", float(i)),
-                           headers=h).status_code == 201
-    assert app.extensions["pdr"].worker.wait_idle(60)
+    sid = _phone_session(app, client, tokens["alice"], "rebuilt", 5)
 
     def results() -> tuple[dict, list, list, dict]:
         s = client.get(f"/api/v1/sessions/{sid}", headers=h).get_json()
