@@ -350,8 +350,9 @@ class PdrPipeline:
         self.n_input_samples += max((len(s) for s in batch.streams.values()), default=0)
         self.grid.push(batch)
         t, vals = self.grid.pull()
-        if t.size:
+        while t.size:       # in runs over which the same streams are present (pdr.phone.grid)
             events += self._process(t, vals)
+            t, vals = self.grid.pull()
         return events
 
     def finish_events(self) -> list[PipelineEvent]:
@@ -360,10 +361,16 @@ class PdrPipeline:
         if self.grid is None:
             return [NoticeEvent("no accelerometer data: empty track")]
         t, vals = self.grid.pull()
-        if t.size:
+        while t.size:
             events += self._process(t, vals)
-        t, vals = self.grid.flush()
-        events += self._process(t, vals, final=True)
+            t, vals = self.grid.pull()
+        runs = [self.grid.flush()]
+        while runs[-1][0].size:
+            runs.append(self.grid.flush())
+        if len(runs) > 1:
+            runs.pop()          # the empty one that ended the loop
+        for i, (t, vals) in enumerate(runs):      # the last run ends the step detector's bouts (final)
+            events += self._process(t, vals, final=i == len(runs) - 1)
         if self.pending is not None:
             events += self._emit_step(self.pending, None)
             self.pending = None
@@ -532,7 +539,7 @@ class PdrPipeline:
         acc = vals["acc"] if n else np.zeros((0, 3))
         g0 = self.steps.samples_seen
         steps, an = self.steps.update(acc, final=final)
-        kinds = self.grid.kinds
+        kinds = vals.keys()         # the streams present over these grid points (a stopped one is not)
         gyro = vals["gyro"] if "gyro" in kinds and n else None
         q_phone = grid_attitudes(vals["orientation"]) if "orientation" in kinds and n else None
         mag = vals["mag"] if "mag" in kinds and n else None
@@ -561,7 +568,9 @@ class PdrPipeline:
             if floor.size:
                 self.last_floor = float(floor[-1])
         else:
-            up, floor, carried = np.zeros(n), np.full(n, self.last_floor), np.zeros(n, dtype=bool)
+            # Without a barometer, or while it is stopped: the altitude stays where it was (0 m without one).
+            up_last = float(self.history.up[-1]) if self.history.up.size else 0.0
+            up, floor, carried = np.full(n, up_last), np.full(n, self.last_floor), np.zeros(n, dtype=bool)
             rides = []
         self.history.append(g0, t, acc, an, mag_n, up, floor)
         # Attitude in segments ending where steps become known (landmark updates at fixed samples).

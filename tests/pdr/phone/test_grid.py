@@ -1,10 +1,11 @@
-"""OnlineGrid: the uniform grid on the log clock, linear interpolation, batch independence, flush and state."""
+"""OnlineGrid: the uniform grid on the log clock, linear interpolation, batch independence, flush and state, and
+streams that stop (gaps longer than MAX_STREAM_GAP_S are not bridged)."""
 
 import numpy as np
 import pytest
 
 from pdr.errors import InputError
-from pdr.phone.grid import OnlineGrid
+from pdr.phone.grid import MAX_STREAM_GAP_S, OnlineGrid
 from pdr.recording import Recording, SensorStream
 
 
@@ -19,26 +20,29 @@ def _lin(kind: str, t: np.ndarray) -> np.ndarray:
 
 
 def _feed(grid: OnlineGrid, rec: Recording, cuts: list[float]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Every grid point, in batches cut at ``cuts`` (s); a stream absent over a run of points gets NaN there."""
     ts: list[np.ndarray] = []
     vs: dict[str, list[np.ndarray]] = {k: [] for k in grid.kinds}
     edges = [-np.inf, *cuts, np.inf]
     for a, b in zip(edges[:-1], edges[1:], strict=True):
         part = Recording({k: SensorStream(k, s.t_ns[(s.t_ns / 1e9 >= a) & (s.t_ns / 1e9 < b)],
                                           s.values[(s.t_ns / 1e9 >= a) & (s.t_ns / 1e9 < b)])
-                          for k, s in rec.streams.items()})
+                          for k, s in rec.streams.items() if ((s.t_ns / 1e9 >= a) & (s.t_ns / 1e9 < b)).any()})
         grid.push(part)
-        t, v = grid.pull()
-        _keep(ts, vs, t, v)
+        while _keep(ts, vs, *grid.pull()):
+            pass
         grid = OnlineGrid.from_state(grid.state())     # resumed after every batch
-    _keep(ts, vs, *grid.flush())
+    while _keep(ts, vs, *grid.flush()):
+        pass
     return np.concatenate(ts), {k: np.concatenate(vs[k]) for k in grid.kinds}
 
 
-def _keep(ts: list, vs: dict, t: np.ndarray, v: dict[str, np.ndarray]) -> None:
+def _keep(ts: list, vs: dict, t: np.ndarray, v: dict[str, np.ndarray]) -> bool:
     if t.size:
         ts.append(t)
-        for k, x in v.items():
-            vs[k].append(x)
+        for k in vs:
+            vs[k].append(v[k] if k in v else np.full((t.size, 1 if k == "baro" else 3), np.nan))
+    return bool(t.size)
 
 
 def test_grid_points_are_multiples_of_the_period_and_interpolate_linear_signals_exactly():
@@ -90,3 +94,41 @@ def test_bad_rate_and_state_are_named():
         OnlineGrid(0.0, ("acc",))
     with pytest.raises(InputError, match="bad grid state"):
         OnlineGrid.from_state({"rate_hz": 50.0})
+
+
+def _gappy() -> Recording:
+    """acc at 100 Hz over 0-30 s; gyro with a 4 s gap (8-12 s) and ending at 20 s; baro at 1 Hz to 29.5 s."""
+    acc_t = np.arange(0.0, 30.0, 0.01)
+    gyro_t = np.concatenate([np.arange(0.003, 8.0, 0.01), np.arange(12.003, 20.0, 0.01)])
+    baro_t = np.arange(0.4, 29.6, 1.0)
+    return _rec({"acc": acc_t, "gyro": gyro_t, "baro": baro_t},
+                lambda k, t: t[:, None] if k == "baro" else np.column_stack([np.sin(t), np.cos(2 * t), t]))
+
+
+def test_a_stream_is_absent_over_its_long_gaps_and_after_it_stops_and_bridged_over_short_ones():
+    t, v = _feed(OnlineGrid(50.0, ("acc", "gyro", "baro")), _gappy(), [])
+    gyro_t = _gappy().t_s("gyro")
+    gap = (t > gyro_t[gyro_t < 8.0][-1]) & (t < 12.003)
+    stopped = t > gyro_t[-1]
+    assert np.all(np.isnan(v["gyro"][gap | stopped])) and not np.isnan(v["gyro"][~(gap | stopped)]).any()
+    # The barometer's 1 s period is bridged, and its last sample (0.5 s before the end) held.
+    assert not np.isnan(v["baro"]).any() and np.all(v["baro"][t > 29.4][:, 0] == pytest.approx(29.4))
+    assert t[-1] == pytest.approx(29.98) and np.all(np.diff(t) == pytest.approx(0.02))
+
+
+@pytest.mark.parametrize("cuts", [list(np.arange(0.5, 30.0, 1.0)), [9.0, 9.01, 15.5, 25.0],
+                                  list(np.arange(0.1, 30, 0.37))])
+def test_a_stopped_stream_does_not_hold_up_a_live_session_and_batches_give_the_one_batch_grid(cuts):
+    t1, v1 = _feed(OnlineGrid(50.0, ("acc", "gyro", "baro")), _gappy(), [])
+    t2, v2 = _feed(OnlineGrid(50.0, ("acc", "gyro", "baro")), _gappy(), cuts)
+    np.testing.assert_array_equal(t1, t2)
+    for k in v1:
+        np.testing.assert_array_equal(v1[k], v2[k])
+    # Live: once the accelerometer is 2 max_gap_s past the gyro's last sample, the grid goes on without the gyro.
+    g = OnlineGrid(50.0, ("acc", "gyro"))
+    g.push(_gappy().slice_time(0.0, 20.0 + 2 * MAX_STREAM_GAP_S + 1.0).with_streams({}))
+    emitted = []
+    while (run := g.pull())[0].size:
+        emitted.append(run)
+    assert emitted[-1][0][-1] == pytest.approx(20.0 + MAX_STREAM_GAP_S + 1.0, abs=0.02)
+    assert "gyro" not in emitted[-1][1] and "gyro" in emitted[-2][1]

@@ -512,3 +512,38 @@ def test_a_car_trip_without_a_barometer_has_no_elevator_ride():
     assert "baro" not in rec.streams
     events = PdrPipeline(PipelineConfig()).run(rec)
     assert [e for e in events if e["type"] in ("elevator", "step")] == []
+
+
+def _without(rec: Recording, kind: str, start_s: float, end_s: float) -> Recording:
+    """``rec`` with the samples of ``kind`` between ``start_s`` and ``end_s`` (s on its clock) removed."""
+    s = rec.stream(kind)
+    t = s.t_ns / 1e9
+    keep = (t < start_s) | (t >= end_s)
+    return rec.with_streams({kind: SensorStream(kind, s.t_ns[keep], s.values[keep])})
+
+
+def test_a_stream_that_stops_does_not_hold_up_the_session_nor_hold_its_last_value(hand_walk):
+    # The magnetometer pauses mid-walk (from 30 % to 60 % of it); the gyroscope stops for good at 75 %.
+    t0, t1 = hand_walk.time_span_s()
+    assert {"gyro", "mag"} <= set(hand_walk.streams)
+    gyro_end = t0 + 0.75 * (t1 - t0)
+    rec = _without(_without(hand_walk, "mag", t0 + 0.3 * (t1 - t0), t0 + 0.6 * (t1 - t0)), "gyro", gyro_end, t1 + 1)
+    one = track_rows(PdrPipeline(PipelineConfig()).run(rec))
+    p = PdrPipeline(PipelineConfig())
+    live: list[dict[str, Any]] = []
+    for part in chunks(rec, np.random.default_rng(2)):
+        live += p.update(part)
+    at_end = p.finish()
+    # Live, every step but those of the last seconds is out before the session ends (before: none after the gyro
+    # stopped), and the batches give the one-batch track.
+    assert len(track_rows(at_end)) <= 3
+    assert track_rows(live + at_end) == one
+    # Without the gyro the heading goes on from the accelerometer and magnetometer: no step reports a gyro heading,
+    # and the walk goes on in the simulated direction rather than turning with a held rate.
+    gyro_less = [r for r in one if r["t_start_s"] > gyro_end]
+    assert gyro_less and all(r["gyro_heading_deg"] is None for r in gyro_less)
+    truth = hand_walk.truth.extra
+    tm = np.array([r["t_s"] for r in gyro_less]) - hand_walk.origin_ns / 1e9
+    wy = np.interp(tm, truth["trajectory_t_s"], np.unwrap(truth["walking_heading_rad"]))
+    err = np.degrees(np.abs(wrap_angle(heading_deg_to_yaw(np.array([r["heading_deg"] for r in gyro_less])) - wy)))
+    assert err.mean() < 30
