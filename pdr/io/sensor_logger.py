@@ -13,8 +13,10 @@ order is ``z,y,x``: columns are always read by name), plus ``Metadata.csv`` (``p
 ``device name``, ...). The export of early 2021 (Metadata ``version`` 2) has ``time,<components>`` (no
 ``seconds_elapsed``) and no ``standardisation`` column; it is read the same way. The app writes empty (0-byte)
 files for streams that recorded nothing, and a file may hold its header only: either is skipped with a warning
-naming it. The JSON export (a list of flat records ``{"sensor": "Accelerometer", "time": .., "x": ..}``
-including a ``Metadata`` record) is read too.
+naming it. The app ends every sample line with a line break (every reading CSV of the 2021 and 2024 exports of
+../shared/data does; ``Metadata.csv`` does not and is read apart): a last line without one (an export cut off,
+perhaps mid-number) is dropped with a warning naming file and line. The JSON export (a list of flat records
+``{"sensor": "Accelerometer", "time": .., "x": ..}`` including a ``Metadata`` record) is read too.
 
 Readings and streams
     ``accelerometer`` -> ``lin_acc`` (gravity removed!), ``totalacceleration`` -> ``acc``, ``gravity`` ->
@@ -279,7 +281,7 @@ def _csv_location(text: str, source: str, notes: list[str]) -> dict[str, Any] | 
         return None
     try:
         header = split_header(text.split("\n", 1)[0].lstrip("\ufeff"), ",", source)
-        table = parse_table(text, source, int_columns=("time",), notes=notes,
+        table = parse_table(text, source, int_columns=("time",), notes=notes, terminated=True,
                             nan_columns=[h for h in header if h not in ("time", *_LOCATION)])
         found = (_fix(int(t), {c: table.column(c)[i] for c in (*_LOCATION, "horizontalAccuracy") if c in table.header},
                       source, f"line {table.line(i)}") for i, t in enumerate(table.column("time")))
@@ -421,7 +423,7 @@ def _read_bundle(bundle: Bundle, source: str) -> Recording:
             # The app writes empty files for streams that recorded nothing (e.g. Annotation.csv).
             notes.append(f"{member}: empty file (no header, no samples): {READINGS[name][0]} skipped")
             continue
-        table = parse_table(text, fname, int_columns=("time",), notes=notes)
+        table = parse_table(text, fname, int_columns=("time",), notes=notes, terminated=True)
         comps = READINGS[name][1]
         for c in ("time", *comps):
             table.column(c)  # InputError naming the missing column

@@ -319,7 +319,8 @@ def test_cut_off_last_line_is_dropped_with_a_warning(seed_name, tmp_path):
 
 #: Readers whose writers end every line with a line break (``terminated`` in pdr.io.text.drop_cut_off_last_line).
 TERMINATED_SEEDS = [pytest.param(k, marks=[pytest.mark.data] if k in DATA_SEEDS else [])
-                    for k in ("ipin", "ms_indoor", "oxford", "mobifall", "driving", "xio")]
+                    for k in ("ipin", "ms_indoor", "oxford", "mobifall", "driving", "xio", "tyrex", "tyrex-zip",
+                              "sensorconnect", "native-zip", "sensor_logger-folder")]
 
 
 @pytest.mark.parametrize("seed_name", TERMINATED_SEEDS)
