@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import gzip
 import io
+import re
 import warnings as warning_filters
 import zlib
 from collections.abc import Sequence
@@ -346,11 +347,13 @@ def parse_float_rows(rows: Sequence[Sequence[str]], line_numbers: Sequence[int],
 
 
 def drop_cut_off_last_line(text: AnyStr, source: str, sep: AnyStr | None, warnings: list[str], *,
-                           terminated: bool = False) -> AnyStr:
+                           terminated: bool = False, value_form: re.Pattern[AnyStr] | None = None) -> AnyStr:
     """``text`` without its last line when a phone cut the log off mid-line: the text does not end with a line
     break and its last line has fewer ``sep``-separated fields (whitespace-separated for None) than the line before.
     With ``terminated`` (the writer ends every record with a line break), a last line without one is cut off even
-    when it has all its fields: its last value may be a shorter number than was written. The line is reported in
+    when it has all its fields: its last value may be a shorter number than was written. With ``value_form`` (the
+    writer's fixed form of every value, for a writer that may leave the last line without a line break), it is cut
+    off when its last value does not have that form and the line before's does. The line is reported in
     ``warnings`` with file and line number; any other text is returned as it is.
     """
     if isinstance(text, str):
@@ -369,10 +372,18 @@ def drop_cut_off_last_line(text: AnyStr, source: str, sep: AnyStr | None, warnin
         why = f"{fields} of {expected} fields"
     elif terminated and last.strip():
         why = "no line break after its last value, which may be cut short"
+    elif value_form is not None and _cut_value(last, prev, sep, value_form):
+        why = f"no line break after its last value {last.split(sep)[-1].strip()!r}, which is cut short"
     else:
         return text
     warnings.append(f"{file_name(source)}: dropped the cut-off last line {line} ({why}): the log ends mid-line")
     return head + nl
+
+
+def _cut_value(last: AnyStr, prev: AnyStr, sep: AnyStr | None, form: re.Pattern[AnyStr]) -> bool:
+    """Whether the last value of line ``last`` lacks the writer's ``form`` that the last value of ``prev`` has."""
+    value, before = last.split(sep)[-1].strip(), prev.split(sep)[-1].strip()
+    return form.fullmatch(before) is not None and form.fullmatch(value) is None
 
 
 #: Largest magnitude of an int64 nanosecond timestamp we accept (about 292 years from the epoch or boot).
