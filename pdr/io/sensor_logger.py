@@ -29,7 +29,8 @@ Location
     ``location`` readings (``latitude``, ``longitude`` in degrees, WGS-84; ``horizontalAccuracy`` in m when given)
     geo-reference the recording: the first fix goes to ``meta["location"]`` (:data:`LOCATION_META`:
     ``lat_deg``, ``lon_deg``, ``t_ns``, ``horizontal_accuracy_m``, ``unix_time_s``, ``fixes``), which the service
-    takes as the session's origin (the track's local east/north frame starts there).
+    takes as the session's origin (the track's local east/north frame starts there). A ``Location.csv`` without a
+    fix (empty, as the app leaves it when the phone got none, or header only) is said in a warning.
 
 Specific force
     Without ``totalacceleration`` (iOS never logs it), ``acc = accelerometer + gravity``: gravity is linearly
@@ -73,7 +74,7 @@ from pdr.frames import GRAVITY_MPS2
 from pdr.io.bundle import Bundle, is_zip
 from pdr.io.csvtable import parse_table, split_header
 from pdr.io.text import decode_text, head, read_bytes, strip_gz
-from pdr.io.time_order import keep_increasing
+from pdr.io.time_order import file_name, keep_increasing
 from pdr.recording import LOCATION_META, DeviceInfo, Recording, SensorStream
 
 FORMAT = "sensor_logger"
@@ -100,6 +101,8 @@ _IOS_NEGATED = ("accelerometer", "totalacceleration", "gravity")
 GRAVITY_HOLD_S = 0.1
 #: Largest median angle (deg) between gravity rotated by the orientation quaternion and +z.
 ORIENTATION_CHECK_DEG = 20.0
+#: The end of a warning about a Location.csv without a usable fix.
+NOT_GEO_REFERENCED = "the recording is not geo-referenced"
 #: q_enu_nwu: the Core Motion x-north, y-west, z-up frame to ENU (a +90 deg turn about up).
 Q_ENU_NWU = np.array([math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4)])
 
@@ -274,10 +277,12 @@ def _fix(t_ns: int, values: Mapping[str, Any], source: str, where: str) -> dict[
 
 
 def _csv_location(text: str, source: str, notes: list[str]) -> dict[str, Any] | None:
-    """The first fix of an export's ``Location.csv`` (None when it has none). Location is optional: a file that
-    cannot be read is reported in ``notes`` and leaves the recording without geo-reference.
+    """The first fix of an export's ``Location.csv``, or None, said in ``notes``: a file without fixes (the app
+    writes an empty one when the phone had none, e.g. indoors) or one that cannot be read (location is optional: it
+    leaves the recording without geo-reference, never refuses it).
     """
     if not text.strip():
+        notes.append(f"{file_name(source)}: empty file (no header, no fixes): {NOT_GEO_REFERENCED}")
         return None
     try:
         header = split_header(text.split("\n", 1)[0].lstrip("\ufeff"), ",", source)
@@ -287,9 +292,13 @@ def _csv_location(text: str, source: str, notes: list[str]) -> dict[str, Any] | 
                       source, f"line {table.line(i)}") for i, t in enumerate(table.column("time")))
         fixes = [f for f in found if f is not None]
     except InputError as exc:
-        notes.append(f"location not used ({exc}): the recording is not geo-referenced")
+        notes.append(f"location not used ({exc}): {NOT_GEO_REFERENCED}")
         return None
-    return _first_fix(fixes) if fixes else None
+    if not fixes:
+        why = f"none of its {len(table)} rows is a position fix" if len(table) else "header only, no fixes"
+        notes.append(f"{file_name(source)}: {why}: {NOT_GEO_REFERENCED}")
+        return None
+    return _first_fix(fixes)
 
 
 def _first_fix(fixes: Sequence[dict[str, Any]]) -> dict[str, Any]:

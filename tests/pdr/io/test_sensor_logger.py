@@ -45,7 +45,7 @@ def test_face_up_reads_plus_g_whatever_the_platform(name, packaging, tmp_path):
     assert sensor_logger.sniff(path)
     rec = sensor_logger.read(path)
     _assert_face_up(rec)
-    assert rec.warnings == ()
+    assert rec.warnings == ("Location.csv: header only, no fixes: the recording is not geo-referenced",)
     assert rec.device.platform == name.split("_")[0]
     assert rec.device.model in ("Pixel 7", "iPhone 14")
     assert rec.meta["convention"] == ("ios" if name == "ios_face_up" else "android")
@@ -347,7 +347,7 @@ def test_metadata_version_2_export_is_read(tmp_path):
     np.testing.assert_allclose(rec.values("gyro")[0], [-0.2, 0.1, 9.8])        # x, y, z read by name
     np.testing.assert_allclose(rec.values("acc")[3], [-0.2, 0.1, 9.81 + 0.03])  # accelerometer + gravity
     assert rec.values("baro")[1, 0] == pytest.approx(1017.09)
-    assert rec.warnings == ()
+    assert rec.warnings == ("Location.csv: empty file (no header, no fixes): the recording is not geo-referenced",)
 
 
 def test_time_and_components_without_metadata_are_not_sniffed(tmp_path):
@@ -394,6 +394,26 @@ def test_location_fixes_geo_reference_the_recording(tmp_path):
     assert rec.meta["location"] == {"lat_deg": 51.5, "lon_deg": -0.12, "t_ns": int(t), "horizontal_accuracy_m": 7.0,
                                     "unix_time_s": int(t) / 1e9, "fixes": 1}
     assert rec.meta["ignored_readings"] == {"location": 1}
+
+
+@pytest.mark.parametrize(("content", "why"), [
+    ("", "empty file (no header, no fixes)"),
+    ("time,seconds_elapsed,horizontalAccuracy,longitude,latitude\n", "header only, no fixes"),
+    ("time,seconds_elapsed,horizontalAccuracy,longitude,latitude\n1717000000100000000,0.1,3.0,11.1,91.0\n",
+     "none of its 1 rows is a position fix")])
+@pytest.mark.parametrize("gz", [False, True])
+def test_location_csv_without_a_fix_is_said_in_a_warning(tmp_path, content, why, gz):
+    """A Location.csv (or .gz, named as the export's member) without a fix (the app leaves it empty when the phone
+    had none, e.g. indoors; a latitude beyond 90 deg) left the recording without geo-reference and without a word;
+    the sensor streams are read as before."""
+    folder = _copy_export(tmp_path)
+    whole = sensor_logger.read(folder)
+    (folder / "Location.csv").unlink()
+    loc = folder / ("Location.csv.gz" if gz else "Location.csv")
+    loc.write_bytes(gzip.compress(content.encode()) if gz else content.encode())
+    rec = sensor_logger.read(folder)
+    assert "location" not in rec.meta and rec.streams.keys() == whole.streams.keys()
+    assert f"Location.csv: {why}: the recording is not geo-referenced" in rec.warnings, rec.warnings
 
 
 def test_header_only_sensor_csv_is_skipped_with_a_warning_naming_it(tmp_path):
