@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
+from pdr.io.gz import GZIP_MAGIC, decompressed_prefix, gunzip
 from pdr.io.time_order import file_name
 
 #: Bytes read by :func:`head` for sniffing.
@@ -32,17 +33,16 @@ def strip_gz(name: str) -> str:
 
 
 def read_bytes(path: str | Path) -> bytes:
-    """Whole content of a file, transparently gunzipped when it ends in ``.gz``."""
+    """Whole content of a file, transparently gunzipped (:func:`pdr.io.gz.gunzip`) when it ends in ``.gz`` or starts
+    with gzip's magic bytes.
+    """
     p = Path(path)
     try:
         raw = p.read_bytes()
     except OSError as exc:
         raise InputError(f"cannot read ({exc.strerror})", source=str(p)) from None
-    if p.name.endswith(".gz") or raw[:2] == b"\x1f\x8b":
-        try:
-            raw = gzip.decompress(raw)
-        except (OSError, EOFError, zlib.error) as exc:      # zlib.error: a bad deflate block inside the gzip
-            raise InputError(f"corrupt gzip data ({exc})", source=str(p)) from None
+    if p.name.endswith(".gz") or raw[:2] == GZIP_MAGIC:
+        raw = gunzip(raw, str(p))
     return raw
 
 
@@ -67,8 +67,9 @@ def read_text(path: str | Path) -> str:
 
 def head(path: str | Path, n: int = SNIFF_BYTES) -> bytes:
     """First ``n`` bytes of a file, gunzipped as :func:`read_bytes` does (named ``.gz`` or starting with gzip's
-    magic bytes: a trace saved without its ``.gz``); empty on any error and for a zip archive (whose stored members
-    would otherwise show their text to a text reader's sniffer: a zip is read from its members). For sniffing only.
+    magic bytes: a trace saved without its ``.gz``; a gzip cut short shows what decompresses); empty on any error and
+    for a zip archive (whose stored members would otherwise show their text to a text reader's sniffer: a zip is read
+    from its members). For sniffing only.
     """
     p = Path(path)
     try:
@@ -76,9 +77,12 @@ def head(path: str | Path, n: int = SNIFF_BYTES) -> bytes:
             return b""
         with p.open("rb") as f:
             start = f.read(n)
-        if p.name.endswith(".gz") or start[:2] == b"\x1f\x8b":
-            with gzip.open(p, "rb") as f:
-                return f.read(n)
+        if p.name.endswith(".gz") or start[:2] == GZIP_MAGIC:
+            try:
+                with gzip.open(p, "rb") as f:
+                    return f.read(n)
+            except EOFError:
+                return decompressed_prefix(p.read_bytes(), n)
         return b"" if start.startswith(b"PK\x03\x04") else start
     except (OSError, EOFError, zlib.error):
         return b""

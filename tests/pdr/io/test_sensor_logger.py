@@ -431,7 +431,8 @@ def test_header_only_sensor_csv_is_skipped_with_a_warning_naming_it(tmp_path):
 def test_an_export_with_a_member_gzip_cut_short_names_that_member(tmp_path, pack):
     """An export whose Accelerometer.csv.gz was cut short (a copy or download stopped) was 'not a supported log
     format': the sniffer read the whole member and the damage made it look like no export. The sniffer reads the
-    member's header only; the reader names the damaged member."""
+    member's header only. The reader called alone refuses the member, naming it; read_recording reads what
+    decompresses (it refused the whole export), with a warning naming the member."""
     from pdr.io import read_recording
 
     rec = tmp_path / "rec"
@@ -448,8 +449,15 @@ def test_an_export_with_a_member_gzip_cut_short_names_that_member(tmp_path, pack
                 z.write(f, f"rec/{f.name}")
     assert detect_or_skip(log) == "sensor_logger"
     with pytest.raises(InputError, match=r"corrupt gzip data") as err:
-        read_recording(log)
+        sensor_logger.read(log)
     assert "Accelerometer.csv" in str(err.value.source)
+    whole = sensor_logger.read(FIXTURES / "android_face_up")
+    cut = read_recording(log)
+    assert cut.warnings[0].startswith("Accelerometer.csv.gz: cut short (the gzip stream ends before its end marker)")
+    assert 0 < len(cut.stream("lin_acc")) < len(whole.stream("lin_acc"))
+    np.testing.assert_array_equal(cut.values("gyro"), whole.values("gyro"))
+    n = len(cut.stream("lin_acc"))
+    np.testing.assert_array_equal(cut.values("lin_acc"), whole.values("lin_acc")[:n])
 
 
 @pytest.mark.parametrize("name", ["Accelerometer.csv", "Gyroscope.csv.gz"])
