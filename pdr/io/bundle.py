@@ -8,12 +8,12 @@ holds ``anchor``).
 
 from __future__ import annotations
 
-import gzip
 import zipfile
 import zlib
 from pathlib import Path
 
 from pdr.errors import InputError
+from pdr.io.gz import decompressed_prefix, gunzip
 from pdr.io.text import SNIFF_BYTES, decode_text, head, read_bytes, strip_gz
 
 
@@ -103,12 +103,7 @@ class Bundle:
         if stored is None or isinstance(stored, Path):
             return None if stored is None else read_bytes(stored)
         name, raw = stored
-        if not name.endswith(".gz"):
-            return raw
-        try:
-            return gzip.decompress(raw)
-        except (OSError, EOFError, zlib.error) as exc:
-            raise InputError(f"corrupt gzip data ({exc})", source=self.name(member)) from None
+        return gunzip(raw, f"{self.path}:{name}") if name.endswith(".gz") else raw
 
     def head(self, member: str, n: int = SNIFF_BYTES) -> bytes:
         """First ``n`` bytes of a member (gunzipped), empty when absent or unreadable. For sniffing: a member damaged
@@ -118,12 +113,7 @@ class Bundle:
         if stored is None or isinstance(stored, Path):
             return b"" if stored is None else head(stored, n)
         name, raw = stored
-        if not name.endswith(".gz"):
-            return raw[:n]
-        try:
-            return zlib.decompressobj(wbits=31).decompress(raw, n)     # 31: a gzip header and trailer
-        except zlib.error:
-            return b""
+        return decompressed_prefix(raw, n) if name.endswith(".gz") else raw[:n]
 
     def need(self, member: str) -> bytes:
         """Content of a member; :class:`InputError` naming it when absent."""

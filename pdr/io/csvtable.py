@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import csv
 import io
+import re
 import warnings
 from collections.abc import Collection, Sequence
 from dataclasses import dataclass
@@ -74,7 +75,7 @@ def split_header(line: str, delimiter: str = ",", source: str | None = None) -> 
 def parse_table(text: str, source: str, *, header_line: int = 1, delimiter: str = ",",
                 int_columns: Collection[str] = (), nan_columns: Collection[str] = (),
                 rename: dict[str, str] | None = None, decimal: str = ".", notes: list[str] | None = None,
-                terminated: bool = False) -> Table:
+                terminated: bool = False, value_form: re.Pattern[str] | None = None) -> Table:
     """Parse a CSV text whose line ``header_line`` (1-based) names the columns and whose later lines are numbers.
 
     Parameters
@@ -99,6 +100,9 @@ def parse_table(text: str, source: str, *, header_line: int = 1, delimiter: str 
     terminated
         With ``notes``: the writer ends every row with a line break, so a last line without one is dropped even
         when it has all its fields (its last value may be cut short).
+    value_form
+        With ``notes``: the writer's fixed form of every value; a last line without a line break whose last value
+        lacks it (and the line before's has it) is dropped.
 
     Raises
     ------
@@ -107,7 +111,7 @@ def parse_table(text: str, source: str, *, header_line: int = 1, delimiter: str 
         naming file, line and column.
     """
     if notes is not None:
-        text = drop_cut_off_last_line(text, source, delimiter, notes, terminated=terminated)
+        text = drop_cut_off_last_line(text, source, delimiter, notes, terminated=terminated, value_form=value_form)
     lines = text.splitlines()
     while lines and not lines[-1].strip():
         lines.pop()

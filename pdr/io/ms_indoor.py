@@ -76,6 +76,13 @@ WAYPOINT_FIELDS = ("timestamp_ms", "x_m", "y_m")
 _RECORD = re.compile(rb"^\d{13}\tTYPE_[A-Z_]+\t", re.MULTILINE)
 #: Where a run-on line must be cut: before a 13-digit Unix-ms timestamp followed by a record tag.
 _RUN_ON_CUT = re.compile(r"(?<=.)(?=\d{13}\tTYPE_)")
+#: The upstream dataset's folder layout: one trace per file, in its floor folder's ``path_data_files/`` (beside the
+#: floor's plan: floor_info.json, geojson_map.json).
+LAYOUT = "<site>/<floor>/path_data_files/<trace>.txt[.gz]"
+TRACES_FOLDER = "path_data_files"
+#: Levels below a folder searched for :data:`TRACES_FOLDER` (3 from the dataset's root) and sub-folders per level.
+LAYOUT_DEPTH = 3
+LAYOUT_LISTED = 50
 _META_KEYS = ("startTime", "endTime", "SiteID", "SiteName", "FloorId", "FloorName", "Brand", "Model",
               "AndroidName", "APILevel", "VersionName")
 
@@ -86,11 +93,47 @@ def sniff(path: str | Path) -> bool:
     return _RECORD.search(start) is not None
 
 
+def near_miss(path: str | Path) -> str | None:
+    """Why a folder of the dataset above its traces (the root, a site or a floor folder: a ``path_data_files/`` with
+    a trace one to :data:`LAYOUT_DEPTH` levels down) is not read as a trace, saying the layout; None otherwise.
+    """
+    p = Path(path)
+    trace = _trace_below(p) if p.is_dir() and p.name != TRACES_FOLDER else None
+    return None if trace is None else _layout_message(p, trace)
+
+
+def _layout_message(folder: Path, trace: Path | None) -> str:
+    """Why a folder is not read as a trace, with the dataset's layout and a trace below it when there is one."""
+    if trace is None:
+        return f"a Microsoft indoor-location trace is a single .txt[.gz] file, not a folder (laid out as {LAYOUT})"
+    return (f"a folder of the Microsoft indoor-location dataset, not one trace: its traces are {LAYOUT} "
+            f"({trace.relative_to(folder)} here); give one trace file, or the folder to 'pdr eval ms'")
+
+
+def _trace_below(folder: Path) -> Path | None:
+    """The first trace (by name) of a ``path_data_files/`` that is ``folder`` or at most :data:`LAYOUT_DEPTH` levels
+    below it (at most :data:`LAYOUT_LISTED` sub-folders looked at per level); None when there is none (never raises).
+    """
+    level = [folder]
+    try:
+        for _ in range(LAYOUT_DEPTH + 1):
+            for d in level:
+                if d.name == TRACES_FOLDER:
+                    trace = next((f for f in sorted(d.iterdir()) if f.is_file() and sniff(f)), None)
+                    if trace is not None:
+                        return trace
+            level = [c for d in level for c in sorted(d.iterdir()) if c.is_dir() and not c.name.startswith(".")]
+            level = level[:LAYOUT_LISTED]
+    except OSError:
+        return None
+    return None
+
+
 def read(path: str | Path) -> Recording:
     """Read one Microsoft indoor-location trace; see the module docstring."""
     p = Path(path)
     if p.is_dir():
-        raise InputError("a Microsoft indoor-location trace is a single .txt file, not a folder", source=str(p))
+        raise InputError(_layout_message(p, _trace_below(p)), source=str(p))
     cut: list[str] = []
     raw = drop_cut_off_last_line(read_bytes(p), str(p), b"\t", cut, terminated=True)
     parsed = _parse_fast(raw)

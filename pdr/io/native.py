@@ -15,7 +15,8 @@ Folder layout (the zip holds the same members, at its root or under one top fold
     truth/landmarks.csv       t_start_s,t_end_s,label
     truth/extra/<name>.npy    any extra truth array (numpy .npy, exact dtype and shape)
 
-Every member may also be gzip-compressed (``acc.csv.gz``).
+Every member may also be gzip-compressed (``acc.csv.gz``). :func:`write` ends every line with a line break, so a
+stream CSV whose last line has none (a copy cut off, perhaps mid-number) has that line dropped with a warning.
 """
 
 from __future__ import annotations
@@ -558,7 +559,7 @@ def read(path: str | Path) -> Recording:
 def _read_stream(members: Bundle, kind: str, fname: str, warnings: list[str]) -> SensorStream:
     source = members.name(fname)
     cols = STREAM_KINDS[kind].columns
-    table = parse_table(members.text(fname), source, int_columns=("t_ns",), notes=warnings)
+    table = parse_table(members.text(fname), source, int_columns=("t_ns",), notes=warnings, terminated=True)
     expected = ("t_ns", *cols)
     if table.header != expected:
         raise InputError(f"header must be {','.join(expected)}, found {','.join(table.header)}", source=source,

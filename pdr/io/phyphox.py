@@ -15,7 +15,10 @@ reports Android-convention specific force on both platforms, so no sign changes 
 ``Absolute acceleration`` are ignored. The five CSV dialects of phyphox are read: comma, tab or semicolon
 with a decimal point, tab or semicolon with a decimal comma (the decimal mark is taken from the first data
 line). Samples whose time repeats (a resaved file) or goes back are dropped with a warning naming file and line,
-keeping the first of a repeat (:mod:`pdr.io.time_order`).
+keeping the first of a repeat (:mod:`pdr.io.time_order`). phyphox for iOS writes the line break before each row,
+not after it, so a whole export may end without one: a cut-off data set is told by its last value instead, one not
+in phyphox's form (:data:`VALUE_FORM`; '9.8066' of '9.806650000E0') drops that line with a warning naming file
+and line.
 
 An export of gravity-free acceleration only (the "Linear Acceleration" experiment) gives no ``acc`` stream and
 a warning naming the experiment that records acceleration with g, which the attitude and step stages need.
@@ -67,6 +70,9 @@ _UNITS = {"acc": ACC_UNITS, "lin_acc": ACC_UNITS, "gyro": GYRO_UNITS, "mag": {**
           "baro": PRESSURE_UNITS}
 _ALIASES = {"µT": "uT", "μT": "uT", "m/s²": "m/s^2", "m/s2": "m/s^2", "°/s": "deg/s", "mbar": "hPa"}
 TIME_COLUMN = "Time (s)"
+#: How phyphox writes every value of a data set (Java's DecimalFormat "0.000000000E0" with the dialect's decimal
+#: mark; Python's "E+00" taken too), and the fillers of a missing one (Android "NaN", iOS '""').
+VALUE_FORM = re.compile(r'-?\d[.,]\d{9}E[-+]?\d+|NaN|""')
 
 
 def _axis_columns(header: list[str], file_kind: str | None = None) -> dict[str, dict[str, tuple[str, str]]]:
@@ -197,7 +203,7 @@ def _read_data_csv(name: str, text: str, clock: list[tuple[float, int]] | None, 
     groups = _axis_columns(header[1:] if header[:1] == [TIME_COLUMN] else [], file_kind)
     if not groups:
         return {}
-    table = parse_table(text, name, delimiter=delim, decimal=decimal, notes=warnings)
+    table = parse_table(text, name, delimiter=delim, decimal=decimal, notes=warnings, value_form=VALUE_FORM)
     if len(table) == 0:
         raise InputError("no samples after the header", source=name, line=2)
     t_ns = epoch_ns(table.column(TIME_COLUMN), clock, name)

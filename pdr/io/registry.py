@@ -21,6 +21,7 @@ from typing import Any
 
 from pdr.errors import InputError, UnknownFormatError
 from pdr.io.bundle import is_zip, starts_with
+from pdr.io.gz import cut_gzip_warnings
 from pdr.io.matfile import is_mat
 from pdr.io.matfile import load as load_mat
 from pdr.io.text import read_bytes
@@ -123,7 +124,9 @@ def _logs_in(folder: Path) -> list[Path]:
 
 
 def read_recording(path: str | Path, format: str | None = None) -> Recording:
-    """Read a log into a :class:`Recording`, detecting its format unless ``format`` is given."""
+    """Read a log into a :class:`Recording`, detecting its format unless ``format`` is given. A gzip file or member
+    cut short is read as far as it decompresses, with a warning naming it first (:func:`pdr.io.gz.cut_gzip_warnings`).
+    """
     p = Path(path)
     try:
         name = format or detect_format(p)
@@ -141,6 +144,13 @@ def read_recording(path: str | Path, format: str | None = None) -> Recording:
                                  source=str(p))
     if not p.exists():
         raise InputError("no such file or folder", source=str(p))
+    with cut_gzip_warnings() as cut:
+        rec = _read(module, p)
+    return dataclasses.replace(rec, warnings=(*cut, *rec.warnings)) if cut else rec
+
+
+def _read(module: ModuleType, p: Path) -> Recording:
+    """``module``'s recording of ``p``, from the content of a zip that the module reads as a folder or file."""
     if p.is_file() and is_zip(p) and not module.sniff(p):
         with unzipped(p) as inner:
             if module.sniff(inner):  # a reader of folders (or of the one file zipped): read the content

@@ -13,8 +13,10 @@ order is ``z,y,x``: columns are always read by name), plus ``Metadata.csv`` (``p
 ``device name``, ...). The export of early 2021 (Metadata ``version`` 2) has ``time,<components>`` (no
 ``seconds_elapsed``) and no ``standardisation`` column; it is read the same way. The app writes empty (0-byte)
 files for streams that recorded nothing, and a file may hold its header only: either is skipped with a warning
-naming it. The JSON export (a list of flat records ``{"sensor": "Accelerometer", "time": .., "x": ..}``
-including a ``Metadata`` record) is read too.
+naming it. The app ends every sample line with a line break (every reading CSV of the 2021 and 2024 exports of
+../shared/data does; ``Metadata.csv`` does not and is read apart): a last line without one (an export cut off,
+perhaps mid-number) is dropped with a warning naming file and line. The JSON export (a list of flat records
+``{"sensor": "Accelerometer", "time": .., "x": ..}`` including a ``Metadata`` record) is read too.
 
 Readings and streams
     ``accelerometer`` -> ``lin_acc`` (gravity removed!), ``totalacceleration`` -> ``acc``, ``gravity`` ->
@@ -27,7 +29,8 @@ Location
     ``location`` readings (``latitude``, ``longitude`` in degrees, WGS-84; ``horizontalAccuracy`` in m when given)
     geo-reference the recording: the first fix goes to ``meta["location"]`` (:data:`LOCATION_META`:
     ``lat_deg``, ``lon_deg``, ``t_ns``, ``horizontal_accuracy_m``, ``unix_time_s``, ``fixes``), which the service
-    takes as the session's origin (the track's local east/north frame starts there).
+    takes as the session's origin (the track's local east/north frame starts there). A ``Location.csv`` without a
+    fix (empty, as the app leaves it when the phone got none, or header only) is said in a warning.
 
 Specific force
     Without ``totalacceleration`` (iOS never logs it), ``acc = accelerometer + gravity``: gravity is linearly
@@ -71,7 +74,7 @@ from pdr.frames import GRAVITY_MPS2
 from pdr.io.bundle import Bundle, is_zip
 from pdr.io.csvtable import parse_table, split_header
 from pdr.io.text import decode_text, head, read_bytes, strip_gz
-from pdr.io.time_order import keep_increasing
+from pdr.io.time_order import file_name, keep_increasing
 from pdr.recording import LOCATION_META, DeviceInfo, Recording, SensorStream
 
 FORMAT = "sensor_logger"
@@ -98,6 +101,8 @@ _IOS_NEGATED = ("accelerometer", "totalacceleration", "gravity")
 GRAVITY_HOLD_S = 0.1
 #: Largest median angle (deg) between gravity rotated by the orientation quaternion and +z.
 ORIENTATION_CHECK_DEG = 20.0
+#: The end of a warning about a Location.csv without a usable fix.
+NOT_GEO_REFERENCED = "the recording is not geo-referenced"
 #: q_enu_nwu: the Core Motion x-north, y-west, z-up frame to ENU (a +90 deg turn about up).
 Q_ENU_NWU = np.array([math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4)])
 
@@ -272,22 +277,28 @@ def _fix(t_ns: int, values: Mapping[str, Any], source: str, where: str) -> dict[
 
 
 def _csv_location(text: str, source: str, notes: list[str]) -> dict[str, Any] | None:
-    """The first fix of an export's ``Location.csv`` (None when it has none). Location is optional: a file that
-    cannot be read is reported in ``notes`` and leaves the recording without geo-reference.
+    """The first fix of an export's ``Location.csv``, or None, said in ``notes``: a file without fixes (the app
+    writes an empty one when the phone had none, e.g. indoors) or one that cannot be read (location is optional: it
+    leaves the recording without geo-reference, never refuses it).
     """
     if not text.strip():
+        notes.append(f"{file_name(source)}: empty file (no header, no fixes): {NOT_GEO_REFERENCED}")
         return None
     try:
         header = split_header(text.split("\n", 1)[0].lstrip("\ufeff"), ",", source)
-        table = parse_table(text, source, int_columns=("time",), notes=notes,
+        table = parse_table(text, source, int_columns=("time",), notes=notes, terminated=True,
                             nan_columns=[h for h in header if h not in ("time", *_LOCATION)])
         found = (_fix(int(t), {c: table.column(c)[i] for c in (*_LOCATION, "horizontalAccuracy") if c in table.header},
                       source, f"line {table.line(i)}") for i, t in enumerate(table.column("time")))
         fixes = [f for f in found if f is not None]
     except InputError as exc:
-        notes.append(f"location not used ({exc}): the recording is not geo-referenced")
+        notes.append(f"location not used ({exc}): {NOT_GEO_REFERENCED}")
         return None
-    return _first_fix(fixes) if fixes else None
+    if not fixes:
+        why = f"none of its {len(table)} rows is a position fix" if len(table) else "header only, no fixes"
+        notes.append(f"{file_name(source)}: {why}: {NOT_GEO_REFERENCED}")
+        return None
+    return _first_fix(fixes)
 
 
 def _first_fix(fixes: Sequence[dict[str, Any]]) -> dict[str, Any]:
@@ -421,7 +432,7 @@ def _read_bundle(bundle: Bundle, source: str) -> Recording:
             # The app writes empty files for streams that recorded nothing (e.g. Annotation.csv).
             notes.append(f"{member}: empty file (no header, no samples): {READINGS[name][0]} skipped")
             continue
-        table = parse_table(text, fname, int_columns=("time",), notes=notes)
+        table = parse_table(text, fname, int_columns=("time",), notes=notes, terminated=True)
         comps = READINGS[name][1]
         for c in ("time", *comps):
             table.column(c)  # InputError naming the missing column

@@ -12,6 +12,8 @@ stripped (validity flags ``...:estRollX:valid`` become ``estRollX:valid``). Two 
 ``Time`` is in seconds (from 0 in the LLIO walks). The accelerometer is specific force in the sensor frame
 (a level node at rest reads (0, 0, -1) g: the LORD sensor frame has z down); acc and mag units given by the
 header are cross-checked against the data (:mod:`pdr.units`); a clear mismatch is converted with a warning.
+SensorConnect ends every row with a line break: a last row without one (an export cut off, perhaps mid-number) is
+dropped with a warning naming file and line.
 
 Orientation convention (verified on the LLIO walks: the accelerometer at rest agrees with the angles to
 within a few degrees): roll, pitch, yaw are ZYX Euler angles of the sensor frame relative to local NED,
@@ -100,7 +102,7 @@ def read(path: str | Path) -> Recording:
     raw_header = split_header(first_line, source=source) if first_line.strip() else []
     rename = {h: _column_name(h) for h in raw_header}
     warnings: list[str] = []
-    table = parse_table(text, source, rename=rename, notes=warnings)
+    table = parse_table(text, source, rename=rename, notes=warnings, terminated=True)
     time_col = next((n for n in _TIME_NAMES if n in table.header), None)
     if time_col is None:
         raise InputError(f"no Time column (header has {list(table.header)})", source=source, line=1, field="Time")

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import gzip
 import io
+import re
 import warnings as warning_filters
 import zlib
 from collections.abc import Sequence
@@ -19,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
+from pdr.io.gz import GZIP_MAGIC, decompressed_prefix, gunzip
 from pdr.io.time_order import file_name
 
 #: Bytes read by :func:`head` for sniffing.
@@ -31,17 +33,16 @@ def strip_gz(name: str) -> str:
 
 
 def read_bytes(path: str | Path) -> bytes:
-    """Whole content of a file, transparently gunzipped when it ends in ``.gz``."""
+    """Whole content of a file, transparently gunzipped (:func:`pdr.io.gz.gunzip`) when it ends in ``.gz`` or starts
+    with gzip's magic bytes.
+    """
     p = Path(path)
     try:
         raw = p.read_bytes()
     except OSError as exc:
         raise InputError(f"cannot read ({exc.strerror})", source=str(p)) from None
-    if p.name.endswith(".gz") or raw[:2] == b"\x1f\x8b":
-        try:
-            raw = gzip.decompress(raw)
-        except (OSError, EOFError, zlib.error) as exc:      # zlib.error: a bad deflate block inside the gzip
-            raise InputError(f"corrupt gzip data ({exc})", source=str(p)) from None
+    if p.name.endswith(".gz") or raw[:2] == GZIP_MAGIC:
+        raw = gunzip(raw, str(p))
     return raw
 
 
@@ -66,8 +67,9 @@ def read_text(path: str | Path) -> str:
 
 def head(path: str | Path, n: int = SNIFF_BYTES) -> bytes:
     """First ``n`` bytes of a file, gunzipped as :func:`read_bytes` does (named ``.gz`` or starting with gzip's
-    magic bytes: a trace saved without its ``.gz``); empty on any error and for a zip archive (whose stored members
-    would otherwise show their text to a text reader's sniffer: a zip is read from its members). For sniffing only.
+    magic bytes: a trace saved without its ``.gz``; a gzip cut short shows what decompresses); empty on any error and
+    for a zip archive (whose stored members would otherwise show their text to a text reader's sniffer: a zip is read
+    from its members). For sniffing only.
     """
     p = Path(path)
     try:
@@ -75,9 +77,12 @@ def head(path: str | Path, n: int = SNIFF_BYTES) -> bytes:
             return b""
         with p.open("rb") as f:
             start = f.read(n)
-        if p.name.endswith(".gz") or start[:2] == b"\x1f\x8b":
-            with gzip.open(p, "rb") as f:
-                return f.read(n)
+        if p.name.endswith(".gz") or start[:2] == GZIP_MAGIC:
+            try:
+                with gzip.open(p, "rb") as f:
+                    return f.read(n)
+            except EOFError:
+                return decompressed_prefix(p.read_bytes(), n)
         return b"" if start.startswith(b"PK\x03\x04") else start
     except (OSError, EOFError, zlib.error):
         return b""
@@ -346,11 +351,13 @@ def parse_float_rows(rows: Sequence[Sequence[str]], line_numbers: Sequence[int],
 
 
 def drop_cut_off_last_line(text: AnyStr, source: str, sep: AnyStr | None, warnings: list[str], *,
-                           terminated: bool = False) -> AnyStr:
+                           terminated: bool = False, value_form: re.Pattern[AnyStr] | None = None) -> AnyStr:
     """``text`` without its last line when a phone cut the log off mid-line: the text does not end with a line
     break and its last line has fewer ``sep``-separated fields (whitespace-separated for None) than the line before.
     With ``terminated`` (the writer ends every record with a line break), a last line without one is cut off even
-    when it has all its fields: its last value may be a shorter number than was written. The line is reported in
+    when it has all its fields: its last value may be a shorter number than was written. With ``value_form`` (the
+    writer's fixed form of every value, for a writer that may leave the last line without a line break), it is cut
+    off when its last value does not have that form and the line before's does. The line is reported in
     ``warnings`` with file and line number; any other text is returned as it is.
     """
     if isinstance(text, str):
@@ -369,10 +376,18 @@ def drop_cut_off_last_line(text: AnyStr, source: str, sep: AnyStr | None, warnin
         why = f"{fields} of {expected} fields"
     elif terminated and last.strip():
         why = "no line break after its last value, which may be cut short"
+    elif value_form is not None and _cut_value(last, prev, sep, value_form):
+        why = f"no line break after its last value {last.split(sep)[-1].strip()!r}, which is cut short"
     else:
         return text
     warnings.append(f"{file_name(source)}: dropped the cut-off last line {line} ({why}): the log ends mid-line")
     return head + nl
+
+
+def _cut_value(last: AnyStr, prev: AnyStr, sep: AnyStr | None, form: re.Pattern[AnyStr]) -> bool:
+    """Whether the last value of line ``last`` lacks the writer's ``form`` that the last value of ``prev`` has."""
+    value, before = last.split(sep)[-1].strip(), prev.split(sep)[-1].strip()
+    return form.fullmatch(before) is not None and form.fullmatch(value) is None
 
 
 #: Largest magnitude of an int64 nanosecond timestamp we accept (about 292 years from the epoch or boot).

@@ -23,7 +23,8 @@ column the phone's time ``t`` in seconds since boot (all files share that clock)
 
 Time: ``t_ns = round(t * 1e9)``, so ``t0_ns / 1e9 + t_s`` (what ``pdr track`` writes) is the phone's seconds
 since boot, as in the files' first column. A row whose time repeats or goes back is dropped with a warning naming
-file and line (:mod:`pdr.io.time_order`).
+file and line (:mod:`pdr.io.time_order`). The logger ends every line with a line break (all 108 files of
+../shared/data do): a last line without one (the recording cut off, perhaps mid-number) is dropped with a warning.
 
 The folder name ``<Walker>_<Device>_<Dist|NoDist>_<Motion>`` gives ``meta['walker']``, ``meta['disturbed']``,
 ``meta['carriage']`` (FrontPocket, BackPocket, Swinging, Texting, RunningPocket, ...) and
@@ -234,12 +235,12 @@ def _recording_name(p: Path, bundle: Bundle) -> str:
 
 # -- phone files -------------------------------------------------------------------------------------------
 def _table(text: str, source: str, columns: tuple[str, ...], warnings: list[str]) -> FloatArray:
-    """The numeric rows of one space-separated file (rows whose time repeats or goes back dropped with a warning);
-    InputError naming file, line and field on bad input.
+    """The numeric rows of one space-separated file (rows whose time repeats or goes back, and a last line without
+    its line break, dropped with a warning); InputError naming file, line and field on bad input.
     """
     rows: list[list[str]] = []
     numbers: list[int] = []
-    text = drop_cut_off_last_line(text, source, None, warnings)
+    text = drop_cut_off_last_line(text, source, None, warnings, terminated=True)
     for number, line in enumerate(text.splitlines(), start=1):
         if line.strip():
             rows.append(line.split())

@@ -317,12 +317,14 @@ def test_cut_off_last_line_is_dropped_with_a_warning(seed_name, tmp_path):
     assert any(name.split(".")[0] in w and f"cut-off last line {line}" in w for w in rec.warnings), rec.warnings
 
 
-#: Readers whose writers end every line with a line break (``terminated`` in pdr.io.text.drop_cut_off_last_line).
-TERMINATED_SEEDS = [pytest.param(k, marks=[pytest.mark.data] if k in DATA_SEEDS else [])
-                    for k in ("ipin", "ms_indoor", "oxford", "mobifall", "driving", "xio")]
+#: Readers that tell a last value cut short: their writers end every line with a line break (``terminated`` in
+#: pdr.io.text.drop_cut_off_last_line) or, phyphox, write every value in one form (``value_form``).
+CUT_VALUE_SEEDS = [pytest.param(k, marks=[pytest.mark.data] if k in DATA_SEEDS else [])
+                   for k in ("ipin", "ms_indoor", "oxford", "mobifall", "driving", "xio", "tyrex", "tyrex-zip",
+                             "sensorconnect", "native-zip", "sensor_logger-folder", "phyphox")]
 
 
-@pytest.mark.parametrize("seed_name", TERMINATED_SEEDS)
+@pytest.mark.parametrize("seed_name", CUT_VALUE_SEEDS)
 def test_last_line_cut_in_its_last_value_is_dropped_with_a_warning(seed_name, tmp_path):
     """A log cut off in the last value of its last line (every field there but no line break: '1.67953' of
     '1.6795325') reads as the log without that line, with a warning naming the file and the line; it was read with

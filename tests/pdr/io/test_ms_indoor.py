@@ -168,6 +168,36 @@ def test_binary_garbage_and_sniffing(tmp_path):
         ms_indoor.read(tmp_path)
 
 
+def test_a_dataset_folder_says_the_layout_and_names_a_trace(tmp_path):
+    """The dataset's root, a site or a floor folder (traces 4, 3 or 2 levels down: <site>/<floor>/path_data_files/)
+    given as a log: the root got the generic 'not a supported log format ...; pass --format to force one', and with
+    --format ms_indoor every folder 'a ... trace is a single .txt file, not a folder'; both now say the layout and
+    name a trace below the folder. path_data_files/ itself keeps its message (the traces it holds)."""
+    from pdr.errors import UnknownFormatError
+    from pdr.io import read_recording
+    from tests.conftest import REPO_ROOT
+
+    trace = (REPO_ROOT / "mobile_logs" / "real" / "ms_indoor_site2_F3_5dd51a7650e04e0006f5642c.txt.gz").read_bytes()
+    root = tmp_path / "ms_indoor_location"
+    (root / "site2" / "F3" / "path_data_files").mkdir(parents=True)
+    (root / "site2" / "F3" / "path_data_files" / "5dd5.txt.gz").write_bytes(trace)
+    (root / "site2" / "F3" / "floor_info.json").write_text("{}")
+    (root / "SOURCE.md").write_text("traces\n")
+    for folder, below in ((root, "site2/F3/"), (root / "site2", "F3/"), (root / "site2" / "F3", "")):
+        why = ("a folder of the Microsoft indoor-location dataset, not one trace: its traces are "
+               f"<site>/<floor>/path_data_files/<trace>.txt[.gz] ({below}path_data_files/5dd5.txt.gz here); give one "
+               "trace file, or the folder to 'pdr eval ms'")
+        with pytest.raises(UnknownFormatError) as err:
+            read_recording(folder)
+        assert err.value.message == f"not a readable log: {why}" and err.value.source == str(folder)
+        with pytest.raises(InputError) as refused:
+            ms_indoor.read(folder)
+        assert refused.value.message == why
+    with pytest.raises(UnknownFormatError, match="not one log but a folder that holds logs"):
+        read_recording(root / "site2" / "F3" / "path_data_files")
+    assert ms_indoor.near_miss(tmp_path / "elsewhere") is None and ms_indoor.near_miss(root / "SOURCE.md") is None
+
+
 def test_floor_names():
     assert ms_indoor.floor_number("F3") == 3.0
     assert ms_indoor.floor_number("2F") == 2.0

@@ -229,3 +229,23 @@ def test_repeated_timestamps_are_dropped_with_a_warning(tmp_path):
     rec = phyphox.read(p)
     np.testing.assert_allclose(rec.values("acc")[:, 0], [0.0, 0.0, 0.0])    # the first of each repeat kept
     assert any("dropped 3 of 6 samples whose time repeats (3)" in w for w in rec.warnings)
+
+
+def test_last_line_without_line_break_kept_unless_its_last_value_is_cut(tmp_path):
+    """phyphox for iOS leaves the last row without a line break: a whole last row is read, one whose last value
+    lost digits ('9.8066' of '9.806650000E0') is dropped with a warning naming file and line; a resaved file of
+    other numbers keeps its last row (read as before)."""
+    text = _dialect_text(",", ".").rstrip("\n")
+    whole = phyphox.read(_write(tmp_path / "whole.csv", text))
+    assert len(whole.stream("acc")) == len(_ACC_ROWS) and not any("cut-off" in w for w in whole.warnings)
+    cut = phyphox.read(_write(tmp_path / "Raw Data.csv", text[:-7]))
+    np.testing.assert_array_equal(cut.values("acc"), whole.values("acc")[:-1])
+    assert (f"Raw Data.csv: dropped the cut-off last line {len(_ACC_ROWS) + 1} (no line break after its last value "
+            f"'{text[:-7].rpartition(',')[2]}', which is cut short): the log ends mid-line") in cut.warnings
+    resaved = text.replace("E+00", "").replace("E-02", "e-2")
+    assert len(phyphox.read(_write(tmp_path / "resaved.csv", resaved[:-3])).stream("acc")) == len(_ACC_ROWS)
+
+
+def _write(p: Path, text: str) -> Path:
+    p.write_text(text, encoding="utf-8")
+    return p

@@ -45,7 +45,7 @@ def test_face_up_reads_plus_g_whatever_the_platform(name, packaging, tmp_path):
     assert sensor_logger.sniff(path)
     rec = sensor_logger.read(path)
     _assert_face_up(rec)
-    assert rec.warnings == ()
+    assert rec.warnings == ("Location.csv: header only, no fixes: the recording is not geo-referenced",)
     assert rec.device.platform == name.split("_")[0]
     assert rec.device.model in ("Pixel 7", "iPhone 14")
     assert rec.meta["convention"] == ("ios" if name == "ios_face_up" else "android")
@@ -347,7 +347,7 @@ def test_metadata_version_2_export_is_read(tmp_path):
     np.testing.assert_allclose(rec.values("gyro")[0], [-0.2, 0.1, 9.8])        # x, y, z read by name
     np.testing.assert_allclose(rec.values("acc")[3], [-0.2, 0.1, 9.81 + 0.03])  # accelerometer + gravity
     assert rec.values("baro")[1, 0] == pytest.approx(1017.09)
-    assert rec.warnings == ()
+    assert rec.warnings == ("Location.csv: empty file (no header, no fixes): the recording is not geo-referenced",)
 
 
 def test_time_and_components_without_metadata_are_not_sniffed(tmp_path):
@@ -396,6 +396,26 @@ def test_location_fixes_geo_reference_the_recording(tmp_path):
     assert rec.meta["ignored_readings"] == {"location": 1}
 
 
+@pytest.mark.parametrize(("content", "why"), [
+    ("", "empty file (no header, no fixes)"),
+    ("time,seconds_elapsed,horizontalAccuracy,longitude,latitude\n", "header only, no fixes"),
+    ("time,seconds_elapsed,horizontalAccuracy,longitude,latitude\n1717000000100000000,0.1,3.0,11.1,91.0\n",
+     "none of its 1 rows is a position fix")])
+@pytest.mark.parametrize("gz", [False, True])
+def test_location_csv_without_a_fix_is_said_in_a_warning(tmp_path, content, why, gz):
+    """A Location.csv (or .gz, named as the export's member) without a fix (the app leaves it empty when the phone
+    had none, e.g. indoors; a latitude beyond 90 deg) left the recording without geo-reference and without a word;
+    the sensor streams are read as before."""
+    folder = _copy_export(tmp_path)
+    whole = sensor_logger.read(folder)
+    (folder / "Location.csv").unlink()
+    loc = folder / ("Location.csv.gz" if gz else "Location.csv")
+    loc.write_bytes(gzip.compress(content.encode()) if gz else content.encode())
+    rec = sensor_logger.read(folder)
+    assert "location" not in rec.meta and rec.streams.keys() == whole.streams.keys()
+    assert f"Location.csv: {why}: the recording is not geo-referenced" in rec.warnings, rec.warnings
+
+
 def test_header_only_sensor_csv_is_skipped_with_a_warning_naming_it(tmp_path):
     # A header and no rows (an export whose accelerometer recorded nothing) was dropped without a word.
     folder = _copy_export(tmp_path)
@@ -411,7 +431,8 @@ def test_header_only_sensor_csv_is_skipped_with_a_warning_naming_it(tmp_path):
 def test_an_export_with_a_member_gzip_cut_short_names_that_member(tmp_path, pack):
     """An export whose Accelerometer.csv.gz was cut short (a copy or download stopped) was 'not a supported log
     format': the sniffer read the whole member and the damage made it look like no export. The sniffer reads the
-    member's header only; the reader names the damaged member."""
+    member's header only. The reader called alone refuses the member, naming it; read_recording reads what
+    decompresses (it refused the whole export), with a warning naming the member."""
     from pdr.io import read_recording
 
     rec = tmp_path / "rec"
@@ -428,8 +449,15 @@ def test_an_export_with_a_member_gzip_cut_short_names_that_member(tmp_path, pack
                 z.write(f, f"rec/{f.name}")
     assert detect_or_skip(log) == "sensor_logger"
     with pytest.raises(InputError, match=r"corrupt gzip data") as err:
-        read_recording(log)
+        sensor_logger.read(log)
     assert "Accelerometer.csv" in str(err.value.source)
+    whole = sensor_logger.read(FIXTURES / "android_face_up")
+    cut = read_recording(log)
+    assert cut.warnings[0].startswith("Accelerometer.csv.gz: cut short (the gzip stream ends before its end marker)")
+    assert 0 < len(cut.stream("lin_acc")) < len(whole.stream("lin_acc"))
+    np.testing.assert_array_equal(cut.values("gyro"), whole.values("gyro"))
+    n = len(cut.stream("lin_acc"))
+    np.testing.assert_array_equal(cut.values("lin_acc"), whole.values("lin_acc")[:n])
 
 
 @pytest.mark.parametrize("name", ["Accelerometer.csv", "Gyroscope.csv.gz"])

@@ -1,0 +1,77 @@
+"""gzip data of the readers: decompressed whole, or, cut short (a copy or download stopped), as far as it goes.
+
+:func:`gunzip` refuses damaged data with an :class:`~pdr.errors.InputError` naming the file. Data cut short (the
+stream ends before its end-of-stream marker: :func:`gzip.decompress` raises ``EOFError``) is refused too, except
+within :func:`cut_gzip_warnings` (:func:`pdr.io.registry.read_recording` reads every log so): there the bytes that
+decompress are returned and a warning naming the file is collected, for the recording's warnings. Data from which
+nothing decompresses, or that is not gzip at all, is refused either way.
+"""
+
+from __future__ import annotations
+
+import gzip
+import zlib
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
+
+from pdr.errors import InputError
+from pdr.io.time_order import file_name
+
+GZIP_MAGIC = b"\x1f\x8b"
+
+#: The warnings of :func:`cut_gzip_warnings` being collected (None: a gzip cut short is refused).
+_CUT: ContextVar[list[str] | None] = ContextVar("cut_gzip_warnings", default=None)
+
+
+@contextmanager
+def cut_gzip_warnings() -> Iterator[list[str]]:
+    """Within: a gzip file or member cut short is read as far as it decompresses (:func:`gunzip`), and a warning
+    naming it is appended to the yielded list.
+    """
+    notes: list[str] = []
+    token = _CUT.set(notes)
+    try:
+        yield notes
+    finally:
+        _CUT.reset(token)
+
+
+def gunzip(raw: bytes, source: str) -> bytes:
+    """The decompressed content of gzip data (every member); see the module docstring for data cut short.
+
+    Raises
+    ------
+    InputError
+        ``corrupt gzip data (...)`` naming ``source``: not gzip, damaged, or cut short outside
+        :func:`cut_gzip_warnings`.
+    """
+    try:
+        return gzip.decompress(raw)
+    except EOFError as exc:
+        notes = _CUT.get()
+        whole = b"" if notes is None else decompressed_prefix(raw)
+        if notes is None or not whole:
+            raise InputError(f"corrupt gzip data ({exc})", source=source) from None
+        notes.append(f"{file_name(source)}: cut short (the gzip stream ends before its end marker): read the "
+                     f"{len(whole)} bytes that decompress")
+        return whole
+    except (OSError, zlib.error) as exc:      # zlib.error: a bad deflate block inside the gzip
+        raise InputError(f"corrupt gzip data ({exc})", source=source) from None
+
+
+def decompressed_prefix(raw: bytes, limit: int = 0) -> bytes:
+    """The bytes that decompress from the start of gzip data, member after member, up to where it is cut short or
+    damaged (at most ``limit`` bytes of the first member when given, for sniffing); empty when none do.
+    """
+    out: list[bytes] = []
+    while raw[:2] == GZIP_MAGIC:
+        stream = zlib.decompressobj(wbits=31)            # 31: a gzip header and trailer
+        try:
+            out.append(stream.decompress(raw, limit))
+        except zlib.error:
+            break
+        if limit or not stream.eof:
+            break
+        raw = stream.unused_data.lstrip(b"\x00")        # gzip allows zero padding between members
+    return b"".join(out)
