@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from pdr.cli import progress
-from pdr.cli.outputs import check_writable, in_made_folder, print_warnings
+from pdr.cli.outputs import check_writable, in_made_folder, plot_path, print_warnings
 from pdr.errors import InputError
 from pdr.evaluation.foot_metrics import (
     PYSHOE_EXCLUDED,
@@ -232,6 +232,7 @@ def run_dual(args: argparse.Namespace) -> int:
 def run_foot(args: argparse.Namespace) -> int:
     from pdr.io import read_recording
 
+    args.plot = plot_path(args.plot)    # the file written: '.png' added to a name without an extension
     if args.left or args.right:
         return run_dual(args)
     if not args.log:
