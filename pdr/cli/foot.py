@@ -31,6 +31,7 @@ from pdr.foot.detectors import DETECTORS, DetectorConfig
 from pdr.foot.dual import DualFootConfig, DualFootTrack, navigate_feet
 from pdr.foot.filterbank import FilterBankTrack
 from pdr.foot.navigate import METHODS, FootImu, navigate, unsupported_options
+from pdr.foot.strides import reset_strides
 from pdr.foot.zupt import ZuptConfig, ZuptTrack
 from pdr.frames import yaw_to_heading_deg
 from pdr.fusion.constraints import SeparationConfig
@@ -122,8 +123,12 @@ def track_rows(imu: FootImu, track: ZuptTrack | FilterBankTrack | BCTrack) -> di
 
 
 def step_rows(imu: FootImu, track: ZuptTrack) -> dict[str, np.ndarray]:
-    """Columns of the per-step CSV (one row per reset of the step-wise navigation)."""
+    """Columns of the per-step CSV (one row per reset of the step-wise navigation). ``stride`` 1: the reset closes a
+    stride; 0: a reset while the foot stands (one every ``c_max_s``), kept for its increment (a turn on the spot) but
+    no stride, as the session's track marks it ``standing`` and leaves it out of its step count.
+    """
     idx = np.array([s.index for s in track.steps], dtype=np.int64)
+    strides = reset_strides(track.zero_velocity, track.t_s, track.start_index, idx)
     return {
         "t_s": track.t_s[idx] + imu.clock_offset_s,
         "east_m": track.pos_n[idx, 0], "north_m": track.pos_n[idx, 1], "up_m": track.pos_n[idx, 2],
@@ -131,6 +136,7 @@ def step_rows(imu: FootImu, track: ZuptTrack) -> dict[str, np.ndarray]:
         "dp_x_m": np.array([s.dp[0] for s in track.steps]), "dp_y_m": np.array([s.dp[1] for s in track.steps]),
         "dp_z_m": np.array([s.dp[2] for s in track.steps]),
         "dpsi_deg": np.degrees([s.dpsi for s in track.steps]),
+        "stride": np.array(strides, dtype=np.int64),
     }
 
 
@@ -269,7 +275,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("foot", help="foot-mounted navigation (ZUPT-aided INS) of a foot IMU log")
     p.add_argument("log", nargs="?", help="foot IMU log (any supported format)")
     p.add_argument("--out", required=True, help="track CSV: t_s,east_m,north_m,up_m,heading_deg,zero_velocity")
-    p.add_argument("--per-step", action="store_true", help="one row per step (with --method stepwise or dual-foot)")
+    p.add_argument("--per-step", action="store_true",
+                   help="one row per step (with --method stepwise or dual-foot); one foot: column stride is 0 for a "
+                        "reset while the foot stands, which is no stride")
     p.add_argument("--format", choices=("csv", "foot-steps"), default="csv",
                    help="csv (default), or foot-steps: with --per-step --method stepwise, the pdr-foot-steps/1 JSON "
                         "payload of step summaries a shoe unit sends (POST /api/v1/sessions/{id}/steps)")

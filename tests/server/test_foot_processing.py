@@ -155,3 +155,6 @@ def test_real_foot_log_in_one_second_batches_equals_pdr_foot(real_app: Flask, to
                                    err_msg=col)
     np.testing.assert_allclose([p["step_length_m"] for p in points],
                                [np.hypot(float(r["dp_x_m"]), float(r["dp_y_m"])) for r in ref], rtol=1e-8, atol=1e-8)
+    # The resets while the foot stands: 'standing' rows here, stride 0 there (the CSV did not mark them).
+    assert [p["mode"] for p in points] == ["walking" if r["stride"] == "1" else "standing" for r in ref]
+    assert "standing" in {p["mode"] for p in points}

@@ -64,6 +64,26 @@ def test_a_state_saved_before_strides_were_told_resumes() -> None:
     assert steps and all(isinstance(s.stride, bool) for s in steps)
 
 
+
+def test_pdr_foot_per_step_rows_say_which_resets_are_strides(tmp_path: Path) -> None:
+    """``pdr foot LOG --method stepwise --per-step``: its rows are the resets, stands included, as the session's
+    track; column ``stride`` says which close a stride (0: a reset while the foot stands, mode ``standing`` in the
+    session, left out of its step count), the flags the online navigator gives. The CSV had no such column."""
+    import csv
+
+    from pdr.cli import main
+    from pdr.io import native
+
+    rec = gait_recording()
+    log, out = native.write(rec, tmp_path / "walk"), tmp_path / "steps.csv"
+    assert main(["foot", str(log), "--method", "stepwise", "--per-step", "--out", str(out)]) == 0
+    with out.open() as fh:
+        rows = list(csv.DictReader(fh))
+    nav = OnlineFootNavigator()
+    online = nav.update(rec) + nav.finish()
+    assert [int(r["stride"]) for r in rows] == [int(s.stride) for s in online] == [0] + [1] * 11
+    np.testing.assert_allclose([float(r["east_m"]) for r in rows], [s.pos_n[0] for s in online], atol=1e-6)
+
 def _llio_walks() -> list[tuple[str, Path, int]]:
     """(name, log, strides) of the stride-indexed walks whose log is in ../shared/data (one row per stride end
     after the start's)."""
