@@ -31,7 +31,6 @@ from pdr.foot.detectors import DETECTORS, DetectorConfig
 from pdr.foot.dual import DualFootConfig, DualFootTrack, navigate_feet
 from pdr.foot.filterbank import FilterBankTrack
 from pdr.foot.navigate import METHODS, FootImu, navigate, unsupported_options
-from pdr.foot.strides import reset_strides
 from pdr.foot.zupt import ZuptConfig, ZuptTrack
 from pdr.frames import yaw_to_heading_deg
 from pdr.fusion.constraints import SeparationConfig
@@ -128,7 +127,6 @@ def step_rows(imu: FootImu, track: ZuptTrack) -> dict[str, np.ndarray]:
     no stride, as the session's track marks it ``standing`` and leaves it out of its step count.
     """
     idx = np.array([s.index for s in track.steps], dtype=np.int64)
-    strides = reset_strides(track.zero_velocity, track.t_s, track.start_index, idx)
     return {
         "t_s": track.t_s[idx] + imu.clock_offset_s,
         "east_m": track.pos_n[idx, 0], "north_m": track.pos_n[idx, 1], "up_m": track.pos_n[idx, 2],
@@ -136,7 +134,7 @@ def step_rows(imu: FootImu, track: ZuptTrack) -> dict[str, np.ndarray]:
         "dp_x_m": np.array([s.dp[0] for s in track.steps]), "dp_y_m": np.array([s.dp[1] for s in track.steps]),
         "dp_z_m": np.array([s.dp[2] for s in track.steps]),
         "dpsi_deg": np.degrees([s.dpsi for s in track.steps]),
-        "stride": np.array(strides, dtype=np.int64),
+        "stride": np.array(track.step_strides, dtype=np.int64),
     }
 
 
