@@ -5,9 +5,10 @@ Two inputs, one per session role (not mixed):
 * raw foot IMU batches: :class:`pdr.foot.online.OnlineFootNavigator` (the step-wise ZUPT-aided INS of
   ``pdr foot --method stepwise``); one track row and one ``step`` event per reset: a stride of this foot, or, mode
   ``standing``, a reset while it stands (:attr:`pdr.foot.online.FootStep.stride`; not counted as a step); the
-  provisional tail (:meth:`FootProcessor.tail`) is what the end of the recording would add, so the track equals
-  ``pdr foot --method stepwise --per-step`` on the same data at any time (with ``--zaru on`` or ``--imu-samples
-  interval`` when the session's processing options, :mod:`server.processing_options`, ask for it);
+  provisional tail (:meth:`FootProcessor.tail`) is what the end of the recording would add (with, at the last
+  sample, a stride that ended after the last reset; the next batch replaces the tail, so it is counted once), so
+  the track equals ``pdr foot --method stepwise --per-step`` on the same data at any time (with ``--zaru on`` or
+  ``--imu-samples interval`` when the session's processing options, :mod:`server.processing_options`, ask for it);
 * step-wise dead-reckoning summaries (:mod:`pdr.foot.summaries`, uploaded to ``POST .../steps``): composed with
   eq. 7 by :class:`pdr.foot.stepwise.StepwiseDeadReckoning`; a row per summary.
 

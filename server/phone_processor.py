@@ -28,6 +28,7 @@ from classifiers.streaming import StreamingClassifier
 from classifiers.timeline import ModeEntry, StepModes, StopTimeline
 from pdr import state_codec
 from pdr.errors import InputError
+from pdr.geomagnetic import field_at_fix
 from pdr.phone.configure import pipeline_config, placement_group
 from pdr.phone.events import (
     ElevatorEvent,
@@ -45,6 +46,13 @@ from server.processing import ProcessorOutput, SessionContext
 from server.processing_options import session_options
 from server.sites import session_site
 from server.store import EventRow
+
+#: Session warning: the first batch's ``meta.location`` has no date, so the session's origin gave the earth's field.
+UNDATED_FIX_ORIGIN = ("meta.location has no unix_time_s (s since 1970, UTC): the earth's magnetic field is taken at "
+                      "the session's origin, on the session's creation date, instead")
+#: Session warning: a batch's ``meta.location`` has no date and no other fix gave the earth's field.
+UNDATED_FIX_UNUSED = ("meta.location has no unix_time_s (s since 1970, UTC): the earth's magnetic field there is not "
+                      "known, so the magnetometer is not checked against it; send the fix's time")
 
 
 class PhoneProcessor:
@@ -70,17 +78,21 @@ class PhoneProcessor:
             config = pipeline_config(placement_group(ctx.placement), step_length=options.step_length)
             site = options.site if named is None else named.checked.site
             self.pipeline = PdrPipeline(config, site, stages=self.stages)
-            # The session's origin: where the earth's field is taken unless the first batch has its own fix.
+            # The session's origin: where the earth's field is taken unless the first batch has its own dated fix.
             self._session_fix = ctx.location
             self.step_modes = StepModes()
             self.classifier_status = "pending"
 
     def update(self, recording: Recording) -> ProcessorOutput:
         events: list[PipelineEvent] = []
+        fix = recording.meta.get(LOCATION_META)
+        undated = fix is not None and field_at_fix(fix) is None     # accepted: it geo-references, but no field
+        origin_used = False
         if self._session_fix is not None:
-            # A new session's first batch: its own location fix (a log's GNSS, with the log's date) goes first.
-            if LOCATION_META not in recording.meta:
+            # A new session's first batch: its own dated fix (a log's GNSS, with the log's date) goes first.
+            if fix is None or undated:
                 events += self.pipeline.use_location(self._session_fix)
+                origin_used = undated
             self._session_fix = None
         events += self.pipeline.update_events(recording)
         modes, notice = self._classify(recording)
@@ -90,6 +102,10 @@ class PhoneProcessor:
         out.events += modes
         if notice:
             out.warnings.append(notice)
+        if origin_used:
+            out.warnings.append(UNDATED_FIX_ORIGIN)
+        elif undated and self.pipeline.attitude.config.earth_dip_deg is None:
+            out.warnings.append(UNDATED_FIX_UNUSED)
         return out
 
     def _classify(self, recording: Recording) -> tuple[list[EventRow], str]:

@@ -54,7 +54,8 @@ MAX_UNIX_TIME_S = 2**32
 LOCATION_FIX: dict[str, Any] = {
     "type": "object", "required": ["lat_deg", "lon_deg"],
     "description": "location fix: lat_deg, lon_deg (WGS-84, deg); optional unix_time_s (s since 1970, UTC: without "
-                   "it the earth's field there is not known) and alt_m (m)",
+                   "it the earth's field there is not known, and the session's origin gives it if the session has "
+                   "one) and alt_m (m)",
     "properties": {"lat_deg": LAT_DEG, "lon_deg": LON_DEG,
                    "unix_time_s": {"type": ["number", "null"], "minimum": 0, "maximum": MAX_UNIX_TIME_S},
                    "alt_m": {"type": ["number", "null"]}},

@@ -1,7 +1,9 @@
 """``pdr convert LOG --to native OUT``: read any supported log and write it in the native format.
 
 ``OUT`` ending in ``.zip`` gives a zip of the native folder, ``.json`` or ``.json.gz`` a ``pdr-batch/1``
-JSON document, anything else a native folder (:mod:`pdr.io.native`). ``--start``/``--end`` keep an
+JSON document, anything else a native folder (:mod:`pdr.io.native`); a new folder's name may not end in another
+file extension (``out.csv`` is refused: the native format has no single CSV file). ``OUT`` is checked before the
+log is read. ``--start``/``--end`` keep an
 excerpt: streams and ground truth are cut to the window and the time axis restarts at its beginning
 (the raw nanosecond timestamps are unchanged). ``--role`` sets the device role written (a file that does not say
 which foot carried the IMU, such as PyShoe's, reads as ``right_foot``; a native batch's role decides the session
@@ -16,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pdr.cli.outputs import print_warnings
+from pdr.cli.outputs import check_writable, in_made_folder, print_warnings
 from pdr.cli.progress import Progress
 from pdr.errors import InputError
 from pdr.io import native, registry
@@ -116,18 +118,44 @@ def excerpt(recording: Recording, start_s: float, end_s: float) -> Recording:
                    warnings=part.warnings + tuple(notes) + tuple(extra_notes))
 
 
-def write_native(recording: Recording, out: str | Path) -> Path:
-    """Write as a native folder, zip (``.zip``) or JSON batch (``.json``, ``.json.gz``)."""
-    p = Path(out)
-    name = p.name.lower()
+def _output_kind(out: str | Path) -> str:
+    """What ``OUT`` names: ``"batch"`` (``.json``, ``.json.gz``), ``"zip"`` (``.zip``) or ``"folder"``."""
+    name = Path(out).name.lower()
     if name.endswith(".json") or name.endswith(".json.gz"):
-        return native.write_batch(recording, p)
-    if p.exists() and not p.is_dir() and p.suffix.lower() != ".zip":
+        return "batch"
+    return "zip" if name.endswith(".zip") else "folder"
+
+
+def check_output(out: str | Path) -> None:
+    """Refuse an ``OUT`` that cannot be written, before the log is read (:func:`pdr.cli.outputs.check_writable`).
+
+    A folder is refused when a file of that name exists, or when it is new and its name ends in a file
+    extension (letters after the last dot, e.g. ``out.csv``): the user meant a file, which the native format
+    is not. Raises :class:`InputError` naming ``OUT``, or the :class:`OSError` writing would raise.
+    """
+    p = Path(out)
+    if _output_kind(p) != "folder":
+        check_writable(p)
+        return
+    if p.exists() and not p.is_dir():
         raise InputError("output exists and is not a folder", source=str(p))
-    return native.write(recording, p)
+    extension = p.suffix[1:]
+    if not p.exists() and extension.isalpha():
+        raise InputError(f"the native format is a folder, .zip, .json or .json.gz, not a .{extension} file: name "
+                         "a folder without an extension, or one of those files", source=str(p), field="OUT")
+    in_made_folder(p)
+
+
+def write_native(recording: Recording, out: str | Path) -> Path:
+    """Write as a native folder, zip (``.zip``) or JSON batch (``.json``, ``.json.gz``); see :func:`check_output`."""
+    check_output(out)
+    if _output_kind(out) == "batch":
+        return native.write_batch(recording, Path(out))
+    return native.write(recording, Path(out))
 
 
 def run(args: argparse.Namespace) -> int:
+    check_output(args.out)                # before the log is read, not after it
     with Progress(2, "convert") as bar:   # a large log takes a while to read and to write
         bar.set_note(f"reading {Path(args.log).name}")
         recording = registry.read_recording(args.log, args.format)

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from pdr.cli import progress
-from pdr.cli.outputs import check_writable, in_made_folder, print_warnings
+from pdr.cli.outputs import check_writable, in_made_folder, plot_path, print_warnings
 from pdr.errors import InputError
 from pdr.evaluation.foot_metrics import (
     PYSHOE_EXCLUDED,
@@ -122,7 +122,10 @@ def track_rows(imu: FootImu, track: ZuptTrack | FilterBankTrack | BCTrack) -> di
 
 
 def step_rows(imu: FootImu, track: ZuptTrack) -> dict[str, np.ndarray]:
-    """Columns of the per-step CSV (one row per reset of the step-wise navigation)."""
+    """Columns of the per-step CSV (one row per reset of the step-wise navigation). ``stride`` 1: the reset closes a
+    stride; 0: a reset while the foot stands (one every ``c_max_s``), kept for its increment (a turn on the spot) but
+    no stride, as the session's track marks it ``standing`` and leaves it out of its step count.
+    """
     idx = np.array([s.index for s in track.steps], dtype=np.int64)
     return {
         "t_s": track.t_s[idx] + imu.clock_offset_s,
@@ -131,6 +134,7 @@ def step_rows(imu: FootImu, track: ZuptTrack) -> dict[str, np.ndarray]:
         "dp_x_m": np.array([s.dp[0] for s in track.steps]), "dp_y_m": np.array([s.dp[1] for s in track.steps]),
         "dp_z_m": np.array([s.dp[2] for s in track.steps]),
         "dpsi_deg": np.degrees([s.dpsi for s in track.steps]),
+        "stride": np.array(track.step_strides, dtype=np.int64),
     }
 
 
@@ -232,6 +236,7 @@ def run_dual(args: argparse.Namespace) -> int:
 def run_foot(args: argparse.Namespace) -> int:
     from pdr.io import read_recording
 
+    args.plot = plot_path(args.plot)    # the file written: '.png' added to a name without an extension
     if args.left or args.right:
         return run_dual(args)
     if not args.log:
@@ -268,7 +273,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("foot", help="foot-mounted navigation (ZUPT-aided INS) of a foot IMU log")
     p.add_argument("log", nargs="?", help="foot IMU log (any supported format)")
     p.add_argument("--out", required=True, help="track CSV: t_s,east_m,north_m,up_m,heading_deg,zero_velocity")
-    p.add_argument("--per-step", action="store_true", help="one row per step (with --method stepwise or dual-foot)")
+    p.add_argument("--per-step", action="store_true",
+                   help="one row per step (with --method stepwise or dual-foot); one foot: column stride is 0 for a "
+                        "reset while the foot stands, which is no stride")
     p.add_argument("--format", choices=("csv", "foot-steps"), default="csv",
                    help="csv (default), or foot-steps: with --per-step --method stepwise, the pdr-foot-steps/1 JSON "
                         "payload of step summaries a shoe unit sends (POST /api/v1/sessions/{id}/steps)")

@@ -1,7 +1,8 @@
 """Files a command writes (``--out``, ``--geojson``, ``--plot``): their folder is made when it does not exist yet
 (``pdr track LOG --out runs/today/walk.csv``), as ``pdr classify`` and ``pdr track`` do, and a command that works
 for a while checks first that it can write them (:func:`check_writable`), so that a bad path is reported before
-the work, not after it. What the reader dropped or repaired on the way in is said on stderr
+the work, not after it. A ``--plot`` name without an extension is given ``.png``, and the user is told
+(:func:`plot_path`). What the reader dropped or repaired on the way in is said on stderr
 (:func:`print_warnings`).
 """
 
@@ -34,6 +35,19 @@ def check_writable(*paths: str | Path | None) -> None:
         if not existed:
             p.unlink()
 
+
+def plot_path(path: str | Path | None) -> Path | None:
+    """The file a ``--plot PATH`` is written to (None: no plot). A name without an extension gets ``.png`` (the
+    image format matplotlib then writes, and the name it gives the file), said on stderr as a ``note:``.
+    """
+    if path is None:
+        return None
+    p = Path(path)
+    if p.suffix:
+        return p
+    written = p.with_name(p.name + ".png")
+    print(f"note: --plot {p} has no extension: the PNG is written to {written}", file=sys.stderr)
+    return written
 
 def print_warnings(warnings: Iterable[str], side: str | None = None) -> None:
     """One ``warning: ...`` line on stderr per problem the reader found and repaired (a cut-off last line, repeated

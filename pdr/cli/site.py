@@ -6,7 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
-from pdr.cli.outputs import in_made_folder
+from pdr.cli.outputs import in_made_folder, plot_path
 from pdr.errors import InputError
 from pdr.phone.landmarks import Site
 from pdr.site.ms import site_from_ms_floor
@@ -41,6 +41,7 @@ def run_from_ms(args: argparse.Namespace) -> int:
 
 def run_check(args: argparse.Namespace) -> int:
     import numpy as np
+    args.plot = plot_path(args.plot)    # the file written: '.png' added to a name without an extension
     try:
         doc = json.loads(Path(args.site).read_text())
     except (OSError, json.JSONDecodeError) as exc:

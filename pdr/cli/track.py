@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from pdr.cli.one_shot import one_shot_process
-from pdr.cli.outputs import check_writable, in_made_folder, print_warnings
+from pdr.cli.outputs import check_writable, in_made_folder, plot_path, print_warnings
 from pdr.errors import InputError
 from pdr.io import read_recording
 from pdr.phone.configure import pipeline_config
@@ -119,6 +119,7 @@ def run_track(args: argparse.Namespace) -> int:
 
 def _track(args: argparse.Namespace) -> int:
     """``pdr track``: read, track, smooth, write (:func:`run_track`)."""
+    args.plot = plot_path(args.plot)    # the file written: '.png' added to a name without an extension
     check_writable(args.out, args.geojson, args.plot)     # before the work, not after it
     rec = read_recording(args.log)
     print_warnings(rec.warnings)        # what the reader dropped (a cut-off last line, repeated samples, ...)

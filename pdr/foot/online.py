@@ -33,6 +33,7 @@ from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.foot.detectors import DetectorConfig, adaptive_threshold, detector_reach, statistic, still_samples
 from pdr.foot.navigate import RATE_WINDOW_S, check_foot_recording, sampling_rate_hz
+from pdr.foot.stepwise import StepwiseDeadReckoning
 from pdr.foot.strides import SwingsSinceReset
 from pdr.foot.zupt import (
     FilterState,
@@ -40,6 +41,7 @@ from pdr.foot.zupt import (
     Segmentation,
     StepIncrement,
     ZuptConfig,
+    closing_step,
     kernel_setup,
     late_start_warning,
     run_kernel,
@@ -152,8 +154,11 @@ class OnlineFootNavigator:
         return self._advance(final=False)
 
     def finish(self) -> list[FootStep]:
-        """End of the recording: flag and navigate the last samples; returns the remaining steps."""
-        steps = self._advance(final=True)
+        """End of the recording: flag and navigate the last samples; returns the remaining steps, the last one at the
+        last sample when the recording ends a stride no reset closed (:func:`pdr.foot.zupt.closing_step`). A session
+        calls it on a copy (its provisional tail): the navigator itself closes that stride by its next reset.
+        """
+        steps = self._advance(final=True) + self._close_stride()
         if self.start_index < 0 and self.n_seen and "no_rest" not in self.warned:
             self.warned.append("no_rest")
             self.warnings.append("the foot never came to rest for the coarse initialisation: no track (is this a "
@@ -341,6 +346,19 @@ class OnlineFootNavigator:
                                 out.step_cov[i].copy())
             steps.append(FootStep(t_log, out.pos[k].copy(), float(yaw[i]), inc, strides[i]))
         return steps
+
+    def _close_stride(self) -> list[FootStep]:
+        """The step at the last navigated sample that closes a stride ended after the last reset (none otherwise)."""
+        k = self.nav_next - 1
+        if self.filter is None or not self.swings.swung or k <= self.start_index:
+            return []
+        assert self.origin_ns is not None
+        t_log = float(self._t_s(self.buf_t_ns[k - self.buf_start:k - self.buf_start + 1])[0] + self.origin_ns / 1e9)
+        inc = closing_step(self.filter, t_log, k)
+        at = StepwiseDeadReckoning(self.filter.dr[:3], float(self.filter.dr[3]))
+        at.update(inc)
+        self.swings.swung = False
+        return [FootStep(t_log, at.pos_n, math.atan2(math.sin(at.heading), math.cos(at.heading)), inc, True)]
 
     def _trim(self, keep: int) -> None:
         cut = keep - self.buf_start

@@ -83,3 +83,16 @@ class SwingsSinceReset:
             self.swung, prev = False, r
         self.swung = self.swung or bool(np.any(onsets > prev))
         return out
+
+
+def reset_strides(zero_velocity: ArrayLike, t_s: ArrayLike, start: int,
+                  resets: ArrayLike) -> tuple[list[bool], bool]:
+    """Whole track: whether each reset (sample indices ``resets``, increasing, after ``start``) closes a stride,
+    as :class:`pdr.foot.online.OnlineFootNavigator` flags them online, and whether a stride ended after the last
+    reset (the recording's end closes it). ``zero_velocity``, ``t_s`` (N,): the track's flags and times (s);
+    ``start``: the sample navigation starts from (the end of the initial rest).
+    """
+    swings = SwingsSinceReset()
+    flags = swings.update(np.asarray(zero_velocity, dtype=bool)[start:], np.asarray(t_s, dtype=np.float64)[start:],
+                          np.asarray(resets, dtype=np.int64) - start)
+    return flags, swings.swung

@@ -62,11 +62,12 @@ def test_raw_foot_batches_give_the_stepwise_track(real_app: Flask, token: str) -
     np.testing.assert_allclose([p["step_length_m"] for p in points],
                                [np.hypot(s.dp[0], s.dp[1]) for s in track.steps], atol=1e-12)
     # The first reset (the start of the first swing) closes no stride: mode standing, no length, not a step of the
-    # session; every later one closes a stride (the walk's 12th stride ends the recording, no reset closes it).
+    # session; every later one closes a stride; the walk's 12th stride ends the recording, no reset closes it: the
+    # end does (the provisional tail's last row, at the last sample; it was not counted).
     assert [p["mode"] for p in points] == ["standing"] + ["walking"] * (len(points) - 1)
     assert points[0]["step_length_m"] < 0.01 and {p["floor"] for p in points} == {None}
     session = client.get(f"/api/v1/sessions/{sid}", headers=bearer(token)).get_json()
-    assert session["steps"] == len(points) - 1 == 11
+    assert session["steps"] == len(points) - 1 == 12
     steps = client.get(f"/api/v1/sessions/{sid}/steps", headers=bearer(token)).get_json()["steps"]
     assert len(steps) == len(points) and steps[0]["device"] == "left_foot"
 
@@ -155,3 +156,6 @@ def test_real_foot_log_in_one_second_batches_equals_pdr_foot(real_app: Flask, to
                                    err_msg=col)
     np.testing.assert_allclose([p["step_length_m"] for p in points],
                                [np.hypot(float(r["dp_x_m"]), float(r["dp_y_m"])) for r in ref], rtol=1e-8, atol=1e-8)
+    # The resets while the foot stands: 'standing' rows here, stride 0 there (the CSV did not mark them).
+    assert [p["mode"] for p in points] == ["walking" if r["stride"] == "1" else "standing" for r in ref]
+    assert "standing" in {p["mode"] for p in points}

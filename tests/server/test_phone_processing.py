@@ -201,3 +201,31 @@ def test_a_session_created_with_an_origin_checks_the_magnetometer_against_the_ea
         warnings[name] = c.get(f"/api/v1/sessions/{sid}", headers=bearer(token)).get_json()["warnings"]
     assert any("earth's field at the recording's location (dip 65." in w for w in warnings["geo"]), warnings["geo"]
     assert not any("earth's field" in w for w in warnings["plain"]), warnings["plain"]
+
+
+def test_an_undated_location_fix_leaves_the_earths_field_to_the_session_origin_and_says_so(real_app):
+    """A first batch whose ``meta.location`` has no ``unix_time_s`` (accepted: it geo-references) gives no earth's
+    field, and it kept the session's origin from giving it: the magnetometer went unchecked without a word. Now the
+    origin gives it and a warning says why; without an origin a warning says the field is not known."""
+    from pdr.io.native import batch_to_json
+    from pdr.sim import load_scenario, simulate
+    from server.phone_processor import UNDATED_FIX_ORIGIN, UNDATED_FIX_UNUSED
+    from tests.conftest import REPO_ROOT
+
+    app, token = real_app
+    c = app.test_client()
+    walk = simulate(load_scenario(REPO_ROOT / "mobile_logs" / "sim" / "hand_escalator.json"), 1).slice_time(0.0, 30.0)
+    body = batch_to_json(walk, batch_id="b0")
+    body["meta"] = {**body.get("meta", {}), "location": {"lat_deg": 49.46, "lon_deg": 11.11}}
+    warnings = {}
+    for name, extra in (("geo-undated", {"origin": {"lat_deg": 49.4614, "lon_deg": 11.1115}}),
+                        ("plain-undated", {})):
+        sid = c.post("/api/v1/sessions", json={"session_id": name, **extra}, headers=bearer(token)).get_json()["id"]
+        r = c.post(f"/api/v1/sessions/{sid}/batches", json={**body, "session_id": name}, headers=bearer(token))
+        assert r.status_code == 201, r.get_json()
+        assert app.extensions["pdr"].worker.wait_idle(120)
+        warnings[name] = c.get(f"/api/v1/sessions/{sid}", headers=bearer(token)).get_json()["warnings"]
+    geo, plain = warnings["geo-undated"], warnings["plain-undated"]
+    assert any("earth's field at the recording's location (dip 65." in w for w in geo), geo
+    assert UNDATED_FIX_ORIGIN in geo and UNDATED_FIX_UNUSED not in geo
+    assert UNDATED_FIX_UNUSED in plain and not any("dip" in w for w in plain), plain

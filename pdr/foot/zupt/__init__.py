@@ -52,7 +52,7 @@ The package: :mod:`.config` (noise model, segmentation), :mod:`.mechanisation` (
 from __future__ import annotations
 
 from pdr.foot.zupt.config import Segmentation, ZuptConfig
-from pdr.foot.zupt.driver import ZuptTrack, check_imu, run_kernel, run_zupt
+from pdr.foot.zupt.driver import ZuptTrack, check_imu, closing_step, run_kernel, run_zupt
 from pdr.foot.zupt.initialisation import LATE_START_S, coarse_start, first_stationary_run, late_start_warning
 from pdr.foot.zupt.kernel import FilterState, KernelOutput, KernelSetup, init_lengths, kernel_setup
 from pdr.foot.zupt.mechanisation import ATT, POS, VEL, YAW, error_transition, mechanize, zupt_predict
@@ -60,6 +60,6 @@ from pdr.foot.zupt.smoother import SMOOTHER_SEGMENT
 from pdr.step_increment import StepIncrement
 
 __all__ = ["ATT", "LATE_START_S", "POS", "SMOOTHER_SEGMENT", "VEL", "YAW", "FilterState", "KernelOutput",
-           "KernelSetup", "Segmentation", "StepIncrement", "ZuptConfig", "ZuptTrack", "check_imu", "coarse_start",
-           "error_transition", "first_stationary_run", "init_lengths", "kernel_setup", "late_start_warning",
-           "mechanize", "run_kernel", "run_zupt", "zupt_predict"]
+           "KernelSetup", "Segmentation", "StepIncrement", "ZuptConfig", "ZuptTrack", "check_imu", "closing_step",
+           "coarse_start", "error_transition", "first_stationary_run", "init_lengths", "kernel_setup",
+           "late_start_warning", "mechanize", "run_kernel", "run_zupt", "zupt_predict"]

@@ -11,7 +11,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
+from pdr.filters.rotation_kernels import yaw_of
 from pdr.foot.detectors import still_samples
+from pdr.foot.strides import reset_strides
 from pdr.foot.zupt.config import Segmentation, ZuptConfig
 from pdr.foot.zupt.initialisation import coarse_start
 from pdr.foot.zupt.kernel import FilterState, KernelOutput, KernelSetup, filter_rows, kernel_setup
@@ -48,7 +50,11 @@ class ZuptTrack:
     att_var
         (N, 3) variances of the attitude error (roll, pitch, yaw about the ENU axes), rad^2.
     steps
-        Step increments (only with segmentation).
+        Step increments (only with segmentation): one per reset, and one at the last sample when the recording
+        ends a stride that no reset closed (:func:`closing_step`).
+    step_strides
+        Per step, whether it closes a stride (:func:`pdr.foot.strides.reset_strides`): False for a reset while the
+        foot stands.
     start_index
         First sample that was navigated (the coarse initialisation needs a stationary start).
     warnings
@@ -70,6 +76,7 @@ class ZuptTrack:
     start_index: int = 0
     warnings: tuple[str, ...] = field(default_factory=tuple)
     gyro_bias: Array = field(default_factory=lambda: np.zeros(3))
+    step_strides: tuple[bool, ...] = ()
 
     @property
     def yaw(self) -> Array:
@@ -193,7 +200,27 @@ def run_zupt(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity:
     else:
         out.vvar[: a + 1] = cfg.init_sigma_vel**2
         out.avar[: a + 1] = np.diag(FilterState.initial(q0, cfg).P)[ATT]
-    steps = tuple(StepIncrement(float(t[k]), int(k), dp.copy(), float(dpsi), cov.copy())
-                  for k, dp, dpsi, cov in zip(out.step_idx, out.step_dp, out.step_dpsi, out.step_cov, strict=True))
-    return ZuptTrack(t, out.pos, out.vel, quat.normalize(out.qs), zv, out.pvar, out.vvar, out.avar, steps, a,
-                     tuple(warnings), state.bias.copy())
+    steps = [StepIncrement(float(t[k]), int(k), dp.copy(), float(dpsi), cov.copy())
+             for k, dp, dpsi, cov in zip(out.step_idx, out.step_dp, out.step_dpsi, out.step_cov, strict=True)]
+    strides: list[bool] = []
+    if setup.seg_on:
+        strides, open_stride = reset_strides(zv, t, a, out.step_idx)
+        if open_stride:
+            steps.append(closing_step(state, float(t[-1]), t.size - 1))
+            strides.append(True)
+    return ZuptTrack(t, out.pos, out.vel, quat.normalize(out.qs), zv, out.pvar, out.vvar, out.avar, tuple(steps), a,
+                     tuple(warnings), state.bias.copy(), tuple(strides))
+
+
+#: Rows and columns of the filter covariance a step increment carries: position and yaw (eq. 8), as the reset of
+#: :func:`pdr.foot.zupt.kernel.zupt_kernel` records them.
+STEP_COV_ROWS = np.array([0, 1, 2, 8])
+
+
+def closing_step(state: FilterState, t_s: float, index: int) -> StepIncrement:
+    """The step increment (eqs. 7-8) a reset at sample ``index`` (time ``t_s``, s) would record, ``state`` left as
+    it is: the end of a recording closes a stride that ended after the last reset (the foot came to rest within
+    ``c_max_s`` of the end, so Algorithm 1 made no reset after it; :func:`pdr.foot.strides.reset_strides`).
+    """
+    return StepIncrement(float(t_s), int(index), state.p.copy(), float(yaw_of(state.q)),
+                         state.P[np.ix_(STEP_COV_ROWS, STEP_COV_ROWS)].copy())

@@ -197,6 +197,23 @@ def test_convert_errors(capsys, tmp_path, native_log):
     assert code == 2 and err.startswith(f"error: {blocker}")
 
 
+
+@pytest.mark.parametrize("name", ["out.csv", "out.csv.gz", "walk.txt"])
+def test_convert_to_a_file_name_of_another_format_is_refused_before_reading(capsys, tmp_path, name):
+    """'pdr convert LOG --to native out.csv' made a folder named out.csv (exit 0): the native format is a folder,
+    .zip, .json or .json.gz, so a name ending in another file extension is refused, naming it, before the log is
+    read (the log here does not exist), and nothing is made. An existing folder of that name is still written into.
+    """
+    out = tmp_path / name
+    code, stdout, err = _run(capsys, "convert", str(tmp_path / "no_such_log"), "--to", "native", str(out))
+    assert code == 2 and stdout == ""
+    assert err.strip() == (f"error: {out}, field 'OUT': the native format is a folder, .zip, .json or .json.gz, "
+                           f"not a .{out.suffix[1:]} file: name a folder without an extension, or one of those files")
+    assert not out.exists()
+    out.mkdir()
+    code, _, err = _run(capsys, "convert", str(tmp_path / "no_such_log"), "--to", "native", str(out))
+    assert code == 2 and "no_such_log" in err
+
 def test_inspect_shows_the_location_fix_and_the_earths_field_there(capsys, tmp_path):
     """A log with a location fix: ``pdr inspect`` prints it with the World Magnetic Model's field there (the dip the
     magnetometer gate checks); a fix without a date says the field is unknown; a log without a fix prints nothing."""

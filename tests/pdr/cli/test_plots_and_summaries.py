@@ -122,6 +122,24 @@ def test_pdr_track_plot_titles_the_walk(tmp_path: Path, capsys: pytest.CaptureFi
     assert " steps, " in capsys.readouterr().out
 
 
+
+@pytest.mark.parametrize("command", ["track", "foot"])
+def test_a_plot_name_without_an_extension_says_where_the_png_went(tmp_path: Path, command: str,
+                                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """``--plot out/p`` wrote out/p.png (matplotlib adds the suffix) without a word, and checked that out/p, not
+    out/p.png, could be written: the user is now told the file written, and that file is the one checked first."""
+    log = SIM / ("hand_escalator.zip" if command == "track" else "foot_walk_run.zip")
+    plot = tmp_path / "plots" / "p"
+    (tmp_path / "plots" / "p.png").mkdir(parents=True)      # the real target cannot be written: refused first
+    assert main([command, str(log), "--out", str(tmp_path / "o.csv"), "--plot", str(plot)]) == 2
+    err = capsys.readouterr().err
+    assert f"note: --plot {plot} has no extension: the PNG is written to {plot}.png" in err
+    assert err.strip().splitlines()[-1].startswith(f"error: {plot}.png") and not (tmp_path / "o.csv").exists()
+    (tmp_path / "plots" / "p.png").rmdir()
+    assert main([command, str(log), "--out", str(tmp_path / "o.csv"), "--plot", str(plot)]) == 0
+    assert f"the PNG is written to {plot}.png" in capsys.readouterr().err
+    assert Path(f"{plot}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and not plot.exists()
+
 def test_an_empty_track_without_truth_plots_without_a_legend_warning() -> None:
     """No steps and no truth (pdr track --plot on the car trip driving_phone_mount/17): no legend, and no matplotlib
     'No artists with labels found to put in legend' UserWarning on stderr as before."""

@@ -53,6 +53,18 @@ def test_check_refuses_a_self_intersecting_site(tmp_path: Path) -> None:
         site_command(["check", str(bad)])
 
 
+
+def test_check_says_where_a_plot_without_an_extension_went(tmp_path: Path,
+                                                          capsys: pytest.CaptureFixture[str]) -> None:
+    """``pdr site check S --plot out/p`` wrote out/p.png silently; it now says so."""
+    site = tmp_path / "square.json"
+    site.write_text(json.dumps({"floors": [{"floor": 0, "walkable": {
+        "type": "Polygon", "coordinates": [[[0, 0], [4, 0], [4, 4], [0, 4], [0, 0]]]}}]}))
+    plot = tmp_path / "p"
+    assert site_command(["check", str(site), "--plot", str(plot)]) == 0
+    assert f"note: --plot {plot} has no extension: the PNG is written to {plot}.png" in capsys.readouterr().err
+    assert Path(f"{plot}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
 @pytest.mark.data
 def test_track_with_a_floor_plan_and_a_known_start(tmp_path: Path) -> None:
     from pdr.io import read_recording
