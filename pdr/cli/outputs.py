@@ -1,9 +1,9 @@
 """Files a command writes (``--out``, ``--geojson``, ``--plot``): their folder is made when it does not exist yet
 (``pdr track LOG --out runs/today/walk.csv``), as ``pdr classify`` and ``pdr track`` do, and a command that works
 for a while checks first that it can write them (:func:`check_writable`), so that a bad path is reported before
-the work, not after it. A ``--plot`` name without an extension is given ``.png``, and the user is told
-(:func:`plot_path`). What the reader dropped or repaired on the way in is said on stderr
-(:func:`print_warnings`).
+the work, not after it. A ``--plot`` name without an extension is given ``.png``, and the user is told; one with an
+extension matplotlib cannot write is refused before the work (:func:`plot_path`). What the reader dropped or
+repaired on the way in is said on stderr (:func:`print_warnings`).
 """
 
 from __future__ import annotations
@@ -11,6 +11,8 @@ from __future__ import annotations
 import sys
 from collections.abc import Iterable
 from pathlib import Path
+
+from pdr.errors import InputError
 
 
 def in_made_folder(path: str | Path) -> Path:
@@ -39,15 +41,28 @@ def check_writable(*paths: str | Path | None) -> None:
 def plot_path(path: str | Path | None) -> Path | None:
     """The file a ``--plot PATH`` is written to (None: no plot). A name without an extension gets ``.png`` (the
     image format matplotlib then writes, and the name it gives the file), said on stderr as a ``note:``.
+
+    Raises
+    ------
+    InputError
+        naming the path and the formats matplotlib writes, when its extension is none of them (matplotlib would
+        refuse it only once the plot is drawn, after the work).
     """
     if path is None:
         return None
     p = Path(path)
-    if p.suffix:
-        return p
-    written = p.with_name(p.name + ".png")
-    print(f"note: --plot {p} has no extension: the PNG is written to {written}", file=sys.stderr)
-    return written
+    if not p.suffix:
+        written = p.with_name(p.name + ".png")
+        print(f"note: --plot {p} has no extension: the PNG is written to {written}", file=sys.stderr)
+        return written
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    formats = FigureCanvasBase.get_supported_filetypes()
+    if p.suffix[1:].lower() not in formats:
+        raise InputError(f"{p}: matplotlib cannot write '{p.suffix}' images; use one of "
+                         f"{', '.join('.' + f for f in sorted(formats))}", field="--plot")
+    return p
+
 
 def print_warnings(warnings: Iterable[str], side: str | None = None) -> None:
     """One ``warning: ...`` line on stderr per problem the reader found and repaired (a cut-off last line, repeated

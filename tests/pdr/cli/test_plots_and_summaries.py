@@ -122,7 +122,6 @@ def test_pdr_track_plot_titles_the_walk(tmp_path: Path, capsys: pytest.CaptureFi
     assert " steps, " in capsys.readouterr().out
 
 
-
 @pytest.mark.parametrize("command", ["track", "foot"])
 def test_a_plot_name_without_an_extension_says_where_the_png_went(tmp_path: Path, command: str,
                                                                  capsys: pytest.CaptureFixture[str]) -> None:
@@ -139,6 +138,22 @@ def test_a_plot_name_without_an_extension_says_where_the_png_went(tmp_path: Path
     assert main([command, str(log), "--out", str(tmp_path / "o.csv"), "--plot", str(plot)]) == 0
     assert f"the PNG is written to {plot}.png" in capsys.readouterr().err
     assert Path(f"{plot}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and not plot.exists()
+
+
+@pytest.mark.parametrize("command", ["track", "foot", "site"])
+def test_a_plot_format_matplotlib_cannot_write_is_refused_before_the_work(tmp_path: Path, command: str,
+                                                                          capsys: pytest.CaptureFixture[str]) -> None:
+    """``--plot p.weird`` was refused by matplotlib only once the plot was drawn: after the track was computed and
+    its CSV written (``pdr track``, ``pdr foot``), or with matplotlib's traceback (``pdr site check``)."""
+    plot, out = tmp_path / "p.weird", tmp_path / "o.csv"
+    args = {"track": ["track", str(SIM / "hand_escalator.zip"), "--out", str(out)],
+            "foot": ["foot", str(SIM / "foot_walk_run.zip"), "--out", str(out)],
+            "site": ["site", "check", str(tmp_path / "missing_site.json")]}[command]
+    assert main([*args, "--plot", str(plot)]) == 2
+    err = capsys.readouterr().err
+    assert f"{plot}: matplotlib cannot write '.weird' images; use one of " in err and ".png" in err
+    assert not out.exists() and not plot.exists()
+
 
 def test_an_empty_track_without_truth_plots_without_a_legend_warning() -> None:
     """No steps and no truth (pdr track --plot on the car trip driving_phone_mount/17): no legend, and no matplotlib
