@@ -101,14 +101,14 @@ class FootProcessor:
         if self.dr is None:
             self.dr = StepwiseDeadReckoning()
         out = ProcessorOutput()
-        for inc in batch.steps:
+        for inc, stride in zip(batch.steps, batch.strides, strict=True):
             if self.last_t_s is not None and inc.t_s <= self.last_t_s:
                 out.warnings.append(f"{self.role} step at {inc.t_s:.3f} s is not after the previous one "
                                     f"({self.last_t_s:.3f} s): ignored")
                 continue
             self.dr.update(inc)
             self.last_t_s = float(inc.t_s)
-            _add_step(out, inc.t_s, self.dr.pos_n, self.dr.heading, inc)
+            _add_step(out, inc.t_s, self.dr.pos_n, self.dr.heading, inc, stride)
         return out
 
     def tail(self) -> ProcessorOutput:

@@ -140,13 +140,13 @@ def step_rows(imu: FootImu, track: ZuptTrack) -> dict[str, np.ndarray]:
 
 def write_foot_steps(path: str | Path, imu: FootImu, track: ZuptTrack, role: str, batch_id: str) -> None:
     """The steps as a ``pdr-foot-steps/1`` payload (:mod:`pdr.foot.summaries`): what a shoe unit's low-rate
-    interface sends (seed 001), each step's increment with its covariance (eq. 8), times on the log's clock as
-    in the per-step CSV; ``POST /api/v1/sessions/{id}/steps`` takes it.
+    interface sends (seed 001), each step's increment with its covariance (eq. 8) and whether it closes a stride,
+    times on the log's clock as in the per-step CSV; ``POST /api/v1/sessions/{id}/steps`` takes it.
     """
     from pdr.foot.summaries import steps_to_json
 
     steps = [replace(s, t_s=float(s.t_s) + imu.clock_offset_s) for s in track.steps]
-    Path(path).write_text(json.dumps(steps_to_json(steps, role, batch_id)) + "\n")
+    Path(path).write_text(json.dumps(steps_to_json(steps, role, batch_id, track.step_strides)) + "\n")
 
 
 def write_csv(path: str | Path, columns: dict[str, np.ndarray]) -> None:

@@ -9,7 +9,11 @@ composes them with eq. 7 (:class:`pdr.foot.stepwise.StepwiseDeadReckoning`).
 Payload::
 
     {"format": "pdr-foot-steps/1", "batch_id": "...", "device": {"role": "left_foot", ...},
-     "steps": [{"t_s": 12.5, "dp": [0.71, 0.02, 0.0], "dpsi": 0.01, "cov": [[...4...], ...], "index": 2500}]}
+     "steps": [{"t_s": 12.5, "dp": [0.71, 0.02, 0.0], "dpsi": 0.01, "cov": [[...4...], ...], "index": 2500,
+                "stride": true}]}
+
+``stride`` (optional, true when absent) is false for a reset while the foot stands (the step-wise navigation resets
+every ``c_max_s`` then, :mod:`pdr.foot.strides`): its increment is composed (a turn on the spot), but it is no step.
 
 Each step is checked as the cooperative fusion's step events are (:func:`pdr.fusion.measurements.parse_event`):
 finite numbers, a symmetric positive semi-definite covariance.
@@ -52,7 +56,9 @@ SCHEMA: dict[str, Any] = {
                 "dpsi": {"type": "number", "description": "heading change, rad, counter-clockwise"},
                 "cov": {"type": "array", "items": _ROW4, "minItems": 4, "maxItems": 4,
                         "description": "covariance of (dp, dpsi) (eq. 8), m^2, m rad, rad^2"},
-                "index": {"type": "integer", "minimum": 0, "description": "sample index of the reset"}}}},
+                "index": {"type": "integer", "minimum": 0, "description": "sample index of the reset"},
+                "stride": {"type": "boolean", "description": "the reset closes a stride (true, the default), or is "
+                           "a reset while the foot stands (false): composed, but not counted as a step"}}}},
     },
 }
 
@@ -67,13 +73,22 @@ class StepSummaryBatch:
         ``left_foot`` or ``right_foot``.
     steps
         The increments in time order (``t_s`` on the unit's clock, s).
+    strides
+        Per step: whether it closes a stride (False: a reset while the foot stands); all True when not given.
     warnings
         Problems found while reading (none so far: bad input raises).
     """
 
     role: str
     steps: tuple[StepIncrement, ...]
+    strides: tuple[bool, ...] = ()
     warnings: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        if not self.strides:
+            object.__setattr__(self, "strides", (True,) * len(self.steps))
+        if len(self.strides) != len(self.steps):
+            raise InputError(f"{len(self.strides)} stride flags for {len(self.steps)} steps", source="step summaries")
 
     @property
     def t_first_ns(self) -> int:
@@ -97,18 +112,24 @@ def steps_from_json(obj: Any, source: str = "steps") -> StepSummaryBatch:
     role = obj["device"]["role"]
     steps = []
     for i, item in enumerate(obj["steps"]):
-        ev = parse_event({"type": "step", "agent": "unit", "foot": role, **item}, where=f"{source} steps[{i}]")
+        increment = {k: v for k, v in item.items() if k != "stride"}
+        ev = parse_event({"type": "step", "agent": "unit", "foot": role, **increment}, where=f"{source} steps[{i}]")
         assert isinstance(ev, StepSummary)
         steps.append(ev.increment)
     t = np.array([s.t_s for s in steps])
     if np.any(np.diff(t) <= 0):
         i = int(np.argmax(np.diff(t) <= 0)) + 1
         raise InputError("step times must increase", source=source, field=f"steps[{i}].t_s")
-    return StepSummaryBatch(role, tuple(steps))
+    return StepSummaryBatch(role, tuple(steps), tuple(bool(item.get("stride", True)) for item in obj["steps"]))
 
 
-def steps_to_json(steps: list[StepIncrement], role: str, batch_id: str) -> dict[str, Any]:
-    """The payload of ``steps`` (inverse of :func:`steps_from_json`)."""
+def steps_to_json(steps: list[StepIncrement], role: str, batch_id: str,
+                  strides: tuple[bool, ...] | list[bool] = ()) -> dict[str, Any]:
+    """The payload of ``steps`` (inverse of :func:`steps_from_json`); ``strides``: per step, whether it closes a
+    stride (all True when not given).
+    """
+    flags = list(strides) or [True] * len(steps)
     return {"format": FORMAT, "batch_id": batch_id, "device": {"role": role},
             "steps": [{"t_s": float(s.t_s), "dp": np.asarray(s.dp, dtype=np.float64).tolist(), "dpsi": float(s.dpsi),
-                       "cov": np.asarray(s.cov, dtype=np.float64).tolist(), "index": int(s.index)} for s in steps]}
+                       "cov": np.asarray(s.cov, dtype=np.float64).tolist(), "index": int(s.index),
+                       "stride": bool(f)} for s, f in zip(steps, flags, strict=True)]}

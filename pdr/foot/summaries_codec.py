@@ -3,7 +3,8 @@
 The service decodes and validates a ``pdr-foot-steps/1`` payload once, at ingest, and stores this form with the raw
 payload, so that processing never parses or validates the JSON again (as :mod:`pdr.recording_codec` does for
 recordings). The bytes are a :mod:`pdr.state_codec` blob: arrays ``t_s`` (n,) s, ``index`` (n,), ``dp`` (n, 3) m,
-``dpsi`` (n,) rad, ``cov`` (n, 4, 4) (eq. 8); round trips are bit-exact.
+``dpsi`` (n,) rad, ``cov`` (n, 4, 4) (eq. 8), ``stride`` (n,) bool (from version 2; version 1 blobs, stored before
+the flag, read as all strides); round trips are bit-exact.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from pdr.foot.summaries import StepSummaryBatch
 from pdr.step_increment import StepIncrement
 
 #: Version of the layout below, stored with every blob.
-VERSION = 1
+VERSION = 2
 KIND = "foot-step-summaries"
 
 
@@ -32,6 +33,7 @@ def dumps(batch: StepSummaryBatch) -> bytes:
         "dp": np.array([np.asarray(x.dp, dtype=np.float64) for x in s]).reshape(len(s), 3),
         "dpsi": np.array([x.dpsi for x in s], dtype=np.float64),
         "cov": np.array([np.asarray(x.cov, dtype=np.float64) for x in s]).reshape(len(s), 4, 4),
+        "stride": np.array(batch.strides, dtype=bool),
     }
     return state_codec.dumps(state)
 
@@ -39,9 +41,10 @@ def dumps(batch: StepSummaryBatch) -> bytes:
 def loads(blob: bytes) -> StepSummaryBatch:
     """The :class:`StepSummaryBatch` that :func:`dumps` wrote; :class:`InputError` if ``blob`` is not one."""
     state = state_codec.loads(blob)
-    if not isinstance(state, dict) or state.get("kind") != KIND or state.get("version") != VERSION:
+    if not isinstance(state, dict) or state.get("kind") != KIND or state.get("version") not in (1, VERSION):
         raise InputError("not stored step summaries of a known version", source="decoded step summaries")
     steps = tuple(StepIncrement(float(t), int(i), dp.copy(), float(dpsi), cov.copy())
                   for t, i, dp, dpsi, cov in zip(state["t_s"], state["index"], state["dp"], state["dpsi"],
                                                  state["cov"], strict=True))
-    return StepSummaryBatch(str(state["role"]), steps, tuple(state["warnings"]))
+    strides = tuple(bool(f) for f in state["stride"]) if "stride" in state else ()
+    return StepSummaryBatch(str(state["role"]), steps, strides, tuple(state["warnings"]))

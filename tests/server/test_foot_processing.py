@@ -118,6 +118,36 @@ def test_step_summaries_endpoint_is_idempotent_and_dead_reckons(real_app: Flask,
     assert client.post(url, data="x", headers=h).status_code == 415
 
 
+def test_step_summaries_say_which_resets_are_no_stride_and_the_session_does_not_count_them(
+        real_app: Flask, token: str) -> None:
+    """A shoe unit's summaries carry ``stride``: the resets while the foot stands (false) are composed (their turn
+    on the spot moves the heading) but are 'standing' rows, not steps of the session. Before, every summary was a
+    step: a unit standing for a minute added 30 steps."""
+    client = real_app.test_client()
+    h = bearer(token)
+    imu, track = navigate(gait_recording(), "stepwise")
+    assert not all(track.step_strides) and any(track.step_strides)
+    sid = _session(client, token, "shoe-strides", ("left_foot",))
+    payload = steps_to_json(list(track.steps), "left_foot", "u1", track.step_strides)
+    assert [s["stride"] for s in payload["steps"]] == list(track.step_strides)
+    assert client.post(f"/api/v1/sessions/{sid}/steps", json=payload, headers=h).status_code == 201
+    assert real_app.extensions["pdr"].worker.wait_idle(60)
+    points = _track(client, token, sid, "left_foot")
+    assert [p["mode"] for p in points] == ["walking" if f else "standing" for f in track.step_strides]
+    assert client.get(f"/api/v1/sessions/{sid}", headers=h).get_json()["steps"] == sum(track.step_strides)
+    # Without the flag (older units), every summary is a stride, as before.
+    sid2 = _session(client, token, "shoe-no-flags", ("left_foot",))
+    plain = steps_to_json(list(track.steps), "left_foot", "u2")
+    for step in plain["steps"]:
+        del step["stride"]
+    assert client.post(f"/api/v1/sessions/{sid2}/steps", json=plain, headers=h).status_code == 201
+    assert real_app.extensions["pdr"].worker.wait_idle(60)
+    assert client.get(f"/api/v1/sessions/{sid2}", headers=h).get_json()["steps"] == len(track.steps)
+    bad = {**payload, "batch_id": "u3", "steps": [{**payload["steps"][0], "stride": "yes"}]}
+    resp = client.post(f"/api/v1/sessions/{sid}/steps", json=bad, headers=h)
+    assert resp.status_code == 422 and "steps[0].stride" in json.dumps(resp.get_json())
+
+
 def test_raw_batches_after_summaries_fail_visibly(real_app: Flask, token: str) -> None:
     client = real_app.test_client()
     rec = gait_recording(role="right_foot")
