@@ -15,9 +15,10 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 from pdr.recording import FOOT_ROLES
+from server.foot_steps import FUSED
 from server.store import Store
 
-FUSED = "fused"
+__all__ = ["FOOT_SIDES", "FUSED", "ROLE_PRIORITY", "ROLE_SIDES"]
 #: The feet as the fusion library names them (:data:`pdr.foot.dual.SIDES`, a group's ``FusionConfig.feet``) and
 #: their names in the API, the sessions' device roles: the one foot vocabulary of sessions, the fused track and
 #: groups (the library's names never reach a client).

@@ -20,7 +20,10 @@ from pdr.step_increment import StepIncrement
 MODE = "walking"
 #: Mode of a foot track row that closes no stride: a reset of the step-wise navigation while the foot stands
 #: (:attr:`pdr.foot.online.FootStep.stride`); kept for its increment (a turn on the spot), not counted as a step.
+#: A fused update of such a reset (device role :data:`FUSED`) has it too.
 STAND_MODE = "standing"
+#: Device role of the session's fused dual-foot track (:mod:`server.fused_feet`).
+FUSED = "fused"
 
 
 def increment_to_json(inc: StepIncrement) -> dict[str, Any]:

@@ -12,7 +12,8 @@ arrived or were processed; a rebuild (reprocess, late batch) clears the state wi
 Track rows (one per fused step update): ``t_s`` of the step (s, the devices' common clock), the midpoint
 between the two fused feet (m, ENU in the left foot's navigation frame, origin at its start), ``heading_deg``
 the compass heading of the circular mean of the two feet's headings, ``step_length_m`` how far the midpoint
-moved in the update, mode ``walking``, no floor. The provisional tail is what the fusion would add if the
+moved in the update, mode ``walking``, or ``standing`` for the update of a foot's reset while it stands (that
+foot's own row's mode; not counted as a step), no floor. The provisional tail is what the fusion would add if the
 session ended now: the steps it still holds back plus the feet's own provisional steps.
 """
 
@@ -24,7 +25,7 @@ from pdr.errors import InputError
 from pdr.foot.dual import DualFootFusion, FusedStep
 from pdr.frames import yaw_to_heading_deg
 from server.feet import FOOT_SIDES, FUSED, session_feet
-from server.foot_steps import MODE, step_increments
+from server.foot_steps import MODE, STAND_MODE, step_increments
 from server.store import Store, TrackRow
 
 ROLE = FUSED
@@ -33,10 +34,12 @@ FEET = FOOT_SIDES
 FEET_INDEX = {side: i for i, side in enumerate(FEET)}
 
 
-def _row(u: FusedStep) -> TrackRow:
+def _row(u: FusedStep, standing: set[tuple[str, float]]) -> TrackRow:
+    """The fused track row of update ``u``; ``standing``: (device role, t_s) of the feet's resets while standing."""
     mid = u.midpoint_n
+    mode = STAND_MODE if (FEET[u.side], u.t_s) in standing else MODE
     return TrackRow(u.t_s, float(mid[0]), float(mid[1]), float(mid[2]), None, float(yaw_to_heading_deg(u.body_yaw)),
-                    u.midpoint_shift_m, MODE)
+                    u.midpoint_shift_m, mode)
 
 
 def fuse_session(store: Store, session_id: str) -> bool:
@@ -71,7 +74,8 @@ def fuse_session(store: Store, session_id: str) -> bool:
         tail += tail_fusion.finish()
     except InputError:          # a provisional step that the final ones have overtaken: no tail this time
         tail = []
+    standing = {(r.device_role, r.t_s) for r in rows if r.label == STAND_MODE}
     store.commit_results(session_id, ROLE, None, json.dumps(fusion.to_dict()).encode(), None,
-                         [_row(u) for u in out], [], tail_track=[_row(u) for u in tail])
+                         [_row(u, standing) for u in out], [], tail_track=[_row(u, standing) for u in tail])
     return True
 

@@ -23,7 +23,7 @@ from pdr.phone.track_schema import TRACK_COLUMNS
 from pdr.recording import FOOT_ROLES
 from server import db
 from server.errors import APIError
-from server.foot_steps import STAND_MODE
+from server.foot_steps import FUSED, STAND_MODE
 
 #: Status of a batch whose raw payload was deleted by the retention policy (its results stay).
 PURGED = "purged"
@@ -482,13 +482,14 @@ class Store:
             return list(conn.execute(q.order_by(tp.c.t_s, tp.c.id)))
 
     def track_summary(self, session_id: str, previous: bool = False) -> dict[str, dict[str, float]]:
-        """Per device role: steps (rows but a foot's resets while it stands, mode :data:`server.foot_steps.STAND_MODE`),
+        """Per device role: steps (rows but a foot's resets while it stands and their fused updates, mode
+        :data:`server.foot_steps.STAND_MODE`),
         distance (sum of step lengths, m) and first/last row time (s), by SQL; ``previous``: of the results kept
         during a rebuild.
         """
         tp = db.track_points
         kept = tp.c.device_role.startswith(PREVIOUS)
-        feet = [*FOOT_ROLES, *(PREVIOUS + r for r in FOOT_ROLES)]
+        feet = [*FOOT_ROLES, FUSED, *(PREVIOUS + r for r in (*FOOT_ROLES, FUSED))]
         stand = (tp.c.mode == STAND_MODE) & tp.c.device_role.in_(feet)
         steps = func.coalesce(func.sum(case((stand, 0), else_=1)), 0)
         q = (select(tp.c.device_role, steps, func.coalesce(func.sum(tp.c.step_length_m), 0.0),

@@ -188,14 +188,17 @@ def dual_rows(left: FootImu, track: DualFootTrack) -> dict[str, np.ndarray]:
 
 
 def dual_step_rows(track: DualFootTrack) -> dict[str, np.ndarray]:
-    """Columns of the per-step dual-foot CSV: one row per reset of either foot, in time order."""
+    """Columns of the per-step dual-foot CSV: one row per reset of either foot, in time order; ``stride`` as in
+    the one-foot CSV (:func:`step_rows`: 0 for a reset while the foot stands).
+    """
     t = np.concatenate([track.left.step_t_s, track.right.step_t_s])
     pos = np.concatenate([track.left.step_pos_n, track.right.step_pos_n])
     foot = np.concatenate([np.zeros(track.left.step_t_s.size, np.int64), np.ones(track.right.step_t_s.size,
                                                                                  np.int64)])
+    stride = np.concatenate([track.left.step_strides, track.right.step_strides]).astype(np.int64)
     order = np.argsort(t, kind="stable")
     return {"t_s": t[order], "east_m": pos[order, 0], "north_m": pos[order, 1], "up_m": pos[order, 2],
-            "right_foot": foot[order]}
+            "right_foot": foot[order], "stride": stride[order]}
 
 
 def run_dual(args: argparse.Namespace) -> int:

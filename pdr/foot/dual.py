@@ -115,6 +115,9 @@ class FootEstimate:
         (L, 3) fused reset positions ``x_l`` (after the constraint of the step's own update), m.
     step_cov
         (L, 4, 4) their covariance with the heading.
+    step_strides
+        (L,) whether each reset closes a stride (False: a reset while the foot stands,
+        :attr:`pdr.foot.zupt.ZuptTrack.step_strides`).
     """
 
     t_s: Array
@@ -124,6 +127,7 @@ class FootEstimate:
     step_t_s: Array
     step_pos_n: Array
     step_cov: Array
+    step_strides: NDArray[np.bool_]
 
 
 @dataclass(frozen=True)
@@ -496,7 +500,7 @@ def fuse_feet(left: ZuptTrack, right: ZuptTrack, left_offset_s: float = 0.0, rig
         # The right foot's alignment offset is part of its heading state, so it turns its raw frame too.
         pos, yaw = _rigid(tr, t, ev_t, np.asarray(hist_x[f]), np.asarray(hist_chi[f]), raw_idx, raw_pos, raw_chi)
         feet.append(FootEstimate(t, pos, yaw, tr.zero_velocity, t[raw_idx], np.asarray(step_pos[f]),
-                                 np.asarray(step_cov[f])))
+                                 np.asarray(step_cov[f]), np.asarray(tr.step_strides, dtype=bool)))
     return DualFootTrack(feet[0], feet[1], offset, fusion.constraint_active, fusion.updates)
 
 

@@ -87,14 +87,18 @@ def test_both_shoes_give_one_fused_track_whatever_the_upload_order(real_app: Fla
     points = fused["shuffled"]
     assert len(points) == len(feet["left"]) + len(feet["right"]) > 30
     assert [p["t_s"] for p in points] == sorted(p["t_s"] for p in feet["left"] + feet["right"])
-    assert {p["mode"] for p in points} == {"walking"} and {p["floor"] for p in points} == {None}
+    # A fused update has the mode of the foot row it fuses: 'standing' for a reset while that foot stands (each
+    # foot's first reset, at the start of its first swing), not a step of the session (it was 'walking' and counted).
+    foot_mode = {p["t_s"]: p["mode"] for side in recs for p in feet[side]}
+    assert [p["mode"] for p in points] == [foot_mode[p["t_s"]] for p in points]
+    assert {p["mode"] for p in points} == {"walking", "standing"} and {p["floor"] for p in points} == {None}
     # The walker moves about one step length per fused update (half a stride).
     lengths = np.array([p["step_length_m"] for p in points[2:]])
     assert 0.4 < np.median(lengths) < 1.0
     # The session summary stands for the fused track.
     listed = client.get("/api/v1/sessions", headers=bearer(token)).get_json()["sessions"]
     mine = next(s for s in listed if s["id"] == sid)
-    assert mine["steps"] == len(points) and mine["primary_track"] == "fused"
+    assert mine["steps"] == sum(p["mode"] == "walking" for p in points) and mine["primary_track"] == "fused"
     assert mine["feet"] == {"paired": ["left_foot", "right_foot"], "live": ["left_foot", "right_foot"]}
 
     # The stored rows are the library's DualFootFusion over the feet's stored step increments, exactly.

@@ -133,3 +133,23 @@ def test_cli_dual_foot(tmp_path, capsys) -> None:
     assert interval_rows[-1]["left_east_m"] != rows[-1]["left_east_m"]
     assert main([*feet, str(out), "--gyro-bias", "on"]) == 2
     assert "--method stepwise does not have --gyro-bias on" in capsys.readouterr().err
+
+
+def test_cli_dual_foot_per_step_rows_mark_the_resets_while_a_foot_stands(tmp_path) -> None:
+    """``--left/--right --per-step``: column ``stride`` as in the one-foot CSV (0: a reset while the foot stands,
+    the one that starts each foot's first swing among them); it was missing, and those rows looked like strides."""
+    from pdr.io.native import write as write_native
+
+    left, right = _feet(1, 2)
+    write_native(left, tmp_path / "left")
+    write_native(right, tmp_path / "right")
+    out = tmp_path / "steps.csv"
+    assert main(["foot", "--left", str(tmp_path / "left"), "--right", str(tmp_path / "right"), "--per-step",
+                 "--out", str(out)]) == 0
+    with open(out, encoding="utf-8") as fh:
+        rows = list(csv.DictReader(fh))
+    _, _, fused = navigate_feet(left, right)
+    for foot, est in (("0", fused.left), ("1", fused.right)):
+        flags = [r["stride"] for r in rows if r["right_foot"] == foot]
+        assert len(flags) == est.step_t_s.size == est.step_strides.size
+        assert flags == [str(int(f)) for f in est.step_strides] and "0" in flags and "1" in flags
