@@ -32,6 +32,7 @@ from typing import Any
 from pdr import recording_codec
 from pdr.errors import InputError
 from pdr.io import format_names
+from pdr.io.gz import GZIP_MAGIC, inflated_size
 from pdr.io.registry import relocated
 from pdr.recording import Recording
 
@@ -129,18 +130,30 @@ def check_compressed(payload: bytes, source: str) -> None:
                 declared = [(i.filename, i.file_size, i.compress_size) for i in zf.infolist()]
         except (zipfile.BadZipFile, ValueError, OSError) as exc:
             raise InputError(f"not a readable zip archive ({exc})", source=source) from None
-    elif payload[:2] == b"\x1f\x8b" and len(payload) >= 18:
-        # ISIZE, the last 4 bytes: the uncompressed size modulo 2**32 (a larger file is refused by its ratio).
-        declared = [(source, int.from_bytes(payload[-4:], "little"), len(payload))]
+    elif payload[:2] == GZIP_MAGIC and len(payload) >= 18:
+        # ISIZE, the last 4 bytes: the uncompressed size modulo 2**32 (a larger file is refused by its ratio). In a
+        # file cut short (or of several members) they are something else: before refusing, count what it inflates
+        # to, up to the limits (the refusal then names the real size, and a cut file goes on to be read).
+        size = int.from_bytes(payload[-4:], "little")
+        if _excessive(size, len(payload)):
+            size = inflated_size(payload, min(MAX_INFLATED_BYTES, int(MAX_COMPRESSION_RATIO * len(payload))))
+        declared = [(source, size, len(payload))]
     total = sum(size for _, size, _ in declared)
     if total > MAX_INFLATED_BYTES:
         raise InputError(f"the file declares {total} bytes uncompressed, more than the service's limits allow "
                          f"({MAX_INFLATED_BYTES} bytes): refused before inflating", source=source)
     for member, size, packed in declared:
-        if size > 1024**2 and size > MAX_COMPRESSION_RATIO * max(packed, 1):
+        if _excessive(size, packed):
             raise InputError(f"member '{member}' declares a compression ratio of {size / max(packed, 1):.0f}:1 "
                              f"(more than {MAX_COMPRESSION_RATIO:g}:1): refused as a compression bomb",
                              source=source)
+
+
+def _excessive(size: int, packed: int) -> bool:
+    """Whether ``size`` bytes inflated from ``packed`` is a compression ratio beyond :data:`MAX_COMPRESSION_RATIO`
+    (1 MiB and less always passes).
+    """
+    return size > 1024**2 and size > MAX_COMPRESSION_RATIO * max(packed, 1)
 
 
 def _child(path: str, fmt: str, out: str) -> None:

@@ -62,16 +62,47 @@ def gunzip(raw: bytes, source: str) -> bytes:
 
 def decompressed_prefix(raw: bytes, limit: int = 0) -> bytes:
     """The bytes that decompress from the start of gzip data, member after member, up to where it is cut short or
-    damaged (at most ``limit`` bytes of the first member when given, for sniffing); empty when none do.
+    damaged (at most ``limit`` bytes when given, for sniffing); empty when none do.
     """
     out: list[bytes] = []
+    n = 0
+    for chunk in _inflate(raw, limit or None):
+        out.append(chunk)
+        n += len(chunk)
+        if limit and n >= limit:
+            break
+    return b"".join(out)[:limit] if limit else b"".join(out)
+
+
+def inflated_size(raw: bytes, limit: int) -> int:
+    """How many bytes gzip data inflates to (every member, up to where it is cut short or damaged), counted without
+    keeping them; ``limit + 1`` as soon as it is more than ``limit`` bytes (a compression bomb costs no more).
+    """
+    n = 0
+    for chunk in _inflate(raw, 1 << 20):
+        n += len(chunk)
+        if n > limit:
+            return limit + 1
+    return n
+
+
+def _inflate(raw: bytes, chunk: int | None) -> Iterator[bytes]:
+    """The decompressed bytes of gzip data in pieces of at most ``chunk`` bytes (None: one piece per member),
+    member after member, until the data ends, is cut short or is damaged.
+    """
     while raw[:2] == GZIP_MAGIC:
         stream = zlib.decompressobj(wbits=31)            # 31: a gzip header and trailer
-        try:
-            out.append(stream.decompress(raw, limit))
-        except zlib.error:
-            break
-        if limit or not stream.eof:
-            break
+        data = raw
+        while True:
+            try:
+                piece = stream.decompress(data, chunk or 0)
+            except zlib.error:
+                return
+            if piece:
+                yield piece
+            data = stream.unconsumed_tail
+            if stream.eof or not data:
+                break
+        if not stream.eof:
+            return                                       # cut short
         raw = stream.unused_data.lstrip(b"\x00")        # gzip allows zero padding between members
-    return b"".join(out)

@@ -137,6 +137,20 @@ def test_compression_bombs_are_refused_before_inflating():
     check_compressed(text, "walk.csv")
 
 
+def test_a_gzip_cut_short_is_judged_by_what_it_inflates_to_not_by_its_last_four_bytes():
+    """A cut gzip's last 4 bytes are compressed data, not the size it declares: a real log cut short was refused
+    as a compression bomb (or as too large); it is now measured, passes, and is read as far as it goes. A bomb cut
+    short is still refused."""
+    text = "\n".join(f"{i * 0.01:.3f},{(i * 7919) % 1000 / 100:.4f},0.1,9.81" for i in range(400_000)).encode()
+    whole = gzip.compress(text)
+    cut = next(whole[:n] for n in range(len(whole) // 2, len(whole))
+               if int.from_bytes(whole[n - 4:n], "little") > 200 * n)       # trailer bytes that look like a bomb
+    check_compressed(cut, "walk.csv.gz")
+    bomb = gzip.compress(b"\0" * (64 * MB))
+    with pytest.raises(Exception, match="compression bomb"):
+        check_compressed(bomb[: len(bomb) // 2], "bomb.csv.gz")
+
+
 def test_zip_bomb_upload_is_a_quick_422(client, tokens):
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
