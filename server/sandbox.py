@@ -135,8 +135,13 @@ def check_compressed(payload: bytes, source: str) -> None:
         # file cut short (or of several members) they are something else: before refusing, count what it inflates
         # to, up to the limits (the refusal then names the real size, and a cut file goes on to be read).
         size = int.from_bytes(payload[-4:], "little")
-        if _excessive(size, len(payload)):
-            size = inflated_size(payload, min(MAX_INFLATED_BYTES, int(MAX_COMPRESSION_RATIO * len(payload))))
+        if size > MAX_INFLATED_BYTES or _excessive(size, len(payload)):
+            bound = min(MAX_INFLATED_BYTES, int(MAX_COMPRESSION_RATIO * len(payload)))
+            size = inflated_size(payload, bound)
+            if size > bound:
+                raise InputError(f"the file inflates to more than {bound} bytes (the service's limits: "
+                                 f"{MAX_INFLATED_BYTES} bytes, a compression ratio of {MAX_COMPRESSION_RATIO:g}:1): "
+                                 "refused as a compression bomb", source=source)
         declared = [(source, size, len(payload))]
     total = sum(size for _, size, _ in declared)
     if total > MAX_INFLATED_BYTES:
