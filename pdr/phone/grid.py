@@ -16,6 +16,10 @@ waits for a stream at most twice that gap behind the accelerometer: the first ha
 the slack allowed to a stream whose samples arrive in a later batch than the accelerometer's of the same time.
 Within that slack the grid is the same whatever the batches; none of the shared recordings has a gap that long.
 
+A stream of ``may_join`` that the first batch lacks joins the grid when a later batch brings it (a phone starts its
+sensors one by one, or a stream's first samples arrive a batch late): :meth:`OnlineGrid.push` says so in a notice, and
+the stream is absent at the grid points before its first sample, present from there on, as after a gap.
+
 Unlike :func:`pdr.preprocess.resample` (zero-phase filtering for offline use) there is no anti-alias
 filter: the consumers low-pass what they need (the step detector at a few Hz).
 
@@ -36,6 +40,10 @@ from pdr.errors import InputError
 from pdr.phone.phone_orientation import sign_continuous
 from pdr.recording import Recording
 
+#: Names of the streams in notices.
+STREAM_NAMES = {"acc": "accelerometer", "gyro": "gyroscope", "mag": "magnetometer", "baro": "barometer",
+                "orientation": "orientation"}
+
 #: Streams of quaternions (sign-continuous in the buffer).
 QUATERNION_KINDS = ("orientation",)
 
@@ -52,19 +60,30 @@ class OnlineGrid:
     stream, present at every grid point), bridging gaps of at most ``max_gap_s`` seconds within a stream.
     """
 
-    def __init__(self, rate_hz: float, kinds: tuple[str, ...], max_gap_s: float = MAX_STREAM_GAP_S) -> None:
+    def __init__(self, rate_hz: float, kinds: tuple[str, ...], max_gap_s: float = MAX_STREAM_GAP_S,
+                 may_join: tuple[str, ...] = ()) -> None:
         if not rate_hz > 0:
             raise InputError(f"grid rate must be positive, got {rate_hz}", field="rate_hz", source="grid")
         self.rate_hz = float(rate_hz)
         self.kinds = kinds
         self.max_gap_s = float(max_gap_s)
+        self.may_join = tuple(k for k in may_join if k not in kinds)   # streams that may join later (module doc)
         self.buf_t: dict[str, FloatArray] = {k: np.zeros(0) for k in kinds}
         self.buf_v: dict[str, FloatArray] = {k: np.zeros((0, 0)) for k in kinds}
         self.next_k: int | None = None   # next grid index to emit
         self.first_k: int | None = None  # first grid index ever emitted
 
-    def push(self, rec: Recording) -> None:
-        """Append a batch's samples (times on the log clock, seconds)."""
+    def push(self, rec: Recording) -> list[str]:
+        """Append a batch's samples (times on the log clock, seconds); notices for the user (a stream of ``may_join``
+        that joins the grid with this batch).
+        """
+        notices = []
+        for k in self.may_join:
+            if k not in self.kinds and rec.has(k):
+                self.kinds += (k,)
+                self.buf_t[k], self.buf_v[k] = np.zeros(0), np.zeros((0, 0))
+                notices.append(f"{STREAM_NAMES.get(k, k)} data starts at t={rec.stream(k).t_ns[0] / 1e9:.2f} s, "
+                               "after the session's first batch: used from there on")
         for k in self.kinds:
             if not rec.has(k):
                 continue
@@ -81,17 +100,21 @@ class OnlineGrid:
                 v = sign_continuous(v, self.buf_v[k][-1] if self.buf_v[k].size else None)
             self.buf_t[k] = np.concatenate([bt, t])
             self.buf_v[k] = v.copy() if self.buf_v[k].size == 0 else np.concatenate([self.buf_v[k], v])
+        return notices
 
     def _present(self, kind: str, tg: FloatArray) -> NDArray[np.bool_]:
         """Whether ``kind`` has a value at the grid times ``tg`` (s): at one of its samples, between two samples at
-        most ``max_gap_s`` apart, or after its last sample while the primary stream is at most that far ahead (held).
+        most ``max_gap_s`` apart, or after its last sample while the primary stream is at most that far ahead (held);
+        not before its first sample (a stream that joined late).
         """
         bt = self.buf_t[kind]
-        i = np.searchsorted(bt, tg, side="right") - 1               # bt[i] <= t < bt[i + 1]; i >= 0 (buffer kept)
+        i = np.searchsorted(bt, tg, side="right") - 1               # bt[i] <= t < bt[i + 1]
+        before = i < 0                                              # only for a stream that joined late
+        i = np.maximum(i, 0)
         nxt = bt[np.minimum(i + 1, bt.size - 1)]
         after_last = i == bt.size - 1
         held = float(self.buf_t[self.kinds[0]][-1]) - float(bt[-1]) <= self.max_gap_s
-        return (tg == bt[i]) | np.where(after_last, held, nxt - bt[i] <= self.max_gap_s)
+        return ~before & ((tg == bt[i]) | np.where(after_last, held, nxt - bt[i] <= self.max_gap_s))
 
     def _emit(self, k_end: int) -> tuple[FloatArray, dict[str, FloatArray]]:
         """Grid points next_k .. k_end (inclusive), up to the first at which a stream starts or stops being present
@@ -146,14 +169,16 @@ class OnlineGrid:
         return np.zeros(0), {k: np.zeros((0, 1)) for k in self.kinds}
 
     def state(self) -> dict[str, Any]:
-        return {"rate_hz": self.rate_hz, "kinds": list(self.kinds), "next_k": self.next_k, "first_k": self.first_k,
+        return {"rate_hz": self.rate_hz, "kinds": list(self.kinds), "may_join": list(self.may_join),
+                "next_k": self.next_k, "first_k": self.first_k,
                 "buf_t": {k: v.tolist() for k, v in self.buf_t.items()},
                 "buf_v": {k: v.tolist() for k, v in self.buf_v.items()}}
 
     @classmethod
     def from_state(cls, d: dict[str, Any]) -> OnlineGrid:
         try:
-            g = cls(float(d["rate_hz"]), tuple(d["kinds"]))
+            # "may_join" is absent in states saved before late streams joined: theirs keep the streams they have.
+            g = cls(float(d["rate_hz"]), tuple(d["kinds"]), may_join=tuple(d.get("may_join", ())))
             g.next_k = None if d["next_k"] is None else int(d["next_k"])
             g.first_k = None if d["first_k"] is None else int(d["first_k"])
             g.buf_t = {k: np.array(v, dtype=np.float64) for k, v in d["buf_t"].items()}

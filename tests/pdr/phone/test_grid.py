@@ -132,3 +132,35 @@ def test_a_stopped_stream_does_not_hold_up_a_live_session_and_batches_give_the_o
         emitted.append(run)
     assert emitted[-1][0][-1] == pytest.approx(20.0 + MAX_STREAM_GAP_S + 1.0, abs=0.02)
     assert "gyro" not in emitted[-1][1] and "gyro" in emitted[-2][1]
+
+
+def test_a_stream_missing_from_the_first_batch_joins_when_it_arrives():
+    # The gyroscope starts 1.5 s after the accelerometer, in the second batch: it joins the grid then, absent before
+    # its first sample and interpolated from there on; a stream not named in may_join never joins.
+    acc_t, gyro_t = np.arange(0.0, 5.0, 0.01), np.arange(1.505, 5.0, 0.01)
+    rec = _rec({"acc": acc_t, "gyro": gyro_t}, _lin)
+    first = Recording({"acc": rec.streams["acc"]}).slice_time(0.0, 1.0)
+    g = OnlineGrid(50.0, ("acc",), may_join=("gyro",))
+    assert g.push(first) == []
+    ts: list[np.ndarray] = []
+    vs: dict[str, list[np.ndarray]] = {"acc": [], "gyro": []}
+    while _keep(ts, vs, *g.pull()):
+        pass
+    g = OnlineGrid.from_state(g.state())
+    assert g.push(rec.slice_time(1.0, 2.0)) == ["gyroscope data starts at t=1.50 s, after the session's first batch: "
+                                                "used from there on"] and g.kinds == ("acc", "gyro")
+    g = OnlineGrid.from_state(g.state())
+    assert g.push(rec.slice_time(2.0, 5.0)) == []
+    while _keep(ts, vs, *g.pull()):
+        pass
+    while _keep(ts, vs, *g.flush()):
+        pass
+    t, gyro = np.concatenate(ts), np.concatenate(vs["gyro"])
+    late = t < gyro_t[0]
+    assert late.any() and np.isnan(gyro[late]).all()
+    np.testing.assert_allclose(gyro[~late], _lin("gyro", t[~late]), atol=1e-9)
+    assert np.all(np.diff(t) == pytest.approx(0.02)) and t[-1] == pytest.approx(4.98)
+    # Without may_join (and in states saved before it) the stream is not taken up.
+    g = OnlineGrid(50.0, ("acc",))
+    g.push(first)
+    assert g.push(rec.slice_time(1.0, 2.0)) == [] and g.kinds == ("acc",)
