@@ -20,6 +20,11 @@ A stream of ``may_join`` that the first batch lacks joins the grid when a later 
 sensors one by one, or a stream's first samples arrive a batch late): :meth:`OnlineGrid.push` says so in a notice, and
 the stream is absent at the grid points before its first sample, present from there on, as after a gap.
 
+Samples at or before the last one taken of their stream are dropped (a batch sent twice, a sender that repeats the
+end of its last batch). When a batch's primary samples go back further (:data:`BACK_TOLERANCE_S`) and the batch is
+not one already sent, the phone's clock went back (a clock correction, an app restarted with a new clock): the grid
+cannot place them among what it has processed, and :meth:`OnlineGrid.push` says so in a notice.
+
 Unlike :func:`pdr.preprocess.resample` (zero-phase filtering for offline use) there is no anti-alias
 filter: the consumers low-pass what they need (the step detector at a few Hz).
 
@@ -43,6 +48,13 @@ from pdr.recording import Recording
 #: Names of the streams in notices.
 STREAM_NAMES = {"acc": "accelerometer", "gyro": "gyroscope", "mag": "magnetometer", "baro": "barometer",
                 "orientation": "orientation"}
+
+#: How far (s) a batch's primary samples may overlap those already taken (a sender that repeats the end of its last
+#: batch) before a notice says that the phone's clock went back (:meth:`OnlineGrid.push`).
+BACK_TOLERANCE_S = 0.5
+
+#: Batches of the primary stream remembered to know one that is sent again.
+RECENT_BATCHES = 16
 
 #: Streams of quaternions (sign-continuous in the buffer).
 QUATERNION_KINDS = ("orientation",)
@@ -72,6 +84,9 @@ class OnlineGrid:
         self.buf_v: dict[str, FloatArray] = {k: np.zeros((0, 0)) for k in kinds}
         self.next_k: int | None = None   # next grid index to emit
         self.first_k: int | None = None  # first grid index ever emitted
+        #: (first, last) sample times (ns) of the primary stream in the last batches: a batch sent again is no news.
+        self.recent: list[tuple[int, int]] = []
+        self.going_back = False          # the last batch's primary samples went back (one notice per episode)
 
     def push(self, rec: Recording) -> list[str]:
         """Append a batch's samples (times on the log clock, seconds); notices for the user (a stream of ``may_join``
@@ -91,6 +106,8 @@ class OnlineGrid:
             t = (s.t_ns.astype(np.float64) / 1e9)
             v = s.values
             bt = self.buf_t[k]
+            if k == self.kinds[0]:
+                notices += self._went_back(s.t_ns, bt)
             if bt.size and t[0] <= bt[-1]:
                 keep = t > bt[-1]
                 t, v = t[keep], v[keep]
@@ -101,6 +118,24 @@ class OnlineGrid:
             self.buf_t[k] = np.concatenate([bt, t])
             self.buf_v[k] = v.copy() if self.buf_v[k].size == 0 else np.concatenate([self.buf_v[k], v])
         return notices
+
+    def _went_back(self, t_ns: NDArray[np.int64], bt: FloatArray) -> list[str]:
+        """A notice when a batch's primary samples go back more than :data:`BACK_TOLERANCE_S` before the last one
+        already taken (they are dropped), unless the batch is one already sent; once per run of such batches.
+        """
+        span = (int(t_ns[0]), int(t_ns[-1]))
+        repeat = span in self.recent
+        self.recent = [*self.recent, span][-RECENT_BATCHES:] if not repeat else self.recent
+        back_s = float(bt[-1]) - float(t_ns[0]) / 1e9 if bt.size else -math.inf
+        went_back = back_s > BACK_TOLERANCE_S and not repeat
+        notice = went_back and not self.going_back
+        self.going_back = went_back and float(t_ns[-1]) / 1e9 <= float(bt[-1])
+        if not notice:
+            return []
+        return [f"a batch's {STREAM_NAMES.get(self.kinds[0], self.kinds[0])} data (from t={t_ns[0] / 1e9:.2f} s) "
+                f"goes {back_s:.2f} s back before data already processed (up to t={float(bt[-1]):.2f} s): the "
+                "phone's clock went back or the app restarted with a new clock; what comes before that time again is "
+                "dropped (start a new session when the app restarts)"]
 
     def _present(self, kind: str, tg: FloatArray) -> NDArray[np.bool_]:
         """Whether ``kind`` has a value at the grid times ``tg`` (s): at one of its samples, between two samples at
@@ -170,7 +205,8 @@ class OnlineGrid:
 
     def state(self) -> dict[str, Any]:
         return {"rate_hz": self.rate_hz, "kinds": list(self.kinds), "may_join": list(self.may_join),
-                "next_k": self.next_k, "first_k": self.first_k,
+                "next_k": self.next_k, "first_k": self.first_k, "recent": [list(r) for r in self.recent],
+                "going_back": self.going_back,
                 "buf_t": {k: v.tolist() for k, v in self.buf_t.items()},
                 "buf_v": {k: v.tolist() for k, v in self.buf_v.items()}}
 
@@ -181,6 +217,9 @@ class OnlineGrid:
             g = cls(float(d["rate_hz"]), tuple(d["kinds"]), may_join=tuple(d.get("may_join", ())))
             g.next_k = None if d["next_k"] is None else int(d["next_k"])
             g.first_k = None if d["first_k"] is None else int(d["first_k"])
+            # Absent in states saved before batches going back were noticed.
+            g.recent = [(int(a), int(b)) for a, b in d.get("recent", [])]
+            g.going_back = bool(d.get("going_back", False))
             g.buf_t = {k: np.array(v, dtype=np.float64) for k, v in d["buf_t"].items()}
             g.buf_v = {k: np.array(v, dtype=np.float64).reshape(len(v), -1) if len(v) else np.zeros((0, 0))
                        for k, v in d["buf_v"].items()}

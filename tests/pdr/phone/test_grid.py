@@ -164,3 +164,21 @@ def test_a_stream_missing_from_the_first_batch_joins_when_it_arrives():
     g = OnlineGrid(50.0, ("acc",))
     g.push(first)
     assert g.push(rec.slice_time(1.0, 2.0)) == [] and g.kinds == ("acc",)
+
+
+def test_a_batch_whose_clock_went_back_is_said_once_and_a_batch_sent_again_is_not():
+    acc_t = np.arange(0.0, 20.0, 0.01)
+    rec = _rec({"acc": acc_t, "gyro": acc_t + 0.003}, _lin)
+    g = OnlineGrid(50.0, ("acc", "gyro"))
+    assert g.push(rec.slice_time(0.0, 4.0)) == [] and g.push(rec.slice_time(4.0, 8.0)) == []
+    # Sent again (after a timeout), or overlapping the last batch by less than BACK_TOLERANCE_S: nothing to say.
+    assert g.push(rec.slice_time(4.0, 8.0)) == [] and g.push(rec.slice_time(7.7, 9.0)) == []
+    g = OnlineGrid.from_state(g.state())
+    # The app restarts with a new clock (from 0 s again): said once, while its batches stay before what was taken.
+    shifted = _rec({"acc": acc_t[:600] + 0.0042, "gyro": acc_t[:600] + 0.0072}, _lin)
+    said = g.push(shifted.slice_time(0.0, 2.0))
+    assert len(said) == 1 and "goes 8.99 s back before data already processed (up to t=8.99 s)" in said[0]
+    g = OnlineGrid.from_state(g.state())
+    assert g.push(shifted.slice_time(2.0, 4.0)) == []
+    assert g.push(rec.slice_time(9.0, 12.0)) == []
+    assert len(g.push(rec.slice_time(3.0, 5.0))) == 1           # a new episode is said again

@@ -73,3 +73,30 @@ def test_a_real_walks_magnetometer_a_batch_late_keeps_the_one_batch_track():
     live = track_rows(_live(_lagged(rec, 2.0, ("mag",))))
     assert len(live) == len(one) == 28
     assert _max_distance_m(live, one) < 0.5
+
+
+def _batches(rec: Recording, dt_s: float) -> list[Recording]:
+    return _lagged(rec, dt_s, ())
+
+
+@pytest.mark.data
+def test_a_clock_that_goes_back_is_said_and_a_batch_sent_twice_changes_nothing():
+    # Sensor Logger hand-held walk (29 steps) in 2 s batches. Its second half comes 3 s back on the phone's clock
+    # (a clock correction): those 3 s cannot be placed among what was processed and are dropped (25 steps, as
+    # before), now with a notice instead of silently.
+    rec = read_recording(data_path("sensor_logger_walks", "inhand-30-steps-Zyf"))
+    t0, t1 = rec.time_span_s()
+    mid = t0 + 0.5 * (t1 - t0)
+    second = rec.slice_time(mid, t1 + 1.0)
+    back = Recording({k: SensorStream(k, s.t_ns - 3_000_000_000, s.values) for k, s in second.streams.items()},
+                     rec.device, t0_ns=rec.origin_ns, meta=rec.meta)
+    events = _live(_batches(rec.slice_time(t0, mid), 2.0) + _batches(back, 2.0))
+    said = [e["message"] for e in events
+            if e["type"] == "notice" and "back before data already processed" in e["message"]]
+    assert len(said) == 1 and "goes 2.99 s back" in said[0]
+    # A batch uploaded twice (after a timeout) is dropped without a word: the one-batch track.
+    one = PdrPipeline(PipelineConfig()).run(rec)
+    parts = _batches(rec, 2.0)
+    twice = _live(parts[:5] + parts[3:5] + parts[5:])
+    assert track_rows(twice) == track_rows(one) and len(track_rows(one)) == 29
+    assert [e for e in twice if e["type"] == "notice"] == [e for e in one if e["type"] == "notice"]
