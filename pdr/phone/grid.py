@@ -15,6 +15,9 @@ present), and the consumers run without it (no gyroscope, no magnetometer, ...) 
 waits for a stream at most twice that gap behind the accelerometer: the first half is the gap itself, the second
 the slack allowed to a stream whose samples arrive in a later batch than the accelerometer's of the same time.
 Within that slack the grid is the same whatever the batches; none of the shared recordings has a gap that long.
+A stream that was taken as stopped but goes on where it left off (its samples come a whole batch late, batches
+longer than the slack) was only late: from then on the grid waits for it that long and a little more (at most
+:data:`MAX_LAG_S`), and :meth:`OnlineGrid.push` says so in a notice; the points already emitted stay without it.
 
 A stream of ``may_join`` that the first batch lacks joins the grid when a later batch brings it (a phone starts its
 sensors one by one, or a stream's first samples arrive a batch late): :meth:`OnlineGrid.push` says so in a notice, and
@@ -53,6 +56,9 @@ STREAM_NAMES = {"acc": "accelerometer", "gyro": "gyroscope", "mag": "magnetomete
 #: batch) before a notice says that the phone's clock went back (:meth:`OnlineGrid.push`).
 BACK_TOLERANCE_S = 0.5
 
+#: Longest lag (s) behind the primary stream that the grid learns to wait for (module doc).
+MAX_LAG_S = 30.0
+
 #: Batches of the primary stream remembered to know one that is sent again.
 RECENT_BATCHES = 16
 
@@ -87,6 +93,8 @@ class OnlineGrid:
         #: (first, last) sample times (ns) of the primary stream in the last batches: a batch sent again is no news.
         self.recent: list[tuple[int, int]] = []
         self.going_back = False          # the last batch's primary samples went back (one notice per episode)
+        #: How far (s) behind the primary stream a stream may be before it is taken as stopped (learnt, module doc).
+        self.wait_s: dict[str, float] = {}
 
     def push(self, rec: Recording) -> list[str]:
         """Append a batch's samples (times on the log clock, seconds); notices for the user (a stream of ``may_join``
@@ -113,11 +121,33 @@ class OnlineGrid:
                 t, v = t[keep], v[keep]
                 if t.size == 0:
                     continue
+            if k != self.kinds[0]:
+                notices += self._late(k, t, bt)
             if k in QUATERNION_KINDS:
                 v = sign_continuous(v, self.buf_v[k][-1] if self.buf_v[k].size else None)
             self.buf_t[k] = np.concatenate([bt, t])
             self.buf_v[k] = v.copy() if self.buf_v[k].size == 0 else np.concatenate([self.buf_v[k], v])
         return notices
+
+    def _late(self, kind: str, t: FloatArray, bt: FloatArray) -> list[str]:
+        """Learn to wait longer for ``kind`` when its new samples ``t`` (s) go on from its last one (``bt``) at most
+        ``max_gap_s`` later, but grid points after that were emitted without it: it was late, not stopped.
+        """
+        if self.next_k is None or not bt.size or t[0] - bt[-1] > self.max_gap_s:
+            return []
+        emitted_s = (self.next_k - 1) / self.rate_hz
+        lag_s = float(self.buf_t[self.kinds[0]][-1]) - float(t[-1])
+        if emitted_s <= bt[-1] or lag_s + self.max_gap_s <= self._wait(kind):
+            return []
+        self.wait_s[kind] = min(lag_s + self.max_gap_s, MAX_LAG_S)
+        name = STREAM_NAMES.get(kind, kind)
+        return [f"{name} data comes {lag_s:.1f} s behind the {STREAM_NAMES.get(self.kinds[0], self.kinds[0])}'s "
+                f"(a batch late): t={float(bt[-1]):.2f} to {emitted_s:.2f} s were processed without it; the live "
+                f"track now waits up to {self.wait_s[kind]:.1f} s for it"]
+
+    def _wait(self, kind: str) -> float:
+        """How far (s) behind the primary stream ``kind`` may be before it is taken as stopped."""
+        return self.wait_s.get(kind, 2.0 * self.max_gap_s)
 
     def _went_back(self, t_ns: NDArray[np.int64], bt: FloatArray) -> list[str]:
         """A notice when a batch's primary samples go back more than :data:`BACK_TOLERANCE_S` before the last one
@@ -178,8 +208,8 @@ class OnlineGrid:
         """The next run of grid points that the streams already cover, over which the same streams are present:
         (times (n,), kind -> (n, k) values of the streams present). Call again until it gives no points.
 
-        A stream more than ``2 max_gap_s`` behind the primary one has stopped: the grid goes on without it up to
-        ``max_gap_s`` behind the primary (module doc).
+        A stream more than ``2 max_gap_s`` (or the lag learnt for it) behind the primary one has stopped: the grid
+        goes on without it up to ``max_gap_s`` behind the primary (module doc).
         """
         if any(self.buf_t[k].size == 0 for k in self.kinds):
             return self._empty()
@@ -187,7 +217,7 @@ class OnlineGrid:
             start = max(float(self.buf_t[k][0]) for k in self.kinds)
             self.next_k = self.first_k = int(math.ceil(start * self.rate_hz - 1e-9))
         lead = float(self.buf_t[self.kinds[0]][-1])
-        end = min([lead] + [float(self.buf_t[k][-1]) if lead - float(self.buf_t[k][-1]) <= 2.0 * self.max_gap_s
+        end = min([lead] + [float(self.buf_t[k][-1]) if lead - float(self.buf_t[k][-1]) <= self._wait(k)
                             else lead - self.max_gap_s for k in self.kinds[1:]])
         return self._emit(int(math.floor(end * self.rate_hz + 1e-9)))
 
@@ -206,7 +236,7 @@ class OnlineGrid:
     def state(self) -> dict[str, Any]:
         return {"rate_hz": self.rate_hz, "kinds": list(self.kinds), "may_join": list(self.may_join),
                 "next_k": self.next_k, "first_k": self.first_k, "recent": [list(r) for r in self.recent],
-                "going_back": self.going_back,
+                "going_back": self.going_back, "wait_s": dict(self.wait_s),
                 "buf_t": {k: v.tolist() for k, v in self.buf_t.items()},
                 "buf_v": {k: v.tolist() for k, v in self.buf_v.items()}}
 
@@ -220,6 +250,7 @@ class OnlineGrid:
             # Absent in states saved before batches going back were noticed.
             g.recent = [(int(a), int(b)) for a, b in d.get("recent", [])]
             g.going_back = bool(d.get("going_back", False))
+            g.wait_s = {str(k): float(v) for k, v in d.get("wait_s", {}).items()}   # absent before lags were learnt
             g.buf_t = {k: np.array(v, dtype=np.float64) for k, v in d["buf_t"].items()}
             g.buf_v = {k: np.array(v, dtype=np.float64).reshape(len(v), -1) if len(v) else np.zeros((0, 0))
                        for k, v in d["buf_v"].items()}

@@ -182,3 +182,27 @@ def test_a_batch_whose_clock_went_back_is_said_once_and_a_batch_sent_again_is_no
     assert g.push(shifted.slice_time(2.0, 4.0)) == []
     assert g.push(rec.slice_time(9.0, 12.0)) == []
     assert len(g.push(rec.slice_time(3.0, 5.0))) == 1           # a new episode is said again
+
+
+def test_a_stream_a_whole_batch_late_is_waited_for_once_its_lag_is_known():
+    # 5 s batches; from the second on, the gyroscope's samples come a batch late (5 s behind, more than the 4 s
+    # slack). The first late batch is taken as a stop (its points go without the gyro); the gyro then goes on where it
+    # left off, so the grid learns the lag, says so, and from there every point has the gyro.
+    t = np.arange(0.0, 40.0, 0.01)
+    rec = _rec({"acc": t, "gyro": t + 0.004}, _lin)
+    g = OnlineGrid(50.0, ("acc", "gyro"))
+    ts: list[np.ndarray] = []
+    vs: dict[str, list[np.ndarray]] = {"acc": [], "gyro": []}
+    said = []
+    for a in np.arange(0.0, 40.0, 5.0):
+        acc = rec.slice_time(a, a + 5.0).streams["acc"]
+        gyro = rec.slice_time(max(a - 5.0, 0.0), a if a >= 10.0 else a + 5.0).streams["gyro"] if a != 5.0 else None
+        said += g.push(Recording({"acc": acc} if gyro is None else {"acc": acc, "gyro": gyro}))
+        while _keep(ts, vs, *g.pull()):
+            pass
+        g = OnlineGrid.from_state(g.state())
+    assert len(said) == 1 and said[0].startswith("gyroscope data comes 5.0 s behind the accelerometer's")
+    tg, gyro_v = np.concatenate(ts), np.concatenate(vs["gyro"])
+    missing = np.isnan(gyro_v[:, 0])
+    assert missing.any() and tg[missing].max() < 10.0       # only the points of the first late batch
+    assert tg[-1] >= 29.0                                    # live: waits at most the learnt lag (7 s)
