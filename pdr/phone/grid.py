@@ -28,6 +28,9 @@ end of its last batch). When a batch's primary samples go back further (:data:`B
 not one already sent, the phone's clock went back (a clock correction, an app restarted with a new clock): the grid
 cannot place them among what it has processed, and :meth:`OnlineGrid.push` says so in a notice.
 
+A gap in every stream (an app suspended for a while) is bridged: the primary stream is interpolated across it, in
+runs of at most :data:`MAX_RUN_S`; a jump of the primary's clock longer than :data:`MAX_JUMP_S` is refused.
+
 Unlike :func:`pdr.preprocess.resample` (zero-phase filtering for offline use) there is no anti-alias
 filter: the consumers low-pass what they need (the step detector at a few Hz).
 
@@ -58,6 +61,14 @@ BACK_TOLERANCE_S = 0.5
 
 #: Longest lag (s) behind the primary stream that the grid learns to wait for (module doc).
 MAX_LAG_S = 30.0
+
+#: Longest run (s) of grid points that :meth:`OnlineGrid.pull` gives at once: a long gap (an app suspended for hours)
+#: is bridged run by run, in bounded memory.
+MAX_RUN_S = 600.0
+
+#: Longest jump forward (s) of the primary stream's clock that a session bridges (interpolating, run by run); a
+#: longer one (a clock reset by years) is refused with an :class:`InputError` instead of filling it for hours.
+MAX_JUMP_S = 86400.0
 
 #: Batches of the primary stream remembered to know one that is sent again.
 RECENT_BATCHES = 16
@@ -100,7 +111,14 @@ class OnlineGrid:
         """Append a batch's samples (times on the log clock, seconds); notices for the user (a stream of ``may_join``
         that joins the grid with this batch).
         """
-        notices = []
+        primary, notices = self.kinds[0], []
+        if rec.has(primary) and self.buf_t[primary].size:
+            jump_s = float(rec.stream(primary).t_ns[0]) / 1e9 - float(self.buf_t[primary][-1])
+            if jump_s > MAX_JUMP_S:     # refused before anything changes: a later batch meets the same jump
+                raise InputError(f"the {STREAM_NAMES.get(primary, primary)}'s clock jumps {jump_s:.0f} s forward "
+                                 f"(from t={float(self.buf_t[primary][-1]):.2f} s), more than a session can bridge "
+                                 f"({MAX_JUMP_S:g} s): the phone's clock was reset; start a new session",
+                                 source=rec.source or None, field="t_ns")
         for k in self.may_join:
             if k not in self.kinds and rec.has(k):
                 self.kinds += (k,)
@@ -186,6 +204,7 @@ class OnlineGrid:
         (:meth:`_present`); the values of the streams present over them.
         """
         assert self.next_k is not None
+        k_end = min(k_end, self.next_k + int(MAX_RUN_S * self.rate_hz) - 1)     # memory bounded over a long gap
         if k_end < self.next_k:
             return np.zeros(0), {k: np.zeros((0, max(self.buf_v[k].shape[1], 1))) for k in self.kinds}
         tg = np.arange(self.next_k, k_end + 1) / self.rate_hz

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from pdr.errors import InputError
-from pdr.phone.grid import MAX_STREAM_GAP_S, OnlineGrid
+from pdr.phone.grid import MAX_JUMP_S, MAX_RUN_S, MAX_STREAM_GAP_S, OnlineGrid
 from pdr.recording import Recording, SensorStream
 
 
@@ -206,3 +206,26 @@ def test_a_stream_a_whole_batch_late_is_waited_for_once_its_lag_is_known():
     missing = np.isnan(gyro_v[:, 0])
     assert missing.any() and tg[missing].max() < 10.0       # only the points of the first late batch
     assert tg[-1] >= 29.0                                    # live: waits at most the learnt lag (7 s)
+
+
+def test_an_hour_without_data_is_bridged_run_by_run_and_a_clock_reset_by_days_is_refused():
+    # The app is suspended for an hour: the accelerometer is interpolated across it in runs of at most MAX_RUN_S
+    # (before, one run of 180 000 points; a day took 2 GB), the gyroscope absent there.
+    t = np.arange(0.0, 5.0, 0.01)
+    g = OnlineGrid(50.0, ("acc", "gyro"))
+    g.push(_rec({"acc": t, "gyro": t + 0.004}, _lin))
+    runs = []
+    g.push(_rec({"acc": t + 3605.0, "gyro": t + 3605.004}, _lin))
+    while (run := g.pull())[0].size:
+        runs.append(run)
+    assert max(r[0].size for r in runs) <= MAX_RUN_S * 50.0
+    tg = np.concatenate([r[0] for r in runs])
+    assert np.all(np.diff(tg) == pytest.approx(0.02)) and tg[0] < 5.0 and tg[-1] > 3600.0
+    acc = np.concatenate([r[1]["acc"] for r in runs])
+    np.testing.assert_allclose(acc, _lin("acc", tg), atol=1e-6)
+    assert not any("gyro" in r[1] for r in runs if r[0][0] > 10.0 and r[0][-1] < 3600.0)
+    # A clock that jumps forward by more than MAX_JUMP_S is refused, and the grid is left as it was.
+    before = g.state()
+    with pytest.raises(InputError, match="clock jumps .* forward"):
+        g.push(_rec({"acc": t + 3610.0 + MAX_JUMP_S + 1.0, "gyro": t + 3610.0 + MAX_JUMP_S + 1.0}, _lin))
+    assert g.state() == before
