@@ -15,6 +15,9 @@ present), and the consumers run without it (no gyroscope, no magnetometer, ...) 
 waits for a stream at most twice that gap behind the accelerometer: the first half is the gap itself, the second
 the slack allowed to a stream whose samples arrive in a later batch than the accelerometer's of the same time.
 Within that slack the grid is the same whatever the batches; none of the shared recordings has a gap that long.
+A slow stream (a barometer at 0.5 Hz, whose every interval is near or over that gap) has its gaps measured in its
+own periods instead: gaps of up to :data:`SLOW_GAP_PERIODS` of its median period are bridged (at most
+:data:`MAX_SLOW_GAP_S`), and the wait scales with them.
 A stream that was taken as stopped but goes on where it left off (its samples come a whole batch late, batches
 longer than the slack) was only late: from then on the grid waits for it that long and a little more (at most
 :data:`MAX_LAG_S`), and :meth:`OnlineGrid.push` says so in a notice; the points already emitted stay without it.
@@ -58,6 +61,12 @@ STREAM_NAMES = {"acc": "accelerometer", "gyro": "gyroscope", "mag": "magnetomete
 #: How far (s) a batch's primary samples may overlap those already taken (a sender that repeats the end of its last
 #: batch) before a notice says that the phone's clock went back (:meth:`OnlineGrid.push`).
 BACK_TOLERANCE_S = 0.5
+
+#: A slow stream (period over MAX_STREAM_GAP_S / SLOW_GAP_PERIODS) has gaps of this many of its periods bridged, up to
+#: MAX_SLOW_GAP_S seconds; its median period is taken over its last RECENT_INTERVALS sampling intervals.
+SLOW_GAP_PERIODS = 2.5
+MAX_SLOW_GAP_S = 10.0
+RECENT_INTERVALS = 16
 
 #: Longest lag (s) behind the primary stream that the grid learns to wait for (module doc).
 MAX_LAG_S = 30.0
@@ -106,6 +115,8 @@ class OnlineGrid:
         self.going_back = False          # the last batch's primary samples went back (one notice per episode)
         #: How far (s) behind the primary stream a stream may be before it is taken as stopped (learnt, module doc).
         self.wait_s: dict[str, float] = {}
+        #: The last sampling intervals (s) of each stream but the primary (a slow stream's gaps, :meth:`_gap`).
+        self.intervals: dict[str, list[float]] = {}
 
     def push(self, rec: Recording) -> list[str]:
         """Append a batch's samples (times on the log clock, seconds); notices for the user (a stream of ``may_join``
@@ -141,6 +152,8 @@ class OnlineGrid:
                     continue
             if k != self.kinds[0]:
                 notices += self._late(k, t, bt)
+                dt = np.diff(np.concatenate([bt[-1:], t]))
+                self.intervals[k] = [*self.intervals.get(k, []), *dt.tolist()][-RECENT_INTERVALS:]
             if k in QUATERNION_KINDS:
                 v = sign_continuous(v, self.buf_v[k][-1] if self.buf_v[k].size else None)
             self.buf_t[k] = np.concatenate([bt, t])
@@ -151,13 +164,13 @@ class OnlineGrid:
         """Learn to wait longer for ``kind`` when its new samples ``t`` (s) go on from its last one (``bt``) at most
         ``max_gap_s`` later, but grid points after that were emitted without it: it was late, not stopped.
         """
-        if self.next_k is None or not bt.size or t[0] - bt[-1] > self.max_gap_s:
+        if self.next_k is None or not bt.size or t[0] - bt[-1] > self._gap(kind):
             return []
         emitted_s = (self.next_k - 1) / self.rate_hz
         lag_s = float(self.buf_t[self.kinds[0]][-1]) - float(t[-1])
-        if emitted_s <= bt[-1] or lag_s + self.max_gap_s <= self._wait(kind):
+        if emitted_s <= bt[-1] or lag_s + self._gap(kind) <= self._wait(kind):
             return []
-        self.wait_s[kind] = min(lag_s + self.max_gap_s, MAX_LAG_S)
+        self.wait_s[kind] = min(lag_s + self._gap(kind), MAX_LAG_S)
         name = STREAM_NAMES.get(kind, kind)
         return [f"{name} data comes {lag_s:.1f} s behind the {STREAM_NAMES.get(self.kinds[0], self.kinds[0])}'s "
                 f"(a batch late): t={float(bt[-1]):.2f} to {emitted_s:.2f} s were processed without it; the live "
@@ -165,7 +178,15 @@ class OnlineGrid:
 
     def _wait(self, kind: str) -> float:
         """How far (s) behind the primary stream ``kind`` may be before it is taken as stopped."""
-        return self.wait_s.get(kind, 2.0 * self.max_gap_s)
+        return max(self.wait_s.get(kind, 0.0), 2.0 * self._gap(kind))
+
+    def _gap(self, kind: str) -> float:
+        """Longest gap (s) within ``kind`` that is bridged: ``max_gap_s``, or for a slow stream (a barometer at 0.5 Hz)
+        :data:`SLOW_GAP_PERIODS` of its median sampling period (at most :data:`MAX_SLOW_GAP_S`).
+        """
+        dt = self.intervals.get(kind)
+        return self.max_gap_s if not dt else min(max(self.max_gap_s, SLOW_GAP_PERIODS * float(np.median(dt))),
+                                                  MAX_SLOW_GAP_S)
 
     def _went_back(self, t_ns: NDArray[np.int64], bt: FloatArray) -> list[str]:
         """A notice when a batch's primary samples go back more than :data:`BACK_TOLERANCE_S` before the last one
@@ -196,8 +217,9 @@ class OnlineGrid:
         i = np.maximum(i, 0)
         nxt = bt[np.minimum(i + 1, bt.size - 1)]
         after_last = i == bt.size - 1
-        held = float(self.buf_t[self.kinds[0]][-1]) - float(bt[-1]) <= self.max_gap_s
-        return ~before & ((tg == bt[i]) | np.where(after_last, held, nxt - bt[i] <= self.max_gap_s))
+        gap = self._gap(kind)
+        held = float(self.buf_t[self.kinds[0]][-1]) - float(bt[-1]) <= gap
+        return ~before & ((tg == bt[i]) | np.where(after_last, held, nxt - bt[i] <= gap))
 
     def _emit(self, k_end: int) -> tuple[FloatArray, dict[str, FloatArray]]:
         """Grid points next_k .. k_end (inclusive), up to the first at which a stream starts or stops being present
@@ -237,7 +259,7 @@ class OnlineGrid:
             self.next_k = self.first_k = int(math.ceil(start * self.rate_hz - 1e-9))
         lead = float(self.buf_t[self.kinds[0]][-1])
         end = min([lead] + [float(self.buf_t[k][-1]) if lead - float(self.buf_t[k][-1]) <= self._wait(k)
-                            else lead - self.max_gap_s for k in self.kinds[1:]])
+                            else lead - self._gap(k) for k in self.kinds[1:]])
         return self._emit(int(math.floor(end * self.rate_hz + 1e-9)))
 
     def flush(self) -> tuple[FloatArray, dict[str, FloatArray]]:
@@ -256,6 +278,7 @@ class OnlineGrid:
         return {"rate_hz": self.rate_hz, "kinds": list(self.kinds), "may_join": list(self.may_join),
                 "next_k": self.next_k, "first_k": self.first_k, "recent": [list(r) for r in self.recent],
                 "going_back": self.going_back, "wait_s": dict(self.wait_s),
+                "intervals": {k: list(v) for k, v in self.intervals.items()},
                 "buf_t": {k: v.tolist() for k, v in self.buf_t.items()},
                 "buf_v": {k: v.tolist() for k, v in self.buf_v.items()}}
 
@@ -270,6 +293,7 @@ class OnlineGrid:
             g.recent = [(int(a), int(b)) for a, b in d.get("recent", [])]
             g.going_back = bool(d.get("going_back", False))
             g.wait_s = {str(k): float(v) for k, v in d.get("wait_s", {}).items()}   # absent before lags were learnt
+            g.intervals = {str(k): [float(x) for x in v] for k, v in d.get("intervals", {}).items()}   # likewise
             g.buf_t = {k: np.array(v, dtype=np.float64) for k, v in d["buf_t"].items()}
             g.buf_v = {k: np.array(v, dtype=np.float64).reshape(len(v), -1) if len(v) else np.zeros((0, 0))
                        for k, v in d["buf_v"].items()}
