@@ -151,12 +151,13 @@ class StreamingClassifier:
             self._check_waiting(float(self.buffers["acc"][0][-1] - self.t0_ns) / 1e9 >= WAIT_FOR_STREAM_S,
                                 batch.source)
             return []
+        lead = max(int(self.buffers[k][0][-1]) for k in self.model.required_streams)
         behind = [k for k in self.model.required_streams
-                  if float(self.buffers["acc"][0][-1] - self.buffers[k][0][-1]) / 1e9 > WAIT_FOR_STREAM_S]
-        if behind:      # a stream that stopped: the windows would wait to the session's end
+                  if float(lead - self.buffers[k][0][-1]) / 1e9 > WAIT_FOR_STREAM_S]
+        if behind:      # a stream that stopped: the windows would wait (and the others' buffers grow) to the end
             raise InputError(f"the '{self.model.info.get('name', self.model.task)}' model needs the "
                              f"{', '.join(behind)} stream(s), which stopped more than {WAIT_FOR_STREAM_S:g} s "
-                             "before the accelerometer", source=batch.source or None)
+                             "before the others", source=batch.source or None)
         if started:     # the last stream came: the first window starts at or after every one's first sample
             first = max(int(self.buffers[k][0][0]) for k in self.model.required_streams)
             self.next_window = max(self.next_window, math.ceil((first - self.t0_ns) / 1e9 / self.window.hop_s))

@@ -115,6 +115,7 @@ class OnlineGrid:
         self.going_back = False          # the last batch's primary samples went back (one notice per episode)
         #: How far (s) behind the primary stream a stream may be before it is taken as stopped (learnt, module doc).
         self.wait_s: dict[str, float] = {}
+        self.primary_stopped = False     # the primary stream is far behind the others (:meth:`_primary_stopped`)
         #: The last sampling intervals (s) of each stream but the primary (a slow stream's gaps, :meth:`_gap`).
         self.intervals: dict[str, list[float]] = {}
 
@@ -158,7 +159,30 @@ class OnlineGrid:
                 v = sign_continuous(v, self.buf_v[k][-1] if self.buf_v[k].size else None)
             self.buf_t[k] = np.concatenate([bt, t])
             self.buf_v[k] = v.copy() if self.buf_v[k].size == 0 else np.concatenate([self.buf_v[k], v])
-        return notices
+        return notices + self._primary_stopped()
+
+    def _primary_stopped(self) -> list[str]:
+        """While the primary stream is more than :data:`MAX_LAG_S` behind another (it stopped, the others go on),
+        keep of each other stream what the primary's grid points need (up to the first sample after its last one) and
+        its last ``MAX_LAG_S`` (before, their buffers grew with the session), and say so once.
+        """
+        primary = self.buf_t[self.kinds[0]]
+        ahead = [float(self.buf_t[k][-1]) for k in self.kinds[1:] if self.buf_t[k].size]
+        if not primary.size or not ahead or max(ahead) - float(primary[-1]) <= MAX_LAG_S:
+            self.primary_stopped = False
+            return []
+        for k in self.kinds[1:]:
+            bt = self.buf_t[k]
+            if bt.size:
+                keep = bt >= bt[-1] - MAX_LAG_S
+                keep[:int(np.searchsorted(bt, primary[-1], side="right")) + 1] = True
+                self.buf_t[k], self.buf_v[k] = bt[keep], self.buf_v[k][keep]
+        if self.primary_stopped:
+            return []
+        self.primary_stopped = True
+        name = STREAM_NAMES.get(self.kinds[0], self.kinds[0])
+        return [f"no {name} data since t={float(primary[-1]):.2f} s while the other sensors go on (to t="
+                f"{max(ahead):.2f} s): nothing is processed until the {name} resumes"]
 
     def _late(self, kind: str, t: FloatArray, bt: FloatArray) -> list[str]:
         """Learn to wait longer for ``kind`` when its new samples ``t`` (s) go on from its last one (``bt``) at most
@@ -278,7 +302,7 @@ class OnlineGrid:
         return {"rate_hz": self.rate_hz, "kinds": list(self.kinds), "may_join": list(self.may_join),
                 "next_k": self.next_k, "first_k": self.first_k, "recent": [list(r) for r in self.recent],
                 "going_back": self.going_back, "wait_s": dict(self.wait_s),
-                "intervals": {k: list(v) for k, v in self.intervals.items()},
+                "intervals": {k: list(v) for k, v in self.intervals.items()}, "primary_stopped": self.primary_stopped,
                 "buf_t": {k: v.tolist() for k, v in self.buf_t.items()},
                 "buf_v": {k: v.tolist() for k, v in self.buf_v.items()}}
 
@@ -294,6 +318,7 @@ class OnlineGrid:
             g.going_back = bool(d.get("going_back", False))
             g.wait_s = {str(k): float(v) for k, v in d.get("wait_s", {}).items()}   # absent before lags were learnt
             g.intervals = {str(k): [float(x) for x in v] for k, v in d.get("intervals", {}).items()}   # likewise
+            g.primary_stopped = bool(d.get("primary_stopped", False))
             g.buf_t = {k: np.array(v, dtype=np.float64) for k, v in d["buf_t"].items()}
             g.buf_v = {k: np.array(v, dtype=np.float64).reshape(len(v), -1) if len(v) else np.zeros((0, 0))
                        for k, v in d["buf_v"].items()}

@@ -373,6 +373,13 @@ def test_streaming_waits_for_a_stream_that_starts_late_or_skips_a_batch(trained)
     clf.update(acc_only.slice_time(stop, stop + WAIT_FOR_STREAM_S - 1.0))
     with pytest.raises(InputError, match="needs the gyro stream.*stopped"):
         clf.update(acc_only.slice_time(stop + WAIT_FOR_STREAM_S - 1.0, stop + WAIT_FOR_STREAM_S + 1.0))
+    # Nor one whose accelerometer stops while the gyroscope goes on (its buffer would grow to the end).
+    clf = StreamingClassifier(model)
+    clf.update(rec.slice_time(span[0], span[0] + 8.0))
+    gyro_only = Recording({"gyro": rec.stream("gyro")}, t0_ns=rec.t0_ns)
+    clf.update(gyro_only.slice_time(stop, stop + WAIT_FOR_STREAM_S - 1.0))
+    with pytest.raises(InputError, match="needs the acc stream.*stopped"):
+        clf.update(gyro_only.slice_time(stop + WAIT_FOR_STREAM_S - 1.0, stop + WAIT_FOR_STREAM_S + 1.0))
 
 
 def test_streaming_equals_offline_and_resumes(trained) -> None:

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from pdr.errors import InputError
-from pdr.phone.grid import MAX_JUMP_S, MAX_RUN_S, MAX_STREAM_GAP_S, OnlineGrid
+from pdr.phone.grid import MAX_JUMP_S, MAX_LAG_S, MAX_RUN_S, MAX_STREAM_GAP_S, OnlineGrid
 from pdr.recording import Recording, SensorStream
 
 
@@ -245,3 +245,26 @@ def test_a_barometer_at_half_a_hertz_is_bridged_between_its_samples_and_still_st
     present = ~np.isnan(v["baro"][:, 0])
     assert present[t <= baro_t[-1]].all()
     assert not present[t > baro_t[-1] + 5.5].any()
+
+
+def test_other_streams_stay_bounded_while_the_accelerometer_has_stopped():
+    # The accelerometer stops at 10 s while the gyroscope goes on for 10 minutes in 5 s batches. Before, the gyro's
+    # buffer (and the saved state) grew with the session; now it keeps what the accelerometer's points need and its
+    # last MAX_LAG_S, and a notice says so once. A recording pushed whole keeps the gyro up to the accelerometer's end.
+    t = np.arange(0.0, 610.0, 0.01)
+    rec = _rec({"acc": t[t < 10.0], "gyro": t + 0.004}, _lin)
+    g = OnlineGrid(50.0, ("acc", "gyro"))
+    said, sizes = [], []
+    for a in np.arange(0.0, 610.0, 5.0):
+        said += g.push(rec.slice_time(a, a + 5.0))
+        while g.pull()[0].size:
+            pass
+        g = OnlineGrid.from_state(g.state())
+        sizes.append(g.buf_t["gyro"].size)
+    assert len(said) == 1 and said[0].startswith("no accelerometer data since t=9.99 s while the other sensors go on")
+    assert max(sizes) <= (MAX_LAG_S + 5.0) * 100 + 10
+    whole = OnlineGrid(50.0, ("acc", "gyro"))
+    whole.push(rec)
+    tg, vals = whole.pull()
+    assert tg[-1] == pytest.approx(9.98) and "gyro" in vals
+    np.testing.assert_allclose(vals["gyro"], _lin("gyro", tg), atol=1e-9)
