@@ -32,7 +32,8 @@ not one already sent, the phone's clock went back (a clock correction, an app re
 cannot place them among what it has processed, and :meth:`OnlineGrid.push` says so in a notice.
 
 A gap in every stream (an app suspended for a while) is bridged: the primary stream is interpolated across it, in
-runs of at most :data:`MAX_RUN_S`; a jump of the primary's clock longer than :data:`MAX_JUMP_S` is refused.
+runs of at most :data:`MAX_RUN_S`, and a notice says so when it is over :data:`GAP_NOTICE_S`; a jump of the
+primary's clock longer than :data:`MAX_JUMP_S` is refused.
 
 Unlike :func:`pdr.preprocess.resample` (zero-phase filtering for offline use) there is no anti-alias
 filter: the consumers low-pass what they need (the step detector at a few Hz).
@@ -70,6 +71,9 @@ RECENT_INTERVALS = 16
 
 #: Longest lag (s) behind the primary stream that the grid learns to wait for (module doc).
 MAX_LAG_S = 30.0
+
+#: A gap (s) in the primary stream longer than this is said in a notice (:meth:`OnlineGrid.push`).
+GAP_NOTICE_S = 10.0
 
 #: Longest run (s) of grid points that :meth:`OnlineGrid.pull` gives at once: a long gap (an app suspended for hours)
 #: is bridged run by run, in bounded memory.
@@ -151,7 +155,9 @@ class OnlineGrid:
                 t, v = t[keep], v[keep]
                 if t.size == 0:
                     continue
-            if k != self.kinds[0]:
+            if k == self.kinds[0]:
+                notices += self._gaps(np.concatenate([bt[-1:], t]))
+            else:
                 notices += self._late(k, t, bt)
                 dt = np.diff(np.concatenate([bt[-1:], t]))
                 self.intervals[k] = [*self.intervals.get(k, []), *dt.tolist()][-RECENT_INTERVALS:]
@@ -211,6 +217,14 @@ class OnlineGrid:
         dt = self.intervals.get(kind)
         return self.max_gap_s if not dt else min(max(self.max_gap_s, SLOW_GAP_PERIODS * float(np.median(dt))),
                                                   MAX_SLOW_GAP_S)
+
+    def _gaps(self, t: FloatArray) -> list[str]:
+        """A notice for each gap over :data:`GAP_NOTICE_S` between the primary stream's samples ``t`` (s)."""
+        name = STREAM_NAMES.get(self.kinds[0], self.kinds[0])
+        return [f"no {name} data from t={a:.2f} to {b:.2f} s ({b - a:.1f} s: the app suspended, or the phone stopped "
+                "sending): it is bridged by interpolation, no step is counted in it and the track goes on from "
+                "where it was"
+                for a, b in zip(t[:-1], t[1:], strict=True) if b - a > GAP_NOTICE_S]
 
     def _went_back(self, t_ns: NDArray[np.int64], bt: FloatArray) -> list[str]:
         """A notice when a batch's primary samples go back more than :data:`BACK_TOLERANCE_S` before the last one

@@ -215,7 +215,10 @@ def test_an_hour_without_data_is_bridged_run_by_run_and_a_clock_reset_by_days_is
     g = OnlineGrid(50.0, ("acc", "gyro"))
     g.push(_rec({"acc": t, "gyro": t + 0.004}, _lin))
     runs = []
-    g.push(_rec({"acc": t + 3605.0, "gyro": t + 3605.004}, _lin))
+    said = g.push(_rec({"acc": t + 3605.0, "gyro": t + 3605.004}, _lin))
+    assert said == ["no accelerometer data from t=4.99 to 3605.00 s (3600.0 s: the app suspended, or the phone stopped "
+                    "sending): it is bridged by interpolation, no step is counted in it and the track goes on from "
+                    "where it was"]
     while (run := g.pull())[0].size:
         runs.append(run)
     assert max(r[0].size for r in runs) <= MAX_RUN_S * 50.0

@@ -79,22 +79,29 @@ def _batches(rec: Recording, dt_s: float) -> list[Recording]:
     return _lagged(rec, dt_s, ())
 
 
+def _halves(shift_s: float) -> tuple[Recording, Recording]:
+    """The Sensor Logger hand-held walk (29 steps) cut in two halves, the second moved by ``shift_s`` seconds on the
+    phone's clock."""
+    rec = read_recording(data_path("sensor_logger_walks", "inhand-30-steps-Zyf"))
+    t0, t1 = rec.time_span_s()
+    mid = t0 + 0.5 * (t1 - t0)
+    second = rec.slice_time(mid, t1 + 1.0)
+    moved = {k: SensorStream(k, s.t_ns + int(round(shift_s * 1e9)), s.values) for k, s in second.streams.items()}
+    return rec.slice_time(t0, mid), Recording(moved, rec.device, t0_ns=rec.origin_ns, meta=rec.meta)
+
+
 @pytest.mark.data
 def test_a_clock_that_goes_back_is_said_and_a_batch_sent_twice_changes_nothing():
     # Sensor Logger hand-held walk (29 steps) in 2 s batches. Its second half comes 3 s back on the phone's clock
     # (a clock correction): those 3 s cannot be placed among what was processed and are dropped (25 steps, as
     # before), now with a notice instead of silently.
-    rec = read_recording(data_path("sensor_logger_walks", "inhand-30-steps-Zyf"))
-    t0, t1 = rec.time_span_s()
-    mid = t0 + 0.5 * (t1 - t0)
-    second = rec.slice_time(mid, t1 + 1.0)
-    back = Recording({k: SensorStream(k, s.t_ns - 3_000_000_000, s.values) for k, s in second.streams.items()},
-                     rec.device, t0_ns=rec.origin_ns, meta=rec.meta)
-    events = _live(_batches(rec.slice_time(t0, mid), 2.0) + _batches(back, 2.0))
+    first, back = _halves(-3.0)
+    events = _live(_batches(first, 2.0) + _batches(back, 2.0))
     said = [e["message"] for e in events
             if e["type"] == "notice" and "back before data already processed" in e["message"]]
     assert len(said) == 1 and "goes 2.99 s back" in said[0]
     # A batch uploaded twice (after a timeout) is dropped without a word: the one-batch track.
+    rec = read_recording(data_path("sensor_logger_walks", "inhand-30-steps-Zyf"))
     one = PdrPipeline(PipelineConfig()).run(rec)
     parts = _batches(rec, 2.0)
     twice = _live(parts[:5] + parts[3:5] + parts[5:])
@@ -114,3 +121,23 @@ def test_a_gyroscope_that_falls_a_whole_batch_behind_is_waited_for_not_taken_as_
     assert len(rows) == 28 and sum(r["gyro_heading_deg"] is None for r in rows) <= 6
     said = [e["message"] for e in events if e["type"] == "notice" and "behind the accelerometer's" in e["message"]]
     assert len(said) == 1 and said[0].startswith("gyroscope data comes 5.0 s behind")
+
+
+@pytest.mark.data
+def test_thirty_seconds_without_data_keep_the_steps_and_the_track_and_are_said():
+    # Sensor Logger hand-held walk (29 steps) whose app is suspended for 30 s mid-walk, in 2 s batches: every step is
+    # kept (13 before, 16 after), live as in one batch, the step over the gap moves by its length, and a notice (new)
+    # says that 30 s had no data.
+    first, after = _halves(30.0)
+    gap = first.with_streams({k: SensorStream(k, np.concatenate([s.t_ns, after.streams[k].t_ns]),
+                                              np.concatenate([s.values, after.streams[k].values]))
+                              for k, s in first.streams.items()})
+    one = PdrPipeline(PipelineConfig()).run(gap)
+    events = _live(_batches(gap, 2.0))
+    rows = track_rows(events)
+    assert rows == track_rows(one) and len(rows) == 29
+    i = int(np.argmax(np.diff([r["t_s"] for r in rows])))
+    moved = np.hypot(rows[i + 1]["east_m"] - rows[i]["east_m"], rows[i + 1]["north_m"] - rows[i]["north_m"])
+    assert moved == pytest.approx(rows[i + 1]["step_length_m"], abs=0.01)
+    said = [e["message"] for e in events if e["type"] == "notice" and e["message"].startswith("no accelerometer data")]
+    assert len(said) == 1 and "(30.0 s: the app suspended" in said[0]
