@@ -69,7 +69,8 @@ SLOW_GAP_PERIODS = 2.5
 MAX_SLOW_GAP_S = 10.0
 RECENT_INTERVALS = 16
 
-#: Longest lag (s) behind the primary stream that the grid learns to wait for (module doc).
+#: Longest lag (s) behind the primary stream that the grid learns to wait for (module doc); also how much of the other
+#: streams it keeps while the primary stream has stopped.
 MAX_LAG_S = 30.0
 
 #: A gap (s) in the primary stream longer than this is said in a notice (:meth:`OnlineGrid.push`).
@@ -124,8 +125,8 @@ class OnlineGrid:
         self.intervals: dict[str, list[float]] = {}
 
     def push(self, rec: Recording) -> list[str]:
-        """Append a batch's samples (times on the log clock, seconds); notices for the user (a stream of ``may_join``
-        that joins the grid with this batch).
+        """Append a batch's samples (times on the log clock, seconds); notices for the user (module doc: a stream that
+        joins or comes a batch late, a clock that went back, a gap, a primary stream that stopped).
         """
         primary, notices = self.kinds[0], []
         if rec.has(primary) and self.buf_t[primary].size:
