@@ -17,6 +17,7 @@ another process, and pdr/ receives this object by dependency injection without i
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
@@ -49,6 +50,10 @@ def _load_version(folder: str, _mtime_ns: int) -> ContextModel:
     return load_model(folder)
 #: Raw history kept before the next window's start (s): covers the resampler's support and gaps.
 _HISTORY_S = 1.0
+
+#: How long (s of accelerometer data) the classifier waits for the first sample of another stream the model needs
+#: (a phone that starts its gyroscope a batch late) before it says that the session lacks it.
+WAIT_FOR_STREAM_S = 10.0
 
 
 @dataclass(frozen=True)
@@ -123,19 +128,56 @@ class StreamingClassifier:
                 v = np.concatenate([bv, v])
             self.buffers[kind] = (t, v)
 
+    @property
+    def waiting(self) -> list[str]:
+        """The streams the model needs of which no sample has come yet."""
+        return [k for k in self.model.required_streams if k not in self.buffers]
+
     def update(self, batch: Recording) -> list[StreamResult]:
-        """Add a batch; returns the decisions of the windows it completed (possibly none)."""
-        self.model.check_recording(batch)
-        if self.t0_ns is None:
-            self.t0_ns = int(batch.stream("acc").t_ns[0])
+        """Add a batch; returns the decisions of the windows it completed (possibly none).
+
+        A batch may lack a stream the model needs (a phone that starts a sensor late, a stream sent in a later
+        batch): the windows wait for it, and those before its first sample are not classified. :class:`InputError`
+        once the session has gone :data:`WAIT_FOR_STREAM_S` seconds without any sample of it, or once it is that far
+        behind the accelerometer (it stopped).
+        """
+        started = self.t0_ns is not None and bool(self.waiting)
         self._append(batch)
+        if self.t0_ns is None and "acc" in self.buffers:
+            self.t0_ns = int(self.buffers["acc"][0][0])
+        if self.t0_ns is None:
+            return []
+        if self.waiting:
+            self._check_waiting(float(self.buffers["acc"][0][-1] - self.t0_ns) / 1e9 >= WAIT_FOR_STREAM_S,
+                                batch.source)
+            return []
+        lead = max(int(self.buffers[k][0][-1]) for k in self.model.required_streams)
+        behind = [k for k in self.model.required_streams
+                  if float(lead - self.buffers[k][0][-1]) / 1e9 > WAIT_FOR_STREAM_S]
+        if behind:      # a stream that stopped: the windows would wait (and the others' buffers grow) to the end
+            raise InputError(f"the '{self.model.info.get('name', self.model.task)}' model needs the "
+                             f"{', '.join(behind)} stream(s), which stopped more than {WAIT_FOR_STREAM_S:g} s "
+                             "before the others", source=batch.source or None)
+        if started:     # the last stream came: the first window starts at or after every one's first sample
+            first = max(int(self.buffers[k][0][0]) for k in self.model.required_streams)
+            self.next_window = max(self.next_window, math.ceil((first - self.t0_ns) / 1e9 / self.window.hop_s))
         return self._emit(final=False, source=batch.source)
+
+    def _check_waiting(self, given_up: bool, source: str) -> None:
+        if given_up:
+            have = sorted(self.buffers)
+            raise InputError(f"the '{self.model.info.get('name', self.model.task)}' model needs the "
+                             f"{', '.join(self.waiting)} stream(s); the recording has {have}", source=source or None)
 
     def finish(self) -> list[StreamResult]:
         """End of the session: decisions of the windows still waiting for context that will not come.
 
-        Their context spans end at the last sample, as in an offline pass over the whole log.
+        Their context spans end at the last sample, as in an offline pass over the whole log. :class:`InputError`
+        when a stream the model needs never came.
         """
+        if self.t0_ns is None:
+            return []
+        self._check_waiting(bool(self.waiting), "")
         tail = self.posture.push(self.gate.flush()) + self.posture.flush()
         return self._emit(final=True, source="") + [StreamResult(**d) for d in tail]
 

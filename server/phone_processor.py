@@ -128,7 +128,9 @@ class PhoneProcessor:
         except InputError as exc:
             self.classifier, self.classifier_status = None, "off"
             return [], f"motion modes from step patterns only: the mode classifier cannot use this data ({exc})"
-        self.classifier_status = "active"
+        # Waiting for the first sample of a stream the model needs (a sensor the phone starts a batch late): the step
+        # modes go on meanwhile (StreamingClassifier.update).
+        self.classifier_status = "pending" if self.classifier.waiting else "active"
         return [EventRow("mode", r.t_start_s, t_end_s=r.t_end_s, label=r.mode, value=r.confidence,
                          data={"window_mode": r.window_mode}) for r in results], ""
 

@@ -3,7 +3,7 @@
 A *processor* is the online algorithm of one device role of a session (the phone PDR pipeline, or foot
 navigation for a shoe IMU): ``update(recording) -> ProcessorOutput`` and ``to_bytes()`` / ``from_bytes``
 for its state, so that a new batch costs time proportional to the batch and any worker can resume it.
-Batches of a session are processed in time order, one at a time; a batch that starts before what was
+Batches of a session are processed in time order, one at a time; a batch that ends at or before what was
 already processed (an out-of-order upload) triggers a rebuild of the session from its raw batches.
 """
 
@@ -198,10 +198,14 @@ class SessionProcessing:
         self.process_session(session_id)
 
     def _arrived_late(self, session_id: str, pending: list[BatchRecord]) -> bool:
+        """Whether a pending batch ends at or before what its role has processed (it must go before): a batch that only
+        starts there (a stream the phone sends a batch late, a sender that repeats the end of its last batch) goes on
+        from it, as its processor merges each stream in time order.
+        """
         for role in {b.device_role for b in pending}:
             _, watermark = self.store.load_state(session_id, role)
-            firsts = [b.t_first_ns for b in pending if b.device_role == role and b.t_first_ns is not None]
-            if watermark is not None and firsts and min(firsts) <= watermark:
+            lasts = [b.t_last_ns for b in pending if b.device_role == role and b.t_last_ns is not None]
+            if watermark is not None and lasts and min(lasts) <= watermark:
                 return True
         return False
 

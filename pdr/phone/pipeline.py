@@ -348,7 +348,9 @@ class PdrPipeline:
         if LOCATION_META in batch.meta:
             events += self.use_location(batch.meta[LOCATION_META])     # nothing once the dip is set
         self.n_input_samples += max((len(s) for s in batch.streams.values()), default=0)
-        self.grid.push(batch)
+        for msg in self.grid.push(batch):     # e.g. a stream the first batch lacked joins (pdr.phone.grid)
+            self.notices.append(msg)
+            events.append(NoticeEvent(msg))
         t, vals = self.grid.pull()
         while t.size:       # in runs over which the same streams are present (pdr.phone.grid)
             events += self._process(t, vals)
@@ -522,7 +524,10 @@ class PdrPipeline:
                 batch.t_s("gyro"), batch.values("gyro"), batch.t_s("gyro_uncal"), batch.values("gyro_uncal")):
             self.gyro_compensated = True
             self._use_compensated_prior()
-        self.grid = OnlineGrid(self.config.rate_hz, tuple(kinds))
+        # A stream the first batch lacks joins when a later batch brings it (pdr.phone.grid).
+        orientation = c.attitude_source == "phone" or c.use_phone_orientation
+        self.grid = OnlineGrid(self.config.rate_hz, tuple(kinds),
+                               may_join=("gyro", "mag", "baro") + (("orientation",) if orientation else ()))
         self.t0_ns = 0
         if self.placement is None:
             if self.placement_provider is not None:

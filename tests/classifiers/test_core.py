@@ -17,7 +17,7 @@ from classifiers.datasets import labelled_windows, window_labels
 from classifiers.features import FEATURE_GROUPS, coning_features, extract_features, feature_names, signal_features
 from classifiers.landmark_tree import LandmarkTreeClassifier, fit_stump
 from classifiers.sequence import ForwardFilter, dwell_transitions, forward_backward
-from classifiers.streaming import StreamingClassifier
+from classifiers.streaming import WAIT_FOR_STREAM_S, StreamingClassifier
 from classifiers.tasks import get_task
 from classifiers.training import cross_validate, fit_model
 from classifiers.windows import WindowConfig, make_windows, resample_box
@@ -331,6 +331,55 @@ def test_missing_sensor_is_an_error_and_gap_is_unknown(trained) -> None:
     res = model.classify(gappy)
     mid = (res.t_start_s > 30) & (res.t_end_s < 36)
     assert mid.any() and all(res.label[i] == "unknown" for i in np.flatnonzero(mid))
+
+
+def test_streaming_waits_for_a_stream_that_starts_late_or_skips_a_batch(trained) -> None:
+    # A phone whose gyroscope starts one batch (3.7 s) after its accelerometer, and later sends a batch without the
+    # gyroscope (its samples come in the next batch): the windows wait for it. Before, the first batch stopped the
+    # classifier ("needs the gyro stream(s)"), and the service turned it off for the whole session.
+    recs, task, cfg, groups, data = trained
+    model = fit_model(data, task, cfg, groups, "bayes")
+    rec = recs[1]
+    offline = model.classify(rec)
+    span = rec.time_span_s()
+    edges = np.arange(span[0], span[1] + 3.7, 3.7)
+    parts = [rec.slice_time(a, b) for a, b in zip(edges[:-1], edges[1:], strict=False)]
+    parts[0] = Recording({"acc": parts[0].stream("acc")}, t0_ns=rec.t0_ns)
+    parts[4], parts[5] = (Recording({"acc": parts[4].stream("acc")}, t0_ns=rec.t0_ns),
+                          parts[5].with_streams({"gyro": rec.slice_time(edges[4], edges[6]).stream("gyro")}))
+    clf = StreamingClassifier(model)
+    out = clf.update(parts[0])
+    assert out == [] and clf.waiting == ["gyro"]
+    for part in parts[1:]:
+        out += clf.update(part)
+        clf = StreamingClassifier.from_state(state_codec.loads(state_codec.dumps(clf.state())), model=model)
+    out += clf.finish()
+    gyro_from = float(rec.slice_time(edges[1], edges[2]).t_s("gyro")[0])
+    later = offline.t_start_s >= gyro_from - 1e-9
+    assert out and out[0].t_start_s - rec.origin_ns / 1e9 >= gyro_from
+    np.testing.assert_allclose([r.t_start_s for r in out], offline.t_start_s[later][: len(out)] + rec.origin_ns / 1e9,
+                               atol=1e-6)
+    assert len(out) >= later.sum() - 1
+    # A session that never sends the gyroscope is told so once it has waited WAIT_FOR_STREAM_S.
+    clf = StreamingClassifier(model)
+    acc_only = Recording({"acc": rec.stream("acc")}, t0_ns=rec.t0_ns)
+    assert clf.update(acc_only.slice_time(span[0], span[0] + 5.0)) == []
+    with pytest.raises(InputError, match="needs the gyro stream"):
+        clf.update(acc_only.slice_time(span[0] + 5.0, span[0] + WAIT_FOR_STREAM_S + 1.0))
+    # Nor does one whose gyroscope stops keep the windows waiting to its end.
+    clf = StreamingClassifier(model)
+    clf.update(rec.slice_time(span[0], span[0] + 8.0))
+    stop = span[0] + 8.0
+    clf.update(acc_only.slice_time(stop, stop + WAIT_FOR_STREAM_S - 1.0))
+    with pytest.raises(InputError, match="needs the gyro stream.*stopped"):
+        clf.update(acc_only.slice_time(stop + WAIT_FOR_STREAM_S - 1.0, stop + WAIT_FOR_STREAM_S + 1.0))
+    # Nor one whose accelerometer stops while the gyroscope goes on (its buffer would grow to the end).
+    clf = StreamingClassifier(model)
+    clf.update(rec.slice_time(span[0], span[0] + 8.0))
+    gyro_only = Recording({"gyro": rec.stream("gyro")}, t0_ns=rec.t0_ns)
+    clf.update(gyro_only.slice_time(stop, stop + WAIT_FOR_STREAM_S - 1.0))
+    with pytest.raises(InputError, match="needs the acc stream.*stopped"):
+        clf.update(gyro_only.slice_time(stop + WAIT_FOR_STREAM_S - 1.0, stop + WAIT_FOR_STREAM_S + 1.0))
 
 
 def test_streaming_equals_offline_and_resumes(trained) -> None:

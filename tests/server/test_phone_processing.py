@@ -229,3 +229,32 @@ def test_an_undated_location_fix_leaves_the_earths_field_to_the_session_origin_a
     assert any("earth's field at the recording's location (dip 65." in w for w in geo), geo
     assert UNDATED_FIX_ORIGIN in geo and UNDATED_FIX_UNUSED not in geo
     assert UNDATED_FIX_UNUSED in plain and not any("dip" in w for w in plain), plain
+
+
+def test_a_gyroscope_that_starts_a_batch_late_still_gets_the_mode_classifier(real_app):
+    # A pocket phone whose first 2 s batch has no gyroscope (it starts with the second): the shipped pocket model
+    # needs the gyroscope. Before, the first batch turned the classifier off for the whole session ("the mode
+    # classifier cannot use this data") and the gyroscope was never used by the track either.
+    from dataclasses import replace
+
+    from pdr import state_codec
+    from pdr.io.native import batch_to_json
+    from pdr.io.registry import read_recording
+    from pdr.recording import GroundTruth
+    from tests.pdr.phone.test_live_streams import _lagged
+
+    app, token = real_app
+    c = app.test_client()
+    rec = read_recording(data_path("sensor_logger_walks", "inpocket-27-steps-Matan"))
+    sid = c.post("/api/v1/sessions", json={"session_id": "late-gyro", "placement": "trouser_pocket"},
+                 headers=bearer(token)).get_json()["id"]
+    for i, part in enumerate(_lagged(rec, 2.0, ("gyro",))):
+        body = batch_to_json(replace(part, truth=GroundTruth()), session_id="late-gyro", batch_id=f"b{i:03d}")
+        assert c.post(f"/api/v1/sessions/{sid}/batches", json=body, headers=bearer(token)).status_code == 201
+        assert app.extensions["pdr"].worker.wait_idle(120)
+    session = c.get(f"/api/v1/sessions/{sid}", headers=bearer(token)).get_json()
+    assert session["status"] == "done" and session["steps"] == 28, session
+    assert not any("cannot use this data" in w for w in session["warnings"]), session["warnings"]
+    assert any(w.startswith("gyroscope data starts at t=") for w in session["warnings"])
+    state, _ = app.extensions["pdr"].store.load_state(sid, "phone")
+    assert state_codec.loads(state)["classifier_status"] == "active"

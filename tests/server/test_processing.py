@@ -37,6 +37,42 @@ def test_batches_processed_in_time_order_even_when_sent_out_of_order(app, client
     assert _track(client, sid2, tokens["alice"]) == in_order
 
 
+def test_a_stream_sent_a_batch_late_does_not_rebuild_the_session_at_every_batch(app, client, tokens, monkeypatch):
+    # A phone that sends its gyroscope one batch late: every batch starts (its gyroscope) before the end of the last
+    # one (its accelerometer). Before, each such batch was taken as out of order and rebuilt the whole session from
+    # its raw batches (a cost growing with the session at every batch); now they go on in arrival order. A batch that
+    # ends before what was processed still rebuilds.
+    from pdr.io.native import batch_to_json
+    from pdr.recording import DeviceInfo, Recording, SensorStream
+
+    def batch(i: int, gyro_from: float) -> dict:
+        t0 = 1_700_000_000_000_000_000
+        acc_t = (t0 + np.round((i + np.arange(50) / 50) * 1e9)).astype(np.int64)
+        gyro_t = (t0 + np.round((gyro_from + np.arange(50) / 50) * 1e9)).astype(np.int64)
+        rec = Recording({"acc": SensorStream("acc", acc_t, np.tile([0.0, 0.0, 9.81], (50, 1))),
+                         "gyro": SensorStream("gyro", gyro_t, np.zeros((50, 3)))}, DeviceInfo(role="phone"))
+        return batch_to_json(rec, session_id="s1", batch_id=f"b{i}")
+
+    rebuilds: list[str] = []
+    store = app.extensions["pdr"].store
+    clear = store.clear_results
+
+    def counted(session_id: str) -> None:
+        rebuilds.append(session_id)
+        clear(session_id)
+
+    monkeypatch.setattr(store, "clear_results", counted)
+    h = bearer(tokens["alice"])
+    sid = _new_session(client, tokens["alice"])
+    for i in range(1, 6):
+        assert client.post(f"/api/v1/sessions/{sid}/batches", json=batch(i, i - 1.0), headers=h).status_code == 201
+        app.extensions["pdr"].worker.wait_idle()
+    assert rebuilds == [] and [p["east_m"] for p in _track(client, sid, tokens["alice"])] == [1.0, 2.0, 3.0, 4.0, 5.0]
+    client.post(f"/api/v1/sessions/{sid}/batches", json=batch(0, 0.0), headers=h)   # from before all of them
+    app.extensions["pdr"].worker.wait_idle()
+    assert rebuilds == [sid] and len(_track(client, sid, tokens["alice"])) == 6
+
+
 def test_reprocess_gives_identical_results(app, client, tokens):
     h = bearer(tokens["alice"])
     sid = _new_session(client, tokens["alice"])

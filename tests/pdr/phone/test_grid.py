@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from pdr.errors import InputError
-from pdr.phone.grid import MAX_STREAM_GAP_S, OnlineGrid
+from pdr.phone.grid import MAX_JUMP_S, MAX_LAG_S, MAX_RUN_S, MAX_STREAM_GAP_S, OnlineGrid
 from pdr.recording import Recording, SensorStream
 
 
@@ -132,3 +132,142 @@ def test_a_stopped_stream_does_not_hold_up_a_live_session_and_batches_give_the_o
         emitted.append(run)
     assert emitted[-1][0][-1] == pytest.approx(20.0 + MAX_STREAM_GAP_S + 1.0, abs=0.02)
     assert "gyro" not in emitted[-1][1] and "gyro" in emitted[-2][1]
+
+
+def test_a_stream_missing_from_the_first_batch_joins_when_it_arrives():
+    # The gyroscope starts 1.5 s after the accelerometer, in the second batch: it joins the grid then, absent before
+    # its first sample and interpolated from there on; a stream not named in may_join never joins.
+    acc_t, gyro_t = np.arange(0.0, 5.0, 0.01), np.arange(1.505, 5.0, 0.01)
+    rec = _rec({"acc": acc_t, "gyro": gyro_t}, _lin)
+    first = Recording({"acc": rec.streams["acc"]}).slice_time(0.0, 1.0)
+    g = OnlineGrid(50.0, ("acc",), may_join=("gyro",))
+    assert g.push(first) == []
+    ts: list[np.ndarray] = []
+    vs: dict[str, list[np.ndarray]] = {"acc": [], "gyro": []}
+    while _keep(ts, vs, *g.pull()):
+        pass
+    g = OnlineGrid.from_state(g.state())
+    assert g.push(rec.slice_time(1.0, 2.0)) == ["gyroscope data starts at t=1.50 s, after the session's first batch: "
+                                                "used from there on"] and g.kinds == ("acc", "gyro")
+    g = OnlineGrid.from_state(g.state())
+    assert g.push(rec.slice_time(2.0, 5.0)) == []
+    while _keep(ts, vs, *g.pull()):
+        pass
+    while _keep(ts, vs, *g.flush()):
+        pass
+    t, gyro = np.concatenate(ts), np.concatenate(vs["gyro"])
+    late = t < gyro_t[0]
+    assert late.any() and np.isnan(gyro[late]).all()
+    np.testing.assert_allclose(gyro[~late], _lin("gyro", t[~late]), atol=1e-9)
+    assert np.all(np.diff(t) == pytest.approx(0.02)) and t[-1] == pytest.approx(4.98)
+    # Without may_join (and in states saved before it) the stream is not taken up.
+    g = OnlineGrid(50.0, ("acc",))
+    g.push(first)
+    assert g.push(rec.slice_time(1.0, 2.0)) == [] and g.kinds == ("acc",)
+
+
+def test_a_batch_whose_clock_went_back_is_said_once_and_a_batch_sent_again_is_not():
+    acc_t = np.arange(0.0, 20.0, 0.01)
+    rec = _rec({"acc": acc_t, "gyro": acc_t + 0.003}, _lin)
+    g = OnlineGrid(50.0, ("acc", "gyro"))
+    assert g.push(rec.slice_time(0.0, 4.0)) == [] and g.push(rec.slice_time(4.0, 8.0)) == []
+    # Sent again (after a timeout), or overlapping the last batch by less than BACK_TOLERANCE_S: nothing to say.
+    assert g.push(rec.slice_time(4.0, 8.0)) == [] and g.push(rec.slice_time(7.7, 9.0)) == []
+    g = OnlineGrid.from_state(g.state())
+    # The app restarts with a new clock (from 0 s again): said once, while its batches stay before what was taken.
+    shifted = _rec({"acc": acc_t[:600] + 0.0042, "gyro": acc_t[:600] + 0.0072}, _lin)
+    said = g.push(shifted.slice_time(0.0, 2.0))
+    assert len(said) == 1 and "goes 8.99 s back before data already processed (up to t=8.99 s)" in said[0]
+    g = OnlineGrid.from_state(g.state())
+    assert g.push(shifted.slice_time(2.0, 4.0)) == []
+    assert g.push(rec.slice_time(9.0, 12.0)) == []
+    assert len(g.push(rec.slice_time(3.0, 5.0))) == 1           # a new episode is said again
+
+
+def test_a_stream_a_whole_batch_late_is_waited_for_once_its_lag_is_known():
+    # 5 s batches; from the second on, the gyroscope's samples come a batch late (5 s behind, more than the 4 s
+    # slack). The first late batch is taken as a stop (its points go without the gyro); the gyro then goes on where it
+    # left off, so the grid learns the lag, says so, and from there every point has the gyro.
+    t = np.arange(0.0, 40.0, 0.01)
+    rec = _rec({"acc": t, "gyro": t + 0.004}, _lin)
+    g = OnlineGrid(50.0, ("acc", "gyro"))
+    ts: list[np.ndarray] = []
+    vs: dict[str, list[np.ndarray]] = {"acc": [], "gyro": []}
+    said = []
+    for a in np.arange(0.0, 40.0, 5.0):
+        acc = rec.slice_time(a, a + 5.0).streams["acc"]
+        gyro = rec.slice_time(max(a - 5.0, 0.0), a if a >= 10.0 else a + 5.0).streams["gyro"] if a != 5.0 else None
+        said += g.push(Recording({"acc": acc} if gyro is None else {"acc": acc, "gyro": gyro}))
+        while _keep(ts, vs, *g.pull()):
+            pass
+        g = OnlineGrid.from_state(g.state())
+    assert len(said) == 1 and said[0].startswith("gyroscope data comes 5.0 s behind the accelerometer's")
+    tg, gyro_v = np.concatenate(ts), np.concatenate(vs["gyro"])
+    missing = np.isnan(gyro_v[:, 0])
+    assert missing.any() and tg[missing].max() < 10.0       # only the points of the first late batch
+    assert tg[-1] >= 29.0                                    # live: waits at most the learnt lag (7 s)
+
+
+def test_an_hour_without_data_is_bridged_run_by_run_and_a_clock_reset_by_days_is_refused():
+    # The app is suspended for an hour: the accelerometer is interpolated across it in runs of at most MAX_RUN_S
+    # (before, one run of 180 000 points; a day took 2 GB), the gyroscope absent there.
+    t = np.arange(0.0, 5.0, 0.01)
+    g = OnlineGrid(50.0, ("acc", "gyro"))
+    g.push(_rec({"acc": t, "gyro": t + 0.004}, _lin))
+    runs = []
+    said = g.push(_rec({"acc": t + 3605.0, "gyro": t + 3605.004}, _lin))
+    assert said == ["no accelerometer data from t=4.99 to 3605.00 s (3600.0 s: the app suspended, or the phone stopped "
+                    "sending): it is bridged by interpolation, no step is counted in it and the track goes on from "
+                    "where it was"]
+    while (run := g.pull())[0].size:
+        runs.append(run)
+    assert max(r[0].size for r in runs) <= MAX_RUN_S * 50.0
+    tg = np.concatenate([r[0] for r in runs])
+    assert np.all(np.diff(tg) == pytest.approx(0.02)) and tg[0] < 5.0 and tg[-1] > 3600.0
+    acc = np.concatenate([r[1]["acc"] for r in runs])
+    np.testing.assert_allclose(acc, _lin("acc", tg), atol=1e-6)
+    assert not any("gyro" in r[1] for r in runs if r[0][0] > 10.0 and r[0][-1] < 3600.0)
+    # A clock that jumps forward by more than MAX_JUMP_S is refused, and the grid is left as it was.
+    before = g.state()
+    with pytest.raises(InputError, match="clock jumps .* forward"):
+        g.push(_rec({"acc": t + 3610.0 + MAX_JUMP_S + 1.0, "gyro": t + 3610.0 + MAX_JUMP_S + 1.0}, _lin))
+    assert g.state() == before
+
+
+@pytest.mark.parametrize("cuts", [[], list(np.arange(2.0, 120.0, 2.0))])
+def test_a_barometer_at_half_a_hertz_is_bridged_between_its_samples_and_still_stops(cuts):
+    # A barometer that reports every 2 s (with 30 ms of jitter): every interval is near MAX_STREAM_GAP_S. Before, about
+    # half of its intervals were taken as gaps (54 % of the points had it; at 0.4 Hz, none); its gaps are now measured
+    # in its own periods. It stops at 80 s: absent from some 2.5 periods after its last sample.
+    rng = np.random.default_rng(0)
+    baro_t = np.sort(np.arange(0.3, 80.0, 2.0) + rng.normal(0.0, 0.03, 40))
+    rec = Recording({"acc": SensorStream("acc", np.round(np.arange(0.0, 120.0, 0.01) * 1e9).astype(np.int64),
+                                         np.zeros((12000, 3))),
+                     "baro": SensorStream("baro", np.round(baro_t * 1e9).astype(np.int64), np.full((40, 1), 1000.0))})
+    t, v = _feed(OnlineGrid(50.0, ("acc", "baro")), rec, cuts)
+    present = ~np.isnan(v["baro"][:, 0])
+    assert present[t <= baro_t[-1]].all()
+    assert not present[t > baro_t[-1] + 5.5].any()
+
+
+def test_other_streams_stay_bounded_while_the_accelerometer_has_stopped():
+    # The accelerometer stops at 10 s while the gyroscope goes on for 10 minutes in 5 s batches. Before, the gyro's
+    # buffer (and the saved state) grew with the session; now it keeps what the accelerometer's points need and its
+    # last MAX_LAG_S, and a notice says so once. A recording pushed whole keeps the gyro up to the accelerometer's end.
+    t = np.arange(0.0, 610.0, 0.01)
+    rec = _rec({"acc": t[t < 10.0], "gyro": t + 0.004}, _lin)
+    g = OnlineGrid(50.0, ("acc", "gyro"))
+    said, sizes = [], []
+    for a in np.arange(0.0, 610.0, 5.0):
+        said += g.push(rec.slice_time(a, a + 5.0))
+        while g.pull()[0].size:
+            pass
+        g = OnlineGrid.from_state(g.state())
+        sizes.append(g.buf_t["gyro"].size)
+    assert len(said) == 1 and said[0].startswith("no accelerometer data since t=9.99 s while the other sensors go on")
+    assert max(sizes) <= (MAX_LAG_S + 5.0) * 100 + 10
+    whole = OnlineGrid(50.0, ("acc", "gyro"))
+    whole.push(rec)
+    tg, vals = whole.pull()
+    assert tg[-1] == pytest.approx(9.98) and "gyro" in vals
+    np.testing.assert_allclose(vals["gyro"], _lin("gyro", tg), atol=1e-9)
