@@ -61,6 +61,11 @@ def fuse_session(store: Store, session_id: str) -> bool:
     rows = store.events(session_id, "step", since_s=since)
     if state is None and not set(FEET.values()) <= {r.device_role for r in rows}:
         return False        # both feet live, but one has not taken a step yet
+    # The feet's rows whose modes the updates take (_row): the new ones, and those of the steps the fusion holds.
+    oldest = fusion.oldest_unreleased_s()
+    mode_rows = rows if oldest is None or (since is not None and oldest > since) else store.events(
+        session_id, "step", since_s=oldest - 1e-6)
+    standing = {(r.device_role, r.t_s) for r in mode_rows if r.label == STAND_MODE}
     out: list[FusedStep] = []
     for side, role in FEET.items():
         out += fusion.add_steps(side, step_increments(rows, role, last[side], provisional=False))
@@ -74,7 +79,6 @@ def fuse_session(store: Store, session_id: str) -> bool:
         tail += tail_fusion.finish()
     except InputError:          # a provisional step that the final ones have overtaken: no tail this time
         tail = []
-    standing = {(r.device_role, r.t_s) for r in rows if r.label == STAND_MODE}
     store.commit_results(session_id, ROLE, None, json.dumps(fusion.to_dict()).encode(), None,
                          [_row(u, standing) for u in out], [], tail_track=[_row(u, standing) for u in tail])
     return True

@@ -314,6 +314,13 @@ class DualFootFusion:
             return []
         return self._release(min(left, right))
 
+    def oldest_unreleased_s(self) -> float | None:
+        """Time (s) of the oldest step received but not yet given out as a :class:`FusedStep` (waiting for the other
+        foot, or held before the alignment), or None.
+        """
+        times = [float(s.t_s) for p in self.pending for s in p] + [float(s.t_s) for _, s in self.held]
+        return min(times) if times else None
+
     def finish(self) -> list[FusedStep]:
         """Fuse every step still held (neither foot will report older steps); starts unaligned feet."""
         out = self._release(math.inf)
