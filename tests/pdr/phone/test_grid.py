@@ -132,3 +132,24 @@ def test_a_stopped_stream_does_not_hold_up_a_live_session_and_batches_give_the_o
         emitted.append(run)
     assert emitted[-1][0][-1] == pytest.approx(20.0 + MAX_STREAM_GAP_S + 1.0, abs=0.02)
     assert "gyro" not in emitted[-1][1] and "gyro" in emitted[-2][1]
+
+
+def test_runs_longer_than_the_search_window_are_found_whole():
+    # Runs of 7 500 and 15 000 grid points, past the first window in which the grid looks for a change of the
+    # streams present: the one-batch grid has the same runs as one fed in batches shorter than that window.
+    acc_t = np.arange(0.0, 400.0, 0.01)
+    gyro_t = np.concatenate([np.arange(0.003, 150.0, 0.01), np.arange(154.003, 300.0, 0.01),
+                             np.arange(304.003, 400.0, 0.01)])
+    rec = _rec({"acc": acc_t, "gyro": gyro_t}, lambda k, t: np.column_stack([np.sin(t), np.cos(2 * t), t]))
+    g = OnlineGrid(50.0, ("acc", "gyro"))
+    g.push(rec)
+    runs = []
+    while (run := g.pull())[0].size:
+        runs.append((run[0][0], run[0][-1], "gyro" in run[1]))
+    assert [(round(a, 2), round(b, 2), p) for a, b, p in runs[:4]] == [
+        (0.02, 149.98, True), (150.0, 154.0, False), (154.02, 299.98, True), (300.0, 304.0, False)]
+    t1, v1 = _feed(OnlineGrid(50.0, ("acc", "gyro")), rec, [])
+    t2, v2 = _feed(OnlineGrid(50.0, ("acc", "gyro")), rec, list(np.arange(20.0, 400.0, 20.0)))
+    np.testing.assert_array_equal(t1, t2)
+    for k in v1:
+        np.testing.assert_array_equal(v1[k], v2[k])
