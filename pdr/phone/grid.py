@@ -105,10 +105,13 @@ class OnlineGrid:
         out = {}
         for k in self.kinds:
             bt, bv = self.buf_t[k], self.buf_v[k]
-            if k not in present or present[k]:
-                out[k] = np.column_stack([np.interp(tg, bt, bv[:, j]) for j in range(bv.shape[1])])
-            # Keep the last sample at or before the last emitted grid time, and everything after it.
+            # The last sample at or before the last grid time: the buffer keeps it and everything after it.
             i = max(int(np.searchsorted(bt, tg[-1], side="right")) - 1, 0)
+            if k not in present or present[k]:
+                # The samples that bracket the run only (the same values): np.interp copies a strided column whole,
+                # and a whole log pushed at once would be copied for every run.
+                lo = max(int(np.searchsorted(bt, tg[0], side="right")) - 1, 0)
+                out[k] = np.column_stack([np.interp(tg, bt[lo:i + 2], bv[lo:i + 2, j]) for j in range(bv.shape[1])])
             self.buf_t[k], self.buf_v[k] = bt[i:], bv[i:]
         self.next_k += tg.size
         return tg, out

@@ -153,3 +153,7 @@ def test_runs_longer_than_the_search_window_are_found_whole():
     np.testing.assert_array_equal(t1, t2)
     for k in v1:
         np.testing.assert_array_equal(v1[k], v2[k])
+    # The values are np.interp's over the whole streams, to the bit (the grid interpolates the bracketing samples).
+    s = rec.stream("acc")
+    whole = np.column_stack([np.interp(t1, s.t_ns / 1e9, s.values[:, j]) for j in range(3)])
+    np.testing.assert_array_equal(v1["acc"], whole)
