@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import ast
 import functools
+import gc
 import importlib.util
 import logging
 import re
@@ -150,7 +151,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     freeze_at_exit()            # the interpreter's last collections would walk every object (pdr.cli.collector)
     with collection_paused():   # the command's modules: many long-lived objects (pdr.cli.collector)
         parser = build_parser(words)
-    args = parser.parse_args(words)
+        gc.freeze()             # and not walked while the command runs (pdr.cli.collector)
+    try:
+        return _run(parser.parse_args(words))
+    finally:
+        gc.unfreeze()
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Run the parsed command line's command; its exit code (an :class:`InputError`, and a path that cannot be opened,
+    said in one line: exit 2).
+    """
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
     try:

@@ -23,14 +23,22 @@ the largest part of the first kernel call of a ``pdr track`` or ``pdr classify``
 cache is linked already and needs none of them: only numba's runtime (its allocator, for kernels that make arrays)
 must be up. :class:`LeanFunctionCache` loads with that alone. When a kernel is not in the cache (a first run, a new
 signature, an edited source), numba compiles it, and its compiler refreshes the target as before.
+
+A load also runs without llvmlite's lock callbacks (:func:`_llvm_lock_callbacks_off`). Every call into LLVM takes
+llvmlite's lock, and numba hooks the lock to fire a ``numba:llvm_lock`` event, which the dispatcher times while it
+compiles or loads: several thousand calls per process, 40-70 ms of a ``pdr track`` process's 11 loads. The time is
+kept for a compiled kernel only (in its metadata, which a kernel loaded from the cache has none of), so the loads
+skip it.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import numba
+from llvmlite.binding import ffi
 from numba.core.caching import FunctionCache
 from numba.core.runtime import rtsys
 
@@ -42,9 +50,26 @@ class LeanFunctionCache(FunctionCache):
 
     def load_overload(self, sig: Any, target_context: Any) -> Any:
         """The cached compile result of ``sig``, or None (numba then compiles, refreshing the target itself)."""
-        rtsys.initialize(target_context)
-        with self._guard_against_spurious_io_errors():
-            return self._load_overload(sig, target_context)
+        with _llvm_lock_callbacks_off():
+            rtsys.initialize(target_context)
+            with self._guard_against_spurious_io_errors():
+                return self._load_overload(sig, target_context)
+
+
+@contextmanager
+def _llvm_lock_callbacks_off() -> Iterator[None]:
+    """The lock callbacks of llvmlite (numba's ``numba:llvm_lock`` event) unregistered inside the block (module doc).
+
+    numba loads from its cache under its global compiler lock, so no other load or compilation runs meanwhile.
+    """
+    callbacks = list(ffi.lib._lock._cblist)
+    for acquired, released in callbacks:
+        ffi.unregister_lock_callback(acquired, released)
+    try:
+        yield
+    finally:
+        for acquired, released in callbacks:
+            ffi.register_lock_callback(acquired, released)
 
 
 def cached_njit(**options: Any) -> Callable[[Callable[..., Any]], Any]:

@@ -208,7 +208,9 @@ def _read_text_fast(p: Path, raw: bytes, compiled: bool = True) -> Recording | N
     comment = head[:, 0] == ord("%")
     lower = head[:, :4] | 0x20                            # ASCII letters in lower case
     alnum = ((head[:, :4] >= ord("0")) & (head[:, :4] <= ord("9"))) | ((lower >= ord("a")) & (lower <= ord("z")))
-    other4 = tagged & np.all(alnum, axis=1) & ~known      # the skipped records with a four-letter tag
+    # The four columns and-ed: the same as np.all(alnum, axis=1), which reduces each short row alone (7x slower).
+    all4 = alnum[:, 0] & alnum[:, 1] & alnum[:, 2] & alnum[:, 3]
+    other4 = tagged & all4 & ~known                       # the skipped records with a four-letter tag
     rest = np.flatnonzero(~(known | comment | other4))
     ignored_at: dict[int, str] = {}
     for i in rest.tolist():                               # blank lines and skipped records of other tag lengths

@@ -269,20 +269,38 @@ class OnlineGrid:
         if k_end < self.next_k:
             return np.zeros(0), {k: np.zeros((0, max(self.buf_v[k].shape[1], 1))) for k in self.kinds}
         tg = np.arange(self.next_k, k_end + 1) / self.rate_hz
-        present = {k: self._present(k, tg) for k in self.kinds[1:]}
-        changes = [int(np.argmax(p != p[0])) for p in present.values() if not (p == p[0]).all()]
-        if changes:
-            tg = tg[:min(changes)]
+        tg, present = self._leading_run(tg)
         out = {}
         for k in self.kinds:
             bt, bv = self.buf_t[k], self.buf_v[k]
-            if k not in present or present[k][0]:
-                out[k] = np.column_stack([np.interp(tg, bt, bv[:, j]) for j in range(bv.shape[1])])
-            # Keep the last sample at or before the last emitted grid time, and everything after it.
+            # The last sample at or before the last grid time: the buffer keeps it and everything after it.
             i = max(int(np.searchsorted(bt, tg[-1], side="right")) - 1, 0)
+            if k not in present or present[k]:
+                # The samples that bracket the run only (the same values): np.interp copies a strided column whole,
+                # and a whole log pushed at once would be copied for every run.
+                lo = max(int(np.searchsorted(bt, tg[0], side="right")) - 1, 0)
+                out[k] = np.column_stack([np.interp(tg, bt[lo:i + 2], bv[lo:i + 2, j]) for j in range(bv.shape[1])])
             self.buf_t[k], self.buf_v[k] = bt[i:], bv[i:]
         self.next_k += tg.size
         return tg, out
+
+    def _leading_run(self, tg: FloatArray) -> tuple[FloatArray, dict[str, bool]]:
+        """The leading grid times of ``tg`` over which the same streams are present, and whether each stream but
+        the primary is present over them.
+
+        The first change is looked for in windows that double in length: a buffer that falls into many runs (a
+        whole log pushed at once) would otherwise cost time quadratic in its length, the presence of every
+        remaining grid point being computed again for each run.
+        """
+        n = 4096
+        while True:
+            w = tg[:n]
+            present = {k: self._present(k, w) for k in self.kinds[1:]}
+            changes = [int(np.argmax(p != p[0])) for p in present.values() if not (p == p[0]).all()]
+            if changes or w.size == tg.size:
+                run = tg[:min(changes)] if changes else tg
+                return run, {k: bool(p[0]) for k, p in present.items()}
+            n *= 2
 
     def pull(self) -> tuple[FloatArray, dict[str, FloatArray]]:
         """The next run of grid points that the streams already cover, over which the same streams are present:

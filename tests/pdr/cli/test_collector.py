@@ -31,3 +31,23 @@ def test_freeze_at_exit_freezes_before_the_interpreter_finalises() -> None:
             "print(gc.get_freeze_count(), flush=True)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120)
     assert out.stdout.split() == ["0", "True"]
+
+
+
+def test_main_freezes_the_loaded_objects_while_the_command_runs_only(monkeypatch) -> None:
+    import argparse
+
+    import pdr.cli as cli
+
+    seen: list[int] = []
+
+    def parser(words):
+        p = argparse.ArgumentParser()
+        p.add_argument("-v", "--verbose", action="store_true")
+        p.set_defaults(func=lambda args: seen.append(gc.get_freeze_count()))
+        return p
+
+    monkeypatch.setattr(cli, "build_parser", parser)
+    gc.unfreeze()
+    assert cli.main([]) == 0
+    assert seen[0] > 0 and gc.get_freeze_count() == 0       # frozen while it ran, back in the collections after

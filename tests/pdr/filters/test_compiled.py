@@ -30,7 +30,8 @@ _RUN = ("import json, sys; import numpy as np; import lean_kernel_probe as m; "
         "a = m.ratios(np.array([1.0, -2.0, 0.0]), 0.0); b = m.ratios(np.arange(3.0), 4); "
         "print(json.dumps({'values': [repr(float(v)) for v in np.concatenate([a, b])], "
         "'cache_hits': sum(m.ratios.stats.cache_hits.values()), "
-        "'refreshed': 'numba.np.arraymath' in sys.modules}))")
+        "'refreshed': 'numba.np.arraymath' in sys.modules, "
+        "'lock_callbacks': len(__import__('llvmlite.binding.ffi').binding.ffi.lib._lock._cblist)}))")
 
 
 def test_a_kernel_loads_from_the_cache_without_the_registry_refresh(tmp_path: Path) -> None:
@@ -43,6 +44,8 @@ def test_a_kernel_loads_from_the_cache_without_the_registry_refresh(tmp_path: Pa
     assert compiled["cache_hits"] == 0 and compiled["refreshed"]
     assert loaded["cache_hits"] == 2 and not loaded["refreshed"]
     assert loaded["values"] == compiled["values"] == ["inf", "-inf", "nan", "0.0", "0.25", "0.5"]
+    # numba's hook on llvmlite's lock, off while a kernel loads, is back after the loads.
+    assert loaded["lock_callbacks"] == compiled["lock_callbacks"] == 1
 
 
 def test_with_the_jit_disabled_a_kernel_runs_as_python(tmp_path: Path) -> None:

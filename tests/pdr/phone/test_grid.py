@@ -271,3 +271,28 @@ def test_other_streams_stay_bounded_while_the_accelerometer_has_stopped():
     tg, vals = whole.pull()
     assert tg[-1] == pytest.approx(9.98) and "gyro" in vals
     np.testing.assert_allclose(vals["gyro"], _lin("gyro", tg), atol=1e-9)
+
+
+def test_runs_longer_than_the_search_window_are_found_whole():
+    # Runs of 7 500 and 15 000 grid points, past the first window in which the grid looks for a change of the
+    # streams present: the one-batch grid has the same runs as one fed in batches shorter than that window.
+    acc_t = np.arange(0.0, 400.0, 0.01)
+    gyro_t = np.concatenate([np.arange(0.003, 150.0, 0.01), np.arange(154.003, 300.0, 0.01),
+                             np.arange(304.003, 400.0, 0.01)])
+    rec = _rec({"acc": acc_t, "gyro": gyro_t}, lambda k, t: np.column_stack([np.sin(t), np.cos(2 * t), t]))
+    g = OnlineGrid(50.0, ("acc", "gyro"))
+    g.push(rec)
+    runs = []
+    while (run := g.pull())[0].size:
+        runs.append((run[0][0], run[0][-1], "gyro" in run[1]))
+    assert [(round(a, 2), round(b, 2), p) for a, b, p in runs[:4]] == [
+        (0.02, 149.98, True), (150.0, 154.0, False), (154.02, 299.98, True), (300.0, 304.0, False)]
+    t1, v1 = _feed(OnlineGrid(50.0, ("acc", "gyro")), rec, [])
+    t2, v2 = _feed(OnlineGrid(50.0, ("acc", "gyro")), rec, list(np.arange(20.0, 400.0, 20.0)))
+    np.testing.assert_array_equal(t1, t2)
+    for k in v1:
+        np.testing.assert_array_equal(v1[k], v2[k])
+    # The values are np.interp's over the whole streams, to the bit (the grid interpolates the bracketing samples).
+    s = rec.stream("acc")
+    whole = np.column_stack([np.interp(t1, s.t_ns / 1e9, s.values[:, j]) for j in range(3)])
+    np.testing.assert_array_equal(v1["acc"], whole)
