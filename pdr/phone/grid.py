@@ -15,6 +15,10 @@ present), and the consumers run without it (no gyroscope, no magnetometer, ...) 
 waits for a stream at most twice that gap behind the accelerometer: the first half is the gap itself, the second
 the slack allowed to a stream whose samples arrive in a later batch than the accelerometer's of the same time.
 Within that slack the grid is the same whatever the batches; none of the shared recordings has a gap that long.
+A gap that the primary stream shares is a pause of the recording, not a stream that stopped: a short one (the primary's
+own gap at most that long, the joins of a tiled log) is bridged when what is left of it beyond the primary's gap is at
+most that long too; a long one (an app suspended) leaves the stream absent, since a rate bridged over it would turn
+the attitude.
 A slow stream (a barometer at 0.5 Hz, whose every interval is near or over that gap) has its gaps measured in its
 own periods instead: gaps of up to :data:`SLOW_GAP_PERIODS` of its median period are bridged (at most
 :data:`MAX_SLOW_GAP_S`), and the wait scales with them.
@@ -258,7 +262,25 @@ class OnlineGrid:
         after_last = i == bt.size - 1
         gap = self._gap(kind)
         held = float(self.buf_t[self.kinds[0]][-1]) - float(bt[-1]) <= gap
-        return ~before & ((tg == bt[i]) | np.where(after_last, held, nxt - bt[i] <= gap))
+        bridged = nxt - bt[i] <= gap
+        for j in np.unique(i[~after_last & ~bridged]).tolist():     # a long gap: a short pause of every stream?
+            bridged[i == j] = self._short_pause(float(bt[j]), float(bt[j + 1]), gap)
+        return ~before & ((tg == bt[i]) | np.where(after_last, held, bridged))
+
+    def _short_pause(self, a: float, b: float, gap: float) -> bool:
+        """Whether a stream's gap from ``a`` to ``b`` (s) is a short pause of the whole recording, not a stream that
+        stopped: the primary stream has a gap of its own, itself at most ``gap`` s (bridged, as the primary's gaps
+        are), over all of it but at most ``gap`` s (the joins of a tiled log; a longer pause of every stream, an app
+        suspended, leaves the stream absent, as a rate held over it would turn the attitude). The primary's samples
+        from before ``a`` must still be buffered: once the grid went on past ``a`` without the stream, it had taken
+        it as stopped while the primary went on.
+        """
+        p = self.buf_t[self.kinds[0]]
+        if not p.size or p[0] > a:
+            return False
+        inside = p[(p > a) & (p < b)]
+        longest = float(np.max(np.diff(np.concatenate([[a], inside, [b]]))))
+        return longest <= gap and (b - a) - longest <= gap
 
     def _emit(self, k_end: int) -> tuple[FloatArray, dict[str, FloatArray]]:
         """Grid points next_k .. k_end (inclusive), up to the first at which a stream starts or stops being present

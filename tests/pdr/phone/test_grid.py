@@ -296,3 +296,24 @@ def test_runs_longer_than_the_search_window_are_found_whole():
     s = rec.stream("acc")
     whole = np.column_stack([np.interp(t1, s.t_ns / 1e9, s.values[:, j]) for j in range(3)])
     np.testing.assert_array_equal(v1["acc"], whole)
+
+
+@pytest.mark.parametrize("cuts", [[], list(np.arange(0.5, 12.0, 1.0)), [5.0, 5.05, 7.5]])
+def test_a_short_pause_of_every_stream_is_bridged_and_a_stream_missing_as_long_while_the_primary_goes_on_is_not(cuts):
+    # Every stream pauses from about 5.0 to 6.9 s (the joins of a tiled log): the accelerometer's gap is 1.90 s, the
+    # barometer's (5 Hz) 2.05 s, over MAX_STREAM_GAP_S only by what it adds to the accelerometer's. It is bridged, as
+    # the accelerometer's own gap is. The gyroscope missing as long while the accelerometer goes on has stopped.
+    acc_t = np.concatenate([np.arange(0.0, 5.0, 0.01), np.arange(6.9, 12.0, 0.01)])
+    baro_t = np.concatenate([np.arange(0.05, 4.9, 0.2), np.arange(6.95, 12.0, 0.2)])
+    gyro_t = np.concatenate([np.arange(0.003, 8.0, 0.01), np.arange(10.053, 12.0, 0.01)])
+    rec = _rec({"acc": acc_t, "gyro": gyro_t, "baro": baro_t},
+               lambda k, t: t[:, None] if k == "baro" else np.column_stack([np.sin(t), np.cos(2 * t), t]))
+    assert np.diff(acc_t).max() < MAX_STREAM_GAP_S < np.diff(baro_t).max() < 2 * MAX_STREAM_GAP_S
+    t, v = _feed(OnlineGrid(50.0, ("acc", "gyro", "baro")), rec, cuts)
+    assert not np.isnan(v["baro"]).any()
+    stopped = (t > gyro_t[gyro_t < 8.0][-1]) & (t < 10.053)
+    assert stopped.any() and np.isnan(v["gyro"][stopped]).all() and not np.isnan(v["gyro"][~stopped]).any()
+    t1, v1 = _feed(OnlineGrid(50.0, ("acc", "gyro", "baro")), rec, [])
+    np.testing.assert_array_equal(t, t1)
+    for k in v:
+        np.testing.assert_array_equal(v[k], v1[k])
