@@ -34,6 +34,7 @@ class StreamKind:
     columns: tuple[str, ...]
     unit: str
     description: str
+    sensor: str         # the sensor's name in messages to the user ("gyroscope")
 
 
 _XYZ = ("x", "y", "z")
@@ -42,18 +43,20 @@ _XYZ = ("x", "y", "z")
 STREAM_KINDS: Mapping[str, StreamKind] = MappingProxyType({
     k.name: k
     for k in (
-        StreamKind("acc", _XYZ, "m/s^2", "specific force including gravity, body frame"),
-        StreamKind("gyro", _XYZ, "rad/s", "angular rate, body frame"),
-        StreamKind("mag", _XYZ, "uT", "magnetic field, body frame"),
-        StreamKind("baro", ("p",), "hPa", "static air pressure"),
-        StreamKind("gravity", _XYZ, "m/s^2", "gravity estimate of the platform, body frame (points up at rest)"),
-        StreamKind("lin_acc", _XYZ, "m/s^2", "linear acceleration (acc minus gravity), body frame"),
+        StreamKind("acc", _XYZ, "m/s^2", "specific force including gravity, body frame", "accelerometer"),
+        StreamKind("gyro", _XYZ, "rad/s", "angular rate, body frame", "gyroscope"),
+        StreamKind("mag", _XYZ, "uT", "magnetic field, body frame", "magnetometer"),
+        StreamKind("baro", ("p",), "hPa", "static air pressure", "barometer"),
+        StreamKind("gravity", _XYZ, "m/s^2", "gravity estimate of the platform, body frame (points up at rest)",
+                   "gravity sensor"),
+        StreamKind("lin_acc", _XYZ, "m/s^2", "linear acceleration (acc minus gravity), body frame",
+                   "linear acceleration sensor"),
         StreamKind("orientation", ("w", "x", "y", "z"), "1",
-                   "platform attitude q_nb (Hamilton, scalar first), body to ENU navigation frame"),
-        StreamKind("acc_uncal", _XYZ, "m/s^2", "uncalibrated specific force, body frame"),
-        StreamKind("gyro_uncal", _XYZ, "rad/s", "uncalibrated angular rate, body frame"),
-        StreamKind("mag_uncal", _XYZ, "uT", "uncalibrated magnetic field, body frame"),
-        StreamKind("temperature", ("t",), "degC", "sensor temperature"),
+                   "platform attitude q_nb (Hamilton, scalar first), body to ENU navigation frame", "orientation"),
+        StreamKind("acc_uncal", _XYZ, "m/s^2", "uncalibrated specific force, body frame", "uncalibrated accelerometer"),
+        StreamKind("gyro_uncal", _XYZ, "rad/s", "uncalibrated angular rate, body frame", "uncalibrated gyroscope"),
+        StreamKind("mag_uncal", _XYZ, "uT", "uncalibrated magnetic field, body frame", "uncalibrated magnetometer"),
+        StreamKind("temperature", ("t",), "degC", "sensor temperature", "temperature sensor"),
     )
 })
 

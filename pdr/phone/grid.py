@@ -57,11 +57,7 @@ from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.phone.phone_orientation import sign_continuous
-from pdr.recording import Recording
-
-#: Names of the streams in notices.
-STREAM_NAMES = {"acc": "accelerometer", "gyro": "gyroscope", "mag": "magnetometer", "baro": "barometer",
-                "orientation": "orientation"}
+from pdr.recording import STREAM_KINDS, Recording
 
 #: How far (s) a batch's primary samples may overlap those already taken (a sender that repeats the end of its last
 #: batch) before a notice says that the phone's clock went back (:meth:`OnlineGrid.push`).
@@ -136,7 +132,7 @@ class OnlineGrid:
         if rec.has(primary) and self.buf_t[primary].size:
             jump_s = float(rec.stream(primary).t_ns[0]) / 1e9 - float(self.buf_t[primary][-1])
             if jump_s > MAX_JUMP_S:     # refused before anything changes: a later batch meets the same jump
-                raise InputError(f"the {STREAM_NAMES.get(primary, primary)}'s clock jumps {jump_s:.0f} s forward "
+                raise InputError(f"the {_sensor(primary)}'s clock jumps {jump_s:.0f} s forward "
                                  f"(from t={float(self.buf_t[primary][-1]):.2f} s), more than a session can bridge "
                                  f"({MAX_JUMP_S:g} s): the phone's clock was reset; start a new session",
                                  source=rec.source or None, field="t_ns")
@@ -144,7 +140,7 @@ class OnlineGrid:
             if k not in self.kinds and rec.has(k):
                 self.kinds += (k,)
                 self.buf_t[k], self.buf_v[k] = np.zeros(0), np.zeros((0, 0))
-                notices.append(f"{STREAM_NAMES.get(k, k)} data starts at t={rec.stream(k).t_ns[0] / 1e9:.2f} s, "
+                notices.append(f"{_sensor(k)} data starts at t={rec.stream(k).t_ns[0] / 1e9:.2f} s, "
                                "after the session's first batch: used from there on")
         for k in self.kinds:
             if not rec.has(k):
@@ -165,7 +161,7 @@ class OnlineGrid:
             else:
                 notices += self._late(k, t, bt)
                 dt = np.diff(np.concatenate([bt[-1:], t]))
-                self.intervals[k] = [*self.intervals.get(k, []), *dt.tolist()][-RECENT_INTERVALS:]
+                self.intervals[k] = [*self.intervals.get(k, []), *dt[-RECENT_INTERVALS:].tolist()][-RECENT_INTERVALS:]
             if k in QUATERNION_KINDS:
                 v = sign_continuous(v, self.buf_v[k][-1] if self.buf_v[k].size else None)
             self.buf_t[k] = np.concatenate([bt, t])
@@ -191,7 +187,7 @@ class OnlineGrid:
         if self.primary_stopped:
             return []
         self.primary_stopped = True
-        name = STREAM_NAMES.get(self.kinds[0], self.kinds[0])
+        name = _sensor(self.kinds[0])
         return [f"no {name} data since t={float(primary[-1]):.2f} s while the other sensors go on (to t="
                 f"{max(ahead):.2f} s): nothing is processed until the {name} resumes"]
 
@@ -206,8 +202,8 @@ class OnlineGrid:
         if emitted_s <= bt[-1] or lag_s + self._gap(kind) <= self._wait(kind):
             return []
         self.wait_s[kind] = min(lag_s + self._gap(kind), MAX_LAG_S)
-        name = STREAM_NAMES.get(kind, kind)
-        return [f"{name} data comes {lag_s:.1f} s behind the {STREAM_NAMES.get(self.kinds[0], self.kinds[0])}'s "
+        name = _sensor(kind)
+        return [f"{name} data comes {lag_s:.1f} s behind the {_sensor(self.kinds[0])}'s "
                 f"(a batch late): t={float(bt[-1]):.2f} to {emitted_s:.2f} s were processed without it; the live "
                 f"track now waits up to {self.wait_s[kind]:.1f} s for it"]
 
@@ -225,7 +221,7 @@ class OnlineGrid:
 
     def _gaps(self, t: FloatArray) -> list[str]:
         """A notice for each gap over :data:`GAP_NOTICE_S` between the primary stream's samples ``t`` (s)."""
-        name = STREAM_NAMES.get(self.kinds[0], self.kinds[0])
+        name = _sensor(self.kinds[0])
         at = np.flatnonzero(np.diff(t) > GAP_NOTICE_S)        # vectorised: a whole log is pushed at once
         return [f"no {name} data from t={t[i]:.2f} to {t[i + 1]:.2f} s ({t[i + 1] - t[i]:.1f} s: the app suspended, "
                 "or the phone stopped sending): it is bridged by interpolation, no step is counted in it and the track "
@@ -244,7 +240,7 @@ class OnlineGrid:
         self.going_back = went_back and float(t_ns[-1]) / 1e9 <= float(bt[-1])
         if not notice:
             return []
-        return [f"a batch's {STREAM_NAMES.get(self.kinds[0], self.kinds[0])} data (from t={t_ns[0] / 1e9:.2f} s) "
+        return [f"a batch's {_sensor(self.kinds[0])} data (from t={t_ns[0] / 1e9:.2f} s) "
                 f"goes {back_s:.2f} s back before data already processed (up to t={float(bt[-1]):.2f} s): the "
                 "phone's clock went back or the app restarted with a new clock; what comes before that time again is "
                 "dropped (start a new session when the app restarts)"]
@@ -380,3 +376,9 @@ class OnlineGrid:
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"bad grid state ({exc})", source="grid state") from None
         return g
+
+
+def _sensor(kind: str) -> str:
+    """The sensor of a stream kind, as notices name it (:data:`pdr.recording.STREAM_KINDS`)."""
+    spec = STREAM_KINDS.get(kind)
+    return kind if spec is None else spec.sensor
