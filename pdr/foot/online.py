@@ -183,8 +183,7 @@ class OnlineFootNavigator:
             "gyro_last": None if self.gyro_last is None else [self.gyro_last[0], list(self.gyro_last[1])],
             "acc_pending_t_ns": self.acc_pending_t_ns.tolist(), "acc_pending": self.acc_pending.tolist(),
             "warned": list(self.warned), "warnings": list(self.warnings),
-            "swings": {"still_s": None if math.isnan(self.swings.still_s) else self.swings.still_s,
-                       "swung": self.swings.swung, "last_zv": self.swings.last_zv},
+            "swings": self.swings.to_dict(),
         }
 
     @classmethod
@@ -204,10 +203,7 @@ class OnlineFootNavigator:
         nav.acc_pending_t_ns, nav.acc_pending = _ints(d["acc_pending_t_ns"]), _rows(d["acc_pending"])
         nav.warned, nav.warnings = list(d["warned"]), list(d["warnings"])
         if d.get("swings") is not None:       # absent from states saved before strides were told from stands
-            still = d["swings"]["still_s"]
-            last = d["swings"]["last_zv"]
-            nav.swings = SwingsSinceReset(math.nan if still is None else float(still), bool(d["swings"]["swung"]),
-                                          None if last is None else bool(last))
+            nav.swings = SwingsSinceReset.from_dict(d["swings"])
         return nav
 
     # -- input ----------------------------------------------------------------------------------------------

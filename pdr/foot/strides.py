@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -83,6 +84,17 @@ class SwingsSinceReset:
             self.swung, prev = False, r
         self.swung = self.swung or bool(np.any(onsets > prev))
         return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-serialisable state (NaN as None)."""
+        return {"still_s": None if math.isnan(self.still_s) else self.still_s, "swung": self.swung,
+                "last_zv": self.last_zv}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> SwingsSinceReset:
+        """The tracker :meth:`to_dict` saved."""
+        still, last = d["still_s"], d["last_zv"]
+        return cls(math.nan if still is None else float(still), bool(d["swung"]), None if last is None else bool(last))
 
 
 def reset_strides(zero_velocity: ArrayLike, t_s: ArrayLike, start: int,
