@@ -148,26 +148,24 @@ class StreamingClassifier:
         if self.t0_ns is None:
             return []
         if self.waiting:
-            self._check_waiting(float(self.buffers["acc"][0][-1] - self.t0_ns) / 1e9 >= WAIT_FOR_STREAM_S,
-                                batch.source)
+            if float(self.buffers["acc"][0][-1] - self.t0_ns) / 1e9 >= WAIT_FOR_STREAM_S:
+                raise self._lacks(self.waiting, f"; the recording has {sorted(self.buffers)}", batch.source)
             return []
         lead = max(int(self.buffers[k][0][-1]) for k in self.model.required_streams)
         behind = [k for k in self.model.required_streams
                   if float(lead - self.buffers[k][0][-1]) / 1e9 > WAIT_FOR_STREAM_S]
         if behind:      # a stream that stopped: the windows would wait (and the others' buffers grow) to the end
-            raise InputError(f"the '{self.model.info.get('name', self.model.task)}' model needs the "
-                             f"{', '.join(behind)} stream(s), which stopped more than {WAIT_FOR_STREAM_S:g} s "
-                             "before the others", source=batch.source or None)
+            raise self._lacks(behind, f", which stopped more than {WAIT_FOR_STREAM_S:g} s before the others",
+                              batch.source)
         if started:     # the last stream came: the first window starts at or after every one's first sample
             first = max(int(self.buffers[k][0][0]) for k in self.model.required_streams)
             self.next_window = max(self.next_window, math.ceil((first - self.t0_ns) / 1e9 / self.window.hop_s))
         return self._emit(final=False, source=batch.source)
 
-    def _check_waiting(self, given_up: bool, source: str) -> None:
-        if given_up:
-            have = sorted(self.buffers)
-            raise InputError(f"the '{self.model.info.get('name', self.model.task)}' model needs the "
-                             f"{', '.join(self.waiting)} stream(s); the recording has {have}", source=source or None)
+    def _lacks(self, streams: list[str], why: str, source: str) -> InputError:
+        """The error for streams the model needs that the session lacks (``why`` ends the message)."""
+        return InputError(f"the '{self.model.info.get('name', self.model.task)}' model needs the "
+                          f"{', '.join(streams)} stream(s){why}", source=source or None)
 
     def finish(self) -> list[StreamResult]:
         """End of the session: decisions of the windows still waiting for context that will not come.
@@ -177,7 +175,8 @@ class StreamingClassifier:
         """
         if self.t0_ns is None:
             return []
-        self._check_waiting(bool(self.waiting), "")
+        if self.waiting:
+            raise self._lacks(self.waiting, f"; the recording has {sorted(self.buffers)}", "")
         tail = self.posture.push(self.gate.flush()) + self.posture.flush()
         return self._emit(final=True, source="") + [StreamResult(**d) for d in tail]
 
