@@ -63,7 +63,7 @@ def fuse_session(store: Store, session_id: str) -> bool:
         return False        # both feet live, but one has not taken a step yet
     # The feet's rows whose modes the updates take (_row): the new ones, and those of the steps the fusion holds.
     oldest = fusion.oldest_unreleased_s()
-    mode_rows = rows if oldest is None or (since is not None and oldest > since) else store.events(
+    mode_rows = rows if since is None or oldest is None or oldest > since else store.events(
         session_id, "step", since_s=oldest - 1e-6)
     standing = {(r.device_role, r.t_s) for r in mode_rows if r.label == STAND_MODE}
     out: list[FusedStep] = []
