@@ -580,6 +580,21 @@ def test_real_short_walks_are_counted(walk_name, true, tolerance, default_count)
     assert abs(default_count - true) <= 1
 
 
+@pytest.mark.data
+def test_a_pocket_walk_recorded_from_mid_handling_is_not_counted_twice():
+    # The Sensor Logger pocket walk (28 steps) with its first 5 s cut off starts while the phone is being put into the
+    # pocket: regular peaks 0.3-0.4 s apart confirm a bout at that rhythm. The missed-step rule then put a step between
+    # every two real ones of the walk after it (62 steps, 46 m); a gap shorter than two walking steps gets none.
+    from pdr.io import read_recording
+    from pdr.phone.pipeline import PdrPipeline, PipelineConfig
+
+    rec = read_recording(data_path("sensor_logger_walks", "inpocket-27-steps-Matan"))
+    t0, t1 = rec.time_span_s()
+    rows = [e for e in PdrPipeline(PipelineConfig()).run(rec.slice_time(t0 + 5.0, t1 + 1.0)) if e.get("type") == "step"]
+    assert 27 <= len(rows) <= 36
+    assert min(np.diff([r["t_s"] for r in rows[10:]])) > 0.45       # the walk's own steps (0.56-0.72 s), none between
+
+
 def test_state_saved_before_gait_periodicity_loads():
     _, acc = walk(30)
     det = StepDetector(FS, GATED)
