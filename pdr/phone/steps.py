@@ -212,7 +212,13 @@ back pocket) while the stride stays regular.
     turns by more than ``handling_angle_deg`` over the stride (the phone is being re-oriented).
 
   A weak step, and a turned step that follows one, is held back; the next steady step reports the held
-  ones (a soft step or a turn inside a walk changes nothing but latency). If the bout ends while steps
+  ones (a soft step or a turn inside a walk changes nothing but latency). Held steps that keep coming and, as a
+  run of ``soft_walk_steps``, are not weak (their median RMS passes the weak test) are the walk going on, turned
+  or not, and are reported: handling after a walk is weak, the walker has stopped pushing off. Some hand-held
+  walkers turn the phone by 40-170 deg every stride (IPIN trial 05 repetition 02), so after one weak stride every
+  step was "turned" and held, and the bout's end dropped them all: with that log's first 2 s cut off, 22 steps of
+  13-29 s were lost (147 steps against 179 uncut; now 163). ``tools/walking_steps.py ../shared/data`` gives the same
+  steps on all its recordings. If the bout ends while steps
   are held and the phone turned among them, the walk ended in handling: the first held step is kept
   (the walk's last step is soft, the feet come together), the rest and the bout's last start are
   dropped. Without a turn, held steps are a slow end of the walk and are reported. A run of
@@ -1178,11 +1184,18 @@ class StepDetector:
             if doubtful:
                 self._held.append((s0, e0, p0, turned, rms))
                 recent = self._held[-c.soft_walk_steps:]
-                if len(recent) < c.soft_walk_steps or any(h[3] for h in recent):
+                if len(recent) < c.soft_walk_steps:
                     return
-                # Soft steps that keep coming without the phone turning: a walk in a softer carriage (the
-                # phone moved from a pocket to the hand). They are reported and set the new strength.
-                self._steady_rms = [h[4] for h in recent if math.isfinite(h[4])]
+                if any(h[3] for h in recent):
+                    # Turned steps that keep coming and, as a run, are not weak: the walk goes on (handling after a
+                    # walk is weak, the walker has stopped pushing off). They are reported.
+                    strong = c.weak_energy_ratio * _median(self._steady_rms) if self._steady_rms else math.inf
+                    if not _median([h[4] if math.isfinite(h[4]) else 0.0 for h in recent]) >= strong:
+                        return
+                else:
+                    # Soft steps that keep coming without the phone turning: a walk in a softer carriage (the
+                    # phone moved from a pocket to the hand). They are reported and set the new strength.
+                    self._steady_rms = [h[4] for h in recent if math.isfinite(h[4])]
                 s0, e0, p0 = self._held.pop()[:3]
             for hs, he, hp, *_ in self._held:
                 out_s.append(hs)

@@ -595,6 +595,28 @@ def test_a_pocket_walk_recorded_from_mid_handling_is_not_counted_twice():
     assert min(np.diff([r["t_s"] for r in rows[10:]])) > 0.45       # the walk's own steps (0.56-0.72 s), none between
 
 
+@pytest.mark.data
+def test_a_walk_that_turns_the_phone_at_every_stride_is_not_held_back_to_its_end():
+    # IPIN trial 05 repetition 02 (hand-held) with its first 2 s cut off: the walker turns the phone by 37-166 deg
+    # every stride, so after one weak stride (13 s) every later step was held as "turned" and the bout's end dropped
+    # them as handling: 22 steps of 13-29 s lost (147 steps against 179 uncut). A run of held steps that as a run is
+    # not weak is the walk going on.
+    from pdr.io import read_recording
+    from pdr.phone.grid import OnlineGrid
+
+    rec = read_recording(data_path("ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial05_repetition02.txt"))
+    t0, t1 = rec.time_span_s()
+    grid = OnlineGrid(FS, ("acc",))
+    grid.push(rec.slice_time(t0 + 2.0, t1 + 1.0))
+    t_a, v1 = grid.pull()
+    t_b, v2 = grid.flush()
+    t = np.concatenate([t_a, t_b])
+    found = detect_steps(np.concatenate([v1["acc"], v2["acc"]]), FS)
+    starts = t[found.start_idx] - t0
+    assert len(found) >= 160
+    assert np.sum((starts > 13.0) & (starts < 24.0)) >= 15
+
+
 def test_state_saved_before_gait_periodicity_loads():
     _, acc = walk(30)
     det = StepDetector(FS, GATED)
