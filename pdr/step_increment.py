@@ -31,6 +31,10 @@ class StepIncrement:
         Heading change since the previous reset, rad (counter-clockwise).
     cov
         (4, 4) covariance of ``(dp, dpsi)``: ``[[P_p, P_p,psi], [P_p,psi^T, P_psi]]``.
+    stride
+        Whether the reset closes a stride of the foot (:mod:`pdr.foot.strides`). False for a reset of the step-wise
+        navigation while the foot stands (Algorithm 1 makes one every ``c_max_s``): its increment is composed like any
+        other (a turn on the spot), but it is no step.
     """
 
     t_s: float
@@ -38,3 +42,4 @@ class StepIncrement:
     dp: Array
     dpsi: float
     cov: Array
+    stride: bool = True

@@ -34,20 +34,19 @@ from pdr.foot.summaries import StepSummaryBatch
 from pdr.frames import yaw_to_heading_deg
 from pdr.recording import Recording
 from pdr.step_increment import StepIncrement
-from server.foot_steps import MODE, STAND_MODE, increment_to_json
+from server.foot_steps import increment_to_json, mode_of
 from server.processing import ProcessorOutput, SessionContext
 from server.processing_options import session_options
 from server.store import EventRow, TrackRow
 
 
-def _add_step(out: ProcessorOutput, t_s: float, pos_n: Any, yaw: float, inc: StepIncrement,
-              stride: bool = True) -> None:
+def _add_step(out: ProcessorOutput, t_s: float, pos_n: Any, yaw: float, inc: StepIncrement) -> None:
     """Append a step's track row and its step event (the increment; joined to the row by its step index); mode
-    ``walking``, or ``standing`` for a reset that closes no stride (``stride`` False).
+    ``walking``, or ``standing`` for a reset that closes no stride (``inc.stride`` False, :func:`mode_of`).
     """
     heading = float(yaw_to_heading_deg(yaw))
     length = float(math.hypot(float(inc.dp[0]), float(inc.dp[1])))
-    mode = MODE if stride else STAND_MODE
+    mode = mode_of(inc.stride)
     out.events.append(EventRow("step", float(t_s), label=mode, value=length, step=len(out.track),
                                data={"heading_deg": heading, "dpsi_deg": math.degrees(float(inc.dpsi)),
                                      "dz_m": float(inc.dp[2]), "increment": increment_to_json(inc)}))
@@ -58,7 +57,7 @@ def _add_step(out: ProcessorOutput, t_s: float, pos_n: Any, yaw: float, inc: Ste
 def _output(steps: list[FootStep], warnings: list[str]) -> ProcessorOutput:
     out = ProcessorOutput(warnings=warnings)
     for s in steps:
-        _add_step(out, s.t_s, s.pos_n, s.yaw, s.increment, s.stride)
+        _add_step(out, s.t_s, s.pos_n, s.yaw, s.increment)
     return out
 
 
@@ -101,14 +100,14 @@ class FootProcessor:
         if self.dr is None:
             self.dr = StepwiseDeadReckoning()
         out = ProcessorOutput()
-        for inc, stride in zip(batch.steps, batch.strides, strict=True):
+        for inc in batch.steps:
             if self.last_t_s is not None and inc.t_s <= self.last_t_s:
                 out.warnings.append(f"{self.role} step at {inc.t_s:.3f} s is not after the previous one "
                                     f"({self.last_t_s:.3f} s): ignored")
                 continue
             self.dr.update(inc)
             self.last_t_s = float(inc.t_s)
-            _add_step(out, inc.t_s, self.dr.pos_n, self.dr.heading, inc, stride)
+            _add_step(out, inc.t_s, self.dr.pos_n, self.dr.heading, inc)
         return out
 
     def tail(self) -> ProcessorOutput:

@@ -12,8 +12,9 @@ arrived or were processed; a rebuild (reprocess, late batch) clears the state wi
 Track rows (one per fused step update): ``t_s`` of the step (s, the devices' common clock), the midpoint
 between the two fused feet (m, ENU in the left foot's navigation frame, origin at its start), ``heading_deg``
 the compass heading of the circular mean of the two feet's headings, ``step_length_m`` how far the midpoint
-moved in the update, mode ``walking``, or ``standing`` for the update of a foot's reset while it stands (that
-foot's own row's mode; not counted as a step), no floor. The provisional tail is what the fusion would add if the
+moved in the update, mode ``walking``, or ``standing`` for the update of a foot's reset while it stands (the fused
+step's :attr:`~pdr.foot.dual.FusedStep.stride`, carried from the foot's step event's mode through its increment:
+that foot's own row's mode; not counted as a step), no floor. The provisional tail is what the fusion would add if the
 session ended now: the steps it still holds back plus the feet's own provisional steps.
 """
 
@@ -25,7 +26,7 @@ from pdr.errors import InputError
 from pdr.foot.dual import DualFootFusion, FusedStep
 from pdr.frames import yaw_to_heading_deg
 from server.feet import FOOT_SIDES, FUSED, session_feet
-from server.foot_steps import MODE, STAND_MODE, step_increments
+from server.foot_steps import mode_of, step_increments
 from server.store import Store, TrackRow
 
 ROLE = FUSED
@@ -34,12 +35,11 @@ FEET = FOOT_SIDES
 FEET_INDEX = {side: i for i, side in enumerate(FEET)}
 
 
-def _row(u: FusedStep, standing: set[tuple[str, float]]) -> TrackRow:
-    """The fused track row of update ``u``; ``standing``: (device role, t_s) of the feet's resets while standing."""
+def _row(u: FusedStep) -> TrackRow:
+    """The fused track row of update ``u``."""
     mid = u.midpoint_n
-    mode = STAND_MODE if (FEET[u.side], u.t_s) in standing else MODE
     return TrackRow(u.t_s, float(mid[0]), float(mid[1]), float(mid[2]), None, float(yaw_to_heading_deg(u.body_yaw)),
-                    u.midpoint_shift_m, mode)
+                    u.midpoint_shift_m, mode_of(u.stride))
 
 
 def fuse_session(store: Store, session_id: str) -> bool:
@@ -61,11 +61,6 @@ def fuse_session(store: Store, session_id: str) -> bool:
     rows = store.events(session_id, "step", since_s=since)
     if state is None and not set(FEET.values()) <= {r.device_role for r in rows}:
         return False        # both feet live, but one has not taken a step yet
-    # The feet's rows whose modes the updates take (_row): the new ones, and those of the steps the fusion holds.
-    oldest = fusion.oldest_unreleased_s()
-    mode_rows = rows if since is None or oldest is None or oldest > since else store.events(
-        session_id, "step", since_s=oldest - 1e-6)
-    standing = {(r.device_role, r.t_s) for r in mode_rows if r.label == STAND_MODE}
     out: list[FusedStep] = []
     for side, role in FEET.items():
         out += fusion.add_steps(side, step_increments(rows, role, last[side], provisional=False))
@@ -80,6 +75,6 @@ def fuse_session(store: Store, session_id: str) -> bool:
     except InputError:          # a provisional step that the final ones have overtaken: no tail this time
         tail = []
     store.commit_results(session_id, ROLE, None, json.dumps(fusion.to_dict()).encode(), None,
-                         [_row(u, standing) for u in out], [], tail_track=[_row(u, standing) for u in tail])
+                         [_row(u) for u in out], [], tail_track=[_row(u) for u in tail])
     return True
 

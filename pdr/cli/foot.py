@@ -146,7 +146,7 @@ def write_foot_steps(path: str | Path, imu: FootImu, track: ZuptTrack, role: str
     from pdr.foot.summaries import steps_to_json
 
     steps = [replace(s, t_s=float(s.t_s) + imu.clock_offset_s) for s in track.steps]
-    Path(path).write_text(json.dumps(steps_to_json(steps, role, batch_id, track.step_strides)) + "\n")
+    Path(path).write_text(json.dumps(steps_to_json(steps, role, batch_id)) + "\n")
 
 
 def write_csv(path: str | Path, columns: dict[str, np.ndarray]) -> None:

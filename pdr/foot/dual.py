@@ -116,8 +116,7 @@ class FootEstimate:
     step_cov
         (L, 4, 4) their covariance with the heading.
     step_strides
-        (L,) whether each reset closes a stride (False: a reset while the foot stands,
-        :attr:`pdr.foot.zupt.ZuptTrack.step_strides`).
+        (L,) whether each reset closes a stride (False: a reset while the foot stands; :attr:`FusedStep.stride`).
     """
 
     t_s: Array
@@ -213,6 +212,10 @@ class FusedStep:
         Horizontal distance the midpoint between the feet moved in this update, m (one step length).
     constraint_active
         Whether the separation constraint changed the state.
+    stride
+        Whether the step closes a stride of the stepping foot (its increment's
+        :attr:`pdr.step_increment.StepIncrement.stride`): False for a reset while that foot stands, fused for its
+        increment but no step of the walker.
     """
 
     t_s: float
@@ -222,6 +225,7 @@ class FusedStep:
     cov: Array
     midpoint_shift_m: float
     constraint_active: bool
+    stride: bool
 
     @property
     def midpoint_n(self) -> Array:
@@ -243,12 +247,13 @@ def _side_index(side: str) -> int:
 
 def _increment_to_dict(inc: StepIncrement) -> dict[str, Any]:
     return {"t_s": float(inc.t_s), "index": int(inc.index), "dp": np.asarray(inc.dp, dtype=np.float64).tolist(),
-            "dpsi": float(inc.dpsi), "cov": np.asarray(inc.cov, dtype=np.float64).tolist()}
+            "dpsi": float(inc.dpsi), "cov": np.asarray(inc.cov, dtype=np.float64).tolist(), "stride": bool(inc.stride)}
 
 
 def _increment_from_dict(d: dict[str, Any]) -> StepIncrement:
+    # "stride" is absent from states saved before the fusion carried it: a stride, as StepIncrement's default.
     return StepIncrement(float(d["t_s"]), int(d["index"]), np.asarray(d["dp"], dtype=np.float64),
-                         float(d["dpsi"]), np.asarray(d["cov"], dtype=np.float64))
+                         float(d["dpsi"]), np.asarray(d["cov"], dtype=np.float64), bool(d.get("stride", True)))
 
 
 class DualFootFusion:
@@ -313,13 +318,6 @@ class DualFootFusion:
         if left is None or right is None:
             return []
         return self._release(min(left, right))
-
-    def oldest_unreleased_s(self) -> float | None:
-        """Time (s) of the oldest step received but not yet given out as a :class:`FusedStep` (waiting for the other
-        foot, or held before the alignment), or None.
-        """
-        times = [float(s.t_s) for p in self.pending for s in p] + [float(s.t_s) for _, s in self.held]
-        return min(times) if times else None
 
     def finish(self) -> list[FusedStep]:
         """Fuse every step still held (neither foot will report older steps); starts unaligned feet."""
@@ -428,7 +426,7 @@ class DualFootFusion:
         blk = state.block(KEYS[f])
         shift = float(np.hypot(*(0.5 * (pos[0, :2] + pos[1, :2]) - before[:2])))
         return FusedStep(float(inc.t_s), SIDES[f], pos, np.array([state.heading(LEFT), state.heading(RIGHT)]),
-                         state.cov[np.ix_(blk, blk)].copy(), shift, bool(active))
+                         state.cov[np.ix_(blk, blk)].copy(), shift, bool(active), bool(inc.stride))
 
 
 def _rigid(track: ZuptTrack, t: Array, ev_t: Array, ev_pos: Array, ev_chi: Array, raw_idx: IntArray,
@@ -486,6 +484,7 @@ def fuse_feet(left: ZuptTrack, right: ZuptTrack, left_offset_s: float = 0.0, rig
     hist_chi = [[0.0], [offset]]
     step_pos: list[list[Array]] = [[], []]
     step_cov: list[list[Array]] = [[], []]
+    step_strides: list[list[bool]] = [[], []]
     updates: list[FusedStep] = []
     for side, tr, t in (("left", left, t_l), ("right", right, t_r)):
         # Increments on the common clock (their reset sample's time).
@@ -499,6 +498,7 @@ def fuse_feet(left: ZuptTrack, right: ZuptTrack, left_offset_s: float = 0.0, rig
             hist_chi[g].append(float(u.heading[g]))
         step_pos[f].append(u.pos_n[f])
         step_cov[f].append(u.cov)
+        step_strides[f].append(u.stride)
 
     feet = []
     for f, (tr, t) in enumerate(((left, t_l), (right, t_r))):
@@ -507,7 +507,7 @@ def fuse_feet(left: ZuptTrack, right: ZuptTrack, left_offset_s: float = 0.0, rig
         # The right foot's alignment offset is part of its heading state, so it turns its raw frame too.
         pos, yaw = _rigid(tr, t, ev_t, np.asarray(hist_x[f]), np.asarray(hist_chi[f]), raw_idx, raw_pos, raw_chi)
         feet.append(FootEstimate(t, pos, yaw, tr.zero_velocity, t[raw_idx], np.asarray(step_pos[f]),
-                                 np.asarray(step_cov[f]), np.asarray(tr.step_strides, dtype=bool)))
+                                 np.asarray(step_cov[f]), np.asarray(step_strides[f], dtype=bool)))
     return DualFootTrack(feet[0], feet[1], offset, fusion.constraint_active, fusion.updates)
 
 

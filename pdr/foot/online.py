@@ -70,17 +70,21 @@ class FootStep:
         Yaw of the sensor at the reset, rad, counter-clockwise from east.
     increment
         The step increment ``(dp_l, dpsi_l, cov)`` of eqs. 7-8 (``t_s`` on the log's clock, ``index`` the
-        sample index counted from the first sample of the session).
-    stride
-        Whether the foot swung since the reset before (:class:`pdr.foot.strides.SwingsSinceReset`): False for the
-        resets Algorithm 1 makes while the foot stands (one every ``c_max_s``), which close no stride.
+        sample index counted from the first sample of the session) and whether it closes a stride.
     """
 
     t_s: float
     pos_n: Array
     yaw: float
     increment: StepIncrement
-    stride: bool = True
+
+    @property
+    def stride(self) -> bool:
+        """Whether the foot swung since the reset before (:class:`pdr.foot.strides.SwingsSinceReset`): False for
+        the resets Algorithm 1 makes while the foot stands (one every ``c_max_s``), which close no stride
+        (:attr:`pdr.step_increment.StepIncrement.stride`).
+        """
+        return self.increment.stride
 
 
 def _ints(a: Any) -> IntArray:
@@ -339,8 +343,8 @@ class OnlineFootNavigator:
         for i, k in enumerate(out.step_idx):
             t_log = float(t[k] + offset)
             inc = StepIncrement(t_log, int(k0 + k), out.step_dp[i].copy(), float(out.step_dpsi[i]),
-                                out.step_cov[i].copy())
-            steps.append(FootStep(t_log, out.pos[k].copy(), float(yaw[i]), inc, strides[i]))
+                                out.step_cov[i].copy(), strides[i])
+            steps.append(FootStep(t_log, out.pos[k].copy(), float(yaw[i]), inc))
         return steps
 
     def _close_stride(self) -> list[FootStep]:
@@ -354,7 +358,7 @@ class OnlineFootNavigator:
         at = StepwiseDeadReckoning(self.filter.dr[:3], float(self.filter.dr[3]))
         at.update(inc)
         self.swings.swung = False
-        return [FootStep(t_log, at.pos_n, math.atan2(math.sin(at.heading), math.cos(at.heading)), inc, True)]
+        return [FootStep(t_log, at.pos_n, math.atan2(math.sin(at.heading), math.cos(at.heading)), inc)]
 
     def _trim(self, keep: int) -> None:
         cut = keep - self.buf_start

@@ -21,7 +21,7 @@ finite numbers, a symmetric positive semi-definite covariance.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -72,23 +72,20 @@ class StepSummaryBatch:
     role
         ``left_foot`` or ``right_foot``.
     steps
-        The increments in time order (``t_s`` on the unit's clock, s).
-    strides
-        Per step: whether it closes a stride (False: a reset while the foot stands); all True when not given.
+        The increments in time order (``t_s`` on the unit's clock, s), each with whether it closes a stride
+        (:attr:`pdr.step_increment.StepIncrement.stride`; False: a reset while the foot stands).
     warnings
         Problems found while reading (none so far: bad input raises).
     """
 
     role: str
     steps: tuple[StepIncrement, ...]
-    strides: tuple[bool, ...] = ()
     warnings: tuple[str, ...] = ()
 
-    def __post_init__(self) -> None:
-        if not self.strides:
-            object.__setattr__(self, "strides", (True,) * len(self.steps))
-        if len(self.strides) != len(self.steps):
-            raise InputError(f"{len(self.strides)} stride flags for {len(self.steps)} steps", source="step summaries")
+    @property
+    def strides(self) -> tuple[bool, ...]:
+        """Per step, whether it closes a stride."""
+        return tuple(s.stride for s in self.steps)
 
     @property
     def t_first_ns(self) -> int:
@@ -115,21 +112,17 @@ def steps_from_json(obj: Any, source: str = "steps") -> StepSummaryBatch:
         increment = {k: v for k, v in item.items() if k != "stride"}
         ev = parse_event({"type": "step", "agent": "unit", "foot": role, **increment}, where=f"{source} steps[{i}]")
         assert isinstance(ev, StepSummary)
-        steps.append(ev.increment)
+        steps.append(replace(ev.increment, stride=bool(item.get("stride", True))))
     t = np.array([s.t_s for s in steps])
     if np.any(np.diff(t) <= 0):
         i = int(np.argmax(np.diff(t) <= 0)) + 1
         raise InputError("step times must increase", source=source, field=f"steps[{i}].t_s")
-    return StepSummaryBatch(role, tuple(steps), tuple(bool(item.get("stride", True)) for item in obj["steps"]))
+    return StepSummaryBatch(role, tuple(steps))
 
 
-def steps_to_json(steps: list[StepIncrement], role: str, batch_id: str,
-                  strides: tuple[bool, ...] | list[bool] = ()) -> dict[str, Any]:
-    """The payload of ``steps`` (inverse of :func:`steps_from_json`); ``strides``: per step, whether it closes a
-    stride (all True when not given).
-    """
-    flags = list(strides) or [True] * len(steps)
+def steps_to_json(steps: list[StepIncrement], role: str, batch_id: str) -> dict[str, Any]:
+    """The payload of ``steps`` (inverse of :func:`steps_from_json`), each with its stride flag."""
     return {"format": FORMAT, "batch_id": batch_id, "device": {"role": role},
             "steps": [{"t_s": float(s.t_s), "dp": np.asarray(s.dp, dtype=np.float64).tolist(), "dpsi": float(s.dpsi),
                        "cov": np.asarray(s.cov, dtype=np.float64).tolist(), "index": int(s.index),
-                       "stride": bool(f)} for s, f in zip(steps, flags, strict=True)]}
+                       "stride": bool(s.stride)} for s in steps]}

@@ -43,8 +43,8 @@ def loads(blob: bytes) -> StepSummaryBatch:
     state = state_codec.loads(blob)
     if not isinstance(state, dict) or state.get("kind") != KIND or state.get("version") not in (1, VERSION):
         raise InputError("not stored step summaries of a known version", source="decoded step summaries")
-    steps = tuple(StepIncrement(float(t), int(i), dp.copy(), float(dpsi), cov.copy())
-                  for t, i, dp, dpsi, cov in zip(state["t_s"], state["index"], state["dp"], state["dpsi"],
-                                                 state["cov"], strict=True))
-    strides = tuple(bool(f) for f in state["stride"]) if "stride" in state else ()
-    return StepSummaryBatch(str(state["role"]), steps, strides, tuple(state["warnings"]))
+    strides = state["stride"] if "stride" in state else np.ones(len(state["t_s"]), dtype=bool)
+    steps = tuple(StepIncrement(float(t), int(i), dp.copy(), float(dpsi), cov.copy(), bool(f))
+                  for t, i, dp, dpsi, cov, f in zip(state["t_s"], state["index"], state["dp"], state["dpsi"],
+                                                    state["cov"], strides, strict=True))
+    return StepSummaryBatch(str(state["role"]), steps, tuple(state["warnings"]))

@@ -128,7 +128,7 @@ def test_step_summaries_say_which_resets_are_no_stride_and_the_session_does_not_
     imu, track = navigate(gait_recording(), "stepwise")
     assert not all(track.step_strides) and any(track.step_strides)
     sid = _session(client, token, "shoe-strides", ("left_foot",))
-    payload = steps_to_json(list(track.steps), "left_foot", "u1", track.step_strides)
+    payload = steps_to_json(list(track.steps), "left_foot", "u1")
     assert [s["stride"] for s in payload["steps"]] == list(track.step_strides)
     assert client.post(f"/api/v1/sessions/{sid}/steps", json=payload, headers=h).status_code == 201
     assert real_app.extensions["pdr"].worker.wait_idle(60)

@@ -14,7 +14,7 @@ from pdr.frames import yaw_to_heading_deg
 from pdr.io.native import batch_to_json
 from pdr.recording import GroundTruth, Recording
 from pdr.sim import parse_scenario, simulate
-from server.foot_steps import increment_from_json
+from server.foot_steps import increment_from_json, mode_of
 from tests.server.conftest import bearer
 
 T0_NS = 1_700_000_000_000_000_000
@@ -106,10 +106,11 @@ def test_both_shoes_give_one_fused_track_whatever_the_upload_order(real_app: Fla
     fusion = DualFootFusion()
     ref = []
     for side in ("left", "right"):
-        ref += fusion.add_steps(side, [increment_from_json(s["t_s"], s) for s in steps
+        ref += fusion.add_steps(side, [increment_from_json(s["t_s"], s, s["label"]) for s in steps
                                        if s["device"] == f"{side}_foot"])
     ref += fusion.finish()
     assert [p["t_s"] for p in points] == [u.t_s for u in ref]
+    assert [p["mode"] for p in points] == [mode_of(u.stride) for u in ref]
     np.testing.assert_array_equal([[p["east_m"], p["north_m"], p["up_m"]] for p in points],
                                   [u.midpoint_n for u in ref])
     np.testing.assert_allclose([p["heading_deg"] for p in points], yaw_to_heading_deg([u.body_yaw for u in ref]),

@@ -51,10 +51,9 @@ class ZuptTrack:
         (N, 3) variances of the attitude error (roll, pitch, yaw about the ENU axes), rad^2.
     steps
         Step increments (only with segmentation): one per reset, and one at the last sample when the recording
-        ends a stride that no reset closed (:func:`closing_step`).
-    step_strides
-        Per step, whether it closes a stride (:func:`pdr.foot.strides.reset_strides`): False for a reset while the
-        foot stands.
+        ends a stride that no reset closed (:func:`closing_step`). Each says whether it closes a stride
+        (:func:`pdr.foot.strides.reset_strides`; :attr:`step_strides` lists them): False for a reset while the foot
+        stands.
     start_index
         First sample that was navigated (the coarse initialisation needs a stationary start).
     warnings
@@ -76,7 +75,11 @@ class ZuptTrack:
     start_index: int = 0
     warnings: tuple[str, ...] = field(default_factory=tuple)
     gyro_bias: Array = field(default_factory=lambda: np.zeros(3))
-    step_strides: tuple[bool, ...] = ()
+
+    @property
+    def step_strides(self) -> tuple[bool, ...]:
+        """Per step, whether it closes a stride (:attr:`pdr.step_increment.StepIncrement.stride`)."""
+        return tuple(s.stride for s in self.steps)
 
     @property
     def yaw(self) -> Array:
@@ -200,16 +203,14 @@ def run_zupt(t_s: ArrayLike, acc_b: ArrayLike, gyro_b: ArrayLike, zero_velocity:
     else:
         out.vvar[: a + 1] = cfg.init_sigma_vel**2
         out.avar[: a + 1] = np.diag(FilterState.initial(q0, cfg).P)[ATT]
-    steps = [StepIncrement(float(t[k]), int(k), dp.copy(), float(dpsi), cov.copy())
-             for k, dp, dpsi, cov in zip(out.step_idx, out.step_dp, out.step_dpsi, out.step_cov, strict=True)]
-    strides: list[bool] = []
-    if setup.seg_on:
-        strides, open_stride = reset_strides(zv, t, a, out.step_idx)
-        if open_stride:
-            steps.append(closing_step(state, float(t[-1]), t.size - 1))
-            strides.append(True)
+    strides, open_stride = reset_strides(zv, t, a, out.step_idx) if setup.seg_on else ([], False)
+    steps = [StepIncrement(float(t[k]), int(k), dp.copy(), float(dpsi), cov.copy(), stride)
+             for k, dp, dpsi, cov, stride in zip(out.step_idx, out.step_dp, out.step_dpsi, out.step_cov, strides,
+                                                 strict=True)]
+    if open_stride:
+        steps.append(closing_step(state, float(t[-1]), t.size - 1))
     return ZuptTrack(t, out.pos, out.vel, quat.normalize(out.qs), zv, out.pvar, out.vvar, out.avar, tuple(steps), a,
-                     tuple(warnings), state.bias.copy(), tuple(strides))
+                     tuple(warnings), state.bias.copy())
 
 
 #: Rows and columns of the filter covariance a step increment carries: position and yaw (eq. 8), as the reset of

@@ -54,7 +54,8 @@ def _whole(fusion: DualFootFusion, left: list[StepIncrement], right: list[StepIn
 
 
 def _same(a: list[FusedStep], b: list[FusedStep]) -> None:
-    assert [(u.t_s, u.side, u.constraint_active) for u in a] == [(u.t_s, u.side, u.constraint_active) for u in b]
+    assert [(u.t_s, u.side, u.constraint_active, u.stride) for u in a] == \
+        [(u.t_s, u.side, u.constraint_active, u.stride) for u in b]
     for u, v in zip(a, b, strict=True):
         assert np.array_equal(u.pos_n, v.pos_n) and np.array_equal(u.heading, v.heading)
         assert np.array_equal(u.cov, v.cov) and u.midpoint_shift_m == v.midpoint_shift_m
@@ -118,6 +119,37 @@ def test_alignment_waits_for_the_distance_and_gives_up_after_max_steps() -> None
     short = DualFootFusion(DualFootConfig(align_distance_m=1000.0))
     assert short.add_steps("left", left[:4]) + short.add_steps("right", right[:4]) == []
     assert len(short.finish()) == 8 and short.heading_offset_rad == 0.0
+
+
+def test_a_fused_step_carries_its_increments_stride_flag_also_through_a_saved_state() -> None:
+    """The fused track's 'standing' rows come from FusedStep.stride, not from looking the foot rows up by time: the
+    flag goes in with the increment, out with its update, and through to_dict/from_dict while the step is held."""
+    left, right, _, _ = _walk((1, 2))
+    left = [replace(s, stride=k % 3 != 1) for k, s in enumerate(left[:9])]
+    right = [replace(s, stride=k % 4 != 2) for k, s in enumerate(right[:9])]
+    flags = {("left", s.t_s): s.stride for s in left} | {("right", s.t_s): s.stride for s in right}
+    whole = _whole(DualFootFusion(), left, right)
+    assert [u.stride for u in whole] == [flags[(u.side, u.t_s)] for u in whole]
+    assert {u.stride for u in whole} == {True, False} and len(whole) == len(flags)
+
+    # Saved while steps of both kinds are held (before the alignment) or wait for the other foot.
+    fusion = DualFootFusion()
+    out = fusion.add_steps("left", left[:6]) + fusion.add_steps("right", right[:3])
+    saved = json.loads(json.dumps(fusion.to_dict()))
+    waiting = [inc for p in saved["pending"] for inc in p] + [inc for _, inc in saved["held"]]
+    assert {inc["stride"] for inc in waiting} == {True, False}
+    restored = DualFootFusion.from_dict(saved)
+    rest = restored.add_steps("left", left[6:]) + restored.add_steps("right", right[3:]) + restored.finish()
+    _same(out + rest, whole)
+
+    # A state saved before the flag was carried reads its waiting steps as strides; the others keep theirs.
+    for inc in waiting:
+        del inc["stride"]
+    old = DualFootFusion.from_dict(saved)
+    again = out + old.add_steps("left", left[6:]) + old.add_steps("right", right[3:]) + old.finish()
+    was_waiting = {u.t_s for u in whole} - {u.t_s for u in out} - {s.t_s for s in left[6:] + right[3:]}
+    assert was_waiting and [u.t_s for u in again] == [u.t_s for u in whole]
+    assert [u.stride for u in again] == [u.stride or u.t_s in was_waiting for u in whole]
 
 
 def test_bad_input_is_refused() -> None:

@@ -14,7 +14,7 @@ def test_stride_flags_round_trip_and_default_to_strides():
     _, track = navigate(gait_recording(), "stepwise")
     flags = track.step_strides
     assert False in flags and True in flags
-    batch = steps_from_json(steps_to_json(list(track.steps), "left_foot", "b", flags))
+    batch = steps_from_json(steps_to_json(list(track.steps), "left_foot", "b"))
     assert batch.strides == flags
     again = summaries_codec.loads(summaries_codec.dumps(batch))
     assert again.strides == flags and [s.t_s for s in again.steps] == [s.t_s for s in batch.steps]
