@@ -119,3 +119,13 @@ def test_mocap_steps_are_the_detectors_steps_on_a_brisk_texting_walk(tool: Modul
     # Both on the recording's t_s axis: the top of the vault (mid-stance) comes before the acceleration's upward
     # crossing that starts the next step (the body falls onto the next foot): -0.24 s here.
     assert -0.4 < lag < 0.0
+
+
+@pytest.mark.data
+def test_cut_counts_a_recording_started_later(tool: ModuleType, capsys: pytest.CaptureFixture[str]) -> None:
+    # --cut 5: the Sensor Logger walks less their first 5 s; no whole-walk count is printed as their truth.
+    assert tool.main([str(data_path()), "--only", "sensor_logger", "--cut", "5"]) == 0
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("sensor_logger_walks:")]
+    assert len(lines) == 4 and not any("true" in ln for ln in lines)
+    pocket = next(ln for ln in lines if "inpocket-27-steps-Matan" in ln)
+    assert "25.5 s" in pocket
