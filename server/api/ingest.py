@@ -72,6 +72,7 @@ def _ingest() -> Response:
     recording = parse_push_message(message, source=f"message {message_id}", platform=platform,
                                    standardised=standardised)
     plausibility.check_units(recording)
+    t_first, t_last = time_span_ns(recording, "payload")
     sid, created = svc.store.create_session(user.id, source="sensor_logger",
                                             client_session_id=str(message["sessionId"]),
                                             name=f"Sensor Logger {message['sessionId']}", placement=placement)
@@ -80,7 +81,6 @@ def _ingest() -> Response:
         raise APIError(422, f"placement '{placement}' differs from the session's ('{known}'): use one push URL "
                             f"for the whole session",
                        details={"field": "placement"})
-    t_first, t_last = time_span_ns(recording)
     plausibility.check_time(svc.store.engine, sid, "phone", SENSOR_LOGGER_JSON, t_first, t_last)
     accepted = store_batch(svc, sid, client_batch_id=f"msg-{message_id}", payload_format=SENSOR_LOGGER_JSON,
                            payload=raw, t_first_ns=t_first, t_last_ns=t_last,

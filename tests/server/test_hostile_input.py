@@ -108,6 +108,8 @@ CASES: dict[str, tuple[Any, int, str]] = {
     "timestamps 10 years after the session": (_far_future(), 422, "days away"),
     "one batch spanning 3 days": (_long_span(), 422, "span"),
     "accelerometer in g": (_in_g(), 422, "looks like g"),
+    # the schema allows empty streams (with a t0_ns): the span of no sample was a 500 (min() of nothing)
+    "every stream empty": (_batch(streams={"acc": {"t_ns": [], "values": []}}), 422, "every stream is empty"),
     "unknown stream kind": (_batch(streams={"laser": {"t_ns": [1], "values": [[1.0]]}}), 422, "laser"),
     "wrong column count": (_batch(streams={"acc": {"t_ns": [1, 2], "values": [[1.0, 2.0], [1.0, 2.0]]}}), 422,
                            "acc"),
@@ -196,6 +198,23 @@ def test_an_uploaded_native_log_with_a_bad_location_fix_is_a_422_and_creates_not
                content_type="multipart/form-data")
     assert r.status_code == 422 and r.get_json()["error"]["details"]["field"] == "meta.location.lat_deg", r.get_json()
     assert c.get("/api/v1/sessions", headers=h).get_json() == before
+
+
+def test_an_uploaded_log_without_a_sample_is_a_422_naming_the_file_and_creates_nothing(env):
+    """A native log whose streams are all empty (the schema allows it with a ``t0_ns``) was a 500 on both upload
+    routes, after the new session was created."""
+    app, c, h, sid = env
+    before = c.get("/api/v1/sessions", headers=h).get_json()
+    log = json.dumps(_batch(streams={"acc": {"t_ns": [], "values": []}})).encode()
+    c.post(f"/api/v1/sessions/{sid}/devices", json={"role": "phone"}, headers=h)
+    for route in ("/api/v1/sessions", f"/api/v1/sessions/{sid}/devices/phone/upload"):
+        r = c.post(route, data={"file": (io.BytesIO(log), "empty.json")}, headers=h,
+                   content_type="multipart/form-data")
+        assert r.status_code == 422, (route, r.get_data()[:300])
+        error = r.get_json()["error"]
+        assert error["details"]["field"] == "file" and "every stream is empty" in error["message"], error
+    after = c.get("/api/v1/sessions", headers=h).get_json()
+    assert [(s["id"], s["batches"]) for s in after["sessions"]] == [(s["id"], s["batches"]) for s in before["sessions"]]
 
 
 def test_wrong_content_type_is_415(env):
