@@ -33,6 +33,11 @@ from pdr.step_increment import StepIncrement
 
 Array = NDArray[np.float64]
 
+#: Largest displacement of one step summary along any axis, m. A stride is under 3 m and a standing unit resets every
+#: few seconds, so a larger one is corrupt; near the float range (1e160 m) it overflows the dual-foot separation
+#: constraint (which squares it) when the step is fused, and every later update of its group then fails.
+MAX_STEP_M = 100.0
+
 
 @dataclass(frozen=True)
 class StepSummary:
@@ -180,6 +185,9 @@ def parse_event(obj: Any, where: str = "event") -> Event:
             check_increment(inc)
         except InputError as exc:
             raise InputError(exc.message, source=where, field=exc.field) from None
+        if float(np.max(np.abs(inc.dp))) > MAX_STEP_M:
+            raise InputError(f"a step's displacement must be at most {MAX_STEP_M:g} m along each axis, got "
+                             f"{float(np.max(np.abs(inc.dp))):g} m", source=where, field="dp")
         return StepSummary(_name(obj, "agent", where), _name(obj, "foot", where), inc)
     if kind == "range":
         a, b = _name(obj, "agent_a", where), _name(obj, "agent_b", where)
