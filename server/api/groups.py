@@ -53,6 +53,12 @@ _VEC3 = {"type": "array", "items": _NUMBER, "minItems": 3, "maxItems": 3}
 _FOOT = {"enum": list(FOOT_SIDES.values()), "description": "left_foot or right_foot (as in sessions)"}
 
 _POSITIVE = {"type": "number", "exclusiveMinimum": 0}
+#: Most lattice points per axis a group may ask for: a sampled update costs their cube (25: 15 625 samples, 21 times
+#: the default 9); 1001 took 19 GB at the first range, 100 000 failed every update of the group.
+MAX_LATTICE_POINTS = 25
+#: Largest horizontal distance of the feet a group may set, m (legs reach about 1.5 m); near the float range
+#: (1e160 m) the separation constraint overflowed and failed every update of the group.
+MAX_FEET_APART_M = 10.0
 _NON_NEGATIVE = {"type": "number", "minimum": 0}
 #: The fusion parameters (:class:`pdr.fusion.centre.FusionConfig`; every field optional, defaults there).
 _CONFIG: dict[str, Any] = {
@@ -63,7 +69,8 @@ _CONFIG: dict[str, Any] = {
                  "description": "the feet of every agent (default both)"},
         "separation": {"type": "object", "additionalProperties": False,
                        "description": "dual-foot separation constraint (seed 001 eq. 13)", "properties": {
-                           "gamma_xy": _POSITIVE | {"description": "largest horizontal distance of the feet, m"},
+                           "gamma_xy": _POSITIVE | {"maximum": MAX_FEET_APART_M,
+                                                    "description": "largest horizontal distance of the feet, m"},
                            "gamma_z": _POSITIVE | {"description": "largest vertical distance of the feet, m"},
                            "eta": {"type": "number", "minimum": 3, "description": "sigma-point spread"},
                            "speed_bound_mps": _NON_NEGATIVE | {"description": "widening for states apart in "
@@ -73,7 +80,8 @@ _CONFIG: dict[str, Any] = {
                     "description": "inter-agent range likelihood (eqs. 17-20)", "properties": {
                         "gamma_m": _NON_NEGATIVE | {"description": "uniform half-width gamma_r, m"},
                         "sigma_m": _POSITIVE | {"description": "Cauchy scale sigma_r, m"}}},
-        "lattice_points": {"type": "integer", "minimum": 2, "description": "lattice points per axis (Algorithm 3)"},
+        "lattice_points": {"type": "integer", "minimum": 2, "maximum": MAX_LATTICE_POINTS,
+                           "description": "lattice points per axis (Algorithm 3); an update costs their cube"},
         "lattice_extent": _POSITIVE | {"description": "lattice half-width in prior standard deviations"},
         "robust": {"type": "boolean", "description": "false: the linearised Kalman range update (reference)"},
         "kalman_range_variance_m2": _POSITIVE | {"description": "range variance of the Kalman reference, m^2"},

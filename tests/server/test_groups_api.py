@@ -111,7 +111,11 @@ def test_access_control_and_errors(gclient: FlaskClient, tokens: dict[str, str])
     r = gclient.post("/api/v1/groups", headers=alice, json={"config": {"feet": ["hand"]}})
     assert r.status_code == 422 and "config.feet[0]" in r.get_json()["error"]["message"]
     for config, path in (({"ranging": {"sigma_m": 0}}, "config.ranging.sigma_m"),
-                         ({"lattice_points": 2.5}, "config.lattice_points"), ({"colour": 1}, "config")):
+                         ({"lattice_points": 2.5}, "config.lattice_points"), ({"colour": 1}, "config"),
+                         # accepted (201) before: 1001 took 19 GB at the group's first range, 100 000 and 1e160 m
+                         # failed it (500) and every later update of the group
+                         ({"lattice_points": 1001}, "config.lattice_points"),
+                         ({"separation": {"gamma_xy": 1e160}}, "config.separation.gamma_xy")):
         r = gclient.post("/api/v1/groups", headers=alice, json={"config": config})
         assert r.status_code == 422 and r.get_json()["error"]["details"]["path"] == path, r.get_json()
     spec = gclient.get("/api/v1/openapi.json").get_json()["components"]["schemas"]["CreateGroup"]
