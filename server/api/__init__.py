@@ -69,14 +69,22 @@ def current_user(allow_query_token: bool = False, scope: str | None = None) -> U
     return user
 
 
+def only_query_parameters(*names: str) -> None:
+    """400 naming the first query parameter of the request that is not one of ``names`` (those the route takes),
+    rather than ignoring it: a misspelt ``?sinse=``, or the groups' ``?since_s=`` on a session's track, would answer
+    every row.
+    """
+    name = next((n for n in request.args if n not in names), None)
+    if name is not None:
+        takes = f"this route takes {', '.join(names)}" if names else "this list takes none (it answers every item)"
+        raise APIError(400, f"unknown query parameter '{name[:40]}': {takes}", details={"field": name[:40]})
+
+
 def no_query_parameters() -> None:
     """400 naming the first query parameter of a request to a list that takes none (every item is listed: no
     paging or filter), rather than ignoring it (``?limit=5`` would answer them all).
     """
-    name = next(iter(request.args), None)
-    if name is not None:
-        raise APIError(400, f"unknown query parameter '{name[:40]}': this list takes none (it answers every item)",
-                       details={"field": name[:40]})
+    only_query_parameters()
 
 
 def json_body() -> Any:

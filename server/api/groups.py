@@ -35,7 +35,7 @@ from pdr.errors import InputError
 from pdr.fusion.centre import FusionConfig
 from pdr.fusion.group import Group
 from pdr.fusion.measurements import StepSummary, parse_event
-from server.api import current_user, json_body, no_query_parameters, services
+from server.api import current_user, json_body, no_query_parameters, only_query_parameters, services
 from server.api.results import parse_since
 from server.errors import APIError
 from server.feet import FOOT_SIDES, ROLE_SIDES, foot_role
@@ -362,6 +362,7 @@ def tracks(group_id: str) -> Response:
     user = current_user()
     repo = store()
     repo.row(group_id, user.id)
+    only_query_parameters("agent", "since_s")
     since_s = parse_since("since_s", status=422)
     out: dict[str, dict[str, list[list[float]]]] = {}
     for r in repo.track(group_id, request.args.getlist("agent") or None, since_s):

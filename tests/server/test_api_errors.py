@@ -218,6 +218,31 @@ def test_400_an_after_beyond_any_seq_names_the_parameter_not_500(client, tokens,
     assert client.get(f"/api/v1/sessions/{sid}/{route}?after={2**31 - 1}", headers=h).status_code == 200
 
 
+@pytest.mark.parametrize(("route", "query"), [("track", "since_s=10"), ("track", "sinse=10"), ("track", "limit=5"),
+                                              ("track/columns", "since_s=10"), ("steps", "device=phone"),
+                                              ("modes", "heading=smoothed"), ("landmarks", "from=3"),
+                                              ("floors", "since_s=10")])
+def test_400_a_result_refuses_a_query_parameter_it_does_not_take(client, tokens, route, query):
+    """A misspelt or foreign parameter (the groups' since_s) was ignored: the poller got every row, as if it had
+    asked for them all. Now it is refused naming it and the parameters the route takes."""
+    sid = _session(client, tokens["alice"])
+    h = bearer(tokens["alice"])
+    name = query.split("=")[0]
+    error = assert_error(client.get(f"/api/v1/sessions/{sid}/{route}?{query}", headers=h), 400,
+                         f"unknown query parameter '{name}': this route takes ")
+    assert error["details"]["field"] == name and "since" in error["message"]
+    assert client.get(f"/api/v1/sessions/{sid}/{route}?since=10&after=0", headers=h).status_code == 200
+
+
+def test_a_group_track_refuses_a_query_parameter_it_does_not_take(client, tokens):
+    h = bearer(tokens["alice"])
+    gid = client.post("/api/v1/groups", headers=h, json={"name": "t"}).get_json()["id"]
+    error = assert_error(client.get(f"/api/v1/groups/{gid}/tracks?since=1.5", headers=h), 400,
+                         "unknown query parameter 'since': this route takes agent, since_s")
+    assert error["details"]["field"] == "since"
+    assert client.get(f"/api/v1/groups/{gid}/tracks?since_s=1.5&agent=a&agent=b", headers=h).status_code == 200
+
+
 def test_a_non_finite_group_since_s_is_refused_naming_it(client, tokens):
     h = bearer(tokens["alice"])
     gid = client.post("/api/v1/groups", headers=h, json={"name": "t"}).get_json()["id"]
