@@ -87,8 +87,20 @@ def no_query_parameters() -> None:
     only_query_parameters()
 
 
+def plain_body() -> None:
+    """415 naming the header when the request's body is compressed (``Content-Encoding: gzip``, say): the service
+    reads bodies as sent, and such a body would otherwise be answered as not valid JSON or not a log.
+    """
+    encoding = request.content_encoding
+    if encoding and encoding.strip().lower() != "identity":
+        raise APIError(415, f"Content-Encoding '{encoding[:40]}' is not supported: send the body uncompressed (a "
+                            "compressed log file, e.g. walk.csv.gz, goes as the multipart field 'file')",
+                       details={"field": "Content-Encoding"})
+
+
 def json_body() -> Any:
-    """The request's JSON body: 415 if it is not declared JSON, 400 if it does not parse."""
+    """The request's JSON body: 415 if it is not declared JSON or is compressed, 400 if it does not parse."""
+    plain_body()
     if not request.is_json:
         raise APIError(415, "expected a JSON body with 'Content-Type: application/json'")
     try:
@@ -123,6 +135,7 @@ def uploaded_log(what: str = "log") -> Upload:
     """
     from server.sandbox import read_isolated, safe_filename
 
+    plain_body()
     upload = request.files.get("file")
     if upload is None:
         raise APIError(400, f"multipart upload needs a 'file' field with the {what}")

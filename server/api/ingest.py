@@ -25,7 +25,7 @@ from flask import Blueprint, Response, jsonify, request
 from pdr.errors import InputError
 from pdr.recording import PLACEMENTS
 from server import plausibility
-from server.api import current_user, services
+from server.api import current_user, plain_body, services
 from server.api.sessions import geo_reference, time_span_ns
 from server.errors import APIError
 from server.ingest import store_batch
@@ -58,6 +58,7 @@ def _ingest() -> Response:
 
     user = current_user(allow_query_token=True, scope="ingest")
     svc = services()
+    plain_body()
     raw = request.get_data()
     try:
         message = json.loads(raw)

@@ -217,6 +217,35 @@ def test_an_uploaded_log_without_a_sample_is_a_422_naming_the_file_and_creates_n
     assert [(s["id"], s["batches"]) for s in after["sessions"]] == [(s["id"], s["batches"]) for s in before["sessions"]]
 
 
+def test_a_compressed_body_is_a_415_naming_content_encoding_and_stores_nothing(env):
+    """A client gzipping its request (Content-Encoding: gzip) was told its body was not valid JSON (400), a log file
+    that it was not a log (422), the Sensor Logger app that its message was not JSON."""
+    import gzip
+
+    app, c, h, sid = env
+    before = _snapshot(app, c, h, sid)
+    batch = gzip.compress(json.dumps(phone_batch("zipped", 50.0)).encode())
+    gz = {**h, "Content-Encoding": "gzip"}
+    for route, data, ctype in ((f"/api/v1/sessions/{sid}/batches", batch, "application/json"),
+                               ("/api/v1/sites", gzip.compress(b'{"floors": []}'), "application/json"),
+                               ("/api/v1/sessions", {"file": (io.BytesIO(batch), "walk.json")}, "multipart/form-data")):
+        r = c.post(route, data=data, headers=gz, content_type=ctype)
+        assert r.status_code == 415, (route, r.get_data()[:300])
+        error = r.get_json()["error"]
+        assert error["details"]["field"] == "Content-Encoding" and "'gzip' is not supported" in error["message"]
+    message = {"messageId": 1, "sessionId": "zipped", "deviceId": "d", "payload": [
+        {"name": "accelerometer", "time": 1_700_000_000_000_000_000, "values": {"x": 0.0, "y": 0.0, "z": 9.8}}]}
+    r = c.post(f"/api/v1/ingest/sensor-logger?token={h['Authorization'].split()[-1]}",
+               data=gzip.compress(json.dumps(message).encode()), headers={"Content-Encoding": "gzip"},
+               content_type="application/json")
+    assert r.status_code == 499 and "Content-Encoding 'gzip' is not supported" in r.get_data(as_text=True)
+    assert _snapshot(app, c, h, sid) == before
+    assert [s["session_id"] for s in c.get("/api/v1/sessions", headers=h).get_json()["sessions"]] == ["victim"]
+    identity = c.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch("plain", 50.0),
+                      headers={**h, "Content-Encoding": "identity"})
+    assert identity.status_code == 201, identity.get_json()
+
+
 def test_wrong_content_type_is_415(env):
     app, c, h, sid = env
     r = _post_raw(c, sid, h, json.dumps(phone_batch("x", 50.0)).encode(), content_type="text/plain")
