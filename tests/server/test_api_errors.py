@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 
+import numpy as np
 import pytest
 from flask import Flask
 from flask.testing import FlaskClient
@@ -263,3 +264,21 @@ def test_422_an_upload_of_no_known_format_names_the_form_field_format(client, to
                            "not a supported log format")
         assert "--format" not in err["message"] and "field 'format' to force one" in err["message"], err
         assert err["code"] == "unknown_format" and err["details"]["field"] == "file"
+
+
+@pytest.mark.parametrize(("change", "field"), [({"t_s": 1e300}, "steps[0].t_s"), ({"t_s": -1e300}, "steps[0].t_s"),
+                                               ({"t_s": 1e11}, "steps[0].t_s"), ({"index": 10**30}, "steps[0].index")])
+def test_422_a_step_summary_time_or_index_beyond_int64_names_the_field(client, tokens, change, field):
+    """A shoe unit's step at t_s 1e300 s or with index 1e30 was a 500 (OverflowError turning t_s into int64 ns, or
+    storing the index as int64); nothing is stored now, and the next good summaries are taken."""
+    h = bearer(tokens["alice"])
+    sid = _session(client, tokens["alice"])
+    assert client.post(f"/api/v1/sessions/{sid}/devices", json={"role": "left_foot"}, headers=h).status_code == 201
+    step = {"t_s": 1.0, "dp": [0.7, 0.0, 0.0], "dpsi": 0.0, "cov": (np.eye(4) * 1e-4).tolist(), "index": 100}
+    payload = {"format": "pdr-foot-steps/1", "batch_id": "b1", "device": {"role": "left_foot"},
+               "steps": [step | change]}
+    err = assert_error(client.post(f"/api/v1/sessions/{sid}/steps", json=payload, headers=h), 422)
+    assert err["details"]["field"] == field
+    assert client.get(f"/api/v1/sessions/{sid}", headers=h).get_json()["batch_list"] == []
+    resp = client.post(f"/api/v1/sessions/{sid}/steps", json=payload | {"steps": [step]}, headers=h)
+    assert resp.status_code == 201, resp.get_json()
