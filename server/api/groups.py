@@ -349,7 +349,7 @@ def correction(group_id: str, agent: str) -> Response:
     repo.row(group_id, user.id)
     group = repo.state(group_id)
     if agent not in group.latest_s:
-        raise APIError(404, f"no agent '{agent}' in group '{group_id}'")
+        raise APIError(404, f"no agent '{agent[:64]}' in group '{group_id[:64]}'")
     return jsonify(correction_json(group, agent))
 
 

@@ -282,3 +282,13 @@ def test_422_a_step_summary_time_or_index_beyond_int64_names_the_field(client, t
     assert client.get(f"/api/v1/sessions/{sid}", headers=h).get_json()["batch_list"] == []
     resp = client.post(f"/api/v1/sessions/{sid}/steps", json=payload | {"steps": [step]}, headers=h)
     assert resp.status_code == 201, resp.get_json()
+
+
+@pytest.mark.parametrize("route", ["sessions/{}", "sessions/{}/track", "groups/{}", "reports/{}", "models/{}",
+                                   "sites/{}", "reports/{}/files/x"])
+def test_404_of_a_very_long_id_quotes_a_short_prefix_of_it(client, tokens, route):
+    """A 50 000-character id was echoed whole in the 404's message (a body 1000 times the usual)."""
+    long_id = "a" * 50_000
+    err = assert_error(client.get(f"/api/v1/{route.format(long_id)}", headers=bearer(tokens["alice"])), 404,
+                       f"'{'a' * 64}'")
+    assert len(err["message"]) < 200, len(err["message"])
