@@ -50,7 +50,8 @@ def current_user(allow_query_token: bool = False, scope: str | None = None) -> U
         raise APIError(403, "a token in the query string is accepted on ingest endpoints only; "
                             "send 'Authorization: Bearer <token>'")
     if not token:
-        raise APIError(401, "authentication required: send 'Authorization: Bearer <token>'")
+        where = " or '?token=<token>' in the URL" if allow_query_token else ""  # for an app that sets no header
+        raise APIError(401, f"authentication required: send 'Authorization: Bearer <token>'{where}")
     with svc.store.engine.connect() as conn:
         user = lookup(conn, token)
     if user is None:

@@ -303,6 +303,17 @@ def test_sensor_logger_hostile_messages_get_the_apps_499_with_a_message(env):
         assert r.status_code == 499 and r.get_data(as_text=True).startswith("pdr: "), (body[:60], r.get_data()[:200])
 
 
+def test_a_push_without_a_token_tells_the_app_user_to_put_it_in_the_url(env):
+    """The Sensor Logger app sets no header, but its user was told to send 'Authorization: Bearer <token>'."""
+    app, c, h, _ = env
+    message = {"messageId": 1, "sessionId": "sl", "deviceId": "d", "payload": [
+        {"name": "accelerometer", "time": 1_700_000_000_000_000_000, "values": {"x": 0.0, "y": 0.0, "z": 9.81}}]}
+    r = c.post("/api/v1/ingest/sensor-logger", json=message)
+    assert r.status_code == 499 and "?token=<token>" in r.get_data(as_text=True), r.get_data(as_text=True)
+    r = c.get("/api/v1/sessions")                                     # no URL token there: no hint of one
+    assert r.status_code == 401 and "?token" not in r.get_json()["error"]["message"]
+
+
 # -- property-based fuzzing of the ingest endpoints ----------------------------------------------------
 NASTY: list[Any] = [math.nan, math.inf, -math.inf, 10**30, -(10**30), 2**63, -1, 0, 1e308, "", "x" * 1000,
                     None, True, [], {}, [[[]]], "'; DROP TABLE batches;--", "../../etc/passwd", 1.5]
