@@ -194,9 +194,9 @@ def test_stale_ranges_are_refused_and_nothing_of_the_upload_is_kept(gclient: Fla
 
 def test_a_step_beyond_any_stride_is_refused_and_cannot_break_the_group(gclient: FlaskClient,
                                                                        tokens: dict[str, str]) -> None:
-    """A step of dp 1e200 m (finite, so it passed) was accepted (201) and buffered; fusing it overflowed the
-    separation constraint: the flush and every later upload of any agent answered 500, and the group never
-    recovered. Now the upload is a 422 naming dp, and the group goes on."""
+    """A step of dp 1e200 m or variance 1e308 (finite, so it passed) was accepted (201) and buffered; fusing it
+    overflowed the fusion: the flush and every later upload of any agent answered 500, and the group never
+    recovered. Now the upload is a 422 naming dp or cov, and the group goes on."""
     tok = tokens["alice"]
     gid = gclient.post("/api/v1/groups", headers=bearer(tok), json={"name": "t"}).get_json()["id"]
     for agent, east in (("a", 0.0), ("b", 5.0)):
@@ -217,6 +217,10 @@ def test_a_step_beyond_any_stride_is_refused_and_cannot_break_the_group(gclient:
     assert r.status_code == 422, r.get_json()
     assert r.get_json()["error"]["details"] == {"source": "events[0]", "field": "dp"}
     assert "at most 100 m" in r.get_json()["error"]["message"]
+    # a variance of 1e308 (finite: it passed) broke the group the same way
+    r = upload("u1", "a", [step("a", "left_foot", 2.0) | {"cov": (np.eye(4) * 1e308).tolist()}])
+    assert r.status_code == 422, r.get_json()
+    assert r.get_json()["error"]["details"] == {"source": "events[0]", "field": "cov"}
     assert upload("u1", "a", [step("a", "left_foot", 2.0)]).status_code == 201     # nothing of the refused one kept
     assert upload("u2", "b", [step("b", "left_foot", 2.0)]).status_code == 201
     assert gclient.post(f"/api/v1/groups/{gid}/flush", headers=bearer(tok)).status_code == 200
