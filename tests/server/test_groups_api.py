@@ -221,6 +221,9 @@ def test_a_step_beyond_any_stride_is_refused_and_cannot_break_the_group(gclient:
     r = upload("u1", "a", [step("a", "left_foot", 2.0) | {"cov": (np.eye(4) * 1e308).tolist()}])
     assert r.status_code == 422, r.get_json()
     assert r.get_json()["error"]["details"] == {"source": "events[0]", "field": "cov"}
+    r = upload("u1", "a", [step("a", "left_foot", 2.0) | {"dpsi": 1e308}])      # the same with a turn of 1e308 rad
+    assert r.status_code == 422, r.get_json()
+    assert r.get_json()["error"]["details"] == {"source": "events[0]", "field": "dpsi"}
     assert upload("u1", "a", [step("a", "left_foot", 2.0)]).status_code == 201     # nothing of the refused one kept
     assert upload("u2", "b", [step("b", "left_foot", 2.0)]).status_code == 201
     assert gclient.post(f"/api/v1/groups/{gid}/flush", headers=bearer(tok)).status_code == 200
