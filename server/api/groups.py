@@ -56,8 +56,9 @@ _POSITIVE = {"type": "number", "exclusiveMinimum": 0}
 #: Most lattice points per axis a group may ask for: a sampled update costs their cube (25: 15 625 samples, 21 times
 #: the default 9); 1001 took 19 GB at the first range, 100 000 failed every update of the group.
 MAX_LATTICE_POINTS = 25
-#: Largest horizontal distance of the feet a group may set, m (legs reach about 1.5 m); near the float range
-#: (1e160 m) the separation constraint overflowed and failed every update of the group.
+#: Largest horizontal distance of the feet a group may set, and largest offset of a joining agent's foot along any
+#: axis, m (legs reach about 1.5 m); near the float range (1e160 m) the separation constraint overflowed and failed
+#: every update of the group.
 MAX_FEET_APART_M = 10.0
 _NON_NEGATIVE = {"type": "number", "minimum": 0}
 #: The fusion parameters (:class:`pdr.fusion.centre.FusionConfig`; every field optional, defaults there).
@@ -115,7 +116,8 @@ JOIN_GROUP: dict[str, Any] = {
         "cov0": {"type": "array", "items": {"type": "array", "items": _NUMBER, "minItems": 4, "maxItems": 4},
                  "minItems": 4, "maxItems": 4, "description": "(4, 4) covariance of x, y, z (m) and yaw (rad)"},
         "t_s": _NUMBER,
-        "foot_offsets_n": {"type": "array", "items": _VEC3,
+        "foot_offsets_n": {"type": "array", "items": _VEC3 | {"items": {"type": "number", "minimum": -MAX_FEET_APART_M,
+                                                                        "maximum": MAX_FEET_APART_M}},
                            "description": "each foot's offset from pos0_n (m, ENU), in the order of config.feet"},
     },
 }

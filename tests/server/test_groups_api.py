@@ -142,6 +142,10 @@ def test_access_control_and_errors(gclient: FlaskClient, tokens: dict[str, str])
     r = gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice, data='{"agent": "x", "pos0_n": [0, 0, 0], '
                      f'"session_id": "{sid}", "clock_offset_s": Infinity}}', content_type="application/json")
     assert r.status_code == 422 and "finite" in r.get_json()["error"]["message"]
+    # a foot 1e308 m from its agent joined (201), and the group's next fused update failed it for good (500)
+    r = gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice,
+                     json={"agent": "x", "pos0_n": [0, 0, 0], "foot_offsets_n": [[0, 0, 0], [1e308, 0, 0]]})
+    assert r.status_code == 422 and r.get_json()["error"]["details"]["path"] == "foot_offsets_n[1][0]", r.get_json()
     assert gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice,
                         json={"agent": "x", "pos0_n": [0, 0, 0]}).status_code == 201
     assert gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice,
