@@ -61,6 +61,7 @@ from classifiers import feature_kernels as kernels
 from classifiers.context import context_features
 from classifiers.stride_features import STRIDE_FEATURES, stride_features
 from classifiers.windows import Windows
+from pdr.frames import GRAVITY_MPS2
 
 FloatArray = NDArray[np.float64]
 
@@ -144,6 +145,10 @@ def _sample_mean(x: FloatArray) -> FloatArray:
 def _present_fraction(x: FloatArray) -> FloatArray:
     """Fraction of the samples of (W, n, k) windows with every component finite, (W,)."""
     return np.asarray(np.isfinite(x @ np.ones(x.shape[2])).mean(axis=1))
+
+
+#: Specific force of a phone at rest, screen up (m/s^2, body frame): the stand-in samples of an invalid window.
+_AT_REST = np.array([0.0, 0.0, GRAVITY_MPS2])
 
 
 def _fill_nan3(x: FloatArray) -> FloatArray:
@@ -343,7 +348,12 @@ def extract_features(win: Windows, groups: tuple[str, ...] = tuple(FEATURE_GROUP
     acc = win.get("acc")
     if acc is None:
         acc = np.full((n_win, 1, 3), np.nan)
+    # A window without one accelerometer sample (a gap longer than a window) stays NaN after filling, which the
+    # per-window eigendecompositions (pitch, stride) refuse; it is invalid, so its features are NaN below whatever
+    # it holds: a phone at rest stands in for it.
     f_b = _fill_nan3(acc)
+    if not win.valid.all():
+        f_b = np.where(np.isfinite(f_b) | win.valid[:, None, None], f_b, _AT_REST)
     g_vec = _sample_mean(f_b)
     g_mag = np.sqrt(np.einsum("wi,wi->w", g_vec, g_vec))
     u = g_vec / np.where(g_mag > 0, g_mag, 1.0)[:, None]

@@ -53,7 +53,9 @@ def window_gravity(win: Windows) -> FloatArray:
     acc = win.get("acc")
     if acc is None:
         return np.full((len(win), 3), np.nan)
-    mean = np.nanmean(acc, axis=1) if acc.size else np.zeros((len(win), 3))
+    present = np.isfinite(acc)
+    count = present.sum(axis=1)             # np.nanmean, without its warning for a window with no sample (a gap)
+    mean = np.where(count > 0, np.where(present, acc, 0.0).sum(axis=1) / np.maximum(count, 1), np.nan)
     norm = np.linalg.norm(mean, axis=1, keepdims=True)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(norm > 0, mean / norm, np.nan)

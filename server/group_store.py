@@ -124,7 +124,7 @@ class GroupStore:
         with self.engine.connect() as conn:
             row = conn.execute(select(groups).where(groups.c.id == group_id)).first()
         if row is None or row.user_id != user_id:
-            raise APIError(404, f"no group '{group_id}'")
+            raise APIError(404, f"no group '{group_id[:64]}'")
         return row
 
     def list_for(self, user_id: int) -> list[Row[Any]]:
@@ -142,7 +142,7 @@ class GroupStore:
             with self.engine.connect() as conn:
                 row = conn.execute(select(groups.c.version, groups.c.state).where(groups.c.id == group_id)).first()
             if row is None:
-                raise APIError(404, f"no group '{group_id}'")
+                raise APIError(404, f"no group '{group_id[:64]}'")
             group = decode_state(row.state)
             result = change(group)
             tracks = _drain_tracks(group)
@@ -163,7 +163,7 @@ class GroupStore:
         with self.engine.connect() as conn:
             row = conn.execute(select(groups.c.state).where(groups.c.id == group_id)).first()
         if row is None:
-            raise APIError(404, f"no group '{group_id}'")
+            raise APIError(404, f"no group '{group_id[:64]}'")
         return decode_state(row.state)
 
     def add_agent(self, group_id: str, agent: str, session_id: str | None, clock_offset_s: float = 0.0) -> None:

@@ -176,7 +176,7 @@ class Store:
         with self.engine.connect() as conn:
             row = conn.execute(q).first()
         if row is None or (user_id is not None and row.user_id != user_id):
-            raise APIError(404, f"no session '{session_id}'")
+            raise APIError(404, f"no session '{session_id[:64]}'")
         return row
 
     def delete_session(self, session_id: str) -> None:

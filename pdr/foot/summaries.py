@@ -34,6 +34,11 @@ FORMAT = "pdr-foot-steps/1"
 _NUMBER = {"type": "number"}
 _ROW4 = {"type": "array", "items": _NUMBER, "minItems": 4, "maxItems": 4}
 
+#: Largest magnitude of a step's ``t_s``, s (292 years): the service stores times as int64 nanoseconds.
+MAX_ABS_T_S = 9.2e9
+#: Largest sample index of a reset (stored as int64).
+MAX_INDEX = 2**63 - 1
+
 #: JSON Schema (draft 2020-12) of a summaries payload.
 SCHEMA: dict[str, Any] = {
     "type": "object",
@@ -50,13 +55,15 @@ SCHEMA: dict[str, Any] = {
         "steps": {"type": "array", "minItems": 1, "maxItems": 100000, "items": {
             "type": "object", "required": ["t_s", "dp", "dpsi", "cov"], "additionalProperties": False,
             "properties": {
-                "t_s": {"type": "number", "description": "time of the reset, s, on the unit's clock"},
+                "t_s": {"type": "number", "minimum": -MAX_ABS_T_S, "maximum": MAX_ABS_T_S,
+                        "description": "time of the reset, s, on the unit's clock"},
                 "dp": {"type": "array", "items": _NUMBER, "minItems": 3, "maxItems": 3,
                        "description": "displacement since the previous reset, m, frame of that reset"},
                 "dpsi": {"type": "number", "description": "heading change, rad, counter-clockwise"},
                 "cov": {"type": "array", "items": _ROW4, "minItems": 4, "maxItems": 4,
                         "description": "covariance of (dp, dpsi) (eq. 8), m^2, m rad, rad^2"},
-                "index": {"type": "integer", "minimum": 0, "description": "sample index of the reset"},
+                "index": {"type": "integer", "minimum": 0, "maximum": MAX_INDEX,
+                          "description": "sample index of the reset"},
                 "stride": {"type": "boolean", "description": "the reset closes a stride (true, the default), or is "
                            "a reset while the foot stands (false): composed, but not counted as a step"}}}},
     },

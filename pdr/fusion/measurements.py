@@ -33,6 +33,15 @@ from pdr.step_increment import StepIncrement
 
 Array = NDArray[np.float64]
 
+#: Largest displacement of one step summary along any axis, m, and square root of its largest covariance entry. A
+#: stride is under 3 m and a standing unit resets every few seconds, so a larger one is corrupt; near the float range
+#: (a dp of 1e160 m, a variance of 1e308) it overflows the fusion (the dual-foot separation constraint squares it)
+#: when the step is fused, and every later update of its group then fails.
+MAX_STEP_M = 100.0
+#: Largest heading change of one step summary either way, rad (one turn): 1e308 rad overflowed the heading it is
+#: added to, and every later update of the group failed.
+MAX_STEP_TURN_RAD = 2.0 * math.pi
+
 
 @dataclass(frozen=True)
 class StepSummary:
@@ -176,6 +185,16 @@ def parse_event(obj: Any, where: str = "event") -> Event:
         if isinstance(index, bool) or not isinstance(index, int):
             raise InputError("must be an integer", source=where, field="index")
         inc = StepIncrement(t, index, _vector(obj, "dp", where, (3,)), _number(obj, "dpsi", where), cov)
+        if float(np.max(np.abs(inc.dp))) > MAX_STEP_M:
+            raise InputError(f"a step's displacement must be at most {MAX_STEP_M:g} m along each axis, got "
+                             f"{float(np.max(np.abs(inc.dp))):g} m", source=where, field="dp")
+        if abs(inc.dpsi) > MAX_STEP_TURN_RAD:
+            raise InputError(f"a step's heading change must be at most one turn ({MAX_STEP_TURN_RAD:.6g} rad) either "
+                             f"way, got {inc.dpsi:g} rad", source=where, field="dpsi")
+        if cov.size and float(np.max(np.abs(cov))) > MAX_STEP_M**2:     # before the checks, which overflow
+            raise InputError(f"a step's covariance entries must be at most {MAX_STEP_M**2:g} (m^2, m rad, rad^2: a "
+                             f"standard deviation of {MAX_STEP_M:g} m), got {float(np.max(np.abs(cov))):g}",
+                             source=where, field="cov")
         try:
             check_increment(inc)
         except InputError as exc:

@@ -50,7 +50,8 @@ def current_user(allow_query_token: bool = False, scope: str | None = None) -> U
         raise APIError(403, "a token in the query string is accepted on ingest endpoints only; "
                             "send 'Authorization: Bearer <token>'")
     if not token:
-        raise APIError(401, "authentication required: send 'Authorization: Bearer <token>'")
+        where = " or '?token=<token>' in the URL" if allow_query_token else ""  # for an app that sets no header
+        raise APIError(401, f"authentication required: send 'Authorization: Bearer <token>'{where}")
     with svc.store.engine.connect() as conn:
         user = lookup(conn, token)
     if user is None:
@@ -69,18 +70,38 @@ def current_user(allow_query_token: bool = False, scope: str | None = None) -> U
     return user
 
 
+def only_query_parameters(*names: str) -> None:
+    """400 naming the first query parameter of the request that is not one of ``names`` (those the route takes),
+    rather than ignoring it: a misspelt ``?sinse=``, or the groups' ``?since_s=`` on a session's track, would answer
+    every row.
+    """
+    name = next((n for n in request.args if n not in names), None)
+    if name is not None:
+        takes = f"this route takes {', '.join(names)}" if names else "this list takes none (it answers every item)"
+        raise APIError(400, f"unknown query parameter '{name[:40]}': {takes}", details={"field": name[:40]})
+
+
 def no_query_parameters() -> None:
     """400 naming the first query parameter of a request to a list that takes none (every item is listed: no
     paging or filter), rather than ignoring it (``?limit=5`` would answer them all).
     """
-    name = next(iter(request.args), None)
-    if name is not None:
-        raise APIError(400, f"unknown query parameter '{name[:40]}': this list takes none (it answers every item)",
-                       details={"field": name[:40]})
+    only_query_parameters()
+
+
+def plain_body() -> None:
+    """415 naming the header when the request's body is compressed (``Content-Encoding: gzip``, say): the service
+    reads bodies as sent, and such a body would otherwise be answered as not valid JSON or not a log.
+    """
+    encoding = request.content_encoding
+    if encoding and encoding.strip().lower() != "identity":
+        raise APIError(415, f"Content-Encoding '{encoding[:40]}' is not supported: send the body uncompressed (a "
+                            "compressed log file, e.g. walk.csv.gz, goes as the multipart field 'file')",
+                       details={"field": "Content-Encoding"})
 
 
 def json_body() -> Any:
-    """The request's JSON body: 415 if it is not declared JSON, 400 if it does not parse."""
+    """The request's JSON body: 415 if it is not declared JSON or is compressed, 400 if it does not parse."""
+    plain_body()
     if not request.is_json:
         raise APIError(415, "expected a JSON body with 'Content-Type: application/json'")
     try:
@@ -115,6 +136,7 @@ def uploaded_log(what: str = "log") -> Upload:
     """
     from server.sandbox import read_isolated, safe_filename
 
+    plain_body()
     upload = request.files.get("file")
     if upload is None:
         raise APIError(400, f"multipart upload needs a 'file' field with the {what}")

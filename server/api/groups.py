@@ -35,7 +35,7 @@ from pdr.errors import InputError
 from pdr.fusion.centre import FusionConfig
 from pdr.fusion.group import Group
 from pdr.fusion.measurements import StepSummary, parse_event
-from server.api import current_user, json_body, no_query_parameters, services
+from server.api import current_user, json_body, no_query_parameters, only_query_parameters, services
 from server.api.results import parse_since
 from server.errors import APIError
 from server.feet import FOOT_SIDES, ROLE_SIDES, foot_role
@@ -53,6 +53,13 @@ _VEC3 = {"type": "array", "items": _NUMBER, "minItems": 3, "maxItems": 3}
 _FOOT = {"enum": list(FOOT_SIDES.values()), "description": "left_foot or right_foot (as in sessions)"}
 
 _POSITIVE = {"type": "number", "exclusiveMinimum": 0}
+#: Most lattice points per axis a group may ask for: a sampled update costs their cube (25: 15 625 samples, 21 times
+#: the default 9); 1001 took 19 GB at the first range, 100 000 failed every update of the group.
+MAX_LATTICE_POINTS = 25
+#: Largest horizontal distance of the feet a group may set, and largest offset of a joining agent's foot along any
+#: axis, m (legs reach about 1.5 m); near the float range (1e160 m) the separation constraint overflowed and failed
+#: every update of the group.
+MAX_FEET_APART_M = 10.0
 _NON_NEGATIVE = {"type": "number", "minimum": 0}
 #: The fusion parameters (:class:`pdr.fusion.centre.FusionConfig`; every field optional, defaults there).
 _CONFIG: dict[str, Any] = {
@@ -63,7 +70,8 @@ _CONFIG: dict[str, Any] = {
                  "description": "the feet of every agent (default both)"},
         "separation": {"type": "object", "additionalProperties": False,
                        "description": "dual-foot separation constraint (seed 001 eq. 13)", "properties": {
-                           "gamma_xy": _POSITIVE | {"description": "largest horizontal distance of the feet, m"},
+                           "gamma_xy": _POSITIVE | {"maximum": MAX_FEET_APART_M,
+                                                    "description": "largest horizontal distance of the feet, m"},
                            "gamma_z": _POSITIVE | {"description": "largest vertical distance of the feet, m"},
                            "eta": {"type": "number", "minimum": 3, "description": "sigma-point spread"},
                            "speed_bound_mps": _NON_NEGATIVE | {"description": "widening for states apart in "
@@ -73,7 +81,8 @@ _CONFIG: dict[str, Any] = {
                     "description": "inter-agent range likelihood (eqs. 17-20)", "properties": {
                         "gamma_m": _NON_NEGATIVE | {"description": "uniform half-width gamma_r, m"},
                         "sigma_m": _POSITIVE | {"description": "Cauchy scale sigma_r, m"}}},
-        "lattice_points": {"type": "integer", "minimum": 2, "description": "lattice points per axis (Algorithm 3)"},
+        "lattice_points": {"type": "integer", "minimum": 2, "maximum": MAX_LATTICE_POINTS,
+                           "description": "lattice points per axis (Algorithm 3); an update costs their cube"},
         "lattice_extent": _POSITIVE | {"description": "lattice half-width in prior standard deviations"},
         "robust": {"type": "boolean", "description": "false: the linearised Kalman range update (reference)"},
         "kalman_range_variance_m2": _POSITIVE | {"description": "range variance of the Kalman reference, m^2"},
@@ -107,7 +116,8 @@ JOIN_GROUP: dict[str, Any] = {
         "cov0": {"type": "array", "items": {"type": "array", "items": _NUMBER, "minItems": 4, "maxItems": 4},
                  "minItems": 4, "maxItems": 4, "description": "(4, 4) covariance of x, y, z (m) and yaw (rad)"},
         "t_s": _NUMBER,
-        "foot_offsets_n": {"type": "array", "items": _VEC3,
+        "foot_offsets_n": {"type": "array", "items": _VEC3 | {"items": {"type": "number", "minimum": -MAX_FEET_APART_M,
+                                                                        "maximum": MAX_FEET_APART_M}},
                            "description": "each foot's offset from pos0_n (m, ENU), in the order of config.feet"},
     },
 }
@@ -341,7 +351,7 @@ def correction(group_id: str, agent: str) -> Response:
     repo.row(group_id, user.id)
     group = repo.state(group_id)
     if agent not in group.latest_s:
-        raise APIError(404, f"no agent '{agent}' in group '{group_id}'")
+        raise APIError(404, f"no agent '{agent[:64]}' in group '{group_id[:64]}'")
     return jsonify(correction_json(group, agent))
 
 
@@ -354,6 +364,7 @@ def tracks(group_id: str) -> Response:
     user = current_user()
     repo = store()
     repo.row(group_id, user.id)
+    only_query_parameters("agent", "since_s")
     since_s = parse_since("since_s", status=422)
     out: dict[str, dict[str, list[list[float]]]] = {}
     for r in repo.track(group_id, request.args.getlist("agent") or None, since_s):

@@ -25,7 +25,7 @@ from flask import Blueprint, Response, jsonify, request
 from pdr.errors import InputError
 from pdr.recording import PLACEMENTS
 from server import plausibility
-from server.api import current_user, services
+from server.api import current_user, plain_body, services
 from server.api.sessions import geo_reference, time_span_ns
 from server.errors import APIError
 from server.ingest import store_batch
@@ -58,6 +58,7 @@ def _ingest() -> Response:
 
     user = current_user(allow_query_token=True, scope="ingest")
     svc = services()
+    plain_body()
     raw = request.get_data()
     try:
         message = json.loads(raw)
@@ -72,6 +73,7 @@ def _ingest() -> Response:
     recording = parse_push_message(message, source=f"message {message_id}", platform=platform,
                                    standardised=standardised)
     plausibility.check_units(recording)
+    t_first, t_last = time_span_ns(recording, "payload")
     sid, created = svc.store.create_session(user.id, source="sensor_logger",
                                             client_session_id=str(message["sessionId"]),
                                             name=f"Sensor Logger {message['sessionId']}", placement=placement)
@@ -80,7 +82,6 @@ def _ingest() -> Response:
         raise APIError(422, f"placement '{placement}' differs from the session's ('{known}'): use one push URL "
                             f"for the whole session",
                        details={"field": "placement"})
-    t_first, t_last = time_span_ns(recording)
     plausibility.check_time(svc.store.engine, sid, "phone", SENSOR_LOGGER_JSON, t_first, t_last)
     accepted = store_batch(svc, sid, client_batch_id=f"msg-{message_id}", payload_format=SENSOR_LOGGER_JSON,
                            payload=raw, t_first_ns=t_first, t_last_ns=t_last,

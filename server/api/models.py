@@ -85,7 +85,7 @@ def _model_dir(name: str) -> Path:
     current_user()
     d = _model_dirs().get(name)
     if d is None:
-        raise APIError(404, f"no model '{name}'")
+        raise APIError(404, f"no model '{name[:64]}'")
     return d
 
 
@@ -115,7 +115,7 @@ def classify() -> Response:
     name = body.get("model", DEFAULT_MODEL)
     d = _model_dirs().get(name)
     if d is None:
-        raise APIError(404, f"no model '{name}'")
+        raise APIError(404, f"no model '{name[:64]}'")
     try:
         recording = batch_from_json(body["batch"], source="batch")
         model = load_model(d)

@@ -40,7 +40,7 @@ def _report(report_id: str) -> Any:
     with services().store.engine.connect() as conn:
         row = conn.execute(select(db.reports).where(db.reports.c.id == report_id)).first()
     if row is None or row.user_id != user.id:
-        raise APIError(404, f"no report '{report_id}'")
+        raise APIError(404, f"no report '{report_id[:64]}'")
     return row
 
 
@@ -83,7 +83,7 @@ def report_file(report_id: str, name: str) -> Response:
         f = conn.execute(select(db.report_files).where(db.report_files.c.report_id == report_id,
                                                        db.report_files.c.name == name)).first()
     if f is None:
-        raise APIError(404, f"report '{report_id}' has no file '{name}'")
+        raise APIError(404, f"report '{report_id[:64]}' has no file '{name[:64]}'")
     return Response(f.content, mimetype=f.media_type.split(";")[0],
                     headers={"Content-Disposition": f'inline; filename="{f.name}"'})
 

@@ -38,7 +38,7 @@ from pdr.phone.heading_smoother import smooth_track
 from pdr.phone.track_geojson import NotGeoReferenced, track_geojson
 from pdr.phone.track_schema import TRACK_COLUMNS
 from server import db
-from server.api import current_user, services
+from server.api import current_user, only_query_parameters, services
 from server.errors import APIError
 from server.feet import ROLE_PRIORITY, primary_role
 from server.processing_options import map_matched
@@ -212,6 +212,7 @@ def track(session_id: str) -> Response:
     user = current_user()
     svc = services()
     row = svc.store.session_row(session_id, user.id)
+    only_query_parameters("format", "device", "since", "after", "heading")
     fmt = request.args.get("format", "json")
     if fmt not in ("json", "csv", "geojson"):
         raise APIError(400, f"unknown format '{fmt[:20]}'; use json, csv or geojson", details={"field": "format"})
@@ -276,6 +277,7 @@ def _events(session_id: str, what: str) -> Response:
     user = current_user()
     svc = services()
     row = svc.store.session_row(session_id, user.id)
+    only_query_parameters("since", "after")
     after = parse_after()
     rows = svc.store.events(session_id, EVENT_KINDS[what], parse_since(), previous=svc.store.rebuilding(session_id),
                             after_id=after)
@@ -297,6 +299,7 @@ def steps(session_id: str) -> Response:
     user = current_user()
     svc = services()
     session = svc.store.session_row(session_id, user.id)
+    only_query_parameters("since", "after")
     since, after = parse_since(), parse_after()
     rows = svc.store.steps(session_id, since, previous=svc.store.rebuilding(session_id), after_id=after)
     items = [{"t_s": r.t_s, "t_end_s": None, "label": r.mode, "value": _clean(r.step_length_m),

@@ -60,9 +60,15 @@ def session_json(row: Any, detail: bool = False) -> dict[str, Any]:
     return out
 
 
-def time_span_ns(rec: Recording) -> tuple[int, int]:
+def time_span_ns(rec: Recording, field: str) -> tuple[int, int]:
+    """The first and last sample time of ``rec`` (ns, its own clock); a 422 naming ``field`` (where the request
+    carries the samples) when every stream is empty: nothing is stored.
+    """
     firsts = [int(s.t_ns[0]) for s in rec.streams.values() if len(s)]
     lasts = [int(s.t_ns[-1]) for s in rec.streams.values() if len(s)]
+    if not firsts:
+        raise APIError(422, f"{rec.source or 'the upload'}: every stream is empty (no sensor sample); nothing stored",
+                       details={"field": field})
     return min(firsts), max(lasts)
 
 
@@ -102,6 +108,7 @@ def _create_from_file(user_id: int) -> tuple[Response, int]:
     svc = services()
     upload = uploaded_log()  # validated before accepting
     payload, filename, descriptor, recording = upload.payload, upload.filename, upload.descriptor, upload.recording
+    t_first, t_last = time_span_ns(recording, "file")
     options = ProcessingOptions.from_text(request.form.get("processing"))
     site = named_site(options, user_id)
     placement = request.form.get("placement") or recording.device.placement
@@ -120,7 +127,6 @@ def _create_from_file(user_id: int) -> tuple[Response, int]:
                             f"/api/v1/sessions/{sid}/devices/ROLE/upload, or choose another session_id",
                        details={"field": "session_id", "session": sid})
     dev = recording.device
-    t_first, t_last = time_span_ns(recording)
     store_batch(svc, sid, client_batch_id=batch_id, payload_format=FILE_PREFIX + descriptor,
                 payload=payload, t_first_ns=t_first, t_last_ns=t_last, device=replace(dev, placement=placement),
                 recording=recording)
@@ -216,7 +222,7 @@ def upload_device_file(session_id: str, role: str) -> tuple[Response, int]:
                             f"{'a shoe IMU' if role in FOOT_ROLES else 'a phone'} log", details={"field": "file"})
     foot = role in FOOT_ROLES
     device = replace(recording.device, role=role, placement="foot" if foot else recording.device.placement)
-    t_first, t_last = time_span_ns(recording)
+    t_first, t_last = time_span_ns(recording, "file")
     fmt = FILE_PREFIX + upload.descriptor
     plausibility.check_units(recording)
     plausibility.check_location(recording)
@@ -259,7 +265,7 @@ def add_native_batch(session_id: str) -> tuple[Response, int]:
         recording = batch_from_json(body, source=f"batch '{batch_id}'")
     except InputError as exc:
         raise APIError(422, str(exc), details=exc.details()) from None
-    t_first, t_last = time_span_ns(recording)
+    t_first, t_last = time_span_ns(recording, "streams")
     plausibility.check_identity(svc.store.engine, session_id, batch_id, body.get("session_id"), recording)
     plausibility.check_batch(svc.store.engine, session_id, NATIVE_JSON, recording, t_first, t_last)
     role = recording.device.role

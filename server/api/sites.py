@@ -15,7 +15,7 @@ from typing import Any
 
 from flask import Blueprint, Response, jsonify, request
 
-from server.api import current_user, json_body, no_query_parameters, services
+from server.api import current_user, json_body, no_query_parameters, plain_body, services
 from server.errors import APIError
 from server.processing_options import ProcessingOptions, session_options
 from server.site_store import SiteDocument, SiteStore
@@ -36,6 +36,7 @@ def site_json(row: Any) -> dict[str, Any]:
 
 def _uploaded_document() -> tuple[Any, str, int]:
     """The site document of the request (JSON body or multipart ``file``), a name, and its size in bytes."""
+    plain_body()
     if request.files or (request.content_type or "").startswith("multipart/"):
         upload = request.files.get("file")
         if upload is None:

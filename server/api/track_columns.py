@@ -16,7 +16,7 @@ from typing import Any
 from flask import Blueprint, Response
 
 from pdr.phone.track_schema import TRACK_COLUMNS
-from server.api import current_user, services
+from server.api import current_user, only_query_parameters, services
 from server.api.results import next_after, parse_after, parse_device, parse_heading, parse_since, track_points
 
 bp = Blueprint("track_columns", __name__, url_prefix="/api/v1/sessions")
@@ -41,6 +41,7 @@ def track_columns(session_id: str) -> Response:
     user = current_user()
     svc = services()
     svc.store.session_row(session_id, user.id)
+    only_query_parameters("device", "since", "after", "heading")
     heading = parse_heading()
     since, after = parse_since(), parse_after()
     smoothing = None

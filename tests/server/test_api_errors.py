@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 
+import numpy as np
 import pytest
 from flask import Flask
 from flask.testing import FlaskClient
@@ -218,6 +219,31 @@ def test_400_an_after_beyond_any_seq_names_the_parameter_not_500(client, tokens,
     assert client.get(f"/api/v1/sessions/{sid}/{route}?after={2**31 - 1}", headers=h).status_code == 200
 
 
+@pytest.mark.parametrize(("route", "query"), [("track", "since_s=10"), ("track", "sinse=10"), ("track", "limit=5"),
+                                              ("track/columns", "since_s=10"), ("steps", "device=phone"),
+                                              ("modes", "heading=smoothed"), ("landmarks", "from=3"),
+                                              ("floors", "since_s=10")])
+def test_400_a_result_refuses_a_query_parameter_it_does_not_take(client, tokens, route, query):
+    """A misspelt or foreign parameter (the groups' since_s) was ignored: the poller got every row, as if it had
+    asked for them all. Now it is refused naming it and the parameters the route takes."""
+    sid = _session(client, tokens["alice"])
+    h = bearer(tokens["alice"])
+    name = query.split("=")[0]
+    error = assert_error(client.get(f"/api/v1/sessions/{sid}/{route}?{query}", headers=h), 400,
+                         f"unknown query parameter '{name}': this route takes ")
+    assert error["details"]["field"] == name and "since" in error["message"]
+    assert client.get(f"/api/v1/sessions/{sid}/{route}?since=10&after=0", headers=h).status_code == 200
+
+
+def test_a_group_track_refuses_a_query_parameter_it_does_not_take(client, tokens):
+    h = bearer(tokens["alice"])
+    gid = client.post("/api/v1/groups", headers=h, json={"name": "t"}).get_json()["id"]
+    error = assert_error(client.get(f"/api/v1/groups/{gid}/tracks?since=1.5", headers=h), 400,
+                         "unknown query parameter 'since': this route takes agent, since_s")
+    assert error["details"]["field"] == "since"
+    assert client.get(f"/api/v1/groups/{gid}/tracks?since_s=1.5&agent=a&agent=b", headers=h).status_code == 200
+
+
 def test_a_non_finite_group_since_s_is_refused_naming_it(client, tokens):
     h = bearer(tokens["alice"])
     gid = client.post("/api/v1/groups", headers=h, json={"name": "t"}).get_json()["id"]
@@ -238,3 +264,31 @@ def test_422_an_upload_of_no_known_format_names_the_form_field_format(client, to
                            "not a supported log format")
         assert "--format" not in err["message"] and "field 'format' to force one" in err["message"], err
         assert err["code"] == "unknown_format" and err["details"]["field"] == "file"
+
+
+@pytest.mark.parametrize(("change", "field"), [({"t_s": 1e300}, "steps[0].t_s"), ({"t_s": -1e300}, "steps[0].t_s"),
+                                               ({"t_s": 1e11}, "steps[0].t_s"), ({"index": 10**30}, "steps[0].index")])
+def test_422_a_step_summary_time_or_index_beyond_int64_names_the_field(client, tokens, change, field):
+    """A shoe unit's step at t_s 1e300 s or with index 1e30 was a 500 (OverflowError turning t_s into int64 ns, or
+    storing the index as int64); nothing is stored now, and the next good summaries are taken."""
+    h = bearer(tokens["alice"])
+    sid = _session(client, tokens["alice"])
+    assert client.post(f"/api/v1/sessions/{sid}/devices", json={"role": "left_foot"}, headers=h).status_code == 201
+    step = {"t_s": 1.0, "dp": [0.7, 0.0, 0.0], "dpsi": 0.0, "cov": (np.eye(4) * 1e-4).tolist(), "index": 100}
+    payload = {"format": "pdr-foot-steps/1", "batch_id": "b1", "device": {"role": "left_foot"},
+               "steps": [step | change]}
+    err = assert_error(client.post(f"/api/v1/sessions/{sid}/steps", json=payload, headers=h), 422)
+    assert err["details"]["field"] == field
+    assert client.get(f"/api/v1/sessions/{sid}", headers=h).get_json()["batch_list"] == []
+    resp = client.post(f"/api/v1/sessions/{sid}/steps", json=payload | {"steps": [step]}, headers=h)
+    assert resp.status_code == 201, resp.get_json()
+
+
+@pytest.mark.parametrize("route", ["sessions/{}", "sessions/{}/track", "groups/{}", "reports/{}", "models/{}",
+                                   "sites/{}", "reports/{}/files/x"])
+def test_404_of_a_very_long_id_quotes_a_short_prefix_of_it(client, tokens, route):
+    """A 50 000-character id was echoed whole in the 404's message (a body 1000 times the usual)."""
+    long_id = "a" * 50_000
+    err = assert_error(client.get(f"/api/v1/{route.format(long_id)}", headers=bearer(tokens["alice"])), 404,
+                       f"'{'a' * 64}'")
+    assert len(err["message"]) < 200, len(err["message"])

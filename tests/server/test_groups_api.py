@@ -111,7 +111,11 @@ def test_access_control_and_errors(gclient: FlaskClient, tokens: dict[str, str])
     r = gclient.post("/api/v1/groups", headers=alice, json={"config": {"feet": ["hand"]}})
     assert r.status_code == 422 and "config.feet[0]" in r.get_json()["error"]["message"]
     for config, path in (({"ranging": {"sigma_m": 0}}, "config.ranging.sigma_m"),
-                         ({"lattice_points": 2.5}, "config.lattice_points"), ({"colour": 1}, "config")):
+                         ({"lattice_points": 2.5}, "config.lattice_points"), ({"colour": 1}, "config"),
+                         # accepted (201) before: 1001 took 19 GB at the group's first range, 100 000 and 1e160 m
+                         # failed it (500) and every later update of the group
+                         ({"lattice_points": 1001}, "config.lattice_points"),
+                         ({"separation": {"gamma_xy": 1e160}}, "config.separation.gamma_xy")):
         r = gclient.post("/api/v1/groups", headers=alice, json={"config": config})
         assert r.status_code == 422 and r.get_json()["error"]["details"]["path"] == path, r.get_json()
     spec = gclient.get("/api/v1/openapi.json").get_json()["components"]["schemas"]["CreateGroup"]
@@ -138,6 +142,10 @@ def test_access_control_and_errors(gclient: FlaskClient, tokens: dict[str, str])
     r = gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice, data='{"agent": "x", "pos0_n": [0, 0, 0], '
                      f'"session_id": "{sid}", "clock_offset_s": Infinity}}', content_type="application/json")
     assert r.status_code == 422 and "finite" in r.get_json()["error"]["message"]
+    # a foot 1e308 m from its agent joined (201), and the group's next fused update failed it for good (500)
+    r = gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice,
+                     json={"agent": "x", "pos0_n": [0, 0, 0], "foot_offsets_n": [[0, 0, 0], [1e308, 0, 0]]})
+    assert r.status_code == 422 and r.get_json()["error"]["details"]["path"] == "foot_offsets_n[1][0]", r.get_json()
     assert gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice,
                         json={"agent": "x", "pos0_n": [0, 0, 0]}).status_code == 201
     assert gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice,
@@ -186,3 +194,42 @@ def test_stale_ranges_are_refused_and_nothing_of_the_upload_is_kept(gclient: Fla
     r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=bearer(tok),
                      json={"batch_id": "walk", "agent": "a0", "events": steps})
     assert r.status_code == 201 and r.get_json()["accepted"] == len(steps)       # the refused one was not kept
+
+
+def test_a_step_beyond_any_stride_is_refused_and_cannot_break_the_group(gclient: FlaskClient,
+                                                                       tokens: dict[str, str]) -> None:
+    """A step of dp 1e200 m or variance 1e308 (finite, so it passed) was accepted (201) and buffered; fusing it
+    overflowed the fusion: the flush and every later upload of any agent answered 500, and the group never
+    recovered. Now the upload is a 422 naming dp or cov, and the group goes on."""
+    tok = tokens["alice"]
+    gid = gclient.post("/api/v1/groups", headers=bearer(tok), json={"name": "t"}).get_json()["id"]
+    for agent, east in (("a", 0.0), ("b", 5.0)):
+        assert gclient.post(f"/api/v1/groups/{gid}/agents", headers=bearer(tok),
+                            json={"agent": agent, "pos0_n": [east, 0.0, 0.0]}).status_code == 201
+    cov = (np.eye(4) * 1e-4).tolist()
+
+    def step(agent: str, foot: str, t_s: float, east_m: float = 0.7) -> dict[str, Any]:
+        return {"type": "step", "t_s": t_s, "agent": agent, "foot": foot, "dp": [east_m, 0.0, 0.0], "dpsi": 0.0,
+                "cov": cov}
+
+    def upload(batch_id: str, agent: str, events: list[dict[str, Any]]) -> Any:
+        return gclient.post(f"/api/v1/groups/{gid}/uploads", headers=bearer(tok),
+                            json={"batch_id": batch_id, "agent": agent, "events": events})
+
+    assert upload("u0", "a", [step("a", "left_foot", 1.0), step("a", "right_foot", 1.0)]).status_code == 201
+    r = upload("u1", "a", [step("a", "left_foot", 2.0, east_m=1e200)])
+    assert r.status_code == 422, r.get_json()
+    assert r.get_json()["error"]["details"] == {"source": "events[0]", "field": "dp"}
+    assert "at most 100 m" in r.get_json()["error"]["message"]
+    # a variance of 1e308 (finite: it passed) broke the group the same way
+    r = upload("u1", "a", [step("a", "left_foot", 2.0) | {"cov": (np.eye(4) * 1e308).tolist()}])
+    assert r.status_code == 422, r.get_json()
+    assert r.get_json()["error"]["details"] == {"source": "events[0]", "field": "cov"}
+    r = upload("u1", "a", [step("a", "left_foot", 2.0) | {"dpsi": 1e308}])      # the same with a turn of 1e308 rad
+    assert r.status_code == 422, r.get_json()
+    assert r.get_json()["error"]["details"] == {"source": "events[0]", "field": "dpsi"}
+    assert upload("u1", "a", [step("a", "left_foot", 2.0)]).status_code == 201     # nothing of the refused one kept
+    assert upload("u2", "b", [step("b", "left_foot", 2.0)]).status_code == 201
+    assert gclient.post(f"/api/v1/groups/{gid}/flush", headers=bearer(tok)).status_code == 200
+    track = gclient.get(f"/api/v1/groups/{gid}/tracks", headers=bearer(tok)).get_json()["agents"]["a"]["left_foot"]
+    assert [row[:2] for row in track] == [[0.0, 0.0], [1.0, 0.7], [2.0, 1.4]]

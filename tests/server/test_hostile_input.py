@@ -108,6 +108,8 @@ CASES: dict[str, tuple[Any, int, str]] = {
     "timestamps 10 years after the session": (_far_future(), 422, "days away"),
     "one batch spanning 3 days": (_long_span(), 422, "span"),
     "accelerometer in g": (_in_g(), 422, "looks like g"),
+    # the schema allows empty streams (with a t0_ns): the span of no sample was a 500 (min() of nothing)
+    "every stream empty": (_batch(streams={"acc": {"t_ns": [], "values": []}}), 422, "every stream is empty"),
     "unknown stream kind": (_batch(streams={"laser": {"t_ns": [1], "values": [[1.0]]}}), 422, "laser"),
     "wrong column count": (_batch(streams={"acc": {"t_ns": [1, 2], "values": [[1.0, 2.0], [1.0, 2.0]]}}), 422,
                            "acc"),
@@ -198,6 +200,52 @@ def test_an_uploaded_native_log_with_a_bad_location_fix_is_a_422_and_creates_not
     assert c.get("/api/v1/sessions", headers=h).get_json() == before
 
 
+def test_an_uploaded_log_without_a_sample_is_a_422_naming_the_file_and_creates_nothing(env):
+    """A native log whose streams are all empty (the schema allows it with a ``t0_ns``) was a 500 on both upload
+    routes, after the new session was created."""
+    app, c, h, sid = env
+    before = c.get("/api/v1/sessions", headers=h).get_json()
+    log = json.dumps(_batch(streams={"acc": {"t_ns": [], "values": []}})).encode()
+    c.post(f"/api/v1/sessions/{sid}/devices", json={"role": "phone"}, headers=h)
+    for route in ("/api/v1/sessions", f"/api/v1/sessions/{sid}/devices/phone/upload"):
+        r = c.post(route, data={"file": (io.BytesIO(log), "empty.json")}, headers=h,
+                   content_type="multipart/form-data")
+        assert r.status_code == 422, (route, r.get_data()[:300])
+        error = r.get_json()["error"]
+        assert error["details"]["field"] == "file" and "every stream is empty" in error["message"], error
+    after = c.get("/api/v1/sessions", headers=h).get_json()
+    assert [(s["id"], s["batches"]) for s in after["sessions"]] == [(s["id"], s["batches"]) for s in before["sessions"]]
+
+
+def test_a_compressed_body_is_a_415_naming_content_encoding_and_stores_nothing(env):
+    """A client gzipping its request (Content-Encoding: gzip) was told its body was not valid JSON (400), a log file
+    that it was not a log (422), the Sensor Logger app that its message was not JSON."""
+    import gzip
+
+    app, c, h, sid = env
+    before = _snapshot(app, c, h, sid)
+    batch = gzip.compress(json.dumps(phone_batch("zipped", 50.0)).encode())
+    gz = {**h, "Content-Encoding": "gzip"}
+    for route, data, ctype in ((f"/api/v1/sessions/{sid}/batches", batch, "application/json"),
+                               ("/api/v1/sites", gzip.compress(b'{"floors": []}'), "application/json"),
+                               ("/api/v1/sessions", {"file": (io.BytesIO(batch), "walk.json")}, "multipart/form-data")):
+        r = c.post(route, data=data, headers=gz, content_type=ctype)
+        assert r.status_code == 415, (route, r.get_data()[:300])
+        error = r.get_json()["error"]
+        assert error["details"]["field"] == "Content-Encoding" and "'gzip' is not supported" in error["message"]
+    message = {"messageId": 1, "sessionId": "zipped", "deviceId": "d", "payload": [
+        {"name": "accelerometer", "time": 1_700_000_000_000_000_000, "values": {"x": 0.0, "y": 0.0, "z": 9.8}}]}
+    r = c.post(f"/api/v1/ingest/sensor-logger?token={h['Authorization'].split()[-1]}",
+               data=gzip.compress(json.dumps(message).encode()), headers={"Content-Encoding": "gzip"},
+               content_type="application/json")
+    assert r.status_code == 499 and "Content-Encoding 'gzip' is not supported" in r.get_data(as_text=True)
+    assert _snapshot(app, c, h, sid) == before
+    assert [s["session_id"] for s in c.get("/api/v1/sessions", headers=h).get_json()["sessions"]] == ["victim"]
+    identity = c.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch("plain", 50.0),
+                      headers={**h, "Content-Encoding": "identity"})
+    assert identity.status_code == 201, identity.get_json()
+
+
 def test_wrong_content_type_is_415(env):
     app, c, h, sid = env
     r = _post_raw(c, sid, h, json.dumps(phone_batch("x", 50.0)).encode(), content_type="text/plain")
@@ -253,6 +301,17 @@ def test_sensor_logger_hostile_messages_get_the_apps_499_with_a_message(env):
                  json.dumps({**good, "sessionId": "a'; DROP TABLE sessions;--" * 20}).encode()):
         r = c.post("/api/v1/ingest/sensor-logger", data=body, headers=h, content_type="application/json")
         assert r.status_code == 499 and r.get_data(as_text=True).startswith("pdr: "), (body[:60], r.get_data()[:200])
+
+
+def test_a_push_without_a_token_tells_the_app_user_to_put_it_in_the_url(env):
+    """The Sensor Logger app sets no header, but its user was told to send 'Authorization: Bearer <token>'."""
+    app, c, h, _ = env
+    message = {"messageId": 1, "sessionId": "sl", "deviceId": "d", "payload": [
+        {"name": "accelerometer", "time": 1_700_000_000_000_000_000, "values": {"x": 0.0, "y": 0.0, "z": 9.81}}]}
+    r = c.post("/api/v1/ingest/sensor-logger", json=message)
+    assert r.status_code == 499 and "?token=<token>" in r.get_data(as_text=True), r.get_data(as_text=True)
+    r = c.get("/api/v1/sessions")                                     # no URL token there: no hint of one
+    assert r.status_code == 401 and "?token" not in r.get_json()["error"]["message"]
 
 
 # -- property-based fuzzing of the ingest endpoints ----------------------------------------------------

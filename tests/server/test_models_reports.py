@@ -49,6 +49,25 @@ def test_classify_window(client, tokens):
     assert short.status_code == 422
 
 
+@pytest.mark.parametrize("model", ["motion_mode", "placement"])
+def test_classify_a_batch_with_a_gap_longer_than_a_window_labels_the_gap_unknown(client, tokens, model):
+    """An app suspended for 6 s: the windows without one accelerometer sample were NaN, which the pitch and stride
+    features' eigendecompositions refused (LinAlgError): a 500. Now they are labelled unknown, the others classified
+    as without the gap."""
+    h = bearer(tokens["alice"])
+    walk = _walk_batch(20.0)
+    gap = {kind: [i for i, t in enumerate(s["t_ns"]) if not 7e9 <= t - walk["t0_ns"] < 13e9]
+           for kind, s in walk["streams"].items()}
+    for kind, s in walk["streams"].items():
+        s["t_ns"], s["values"] = [s["t_ns"][i] for i in gap[kind]], [s["values"][i] for i in gap[kind]]
+    resp = client.post("/api/v1/classify", json={"batch": walk, "model": model}, headers=h)
+    assert resp.status_code == 200, resp.get_json()
+    windows = resp.get_json()["windows"]
+    inside = [w for w in windows if w["t_start_s"] >= 1_700_000_007.0 and w["t_end_s"] <= 1_700_000_013.0]
+    assert inside and {w["mode"] for w in inside} == {"unknown"}
+    assert any(w["mode"] != "unknown" for w in windows)
+
+
 def _static_npz(seconds: float = 200.0, rate: float = 100.0) -> bytes:
     rng = np.random.default_rng(3)
     n = int(seconds * rate)
