@@ -763,17 +763,24 @@ def test_real_slow_texting_walk_is_counted_as_a_held_walk():
     # steps for 134 in the motion capture), with no more steps than true and no fewer paired with a true step (73 ->
     # 76: few of the added starts fall within 0.3 s of a true step after the walk's median lag). Off (the default),
     # the detector is as before.
+    truth, hits, counts = _off_and_on("Guillaume_Nexus5_NoDist_Texting", "held_walks")
+    assert max(counts.values()) <= truth.size
+    assert counts[True] >= counts[False] + 0.1 * truth.size and hits[True] >= hits[False]
+
+
+def _off_and_on(name: str, option: str) -> tuple[np.ndarray, dict[bool, int], dict[bool, int]]:
+    """A motion-capture walk's true step times (s), and its steps paired with one and its steps found, with the
+    StepConfig flag ``option`` off and on (the pipeline's grid, ``tools/walking_steps.py``)."""
     from pdr.evaluation.mocap_steps import matched_steps
     from pdr.phone.pipeline import PipelineConfig
     tool = load_tool("walking_steps")
-    rec, truth = _mocap_walk("Guillaume_Nexus5_NoDist_Texting")
+    rec, truth = _mocap_walk(name)
     hits, counts = {}, {}
     for on in (False, True):
-        times, _ = tool.pipeline_step_times(rec, StepConfig(held_walks=on), PipelineConfig().rate_hz)
+        times, _ = tool.pipeline_step_times(rec, StepConfig(**{option: on}), PipelineConfig().rate_hz)
         hits[on], _ = matched_steps(times, truth)
         counts[on] = times.size
-        assert times.size <= truth.size
-    assert counts[True] >= counts[False] + 0.1 * truth.size and hits[True] >= hits[False]
+    return truth, hits, counts
 
 
 @pytest.mark.data
@@ -811,15 +818,7 @@ def test_real_texting_walk_keeps_its_weak_steps_with_the_held_peak_floor():
     # while the walk's matched steps peaked at 0.73 (median). Held in front, in the held-phone gate's periodicity band,
     # a crossing needs only peak_ratio of the recent clear steps' median peak: 51 -> 78 matched, 76 -> 109 steps (no
     # more than true).
-    from pdr.evaluation.mocap_steps import matched_steps
-    from pdr.phone.pipeline import PipelineConfig
-    tool = load_tool("walking_steps")
-    rec, truth = _mocap_walk("Guillaume_Nexus5_Dist_Texting")
-    hits, counts = {}, {}
-    for on in (False, True):
-        times, _ = tool.pipeline_step_times(rec, StepConfig(held_peak_floor=on), PipelineConfig().rate_hz)
-        hits[on], _ = matched_steps(times, truth)
-        counts[on] = times.size
+    truth, hits, counts = _off_and_on("Guillaume_Nexus5_Dist_Texting", "held_peak_floor")
     assert hits[False] < 0.5 * truth.size                    # before: 51 of 131
     assert hits[True] >= 0.55 * truth.size and counts[True] <= truth.size
 
