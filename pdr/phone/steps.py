@@ -589,6 +589,25 @@ def _median(values: Sequence[float]) -> float:
     return float(statistics.median(values))
 
 
+@kernel
+def _ring_median(ring: FloatArray, n: int) -> float:
+    """Median of ``ring[:n]`` (``n`` >= 1 finite numbers, a few), as ``np.median``: sorted by insertion in a copy, the
+    middle one or the mean of the middle two. In the step kernel instead of ``np.median``, whose numba implementation
+    lives in ``numba.np.arraymath``: loading a kernel that calls it imports that module, 0.25-0.4 s of a process's
+    start (``tests/pdr/filters/test_compiled.py``).
+    """
+    v = ring[:n].copy()
+    for i in range(1, n):
+        x = v[i]
+        j = i - 1
+        while j >= 0 and v[j] > x:
+            v[j + 1] = v[j]
+            j -= 1
+        v[j + 1] = x
+    h = n // 2
+    return v[h] if n % 2 == 1 else (v[h - 1] + v[h]) / 2.0
+
+
 def _strides(starts: Sequence[int]) -> list[int]:
     """Stride lengths (samples) of consecutive step starts: ``starts[i + 2] - starts[i]`` (the same leg)."""
     return [starts[i + 2] - starts[i] for i in range(len(starts) - 2)]
@@ -686,7 +705,7 @@ def _detect_kernel(d: FloatArray, st: FloatArray, fs: float, min_peak: float, pe
                     if held_ratio > 0.0 and held[i] and steady_corr <= corr < min_corr and n_pk >= _PEAK_RING_MIN:
                         # Held phone's peak floor (module docstring): where the held-phone gate opened the gain, a
                         # crossing needs only held_ratio of the median peak of the walk's recent clear steps.
-                        floor = min(floor, held_ratio * np.median(st[pk0 + 1:pk0 + 1 + n_pk]))
+                        floor = min(floor, held_ratio * _ring_median(st[pk0 + 1:], n_pk))
                     gain_thr = min(thr, max(noise_peak, floor))
                 periodic = not gated or corr >= min_corr or (steady[i] and corr >= steady_corr)
                 if periodic:

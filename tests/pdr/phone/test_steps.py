@@ -965,3 +965,12 @@ def test_real_double_crossing_at_gait_initiation():
     t, steps, true = _oxford_walk_steps("Nexus_Jamie_Hard_InHand_2")
     assert true.size == 306 and len(steps) == 304
     assert np.count_nonzero(t[steps.start_idx] < 3.0) == 3
+
+
+@pytest.mark.parametrize("n", range(1, 9))
+def test_the_kernels_ring_median_is_numpys(n: int) -> None:
+    rng = np.random.default_rng(n)
+    for _ in range(50):
+        ring = rng.normal(size=steps_mod._PEAK_RING + 1)
+        ring[rng.integers(0, ring.size)] = ring[0]             # ties too
+        assert steps_mod._ring_median(ring, n) == np.median(ring[:n])
