@@ -31,7 +31,6 @@ from typing import Any
 
 from flask import Blueprint, Response, current_app, jsonify, request
 
-from pdr.errors import InputError
 from pdr.fusion.centre import FusionConfig
 from pdr.fusion.group import Group
 from pdr.fusion.measurements import StepSummary, parse_event
@@ -328,7 +327,9 @@ def upload(group_id: str) -> tuple[Response, int]:
 
     try:
         result = repo.modify(group_id, apply)
-    except InputError:              # e.g. ranges older than the fusion horizon: nothing of the upload is kept
+    except Exception:
+        # Nothing of the upload was applied (an input error, e.g. ranges older than the fusion horizon, or a fault of
+        # ours): it is not kept either, so a retry is applied, not answered as a duplicate of what was lost.
         repo.remove_upload(uid)
         raise
     return jsonify({"batch_id": body["batch_id"], "id": uid, "duplicate": False, **result}), 201

@@ -233,3 +233,33 @@ def test_a_step_beyond_any_stride_is_refused_and_cannot_break_the_group(gclient:
     assert gclient.post(f"/api/v1/groups/{gid}/flush", headers=bearer(tok)).status_code == 200
     track = gclient.get(f"/api/v1/groups/{gid}/tracks", headers=bearer(tok)).get_json()["agents"]["a"]["left_foot"]
     assert [row[:2] for row in track] == [[0.0, 0.0], [1.0, 0.7], [2.0, 1.4]]
+
+
+def test_an_upload_whose_fusion_fails_is_not_kept_and_its_retry_is_applied(gclient: FlaskClient,
+                                                                          tokens: dict[str, str],
+                                                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    """A fault of ours while an upload is fused (not an input error): the upload was stored but never applied, and its
+    retry was answered 'duplicate', so its events were lost for good. Now nothing of it is kept, and the retry is
+    applied."""
+    from pdr.fusion.group import Group
+    tok = tokens["alice"]
+    gid = gclient.post("/api/v1/groups", headers=bearer(tok), json={"name": "t"}).get_json()["id"]
+    sc = scenario()
+    join_all(gclient, tok, gid, sc)
+    steps = [e for e in events_json(sc, "a0", 0, 5) if e["type"] == "step"]
+    body = {"batch_id": "b1", "agent": "a0", "events": steps}
+    process = Group.process
+
+    def broken(self: Group) -> Any:
+        raise RuntimeError("a fault while fusing")
+
+    monkeypatch.setattr(Group, "process", broken)
+    try:
+        failed = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=bearer(tok), json=body).status_code
+    except RuntimeError:            # the test app propagates the exception instead of answering 500
+        failed = 500
+    assert failed == 500
+    monkeypatch.setattr(Group, "process", process)
+    r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=bearer(tok), json=body)
+    assert r.status_code == 201, r.get_json()
+    assert r.get_json()["duplicate"] is False and r.get_json()["accepted"] == len(steps) > 0
