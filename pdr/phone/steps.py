@@ -1065,18 +1065,22 @@ class StepDetector:
             return None
         return [(b[0], b[1]) for b in self._bout]
 
-    def _held_in_front(self, g: np.ndarray) -> bool:
-        """True if gravity ``g`` (device frame, m/s^2) says the phone is held in front as the walker held it walking
-        (module docstring, held walk): its long axis (y) more than ``held_min_axis_tilt_deg`` from the vertical, and
-        ``g`` within ``handling_angle_deg`` of its direction at the latest start of a confirmed walk.
+    def _weak_rms(self) -> float:
+        """RMS of ``a_n - reference`` (m/s^2) below which a stride is weak: ``weak_energy_ratio`` times the median of
+        the bout's recent steady strides (walk-end rule, module docstring); NaN before any (nothing is weak).
         """
-        g_norm = float(np.linalg.norm(g))
-        if not g_norm > 0.0 or abs(float(g[1])) / g_norm >= math.cos(math.radians(self.config.held_min_axis_tilt_deg)):
-            return False
+        if not self._steady_rms:
+            return math.nan
+        return self.config.weak_energy_ratio * _median(self._steady_rms)
+
+    def _keeps_walk_tilt(self, g: np.ndarray) -> bool:
+        """True if the unit gravity direction ``g`` (device frame) lies within ``handling_angle_deg`` of its direction
+        at the latest start of a confirmed walk (module docstring, held walk; True before any walk).
+        """
         if self._walk_up is None:
             return True
         w = np.asarray(self._walk_up, dtype=np.float64)
-        n = g_norm * float(np.linalg.norm(w))
+        n = float(np.linalg.norm(g)) * float(np.linalg.norm(w))
         cos = max(-1.0, min(1.0, float(g @ w) / n)) if n > 0.0 else -1.0
         return math.degrees(math.acos(cos)) <= self.config.handling_angle_deg
 
@@ -1246,13 +1250,14 @@ class StepDetector:
         decided = np.zeros(0, dtype=np.int64)
         energy = np.zeros(0)
         grav = np.zeros((0, 3))
-        steady = np.zeros(0, dtype=bool)
+        in_front = np.zeros(0, dtype=bool)
         if acc.shape[0]:
             an, ref = self.filtered_norm(acc)
             d = an - ref
             grav = self._gravity_dir(acc)
             steady = self._steady(grav)
-            # Held in front (held_peak_floor): at a steady tilt, the long axis across the vertical.
+            # Held in front (held walk, held_peak_floor): at a steady tilt, the long axis (y) more than
+            # held_min_axis_tilt_deg from the vertical (grav is a unit vector).
             in_front = steady & (np.abs(grav[:, 1]) < math.cos(math.radians(c.held_min_axis_tilt_deg)))
             starts, peaks, decided, corrs, softs, lags = _detect_kernel(
                 d, self._kernel, fs, c.min_peak, c.peak_ratio, c.min_rise_rate,
@@ -1281,8 +1286,7 @@ class StepDetector:
                 if any(h[3] for h in recent):
                     # Turned steps that keep coming and, as a run, are not weak: the walk goes on (handling after a
                     # walk is weak, the walker has stopped pushing off). They are reported.
-                    strong = c.weak_energy_ratio * _median(self._steady_rms) if self._steady_rms else math.inf
-                    if not _median([h[4] if math.isfinite(h[4]) else 0.0 for h in recent]) >= strong:
+                    if not _median([h[4] if math.isfinite(h[4]) else 0.0 for h in recent]) >= self._weak_rms():
                         return
                 else:
                     # Soft steps that keep coming without the phone turning: a walk in a softer carriage (the
@@ -1347,8 +1351,7 @@ class StepDetector:
                 self._steady_rms = [x for x in seed if math.isfinite(x)]
             for i in range(lo, len(self._bout) - 1):
                 rms, turn = self._stride(i)
-                ref_rms = _median(self._steady_rms) if self._steady_rms else math.nan
-                weak = rms < c.weak_energy_ratio * ref_rms
+                weak = rms < self._weak_rms()
                 turned = turn > c.handling_angle_deg
                 if math.isfinite(rms) and not (weak or turned):
                     self._steady_rms = (self._steady_rms + [rms])[-_PEAK_HISTORY:]
@@ -1360,8 +1363,8 @@ class StepDetector:
             k = at - n0
             # Held walk (module docstring): this start's bout rules are the held phone's while it holds its tilt and
             # the signal repeats at a stride.
-            held = bool(c.held_walks and steady[k] and corr >= c.steady_min_corr
-                        and self._held_in_front(grav[k])
+            held = bool(c.held_walks and in_front[k] and corr >= c.steady_min_corr
+                        and self._keeps_walk_tilt(grav[k])
                         and p >= c.short_bout_peak_ratio * self._walk_peak)
             if not soft:                        # consecutive held starts (a soft start is not in the bout)
                 self._held_run = self._held_run + 1 if held else 0
