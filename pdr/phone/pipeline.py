@@ -6,7 +6,8 @@ big batch):
 
 1. :class:`pdr.phone.grid.OnlineGrid`: acc, gyro, mag, baro on one uniform grid (``rate_hz``);
    the magnetometer's hard-iron offset is learnt online from the gyro (:mod:`pdr.phone.magcal`) and removed once
-   significant; a site's ``declination_deg`` replaces the configured declination;
+   significant, unless the log shows the OS's own calibration; a site's ``declination_deg`` replaces the configured
+   declination;
 2. :class:`pdr.phone.steps.StepDetector` (seed 004 Sec. 3.2) on the accelerometer;
 3. :class:`pdr.phone.attitude.AttitudeFilter` (seed 003 UKF, or the EKF baseline), run in segments that end
    where steps become known, so a landmark can update the attitude (eqs. 14-32) at a deterministic sample;
@@ -76,7 +77,7 @@ from pdr.phone.heading_stages import (
 )
 from pdr.phone.history import SampleHistory
 from pdr.phone.landmarks import ElevatorDetector, LandmarkConfig, Site, StepModeLabeller
-from pdr.phone.magcal import HardIronEstimator, MagCalConfig
+from pdr.phone.magcal import HardIronEstimator, MagCalConfig, mag_os_calibrated
 from pdr.phone.phone_orientation import grid_attitudes, phone_yaw_update
 from pdr.phone.placement_detect import PlacementDetectConfig, PlacementDetector, stride_cues
 from pdr.phone.stage import PendingStep, StepObserver, StepStage, StepWindow
@@ -314,6 +315,9 @@ class PdrPipeline:
         self.att_q_now: FloatArray | None = None    # attitude at the last sample (the phone's when it is the source)
         #: Whether the gyro stream is the OS's bias-compensated one (:func:`pdr.phone.attitude.gyro_compensated`).
         self.gyro_compensated = False
+        #: Whether the magnetometer stream is the OS's hard-iron calibrated one
+        #: (:func:`pdr.phone.magcal.mag_os_calibrated`): the online hard-iron estimator is then not run.
+        self.mag_os_calibrated = False
         self.phone_yaw_updates = 0                  # phone yaw rows used by the attitude filter
 
     # -- public API --------------------------------------------------------------------------------
@@ -410,7 +414,7 @@ class PdrPipeline:
             "av_zi": None if self._av_zi is None else self._av_zi.tolist(), "n_input_samples": self.n_input_samples,
             "gyro_yaw": self.gyro_yaw.state(), "phone_yaw_updates": self.phone_yaw_updates,
             "att_q_now": None if self.att_q_now is None else self.att_q_now.tolist(),
-            "gyro_compensated": self.gyro_compensated,
+            "gyro_compensated": self.gyro_compensated, "mag_os_calibrated": self.mag_os_calibrated,
             "earth_dip_deg": self.attitude.config.earth_dip_deg,
         }
         if self.stages:
@@ -475,6 +479,8 @@ class PdrPipeline:
             p.gyro_compensated = bool(d.get("gyro_compensated", False))
             if p.gyro_compensated:
                 p._use_compensated_prior()
+            # Absent in states saved before the OS's field calibration was looked for: the estimator goes on as it was.
+            p.mag_os_calibrated = bool(d.get("mag_os_calibrated", False))
             # Absent in states saved before the earth's-field gate, and None where no location was known.
             if d.get("earth_dip_deg") is not None:
                 p._use_earth_dip(float(d["earth_dip_deg"]))
@@ -524,6 +530,9 @@ class PdrPipeline:
                 batch.t_s("gyro"), batch.values("gyro"), batch.t_s("gyro_uncal"), batch.values("gyro_uncal")):
             self.gyro_compensated = True
             self._use_compensated_prior()
+        if "mag" in kinds and batch.has("mag_uncal"):
+            self.mag_os_calibrated = mag_os_calibrated(batch.t_s("mag"), batch.values("mag"), batch.t_s("mag_uncal"),
+                                                       batch.values("mag_uncal"))
         # A stream the first batch lacks joins when a later batch brings it (pdr.phone.grid).
         orientation = c.attitude_source == "phone" or c.use_phone_orientation
         self.grid = OnlineGrid(self.config.rate_hz, tuple(kinds),
@@ -548,8 +557,9 @@ class PdrPipeline:
         gyro = vals["gyro"] if "gyro" in kinds and n else None
         q_phone = grid_attitudes(vals["orientation"]) if "orientation" in kinds and n else None
         mag = vals["mag"] if "mag" in kinds and n else None
-        if mag is not None and gyro is not None:
-            # Hard-iron offset learnt online from the rotation (pdr.phone.magcal); applied only once significant.
+        if mag is not None and gyro is not None and not self.mag_os_calibrated:
+            # Hard-iron offset learnt online from the rotation (pdr.phone.magcal); applied only once significant; not
+            # where the OS calibrated the field already.
             mag = self.magcal.update(mag, gyro, self.attitude.state.bias)
         mag_n = np.linalg.norm(mag, axis=1) if mag is not None else np.full(n, np.nan)
         if "baro" in kinds and n:

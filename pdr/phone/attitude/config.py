@@ -10,6 +10,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from pdr.os_calibration import os_calibrated
+
 FloatArray = NDArray[np.float64]
 
 
@@ -257,14 +259,9 @@ OS_BIAS_MIN = 1e-5
 
 
 def gyro_compensated(t_gyro_s: FloatArray, gyro: FloatArray, t_uncal_s: FloatArray, gyro_uncal: FloatArray) -> bool:
-    """Whether a log's ``gyro`` stream (N, 3, rad/s, at times ``t_gyro_s``) is the OS's bias-compensated one: at the
-    sample times the two streams share (the same sensor events), its ``gyro_uncal`` stream (M, 3) differs from it by
-    a bias estimate (median norm of the difference above :data:`OS_BIAS_MIN`). Android's TYPE_GYROSCOPE subtracts
-    the estimate that TYPE_GYROSCOPE_UNCALIBRATED reports beside its raw rates; a phone without an estimate gives
-    equal streams, and streams with no common sample time give no evidence (False).
+    """Whether a log's ``gyro`` stream (N, 3, rad/s, at times ``t_gyro_s``) is the OS's bias-compensated one: its
+    ``gyro_uncal`` stream (M, 3) differs from it by a bias estimate (:func:`pdr.os_calibration.os_calibrated`, median
+    norm of the difference above :data:`OS_BIAS_MIN`). Android's TYPE_GYROSCOPE subtracts the estimate that
+    TYPE_GYROSCOPE_UNCALIBRATED reports beside its raw rates.
     """
-    _, ia, ib = np.intersect1d(np.asarray(t_gyro_s), np.asarray(t_uncal_s), return_indices=True)
-    if ia.size == 0:
-        return False
-    d = np.asarray(gyro_uncal, dtype=np.float64)[ib] - np.asarray(gyro, dtype=np.float64)[ia]
-    return bool(np.median(np.linalg.norm(d, axis=1)) > OS_BIAS_MIN)
+    return os_calibrated(t_gyro_s, gyro, t_uncal_s, gyro_uncal, OS_BIAS_MIN)

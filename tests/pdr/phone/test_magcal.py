@@ -5,8 +5,9 @@ import pytest
 
 from pdr.errors import InputError
 from pdr.phone.grid import OnlineGrid
-from pdr.phone.magcal import HardIronEstimator, MagCalConfig
+from pdr.phone.magcal import HardIronEstimator, MagCalConfig, mag_os_calibrated
 from pdr.phone.pipeline import PdrPipeline
+from pdr.recording import SensorStream
 from pdr.sim import simulate
 
 RATE = 50.0
@@ -100,3 +101,41 @@ def test_pipeline_state_keeps_the_offset_and_reads_older_states():
     np.testing.assert_array_equal(PdrPipeline.from_state(d).magcal.hard_iron.applied, [1.0, 2.0, 3.0])
     del d["magcal"]
     np.testing.assert_array_equal(PdrPipeline.from_state(d).magcal.hard_iron.applied, np.zeros(3))
+
+
+def test_mag_os_calibrated_needs_an_os_offset_at_shared_sample_times():
+    rng = np.random.default_rng(4)
+    t = np.arange(200) / RATE
+    mag = rng.normal(0.0, 30.0, (200, 3))
+    offset = np.array([83.0, -53.0, 408.0])           # the Nexus 5's OS hard-iron estimate (uT)
+    assert mag_os_calibrated(t, mag, t, mag + offset)
+    assert not mag_os_calibrated(t, mag, t, mag.copy())                   # a phone that reports no estimate
+    assert not mag_os_calibrated(t, mag, t + 0.5 / RATE, mag + offset)    # no common sample: no evidence
+
+
+def test_pipeline_leaves_an_os_calibrated_field_to_the_os():
+    """With the raw field beside it and an OS offset between them, the field the pipeline uses is the log's calibrated
+    one as it is: a building's field seen as an offset is not removed. Without the raw stream the same field gets
+    the estimator's offset; the flag survives a saved state and an older state reads as not calibrated.
+    """
+    sc = {"name": "pocket", "placement": "trouser_pocket", "side": "left", "mount_rpy_deg": "random",
+          "start": {"position_m": [0, 0, 0], "heading_deg": 30, "floor": 0},
+          "segments": [{"type": "stand", "duration_s": 3}, {"type": "walk", "distance_m": 20, "speed_mps": 1.2},
+                       {"type": "turn", "angle_deg": 90, "duration_s": 2},
+                       {"type": "walk", "duration_s": 20, "speed_mps": 1.4}]}
+    rec = simulate(sc, 1)
+    m = rec.stream("mag")
+    seen = SensorStream("mag", m.t_ns, m.values + np.array([9.0, -7.0, 4.0]))    # left over by the OS (uT)
+    raw = SensorStream("mag_uncal", m.t_ns, seen.values + np.array([83.0, -53.0, 408.0]))
+    alone = PdrPipeline()
+    alone.update(rec.with_streams({"mag": seen}))
+    assert not alone.mag_os_calibrated
+    assert np.linalg.norm(alone.magcal.hard_iron.applied) > 5.0
+    with_raw = PdrPipeline()
+    with_raw.update(rec.with_streams({"mag": seen, "mag_uncal": raw}))
+    assert with_raw.mag_os_calibrated
+    np.testing.assert_array_equal(with_raw.magcal.hard_iron.applied, np.zeros(3))
+    d = with_raw.state()
+    assert PdrPipeline.from_state(d).mag_os_calibrated
+    del d["mag_os_calibrated"]
+    assert not PdrPipeline.from_state(d).mag_os_calibrated
