@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from flask import current_app, request
+from werkzeug.exceptions import BadRequest
 
 from pdr.errors import InputError, UnknownFormatError
 from pdr.io.registry import FORCE_FORMAT_HINT
@@ -99,18 +100,37 @@ def plain_body() -> None:
                        details={"field": "Content-Encoding"})
 
 
-def json_body() -> Any:
-    """The request's JSON body: 415 if it is not declared JSON or is compressed, 400 if it does not parse."""
+def json_body(what: str) -> dict[str, Any]:
+    """The request's JSON body, a JSON object (``what`` names it in errors): 415 if it is not declared JSON or is
+    compressed, 400 if it does not parse, 422 naming what was expected if it is not an object (``null``, an array,
+    a number or a string).
+    """
     plain_body()
     if not request.is_json:
         raise APIError(415, "expected a JSON body with 'Content-Type: application/json'")
     try:
-        body = request.get_json(silent=True)
+        body = request.get_json()
+    except BadRequest:  # the parser's failure (Flask's own message names none of the route's body)
+        raise APIError(400, "request body is not valid JSON") from None
     except RecursionError:  # the JSON parser recurses per nesting level
         raise APIError(400, "request body is not valid JSON (nested too deeply)") from None
-    if body is None:
-        raise APIError(400, "request body is not valid JSON")
-    return body
+    return json_object(body, what)
+
+
+#: The JSON names of the types a body can have that is not an object.
+_JSON_TYPES = ((type(None), "null"), (bool, "a boolean"), (list, "an array"), (str, "a string"),
+               ((int, float), "a number"))
+
+
+def json_object(body: Any, what: str) -> dict[str, Any]:
+    """``body`` when it is a JSON object; else a 422 saying the ``what`` is a JSON object and naming what came (the
+    body's type in JSON's words: ``null``, not Python's ``None``).
+    """
+    if isinstance(body, dict):
+        return body
+    got = next((name for kind, name in _JSON_TYPES if isinstance(body, kind)), type(body).__name__)
+    raise APIError(422, f"invalid {what}: the request body must be a JSON object {{...}}, got {got}",
+                   details={"path": "", "validator": "type", "expected": "object"})
 
 
 @dataclass(frozen=True)

@@ -32,7 +32,7 @@ def add_step_summaries(session_id: str) -> tuple[Response, int]:
     svc = services()
     svc.store.session_row(session_id, user.id)
     refuse_file(session_id)
-    body = json_body()
+    body = json_body("step summaries")
     validate(body, SCHEMA, "step summaries")
     batch_id = body["batch_id"]
     try:

@@ -221,8 +221,8 @@ def correction_json(group: Group, agent: str) -> dict[str, Any]:
 def create_group() -> tuple[Response, int]:
     """Create a group with its fusion parameters."""
     user = current_user()
-    body = json_body()
-    given = body.get("config") if isinstance(body, dict) else None
+    body = json_body("group")
+    given = body.get("config")
     if isinstance(given, dict) and isinstance(given.get("feet"), list):
         for i, name in enumerate(given["feet"]):
             _refuse_old_foot(name, f"config.feet[{i}]")
@@ -255,7 +255,7 @@ def join_group(group_id: str) -> tuple[Response, int]:
     user = current_user()
     repo = store()
     repo.row(group_id, user.id)
-    body = json_body()
+    body = json_body("agent")
     validate(body, JOIN_GROUP, "agent")
     session_id = body.get("session_id")
     if session_id is not None:
@@ -288,8 +288,8 @@ def upload(group_id: str) -> tuple[Response, int]:
     user = current_user(allow_query_token=True, scope="ingest")
     repo = store()
     repo.row(group_id, user.id)
-    body = json_body()
-    if isinstance(body, dict) and isinstance(body.get("events"), list):
+    body = json_body("upload")
+    if isinstance(body.get("events"), list):
         for i, e in enumerate(body["events"]):
             if isinstance(e, dict) and e.get("type") == "step":
                 _refuse_old_foot(e.get("foot"), f"events[{i}].foot")

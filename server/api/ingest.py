@@ -25,7 +25,7 @@ from flask import Blueprint, Response, jsonify, request
 from pdr.errors import InputError
 from pdr.recording import PLACEMENTS
 from server import plausibility
-from server.api import current_user, plain_body, services
+from server.api import current_user, json_object, plain_body, services
 from server.api.sessions import geo_reference, time_span_ns
 from server.errors import APIError
 from server.ingest import store_batch
@@ -64,6 +64,7 @@ def _ingest() -> Response:
         message = json.loads(raw)
     except (ValueError, UnicodeDecodeError, RecursionError):
         raise APIError(400, "message is not valid JSON") from None
+    json_object(message, "Sensor Logger message")
     validate(message, SENSOR_LOGGER_MESSAGE, "Sensor Logger message")
     message_id = str(message["messageId"])
     if not message["payload"]:

@@ -110,7 +110,7 @@ def classify() -> Response:
     from pdr.io.native import batch_from_json
 
     current_user(scope="read")  # computes an answer, stores nothing
-    body = json_body()
+    body = json_body("classification request")
     validate(body, CLASSIFY_WINDOW, "classification request")
     name = body.get("model", DEFAULT_MODEL)
     d = _model_dirs().get(name)

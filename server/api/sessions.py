@@ -79,7 +79,7 @@ def create_session() -> tuple[Response, int]:
     svc = services()
     if request.files:
         return _create_from_file(user.id)
-    body = json_body()
+    body = json_body("session")
     validate(body, CREATE_SESSION, "session")
     device = body.get("device") or {}
     options = ProcessingOptions.from_json(body.get("processing"))
@@ -193,7 +193,7 @@ def pair_device(session_id: str) -> tuple[Response, int]:
     svc = services()
     svc.store.session_row(session_id, user.id)
     refuse_file(session_id)
-    body = json_body()
+    body = json_body("device")
     validate(body, PAIR_DEVICE, "device")
     svc.store.upsert_device(session_id, body["role"], device_id=body.get("device_id", ""),
                             platform=body.get("platform", "imu" if body["role"] != "phone" else "unknown"),
@@ -257,8 +257,8 @@ def add_native_batch(session_id: str) -> tuple[Response, int]:
     svc = services()
     svc.store.session_row(session_id, user.id)
     refuse_file(session_id)
-    body = json_body()
-    batch_id = body.get("batch_id") if isinstance(body, dict) else None
+    body = json_body("native batch")
+    batch_id = body.get("batch_id")
     if not isinstance(batch_id, str) or not batch_id:
         raise APIError(422, "a native batch needs a non-empty string 'batch_id'", details={"field": "batch_id"})
     try:
@@ -297,7 +297,7 @@ def set_processing(session_id: str) -> tuple[Response, int]:
     user = current_user()
     svc = services()
     row = svc.store.session_row(session_id, user.id)
-    body = json_body()
+    body = json_body("processing")
     validate(body, PROCESSING, "processing")
     options = ProcessingOptions.from_json(body)
     site = named_site(options, user.id)

@@ -52,7 +52,7 @@ def _uploaded_document() -> tuple[Any, str, int]:
         except RecursionError:
             raise APIError(400, "site file is JSON nested too deeply", details={"field": "file"}) from None
         return document, request.form.get("name") or upload.filename or "", len(payload)
-    document = json_body()
+    document = json_body("site")
     return document, "", request.content_length or len(request.get_data())
 
 

@@ -89,6 +89,33 @@ def test_415_not_json(client, tokens):
     assert_error(resp, 415, "application/json")
 
 
+@pytest.mark.parametrize(("raw", "got"), [(b"null", "null"), (b"[1, 2]", "an array"), (b"5", "a number"),
+                                          (b'"walk"', "a string"), (b"true", "a boolean")])
+def test_422_a_json_body_that_is_not_an_object_says_an_object_was_expected(client, tokens, raw, got):
+    """Every route reading a JSON body: ``null`` was 'request body is not valid JSON' (400; it is valid JSON), an
+    array a native batch's 'needs a non-empty string batch_id', Sensor Logger's 'None is not of type'."""
+    h = bearer(tokens["alice"])
+    sid = _session(client, tokens["alice"])
+    gid = client.post("/api/v1/groups", json={"name": "g"}, headers=h).get_json()["id"]
+    routes = [("POST", "/api/v1/sessions", "session"), ("POST", f"/api/v1/sessions/{sid}/devices", "device"),
+              ("POST", f"/api/v1/sessions/{sid}/batches", "native batch"),
+              ("PUT", f"/api/v1/sessions/{sid}/processing", "processing"),
+              ("POST", f"/api/v1/sessions/{sid}/steps", "step summaries"), ("POST", "/api/v1/sites", "site"),
+              ("POST", "/api/v1/groups", "group"), ("POST", f"/api/v1/groups/{gid}/agents", "agent"),
+              ("POST", f"/api/v1/groups/{gid}/uploads", "upload"), ("POST", "/api/v1/classify",
+                                                                     "classification request")]
+    for method, route, what in routes:
+        resp = client.open(route, method=method, data=raw, content_type="application/json", headers=h)
+        err = assert_error(resp, 422, f"invalid {what}: the request body must be a JSON object {{...}}, got {got}")
+        assert err["details"]["expected"] == "object", route
+    resp = client.post(f"/api/v1/ingest/sensor-logger?token={tokens['alice']}", data=raw,
+                       content_type="application/json")
+    assert resp.status_code == 499
+    assert f"Sensor Logger message: the request body must be a JSON object {{...}}, got {got}" in resp.get_data(
+        as_text=True)
+    assert client.get(f"/api/v1/sessions/{sid}", headers=h).get_json()["batches"] == {}
+
+
 @pytest.mark.parametrize(
     ("body", "match", "field", "path"),
     [({"session_id": "bad id with spaces"}, "session_id", "session_id", "session_id"),

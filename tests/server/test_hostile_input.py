@@ -96,7 +96,8 @@ CASES: dict[str, tuple[Any, int, str]] = {
     # name: (body bytes or JSON object, expected status, words the message must contain)
     "malformed JSON": (b'{"batch_id": "x", "streams": {', 400, "not valid JSON"),
     "not JSON at all": (b"\x00\x01\x02garbage", 400, "not valid JSON"),
-    "JSON array": (b"[1, 2, 3]", 422, "batch_id"),
+    "JSON array": (b"[1, 2, 3]", 422, "must be a JSON object {...}, got an array"),
+    "JSON null": (b"null", 422, "must be a JSON object {...}, got null"),
     "deep nesting": (_deep(100_000), 400, "JSON"),
     "huge array over the upload limit": (b'{"batch_id": "big", "x": [' + b"1," * 700_000 + b"1]}", 413, "too large"),
     "NaN value": (_nan(), 422, "not finite"),
