@@ -54,8 +54,13 @@ _ACC_MEDIAN_NORM = {"m/s^2": (6.0, 16.0), "g": (0.6, 1.6), "mg": (600.0, 1600.0)
 #: Median norm of the magnetic field accepted for each unit (earth field 25-65 uT, times 0.2-40 for
 #: indoor disturbances and uncalibrated hard-iron offsets).
 _MAG_MEDIAN_NORM = {"uT": (8.0, 2500.0), "G": (0.08, 25.0), "nT": (8e3, 2.5e6)}
-#: Median pressure accepted for each unit (300-1100 hPa: from the Dead Sea to high mountains).
-_PRESSURE_MEDIAN = {"hPa": (300.0, 1100.0), "kPa": (30.0, 110.0), "Pa": (3.0e4, 1.1e5)}
+#: Air pressure where people walk, hPa: about 1080 at the Dead Sea shore (-430 m) in a winter high, the highest
+#: recorded at sea level 1084; about 330 on the summit of Everest (8849 m). A barometer reading outside is no air
+#: pressure on Earth (a sensor's error value, 0 before its first reading, or another unit).
+AIR_PRESSURE_HPA = (300.0, 1100.0)
+#: Median pressure accepted for each unit (:data:`AIR_PRESSURE_HPA`, in each unit).
+_PRESSURE_MEDIAN = {unit: (AIR_PRESSURE_HPA[0] / factor, AIR_PRESSURE_HPA[1] / factor)
+                    for unit, factor in PRESSURE_UNITS.items()}
 #: 99th-percentile angular rate above which the data cannot be rad/s (no body segment turns faster).
 MAX_HUMAN_RATE_RADPS = 45.0
 #: Accept a tilt-rate ratio within this factor of 1 (rad/s) or of pi/180 (deg/s); they are 57 apart.

@@ -16,7 +16,8 @@ The device's role picks the processing (phone PDR or foot navigation); a placeme
 Units are judged by the physics of :mod:`pdr.units` (median norm of specific force ~1 g, geomagnetic
 field 25-65 uT, air pressure 300-1100 hPa); only a *confident* detection of another unit is refused, an
 undecidable stream (free fall, a magnet nearby) is accepted. Angular rate cannot be judged on a short
-batch and is not checked.
+batch and is not checked. A barometer sample outside 300-1100 hPa is no air pressure where people walk, whatever
+the rest of its stream: refused naming the stream and the sample.
 """
 
 from __future__ import annotations
@@ -71,10 +72,14 @@ def check_units(recording: Recording) -> None:
     """422 if a stream's values are physically impossible or confidently in a non-SI unit."""
     for kind, stream in recording.streams.items():
         bound_family = _RANGE_FAMILY.get(kind)
-        if bound_family is not None and len(stream) and float(np.abs(stream.values).max()) > MAX_ABS[bound_family]:
-            raise APIError(422, f"stream '{kind}' holds a value of magnitude {float(np.abs(stream.values).max()):.3g}, "
-                                f"beyond any sensor (limit {MAX_ABS[bound_family]:g} in SI units); batch not stored",
-                           details={"field": f"streams.{kind}.values"})
+        if bound_family is not None and len(stream):
+            limit = MAX_ABS[bound_family]
+            i = _first_sample(np.abs(stream.values) > limit)
+            if i is not None:
+                raise APIError(422, f"stream '{kind}' sample {i} holds a value of magnitude "
+                                    f"{float(np.abs(stream.values[i]).max()):.3g}, beyond any sensor (limit {limit:g} "
+                                    "in SI units); batch not stored",
+                               details={"field": f"streams.{kind}.values[{i}]", "index": i})
         family = _FAMILY.get(kind)
         if family is None or len(stream) == 0 or (kind == "gravity" and len(stream) < 2):
             continue
@@ -83,6 +88,27 @@ def check_units(recording: Recording) -> None:
             raise APIError(422, f"stream '{kind}' looks like {detected}, but batches carry {_SI[family]} "
                                 f"(multiply by {units._UNITS_OF[family][detected]:g}); batch not stored",
                            details={"field": f"streams.{kind}.values", "detected_unit": detected})
+        if family == "pressure":
+            _check_air_pressure(kind, stream.values)
+
+
+def _check_air_pressure(kind: str, values: np.ndarray) -> None:
+    """422 naming the stream and the first sample that is no air pressure where people walk
+    (:data:`pdr.units.AIR_PRESSURE_HPA`): a barometer's -5, 0 or 5000 hPa would be taken for an altitude kilometres
+    off, and the floors of the whole session with it.
+    """
+    lo, hi = units.AIR_PRESSURE_HPA
+    i = _first_sample((values < lo) | (values > hi))
+    if i is not None:
+        raise APIError(422, f"stream '{kind}' sample {i}: {float(np.ravel(values[i])[0]):g} hPa is no air pressure "
+                            f"where people walk ({lo:g}-{hi:g} hPa); batch not stored",
+                       details={"field": f"streams.{kind}.values[{i}]", "index": i})
+
+
+def _first_sample(bad: np.ndarray) -> int | None:
+    """Index of the first sample (row) of a stream with a ``bad`` value, None when there is none."""
+    rows = np.flatnonzero(bad.reshape(len(bad), -1).any(axis=1))
+    return int(rows[0]) if rows.size else None
 
 
 def check_location(recording: Recording) -> None:

@@ -92,6 +92,14 @@ def _nan() -> bytes:
     return json.dumps(b).encode()  # Python writes NaN, which JSON parsers of the service must refuse or catch
 
 
+def _baro(hpa: float, batch_id: str = "baro") -> dict[str, Any]:
+    """A batch whose barometer reads 1013 hPa but ``hpa`` at its sample 3."""
+    b = phone_batch(batch_id, 100.0)
+    t = b["streams"]["acc"]["t_ns"][:5]
+    b["streams"]["baro"] = {"t_ns": t, "values": [[1013.25]] * 3 + [[hpa]] + [[1013.25]]}
+    return b
+
+
 CASES: dict[str, tuple[Any, int, str]] = {
     # name: (body bytes or JSON object, expected status, words the message must contain)
     "malformed JSON": (b'{"batch_id": "x", "streams": {', 400, "not valid JSON"),
@@ -109,6 +117,11 @@ CASES: dict[str, tuple[Any, int, str]] = {
     "timestamps 10 years after the session": (_far_future(), 422, "days away"),
     "one batch spanning 3 days": (_long_span(), 422, "span"),
     "accelerometer in g": (_in_g(), 422, "looks like g"),
+    # no air pressure where people walk (300-1100 hPa): each was stored (201) and taken for an altitude
+    "barometer at -5 hPa": (_baro(-5.0), 422, "stream 'baro' sample 3: -5 hPa is no air pressure"),
+    "barometer at 0 hPa": (_baro(0.0), 422, "stream 'baro' sample 3: 0 hPa is no air pressure"),
+    "barometer at 5000 hPa": (_baro(5000.0), 422, "stream 'baro' sample 3: 5000 hPa is no air pressure"),
+    "barometer at 1e6 hPa": (_baro(1e6), 422, "stream 'baro' sample 3 holds a value of magnitude 1e+06"),
     # the schema allows empty streams (with a t0_ns): the span of no sample was a 500 (min() of nothing)
     "every stream empty": (_batch(streams={"acc": {"t_ns": [], "values": []}}), 422, "every stream is empty"),
     "unknown stream kind": (_batch(streams={"laser": {"t_ns": [1], "values": [[1.0]]}}), 422, "laser"),
@@ -141,6 +154,21 @@ def test_hostile_batch_gets_a_clear_4xx_and_leaves_the_session_intact(env, case)
     assert _snapshot(app, c, h, sid) == before
     tables = set(sa_inspect(app.extensions["pdr"].store.engine).get_table_names())
     assert {"users", "batches", "sessions"} <= tables
+
+
+@pytest.mark.parametrize("hpa", [-5.0, 0.0, 299.0, 1100.5, 5000.0, 1e6])
+def test_a_pressure_that_is_no_air_pressure_is_a_422_naming_the_sample_and_keeps_what_was_accepted(env, hpa):
+    """A barometer of -5, 0 or 5000 hPa was stored (201); now a 422 naming the stream and sample, and the session's
+    accepted batches stay; a barometer within 300-1100 hPa (the Dead Sea to Everest) is stored."""
+    app, c, h, sid = env
+    before = _snapshot(app, c, h, sid)
+    r = c.post(f"/api/v1/sessions/{sid}/batches", json=_baro(hpa), headers=h)
+    assert r.status_code == 422, r.get_json()
+    assert r.get_json()["error"]["details"] == {"field": "streams.baro.values[3]", "index": 3}
+    assert "stream 'baro' sample 3" in r.get_json()["error"]["message"]
+    assert _snapshot(app, c, h, sid) == before
+    for i, good in enumerate((300.0, 1100.0, 1013.25)):
+        assert c.post(f"/api/v1/sessions/{sid}/batches", json=_baro(good, f"good{i}"), headers=h).status_code == 201
 
 
 #: Location fixes in ``meta.location`` a client got wrong, and the field the 422 names.
