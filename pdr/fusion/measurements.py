@@ -38,6 +38,13 @@ Array = NDArray[np.float64]
 #: (a dp of 1e160 m, a variance of 1e308) it overflows the fusion (the dual-foot separation constraint squares it)
 #: when the step is fused, and every later update of its group then fails.
 MAX_STEP_M = 100.0
+#: Largest variance (m^2, m rad, rad^2) of anything a group fuses: a step's covariance entries, a joining agent's
+#: initial pose covariance (``cov0``), the range variance of the Kalman reference; its square root,
+#: :data:`MAX_STEP_M`, is the largest standard deviation of a range or position measurement (``sigma_m``). An
+#: uncertainty of 100 m tells nothing of people walking metres apart, and a finite but absurd one (1e300, squared or
+#: multiplied in the updates) breaks the fusion's covariances: an agent joined with cov0 1e300 had negative
+#: variances and a track 1e15 m away after its first ranges.
+MAX_VARIANCE = MAX_STEP_M**2
 #: Largest heading change of one step summary either way, rad (one turn): 1e308 rad overflowed the heading it is
 #: added to, and every later update of the group failed.
 MAX_STEP_TURN_RAD = 2.0 * math.pi
@@ -191,8 +198,8 @@ def parse_event(obj: Any, where: str = "event") -> Event:
         if abs(inc.dpsi) > MAX_STEP_TURN_RAD:
             raise InputError(f"a step's heading change must be at most one turn ({MAX_STEP_TURN_RAD:.6g} rad) either "
                              f"way, got {inc.dpsi:g} rad", source=where, field="dpsi")
-        if cov.size and float(np.max(np.abs(cov))) > MAX_STEP_M**2:     # before the checks, which overflow
-            raise InputError(f"a step's covariance entries must be at most {MAX_STEP_M**2:g} (m^2, m rad, rad^2: a "
+        if cov.size and float(np.max(np.abs(cov))) > MAX_VARIANCE:     # before the checks, which overflow
+            raise InputError(f"a step's covariance entries must be at most {MAX_VARIANCE:g} (m^2, m rad, rad^2: a "
                              f"standard deviation of {MAX_STEP_M:g} m), got {float(np.max(np.abs(cov))):g}",
                              source=where, field="cov")
         try:

@@ -33,7 +33,7 @@ from flask import Blueprint, Response, current_app, jsonify, request
 
 from pdr.fusion.centre import FusionConfig
 from pdr.fusion.group import Group
-from pdr.fusion.measurements import StepSummary, parse_event
+from pdr.fusion.measurements import MAX_STEP_M, MAX_VARIANCE, StepSummary, parse_event
 from server.api import current_user, json_body, no_query_parameters, only_query_parameters, services
 from server.api.results import parse_since
 from server.errors import APIError
@@ -52,6 +52,10 @@ _VEC3 = {"type": "array", "items": _NUMBER, "minItems": 3, "maxItems": 3}
 _FOOT = {"enum": list(FOOT_SIDES.values()), "description": "left_foot or right_foot (as in sessions)"}
 
 _POSITIVE = {"type": "number", "exclusiveMinimum": 0}
+#: A measurement's standard deviation, m, and a variance (m^2, m rad, rad^2): at most pdr.fusion.measurements'
+#: MAX_STEP_M and MAX_VARIANCE (100 m, its square; a 1e300 one broke the group's covariances).
+_SIGMA_M = {"maximum": MAX_STEP_M}
+_VARIANCE = {"type": "number", "minimum": -MAX_VARIANCE, "maximum": MAX_VARIANCE}
 #: Most lattice points per axis a group may ask for: a sampled update costs their cube (25: 15 625 samples, 21 times
 #: the default 9); 1001 took 19 GB at the first range, 100 000 failed every update of the group.
 MAX_LATTICE_POINTS = 25
@@ -79,12 +83,13 @@ _CONFIG: dict[str, Any] = {
         "ranging": {"type": "object", "additionalProperties": False,
                     "description": "inter-agent range likelihood (eqs. 17-20)", "properties": {
                         "gamma_m": _NON_NEGATIVE | {"description": "uniform half-width gamma_r, m"},
-                        "sigma_m": _POSITIVE | {"description": "Cauchy scale sigma_r, m"}}},
+                        "sigma_m": _POSITIVE | _SIGMA_M | {"description": "Cauchy scale sigma_r, m"}}},
         "lattice_points": {"type": "integer", "minimum": 2, "maximum": MAX_LATTICE_POINTS,
                            "description": "lattice points per axis (Algorithm 3); an update costs their cube"},
         "lattice_extent": _POSITIVE | {"description": "lattice half-width in prior standard deviations"},
         "robust": {"type": "boolean", "description": "false: the linearised Kalman range update (reference)"},
-        "kalman_range_variance_m2": _POSITIVE | {"description": "range variance of the Kalman reference, m^2"},
+        "kalman_range_variance_m2": _POSITIVE | {"maximum": MAX_VARIANCE,
+                                                 "description": "range variance of the Kalman reference, m^2"},
     },
 }
 
@@ -112,8 +117,9 @@ JOIN_GROUP: dict[str, Any] = {
                                           "the t_s of its foot track rows); default 0"},
         "pos0_n": _VEC3,
         "heading0_deg": {"type": "number", "description": "compass heading, clockwise from north"},
-        "cov0": {"type": "array", "items": {"type": "array", "items": _NUMBER, "minItems": 4, "maxItems": 4},
-                 "minItems": 4, "maxItems": 4, "description": "(4, 4) covariance of x, y, z (m) and yaw (rad)"},
+        "cov0": {"type": "array", "items": {"type": "array", "items": _VARIANCE, "minItems": 4, "maxItems": 4},
+                 "minItems": 4, "maxItems": 4, "description": "(4, 4) covariance of x, y, z (m) and yaw (rad); each "
+                                                              f"entry at most {MAX_VARIANCE:g} either way"},
         "t_s": _NUMBER,
         "foot_offsets_n": {"type": "array", "items": _VEC3 | {"items": {"type": "number", "minimum": -MAX_FEET_APART_M,
                                                                         "maximum": MAX_FEET_APART_M}},
@@ -125,7 +131,7 @@ _COV4 = {"type": "array", "items": {"type": "array", "items": _NUMBER, "minItems
          "minItems": 4, "maxItems": 4}
 _T = {"type": "number", "description": "time of the event (s, the group's common clock)"}
 _MODEL = {"gamma_m": {"type": "number", "minimum": 0, "description": "bounded error (m)"},
-          "sigma_m": {"type": "number", "minimum": 0, "description": "noise standard deviation (m)"}}
+          "sigma_m": {"type": "number", "minimum": 0, **_SIGMA_M, "description": "noise standard deviation (m)"}}
 
 
 def _event(kind: str, description: str, required: list[str], properties: dict[str, Any]) -> dict[str, Any]:

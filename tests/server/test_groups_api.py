@@ -263,3 +263,38 @@ def test_an_upload_whose_fusion_fails_is_not_kept_and_its_retry_is_applied(gclie
     r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=bearer(tok), json=body)
     assert r.status_code == 201, r.get_json()
     assert r.get_json()["duplicate"] is False and r.get_json()["accepted"] == len(steps) > 0
+
+
+def test_an_absurd_covariance_or_standard_deviation_is_a_422_naming_the_field(gclient: FlaskClient,
+                                                                              tokens: dict[str, str]) -> None:
+    """An agent joined with cov0 1e300 (finite, so it passed; steps' covariances were bounded, cov0 was not) was
+    201, and after its first ranges the group's covariances went negative and its track 1e15 m away; a range
+    variance or a measurement's sigma_m of 1e300 were taken too. Each is a 422 naming the field, nothing of it is
+    kept, and the group goes on."""
+    alice = bearer(tokens["alice"])
+    for config, path in (({"kalman_range_variance_m2": 1e300}, "config.kalman_range_variance_m2"),
+                         ({"ranging": {"sigma_m": 1e300}}, "config.ranging.sigma_m")):
+        r = gclient.post("/api/v1/groups", headers=alice, json={"config": config})
+        assert r.status_code == 422 and r.get_json()["error"]["details"]["field"] == path, r.get_json()
+    assert gclient.get("/api/v1/groups", headers=alice).get_json() == {"groups": []}
+    gid = gclient.post("/api/v1/groups", headers=alice, json={"name": "t"}).get_json()["id"]
+    for cov0, field in (((np.eye(4) * 1e300).tolist(), "cov0[0][0]"), ((np.eye(4) * -1e5).tolist(), "cov0[0][0]"),
+                        ([[1, 0, 0, 0], [0, 1, 0, 2e4], [0, 0, 1, 0], [0, 2e4, 0, 1]], "cov0[1][3]")):
+        r = gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice,
+                         json={"agent": "a", "pos0_n": [0, 0, 0], "cov0": cov0})
+        assert r.status_code == 422 and r.get_json()["error"]["details"]["field"] == field, r.get_json()
+        assert f"{field}:" in r.get_json()["error"]["message"]
+    assert gclient.get(f"/api/v1/groups/{gid}", headers=alice).get_json()["agents"] == []
+    for agent, east in (("a", 0.0), ("b", 5.0)):
+        r = gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice,
+                         json={"agent": agent, "pos0_n": [east, 0, 0], "cov0": (np.eye(4) * 1e4).tolist()})
+        assert r.status_code == 201, r.get_json()
+    fix = {"type": "position_fix", "t_s": 1.0, "agent": "a", "pos_n": [0, 0], "gamma_m": 0.0, "sigma_m": 1e300}
+    r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=alice,
+                     json={"batch_id": "u0", "agent": "a", "events": [fix]})
+    assert r.status_code == 422 and r.get_json()["error"]["details"]["field"] == "events[0].sigma_m", r.get_json()
+    r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=alice,
+                     json={"batch_id": "u0", "agent": "a", "events": [fix | {"sigma_m": 3.0}]})
+    assert r.status_code == 201 and not r.get_json()["duplicate"], r.get_json()
+    spec = gclient.get("/api/v1/openapi.json").get_json()["components"]["schemas"]["JoinGroup"]
+    assert spec["properties"]["cov0"]["items"]["items"]["maximum"] == 1e4
