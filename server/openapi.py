@@ -160,8 +160,10 @@ def openapi_document() -> dict[str, Any]:
             "/api/v1/openapi.json": {"get": _op("this document", {"200": _ok("OpenAPI document")}, security=[])},
             "/api/v1/sessions": {
                 "get": _op("list the user's sessions", {"200": _ok("sessions")} | _errors(401)),
-                "post": _op("create a session (JSON) or upload a whole log file (multipart 'file')",
-                            {"201": _ok("created"), "200": _ok("already existed")} | common | _errors(400),
+                "post": _op("create a session (JSON) or upload a whole log file (multipart 'file'); a create under "
+                            "an existing session_id is 200 when it states nothing new, 409 naming the field that "
+                            "differs (name, placement, origin, processing), as another file under it is",
+                            {"201": _ok("created"), "200": _ok("already existed")} | common | _errors(400, 409),
                             requestBody={"required": True, "content": {
                                 "application/json": {"schema": {"$ref": "#/components/schemas/CreateSession"}},
                                 "multipart/form-data": {"schema": {"type": "object", "required": ["file"],

@@ -87,6 +87,8 @@ def create_session() -> tuple[Response, int]:
     sid, created = svc.store.create_session(user.id, source="native", client_session_id=body.get("session_id"),
                                             name=body.get("name", ""), placement=body.get("placement"),
                                             meta=_meta(options))
+    if not created:
+        _refuse_restated(svc.store.session_row(sid), body, options)
     if created and site is not None:
         give_session_site(sid, site)
     if device:
@@ -96,6 +98,29 @@ def create_session() -> tuple[Response, int]:
     if body.get("origin"):
         svc.store.set_session(sid, origin_lat_deg=body["origin"]["lat_deg"], origin_lon_deg=body["origin"]["lon_deg"])
     return jsonify(session_json(svc.store.session_row(sid, user.id))), 201 if created else 200
+
+
+def _refuse_restated(row: Any, body: dict[str, Any], options: ProcessingOptions) -> None:
+    """409 naming the first field of a create under an existing ``session_id`` that differs from the session (its
+    ``name``, ``placement``, ``origin`` or ``processing``): re-sending a create is a no-op only when it states nothing
+    new (as a re-sent batch is a no-op, different content under its ``batch_id`` a 409); a new ``name`` was ignored,
+    a new ``origin`` moved the session's track.
+    """
+    stored = {"name": row.name, "placement": row.placement,
+              "origin": None if row.origin_lat_deg is None else {"lat_deg": row.origin_lat_deg,
+                                                                "lon_deg": row.origin_lon_deg},
+              "processing": json.loads(row.meta or "{}").get(META_KEY, {})}
+    given = {"name": body.get("name") or row.client_session_id, "placement": body.get("placement"),
+             "origin": body.get("origin"), "processing": options.to_json()}
+    field = next((f for f in stored if f in body and given[f] != stored[f]), None)
+    if field is None:
+        return
+    how = (f"change it with PUT /api/v1/sessions/{row.id}/processing" if field == "processing"
+           else "choose another session_id for another session")
+    raise APIError(409, f"session_id '{row.client_session_id}' already names session {row.id}, whose {field} is "
+                        f"{json.dumps(stored[field])[:200]}, not {json.dumps(given[field])[:200]}: a create under an "
+                        f"existing session_id is answered 200 only when it states nothing new; {how}",
+                   details={"field": field, "session": row.id})
 
 
 def _meta(options: ProcessingOptions) -> dict[str, Any] | None:

@@ -319,3 +319,23 @@ def test_404_of_a_very_long_id_quotes_a_short_prefix_of_it(client, tokens, route
     err = assert_error(client.get(f"/api/v1/{route.format(long_id)}", headers=bearer(tokens["alice"])), 404,
                        f"'{'a' * 64}'")
     assert len(err["message"]) < 200, len(err["message"])
+
+
+@pytest.mark.parametrize(("change", "field"), [({"name": "Evening walk"}, "name"), ({"placement": "hand"}, "placement"),
+                                               ({"origin": {"lat_deg": 49.0, "lon_deg": 11.0}}, "origin"),
+                                               ({"processing": {"foot": {"zaru": False}}}, "processing")])
+def test_409_a_session_created_again_with_another_field_names_it_and_changes_nothing(client, tokens, change, field):
+    """A create under an existing session_id with another name was answered 200 and the name ignored (a new origin
+    moved the session's track): now a 409 naming the field; the same request again, or with fewer fields, is 200."""
+    h = bearer(tokens["alice"])
+    first = {"session_id": "walk-1", "name": "Morning walk", "placement": "trouser_pocket",
+             "origin": {"lat_deg": 49.45, "lon_deg": 11.08}, "processing": {"foot": {"zaru": True}}}
+    created = client.post("/api/v1/sessions", json=first, headers=h)
+    assert created.status_code == 201
+    err = assert_error(client.post("/api/v1/sessions", json=first | change, headers=h), 409, f"whose {field} is")
+    assert err["details"] == {"field": field, "session": created.get_json()["id"]}
+    again = client.post("/api/v1/sessions", json=first, headers=h)
+    assert again.status_code == 200 and again.get_json()["id"] == created.get_json()["id"]
+    assert {k: again.get_json()[k] for k in ("name", "placement", "origin", "processing")} == {
+        k: first[k] for k in ("name", "placement", "origin", "processing")}
+    assert client.post("/api/v1/sessions", json={"session_id": "walk-1"}, headers=h).status_code == 200
