@@ -54,7 +54,10 @@ def create_app(test_config: dict[str, Any] | None = None) -> Flask:
         if settings.worker == "inprocess" else scaleout.external_worker(settings))
 
     app = Flask(__name__)
-    app.config["MAX_CONTENT_LENGTH"] = max(settings.max_upload_bytes, settings.max_batch_bytes)
+    # One byte over the largest route limit: Werkzeug reads an unsized body (chunked, or a gzip body as inflated) only
+    # up to this maximum and stops there silently, so it must ask server.limits' streams for the byte past a route's
+    # limit, which they refuse with 413 (else a body of the largest limit or more was cut there: 'not valid JSON').
+    app.config["MAX_CONTENT_LENGTH"] = max(settings.max_upload_bytes, settings.max_batch_bytes) + 1
     # A non-file form field (e.g. ``processing`` with a site description) may be as large as a batch.
     app.config["MAX_FORM_MEMORY_SIZE"] = settings.max_batch_bytes
     app.config["JSON_SORT_KEYS"] = False

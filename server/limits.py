@@ -16,18 +16,30 @@ Three limits (bytes):
   subclassed to apply the same limit when the headers arrive (and while a chunked body streams in); the refused
   body is never buffered.
 
+A gzip-compressed body (``Content-Encoding: gzip``, as phones and apps send their uploads) is inflated by
+:class:`BodyLimitMiddleware` as the application reads it, under the same limit: the limit applies to the compressed
+body from the headers (above) and to the inflated body as it is read (413 once more is inflated: a zip bomb is
+refused as an uncompressed body of its size would be); a corrupt stream is a 400 naming the header. The
+application then sees the plain body, without the header; any other encoding reaches it and is refused 415 there
+(:func:`server.api.plain_body`).
+
 The 413 body is the service's JSON error envelope and names the limit; on the Sensor Logger push route, whose app
 shows its user only the text body of a 499 answer, it is a 499 with a text body (:func:`too_large_response`).
 """
 
 from __future__ import annotations
 
+import gzip
 import json
 import logging
+import zlib
 from collections.abc import Callable, Iterable
-from typing import IO, Any
+from typing import IO, Any, cast
 
 from werkzeug.exceptions import RequestEntityTooLarge
+from werkzeug.wsgi import LimitedStream
+
+from server.errors import APIError
 
 log = logging.getLogger(__name__)
 
@@ -116,8 +128,54 @@ class _CountingInput:
         return iter(self.readline, b"")
 
 
+#: The ``Content-Encoding`` values of a body the service inflates (:class:`_GzipInput`).
+GZIP_ENCODINGS = frozenset({"gzip", "x-gzip"})
+
+
+class _GzipInput(_CountingInput):
+    """A ``wsgi.input`` inflating a gzip body as it is read: 413 once more than ``limit`` bytes are inflated (never
+    more than that is inflated at once, whatever the size asked), 400 naming ``Content-Encoding`` when the body is
+    not a gzip stream or ends inside one.
+    """
+
+    def __init__(self, stream: IO[bytes], limit: int) -> None:
+        super().__init__(cast(IO[bytes], gzip.GzipFile(fileobj=stream, mode="rb")), limit)
+
+    def _bounded(self, size: int | None) -> int:
+        room = self.limit - self.seen + 1  # one byte past the limit tells that it was passed
+        return room if size is None or size < 0 else min(size, room)
+
+    def read(self, size: int | None = -1) -> bytes:
+        return self._inflated(self.stream.read, self._bounded(size))
+
+    def readline(self, size: int | None = -1) -> bytes:
+        return self._inflated(self.stream.readline, self._bounded(size))
+
+    def _inflated(self, read: Callable[[int], bytes], size: int) -> bytes:
+        try:
+            return self._count(read(size))
+        except (OSError, EOFError, zlib.error) as exc:
+            raise APIError(400, f"the body is not the gzip stream its 'Content-Encoding: gzip' says ({exc})",
+                           details={"field": "Content-Encoding"}) from None
+
+
+def _inflate(environ: dict[str, Any], length: int | None, limit: int) -> None:
+    """Make a gzip-encoded request's body the inflated one (:class:`_GzipInput`), as if sent plain and unsized."""
+    if environ.get("HTTP_CONTENT_ENCODING", "").strip().lower() not in GZIP_ENCODINGS or "wsgi.input" not in environ:
+        return
+    raw = environ["wsgi.input"]
+    if length is not None:
+        raw = LimitedStream(raw, length)  # read no further than the body (the connection may hold the next request)
+    environ["wsgi.input"] = _GzipInput(raw, limit)
+    environ["wsgi.input_terminated"] = True
+    environ.pop("CONTENT_LENGTH", None)
+    environ.pop("HTTP_CONTENT_ENCODING", None)
+
+
 class BodyLimitMiddleware:
-    """WSGI middleware applying :func:`body_limit` from the headers (and while an unsized body streams)."""
+    """WSGI middleware applying :func:`body_limit` from the headers (and while an unsized body streams), and
+    inflating a gzip body under the same limit.
+    """
 
     def __init__(self, app: Any, body_limit: BodyLimit) -> None:
         self.app = app
@@ -139,6 +197,7 @@ class BodyLimitMiddleware:
         if length is None and "wsgi.input" in environ and (
                 environ.get("wsgi.input_terminated") or "chunked" in environ.get("HTTP_TRANSFER_ENCODING", "")):
             environ["wsgi.input"] = _CountingInput(environ["wsgi.input"], limit)
+        _inflate(environ, length, limit)
         return self.app(environ, start_response)
 
 

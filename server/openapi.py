@@ -136,7 +136,10 @@ def openapi_document() -> dict[str, Any]:
                                 "motion context and sensor reports. Authenticate with 'Authorization: Bearer'. "
                                 "Tokens have a scope (ingest, read, full; see each operation's x-token-scope). "
                                 "Bodies over a route's limit are refused 413 from their headers: file uploads "
-                                "PDR_MAX_UPLOAD_MB, every other write PDR_MAX_BATCH_MB. Every answer carrying times "
+                                "PDR_MAX_UPLOAD_MB, every other write PDR_MAX_BATCH_MB. A body may be sent "
+                                "gzip-compressed (Content-Encoding: gzip): the limit holds for it as sent and as "
+                                "inflated (413), a corrupt gzip stream is a 400 naming the header, any other "
+                                "Content-Encoding a 415. Every answer carrying times "
                                 "states their clock in 'clock': t0_ns, where the session's recording starts, and "
                                 "what t_s means (seconds on the log's own clock)."},
         "components": {

@@ -90,13 +90,14 @@ def no_query_parameters() -> None:
 
 
 def plain_body() -> None:
-    """415 naming the header when the request's body is compressed (``Content-Encoding: gzip``, say): the service
-    reads bodies as sent, and such a body would otherwise be answered as not valid JSON or not a log.
+    """415 naming the header when the request's body is compressed other than by gzip (``Content-Encoding: br``,
+    say): such a body would otherwise be answered as not valid JSON or not a log. A gzip body reaches the views
+    inflated, without the header (:class:`server.limits.BodyLimitMiddleware`).
     """
     encoding = request.content_encoding
     if encoding and encoding.strip().lower() != "identity":
-        raise APIError(415, f"Content-Encoding '{encoding[:40]}' is not supported: send the body uncompressed (a "
-                            "compressed log file, e.g. walk.csv.gz, goes as the multipart field 'file')",
+        raise APIError(415, f"Content-Encoding '{encoding[:40]}' is not supported: send the body uncompressed or "
+                            "gzip-compressed (Content-Encoding: gzip)",
                        details={"field": "Content-Encoding"})
 
 

@@ -246,28 +246,72 @@ def test_an_uploaded_log_without_a_sample_is_a_422_naming_the_file_and_creates_n
     assert [(s["id"], s["batches"]) for s in after["sessions"]] == [(s["id"], s["batches"]) for s in before["sessions"]]
 
 
-def test_a_compressed_body_is_a_415_naming_content_encoding_and_stores_nothing(env):
-    """A client gzipping its request (Content-Encoding: gzip) was told its body was not valid JSON (400), a log file
-    that it was not a log (422), the Sensor Logger app that its message was not JSON."""
+def test_a_gzip_body_is_inflated_and_taken_as_sent_plain_on_every_route_that_reads_a_body(env):
+    """Phones and apps gzip their uploads (Content-Encoding: gzip): that was a 415 saying to send it uncompressed.
+    Now a gzip body is inflated and taken as the same body sent plain: native batches, JSON bodies, a log file
+    upload (multipart) and the Sensor Logger push."""
     import gzip
 
     app, c, h, sid = env
-    before = _snapshot(app, c, h, sid)
-    batch = gzip.compress(json.dumps(phone_batch("zipped", 50.0)).encode())
     gz = {**h, "Content-Encoding": "gzip"}
-    for route, data, ctype in ((f"/api/v1/sessions/{sid}/batches", batch, "application/json"),
-                               ("/api/v1/sites", gzip.compress(b'{"floors": []}'), "application/json"),
-                               ("/api/v1/sessions", {"file": (io.BytesIO(batch), "walk.json")}, "multipart/form-data")):
-        r = c.post(route, data=data, headers=gz, content_type=ctype)
-        assert r.status_code == 415, (route, r.get_data()[:300])
-        error = r.get_json()["error"]
-        assert error["details"]["field"] == "Content-Encoding" and "'gzip' is not supported" in error["message"]
-    message = {"messageId": 1, "sessionId": "zipped", "deviceId": "d", "payload": [
+    batch = json.dumps(phone_batch("zipped", 50.0)).encode()
+    r = c.post(f"/api/v1/sessions/{sid}/batches", data=gzip.compress(batch), headers=gz,
+               content_type="application/json")
+    assert r.status_code == 201 and r.get_json()["batch_id"] == "zipped", r.get_json()
+    r = c.post(f"/api/v1/sessions/{sid}/batches", data=batch, headers=h, content_type="application/json")
+    assert r.status_code == 200 and r.get_json()["duplicate"], r.get_json()     # the same batch as sent plain
+    r = c.post("/api/v1/sessions", data=gzip.compress(b'{"session_id": "zipped-json"}'), headers=gz,
+               content_type="application/json")
+    assert r.status_code == 201 and r.get_json()["session_id"] == "zipped-json", r.get_json()
+    body, ctype = multipart({"file": (json.dumps(phone_batch("filed", 0.0)).encode(), "walk.json"),
+                             "session_id": "zipped-file"})
+    r = c.post("/api/v1/sessions", data=gzip.compress(body), headers=gz, content_type=ctype)
+    assert r.status_code == 201 and r.get_json()["session_id"] == "zipped-file", r.get_json()
+    message = {"messageId": 1, "sessionId": "zipped-push", "deviceId": "d", "payload": [
         {"name": "accelerometer", "time": 1_700_000_000_000_000_000, "values": {"x": 0.0, "y": 0.0, "z": 9.8}}]}
     r = c.post(f"/api/v1/ingest/sensor-logger?token={h['Authorization'].split()[-1]}",
                data=gzip.compress(json.dumps(message).encode()), headers={"Content-Encoding": "gzip"},
                content_type="application/json")
-    assert r.status_code == 499 and "Content-Encoding 'gzip' is not supported" in r.get_data(as_text=True)
+    assert r.status_code == 200, r.get_data()[:300]
+    sessions = c.get("/api/v1/sessions", headers=h).get_json()["sessions"]
+    assert sorted(s["session_id"] for s in sessions) == ["victim", "zipped-file", "zipped-json", "zipped-push"]
+
+
+def test_a_corrupt_gzip_body_is_a_400_a_gzip_bomb_a_413_another_encoding_a_415_and_nothing_is_stored(env):
+    """A body whose Content-Encoding: gzip is a lie (not gzip, or cut short) is a 400 naming the header; one that
+    inflates past the route's body limit (a zip bomb: 5 MB of zeros from 5 kB, the limit 1 MB) a 413 quoting the
+    limit, as the body sent plain would be; any other encoding still a 415 naming the header."""
+    import gzip
+
+    app, c, h, sid = env
+    before = _snapshot(app, c, h, sid)
+    gz = {**h, "Content-Encoding": "gzip"}
+    batch = json.dumps(phone_batch("zipped", 50.0)).encode()
+    token = h["Authorization"].split()[-1]
+    for data in (batch, gzip.compress(batch)[:300], b"\x1f\x8b\x08\x00" + b"\xff" * 400):
+        r = c.post(f"/api/v1/sessions/{sid}/batches", data=data, headers=gz, content_type="application/json")
+        assert r.status_code == 400, r.get_data()[:300]
+        error = r.get_json()["error"]
+        assert error["details"]["field"] == "Content-Encoding" and "'Content-Encoding: gzip'" in error["message"]
+        r = c.post(f"/api/v1/ingest/sensor-logger?token={token}", data=data, headers={"Content-Encoding": "gzip"},
+                   content_type="application/json")
+        assert r.status_code == 499 and "'Content-Encoding: gzip'" in r.get_data(as_text=True)
+    bomb = gzip.compress(b'{"batch_id": "bomb", "x": "' + b"0" * (5 * 1024 * 1024) + b'"}')
+    assert len(bomb) < 10_000
+    for route, ctype in ((f"/api/v1/sessions/{sid}/batches", "application/json"),
+                         ("/api/v1/sessions", "multipart/form-data; boundary=x")):
+        r = c.post(route, data=bomb, headers=gz, content_type=ctype)
+        assert r.status_code == 413, r.get_data()[:300]
+        assert r.get_json()["error"]["details"]["limit_bytes"] == 1024 * 1024
+    r = c.post(f"/api/v1/ingest/sensor-logger?token={token}", data=bomb, headers={"Content-Encoding": "gzip"},
+               content_type="application/json")
+    assert r.status_code == 499 and "message too large" in r.get_data(as_text=True)
+    for encoding in ("br", "deflate", "gzip, br"):
+        r = c.post(f"/api/v1/sessions/{sid}/batches", data=batch, headers={**h, "Content-Encoding": encoding},
+                   content_type="application/json")
+        assert r.status_code == 415, r.get_data()[:300]
+        error = r.get_json()["error"]
+        assert error["details"]["field"] == "Content-Encoding" and f"'{encoding}' is not supported" in error["message"]
     assert _snapshot(app, c, h, sid) == before
     assert [s["session_id"] for s in c.get("/api/v1/sessions", headers=h).get_json()["sessions"]] == ["victim"]
     identity = c.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch("plain", 50.0),

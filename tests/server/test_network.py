@@ -161,6 +161,46 @@ def test_zip_bomb_upload_is_a_quick_422(client, tokens):
     assert r.status_code == 422 and "compression bomb" in r.get_json()["error"]["message"]
 
 
+def test_a_gzip_upload_to_pdr_serve_is_inflated_within_the_route_limit(tmp_path):
+    """Under waitress (pdr serve), as phones send it: a gzip batch, sized or chunked, is taken as the same batch sent
+    plain (it was a 415); a gzip bomb (10 MB of zeros in 10 kB, the batch limit 2 MB) is a 413 quoting the route's
+    limit without inflating past it; a corrupt stream is a 400 naming Content-Encoding; the server goes on."""
+    import http.client
+
+    with running_server(tmp_path / "srv", {"PDR_MAX_UPLOAD_MB": "16", "PDR_MAX_BATCH_MB": "2"}) as (url, penv, proc):
+        token = add_user(penv, "gus")
+        c = Client(url, token)
+        sid = c.request("POST", "/api/v1/sessions", {"session_id": "zipped"}).json()["id"]
+        host, port = url.removeprefix("http://").split(":")
+
+        def post(batch_body: bytes, chunked: bool = False) -> tuple[int, dict[str, Any]]:
+            conn = http.client.HTTPConnection(host, int(port), timeout=30)
+            headers = {"Authorization": f"Bearer {token}", "Content-Type": "application/json",
+                       "Content-Encoding": "gzip"}
+            conn.request("POST", f"/api/v1/sessions/{sid}/batches",
+                         body=iter([batch_body]) if chunked else batch_body, headers=headers,
+                         encode_chunked=chunked)
+            resp = conn.getresponse()
+            answer = resp.status, json.loads(resp.read())
+            conn.close()
+            return answer
+
+        status, answer = post(gzip.compress(json.dumps(phone_batch("b1", 0.0)).encode()))
+        assert status == 201 and answer["batch_id"] == "b1", answer
+        status, answer = post(gzip.compress(json.dumps(phone_batch("b2", 1.0)).encode()), chunked=True)
+        assert status == 201 and answer["batch_id"] == "b2", answer
+        assert c.request("POST", f"/api/v1/sessions/{sid}/batches", phone_batch("b1", 0.0)).json()["duplicate"]
+        bomb = gzip.compress(b'{"batch_id": "bomb", "x": "' + b"0" * (10 * MB) + b'"}')
+        for chunked in (False, True):
+            status, answer = post(bomb, chunked)
+            assert status == 413 and answer["error"]["details"]["limit_bytes"] == 2 * MB, answer
+        status, answer = post(b"\x1f\x8b\x08\x00" + b"\xff" * 1000)
+        assert status == 400 and answer["error"]["details"]["field"] == "Content-Encoding", answer
+        batches = c.request("GET", f"/api/v1/sessions/{sid}").json()["batch_list"]
+        assert sorted(b["batch_id"] for b in batches) == ["b1", "b2"] and proc.poll() is None
+        c.close()
+
+
 # -- 3. the failure limiter ---------------------------------------------------------------------------------------
 def test_failed_logins_never_lock_out_a_valid_token(tmp_path):
     with running_server(tmp_path, {"PDR_AUTH_FAILURES_PER_MINUTE": "5"}) as (url, env, _):
