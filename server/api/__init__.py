@@ -103,8 +103,8 @@ def plain_body() -> None:
 
 def json_body(what: str) -> dict[str, Any]:
     """The request's JSON body, a JSON object (``what`` names it in errors): 415 if it is not declared JSON or is
-    compressed, 400 if it does not parse, 422 naming what was expected if it is not an object (``null``, an array,
-    a number or a string).
+    compressed other than by gzip, 400 if it does not parse, 422 naming what was expected if it is not an object
+    (``null``, an array, a number or a string).
     """
     plain_body()
     if not request.is_json:
