@@ -138,6 +138,7 @@ def _create_from_file(user_id: int) -> tuple[Response, int]:
     site = named_site(options, user_id)
     placement = request.form.get("placement") or recording.device.placement
     plausibility.check_device(replace(recording.device, placement=placement))
+    plausibility.check_units(recording)
     plausibility.check_location(recording)
     digest = hashlib.sha256(payload).hexdigest()
     sid, created = svc.store.create_session(user_id, source="upload",

@@ -229,6 +229,21 @@ def test_an_uploaded_native_log_with_a_bad_location_fix_is_a_422_and_creates_not
     assert c.get("/api/v1/sessions", headers=h).get_json() == before
 
 
+def test_a_log_file_with_no_air_pressure_is_a_422_naming_the_sample_on_both_upload_routes_and_creates_nothing(env):
+    """A log file whose barometer reads -5 hPa at one sample was taken into a new session (201) and its floors with it,
+    while the same file added to a session's paired phone was refused: both routes check the units now."""
+    app, c, h, sid = env
+    c.post(f"/api/v1/sessions/{sid}/devices", json={"role": "phone"}, headers=h)
+    before = c.get("/api/v1/sessions", headers=h).get_json()
+    log = json.dumps(_baro(-5.0)).encode()
+    for route in ("/api/v1/sessions", f"/api/v1/sessions/{sid}/devices/phone/upload"):
+        r = c.post(route, data={"file": (io.BytesIO(log), "walk.json")}, headers=h, content_type="multipart/form-data")
+        assert r.status_code == 422, (route, r.get_data()[:300])
+        assert r.get_json()["error"]["details"] == {"field": "streams.baro.values[3]", "index": 3}, route
+    after = c.get("/api/v1/sessions", headers=h).get_json()
+    assert [(s["id"], s["batches"]) for s in after["sessions"]] == [(s["id"], s["batches"]) for s in before["sessions"]]
+
+
 def test_an_uploaded_log_without_a_sample_is_a_422_naming_the_file_and_creates_nothing(env):
     """A native log whose streams are all empty (the schema allows it with a ``t0_ns``) was a 500 on both upload
     routes, after the new session was created."""
