@@ -18,6 +18,11 @@ while it waits for an agent out of contact is dropped when that happens and list
 answer.
 
 Repeated uploads of a step (same agent, foot and time or older) are ignored, so a client may resend a batch.
+
+A time more than :data:`MAX_CLOCK_JUMP_S` ahead of the group's newest (an event's, or a joining agent's) is refused
+with an InputError naming it: the clients' common clock does not jump a day between uploads, and one such event
+(a clock in another unit or epoch, 1e300 s) would carry the group's newest time with it, leaving every agent out of
+contact and every later range older than the horizon.
 """
 
 from __future__ import annotations
@@ -46,6 +51,10 @@ from pdr.fusion.measurements import (
 from pdr.fusion.state import FootKey
 
 Array = NDArray[np.float64]
+
+#: Largest step forward (s) of the group's clock an event or a joining agent may take from the group's newest time: a
+#: day, as a session's clock (:data:`pdr.phone.grid.MAX_JUMP_S`); a group used again later is a new group.
+MAX_CLOCK_JUMP_S = 86400.0
 
 
 class StaleRangeError(InputError):
@@ -113,11 +122,24 @@ class Group:
     def join(self, agent: str, pos0_n: ArrayLike, heading0: float = 0.0, cov0: ArrayLike | None = None,
              t_s: float = 0.0, foot_offsets_n: ArrayLike | None = None) -> None:
         """Add an agent with its initial pose (see :meth:`FusionCentre.add_agent`)."""
+        self._check_clock(float(t_s), None)
         self.centre.add_agent(agent, pos0_n, heading0, cov0, t_s, foot_offsets_n)
         self.latest_s[agent] = float(t_s)
         for key in self.centre.feet_of(agent):
             self.tracks[str(key)] = [[float(t_s), *self.centre.state.position(key).tolist(),
                                       self.centre.state.heading(key)]]
+
+    def _check_clock(self, t_s: float, where: str | None) -> None:
+        """InputError naming ``t_s`` (of the event ``where``) when it lies more than :data:`MAX_CLOCK_JUMP_S` s ahead of
+        the group's newest time (module doc); nothing before the first agent joins.
+        """
+        if not self.latest_s:
+            return
+        newest = max(self.latest_s.values())
+        if t_s > newest + MAX_CLOCK_JUMP_S:
+            raise InputError(f"time {t_s:g} s is {(t_s - newest) / 86400:.3g} days ahead of the group's newest "
+                             f"({newest:g} s): the group's clock does not jump more than a day (another clock or "
+                             f"unit?); create a new group for a new mission", source=where, field="t_s")
 
     def in_contact(self, agent: str) -> bool:
         """Whether the agent reported recently enough to hold the group's processing back."""
@@ -149,6 +171,7 @@ class Group:
             if isinstance(ev, StepSummary) and ev.foot not in self.centre.config.feet:
                 raise InputError(f"foot must be one of {', '.join(self.centre.config.feet)}", source=where,
                                  field="foot")
+            self._check_clock(ev.t_s, where)
             batch.append(ev)
         if reporter is not None and reporter not in self.latest_s:
             raise InputError(f"agent '{reporter}' has not joined the group", field="agent")

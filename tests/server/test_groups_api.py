@@ -298,3 +298,30 @@ def test_an_absurd_covariance_or_standard_deviation_is_a_422_naming_the_field(gc
     assert r.status_code == 201 and not r.get_json()["duplicate"], r.get_json()
     spec = gclient.get("/api/v1/openapi.json").get_json()["components"]["schemas"]["JoinGroup"]
     assert spec["properties"]["cov0"]["items"]["items"]["maximum"] == 1e4
+
+
+def test_a_time_a_day_ahead_of_the_group_is_a_422_naming_it_and_the_group_goes_on(gclient: FlaskClient,
+                                                                                   tokens: dict[str, str]) -> None:
+    """A step event (or a joining agent) with t_s 1e300 was accepted and carried the group's newest time with it:
+    every agent was then out of contact and every later range older than the fusion horizon, so one upload disabled
+    the group. A time more than a day ahead of the group's newest is a 422 naming it, nothing of it is kept, and the
+    group's next uploads are fused as before."""
+    alice = bearer(tokens["alice"])
+    gid = gclient.post("/api/v1/groups", headers=alice, json={"name": "t"}).get_json()["id"]
+    for agent, east in (("a", 0.0), ("b", 5.0)):
+        r = gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice, json={"agent": agent, "pos0_n": [east, 0, 0]})
+        assert r.status_code == 201, r.get_json()
+    r = gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice, json={"agent": "c", "pos0_n": [0, 0, 0],
+                                                                          "t_s": 1e300})
+    assert r.status_code == 422 and r.get_json()["error"]["details"]["field"] == "t_s", r.get_json()
+    step = {"type": "step", "t_s": 1e300, "agent": "a", "foot": "left_foot", "dp": [0.7, 0, 0], "dpsi": 0.0,
+            "cov": (np.eye(4) * 1e-4).tolist()}
+    r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=alice,
+                     json={"batch_id": "u0", "agent": "a", "events": [step]})
+    assert r.status_code == 422, r.get_json()
+    assert r.get_json()["error"]["details"]["field"] == "t_s" and "days ahead" in r.get_json()["error"]["message"]
+    assert [a["agent"] for a in gclient.get(f"/api/v1/groups/{gid}", headers=alice).get_json()["agents"]] == ["a", "b"]
+    rng = {"type": "range", "t_s": 1.0, "agent_a": "a", "agent_b": "b", "range_m": 5.0}
+    r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=alice,
+                     json={"batch_id": "u0", "agent": "a", "events": [step | {"t_s": 1.0}, rng]})
+    assert r.status_code == 201, r.get_json()
