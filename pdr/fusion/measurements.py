@@ -45,6 +45,10 @@ MAX_STEP_M = 100.0
 #: multiplied in the updates) breaks the fusion's covariances: an agent joined with cov0 1e300 had negative
 #: variances and a track 1e15 m away after its first ranges.
 MAX_VARIANCE = MAX_STEP_M**2
+#: Largest coordinate or distance (m) of a group's local frame: positions, anchors, ranges and heights. A hundred
+#: thousand kilometres holds any projected frame on Earth (UTM northings reach 1e7 m); a finite but absurd one (1e300,
+#: squared in the updates) overflowed the fusion and failed every later update of the group.
+MAX_COORDINATE_M = 1e8
 #: Largest heading change of one step summary either way, rad (one turn): 1e308 rad overflowed the heading it is
 #: added to, and every later update of the group failed.
 MAX_STEP_TURN_RAD = 2.0 * math.pi

@@ -33,7 +33,8 @@ from flask import Blueprint, Response, current_app, jsonify, request
 
 from pdr.fusion.centre import FusionConfig
 from pdr.fusion.group import Group
-from pdr.fusion.measurements import MAX_STEP_M, MAX_VARIANCE, StepSummary, parse_event
+from pdr.fusion.measurements import MAX_COORDINATE_M, MAX_STEP_M, MAX_VARIANCE, StepSummary, parse_event
+from pdr.units import AIR_PRESSURE_HPA
 from server.api import current_user, json_body, no_query_parameters, only_query_parameters, services
 from server.api.results import parse_since
 from server.errors import APIError
@@ -47,6 +48,13 @@ bp = Blueprint("groups", __name__, url_prefix="/api/v1/groups")
 _NAME = {"type": "string", "minLength": 1, "maxLength": 200}
 _NUMBER = {"type": "number"}
 _VEC3 = {"type": "array", "items": _NUMBER, "minItems": 3, "maxItems": 3}
+#: A coordinate, distance or height of the group's local frame (m), within pdr.fusion.measurements.MAX_COORDINATE_M
+#: either way (a position of 1e300 m overflowed the fusion and failed every later update of the group).
+_METRES = {"type": "number", "minimum": -MAX_COORDINATE_M, "maximum": MAX_COORDINATE_M}
+_POSITION3 = {"type": "array", "items": _METRES, "minItems": 3, "maxItems": 3}
+_DISTANCE = {"type": "number", "minimum": 0, "maximum": MAX_COORDINATE_M}
+#: A barometer's pressure (hPa): air pressure where people walk (pdr.units.AIR_PRESSURE_HPA).
+_PRESSURE = {"type": "number", "minimum": AIR_PRESSURE_HPA[0], "maximum": AIR_PRESSURE_HPA[1]}
 
 #: A foot of an agent: the sessions' device roles.
 _FOOT = {"enum": list(FOOT_SIDES.values()), "description": "left_foot or right_foot (as in sessions)"}
@@ -115,7 +123,7 @@ JOIN_GROUP: dict[str, Any] = {
                            "description": "with session_id: the group's clock less the session's (s; group time = "
                                           "session time + clock_offset_s; the session's clock is its shoes' own, "
                                           "the t_s of its foot track rows); default 0"},
-        "pos0_n": _VEC3,
+        "pos0_n": _POSITION3,
         "heading0_deg": {"type": "number", "description": "compass heading, clockwise from north"},
         "cov0": {"type": "array", "items": {"type": "array", "items": _VARIANCE, "minItems": 4, "maxItems": 4},
                  "minItems": 4, "maxItems": 4, "description": "(4, 4) covariance of x, y, z (m) and yaw (rad); each "
@@ -150,16 +158,16 @@ EVENT: dict[str, Any] = {"type": "object", "required": ["type"], "properties": {
            {"agent": _NAME, "foot": _FOOT,
             "dp": _VEC3, "dpsi": _NUMBER, "cov": _COV4, "index": {"type": "integer"}}),
     _event("range", "a range between two agents (m)", ["agent_a", "agent_b", "range_m"],
-           {"agent_a": _NAME, "agent_b": _NAME, "range_m": {"type": "number", "minimum": 0}}),
+           {"agent_a": _NAME, "agent_b": _NAME, "range_m": _DISTANCE}),
     _event("anchor_range", "a range from an agent to an anchor at a known position (m)",
            ["agent", "anchor_n", "range_m"],
-           {"agent": _NAME, "anchor_n": _VEC3, "range_m": {"type": "number", "minimum": 0}, **_MODEL}),
+           {"agent": _NAME, "anchor_n": _POSITION3, "range_m": _DISTANCE, **_MODEL}),
     _event("position_fix", "a position of an agent (2 or 3 coordinates, m)", ["agent", "pos_n", *_MODEL],
-           {"agent": _NAME, "pos_n": {"type": "array", "items": _NUMBER, "minItems": 2, "maxItems": 3}, **_MODEL}),
+           {"agent": _NAME, "pos_n": {"type": "array", "items": _METRES, "minItems": 2, "maxItems": 3}, **_MODEL}),
     _event("height_difference", "a height difference between two agents or an agent and a reference: dh_m (m), "
            "or barometric pressures (hPa)", ["agent_a", *_MODEL],
-           {"agent_a": _NAME, "agent_b": _NAME, "dh_m": _NUMBER, "pressure_hpa": _NUMBER,
-            "reference_pressure_hpa": _NUMBER, "reference_height_m": _NUMBER, **_MODEL}),
+           {"agent_a": _NAME, "agent_b": _NAME, "dh_m": _METRES, "pressure_hpa": _PRESSURE,
+            "reference_pressure_hpa": _PRESSURE, "reference_height_m": _METRES, **_MODEL}),
 ]}
 
 UPLOAD: dict[str, Any] = {

@@ -325,3 +325,34 @@ def test_a_time_a_day_ahead_of_the_group_is_a_422_naming_it_and_the_group_goes_o
     r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=alice,
                      json={"batch_id": "u0", "agent": "a", "events": [step | {"t_s": 1.0}, rng]})
     assert r.status_code == 201, r.get_json()
+
+
+def test_an_absurd_position_distance_or_pressure_is_a_422_naming_the_field_and_the_group_goes_on(
+        gclient: FlaskClient, tokens: dict[str, str]) -> None:
+    """An anchor or a position fix 1e300 m away was accepted (201) and the group's every later flush was a 500 (the
+    fusion overflowed); a range, a height or a pressure of 1e300 was taken too. Each is a 422 naming the field
+    (positions and distances within pdr.fusion.measurements.MAX_COORDINATE_M, pressures within the air's), nothing
+    of it is kept, and the group's flush still works."""
+    alice = bearer(tokens["alice"])
+    gid = gclient.post("/api/v1/groups", headers=alice, json={"name": "t"}).get_json()["id"]
+    r = gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice, json={"agent": "a", "pos0_n": [1e300, 0, 0]})
+    assert r.status_code == 422 and r.get_json()["error"]["details"]["field"] == "pos0_n[0]", r.get_json()
+    for agent, east in (("a", 0.0), ("b", 5.0)):
+        assert gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice,
+                            json={"agent": agent, "pos0_n": [east, 0, 0]}).status_code == 201
+    model = {"gamma_m": 0.0, "sigma_m": 1.0}
+    bad = [({"type": "range", "agent_a": "a", "agent_b": "b", "range_m": 1e300}, "events[0].range_m"),
+           ({"type": "anchor_range", "agent": "a", "anchor_n": [1e300, 0, 0], "range_m": 5.0}, "events[0].anchor_n[0]"),
+           ({"type": "position_fix", "agent": "a", "pos_n": [0, -1e300], **model}, "events[0].pos_n[1]"),
+           ({"type": "height_difference", "agent_a": "a", "agent_b": "b", "dh_m": 1e300, **model}, "events[0].dh_m"),
+           ({"type": "height_difference", "agent_a": "a", "pressure_hpa": -5.0, "reference_pressure_hpa": 1013.0,
+             **model}, "events[0].pressure_hpa")]
+    for i, (event, field) in enumerate(bad):
+        r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=alice,
+                         json={"batch_id": f"u{i}", "agent": "a", "events": [event | {"t_s": 1.0}]})
+        assert r.status_code == 422 and r.get_json()["error"]["details"]["field"] == field, (field, r.get_json())
+        assert gclient.post(f"/api/v1/groups/{gid}/flush", headers=alice).status_code == 200
+    fix = {"type": "position_fix", "t_s": 1.0, "agent": "a", "pos_n": [0.0, 0.0], **model}
+    r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=alice,
+                     json={"batch_id": "ok", "agent": "a", "events": [fix]})
+    assert r.status_code == 201 and gclient.post(f"/api/v1/groups/{gid}/flush", headers=alice).status_code == 200
