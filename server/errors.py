@@ -9,29 +9,16 @@ from flask import Flask, Response, jsonify, request
 from werkzeug.exceptions import HTTPException
 
 from pdr.errors import InputError
+from server.api_error import CODES, APIError
+
+__all__ = ["APIError", "error_response", "register_error_handlers"]
 
 log = logging.getLogger(__name__)
-
-_CODES = {400: "bad_request", 401: "unauthorized", 403: "forbidden", 404: "not_found", 405: "method_not_allowed",
-          409: "conflict", 413: "payload_too_large", 415: "unsupported_media_type", 422: "invalid_input",
-          429: "too_many_requests", 500: "internal_error", 503: "unavailable"}
-
-
-class APIError(Exception):
-    """An error answered to the client with ``status`` and a JSON body."""
-
-    def __init__(self, status: int, message: str, *, code: str | None = None,
-                 details: dict[str, Any] | None = None) -> None:
-        super().__init__(message)
-        self.status = status
-        self.code = code or _CODES.get(status, "error")
-        self.message = message
-        self.details = details or {}
 
 
 def error_response(status: int, message: str, code: str | None = None,
                    details: dict[str, Any] | None = None) -> Response:
-    body = {"error": {"status": status, "code": code or _CODES.get(status, "error"), "message": message,
+    body = {"error": {"status": status, "code": code or CODES.get(status, "error"), "message": message,
                       "details": details or {}}}
     resp = jsonify(body)
     resp.status_code = status

@@ -39,7 +39,7 @@ from typing import IO, Any, cast
 from werkzeug.exceptions import RequestEntityTooLarge
 from werkzeug.wsgi import LimitedStream
 
-from server.errors import APIError
+from server.api_error import APIError
 
 log = logging.getLogger(__name__)
 
