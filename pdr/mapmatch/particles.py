@@ -78,6 +78,32 @@ particles that die are those on the wall's side of the true path, and their surv
 it (+25 deg there, with the step heading right and even with the hindsight scale): the deaths select position and
 offset together.
 
+A session's study of the F4 traces that the map makes worse or leaves over 5 m (3 seeds, 0-2, on cached MS site2
+tracks, not a shipped command; baseline mean p75 online / smoothed F3 3.08 / 3.12, F4 5.41 / 5.02 m) found the scale
+behind most of them: with each trace's hindsight scale (truth path over step lengths) F4 would be 3.59 / 2.65 m, and
+online 5dd3bbc0 9.8 -> 3.1, 5dd3bbd3 5.9 -> 2.5, 5dd522ff 7.0 -> 2.3, 5dd3ac5f 6.7 -> 1.8, 5dd3bbcb 10.2 -> 4.0 m.
+5dd3bbcb (scale 1.24) and 5dd3bbd3 (1.09) walk straight corridors of 90 and 50 m, where no wall tells the stride;
+5dd3bbd3's scale also fell to 0.97 in its first 2 s, 895 of 1000 particles dying head-on in one step in the nook it
+starts in while its first waypoint leg needs 0.5 (steps from rest). On 5dd3bbc0 (scale 0.77) the cloud overshoots up
+a corridor and its deaths are grazing, so the evidence goes to the offset (+13 deg by step 9, +25 at the next wall)
+and the scale stays 1.00. On 5dd3bb57 (1.25) the narrow corridor it turns into needs the scale and a +16 deg offset
+together, which the priors hardly hold; the cloud stays 7 to 9 m behind, pressed against the wide corridor's wall.
+The dead are longer striders than the cloud on every group of traces, those whose truth needs more than 1.05
+included (by 0.002 to 0.010, about the cloud's variance over its mean; 0.01 to 0.04 with ``scale_sigma`` 0.13): a
+longer step meets a wall sooner whatever its error, so deaths lower the scale even where they carry no stride
+evidence, and with ``scale_sigma`` 0.13 or 0.15 the final mean scale passed 1.05 on at most 2 traces of 59 (the
+hindsight scale is above 1.05 on 33). Tried and not adopted (online / smoothed, F3 then F4): soft walls, a crossing
+step surviving with probability exp(-d^2/2s^2) of its depth ``d`` past the wall and stopped before it, s 0.1 / 0.2 /
+0.3 m: 3.38 / 3.40, 5.39 / 4.71; 3.98 / 3.96, 5.95 / 5.19; 4.53 / 4.41, 6.66 / 5.69 (only 5dd3ac5f gains; the
+waypoints lie 0.37 m or more inside the plan); a dead particle's offset and scale moved by the cloud's regression of
+them on position times its jump to the survivor: 3.17 / 3.27, 5.69 / 5.46; that for the scale of head-on deaths
+only: 3.02 / 3.02, 5.48 / 5.09 (``scale_sigma`` 0.13: 3.18 / 3.27, 4.95 / 4.95); the graze angle taken against the
+walk from the start instead of the step: 3.38 / 3.35, 5.59 / 5.39; the scale copied when the jump to the survivor
+lies along that walk: 3.03 / 2.97, 5.73 / 5.15; survivors drawn in proportion to their scale (against the length
+bias above): 3.12 / 3.14, 5.49 / 4.94 (``scale_sigma`` 0.13: 3.21 / 3.36, 4.89 / 4.86); no death copying the scale:
+3.04 / 3.09, 5.56 / 5.10. What helps F4 costs F3. A step-length factor of 1.07 (the path ratio over all traces of
+either floor: F3 1.084, F4 1.066) gives 2.56 / 2.62, 4.96 / 4.21: the calibration, not the map.
+
 Online: :meth:`MapMatcher.update` takes a batch of steps and returns one :class:`MatchedStep` each; its
 :meth:`~MapMatcher.state` (particle arrays, the random generator's state and a few scalars: size independent of
 the walk's length) resumes bit-identically with :meth:`~MapMatcher.from_state`. Offline: :func:`smooth_walk` runs
