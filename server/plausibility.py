@@ -69,8 +69,18 @@ def check_device(d: DeviceInfo) -> None:
 
 
 def check_units(recording: Recording) -> None:
-    """422 if a stream's values are physically impossible or confidently in a non-SI unit."""
+    """422 if a stream's values are confidently in a non-SI unit (said first: a barometer in Pa is also beyond any
+    sensor in hPa, and the unit is what the client must fix) or physically impossible.
+    """
     for kind, stream in recording.streams.items():
+        family = _FAMILY.get(kind)
+        checks_unit = family is not None and len(stream) > 0 and not (kind == "gravity" and len(stream) < 2)
+        if family is not None and checks_unit:
+            detected = _DETECT[family](stream.values)
+            if detected is not None and detected != _SI[family]:
+                raise APIError(422, f"stream '{kind}' looks like {detected}, but batches carry {_SI[family]} "
+                                    f"(multiply by {units._UNITS_OF[family][detected]:g}); batch not stored",
+                               details={"field": f"streams.{kind}.values", "detected_unit": detected})
         bound_family = _RANGE_FAMILY.get(kind)
         if bound_family is not None and len(stream):
             limit = MAX_ABS[bound_family]
@@ -80,15 +90,7 @@ def check_units(recording: Recording) -> None:
                                     f"{float(np.abs(stream.values[i]).max()):.3g}, beyond any sensor (limit {limit:g} "
                                     "in SI units); batch not stored",
                                details={"field": f"streams.{kind}.values[{i}]", "index": i})
-        family = _FAMILY.get(kind)
-        if family is None or len(stream) == 0 or (kind == "gravity" and len(stream) < 2):
-            continue
-        detected = _DETECT[family](stream.values)
-        if detected is not None and detected != _SI[family]:
-            raise APIError(422, f"stream '{kind}' looks like {detected}, but batches carry {_SI[family]} "
-                                f"(multiply by {units._UNITS_OF[family][detected]:g}); batch not stored",
-                           details={"field": f"streams.{kind}.values", "detected_unit": detected})
-        if family == "pressure":
+        if family == "pressure" and checks_unit:
             _check_air_pressure(kind, stream.values)
 
 

@@ -100,6 +100,13 @@ def _baro(hpa: float, batch_id: str = "baro") -> dict[str, Any]:
     return b
 
 
+def _baro_pa() -> dict[str, Any]:
+    """A batch whose barometer reads in Pa (101 325 at sea level)."""
+    b = _baro(1013.25, "baro-pa")
+    b["streams"]["baro"]["values"] = [[v[0] * 100.0] for v in b["streams"]["baro"]["values"]]
+    return b
+
+
 CASES: dict[str, tuple[Any, int, str]] = {
     # name: (body bytes or JSON object, expected status, words the message must contain)
     "malformed JSON": (b'{"batch_id": "x", "streams": {', 400, "not valid JSON"),
@@ -122,6 +129,8 @@ CASES: dict[str, tuple[Any, int, str]] = {
     "barometer at 0 hPa": (_baro(0.0), 422, "stream 'baro' sample 3: 0 hPa is no air pressure"),
     "barometer at 5000 hPa": (_baro(5000.0), 422, "stream 'baro' sample 3: 5000 hPa is no air pressure"),
     "barometer at 1e6 hPa": (_baro(1e6), 422, "stream 'baro' sample 3 holds a value of magnitude 1e+06"),
+    # a barometer in Pa was told it was beyond any sensor: the unit is what the client must fix, and is said first
+    "barometer in Pa": (_baro_pa(), 422, "stream 'baro' looks like Pa, but batches carry hPa (multiply by 0.01)"),
     # the schema allows empty streams (with a t0_ns): the span of no sample was a 500 (min() of nothing)
     "every stream empty": (_batch(streams={"acc": {"t_ns": [], "values": []}}), 422, "every stream is empty"),
     "unknown stream kind": (_batch(streams={"laser": {"t_ns": [1], "values": [[1.0]]}}), 422, "laser"),
