@@ -72,7 +72,8 @@ def run(args: argparse.Namespace) -> int:
     if e is None:
         print("ahrs EKF: n/a (the ahrs package is not installed)")
     else:
-        print(f"ahrs EKF: {e['wall_s']:.3f} s = {e['samples_per_s']:.0f} samples/s (attitude only); "
+        print(f"ahrs {e.get('version', '?')} EKF: {e['wall_s']:.3f} s = {e['samples_per_s']:.0f} samples/s "
+              f"(attitude only); "
               f"pdr track is {res['ratio_to_ahrs_ekf']:.1f}x its rate in process, "
               f"{res['process_ratio_to_ahrs_ekf']:.1f}x as a process")
     return 0

@@ -162,13 +162,15 @@ def time_track(log: str | Path, out_csv: str | Path) -> dict[str, Any]:
 
 
 def time_ahrs_ekf(rec: Any) -> dict[str, Any] | None:
-    """Wall time of :class:`ahrs.filters.EKF` on the recording's acc, gyro and mag (nearest samples to acc), or
-    None when ``ahrs`` is not installed. The inputs are prepared before the clock starts.
+    """Wall time of :class:`ahrs.filters.EKF` on the recording's acc, gyro and mag (nearest samples to acc), and the
+    package's version (a reference is named with its release), or None when ``ahrs`` is not installed. The inputs are
+    prepared before the clock starts.
     """
     try:
         from ahrs.filters import EKF
     except ImportError:
         return None
+    from importlib.metadata import version
     acc_s, gyro_s, mag_s = rec.stream("acc"), rec.stream("gyro"), rec.stream("mag")
     t = acc_s.t_ns
 
@@ -182,7 +184,7 @@ def time_ahrs_ekf(rec: Any) -> dict[str, Any] | None:
     t0 = time.perf_counter()
     EKF(gyr=gyro, acc=acc, mag=mag, frequency=rate, frame="ENU")
     wall = time.perf_counter() - t0
-    return {"wall_s": wall, "samples": len(t), "samples_per_s": len(t) / wall}
+    return {"wall_s": wall, "samples": len(t), "samples_per_s": len(t) / wall, "version": version("ahrs")}
 
 
 def process_env(pycache: Path, numba_cache: Path | None = None) -> dict[str, str]:
