@@ -23,7 +23,8 @@ Quaternions
 Heading
     Internal yaw is counter-clockwise from east (the ENU z rotation angle). The user-facing
     ``heading_deg`` is the compass azimuth, clockwise from north, in [0, 360). :func:`yaw_to_heading_deg`
-    and :func:`heading_deg_to_yaw` convert; nothing else does.
+    (:func:`yaw_to_heading_deg_float` for one Python float) and :func:`heading_deg_to_yaw` convert; nothing else
+    does.
 
 Time
     float64 seconds on the log's own clock inside (``t_s``, relative to a recording origin ``t0_ns``);
@@ -33,6 +34,8 @@ Names carry frame and unit where ambiguity is possible: ``acc_b``, ``q_nb``, ``t
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -56,9 +59,24 @@ def wrap_angle(a: ArrayLike) -> Array:
     return (a + np.pi) % (2.0 * np.pi) - np.pi
 
 
+def wrap_angle_float(a: float) -> float:
+    """:func:`wrap_angle` of one angle (rad) as a Python float, bit for bit: Python's ``%`` on floats is numpy's
+    remainder (``fmod``, plus the divisor when the signs differ, a zero taking the divisor's sign), without numpy's
+    cost per call (the per-step stages).
+    """
+    return (float(a) + math.pi) % (2.0 * math.pi) - math.pi
+
+
 def yaw_to_heading_deg(yaw_rad: ArrayLike) -> Array:
     """Internal yaw (rad, counter-clockwise from east) to compass heading in degrees [0, 360)."""
     return np.mod(90.0 - np.degrees(np.asarray(yaw_rad, dtype=np.float64)), 360.0)
+
+
+def yaw_to_heading_deg_float(yaw_rad: float) -> float:
+    """:func:`yaw_to_heading_deg` of one yaw (rad) as a Python float, bit for bit (``math.degrees`` multiplies by
+    the same ``180 / pi`` as ``np.degrees``; ``%`` as in :func:`wrap_angle_float`).
+    """
+    return (90.0 - math.degrees(float(yaw_rad))) % 360.0
 
 
 def heading_deg_to_yaw(heading_deg: ArrayLike) -> Array:

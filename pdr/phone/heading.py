@@ -94,7 +94,7 @@ from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.filters.ukf import SigmaPoints
 from pdr.foot import drift
-from pdr.frames import wrap_angle
+from pdr.frames import wrap_angle, wrap_angle_float
 
 FloatArray = NDArray[np.float64]
 
@@ -118,8 +118,8 @@ def pca_axis(horizontal: FloatArray) -> tuple[float, float]:
 
 def resolve_direction(axis_yaw: float, prior_yaw: float) -> float:
     """The direction along ``axis_yaw`` (a line) within 90 degrees of ``prior_yaw`` (rad)."""
-    a = float(wrap_angle(axis_yaw))
-    return a if abs(float(wrap_angle(a - prior_yaw))) <= math.pi / 2 else float(wrap_angle(a + math.pi))
+    a = wrap_angle_float(axis_yaw)
+    return a if abs(wrap_angle_float(a - prior_yaw)) <= math.pi / 2 else wrap_angle_float(a + math.pi)
 
 
 def flexion_rate(q_nb: FloatArray, rate_hz: float, yaw: float, smooth_s: float = 0.09) -> FloatArray:
@@ -252,14 +252,14 @@ def improved_rmpca_ut(q1: FloatArray, p_q: FloatArray, m_dcs1: FloatArray, psi0:
     mean_d = float(np.sum(wm[1:] * d[1:]))   # centre-subtracted mean (sum w = 1)
     mean = f[0] + mean_d
     var = float(np.sum(wc * (d - mean_d) ** 2)) + process_var
-    return HeadingEstimate(float(wrap_angle(psi0 + mean)), max(var, 1e-12))
+    return HeadingEstimate(wrap_angle_float(psi0 + mean), max(var, 1e-12))
 
 
 def fuse_landmark(prior: HeadingEstimate, yaw_landmark: float, var_landmark: float) -> HeadingEstimate:
     """Second UKF measurement update (eq. 42): linear in the state, so the UKF update is exact here."""
-    y = float(wrap_angle(yaw_landmark - prior.yaw))
+    y = wrap_angle_float(yaw_landmark - prior.yaw)
     k = prior.var / (prior.var + var_landmark)
-    return HeadingEstimate(float(wrap_angle(prior.yaw + k * y)), (1 - k) * prior.var)
+    return HeadingEstimate(wrap_angle_float(prior.yaw + k * y), (1 - k) * prior.var)
 
 
 def landmark_attitude_update(q1: FloatArray, p_q: FloatArray, m_dcs1: FloatArray, psi0: float, d_uh: float,
@@ -280,7 +280,7 @@ def landmark_attitude_update(q1: FloatArray, p_q: FloatArray, m_dcs1: FloatArray
     dx = sig - sig[0]
     pqz = (wc[:, None] * dx * (dz - zm_d)[:, None]).sum(axis=0)              # eq. 39
     k = pqz / pzz
-    innov = float(wrap_angle(d_uh - (z[0] + zm_d)))
+    innov = wrap_angle_float(d_uh - (z[0] + zm_d))
     q_new = _quat_add(np.asarray(q1, dtype=np.float64), k * innov)           # eq. 40
     p_new = p - np.outer(k, k) * pzz
     # Repeated landmark rows (every step of a flight) on a rank-deficient quaternion covariance can leave
@@ -418,7 +418,7 @@ class StepDriftElimination:
         if self.n_steps and t_s > self.last_t:
             self.correction += drift.drift_predict(self.hde, t_s - self.last_t, par)
         self.last_t = t_s
-        out = float(wrap_angle(yaw + self.correction))
+        out = wrap_angle_float(yaw + self.correction)
         self.pos[0] += length_m * math.cos(out)
         self.pos[1] += length_m * math.sin(out)
         self.raw[0] += length_m * math.cos(yaw)
@@ -439,7 +439,7 @@ class StepDriftElimination:
                 self.dominant[0] += w * math.cos(par[0] * psi)
                 self.dominant[1] += w * math.sin(par[0] * psi)
             self.raw[2], self.raw[3] = self.raw[0], self.raw[1]
-            self.correction = float(wrap_angle(self.correction + turn))
+            self.correction = wrap_angle_float(self.correction + turn)
         return out
 
     @property

@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.filters.ukf import SigmaPoints
-from pdr.frames import wrap_angle
+from pdr.frames import wrap_angle_float
 from pdr.phone.attitude import AttitudeConfig, AttitudeState
 from pdr.phone.events import LandmarkEvent
 from pdr.phone.heading import (
@@ -121,7 +121,7 @@ class DeviceHeading:
             off = self.offset.update(win.axis, dev)
         else:
             off = 0.0
-        psi0 = float(wrap_angle(dev + off))
+        psi0 = wrap_angle_float(dev + off)
         m1 = scatter_of(win.f_n, win.att_q) if with_scatter else np.zeros((3, 3))
         var = yaw_variance(win.att_q, win.att_p) + self.process_var
         return StepHeading(HeadingEstimate(psi0, var), psi0, win.axis, m1)
@@ -252,15 +252,15 @@ class PocketHeading:
             reversed_direction = self.direction_vote.update(thigh_swing_evidence(q_str, self.rate_hz, psi0)
                                                             + POCKET_TURN_WEIGHT * turn)
             if reversed_direction:
-                psi0 = float(wrap_angle(psi0 + math.pi))
+                psi0 = wrap_angle_float(psi0 + math.pi)
                 self.pocket_direction.reverse()
             if swing_axis and walking and whole_stride:
                 # In front of the thigh the swing plane trails the path through turns; behind it, it does not
                 # (pdr.phone.walking_direction module doc, "Trouser pocket: front or back").
                 self.pocket_side.update(f_str, psi0)
                 side = self.pocket_side.mean_corr()
-                psi0 = float(wrap_angle(psi0 + self.pocket_side.lead_weight()
-                                        * step_lead(q_str, self.rate_hz, q_str.shape[0] - q.shape[0])))
+                psi0 = wrap_angle_float(psi0 + self.pocket_side.lead_weight()
+                                        * step_lead(q_str, self.rate_hz, q_str.shape[0] - q.shape[0]))
         m1 = scatter_of(f_str, win.att_q)
         if swing_axis or placement == "swinging":
             est = HeadingEstimate(psi0, yaw_variance(win.att_q, win.att_p) + self.process_var)
@@ -277,7 +277,7 @@ class PocketHeading:
         (replacing it by this step's would make every other step resolve against a heading two steps old).
         """
         if self.prev_yaw is not None:
-            self.prev_yaw = float(wrap_angle(self.prev_yaw + (corrected_yaw - step_yaw)))
+            self.prev_yaw = wrap_angle_float(self.prev_yaw + (corrected_yaw - step_yaw))
 
     def state(self) -> dict[str, Any]:
         return {"prev_yaw": self.prev_yaw, "prev_step_start": self.prev_step_start,
@@ -343,7 +343,7 @@ class StairsLandmarkHeading:
         if lm is None:
             return est, None, False
         yaw_lm, var_lm = lm.yaw_and_var()
-        d_uh = float(wrap_angle(yaw_lm - rec.psi0))
+        d_uh = wrap_angle_float(yaw_lm - rec.psi0)
         attitude_updated = False
         if abs(d_uh) < math.pi / 4 and placement == "pocket":
             # First UKF landmark row (eqs. 20, 32) on the current attitude. The step's scatter matrix
@@ -390,7 +390,7 @@ class StepTurn:
 
     def turn(self, rec: PendingStep, on_stairs: bool, placement: str | None) -> float:
         last = self.last_step
-        turn = (abs(float(wrap_angle(rec.yaw - last[0])))
+        turn = (abs(wrap_angle_float(rec.yaw - last[0]))
                 if last is not None and rec.t_start - last[1] < self.max_gap_s and not on_stairs
                 and placement in DEVICE_HEADING_PLACEMENTS else 0.0)
         self.last_step = (float(rec.yaw), float(rec.t_end))

@@ -47,7 +47,7 @@ from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.filters import iir
-from pdr.frames import GRAVITY_MPS2, heading_deg_to_yaw, yaw_to_heading_deg
+from pdr.frames import GRAVITY_MPS2, heading_deg_to_yaw, yaw_to_heading_deg_float
 from pdr.geomagnetic import field_at_fix
 from pdr.phone.attitude import AttitudeConfig, AttitudeFilter, AttitudeState, gyro_compensated
 from pdr.phone.attitude_derived import attitude_derived
@@ -804,18 +804,15 @@ class PdrPipeline:
         est = self.drift.apply(est, length, rec.t_end, self.placement)
         self.track.step(length, est.yaw, (c.step_length_rel_sigma * length) ** 2, est.var)
         self.modes.prev_mode = mode
-        # The three compass headings in one conversion (element-wise: the values of three scalar calls).
-        heading, heading_raw, heading_gyro = yaw_to_heading_deg(
-            [est.yaw, raw_yaw, math.nan if rec.gyro_yaw is None else rec.gyro_yaw]).tolist()
         step = StepEvent(
             t_s=rec.t_end, t_start_s=rec.t_start, east_m=self.track.east_m, north_m=self.track.north_m, up_m=rec.up,
-            floor=rec.floor, heading_deg=heading, step_length_m=length,
+            floor=rec.floor, heading_deg=yaw_to_heading_deg_float(est.yaw), step_length_m=length,
             turn_deg=math.degrees(turn), mode=mode, placement=self.placement,
             heading_sigma_deg=math.degrees(math.sqrt(est.var)),
             pos_sigma_m=math.sqrt(max(float(self.track.P.trace()), 0.0)), patterns=rec.pats,
             # Inputs of the offline heading smoother (pdr.phone.heading_smoother).
-            heading_raw_deg=heading_raw,
-            gyro_heading_deg=None if rec.gyro_yaw is None else heading_gyro,
+            heading_raw_deg=yaw_to_heading_deg_float(raw_yaw),
+            gyro_heading_deg=None if rec.gyro_yaw is None else yaw_to_heading_deg_float(rec.gyro_yaw),
             up_time_s=rec.up_time,
             gyro_bias_dps=None if rec.gyro_bias is None else np.degrees(rec.gyro_bias).tolist(),
             pocket_side=rec.pocket_side,

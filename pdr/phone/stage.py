@@ -24,7 +24,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-from pdr.frames import wrap_angle
+from pdr.frames import wrap_angle_float
 from pdr.phone.events import PipelineEvent, StepEvent
 from pdr.phone.heading import HeadingEstimate
 from pdr.phone.history import SampleHistory
@@ -146,8 +146,8 @@ class PendingStep:
 
     def reverse(self) -> None:
         """Turn the step's heading and direction by 180 degrees (the vote refuted the direction it was resolved to)."""
-        self.yaw = float(wrap_angle(self.yaw + math.pi))
-        self.psi0 = float(wrap_angle(self.psi0 + math.pi))
+        self.yaw = wrap_angle_float(self.yaw + math.pi)
+        self.psi0 = wrap_angle_float(self.psi0 + math.pi)
 
     def state(self) -> dict[str, Any]:
         return dict(self.__dict__)

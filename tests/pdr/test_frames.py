@@ -10,6 +10,22 @@ def test_yaw_heading_conversion(yaw, heading):
     assert frames.wrap_angle(frames.heading_deg_to_yaw(heading) - yaw) == pytest.approx(0.0, abs=1e-12)
 
 
+def test_the_float_forms_give_the_array_forms_bits():
+    """wrap_angle_float and yaw_to_heading_deg_float (the per-step stages' scalar forms) are the array functions bit
+    for bit, on either side of every wrap, at the wraps themselves, on signed zeros and on non-finite angles."""
+    rng = np.random.default_rng(7)
+    special = [0.0, -0.0, np.pi, -np.pi, 2 * np.pi, -2 * np.pi, np.nextafter(np.pi, 0), np.nextafter(-np.pi, 0),
+               np.pi / 2, -np.pi / 2, 1e-300, -1e-300, 1e300, -1e300, np.inf, -np.inf, np.nan]
+    angles = np.concatenate([special, rng.uniform(-20.0, 20.0, 20000), rng.normal(0.0, 1e-3, 2000)])
+    with np.errstate(invalid="ignore"):
+        wrapped = frames.wrap_angle(angles)
+        heading = frames.yaw_to_heading_deg(angles)
+    assert np.array_equal(np.array([frames.wrap_angle_float(a) for a in angles.tolist()]).view(np.int64),
+                          wrapped.view(np.int64))
+    assert np.array_equal(np.array([frames.yaw_to_heading_deg_float(a) for a in angles.tolist()]).view(np.int64),
+                          heading.view(np.int64))
+
+
 def test_local_enu_round_trip_and_scale():
     en = frames.geodetic_to_local_enu(49.4620, 11.1110, 49.4611, 11.1110)
     assert en[1] == pytest.approx(100.19, abs=0.01)  # 0.0009 deg of latitude on the WGS-84 semi-major sphere
