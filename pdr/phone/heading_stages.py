@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pdr.filters.numpy_reductions import all_finite
 from pdr.filters.ukf import SigmaPoints
 from pdr.frames import wrap_angle_float
 from pdr.phone.attitude import AttitudeConfig, AttitudeState
@@ -218,7 +219,7 @@ class PocketHeading:
         self.prev_step_start = s
         stride = h.sl(s0, e)
         q_str, f_str = h.q[stride], h.f_n[stride]
-        whole_stride = bool(np.all(np.isfinite(q_str)) and np.all(np.isfinite(f_str)))
+        whole_stride = all_finite(q_str) and all_finite(f_str)
         if not whole_stride:
             q_str, f_str = q, f_n
         walking, one_cycle = self._walking_gait(q_str.shape[0] / self.rate_hz)

@@ -47,6 +47,7 @@ from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.filters import iir
+from pdr.filters.numpy_reductions import all_finite, column_sums, pairwise_sum
 from pdr.frames import GRAVITY_MPS2, heading_deg_to_yaw, yaw_to_heading_deg_float
 from pdr.geomagnetic import field_at_fix
 from pdr.phone.attitude import AttitudeConfig, AttitudeFilter, AttitudeState, gyro_compensated
@@ -729,7 +730,7 @@ class PdrPipeline:
         h = self.history
         stride = h.sl(s - (e - s), e)
         q, acc = h.q[stride], h.acc[stride]
-        if q.shape[0] < 3 or not np.all(np.isfinite(q)):
+        if q.shape[0] < 3 or not all_finite(q):
             return
         new = self.placement_detector.update(stride_cues(q, acc, self.config.rate_hz,
                                                          self.config.placement_detect.smooth_s))
@@ -751,7 +752,7 @@ class PdrPipeline:
             o.confirmed(s, e, h)
         sl = h.sl(s, e)
         q = h.q[sl]
-        if q.shape[0] < 3 or not np.logical_and.reduce(np.isfinite(q), axis=None):   # = .all(), per step
+        if q.shape[0] < 3 or not all_finite(q):
             return []
         c = self.config
         if self.auto_placement:
@@ -852,11 +853,11 @@ def _mean_finite(x: FloatArray) -> Any:
     """Mean over the first axis of ``x`` ((N,): a float; (N, k): a list of k floats), or None where any value
     is missing (no gyro).
     """
-    # np.add.reduce / n is what np.mean computes (the same pairwise sum and division), without its dispatch per
-    # step; np.logical_and.reduce is ndarray.all's reduction.
-    if not x.size or not np.logical_and.reduce(np.isfinite(x), axis=None):
+    # What np.mean computes (numpy's sums and a division), compiled (pdr.filters.numpy_reductions: the same bits)
+    # without numpy's dispatch per step.
+    if not x.size or not all_finite(x):
         return None
-    return (np.add.reduce(x, axis=0) / x.shape[0]).tolist()
+    return pairwise_sum(x) / x.shape[0] if x.ndim == 1 else (column_sums(x) / x.shape[0]).tolist()
 
 
 def _placement_group(name: str | None) -> str | None:

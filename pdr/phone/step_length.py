@@ -44,6 +44,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
+from pdr.filters.compiled import kernel
+from pdr.filters.numpy_reductions import pairwise_sum
 from pdr.frames import GRAVITY_MPS2
 
 FloatArray = NDArray[np.float64]
@@ -82,18 +84,50 @@ def step_patterns(a_n: FloatArray, a_v: FloatArray, rate_hz: float) -> FloatArra
     if m < 2:
         raise InputError("a step needs at least two samples", source="step length")
     dur = m / rate_hz
-    # The ufuncs' reductions directly: what the array methods .sum/.max/.min call, without their wrappers (per step).
-    add, hi, lo = np.add.reduce, np.maximum.reduce, np.minimum.reduce
-    dn = a_n - add(a_n) / m
-    dv = a_v - add(a_v) / m
+    dn, dv, area, range_n, range_v = _centred_area_ranges(a_n, a_v, GRAVITY_MPS2)
+    # The products stay numpy's (BLAS's dot, whose order and fused multiply-adds a kernel would not reproduce).
     return np.array([
         1.0 / dur,                                            # eq. 13
         float(dn @ dn) / m,                                   # eq. 14
         float(dv @ dv) / m,                                   # eq. 15
-        float(add(np.abs(a_n - GRAVITY_MPS2)) / rate_hz),     # eq. 16
-        float(hi(a_n) - lo(a_n)),                             # eq. 17
-        float(hi(a_v) - lo(a_v)),                             # eq. 18
+        area / rate_hz,                                       # eq. 16
+        range_n,                                              # eq. 17
+        range_v,                                              # eq. 18
     ])
+
+
+@kernel
+def _centred_range(a: FloatArray) -> tuple[FloatArray, float]:  # pragma: no cover - compiled
+    """``a - a.mean()`` and ``a.max() - a.min()`` of a step's samples (M,), with numpy's bits: its pairwise sum
+    (:mod:`pdr.filters.numpy_reductions`), and a NaN taken as the maximum and the minimum as ``np.maximum`` and
+    ``np.minimum`` propagate it.
+    """
+    n = a.shape[0]
+    mean = pairwise_sum(a) / n
+    d = np.empty(n)
+    hi = lo = a[0]
+    for i in range(n):
+        x = a[i]
+        d[i] = x - mean
+        if x > hi or x != x:
+            hi = x
+        if x < lo or x != x:
+            lo = x
+    return d, hi - lo
+
+
+@kernel
+def _centred_area_ranges(a_n: FloatArray, a_v: FloatArray, g: float
+                         ) -> tuple[FloatArray, FloatArray, float, float, float]:  # pragma: no cover - compiled
+    """What :func:`step_patterns` took from numpy one call at a time, in one call: ``a_n`` and ``a_v`` centred (M,),
+    ``sum |a_n - g|`` (the area of eq. 16 times the rate) and the ranges of eqs. 17-18, bit for bit.
+    """
+    dn, range_n = _centred_range(a_n)
+    dv, range_v = _centred_range(a_v)
+    dev = np.empty(a_n.shape[0])
+    for i in range(a_n.shape[0]):
+        dev[i] = abs(a_n[i] - g)
+    return dn, dv, pairwise_sum(dev), range_n, range_v
 
 
 @dataclass(frozen=True)

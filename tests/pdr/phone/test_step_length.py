@@ -21,6 +21,21 @@ def test_patterns_of_a_known_signal():
     assert p[4] == pytest.approx(4.0) and p[5] == pytest.approx(2.0)
 
 
+def test_patterns_are_the_bits_of_numpys_expressions():
+    """The compiled centring, area and ranges give the bits of the numpy expressions of eqs. 13-18, on a vertical
+    force read as a column of (M, 3) samples as the pipeline passes it."""
+    rng = np.random.default_rng(5)
+    g = 9.80665
+    for m in [*range(2, 140), 257]:
+        a_n = g + rng.normal(size=m) * 10.0 ** rng.integers(-3, 2)
+        f_n = g + rng.normal(size=(m, 3)) * 10.0 ** rng.integers(-3, 2, size=(m, 3))
+        a_v, fs = f_n[:, 2], 50.0
+        dn, dv = a_n - a_n.mean(), a_v - a_v.mean()
+        expected = np.array([1.0 / (m / fs), float(dn @ dn) / m, float(dv @ dv) / m, float(np.abs(a_n - g).sum() / fs),
+                             float(a_n.max() - a_n.min()), float(a_v.max() - a_v.min())])
+        assert step_patterns(a_n, a_v, fs).tobytes() == expected.tobytes(), m
+
+
 def test_fit_recovers_k_and_b():
     rng = np.random.default_rng(0)
     k, q, b = 0.5, 0.25, 0.1
