@@ -92,6 +92,8 @@ from numpy.typing import NDArray
 
 from pdr import quaternion as quat
 from pdr.errors import InputError
+from pdr.filters.compiled import kernel
+from pdr.filters.numpy_reductions import column_sums
 from pdr.filters.ukf import SigmaPoints
 from pdr.foot import drift
 from pdr.frames import wrap_angle, wrap_angle_float
@@ -104,9 +106,9 @@ def pca_axis(horizontal: FloatArray) -> tuple[float, float]:
     h = np.asarray(horizontal, dtype=np.float64)
     if h.ndim != 2 or h.shape[1] != 2 or h.shape[0] < 2:
         raise InputError("need (M >= 2, 2) horizontal vectors", source="heading")
-    # np.add.reduce / M is what h.mean(axis=0) computes; the 2x2 scatter's entries as Python floats (the same
-    # IEEE operations as on numpy scalars, without their dispatch per step).
-    d = h - np.add.reduce(h, axis=0) / h.shape[0]
+    # The scatter's product stays numpy's (BLAS's, whose order a kernel would not reproduce); its entries as Python
+    # floats (the same IEEE operations as on numpy scalars, without their dispatch per step).
+    d = _centred(h)
     s00, s01, _s10, s11 = (d.T @ d).ravel().tolist()
     ang = 0.5 * math.atan2(2.0 * s01, s00 - s11)
     tr = s00 + s11
@@ -114,6 +116,20 @@ def pca_axis(horizontal: FloatArray) -> tuple[float, float]:
     disc = math.sqrt(max(tr * tr / 4 - det, 0.0))
     l1, l2 = tr / 2 + disc, tr / 2 - disc
     return float(ang), float(l1 / max(l2, 1e-12))
+
+
+@kernel
+def _centred(h: FloatArray) -> FloatArray:  # pragma: no cover - compiled
+    """``h - h.mean(axis=0)`` of (M, k) samples, bit for bit (numpy's column sums, :mod:`pdr.filters.numpy_reductions`,
+    over M), as a new C-ordered array like numpy's.
+    """
+    m, k = h.shape
+    mean = column_sums(h) / m
+    d = np.empty((m, k))
+    for i in range(m):
+        for j in range(k):
+            d[i, j] = h[i, j] - mean[j]
+    return d
 
 
 def resolve_direction(axis_yaw: float, prior_yaw: float) -> float:

@@ -147,8 +147,9 @@ class StepModeLabeller:
         if has_baro:
             back = h.sl(s - int(RATE_WINDOW_S * self.rate_hz), e)
             tt, uu = h.t[back], h.up[back]
-            if tt.size > 2 and tt[-1] > tt[0]:
-                rate = float((uu[-1] - uu[0]) / (tt[-1] - tt[0]))
+            # As Python floats: the same IEEE operations as on numpy scalars, without their dispatch per step.
+            if tt.size > 2 and tt.item(-1) > tt.item(0):
+                rate = (uu.item(-1) - uu.item(0)) / (tt.item(-1) - tt.item(0))
         pmax = pmin = None
         if placement == "pocket":
             pitch = np.degrees(np.arcsin(np.clip(h.y_up[sl], -1, 1)))

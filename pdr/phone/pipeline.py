@@ -815,7 +815,7 @@ class PdrPipeline:
             heading_raw_deg=yaw_to_heading_deg_float(raw_yaw),
             gyro_heading_deg=None if rec.gyro_yaw is None else yaw_to_heading_deg_float(rec.gyro_yaw),
             up_time_s=rec.up_time,
-            gyro_bias_dps=None if rec.gyro_bias is None else np.degrees(rec.gyro_bias).tolist(),
+            gyro_bias_dps=None if rec.gyro_bias is None else [math.degrees(b) for b in rec.gyro_bias],
             pocket_side=rec.pocket_side,
             position_fix=landmark is not None, landmark_heading=landmark_heading)
         flight = self.flights.step(rec.t_start, rec.t_end, mode, rec.up, rec.floor)

@@ -40,10 +40,12 @@ class TrackState:
         c, s = math.cos(yaw_rad), math.sin(yaw_rad)
         self.east_m += length_m * c
         self.north_m += length_m * s
-        j = np.array([[c, -length_m * s], [s, length_m * c]])
-        # j * [a, b] scales j's columns: j @ diag(a, b) without the diagonal matrix (the same products; the
-        # dropped terms are zeros, which cannot change a sum onto a covariance that never holds -0.0).
-        self.P = self.P + (j * np.array([var_length, var_yaw])) @ j.T
+        j01, j11 = -length_m * s, length_m * c
+        j = np.array([[c, j01], [s, j11]])
+        # j diag(a, b): j's columns scaled, each product as numpy's j * [a, b] forms it (without the diagonal matrix:
+        # the dropped terms are zeros, which cannot change a sum onto a covariance that never holds -0.0).
+        jd = np.array([[c * var_length, j01 * var_yaw], [s * var_length, j11 * var_yaw]])
+        self.P = self.P + jd @ j.T
         self.n_steps += 1
 
     def fix(self, east_m: float, north_m: float, var_m2: float) -> None:

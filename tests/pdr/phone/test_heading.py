@@ -230,3 +230,18 @@ def test_site_grid_is_read_checked_and_reaches_the_pipeline():
     from pdr import state_codec
     again = PdrPipeline.from_state(state_codec.loads(state_codec.dumps(p.state())))
     assert again.drift.hde.grid_yaw == p.drift.hde.grid_yaw
+
+
+def test_pca_axis_gives_the_bits_of_numpys_centring() -> None:
+    """The compiled centring of pca_axis is numpy's h - h.mean(axis=0), bit for bit, on the strided (M, 2) view of
+    (M, 3) samples the pipeline passes."""
+    rng = np.random.default_rng(11)
+    for m in [*range(2, 130), 301]:
+        f_n = rng.normal(size=(m, 3)) * 10.0 ** rng.integers(-3, 3, size=(m, 3))
+        h = f_n[:, :2]
+        d = h - h.mean(axis=0)
+        s00, s01, _s10, s11 = (d.T @ d).ravel().tolist()
+        ang = 0.5 * math.atan2(2.0 * s01, s00 - s11)
+        tr, det = s00 + s11, s00 * s11 - s01 ** 2
+        disc = math.sqrt(max(tr * tr / 4 - det, 0.0))
+        assert pca_axis(h) == (ang, (tr / 2 + disc) / max(tr / 2 - disc, 1e-12)), m
