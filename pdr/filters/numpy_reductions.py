@@ -1,13 +1,15 @@
-"""numpy's float64 reductions as compiled kernels, bit for bit: its sums (:func:`pairwise_sum`, :func:`column_sums`)
-and whether every value is finite (:func:`all_finite`), for per-step code that replaces numpy calls on a few dozen
-samples (about a microsecond each, most of it numpy's dispatch) and whose results must not move by a rounding.
+"""numpy's float64 reductions as compiled kernels, bit for bit: its sums (:func:`pairwise_sum`, :func:`column_sums`,
+and ``np.add.reduceat``'s :func:`segment_sum`) and whether every value is finite (:func:`all_finite`), for code that
+replaces numpy calls on a few dozen samples (about a microsecond each, most of it numpy's dispatch) or a chain of
+whole-array numpy calls, and whose results must not move by a rounding.
 
 numpy's ``np.add.reduce`` (what ``.sum()`` and ``.mean()`` call) starts from the identity 0.0 and, over a 1-D array,
 adds its elements by pairwise summation (``pairwise_sum`` of numpy's ``loops_utils.h``): blocks of fewer than 8
 elements one after the other; blocks of up to 128 in eight interleaved partial sums, combined as
 ``((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))``, the remainder added after; longer runs split in two halves,
 the first a multiple of 8 elements, summed alone and added. Over the first axis of a 2-D array (``axis=0``) it adds the
-rows one after the other. :func:`pairwise_sum` and :func:`column_sums` follow the same orders (the pairwise halving
+rows one after the other. ``np.add.reduceat`` starts each segment from its first element and adds the pairwise sum of
+the rest. :func:`pairwise_sum`, :func:`column_sums` and :func:`segment_sum` follow the same orders (the pairwise halving
 without recursion: numba's cache cannot reload a recursive kernel). ``tests/pdr/filters/test_numpy_reductions.py``
 checks them against numpy on random arrays of every length, contiguous and strided.
 """
@@ -30,7 +32,7 @@ _BLOCK = 128
 def _block_sum(a: FloatArray, lo: int, n: int) -> float:  # pragma: no cover - compiled
     """The pairwise sum (numpy's) of ``a[lo:lo + n]`` for ``n <= 128`` (module doc)."""
     if n < 8:
-        res = 0.0
+        res = -0.0              # numpy starts a short block from -0.0 (so a sum of -0.0 stays -0.0)
         for i in range(lo, lo + n):
             res += a[i]
         return res
@@ -56,11 +58,10 @@ def _block_sum(a: FloatArray, lo: int, n: int) -> float:  # pragma: no cover - c
 
 
 @kernel
-def pairwise_sum(a: FloatArray) -> float:  # pragma: no cover - compiled
-    """``np.add.reduce(a)`` of a 1-D float64 array ``a`` (contiguous or not), bit for bit (module doc)."""
-    n = a.shape[0]
+def _pairwise(a: FloatArray, lo: int, n: int) -> float:  # pragma: no cover - compiled
+    """The ``pairwise_sum`` (numpy's) of ``a[lo:lo + n]``, any ``n`` (module doc), without the identity's 0.0."""
     if n <= _BLOCK:
-        return 0.0 + _block_sum(a, 0, n)
+        return _block_sum(a, lo, n)
     # numpy's recursion as a walk over its halves: the pending runs (start, length), and for each run whose first
     # half is summed, that half's sum.
     start = np.empty(64, np.int64)
@@ -68,7 +69,7 @@ def pairwise_sum(a: FloatArray) -> float:  # pragma: no cover - compiled
     first = np.empty(64)
     first_done = np.zeros(64, np.bool_)
     top = 0
-    start[0], length[0] = 0, n
+    start[0], length[0] = lo, n
     while True:
         m = length[top]
         if m > _BLOCK:
@@ -83,12 +84,26 @@ def pairwise_sum(a: FloatArray) -> float:  # pragma: no cover - compiled
             s = first[top] + s
             top -= 1
         if top < 0:
-            return 0.0 + s
+            return s
         first[top], first_done[top] = s, True
         half = length[top] // 2
         half -= half % 8
         start[top + 1], length[top + 1], first_done[top + 1] = start[top] + half, length[top] - half, False
         top += 1
+
+
+@kernel
+def pairwise_sum(a: FloatArray) -> float:  # pragma: no cover - compiled
+    """``np.add.reduce(a)`` of a 1-D float64 array ``a`` (contiguous or not), bit for bit (module doc)."""
+    return 0.0 + _pairwise(a, 0, a.shape[0])
+
+
+@kernel
+def segment_sum(a: FloatArray, lo: int, n: int) -> float:  # pragma: no cover - compiled
+    """The sum ``np.add.reduceat`` gives the segment ``a[lo:lo + n]`` (``n >= 1``) of a 1-D float64 array, bit for
+    bit: its first element plus numpy's pairwise sum of the others (no identity).
+    """
+    return a[lo] + _pairwise(a, lo + 1, n - 1) if n > 1 else a[lo]
 
 
 @kernel

@@ -57,6 +57,8 @@ from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.filters import iir
+from pdr.filters.compiled import kernel
+from pdr.filters.numpy_reductions import segment_sum
 from pdr.os_calibration import os_calibrated
 
 FloatArray = NDArray[np.float64]
@@ -151,11 +153,55 @@ class HardIronState:
             raise InputError(f"bad magnetometer calibration state ({exc})", source="magcal state") from None
 
 
-def _skew_rows(w: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Per-row normal-equation terms of ``y = [w]x b``: ``[w]x^T [w]x`` (N,3,3), ``[w]x^T y`` (N,3), ``y.y``."""
-    ww = np.einsum("ni,nj->nij", w, w)
-    aa = np.einsum("ni,ni->n", w, w)[:, None, None] * np.eye(3) - ww
-    return aa, -np.cross(w, y), np.einsum("ni,ni->n", y, y)
+# The per-pair rows and their block sums are two compiled loops with the bits of the numpy expressions they replaced
+# (a chain of whole-array calls, most of the calibration's time): the same products and differences in the same
+# order, numpy's reduceat sums (pdr.filters.numpy_reductions); the two squared norms stay numpy's einsum, whose
+# vectorised sum of three products a loop would not reproduce on every machine.
+@kernel
+def _pair_rows(m: FloatArray, w: FloatArray, m_prev: FloatArray, w_prev: FloatArray, ts: float, tw: FloatArray,
+               y: FloatArray, w_norm: FloatArray) -> None:  # pragma: no cover - compiled
+    """Per pair of samples ``(k-1, k)`` (``m_prev``, ``w_prev``: the sample before ``k = 0``): fills ``tw = ts w_bar``
+    and the row ``y = (m_k - m_{k-1}) + ts w_bar x m_bar`` (N, 3), and ``|w_bar|`` (N,) as ``np.linalg.norm``.
+    """
+    for k in range(m.shape[0]):
+        mp, wp = (m_prev, w_prev) if k == 0 else (m[k - 1], w[k - 1])
+        wb0, wb1, wb2 = 0.5 * (w[k, 0] + wp[0]), 0.5 * (w[k, 1] + wp[1]), 0.5 * (w[k, 2] + wp[2])
+        mb0, mb1, mb2 = 0.5 * (m[k, 0] + mp[0]), 0.5 * (m[k, 1] + mp[1]), 0.5 * (m[k, 2] + mp[2])
+        y[k, 0] = (m[k, 0] - mp[0]) + ts * (wb1 * mb2 - wb2 * mb1)      # np.cross's products and differences
+        y[k, 1] = (m[k, 1] - mp[1]) + ts * (wb2 * mb0 - wb0 * mb2)
+        y[k, 2] = (m[k, 2] - mp[2]) + ts * (wb0 * mb1 - wb1 * mb0)
+        tw[k, 0], tw[k, 1], tw[k, 2] = ts * wb0, ts * wb1, ts * wb2
+        w_norm[k] = math.sqrt(((0.0 + wb0 * wb0) + wb1 * wb1) + wb2 * wb2)
+
+
+@kernel
+def _block_sums(tw: FloatArray, y: FloatArray, tw2: FloatArray, yy: FloatArray, w_norm: FloatArray, min_rate: float,
+                first_pair: bool, starts: NDArray[np.int64]) -> FloatArray:  # pragma: no cover - compiled
+    """The normal-equation terms of the rows ``y = [tw]x b`` kept (``|w_bar| >= min_rate``, finite ``y.y``; the
+    first only with ``first_pair``), summed per block of pairs from ``starts`` as ``np.add.reduceat`` sums (J, 14):
+    ``[tw]x^T [tw]x = |tw|^2 I - tw tw^T`` (9), ``[tw]x^T y = -tw x y`` (3), ``y.y`` and the row count.
+    ``tw2``, ``yy``: ``|tw|^2`` and ``y.y`` (N,).
+    """
+    n = tw.shape[0]
+    terms = np.empty((14, n))                  # term by term, each summed over its blocks below
+    for k in range(n):
+        keep = w_norm[k] >= min_rate and math.isfinite(yy[k]) and (k > 0 or first_pair)
+        kf = 1.0 if keep else 0.0
+        for i in range(3):
+            for j in range(3):
+                terms[3 * i + j, k] = (tw2[k] * (1.0 if i == j else 0.0) - tw[k, i] * tw[k, j]) * kf
+        terms[9, k] = -(tw[k, 1] * y[k, 2] - tw[k, 2] * y[k, 1]) * kf
+        terms[10, k] = -(tw[k, 2] * y[k, 0] - tw[k, 0] * y[k, 2]) * kf
+        terms[11, k] = -(tw[k, 0] * y[k, 1] - tw[k, 1] * y[k, 0]) * kf
+        terms[12, k] = yy[k] if keep else 0.0
+        terms[13, k] = kf
+    x = np.empty((starts.shape[0], 14))
+    for c in range(14):
+        t = terms[c]
+        for b in range(starts.shape[0]):
+            end = starts[b + 1] if b + 1 < starts.shape[0] else n
+            x[b, c] = segment_sum(t, starts[b], end - starts[b])
+    return x
 
 
 class HardIronEstimator:
@@ -200,26 +246,20 @@ class HardIronEstimator:
             return m
         c, s = self.config, self.hard_iron
         ts = 1.0 / self.rate_hz
-        w = np.asarray(gyro_b, dtype=np.float64) - (np.zeros(3) if gyro_bias is None else gyro_bias)
-        # Pairs (k-1, k) for k = 0..n-1 (k = 0 pairs with the previous batch's last sample).
-        mp = np.vstack([m[:1] if s.last_m is None else s.last_m[None], m[:-1]])
-        wp = np.vstack([w[:1] if s.last_w is None else s.last_w[None], w[:-1]])
-        wb, mb = 0.5 * (w + wp), 0.5 * (m + mp)
-        y = (m - mp) + ts * np.cross(wb, mb)
-        aa, ay, yy = _skew_rows(ts * wb, y)
-        keep = (np.linalg.norm(wb, axis=1) >= c.min_rate_rps) & np.isfinite(yy)
-        if s.last_m is None:
-            keep[0] = False
+        m = np.ascontiguousarray(m)
+        w = np.ascontiguousarray(np.asarray(gyro_b, dtype=np.float64)
+                                 - (np.zeros(3) if gyro_bias is None else gyro_bias))
+        # Pairs (k-1, k) for k = 0..n-1 (k = 0 pairs with the previous batch's last sample, the first with itself).
+        tw, y, w_norm = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
+        _pair_rows(m, w, m[0] if s.last_m is None else s.last_m, w[0] if s.last_w is None else s.last_w, ts,
+                   tw, y, w_norm)
         # Blocks at absolute sample indices; the offset of block j is the one applied after block j-1 ended.
         blk_len = max(1, round(c.block_s * self.rate_hz))
         idx = s.n_seen + np.arange(n)
         blk = idx // blk_len
         starts = np.flatnonzero(np.r_[True, np.diff(blk) != 0])
-        kf = keep.astype(np.float64)
-        x = np.hstack([np.add.reduceat((aa * kf[:, None, None]).reshape(n, 9), starts, axis=0),
-                       np.add.reduceat(ay * kf[:, None], starts, axis=0),
-                       np.add.reduceat(np.where(keep, yy, 0.0), starts)[:, None],
-                       np.add.reduceat(kf, starts)[:, None]])                     # (J, 14) block sums
+        x = _block_sums(tw, y, np.einsum("ni,ni->n", tw, tw), np.einsum("ni,ni->n", y, y), w_norm,
+                        c.min_rate_rps, s.last_m is not None, starts)              # (J, 14) block sums
         ends = np.r_[starts[1:], n]
         # Only the batch's last block may continue into the next batch: its rows wait in the state and are
         # forgotten together with the block they belong to.

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pdr.filters.numpy_reductions import all_finite, column_sums, pairwise_sum
+from pdr.filters.numpy_reductions import all_finite, column_sums, pairwise_sum, segment_sum
 
 
 def _values(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
@@ -47,3 +47,18 @@ def test_all_finite_is_numpys_on_any_shape_and_layout() -> None:
         for v in (y, y[:, :2], y[:, 2:], y[::-1], y[:, 1], y.T):
             assert all_finite(v) == bool(np.isfinite(v).all())
     assert all_finite(x[:, :2]) and all_finite(np.zeros(0)) and all_finite(np.zeros((0, 3)))
+
+
+def test_segment_sums_are_numpys_reduceat() -> None:
+    rng = np.random.default_rng(6)
+    for n in (1, 2, 7, 8, 9, 50, 129, 300, 1000):
+        x = _values(rng, (n, 3))
+        for a in (np.ascontiguousarray(x[:, 0]), x[:, 1]):
+            for starts in (np.arange(0, n, 50), np.arange(n), np.array([0]),
+                           np.unique(np.concatenate([[0], rng.integers(0, n, 6)]))):
+                ends = np.r_[starts[1:], n]
+                got = np.array([segment_sum(a, int(s), int(e - s)) for s, e in zip(starts, ends, strict=True)])
+                assert got.tobytes() == np.add.reduceat(a, starts).tobytes(), n
+    for z in ([-0.0], [-0.0, -0.0], [0.0, -0.0], [-0.0] * 9):
+        a = np.array(z)
+        assert repr(segment_sum(a, 0, a.size)) == repr(float(np.add.reduceat(a, [0])[0])), z

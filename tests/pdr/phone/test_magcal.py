@@ -5,7 +5,7 @@ import pytest
 
 from pdr.errors import InputError
 from pdr.phone.grid import OnlineGrid
-from pdr.phone.magcal import HardIronEstimator, MagCalConfig, mag_os_calibrated
+from pdr.phone.magcal import HardIronEstimator, MagCalConfig, _block_sums, _pair_rows, mag_os_calibrated
 from pdr.phone.pipeline import PdrPipeline
 from pdr.recording import SensorStream
 from pdr.sim import simulate
@@ -139,3 +139,37 @@ def test_pipeline_leaves_an_os_calibrated_field_to_the_os():
     assert PdrPipeline.from_state(d).mag_os_calibrated
     del d["mag_os_calibrated"]
     assert not PdrPipeline.from_state(d).mag_os_calibrated
+
+
+def _numpy_block_sums(m, w, m_prev, w_prev, ts, min_rate, first_pair, starts):
+    """The block sums as whole-array numpy expressions (the calibration's before its loops were compiled)."""
+    n = m.shape[0]
+    mp, wp = np.vstack([m_prev[None], m[:-1]]), np.vstack([w_prev[None], w[:-1]])
+    wb, mb = 0.5 * (w + wp), 0.5 * (m + mp)
+    y = (m - mp) + ts * np.cross(wb, mb)
+    tw = ts * wb
+    aa = np.einsum("ni,ni->n", tw, tw)[:, None, None] * np.eye(3) - np.einsum("ni,nj->nij", tw, tw)
+    ay, yy = -np.cross(tw, y), np.einsum("ni,ni->n", y, y)
+    keep = (np.linalg.norm(wb, axis=1) >= min_rate) & np.isfinite(yy)
+    keep[0] &= first_pair
+    kf = keep.astype(np.float64)
+    return np.hstack([np.add.reduceat((aa * kf[:, None, None]).reshape(n, 9), starts, axis=0),
+                      np.add.reduceat(ay * kf[:, None], starts, axis=0),
+                      np.add.reduceat(np.where(keep, yy, 0.0), starts)[:, None],
+                      np.add.reduceat(kf, starts)[:, None]])
+
+
+def test_compiled_block_sums_are_the_bits_of_the_numpy_expressions():
+    rng = np.random.default_rng(8)
+    for n, first_pair in ((1, True), (2, False), (37, True), (400, False), (3000, True)):
+        m, w = rng.normal(20.0, 30.0, (n, 3)), rng.normal(0.0, 1.0, (n, 3)) * 10.0 ** rng.integers(-2, 1, (n, 1))
+        m[n // 2, 1] = np.nan            # a missing sample: its two rows are not kept
+        m_prev, w_prev = rng.normal(20.0, 30.0, 3), rng.normal(0.0, 1.0, 3)
+        starts = np.flatnonzero(np.r_[True, np.diff((7 + np.arange(n)) // 50) != 0])
+        tw, y, w_norm = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
+        _pair_rows(m, w, m_prev, w_prev, 0.02, tw, y, w_norm)
+        with np.errstate(invalid="ignore"):
+            got = _block_sums(tw, y, np.einsum("ni,ni->n", tw, tw), np.einsum("ni,ni->n", y, y), w_norm, 0.3,
+                              first_pair, starts)
+            expected = _numpy_block_sums(m, w, m_prev, w_prev, 0.02, 0.3, first_pair, starts)
+        assert got.tobytes() == expected.tobytes(), n
