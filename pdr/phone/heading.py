@@ -93,7 +93,7 @@ from numpy.typing import NDArray
 from pdr import quaternion as quat
 from pdr.errors import InputError
 from pdr.filters.compiled import kernel
-from pdr.filters.numpy_reductions import column_sums
+from pdr.filters.numpy_reductions import column_sums, pairwise_sum
 from pdr.filters.ukf import SigmaPoints
 from pdr.foot import drift
 from pdr.frames import wrap_angle, wrap_angle_float
@@ -311,7 +311,8 @@ def mean_yaw(yaw: FloatArray) -> float:
     wrap at +/-pi does not matter (equal to the mean of the unwrapped angles for small spreads).
     """
     y = np.asarray(yaw, dtype=np.float64)
-    return math.atan2(float(np.add.reduce(np.sin(y))), float(np.add.reduce(np.cos(y))))   # = .sum(), per step
+    # numpy's sines and cosines (vectorised: a loop's libm calls could differ in the last bit), numpy's sums compiled.
+    return math.atan2(pairwise_sum(np.sin(y)), pairwise_sum(np.cos(y)))
 
 
 def yaw_variance(q: FloatArray, p_q: FloatArray) -> float:

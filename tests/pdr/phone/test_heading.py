@@ -245,3 +245,10 @@ def test_pca_axis_gives_the_bits_of_numpys_centring() -> None:
         tr, det = s00 + s11, s00 * s11 - s01 ** 2
         disc = math.sqrt(max(tr * tr / 4 - det, 0.0))
         assert pca_axis(h) == (ang, (tr / 2 + disc) / max(tr / 2 - disc, 1e-12)), m
+
+
+def test_mean_yaw_gives_the_bits_of_numpys_sums() -> None:
+    rng = np.random.default_rng(12)
+    for m in [*range(1, 140), 400]:
+        y = rng.uniform(-math.pi, math.pi, m) * rng.uniform(0.01, 1.0)
+        assert mean_yaw(y) == math.atan2(float(np.sin(y).sum()), float(np.cos(y).sum())), m
