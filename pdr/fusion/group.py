@@ -19,10 +19,12 @@ answer.
 
 Repeated uploads of a step (same agent, foot and time or older) are ignored, so a client may resend a batch.
 
-A time more than :data:`MAX_CLOCK_JUMP_S` ahead of the group's newest (an event's, or a joining agent's) is refused
-with an InputError naming it: the clients' common clock does not jump a day between uploads, and one such event
-(a clock in another unit or epoch, 1e300 s) would carry the group's newest time with it, leaving every agent out of
-contact and every later range older than the horizon.
+An event, or a joining agent, whose time lies more than :data:`MAX_CLOCK_JUMP_S` ahead of the group's newest event
+is refused with an InputError naming it: the clients' common clock does not jump a day between uploads, and one such
+event (a clock in another unit or epoch) would carry the group's newest time with it, leaving every agent out of
+contact and every later range older than the horizon. The first event sets the clock: agents may join before it
+without a time (at 0 s), and their events then come on whatever clock the clients chose (Unix time, a session's
+shoe clock).
 """
 
 from __future__ import annotations
@@ -52,7 +54,7 @@ from pdr.fusion.state import FootKey
 
 Array = NDArray[np.float64]
 
-#: Largest step forward (s) of the group's clock an event or a joining agent may take from the group's newest time: a
+#: Largest step forward (s) of the group's clock an event or a joining agent may take from the group's newest event: a
 #: day, as a session's clock (:data:`pdr.phone.grid.MAX_JUMP_S`); a group used again later is a new group.
 MAX_CLOCK_JUMP_S = 86400.0
 
@@ -129,14 +131,18 @@ class Group:
             self.tracks[str(key)] = [[float(t_s), *self.centre.state.position(key).tolist(),
                                       self.centre.state.heading(key)]]
 
+    def newest_event_s(self) -> float | None:
+        """Time of the newest event accepted (applied or pending), s; None before the first."""
+        times = [t for t in (self.clock_s, *self._last_step_s.values()) if math.isfinite(t)]
+        times += [item[0] for item in self._pending]
+        return max(times) if times else None
+
     def _check_clock(self, t_s: float, where: str | None) -> None:
         """InputError naming ``t_s`` (of the event ``where``) when it lies more than :data:`MAX_CLOCK_JUMP_S` s ahead of
-        the group's newest time (module doc); nothing before the first agent joins.
+        the group's newest event (module doc); nothing before the first event.
         """
-        if not self.latest_s:
-            return
-        newest = max(self.latest_s.values())
-        if t_s > newest + MAX_CLOCK_JUMP_S:
+        newest = self.newest_event_s()
+        if newest is not None and t_s > newest + MAX_CLOCK_JUMP_S:
             raise InputError(f"time {t_s:g} s is {(t_s - newest) / 86400:.3g} days ahead of the group's newest "
                              f"({newest:g} s): the group's clock does not jump more than a day (another clock or "
                              f"unit?); create a new group for a new mission", source=where, field="t_s")

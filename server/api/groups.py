@@ -31,6 +31,7 @@ from typing import Any
 
 from flask import Blueprint, Response, current_app, jsonify, request
 
+from pdr.errors import InputError
 from pdr.fusion.centre import FusionConfig
 from pdr.fusion.group import Group
 from pdr.fusion.measurements import MAX_COORDINATE_M, MAX_STEP_M, MAX_VARIANCE, StepSummary, parse_event
@@ -60,6 +61,10 @@ _PRESSURE = {"type": "number", "minimum": AIR_PRESSURE_HPA[0], "maximum": AIR_PR
 _FOOT = {"enum": list(FOOT_SIDES.values()), "description": "left_foot or right_foot (as in sessions)"}
 
 _POSITIVE = {"type": "number", "exclusiveMinimum": 0}
+#: Largest time (s) either way on a group's clock: 3000 years, any clock in seconds (Unix time is 1.7e9 s; Unix
+#: milliseconds, 1.7e12, are another unit). A time of 1e300 s carried the group's clock with it and disabled the group;
+#: within this bound, pdr.fusion.group refuses a jump of more than a day from the group's newest event.
+MAX_TIME_S = 1e11
 #: A measurement's standard deviation, m, and a variance (m^2, m rad, rad^2): at most pdr.fusion.measurements'
 #: MAX_STEP_M and MAX_VARIANCE (100 m, its square; a 1e300 one broke the group's covariances).
 _SIGMA_M = {"maximum": MAX_STEP_M}
@@ -128,7 +133,8 @@ JOIN_GROUP: dict[str, Any] = {
         "cov0": {"type": "array", "items": {"type": "array", "items": _VARIANCE, "minItems": 4, "maxItems": 4},
                  "minItems": 4, "maxItems": 4, "description": "(4, 4) covariance of x, y, z (m) and yaw (rad); each "
                                                               f"entry at most {MAX_VARIANCE:g} either way"},
-        "t_s": _NUMBER,
+        "t_s": {"type": "number", "minimum": -MAX_TIME_S, "maximum": MAX_TIME_S,
+                "description": "time of the initial pose (s, the group's common clock); default 0"},
         "foot_offsets_n": {"type": "array", "items": _VEC3 | {"items": {"type": "number", "minimum": -MAX_FEET_APART_M,
                                                                         "maximum": MAX_FEET_APART_M}},
                            "description": "each foot's offset from pos0_n (m, ENU), in the order of config.feet"},
@@ -137,7 +143,8 @@ JOIN_GROUP: dict[str, Any] = {
 
 _COV4 = {"type": "array", "items": {"type": "array", "items": _NUMBER, "minItems": 4, "maxItems": 4},
          "minItems": 4, "maxItems": 4}
-_T = {"type": "number", "description": "time of the event (s, the group's common clock)"}
+_T = {"type": "number", "minimum": -MAX_TIME_S, "maximum": MAX_TIME_S,
+      "description": "time of the event (s, the group's common clock)"}
 _MODEL = {"gamma_m": {"type": "number", "minimum": 0, "description": "bounded error (m)"},
           "sigma_m": {"type": "number", "minimum": 0, **_SIGMA_M, "description": "noise standard deviation (m)"}}
 
@@ -296,10 +303,23 @@ def join_group(group_id: str) -> tuple[Response, int]:
 
     corr = repo.modify(group_id, join)
     repo.add_agent(group_id, agent, session_id, clock_offset_s)
-    if session_id is not None and feed_groups(services().store, session_id).get(group_id):
+    if session_id is not None and _feed_at_join(session_id).get(group_id):
         corr = correction_json(repo.state(group_id), agent)        # the steps the session has already taken
     return jsonify({"agent": agent, "session_id": session_id, "clock_offset_s": clock_offset_s,
                     "correction": corr}), 201
+
+
+def _feed_at_join(session_id: str) -> dict[str, int]:
+    """The steps the session has already taken, fed to the groups that follow it
+    (:func:`server.group_feed.feed_groups`); steps a group refuses (a session clock days off the group's, without the
+    right ``clock_offset_s``) leave the agent joined and become a session warning, as after a processing pass
+    (:mod:`server.processing`).
+    """
+    try:
+        return feed_groups(services().store, session_id)
+    except InputError as exc:
+        services().store.add_session_warnings(session_id, [f"group feed: {exc}"])
+        return {}
 
 
 @bp.post("/<group_id>/uploads")

@@ -9,6 +9,7 @@ import pytest
 from flask import Flask
 from flask.testing import FlaskClient
 
+from pdr.errors import InputError
 from pdr.fusion.measurements import event_to_dict
 from pdr.fusion.simulation import SimulationConfig, StepEvent, march_scenario, run_scenario
 from pdr.fusion.state import FootKey
@@ -304,8 +305,9 @@ def test_a_time_a_day_ahead_of_the_group_is_a_422_naming_it_and_the_group_goes_o
                                                                                    tokens: dict[str, str]) -> None:
     """A step event (or a joining agent) with t_s 1e300 was accepted and carried the group's newest time with it:
     every agent was then out of contact and every later range older than the fusion horizon, so one upload disabled
-    the group. A time more than a day ahead of the group's newest is a 422 naming it, nothing of it is kept, and the
-    group's next uploads are fused as before."""
+    the group. A time beyond any clock in seconds, or more than a day ahead of the group's newest event, is a 422
+    naming it, nothing of it is kept, and the group goes on. Agents joined without a time (at 0 s) take events on
+    the clients' own clock (Unix time here) from the first on."""
     alice = bearer(tokens["alice"])
     gid = gclient.post("/api/v1/groups", headers=alice, json={"name": "t"}).get_json()["id"]
     for agent, east in (("a", 0.0), ("b", 5.0)):
@@ -314,16 +316,28 @@ def test_a_time_a_day_ahead_of_the_group_is_a_422_naming_it_and_the_group_goes_o
     r = gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice, json={"agent": "c", "pos0_n": [0, 0, 0],
                                                                           "t_s": 1e300})
     assert r.status_code == 422 and r.get_json()["error"]["details"]["field"] == "t_s", r.get_json()
+    unix = 1.7e9
     step = {"type": "step", "t_s": 1e300, "agent": "a", "foot": "left_foot", "dp": [0.7, 0, 0], "dpsi": 0.0,
             "cov": (np.eye(4) * 1e-4).tolist()}
     r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=alice,
                      json={"batch_id": "u0", "agent": "a", "events": [step]})
-    assert r.status_code == 422, r.get_json()
-    assert r.get_json()["error"]["details"]["field"] == "t_s" and "days ahead" in r.get_json()["error"]["message"]
-    assert [a["agent"] for a in gclient.get(f"/api/v1/groups/{gid}", headers=alice).get_json()["agents"]] == ["a", "b"]
-    rng = {"type": "range", "t_s": 1.0, "agent_a": "a", "agent_b": "b", "range_m": 5.0}
+    assert r.status_code == 422 and r.get_json()["error"]["details"]["field"] == "events[0].t_s", r.get_json()
+    rng = {"type": "range", "agent_a": "a", "agent_b": "b", "range_m": 5.0}
     r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=alice,
-                     json={"batch_id": "u0", "agent": "a", "events": [step | {"t_s": 1.0}, rng]})
+                     json={"batch_id": "u0", "agent": "a", "events": [step | {"t_s": unix}, rng | {"t_s": unix}]})
+    assert r.status_code == 201, r.get_json()
+    for t_s in (unix + 2 * 86400, 1e10):               # two days on; a clock in another unit
+        r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=alice,
+                         json={"batch_id": "u1", "agent": "a", "events": [step | {"t_s": t_s}]})
+        assert r.status_code == 422, r.get_json()
+        error = r.get_json()["error"]
+        assert error["details"]["field"] == "t_s" and "days ahead" in error["message"], error
+    r = gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice, json={"agent": "c", "pos0_n": [0, 0, 0],
+                                                                          "t_s": unix + 2 * 86400})
+    assert r.status_code == 422 and "days ahead" in r.get_json()["error"]["message"], r.get_json()
+    assert [a["agent"] for a in gclient.get(f"/api/v1/groups/{gid}", headers=alice).get_json()["agents"]] == ["a", "b"]
+    r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=alice,
+                     json={"batch_id": "u1", "agent": "a", "events": [step | {"t_s": unix + 1.0}]})
     assert r.status_code == 201, r.get_json()
 
 
@@ -375,3 +389,23 @@ def test_an_upload_of_more_events_than_a_request_fuses_is_a_422_naming_the_limit
     assert gclient.get(f"/api/v1/groups/{gid}", headers=alice).get_json()["pending"] == 0
     spec = gclient.get("/api/v1/openapi.json").get_json()["components"]["schemas"]["GroupUpload"]
     assert spec["properties"]["events"]["maxItems"] == groups.MAX_UPLOAD_EVENTS
+
+
+def test_a_session_whose_steps_a_group_refuses_still_joins_and_says_why(gclient: FlaskClient, tokens: dict[str, str],
+                                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """An agent joined with a session takes the steps the session has already taken. If the group refuses them (a
+    shoe clock days off the group's, without the right clock_offset_s), the join stands (201), as the processing
+    pass after it does, and the session's warnings say why; before the day-ahead rule no step was refused there."""
+    alice = bearer(tokens["alice"])
+    gid = gclient.post("/api/v1/groups", headers=alice, json={"name": "t"}).get_json()["id"]
+    sid = gclient.post("/api/v1/sessions", headers=alice, json={"session_id": "walk"}).get_json()["id"]
+
+    def refusing(store: Any, session_id: str) -> dict[str, int]:
+        raise InputError("time 9e+05 s is 10.4 days ahead of the group's newest (0 s)", field="t_s")
+
+    monkeypatch.setattr(groups, "feed_groups", refusing)
+    r = gclient.post(f"/api/v1/groups/{gid}/agents", headers=alice,
+                     json={"agent": "x", "pos0_n": [0, 0, 0], "session_id": sid})
+    assert r.status_code == 201, r.get_json()
+    warnings = gclient.get(f"/api/v1/sessions/{sid}", headers=alice).get_json()["warnings"]
+    assert any(w.startswith("group feed:") and "days ahead" in w for w in warnings), warnings
