@@ -90,7 +90,12 @@ def test_protocol_pools_steps_by_carriage_walker_and_field():
     assert list(agg["by_carriage"]) == ["FrontPocket", "Texting"]
     assert agg["all"]["recordings"] == 3 and agg["all"]["walk_causal"]["n"] == 6
     assert math.isnan(agg["all"]["att_yaw"]["mean_deg"])
-    assert any(line.startswith("ALL (3 rec.)") for line in ev.report_lines(scores, agg))
+    lines = ev.report_lines(scores, agg)
+    assert any(line.startswith("ALL (3 rec.)") for line in lines)
+    # Jakob's front pocket (30 deg) is over the 15 deg bar; his texting (15 deg) and Guillaume's (3 deg) are not.
+    assert ("recordings whose causal walking direction is off by more than 15 deg on average: 1 of 3 "
+            "(Jakob_FrontPocket 30.0)") in lines
+    assert "recordings whose smoothed walking direction is off by more than 15 deg on average: 0 of 3" in lines
 
 
 def test_disturbed_stretches_split_the_attitude_yaw_against_the_walkers_clean_field():
