@@ -73,6 +73,16 @@ class StaleRangeError(InputError):
         return {**super().details(), "events": self.events, "reasons": self.reasons}
 
 
+def _check_clock(t_s: float, where: str | None, newest_s: float | None) -> None:
+    """InputError naming ``t_s`` (of the event ``where``) when it lies more than :data:`MAX_CLOCK_JUMP_S` s ahead of
+    the group's newest event ``newest_s`` (module doc; None before the first event: nothing to check).
+    """
+    if newest_s is not None and t_s > newest_s + MAX_CLOCK_JUMP_S:
+        raise InputError(f"time {t_s:g} s is {(t_s - newest_s) / 86400:.3g} days ahead of the group's newest "
+                         f"({newest_s:g} s): the group's clock does not jump more than a day (another clock or "
+                         f"unit?); create a new group for a new mission", source=where, field="t_s")
+
+
 def _two_agents(ev: Event) -> bool:
     """Whether the event relates two agents' positions (it then needs both states at its time)."""
     return isinstance(ev, InterAgentRange) or (isinstance(ev, HeightDifference) and ev.agent_b is not None)
@@ -124,7 +134,7 @@ class Group:
     def join(self, agent: str, pos0_n: ArrayLike, heading0: float = 0.0, cov0: ArrayLike | None = None,
              t_s: float = 0.0, foot_offsets_n: ArrayLike | None = None) -> None:
         """Add an agent with its initial pose (see :meth:`FusionCentre.add_agent`)."""
-        self._check_clock(float(t_s), None)
+        _check_clock(float(t_s), None, self.newest_event_s())
         self.centre.add_agent(agent, pos0_n, heading0, cov0, t_s, foot_offsets_n)
         self.latest_s[agent] = float(t_s)
         for key in self.centre.feet_of(agent):
@@ -132,20 +142,11 @@ class Group:
                                       self.centre.state.heading(key)]]
 
     def newest_event_s(self) -> float | None:
-        """Time of the newest event accepted (applied or pending), s; None before the first."""
-        times = [t for t in (self.clock_s, *self._last_step_s.values()) if math.isfinite(t)]
-        times += [item[0] for item in self._pending]
-        return max(times) if times else None
-
-    def _check_clock(self, t_s: float, where: str | None) -> None:
-        """InputError naming ``t_s`` (of the event ``where``) when it lies more than :data:`MAX_CLOCK_JUMP_S` s ahead of
-        the group's newest event (module doc); nothing before the first event.
+        """Time of the newest event accepted, s: of the applied ones (``clock_s``) and the buffered ones; None before
+        the first.
         """
-        newest = self.newest_event_s()
-        if newest is not None and t_s > newest + MAX_CLOCK_JUMP_S:
-            raise InputError(f"time {t_s:g} s is {(t_s - newest) / 86400:.3g} days ahead of the group's newest "
-                             f"({newest:g} s): the group's clock does not jump more than a day (another clock or "
-                             f"unit?); create a new group for a new mission", source=where, field="t_s")
+        times = [item[0] for item in self._pending] + ([self.clock_s] if math.isfinite(self.clock_s) else [])
+        return max(times) if times else None
 
     def in_contact(self, agent: str) -> bool:
         """Whether the agent reported recently enough to hold the group's processing back."""
@@ -168,6 +169,7 @@ class Group:
         up to the batch's newest time.
         """
         batch: list[Event] = []
+        newest = self.newest_event_s()      # once: it scans the buffer
         for i, e in enumerate(events):
             where = f"events[{i}]"
             ev = parse_event(e, where) if isinstance(e, dict) else e
@@ -177,7 +179,7 @@ class Group:
             if isinstance(ev, StepSummary) and ev.foot not in self.centre.config.feet:
                 raise InputError(f"foot must be one of {', '.join(self.centre.config.feet)}", source=where,
                                  field="foot")
-            self._check_clock(ev.t_s, where)
+            _check_clock(ev.t_s, where, newest)
             batch.append(ev)
         if reporter is not None and reporter not in self.latest_s:
             raise InputError(f"agent '{reporter}' has not joined the group", field="agent")
