@@ -160,8 +160,9 @@ class HardIronState:
 @kernel
 def _pair_rows(m: FloatArray, w: FloatArray, m_prev: FloatArray, w_prev: FloatArray, ts: float, tw: FloatArray,
                y: FloatArray, w_norm: FloatArray) -> None:  # pragma: no cover - compiled
-    """Per pair of samples ``(k-1, k)`` (``m_prev``, ``w_prev``: the sample before ``k = 0``): fills ``tw = ts w_bar``
-    and the row ``y = (m_k - m_{k-1}) + ts w_bar x m_bar`` (N, 3), and ``|w_bar|`` (N,) as ``np.linalg.norm``.
+    """Per pair of samples ``(k-1, k)`` of the field ``m`` (uT) and the rate ``w`` (rad/s), body frame (``m_prev``,
+    ``w_prev``: the sample before ``k = 0``; ``ts`` the interval, s): fills ``tw = ts w_bar`` (N, 3, rad), the row
+    ``y = (m_k - m_{k-1}) + ts w_bar x m_bar`` (N, 3, uT), and ``|w_bar|`` (N, rad/s) as ``np.linalg.norm``.
     """
     for k in range(m.shape[0]):
         mp, wp = (m_prev, w_prev) if k == 0 else (m[k - 1], w[k - 1])
