@@ -52,9 +52,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def common_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--placement", default="auto", choices=("auto", "pocket", "torso", "hand", "swinging"),
+    p.add_argument("--placement", default="auto", choices=("auto", "detect", "pocket", "torso", "hand", "swinging"),
                    help="where the phone is carried (swinging: in a hand swinging with the arm; auto: from the "
-                        "log's metadata, else detected stride by stride from the carriage's motion)")
+                        "log's metadata, else detected stride by stride from the carriage's motion; detect: "
+                        "detected even where the log's format names one, e.g. GetSensorData logs, read as hand-held "
+                        "as the IPIN competition's are)")
     p.add_argument("--site", help="site description JSON (landmarks that correct heading and position; optional "
                                   "declination_deg and grid_deg, the compass bearing of a main axis of the building)")
     p.add_argument("--calibration", help="step-length calibration JSON from `pdr calibrate`")

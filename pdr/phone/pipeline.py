@@ -110,7 +110,9 @@ class PipelineConfig:
     rate_hz
         Grid rate (Hz).
     placement
-        ``auto``, ``pocket``, ``hand``, ``torso`` or ``swinging`` (a phone in a hand swinging with the arm).
+        ``auto``, ``detect``, ``pocket``, ``hand``, ``torso`` or ``swinging`` (a phone in a hand swinging with the
+        arm). ``auto``: the placement a provider or the log's device gives, else detected online
+        (:mod:`pdr.phone.placement_detect`); ``detect``: detected online whatever they give.
     attitude_method
         ``ukf`` (seed 003) or ``ekf`` (RMPCA baseline).
     heading_offset
@@ -198,8 +200,8 @@ class PipelineConfig:
     phone_yaw_gate_sigma: float = 3.0
 
     def __post_init__(self) -> None:
-        if self.placement not in ("auto", *PIPELINE_PLACEMENTS):
-            raise InputError("placement must be auto, pocket, hand, torso or swinging", field="placement",
+        if self.placement not in ("auto", "detect", *PIPELINE_PLACEMENTS):
+            raise InputError("placement must be auto, detect, pocket, hand, torso or swinging", field="placement",
                              source="config")
         if self.attitude_method not in ("ukf", "ekf"):
             raise InputError("attitude_method must be ukf or ekf", field="attitude_method", source="config")
@@ -287,9 +289,10 @@ class PdrPipeline:
         self.flights = StairFlights()
         self.track = TrackState(float(start_en_m[0]), float(start_en_m[1]))
         self.history = SampleHistory(int(c.history_s * c.rate_hz))
-        self.placement: str | None = None if c.placement == "auto" else c.placement
-        # Detected online (pdr.phone.placement_detect) unless the configuration, a provider or the device names it.
-        self.auto_placement = c.placement == "auto"
+        self.placement: str | None = None if c.placement in ("auto", "detect") else c.placement
+        # Detected online (pdr.phone.placement_detect) unless the configuration, a provider or the device names it
+        # (with "detect", whatever they say).
+        self.auto_placement = c.placement in ("auto", "detect")
         self.placement_detector = PlacementDetector(c.placement_detect)
         self.t0_ns = 0
         # The per-step stages.
@@ -539,7 +542,7 @@ class PdrPipeline:
         self.grid = OnlineGrid(self.config.rate_hz, tuple(kinds),
                                may_join=("gyro", "mag", "baro") + (("orientation",) if orientation else ()))
         self.t0_ns = 0
-        if self.placement is None:
+        if self.placement is None and c.placement == "auto":
             if self.placement_provider is not None:
                 self.placement = _placement_group(self.placement_provider(batch))
             if self.placement is None:

@@ -351,6 +351,20 @@ def test_auto_placement_follows_the_phone_from_the_pocket_to_the_hand():
     assert r.auto_placement and r.placement_detector.state() == q.placement_detector.state()
 
 
+def test_detect_placement_overrules_the_logs_own_placement():
+    # A pocket walk whose log says hand-held (as every GetSensorData log does): auto takes the log's word, detect
+    # looks at the carriage.
+    from dataclasses import replace
+    pocket = simulate(load_scenario(SIM / "pocket_office.json"), 2)
+    mislabelled = replace(pocket, device=replace(pocket.device, placement="hand"))
+    assert {r["placement"] for r in track_rows(PdrPipeline(PipelineConfig()).run(mislabelled))} == {"hand"}
+    p = PdrPipeline(PipelineConfig(placement="detect"))
+    seen = [r["placement"] for r in track_rows(p.run(mislabelled))]
+    assert seen.count("pocket") > 0.9 * len(seen) and p.auto_placement
+    with pytest.raises(InputError, match="placement must be auto, detect"):
+        PipelineConfig(placement="somewhere")
+
+
 @pytest.mark.data
 @pytest.mark.slow
 def test_auto_placement_finds_the_pocket_in_real_pocket_walks():
