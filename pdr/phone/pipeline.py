@@ -735,8 +735,10 @@ class PdrPipeline:
         q, acc = h.q[stride], h.acc[stride]
         if q.shape[0] < 3 or not all_finite(q):
             return
+        step_t = h.t[h.sl(s, e)]
         new = self.placement_detector.update(stride_cues(q, acc, self.config.rate_hz,
-                                                         self.config.placement_detect.smooth_s))
+                                                         self.config.placement_detect.smooth_s),
+                                             float(step_t[0]), float(step_t[-1]))
         if new == self.placement:
             return
         if self.placement is not None:

@@ -366,6 +366,19 @@ def test_detect_placement_overrules_the_logs_own_placement():
 
 
 @pytest.mark.data
+def test_a_walk_after_a_stand_is_judged_afresh():
+    # IPIN trial 02 rep 01: the walker waves the phone for a calibration (its last strides read as a pocket),
+    # stands 30 s, then walks with the phone held steady. Detected (not taken from the reader), the walk after the
+    # stand is hand-held from its first strides (pdr.phone.placement_detect: a pause ends a walk); before, its
+    # first 13 s were a pocket's.
+    rec = read_recording(data_path("ipin2023_t3", "logfiles", "IPIN2023_T3_TrainingTrial02_repetition01.txt"))
+    p = PdrPipeline(PipelineConfig(placement="detect"))
+    rows = track_rows(p.run(rec))
+    after = [r["placement"] for r in rows if r["t_s"] > 55.0]
+    assert len(after) > 100 and after[:3] == ["hand"] * 3 and after.count("hand") > 0.95 * len(after)
+
+
+@pytest.mark.data
 @pytest.mark.slow
 def test_auto_placement_finds_the_pocket_in_real_pocket_walks():
     # MobiFall WAL (5 subjects x 5 min, phone in a trouser pocket, with a gyroscope), placement not given: 2219 of

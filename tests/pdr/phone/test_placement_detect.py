@@ -131,6 +131,30 @@ def test_a_pocket_phone_that_slows_down_stays_in_the_pocket_until_it_moves():
     assert [det.update(c) for c in [pocket] * 4 + [StrideCues(6.0, 8.0, 0.95)] * 3][-1] == "hand"
 
 
+def test_a_pause_ends_the_walk_and_the_next_one_settles_afresh():
+    along_thigh = (0.0, 0.97, 0.24)
+    pocket = StrideCues(25.0, 30.0, 0.95, along_thigh)
+    held = StrideCues(6.0, 8.0, 0.95, (0.05, 0.96, 0.27))       # steady, where the pocket's up direction was
+    cfg = PlacementDetectConfig(switch_strides=3, pocket_hold_strides=8, pause_s=2.4)
+
+    def walk(det: PlacementDetector, cues: list[StrideCues], t0: float) -> list[str]:
+        # One stride per 0.6 s step, steps back to back.
+        return [det.update(c, t0 + 0.6 * i, t0 + 0.6 * (i + 1)) for i, c in enumerate(cues)]
+
+    det = PlacementDetector(cfg)
+    assert walk(det, [pocket] * 4, 0.0) == ["pocket"] * 4
+    # The phone held steady after a 20 s stand: the new walk's first stride decides, no pocket hold.
+    assert walk(det, [held] * 3, 22.4) == ["hand"] * 3
+    # A gap within a walk (one missed step, 1.7 s) is no pause: the slowed-down pocket keeps its hold.
+    det = PlacementDetector(cfg)
+    assert walk(det, [pocket] * 4, 0.0) + walk(det, [held] * 3, 4.1) == ["pocket"] * 7
+    restored = PlacementDetector.from_state(det.state(), cfg)
+    assert restored.state() == det.state() and restored.last_end_s == pytest.approx(5.9)
+    # Without times (the strides' cues alone) no pause is seen.
+    det = PlacementDetector(cfg)
+    assert [det.update(c) for c in [pocket] * 4 + [held] * 3] == ["pocket"] * 7
+
+
 def test_a_strides_mean_up_direction_is_the_device_frame_vertical():
     # A phone lying flat, screen up: the navigation frame's up axis is the device's z.
     cues = stride_cues(np.tile([1.0, 0.0, 0.0, 0.0], (50, 1)), np.tile([0.0, 0.0, 9.81], (50, 1)), RATE)
