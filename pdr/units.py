@@ -92,6 +92,13 @@ def _rows(values: ArrayLike, ncol: int | None, what: str) -> FloatArray:
     return v
 
 
+def _row_norms(v: FloatArray) -> FloatArray:
+    """Euclidean norm of each row of ``v`` (N, k), finite for any finite values (``hypot``: the squares of values
+    beyond 1e154 would overflow).
+    """
+    return np.asarray(np.hypot.reduce(v, axis=1), dtype=np.float64)
+
+
 def _by_range(stat: float, ranges: Mapping[str, tuple[float, float]]) -> str | None:
     hits = [u for u, (lo, hi) in ranges.items() if lo <= stat <= hi]
     return hits[0] if len(hits) == 1 else None
@@ -106,7 +113,7 @@ def detect_acc_unit(values: ArrayLike) -> str | None:
         (N, 3) accelerometer samples in an unknown unit (gravity included).
     """
     v = _rows(values, 3, "accelerometer")
-    return _by_range(float(np.median(np.linalg.norm(v, axis=1))), _ACC_MEDIAN_NORM)
+    return _by_range(float(np.median(_row_norms(v))), _ACC_MEDIAN_NORM)
 
 
 def detect_mag_unit(values: ArrayLike) -> str | None:
@@ -118,7 +125,7 @@ def detect_mag_unit(values: ArrayLike) -> str | None:
         (N, 3) magnetic field samples in an unknown unit.
     """
     v = _rows(values, 3, "magnetometer")
-    return _by_range(float(np.median(np.linalg.norm(v, axis=1))), _MAG_MEDIAN_NORM)
+    return _by_range(float(np.median(_row_norms(v))), _MAG_MEDIAN_NORM)
 
 
 def detect_pressure_unit(values: ArrayLike) -> str | None:
@@ -184,7 +191,7 @@ def tilt_rate_ratio(t_gyro_s: ArrayLike, gyro: ArrayLike, t_acc_s: ArrayLike, ac
     w_a = np.column_stack([np.interp(ta, tg, w[:, k]) for k in range(3)])
     f_s = _moving_average(f, n)
     w_s = _moving_average(w_a, n)
-    norm = np.linalg.norm(f_s, axis=1)
+    norm = _row_norms(f_s)
     ok = norm > 0
     h = max(1, n // 2)
     if ok.sum() <= 2 * h + 10:
@@ -221,7 +228,7 @@ def detect_gyro_unit(values: ArrayLike, t_s: ArrayLike | None = None, acc_t_s: A
         None otherwise (e.g. a static gyro).
     """
     w = _rows(values, 3, "gyroscope")
-    if float(np.percentile(np.linalg.norm(w, axis=1), 99)) > MAX_HUMAN_RATE_RADPS:
+    if float(np.percentile(_row_norms(w), 99)) > MAX_HUMAN_RATE_RADPS:
         return "deg/s"
     if t_s is None or acc is None or acc_t_s is None:
         return None
@@ -237,7 +244,7 @@ def detect_gyro_unit(values: ArrayLike, t_s: ArrayLike | None = None, acc_t_s: A
 def _describe(values: FloatArray, family: str) -> str:
     if family == "pressure":
         return f"median {float(np.median(values)):.4g}"
-    norms = np.linalg.norm(values, axis=1)
+    norms = _row_norms(values)
     if family == "gyro":
         return f"99th-percentile norm {float(np.percentile(norms, 99)):.4g}"
     return f"median norm {float(np.median(norms)):.4g}"

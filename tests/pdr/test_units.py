@@ -193,3 +193,10 @@ def test_real_gyros_in_rad_s_are_recognised_and_would_be_caught_in_deg_s(parts):
     fixed = check_units(wrong)
     np.testing.assert_allclose(fixed.values("gyro"), g.values, rtol=1e-12, atol=1e-15)
     np.testing.assert_allclose(fixed.values("acc"), a.values, rtol=1e-12)
+
+
+def test_absurd_magnitudes_are_no_unit_and_raise_no_overflow():
+    # Finite values whose squares overflow (a fuzzed batch's 1e200) are told apart without a floating-point error.
+    huge = np.full((20, 3), 1e200)
+    assert detect_acc_unit(huge) is None and detect_mag_unit(huge) is None
+    assert detect_gyro_unit(huge) == "deg/s"            # beyond any human motion in rad/s, as before

@@ -79,6 +79,13 @@ def _in_g() -> dict[str, Any]:
     return b
 
 
+def _huge_acc() -> dict[str, Any]:
+    """A batch whose accelerometer reads 1e200 m/s^2: finite, but its squares overflow."""
+    b = phone_batch("huge-acc", 100.0)
+    b["streams"]["acc"]["values"] = [[1e200, 1e200, 1e200] for _ in b["streams"]["acc"]["values"]]
+    return b
+
+
 def _overflow() -> bytes:
     b = phone_batch("overflow", 100.0)
     text = json.dumps(b)
@@ -124,6 +131,8 @@ CASES: dict[str, tuple[Any, int, str]] = {
     "timestamps 10 years after the session": (_far_future(), 422, "days away"),
     "one batch spanning 3 days": (_long_span(), 422, "span"),
     "accelerometer in g": (_in_g(), 422, "looks like g"),
+    # the unit check's norm overflowed (a RuntimeWarning, a 500 where warnings are errors; found by the fuzz test)
+    "accelerometer at 1e200": (_huge_acc(), 422, "stream 'acc' sample 0 holds a value of magnitude 1e+200"),
     # no air pressure where people walk (300-1100 hPa): each was stored (201) and taken for an altitude
     "barometer at -5 hPa": (_baro(-5.0), 422, "stream 'baro' sample 3: -5 hPa is no air pressure"),
     "barometer at 0 hPa": (_baro(0.0), 422, "stream 'baro' sample 3: 0 hPa is no air pressure"),
