@@ -153,6 +153,8 @@ def _track(args: argparse.Namespace) -> int:
             from pdr.mapmatch.rows import match_rows
             rows, more = match_rows(rows, plan, start, floor, MapMatchConfig(), smooth=True, source="--start")
             notices = [*notices, *more]
+    if args.placement in ("auto", "detect") and rows:
+        notices = [*notices, placement_note(rows, None if args.placement == "detect" else rec.device.placement)]
     for n in notices:
         print(f"note: {n}", file=sys.stderr)
     write_csv(rows, in_made_folder(args.out))     # the folders of the outputs are made (pdr.cli.outputs)
@@ -165,6 +167,31 @@ def _track(args: argparse.Namespace) -> int:
                    f"heading {'smoothed' if args.smoother == 'on' else 'causal'}")
     print(f"{len(rows)} steps, {dist:.1f} m walked -> {args.out}")
     return 0
+
+
+#: Most placement spans :func:`placement_note` lists.
+PLACEMENT_SPANS_LISTED = 6
+
+
+def placement_note(rows: list[dict[str, Any]], log_placement: str | None) -> str:
+    """Where the track took the phone to be, for a user who did not say (``--placement auto`` or ``detect``): the
+    log's own placement (``log_placement``, the device's; None: not given or not used) or the carriage detected
+    stride by stride, as spans of the step rows' ``placement`` (times in s on the log's clock).
+    """
+    if log_placement is not None:
+        return (f"placement {rows[0].get('placement')} from the log (its device: {log_placement}); "
+                "--placement detect detects it from the motion instead")
+    spans: list[list[Any]] = []
+    for r in rows:
+        if spans and spans[-1][0] == r.get("placement"):
+            spans[-1][2], spans[-1][3] = r["t_s"], spans[-1][3] + 1
+        else:
+            spans.append([r.get("placement"), r.get("t_start_s", r["t_s"]), r["t_s"], 1])
+    listed = ", ".join(f"{p} {t0:.1f}-{t1:.1f} s ({n} step{'s' if n > 1 else ''})"
+                       for p, t0, t1, n in spans[:PLACEMENT_SPANS_LISTED])
+    more = len(spans) - PLACEMENT_SPANS_LISTED
+    return ("placement detected stride by stride (--placement to set it): " + listed
+            + (f", and {more} more changes" if more > 0 else ""))
 
 
 def _site_plan(args: argparse.Namespace) -> SitePlan | None:

@@ -56,6 +56,25 @@ def test_track_writes_csv_and_geojson(tmp_path, capsys):
 
 
 
+def test_track_says_where_it_took_the_phone_to_be(tmp_path, capsys):
+    """A user who did not give --placement learns what the track assumed: the log's placement, or the carriage
+    detected stride by stride with its spans; nothing is said when the user gave it."""
+    from pdr.cli.track import placement_note
+
+    out = tmp_path / "t.csv"
+    assert main(["track", str(SIM / "pocket_office.zip"), "--out", str(out), "--placement", "detect"]) == 0
+    assert re.search(r"note: placement detected stride by stride \(--placement to set it\): pocket [0-9.]+-[0-9.]+ s "
+                     r"\(\d+ steps\)", capsys.readouterr().err)
+    assert main(["track", str(SIM / "pocket_office.zip"), "--out", str(out), "--placement", "pocket"]) == 0
+    assert "placement" not in capsys.readouterr().err
+    rows = [{"t_start_s": 0.0, "t_s": 0.5, "placement": "hand"}, {"t_start_s": 0.5, "t_s": 1.0, "placement": "pocket"},
+            {"t_start_s": 1.0, "t_s": 1.5, "placement": "pocket"}]
+    assert placement_note(rows, None).endswith("hand 0.0-0.5 s (1 step), pocket 0.5-1.5 s (2 steps)")
+    assert placement_note(rows, "trouser_pocket").startswith("placement hand from the log (its device: trouser_pocket)")
+    many = [{"t_start_s": float(i), "t_s": i + 1.0, "placement": ("hand", "pocket")[i % 2]} for i in range(9)]
+    assert placement_note(many, None).endswith(", and 3 more changes")
+
+
 def test_track_makes_the_folders_of_its_outputs_as_classify_does(tmp_path, capsys):
     """``--out missing/x.csv`` failed ("No such file or directory") after the whole track, where ``pdr classify``
     makes the folder; so did --geojson and --plot."""
