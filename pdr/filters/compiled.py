@@ -29,6 +29,9 @@ llvmlite's lock, and numba hooks the lock to fire a ``numba:llvm_lock`` event, w
 compiles or loads: several thousand calls per process, 40-70 ms of a ``pdr track`` process's 11 loads. The time is
 kept for a compiled kernel only (in its metadata, which a kernel loaded from the cache has none of), so the loads
 skip it.
+
+And a load rebuilds the kernel's library from its machine code and the names in its ELF symbol table, without parsing
+the LLVM bitcode numba keeps beside it for linking (:mod:`pdr.filters.object_code_load`).
 """
 
 from __future__ import annotations
@@ -42,6 +45,8 @@ from llvmlite.binding import ffi
 from numba.core.caching import FunctionCache
 from numba.core.runtime import rtsys
 
+from pdr.filters.object_code_load import object_code_only
+
 
 class LeanFunctionCache(FunctionCache):
     """numba's disk cache of one function, whose loads start only numba's runtime, not the target's registries
@@ -50,7 +55,7 @@ class LeanFunctionCache(FunctionCache):
 
     def load_overload(self, sig: Any, target_context: Any) -> Any:
         """The cached compile result of ``sig``, or None (numba then compiles, refreshing the target itself)."""
-        with _llvm_lock_callbacks_off():
+        with _llvm_lock_callbacks_off(), object_code_only(target_context.codegen()):
             rtsys.initialize(target_context)
             with self._guard_against_spurious_io_errors():
                 return self._load_overload(sig, target_context)

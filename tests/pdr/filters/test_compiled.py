@@ -70,3 +70,70 @@ def test_pdr_track_loads_its_kernels_without_numbas_array_math(tmp_path: Path) -
             "print(json.dumps({'rc': rc, 'array_math': 'numba.np.arraymath' in sys.modules}))")
     python_json(code, timeout_s=600)                   # compiles what the cache does not hold yet
     assert python_json(code, timeout_s=600) == {"rc": 0, "array_math": False}
+
+
+_LINKING_MODULE = textwrap.dedent('''
+    import numba
+    import numpy as np
+
+    from pdr.filters.compiled import kernel
+
+
+    @kernel
+    def scaled(x, k):
+        return x * k + 1.0
+
+
+    @numba.njit                     # not cached: compiled in every process, linking the cached kernel in
+    def twice_scaled(x, k):
+        return scaled(scaled(x, k), k)
+''')
+
+
+def _probe_env(tmp_path: Path) -> dict[str, str]:
+    """The environment of a process that imports the module of :data:`_LINKING_MODULE` (written to ``tmp_path``)
+    with its own numba cache there."""
+    (tmp_path / "lean_linking_probe.py").write_text(_LINKING_MODULE)
+    repo = Path(__file__).resolve().parents[3]
+    return {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), str(repo)]),
+            "NUMBA_CACHE_DIR": str(tmp_path / "numba_cache")}
+
+
+def test_a_kernel_compiled_after_a_lean_load_links_the_loaded_kernel_in(tmp_path: Path) -> None:
+    """A cached kernel loaded from its machine code alone (pdr.filters.object_code_load) keeps its bitcode for a
+    kernel compiled later in the process, which calls it."""
+    env = _probe_env(tmp_path)
+    run = ("import json; import lean_linking_probe as m; a = m.scaled(2.0, 3.0); b = m.twice_scaled(2.0, 3.0); "
+           "lib = type(m.scaled.overloads[m.scaled.signatures[0]].library).__name__; "
+           "print(json.dumps({'values': [a, b], 'hits': sum(m.scaled.stats.cache_hits.values()), 'library': lib}))")
+    first = python_json(run, env=env)
+    second = python_json(run, env=env)
+    assert first["values"] == second["values"] == [7.0, 22.0]
+    assert first["hits"] == 0 and second["hits"] == 1
+    assert second["library"].startswith("Lazy")
+
+
+def test_the_elf_symbol_table_names_what_the_linking_module_defines(tmp_path: Path) -> None:
+    """The names a lean load gives the execution engine (from the object code's symbol table) are those numba's load
+    reads from the bitcode: every function and global its module for linking defines."""
+    env = _probe_env(tmp_path)
+    code = ("import json; import numpy as np; import llvmlite.binding as ll; import lean_linking_probe as m; "
+            "from pdr.filters.object_code_load import elf_defined_symbols; m.scaled(np.arange(3.0), 2.0); "
+            "out = []\n"
+            "for result in m.scaled.overloads.values():\n"
+            "    _, kind, (obj, bitcode) = result.library.serialize_using_object_code()\n"
+            "    module = ll.parse_bitcode(bitcode)\n"
+            "    defined = {g.name for gs in (module.functions, module.global_variables) for g in gs "
+            "if not g.is_declaration}\n"
+            "    out.append([kind, sorted(elf_defined_symbols(obj)), sorted(defined)])\n"
+            "print(json.dumps(out))")
+    (kind, from_elf, from_bitcode), = python_json(code, env=env)
+    assert kind == "object" and len(from_elf) > 3
+    assert from_elf == from_bitcode
+
+
+def test_an_object_that_is_not_elf_is_left_to_numba() -> None:
+    from pdr.filters.object_code_load import elf_defined_symbols
+
+    assert elf_defined_symbols(b"\xcf\xfa\xed\xfe" + bytes(60)) is None      # a Mach-O header
+    assert elf_defined_symbols(b"") is None
