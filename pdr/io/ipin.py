@@ -185,14 +185,30 @@ def _use_compiled(size: int) -> bool:
 
 
 def _read_text_fast(p: Path, raw: bytes, compiled: bool = True) -> Recording | None:
-    """The text log read by array operations on its bytes (:class:`~pdr.io.text.Lines`), or None.
+    """The text log read by array operations on its bytes, or None.
 
-    Lines are classified by their first bytes, each record kind's numbers parsed in one pass
-    (:meth:`~pdr.io.text.Lines.fields`; by the compiled parser, or by numpy's text reader when not ``compiled``).
-    None when the file holds anything the exact line-by-line path
+    ``compiled``: one compiled pass over the bytes (:func:`pdr.io.tagged_records.scan_tagged`), and where it stops,
+    the lines as arrays (:func:`_read_text_arrays`, by the compiled number parser); not ``compiled``: those arrays
+    with numpy's text reader. None when the file holds anything the exact line-by-line path
     (:func:`_read_text_exact`) would treat differently or refuse (non-ASCII bytes, unusual line breaks, a line of
     no known kind, a bad number, a field too many, time that does not increase): that path then reads it or
     names the bad line and field.
+    """
+    if compiled and raw.isascii() and b"\x00" not in raw:
+        from pdr.io.tagged_records import scan_tagged  # numba: only where the compiled parser is taken
+        found = scan_tagged(raw, _TEXT_TAGS, _TEXT_NCOLS)
+        if found is not None:
+            tables = {tag: (found.values[k], found.lines[k]) for k, tag in enumerate(_TEXT_TAGS) if found.lines[k].size}
+            comments = [line for _, line in found.extra if line[:1] == b"%"]
+            rest = [(i, line) for i, line in found.extra if line[:1] != b"%"]
+            return _from_records(p, tables, found.others, rest, comments)
+    return _read_text_arrays(p, raw, compiled)
+
+
+def _read_text_arrays(p: Path, raw: bytes, compiled: bool) -> Recording | None:
+    """:func:`_read_text_fast` by array operations over the lines (:class:`~pdr.io.text.Lines`): lines classified by
+    their first bytes, each record kind's numbers parsed in one pass (:meth:`~pdr.io.text.Lines.fields`; by the
+    compiled parser, or by numpy's text reader when not ``compiled``).
     """
     lines = ascii_lines(raw)
     if lines is None:
@@ -211,45 +227,61 @@ def _read_text_fast(p: Path, raw: bytes, compiled: bool = True) -> Recording | N
     # The four columns and-ed: the same as np.all(alnum, axis=1), which reduces each short row alone (7x slower).
     all4 = alnum[:, 0] & alnum[:, 1] & alnum[:, 2] & alnum[:, 3]
     other4 = tagged & all4 & ~known                       # the skipped records with a four-letter tag
-    rest = np.flatnonzero(~(known | comment | other4))
+    rest = [(i, lines.text(i)) for i in np.flatnonzero(~(known | comment | other4)).tolist()]
+    four = np.flatnonzero(other4)
+    codes, first, counts = np.unique(code[four], return_index=True, return_counts=True)
+    others = [(int(four[f]), bytes(c.tobytes()).decode("ascii"), int(k))
+              for c, f, k in zip(codes.view("S4"), first, counts, strict=True)]
+    comments = [lines.text(i) for i in np.flatnonzero(comment).tolist()]
+    tables: dict[str, tuple[NDArray[np.float64], NDArray[np.int64]]] = {}
+    for tag, ncol in zip(_TEXT_TAGS, _TEXT_NCOLS, strict=True):
+        if masks[tag].any():
+            arr = lines.fields(masks[tag], ncol, 5, trailing_separator=True, compiled=compiled)
+            if arr is None:
+                return None
+            tables[tag] = (arr, np.flatnonzero(masks[tag]) + 1)
+    return _from_records(p, tables, others, rest, comments)
+
+
+def _from_records(p: Path, tables: dict[str, tuple[NDArray[np.float64], NDArray[np.int64]]],
+                  others: list[tuple[int, str, int]], rest: list[tuple[int, bytes]], comments: list[bytes]
+                  ) -> Recording | None:
+    """The recording of a text log's lines, sorted: ``tables`` (numbers and 1-based line numbers per record tag
+    read), ``others`` ((first line, tag, count) of the skipped records with a four-character tag), ``rest`` ((line,
+    bytes) of every other line that is no comment: blank lines, skipped records of other tag lengths) and the
+    ``comments`` (``%`` header lines, in order). None when a line of ``rest`` is not a record: the exact path then
+    names it. Line indices are 0-based.
+    """
     ignored_at: dict[int, str] = {}
-    for i in rest.tolist():                               # blank lines and skipped records of other tag lengths
-        line = lines.text(i)
+    for i, line in rest:
         raw_tag, sep, _ = line.partition(b";")
         if sep and raw_tag.isalnum():
             ignored_at[i] = raw_tag.decode("ascii")
         elif line.strip(b" \t\x1f"):
             return None                                   # not a record: the exact path names the line
-    four = np.flatnonzero(other4)
-    codes, first, counts = np.unique(code[four], return_index=True, return_counts=True)
-    firsts = [(int(four[f]), bytes(c.tobytes()).decode("ascii"), int(k))
-              for c, f, k in zip(codes.view("S4"), first, counts, strict=True)]
-    firsts += [(i, t, 0) for i, t in ignored_at.items()]
+    firsts = [*others, *((i, t, 0) for i, t in ignored_at.items())]
     ignored: dict[str, int] = {}
     for _, name, count in sorted(firsts):                # in the order of their first lines, as the exact path
         ignored[name] = ignored.get(name, 0) + count
     for name in ignored_at.values():
         ignored[name] += 1
     header: dict[str, str] = {}
-    for i in np.flatnonzero(comment).tolist():
-        _parse_header_line(lines.text(i).decode("ascii"), header)
-    arrays: dict[str, tuple[NDArray[np.float64], _Lines]] = {}
-    for tag, (_, names) in SENSOR_RECORDS.items():
-        if masks[tag].any():
-            arr = lines.fields(masks[tag], len(names), 5, trailing_separator=True, compiled=compiled)
-            if arr is None:
-                return None
-            arrays[tag] = (arr, np.flatnonzero(masks[tag]) + 1)
+    for line in comments:
+        _parse_header_line(line.decode("ascii"), header)
+    arrays: dict[str, tuple[NDArray[np.float64], _Lines]] = {tag: tables[tag] for tag in SENSOR_RECORDS
+                                                              if tag in tables}
     posi = None
-    if masks["POSI"].any():
-        arr = lines.fields(masks["POSI"], len(POSI_FIELDS), 5, trailing_separator=True, compiled=compiled)
-        if arr is None:
-            return None
-        posi = (arr[:, 0], arr[:, 2], arr[:, 3], arr[:, 4],
-                _line_locator(np.flatnonzero(masks["POSI"]) + 1))
+    if "POSI" in tables:
+        arr, numbers = tables["POSI"]
+        posi = (arr[:, 0], arr[:, 2], arr[:, 3], arr[:, 4], _line_locator(numbers))
         header["building_ids"] = ",".join(str(int(b)) for b in np.unique(arr[:, 5]))
     meta: dict[str, Any] = {"header": header, "ignored_records": ignored}
     return _assemble(p, arrays, posi, model=header.get("model", ""), meta=meta)
+
+
+#: The record tags a text log is read for, and the number of fields after each tag.
+_TEXT_TAGS = (*SENSOR_RECORDS, "POSI")
+_TEXT_NCOLS = (*(len(names) for _, names in SENSOR_RECORDS.values()), len(POSI_FIELDS))
 
 
 #: Record tag -> its four ASCII bytes as a little-endian uint32 (the first four bytes of its lines).

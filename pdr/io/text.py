@@ -263,16 +263,17 @@ def _split_lines(raw: bytes) -> Lines | None:
         raw += b"\n"
     # A read-only view of the bytes: a copy of a log of tens of MB costs more than finding its lines.
     buf = np.frombuffer(raw, np.uint8)
-    newline = _newlines(buf)
+    newline = newline_offsets(buf)
     start = np.concatenate([np.zeros(min(newline.size, 1), np.int64), newline[:-1] + 1])
     return Lines(buf, start, newline - start)
 
 
-#: Bytes per block of :func:`_newlines`: the block's comparison stays in the cache instead of a mask of the whole text.
+#: Bytes per block of :func:`newline_offsets`: the block's comparison stays in the cache instead of a mask of the
+#: whole text.
 _NEWLINE_BLOCK = 1 << 20
 
 
-def _newlines(buf: NDArray[np.uint8]) -> NDArray[np.int64]:
+def newline_offsets(buf: NDArray[np.uint8]) -> NDArray[np.int64]:
     """Indices (int64, increasing) of the LF bytes of ``buf``."""
     blocks = [np.flatnonzero(buf[a:a + _NEWLINE_BLOCK] == _NEWLINE) + a for a in range(0, buf.size, _NEWLINE_BLOCK)]
     return np.concatenate(blocks).astype(np.int64, copy=False) if blocks else np.zeros(0, np.int64)
