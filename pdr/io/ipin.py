@@ -38,6 +38,7 @@ Positions
 from __future__ import annotations
 
 import math
+import mmap
 import re
 import sys
 from collections.abc import Callable, Sequence
@@ -56,6 +57,7 @@ from pdr.io.text import (
     decode_text,
     drop_cut_off_last_line,
     head,
+    mapped_text,
     parse_float_rows,
     read_bytes,
     strip_gz,
@@ -131,18 +133,28 @@ COMPILED_MIN_BYTES = 8_000_000
 
 
 def _read_text(p: Path) -> Recording:
+    if _use_compiled(p.stat().st_size):
+        mapped = mapped_text(p)         # a plain file read in place: one compiled pass over it (_read_text_scanned)
+        scanned = _read_text_scanned(p, mapped) if mapped is not None else None
+        if mapped is not None and scanned is not None:
+            return _with_location(scanned, mapped)
     cut: list[str] = []
     raw = drop_cut_off_last_line(read_bytes(p), str(p), b";", cut, terminated=True)
     fast = _read_text_fast(p, raw, _use_compiled(len(raw)))
-    rec = fast if fast is not None else _read_text_exact(p, raw)
-    fix = first_gnss_fix(raw)
-    if fix is not None:
-        fixes = int(rec.meta["ignored_records"].get("GNSS", 0))
-        rec = replace(rec, meta={**rec.meta, LOCATION_META: {**fix, "fixes": fixes}})
+    rec = _with_location(fast if fast is not None else _read_text_exact(p, raw), raw)
     return replace(rec, warnings=(*cut, *rec.warnings)) if cut else rec
 
 
-def first_gnss_fix(raw: bytes) -> dict[str, Any] | None:
+def _with_location(rec: Recording, raw: bytes | mmap.mmap) -> Recording:
+    """``rec`` with the text log ``raw``'s first GNSS fix as its location (:func:`first_gnss_fix`), when it has one."""
+    fix = first_gnss_fix(raw)
+    if fix is None:
+        return rec
+    fixes = int(rec.meta["ignored_records"].get("GNSS", 0))
+    return replace(rec, meta={**rec.meta, LOCATION_META: {**fix, "fixes": fixes}})
+
+
+def first_gnss_fix(raw: bytes | mmap.mmap) -> dict[str, Any] | None:
     """The log's first usable ``GNSS`` record as a location fix (:func:`_gnss_fix`), or None when it has none.
     GNSS records are otherwise skipped (counted in ``meta["ignored_records"]``); one that does not parse, or lies
     off the globe, is passed over: the location is optional and never refuses a log.
@@ -187,22 +199,29 @@ def _use_compiled(size: int) -> bool:
 def _read_text_fast(p: Path, raw: bytes, compiled: bool = True) -> Recording | None:
     """The text log read by array operations on its bytes, or None.
 
-    ``compiled``: one compiled pass over the bytes (:func:`pdr.io.tagged_records.scan_tagged`), and where it stops,
-    the lines as arrays (:func:`_read_text_arrays`, by the compiled number parser); not ``compiled``: those arrays
-    with numpy's text reader. None when the file holds anything the exact line-by-line path
-    (:func:`_read_text_exact`) would treat differently or refuse (non-ASCII bytes, unusual line breaks, a line of
-    no known kind, a bad number, a field too many, time that does not increase): that path then reads it or
-    names the bad line and field.
+    ``compiled``: one compiled pass over the bytes (:func:`_read_text_scanned`), and where it stops, the lines as
+    arrays (:func:`_read_text_arrays`, by the compiled number parser); not ``compiled``: those arrays with numpy's
+    text reader. None when the file holds anything the exact line-by-line path (:func:`_read_text_exact`) would
+    treat differently or refuse (non-ASCII bytes, unusual line breaks, a line of no known kind, a bad number, a field
+    too many, time that does not increase): that path then reads it or names the bad line and field.
     """
-    if compiled and raw.isascii() and b"\x00" not in raw:
-        from pdr.io.tagged_records import scan_tagged  # numba: only where the compiled parser is taken
-        found = scan_tagged(raw, _TEXT_TAGS, _TEXT_NCOLS)
-        if found is not None:
-            tables = {tag: (found.values[k], found.lines[k]) for k, tag in enumerate(_TEXT_TAGS) if found.lines[k].size}
-            comments = [line for _, line in found.extra if line[:1] == b"%"]
-            rest = [(i, line) for i, line in found.extra if line[:1] != b"%"]
-            return _from_records(p, tables, found.others, rest, comments)
-    return _read_text_arrays(p, raw, compiled)
+    scanned = _read_text_scanned(p, raw) if compiled else None
+    return scanned if scanned is not None else _read_text_arrays(p, raw, compiled)
+
+
+def _read_text_scanned(p: Path, raw: bytes | mmap.mmap) -> Recording | None:
+    """The text log read in one compiled pass over its bytes (:func:`pdr.io.tagged_records.scan_tagged`), or None
+    where that pass stops (non-ASCII or NUL bytes among them, a line break other than LF, a record that is not
+    plain decimals, ...: module doc of :mod:`pdr.io.tagged_records`).
+    """
+    from pdr.io.tagged_records import scan_tagged  # numba: only where the compiled parser is taken
+    found = scan_tagged(raw, _TEXT_TAGS, _TEXT_NCOLS)
+    if found is None:
+        return None
+    tables = {tag: (found.values[k], found.lines[k]) for k, tag in enumerate(_TEXT_TAGS) if found.lines[k].size}
+    comments = [line for _, line in found.extra if line[:1] == b"%"]
+    rest = [(i, line) for i, line in found.extra if line[:1] != b"%"]
+    return _from_records(p, tables, found.others, rest, comments)
 
 
 def _read_text_arrays(p: Path, raw: bytes, compiled: bool) -> Recording | None:

@@ -12,12 +12,15 @@ assembled) took 0.212 s of CPU by the array path and 0.137 s by this one (least 
 Every line is one of: a record of a wanted tag (its fields parsed into that tag's rows), a record of another
 four-letter-or-digit tag (counted per tag, with its first line), or an "extra" line (a ``%`` comment, a blank line,
 a record of a tag of another length, anything else) whose offsets are returned for the caller to judge. The kernel
-stops (and the caller takes its other paths) at a line break other than LF (a CR, VT, FF, FS, GS or RS byte anywhere),
-at a record of a wanted tag whose fields are not plain decimals, and when its tables are full.
+stops (and the caller takes its other paths) at a byte that is not ASCII, a NUL byte, a line break other than LF (a CR,
+VT, FF, FS, GS or RS byte anywhere), at a record of a wanted tag whose fields are not plain decimals, and when its
+tables are full. So it takes a text as it is, a file mapped in memory too (:func:`pdr.io.text.mapped_text`), without a
+pass of its own over the bytes to check them first.
 """
 
 from __future__ import annotations
 
+import mmap
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,14 +60,14 @@ def tag_code(tag: str) -> int:
     return int.from_bytes(tag.encode("ascii"), "little")
 
 
-def scan_tagged(raw: bytes, tags: tuple[str, ...], ncols: tuple[int, ...], sep: bytes = b";"
+def scan_tagged(raw: bytes | mmap.mmap, tags: tuple[str, ...], ncols: tuple[int, ...], sep: bytes = b";"
                 ) -> TaggedRecords | None:
-    """The records of ``raw`` (an ASCII text without NUL bytes) of the four-character ``tags`` (``ncols[k]`` fields
-    after the tag, one trailing separator allowed), or None when the kernel stops (module doc).
+    """The records of the text ``raw`` (bytes, or a file mapped in memory) of the four-character ``tags``
+    (``ncols[k]`` fields after the tag, one trailing separator allowed), or None when the kernel stops (module doc).
     """
     buf = np.frombuffer(raw, np.uint8)
     ends = newline_offsets(buf)
-    if raw and not raw.endswith(b"\n"):
+    if len(raw) and raw[-1:] != b"\n":
         ends = np.append(ends, len(raw))           # a last line without a line break
     codes = np.array([tag_code(t) for t in tags], dtype=np.int64)
     widths = np.array(ncols, dtype=np.int64)
@@ -95,10 +98,12 @@ def scan_tagged(raw: bytes, tags: tuple[str, ...], ncols: tuple[int, ...], sep: 
 
 @kernel
 def _plain_line(buf: NDArray[np.uint8], p: int, end: int) -> bool:  # pragma: no cover - compiled
-    """Whether ``buf[p:end]`` holds none of the line breaks other than LF (module doc)."""
+    """Whether ``buf[p:end]`` is ASCII without NUL bytes and holds none of the line breaks other than LF (module
+    doc).
+    """
     for j in range(p, end):
         c = buf[j]
-        if c < 32 and (c == _CR or c == _VT or c == _FF or c == _FS or c == _GS or c == _RS):
+        if c >= 128 or (c < 32 and (c == 0 or c == _CR or c == _VT or c == _FF or c == _FS or c == _GS or c == _RS)):
             return False
     return True
 

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from pdr.errors import InputError
 from pdr.io import ipin
 from pdr.io.tagged_records import MAX_EXTRA_LINES, MAX_OTHER_TAGS, scan_tagged
 from tests.pdr.io.test_ipin import EDGES, GOOD, HEADER, _same_recording
@@ -66,3 +67,37 @@ def test_the_scan_keeps_tags_lines_and_the_other_records_in_file_order():
     assert found.others == [(1, "WIFI", 2), (3, "BLE4", 1)]
     assert found.extra == [(0, b"% head"), (5, b"AB;3"), (6, b"")]
     assert np.shares_memory(found.values[0], found.values[0].base)
+
+
+@pytest.mark.parametrize(("text", "name"), [(EDGES, "log.txt"), (GOOD + "ACCE;0.09;100.04;1;2;3", "cut.txt"),
+                                             (GOOD.replace("\n", "\r\n"), "crlf.txt"), (GOOD + "SOUN;é\n", "utf8.txt"),
+                                             (GOOD + "WIFI;a\x00b\n", "nul.txt")])
+def test_a_mapped_plain_file_reads_as_its_bytes_read(tmp_path, monkeypatch, text, name):
+    """ipin.read maps a plain file that ends with a line break (pdr.io.text.mapped_text) and scans it in place;
+    every other file, and a mapped one the scan stops at, is read as bytes as before."""
+    monkeypatch.setattr(ipin, "_use_compiled", lambda size: True)
+    p = tmp_path / name
+    p.write_bytes(text.encode())
+    raw = p.read_bytes()
+    if "nul" in name:
+        with pytest.raises(InputError, match="binary data"):
+            ipin.read(p)
+        return
+    _same_recording(ipin.read(p), ipin._read_text_exact(p, raw.rpartition(b"\n")[0] + b"\n" if "cut" in name else raw))
+    if "cut" in name:
+        assert any("cut-off last line" in w for w in ipin.read(p).warnings)
+
+
+def test_a_gzip_file_is_not_mapped(tmp_path):
+    import gzip
+
+    from pdr.io.text import mapped_text
+    p = tmp_path / "log.txt"
+    p.write_bytes(gzip.compress(GOOD.encode()))              # gzip's bytes without the .gz name
+    assert mapped_text(p) is None and mapped_text(tmp_path / "none.txt") is None
+    (tmp_path / "empty.txt").write_bytes(b"")
+    assert mapped_text(tmp_path / "empty.txt") is None
+    q = tmp_path / "plain.txt"
+    q.write_bytes(GOOD.encode())
+    mapped = mapped_text(q)
+    assert mapped is not None and mapped[:] == GOOD.encode()
