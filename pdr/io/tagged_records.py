@@ -71,29 +71,50 @@ def scan_tagged(raw: bytes | mmap.mmap, tags: tuple[str, ...], ncols: tuple[int,
         ends = np.append(ends, len(raw))           # a last line without a line break
     codes = np.array([tag_code(t) for t in tags], dtype=np.int64)
     widths = np.array(ncols, dtype=np.int64)
-    rows = len(raw) // 32 + 16                    # a GetSensorData record line is 40-90 bytes long
+    caps = _first_guess(buf, ends, codes)
     while True:
-        # One buffer, a block of ``rows`` rows per tag: the pages a tag does not fill are never touched.
-        base = np.concatenate([[0], np.cumsum(widths * rows)])
+        # One buffer of numbers and one of line numbers, a block of caps[k] rows per tag.
+        base = np.concatenate([[0], np.cumsum(widths * caps)])
+        line_base = np.concatenate([[0], np.cumsum(caps)])
         values = np.empty(int(base[-1]))
-        lines = np.empty((len(tags), rows), dtype=np.int64)
+        lines = np.empty(int(line_base[-1]), dtype=np.int64)
         other = np.empty((MAX_OTHER_TAGS, 3), dtype=np.int64)
         extra = np.empty((MAX_EXTRA_LINES, 3), dtype=np.int64)
         counts = np.zeros(len(tags) + 2, dtype=np.int64)
-        status = scan_records(buf, ends, codes, widths, sep[0], values, base, lines, other, extra, counts)
+        status = scan_records(buf, ends, codes, widths, sep[0], values, base, lines, line_base, caps, other, extra,
+                              counts)
         if status != FULL:
             break
-        rows = int(count_records(buf, ends, codes).max())   # a log of short lines: the exact counts, and again
+        caps = count_records(buf, ends, codes)        # a guess too short: the exact counts, and again
     if status != -1:
         return None
     n = counts[:len(tags)].tolist()
     n_other, n_extra = int(counts[-2]), int(counts[-1])
     return TaggedRecords(
         values=[values[base[k]:base[k] + n[k] * ncols[k]].reshape(n[k], ncols[k]) for k in range(len(tags))],
-        lines=[lines[k, :n[k]] for k in range(len(tags))],
+        lines=[lines[line_base[k]:line_base[k] + n[k]] for k in range(len(tags))],
         others=[(int(first), int(code).to_bytes(4, "little").decode("ascii"), int(count))
                 for code, first, count in other[:n_other].tolist()],
         extra=[(int(i), raw[a:a + length]) for i, a, length in extra[:n_extra].tolist()])
+
+
+#: Lines whose tags :func:`_first_guess` counts, the margin it adds to the counts it extrapolates from them, and the
+#: lines per row it adds for every tag.
+GUESS_LINES = 4096
+GUESS_MARGIN = 1.25
+GUESS_RARE = 128
+
+
+def _first_guess(buf: NDArray[np.uint8], ends: NDArray[np.int64], codes: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Rows to make for each tag: the records of each tag among the first :data:`GUESS_LINES` lines, scaled to all
+    lines with a margin (:data:`GUESS_MARGIN`), and one row per :data:`GUESS_RARE` lines more (a rare tag, such as
+    the landmarks, may have none among the first lines); the exact counts for a short text. A guess too short costs
+    a second pass; one too long only address space, whose pages are never touched.
+    """
+    if ends.size <= GUESS_LINES:
+        return count_records(buf, ends, codes)
+    seen = count_records(buf, ends[:GUESS_LINES], codes)
+    return (seen * (GUESS_MARGIN * ends.size / GUESS_LINES)).astype(np.int64) + ends.size // GUESS_RARE + 64
 
 
 @kernel
@@ -137,17 +158,17 @@ def _alnum4(buf: NDArray[np.uint8], p: int) -> bool:  # pragma: no cover - compi
 @kernel
 def scan_records(buf: NDArray[np.uint8], ends: NDArray[np.int64], codes: NDArray[np.int64],
                  ncols: NDArray[np.int64], sep: int, values: NDArray[np.float64], base: NDArray[np.int64],
-                 lines: NDArray[np.int64], other: NDArray[np.int64], extra: NDArray[np.int64],
+                 lines: NDArray[np.int64], line_base: NDArray[np.int64], caps: NDArray[np.int64],
+                 other: NDArray[np.int64], extra: NDArray[np.int64],
                  counts: NDArray[np.int64]) -> int:  # pragma: no cover - compiled
     """Sort every line of ``buf`` (line ``i`` ends at ``ends[i]``; module doc): the records of tag ``codes[k]`` parsed
-    into rows of ``ncols[k]`` numbers from ``values[base[k]]`` on (file order) with their line numbers in ``lines[k]``;
-    other four-character tags as (code, first line, count) rows of ``other``; extra lines as (line, start, length)
-    rows of ``extra``. ``counts``: the rows of each tag, then of ``other`` and of ``extra``. Returns -1,
-    :data:`STOPPED` or :data:`FULL`.
+    into rows of ``ncols[k]`` numbers from ``values[base[k]]`` on (file order, at most ``caps[k]`` rows) with their
+    line numbers from ``lines[line_base[k]]`` on; other four-character tags as (code, first line, count) rows of
+    ``other``; extra lines as (line, start, length) rows of ``extra``. ``counts``: the rows of each tag, then of
+    ``other`` and of ``extra``. Returns -1, :data:`STOPPED` or :data:`FULL`.
     """
     pow10 = powers_of_ten()
     ntag = codes.size
-    rows = lines.shape[1]
     p = 0
     for line in range(ends.size):
         q = ends[line]
@@ -155,12 +176,12 @@ def scan_records(buf: NDArray[np.uint8], ends: NDArray[np.int64], codes: NDArray
         k, word = _tag_of(buf, p, length, codes)
         if k >= 0:
             r = counts[k]
-            if r >= rows:
+            if r >= caps[k]:
                 return FULL
             # The fields' bytes are digits, signs, points, exponents, blanks and separators, or the parse stops.
             if not parse_row(buf, p + 5, q, ncols[k], True, sep, pow10, values, base[k] + r * ncols[k]):
                 return STOPPED
-            lines[k, r] = line + 1
+            lines[line_base[k] + r] = line + 1
             counts[k] = r + 1
         elif not _plain_line(buf, p, q):
             return STOPPED

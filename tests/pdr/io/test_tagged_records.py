@@ -11,7 +11,7 @@ import pytest
 
 from pdr.errors import InputError
 from pdr.io import ipin
-from pdr.io.tagged_records import MAX_EXTRA_LINES, MAX_OTHER_TAGS, scan_tagged
+from pdr.io.tagged_records import GUESS_LINES, MAX_EXTRA_LINES, MAX_OTHER_TAGS, scan_tagged
 from tests.pdr.io.test_ipin import EDGES, GOOD, HEADER, _same_recording
 
 
@@ -34,13 +34,15 @@ def test_the_scan_reads_what_the_array_path_and_the_exact_path_read(tmp_path, te
         assert scan.streams[kind].values.flags.c_contiguous
 
 
-def test_a_log_of_short_lines_is_counted_and_read_whole(tmp_path):
-    """More records than the first guess of rows (one per 32 bytes): the exact counts, and a second pass."""
-    body = "".join(f"ACCE;{i};{i};0;0;9;3\n" for i in range(1, 400))
+def test_a_tag_that_comes_late_is_counted_and_read_whole(tmp_path):
+    """A tag whose records outnumber the first guess (from the first GUESS_LINES lines, where it has none): the exact
+    counts, and a second pass."""
+    body = "".join(f"ACCE;{i};{i};0;0;9;3\n" for i in range(1, GUESS_LINES + 100))
+    body += "".join(f"GYRO;{i};{i};0;0;1;3\n" for i in range(GUESS_LINES + 100, GUESS_LINES + 400))  # > 1 per 128
     scan, arrays, _ = _paths(tmp_path, body)
     assert scan is not None and arrays is not None
     _same_recording(scan, arrays)
-    assert len(scan.stream("acc")) == 399
+    assert len(scan.stream("acc")) == GUESS_LINES + 99 and len(scan.stream("gyro")) == 300
 
 
 @pytest.mark.parametrize("extra", [
