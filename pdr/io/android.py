@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -18,6 +20,10 @@ def rotation_vector_to_q_nb(xyz: NDArray[np.float64], w: NDArray[np.float64] | N
     so it is exactly ``q_nb`` of :mod:`pdr.frames`.
     """
     v = np.asarray(xyz, dtype=np.float64)
+    if w is None and v.ndim == 2 and v.shape[1] == 3 and "numba" in sys.modules:
+        # One compiled pass, the same bits (pdr.io.android_kernel); not where it would load numba (pdr inspect).
+        from pdr.io.android_kernel import q_nb_of_rotation_vectors
+        return np.asarray(q_nb_of_rotation_vectors(v))
     if w is None:
         w = np.sqrt(np.clip(1.0 - np.sum(v * v, axis=1), 0.0, 1.0))
     return quat.normalize(np.column_stack([np.asarray(w, dtype=np.float64), v]))
