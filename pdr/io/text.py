@@ -52,7 +52,9 @@ def mapped_text(path: str | Path) -> mmap.mmap | None:
     ``.gz`` name or gzip's magic bytes, an empty file, a last line without a line break, a file that cannot be mapped:
     :func:`read_bytes` reads those). A mapped file's pages are the operating system's cached pages: nothing is
     copied into fresh memory, which the process would fault in and zero page by page (a 49 MB log: about 12 000
-    pages, 28 ms of CPU for :func:`read_bytes` and the checks of its bytes against 9 ms mapped).
+    pages, 28 ms of CPU for :func:`read_bytes` and the checks of its bytes against 9 ms mapped). A file cut shorter
+    by another process while it is mapped ends the process (SIGBUS) where a read would have seen the shorter file: a
+    log is not rewritten while it is read.
     """
     p = Path(path)
     if p.name.endswith(".gz"):
