@@ -15,7 +15,8 @@ So a library is rebuilt here with the object code as numba does, its defined nam
 (:func:`elf_defined_symbols`), and the bitcode kept unparsed: the library parses it the first time a kernel being
 compiled links it in (:meth:`_LazyLinking._get_module_for_linking`), so that compiling still inlines it as before.
 The machine code that runs is the same bytes, so every result is bit for bit the same. An object that is not a
-64-bit little-endian ELF (macOS, Windows), or a library numba cached as bitcode, is rebuilt by numba's own code.
+64-bit little-endian ELF (macOS, Windows), or a library numba cached as bitcode, is rebuilt by numba's own code,
+and so is every library when numba's internals named here are not there (a later numba).
 """
 
 from __future__ import annotations
@@ -89,12 +90,17 @@ def unserialize(codegen: Any, state: tuple[str, str, Any]) -> Any:
     if symbols is None:
         return codegen._library_class._unserialize(codegen, state)
     object_code, shared_bitcode = data
-    library = _lazy_class(codegen._library_class)(codegen, name)
-    library.enable_object_caching()
-    library._set_compiled_object(object_code)
-    library._shared_bitcode = shared_bitcode
-    library._finalize_final_module()        # the engine takes the object code through numba's object cache hook
-    codegen._engine._defined_symbols |= symbols
+    try:
+        library = _lazy_class(codegen._library_class)(codegen, name)
+        library.enable_object_caching()
+        library._set_compiled_object(object_code)
+        library._shared_bitcode = shared_bitcode
+        library._finalize_final_module()    # the engine takes the object code through numba's object cache hook
+        engine_symbols = codegen._engine._defined_symbols
+    except (AttributeError, TypeError):
+        # A numba whose internals moved (these are not its public API): its own, slower rebuild.
+        return codegen._library_class._unserialize(codegen, state)
+    engine_symbols |= symbols
     return library
 
 

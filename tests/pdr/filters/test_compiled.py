@@ -137,3 +137,25 @@ def test_an_object_that_is_not_elf_is_left_to_numba() -> None:
 
     assert elf_defined_symbols(b"\xcf\xfa\xed\xfe" + bytes(60)) is None      # a Mach-O header
     assert elf_defined_symbols(b"") is None
+
+
+def test_a_numba_without_the_internals_used_rebuilds_the_library_its_own_way(monkeypatch):
+    # pdr.filters.object_code_load relies on numba's private library methods; where they are not there (a later
+    # numba), the load falls back to numba's own rebuild instead of failing.
+    from pdr.filters import object_code_load
+
+    monkeypatch.setattr(object_code_load, "elf_defined_symbols", lambda obj: {"kernel"})
+
+    class Library:
+        def __init__(self, codegen: object, name: str) -> None:     # no enable_object_caching: internals moved
+            self.name = name
+
+        @classmethod
+        def _unserialize(cls, codegen: object, state: tuple) -> tuple:
+            return ("numba's own rebuild", state[0])
+
+    class Codegen:
+        _library_class = Library
+
+    state = ("kernel", "object", (b"object code", b"bitcode"))
+    assert object_code_load.unserialize(Codegen(), state) == ("numba's own rebuild", "kernel")
