@@ -30,6 +30,7 @@ from pdr.errors import InputError
 from pdr.foot.zupt import ZuptConfig
 from pdr.phone.landmarks import Site
 from pdr.phone.step_length import StepLengthModel
+from server.schemas import check_representable
 
 #: Key of the options in the session's ``meta``.
 META_KEY = "processing"
@@ -92,11 +93,13 @@ class ProcessingOptions:
         if not text:
             return cls()
         try:
-            return cls.from_json(json.loads(text))
+            options = json.loads(text)
         except json.JSONDecodeError as exc:
             raise InputError(f"not JSON ({exc})", field="processing") from None
         except RecursionError:  # the JSON parser recurses per nesting level
             raise InputError("JSON nested too deeply", field="processing") from None
+        check_representable(options, text.encode("utf-8", "surrogatepass"), "processing", prefix="processing")
+        return cls.from_json(options)
 
     def to_json(self) -> dict[str, Any]:
         """The options as stored and shown (only those set)."""

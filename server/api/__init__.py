@@ -18,6 +18,7 @@ from server.errors import APIError
 from server.jobs import InProcessWorker, NoWorker
 from server.processing import SessionProcessing
 from server.report_jobs import ReportRunner
+from server.schemas import check_representable
 from server.store import Store
 
 
@@ -103,8 +104,9 @@ def plain_body() -> None:
 
 def json_body(what: str) -> dict[str, Any]:
     """The request's JSON body, a JSON object (``what`` names it in errors): 415 if it is not declared JSON or is
-    compressed other than by gzip, 400 if it does not parse, 422 naming what was expected if it is not an object
-    (``null``, an array, a number or a string).
+    compressed other than by gzip, 400 if it does not parse, 422 naming the field of a value nothing can hold
+    (:func:`server.schemas.check_representable`), 422 naming what was expected if it is not an object (``null``, an
+    array, a number or a string).
     """
     plain_body()
     if not request.is_json:
@@ -115,6 +117,7 @@ def json_body(what: str) -> dict[str, Any]:
         raise APIError(400, "request body is not valid JSON") from None
     except RecursionError:  # the JSON parser recurses per nesting level
         raise APIError(400, "request body is not valid JSON (nested too deeply)") from None
+    check_representable(body, request.get_data(), what)
     return json_object(body, what)
 
 

@@ -31,7 +31,7 @@ from server.errors import APIError
 from server.ingest import store_batch
 from server.limits import USER_VISIBLE_STATUS
 from server.processing import SENSOR_LOGGER_JSON
-from server.schemas import SENSOR_LOGGER_MESSAGE, validate
+from server.schemas import SENSOR_LOGGER_MESSAGE, check_representable, validate
 
 bp = Blueprint("ingest", __name__, url_prefix="/api/v1/ingest")
 
@@ -64,6 +64,7 @@ def _ingest() -> Response:
         message = json.loads(raw)
     except (ValueError, UnicodeDecodeError, RecursionError):
         raise APIError(400, "message is not valid JSON") from None
+    check_representable(message, raw, "Sensor Logger message")
     json_object(message, "Sensor Logger message")
     validate(message, SENSOR_LOGGER_MESSAGE, "Sensor Logger message")
     message_id = str(message["messageId"])

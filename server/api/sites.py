@@ -18,6 +18,7 @@ from flask import Blueprint, Response, jsonify, request
 from server.api import current_user, json_body, no_query_parameters, plain_body, services
 from server.errors import APIError
 from server.processing_options import ProcessingOptions, session_options
+from server.schemas import check_representable
 from server.site_store import SiteDocument, SiteStore
 from server.sites import cached_site, check_site, plan_json, resolve_site, site_summary
 
@@ -51,6 +52,7 @@ def _uploaded_document() -> tuple[Any, str, int]:
             raise APIError(422, f"site file is not JSON ({exc})", details={"field": "file"}) from None
         except RecursionError:
             raise APIError(400, "site file is JSON nested too deeply", details={"field": "file"}) from None
+        check_representable(document, payload, "site file")
         return document, request.form.get("name") or upload.filename or "", len(payload)
     document = json_body("site")
     return document, "", request.content_length or len(request.get_data())

@@ -642,3 +642,86 @@ def test_a_number_that_is_not_finite_is_a_422_naming_its_field(env, value, where
     assert r.get_json()["error"]["details"]["field"] == field
     sessions = c.get("/api/v1/sessions", headers=h).get_json()["sessions"]
     assert not [s for s in sessions if s["session_id"].endswith(value)]
+
+
+#: An integer literal beyond any float64 (1e400) and a lone UTF-16 surrogate: Python's JSON parser takes both.
+HUGE_INT = "1" + "0" * 400
+LONE_SURROGATE = '"\\ud800x"'
+
+
+def _with(body: dict[str, Any], path: tuple[Any, ...], literal: str) -> bytes:
+    """``body`` as JSON text with the value at ``path`` written as ``literal``."""
+    body = copy.deepcopy(body)
+    parent: Any = body
+    for p in path[:-1]:
+        parent = parent[p]
+    parent[path[-1]] = "@@HERE@@"
+    return json.dumps(body).replace('"@@HERE@@"', literal).encode()
+
+
+def _steps() -> dict[str, Any]:
+    step = {"t_s": 1.0, "dp": [0.7, 0.0, 0.0], "dpsi": 0.0, "cov": [[1e-4 if i == j else 0.0 for j in range(4)]
+                                                                     for i in range(4)], "index": 1}
+    return {"format": "pdr-foot-steps/1", "batch_id": "st", "device": {"role": "left_foot"}, "steps": [step]}
+
+
+_SITE = {"name": "hall", "floors": [{"floor": 0, "walkable": {"type": "Polygon", "coordinates": [
+    [[0, 0], [60, 0], [60, 20], [0, 20], [0, 0]]]}}]}
+_MESSAGE = {"messageId": 1, "sessionId": "sl", "deviceId": "d", "payload": [
+    {"name": "accelerometer", "time": 1_700_000_000_000_000_000 + i * 10_000_000,
+     "values": {"x": 0.0, "y": 0.0, "z": 9.81}} for i in range(3)]}
+
+#: (route, body, path of the bad value, its field in the answer); ``{sid}`` is the env's session.
+UNREPRESENTABLE = [
+    ("/api/v1/sessions", {"session_id": "o", "origin": {"lat_deg": 1.0, "lon_deg": 2.0}}, ("origin", "lat_deg"),
+     "origin.lat_deg"),
+    ("/api/v1/sessions", {"session_id": "n", "name": "x"}, ("name",), "name"),
+    ("/api/v1/sessions/{sid}/batches", phone_batch("u", 100.0), ("streams", "acc", "values", 0, 2),
+     "streams.acc.values[0][2]"),
+    ("/api/v1/sessions/{sid}/batches", phone_batch("u", 100.0), ("session_id",), "session_id"),
+    ("/api/v1/sessions/{sid}/steps", _steps(), ("steps", 0, "dp", 0), "steps[0].dp[0]"),
+    ("/api/v1/ingest/sensor-logger", _MESSAGE, ("payload", 0, "values", "z"), "payload[0].values.z"),
+    ("/api/v1/ingest/sensor-logger", _MESSAGE, ("sessionId",), "sessionId"),
+    ("/api/v1/classify", {"batch": phone_batch("c", 0.0, duration_s=3.0)}, ("batch", "streams", "acc", "values", 9, 0),
+     "batch.streams.acc.values[9][0]"),
+    ("/api/v1/sites", _SITE, ("floors", 0, "walkable", "coordinates", 0, 1, 0),
+     "floors[0].walkable.coordinates[0][1][0]"),
+    ("/api/v1/sites", _SITE, ("name",), "name"),
+    ("/api/v1/groups", {"name": "g", "contact_timeout_s": 60}, ("contact_timeout_s",), "contact_timeout_s"),
+    ("/api/v1/groups", {"name": "g"}, ("name",), "name"),
+]
+
+
+@pytest.mark.parametrize(("route", "body", "path", "field"), UNREPRESENTABLE,
+                         ids=[f"{r}:{f}" for r, _, _, f in UNREPRESENTABLE])
+def test_an_integer_beyond_any_float_or_a_lone_surrogate_is_a_422_naming_its_field_and_stores_nothing(
+        env, route, body, path, field):
+    """An integer of 401 digits in a number field was a 500 on every JSON route (OverflowError where it was made a
+    float: the schema's finite check, numpy, ``float()``), and text with a lone surrogate ("\\ud800") a 500 where it
+    was stored (UnicodeEncodeError in the database driver). Both are now a 422 naming the field, before anything is
+    stored; the Sensor Logger app gets its 499 naming it."""
+    app, c, h, sid = env
+    before = _snapshot(app, c, h, sid), c.get("/api/v1/sessions", headers=h).get_json()
+    literal = HUGE_INT if path[-1] not in ("name", "session_id", "sessionId") else LONE_SURROGATE
+    r = c.post(route.format(sid=sid), data=_with(body, path, literal), headers=h, content_type="application/json")
+    if "sensor-logger" in route:
+        assert r.status_code == 499 and field in r.get_data(as_text=True), r.get_data()[:300]
+    else:
+        assert r.status_code == 422, r.get_data()[:300]
+        assert r.get_json()["error"]["details"]["field"] == field
+    assert (_snapshot(app, c, h, sid), c.get("/api/v1/sessions", headers=h).get_json()) == before
+    assert c.get("/api/v1/sites", headers=h).get_json()["sites"] == []
+    assert c.get("/api/v1/groups", headers=h).get_json()["groups"] == []
+
+
+def test_a_site_file_or_processing_form_field_with_an_integer_beyond_any_float_is_a_422_naming_the_field(env):
+    app, c, h, _ = env
+    body, ctype = multipart({"file": (_with(_SITE, ("floors", 0, "floor"), HUGE_INT), "site.json")})
+    r = c.post("/api/v1/sites", data=body, content_type=ctype, headers=h)
+    assert r.status_code == 422 and r.get_json()["error"]["details"]["field"] == "floors[0].floor", r.get_data()[:300]
+    log = json.dumps(phone_batch("f", 0.0, duration_s=2.0)).encode()
+    processing = _with({"site_id": "x", "start": [1.0, 2.0]}, ("start", 0), HUGE_INT).decode()
+    body, ctype = multipart({"file": (log, "walk.json"), "processing": processing})
+    r = c.post("/api/v1/sessions", data=body, content_type=ctype, headers=h)
+    assert r.status_code == 422, r.get_data()[:300]
+    assert r.get_json()["error"]["details"]["field"] == "processing.start[0]"
