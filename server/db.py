@@ -95,7 +95,7 @@ batches = Table(
     Column("session_id", String(36), ForeignKey("sessions.id", ondelete="CASCADE"), nullable=False, index=True),
     Column("device_role", String(16), nullable=False),
     Column("client_batch_id", String(200), nullable=False),
-    Column("payload_format", String(40), nullable=False),
+    Column("payload_format", String(200), nullable=False),  # file:FORMAT/FILENAME; 0012_payload_format_length
     Column("payload", LargeBinary, nullable=False),
     Column("payload_sha256", String(64), nullable=False),
     Column("size_bytes", Integer, nullable=False),

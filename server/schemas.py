@@ -85,7 +85,9 @@ SENSOR_LOGGER_MESSAGE = {
     "type": "object",
     "required": ["messageId", "sessionId", "deviceId", "payload"],
     "properties": {
-        "messageId": {"type": ["integer", "string"]},
+        # stored as the batch id "msg-<messageId>", at most 200 characters (a VARCHAR(200) in PostgreSQL)
+        "messageId": {"type": ["integer", "string"], "minLength": 1, "maxLength": 196,
+                      "minimum": -(2**63), "maximum": 2**63 - 1},
         "sessionId": {"type": "string", "minLength": 1, "maxLength": 200},
         "deviceId": {"type": "string", "minLength": 1, "maxLength": 200},
         "payload": {"type": "array", "items": {

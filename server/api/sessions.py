@@ -19,7 +19,7 @@ from server.feet import pairs_itself, primary_role, session_feet
 from server.ingest import store_batch
 from server.processing import FILE_PREFIX, NATIVE_JSON
 from server.processing_options import META_KEY, ProcessingOptions
-from server.schemas import CREATE_SESSION, PAIR_DEVICE, PROCESSING, validate
+from server.schemas import CLIENT_ID, CREATE_SESSION, PAIR_DEVICE, PROCESSING, validate
 from server.session_clock import session_clock
 
 bp = Blueprint("sessions", __name__, url_prefix="/api/v1/sessions")
@@ -131,6 +131,8 @@ def _meta(options: ProcessingOptions) -> dict[str, Any] | None:
 
 def _create_from_file(user_id: int) -> tuple[Response, int]:
     svc = services()
+    key = request.form.get("session_id") or None   # the session's key, as a JSON create's (CREATE_SESSION)
+    validate({"session_id": key} if key else {}, {"properties": {"session_id": CLIENT_ID}}, "upload")
     upload = uploaded_log()  # validated before accepting
     payload, filename, descriptor, recording = upload.payload, upload.filename, upload.descriptor, upload.recording
     t_first, t_last = time_span_ns(recording, "file")
@@ -142,13 +144,13 @@ def _create_from_file(user_id: int) -> tuple[Response, int]:
     plausibility.check_location(recording)
     digest = hashlib.sha256(payload).hexdigest()
     sid, created = svc.store.create_session(user_id, source="upload",
-                                            client_session_id=request.form.get("session_id") or f"file-{digest[:24]}",
+                                            client_session_id=key or f"file-{digest[:24]}",
                                             name=filename, placement=placement, meta=_meta(options))
     if created and site is not None:
         give_session_site(sid, site)
     batch_id = f"file-{digest[:32]}"
     if not created and batch_id not in {b.client_batch_id for b in svc.store.batch_list(sid)}:
-        raise APIError(409, f"session_id '{request.form.get('session_id')}' already names session {sid} (a "
+        raise APIError(409, f"session_id '{key}' already names session {sid} (a "
                             f"session_id is your key for one session): add this file to it with POST "
                             f"/api/v1/sessions/{sid}/devices/ROLE/upload, or choose another session_id",
                        details={"field": "session_id", "session": sid})

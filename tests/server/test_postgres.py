@@ -6,9 +6,11 @@ when no server can be reached).
 
 from __future__ import annotations
 
+import json
+
 from server import auth
 from tests.server.conftest import bearer, make_app
-from tests.server.helpers import phone_batch
+from tests.server.helpers import multipart, phone_batch
 from tests.server.realservers import pg_database  # noqa: F401  (fixture)
 
 
@@ -31,6 +33,40 @@ def test_postgres_ingest_process_read(tmp_path, pg_database):  # noqa: F811
         pts = c.get(f"/api/v1/sessions/{sid}/track", headers=h).get_json()["points"]
         assert [p["east_m"] for p in pts] == [1.0, 2.0, 3.0]
         assert c.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch("b1", 9.0), headers=h).status_code == 409
+    finally:
+        app.extensions["pdr"].worker.stop()
+        app.extensions["pdr"].store.engine.dispose()
+
+
+def test_postgres_stores_an_uploaded_file_of_a_long_name_and_refuses_overlong_keys_with_a_4xx(tmp_path,
+                                                                                            pg_database):  # noqa: F811
+    """In PostgreSQL, which enforces VARCHAR lengths (SQLite does not): a log file named
+    'a_rather_long_recording_name_from_my_phone.json' was a 500 (its 'file:native/NAME' over batches.payload_format's
+    40 characters) and left an empty session behind, whose key then refused the retry (409); it is stored now. A form
+    session_id of 300 characters, and a Sensor Logger messageId of 250 (its batch id 'msg-ID' over 200), were 500s:
+    now a 422 naming the field and a 499 naming it, with nothing stored."""
+    app = make_app(tmp_path, database_url=pg_database)
+    try:
+        svc = app.extensions["pdr"]
+        with svc.store.engine.begin() as conn:
+            h = bearer(auth.add_user(conn, "pg-user"))
+        c = app.test_client()
+        log = json.dumps(phone_batch("f", 0.0, duration_s=2.0)).encode()
+        body, ctype = multipart({"file": (log, "a_rather_long_recording_name_from_my_phone.json")})
+        resp = c.post("/api/v1/sessions", data=body, content_type=ctype, headers=h)
+        assert resp.status_code == 201, resp.get_data()[:300]
+        (batch,) = c.get(f"/api/v1/sessions/{resp.get_json()['id']}", headers=h).get_json()["batch_list"]
+        assert batch["format"] == "file:native/a_rather_long_recording_name_from_my_phone.json"
+
+        body, ctype = multipart({"file": (log, "walk.json"), "session_id": "s" * 300})
+        resp = c.post("/api/v1/sessions", data=body, content_type=ctype, headers=h)
+        assert resp.status_code == 422 and resp.get_json()["error"]["details"]["field"] == "session_id"
+        message = {"messageId": "m" * 250, "sessionId": "sl", "deviceId": "d", "payload": [
+            {"name": "accelerometer", "time": 1_700_000_000_000_000_000 + i * 10_000_000,
+             "values": {"x": 0.0, "y": 0.0, "z": 9.81}} for i in range(3)]}
+        resp = c.post("/api/v1/ingest/sensor-logger", json=message, headers=h)
+        assert resp.status_code == 499 and "messageId" in resp.get_data(as_text=True), resp.get_data()[:300]
+        assert len(c.get("/api/v1/sessions", headers=h).get_json()["sessions"]) == 1
     finally:
         app.extensions["pdr"].worker.stop()
         app.extensions["pdr"].store.engine.dispose()
