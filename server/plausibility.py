@@ -125,16 +125,22 @@ def check_location(recording: Recording) -> None:
              "batch")
 
 
+def check_span(t_first_ns: int, t_last_ns: int, max_span_s: float = MAX_BATCH_SPAN_S) -> None:
+    """422 naming ``streams.*.t_ns`` if the batch's first and last sample (ns) are more than ``max_span_s`` apart."""
+    span_s = (t_last_ns - t_first_ns) / 1e9
+    if span_s > max_span_s:
+        span = f"{span_s / 86400:.1f} days" if span_s >= 86400 else f"{span_s:.0f} s"
+        raise APIError(422, f"the batch's timestamps span {span} (at most {max_span_s:g} s); a batch covers seconds "
+                            f"to minutes (timestamps from another clock or another unit?); batch not stored",
+                       details={"field": "streams.*.t_ns"})
+
+
 def check_time(engine: Engine, session_id: str, role: str, payload_format: str, t_first_ns: int,
                t_last_ns: int) -> None:
-    """422 if the batch spans more than a day, or lies more than a day away from the session's other batches
-    of the same device and format (each device has its own clock).
+    """422 if the batch spans more than a day (:func:`check_span`), or lies more than a day away from the session's
+    other batches of the same device and format (each device has its own clock).
     """
-    span_s = (t_last_ns - t_first_ns) / 1e9
-    if span_s > MAX_BATCH_SPAN_S:
-        raise APIError(422, f"the batch's timestamps span {span_s / 86400:.1f} days; a batch covers seconds to "
-                            f"minutes (timestamps from another clock or another unit?); batch not stored",
-                       details={"field": "streams.*.t_ns"})
+    check_span(t_first_ns, t_last_ns)
     b = db.batches
     with engine.connect() as conn:
         lo, hi = conn.execute(select(func.min(b.c.t_first_ns), func.max(b.c.t_last_ns))

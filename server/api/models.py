@@ -10,7 +10,9 @@ from typing import Any
 from flask import Blueprint, Response, jsonify, send_file
 
 from pdr.errors import InputError
+from server import plausibility
 from server.api import current_user, json_body, no_query_parameters, services
+from server.api.sessions import time_span_ns
 from server.errors import APIError
 from server.schemas import CLASSIFY_WINDOW, validate
 
@@ -18,6 +20,9 @@ bp = Blueprint("models", __name__, url_prefix="/api/v1")
 
 #: Model used by ``/classify`` when the request names none.
 DEFAULT_MODEL = "motion_mode"
+#: Longest time span of a batch to classify, s: more than an 8 MB body holds at phone rates. The windows cover the
+#: whole span, gaps included (about 40 kB per second of it): a batch of two samples days apart took gigabytes.
+MAX_CLASSIFY_SPAN_S = 1800.0
 
 
 def _model_dirs() -> dict[str, Path]:
@@ -118,6 +123,15 @@ def classify() -> Response:
         raise APIError(404, f"no model '{name[:64]}'")
     try:
         recording = batch_from_json(body["batch"], source="batch")
+    except InputError as exc:
+        raise APIError(422, str(exc), details=exc.details()) from None
+    try:  # the windows cover the batch's whole span, gaps too: its size is bounded as an ingest route bounds it
+        plausibility.check_span(*time_span_ns(recording, "streams"), MAX_CLASSIFY_SPAN_S)
+        plausibility.check_units(recording)
+    except APIError as exc:  # the request's field: the batch's, within 'batch'
+        raise APIError(exc.status, exc.message, details=exc.details | {"field": f"batch.{exc.details['field']}"}
+                       ) from None
+    try:
         model = load_model(d)
         result = model.classify(recording)
     except InputError as exc:

@@ -68,6 +68,31 @@ def test_classify_a_batch_with_a_gap_longer_than_a_window_labels_the_gap_unknown
     assert any(w["mode"] != "unknown" for w in windows)
 
 
+
+@pytest.mark.parametrize(("change", "field", "words"), [
+    # one sample two days on: the windows of the whole span were built (6.8 GB, 35 s), one at t_ns -1 asked 633 GiB
+    (lambda b: b["streams"]["acc"]["t_ns"].__setitem__(-1, b["streams"]["acc"]["t_ns"][-1] + 2 * 86_400 * 10**9),
+     "batch.streams.*.t_ns", "span"),
+    (lambda b: b["streams"]["acc"]["t_ns"].__setitem__(0, -1), "batch.streams.*.t_ns", "span"),
+    # beyond any gyro (1e300 rad/s): the stride features' eigendecomposition failed (LinAlgError)
+    (lambda b: b["streams"]["gyro"]["values"][0].__setitem__(0, 1e300), "batch.streams.gyro.values[0]", "beyond any"),
+])
+def test_classify_refuses_a_batch_an_ingest_route_refuses_naming_the_field(client, tokens, change, field, words):
+    """A read token's POST /api/v1/classify took a batch spanning days, and made windows over the whole span: a
+    500 after minutes, or the machine's memory. It checks the batch as the ingest routes do now (its span, at most
+    MAX_CLASSIFY_SPAN_S, and its values' ranges): a 422 naming the field."""
+    batch = _walk_batch()
+    change(batch)
+    resp = client.post("/api/v1/classify", json={"batch": batch}, headers=bearer(tokens["alice"]))
+    assert resp.status_code == 422, resp.get_data()[:300]
+    error = resp.get_json()["error"]
+    assert error["details"]["field"] == field and words in error["message"], error
+    from server.api.models import MAX_CLASSIFY_SPAN_S
+
+    late = _walk_batch()
+    late["streams"]["acc"]["t_ns"][-1] += int(MAX_CLASSIFY_SPAN_S * 1e9) + 10**9
+    assert client.post("/api/v1/classify", json={"batch": late}, headers=bearer(tokens["alice"])).status_code == 422
+
 def _static_npz(seconds: float = 200.0, rate: float = 100.0) -> bytes:
     rng = np.random.default_rng(3)
     n = int(seconds * rate)
