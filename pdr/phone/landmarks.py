@@ -246,11 +246,18 @@ class Site:
                 hd = lm["heading_deg"]
                 if not (isinstance(hd, list | tuple) and len(hd) == 2):
                     raise InputError("heading_deg must be [from, to] in degrees", source=where, field="heading_deg")
-                out.append(SiteLandmark(str(lm.get("id", i)), typ, float(lm["east_m"]), float(lm["north_m"]),
-                                        float(lm.get("floor", 0)), (float(hd[0]), float(hd[1])),
-                                        float(lm.get("radius_m", 8.0))))
+                radius = _finite(lm.get("radius_m", 8.0), "radius_m", where)
+                if radius <= 0:
+                    raise InputError(f"radius_m must be positive, not {radius:g}", source=where, field="radius_m")
+                out.append(SiteLandmark(str(lm.get("id", i)), typ, _finite(lm["east_m"], "east_m", where),
+                                        _finite(lm["north_m"], "north_m", where),
+                                        _finite(lm.get("floor", 0), "floor", where),
+                                        (_finite(hd[0], "heading_deg", where), _finite(hd[1], "heading_deg", where)),
+                                        radius))
             except KeyError as exc:
                 raise InputError(f"missing field {exc}", source=where) from None
+            except InputError:
+                raise
             except (TypeError, ValueError) as exc:
                 raise InputError(f"bad value ({exc})", source=where) from None
         try:
@@ -290,6 +297,19 @@ class Site:
             if d <= lm.radius_m and d < best_d:
                 best, best_d = lm, d
         return best
+
+
+def _finite(value: Any, name: str, where: str) -> float:
+    """A landmark's number ``name``, finite (a NaN or infinite position, floor or heading was taken, and a session on
+    the site had its position fixed at NaN); :class:`InputError` naming the field otherwise.
+    """
+    try:
+        x = float(value)
+    except (TypeError, ValueError, OverflowError):
+        x = math.nan
+    if not math.isfinite(x):
+        raise InputError(f"{name} must be a finite number, not {str(value)[:40]}", source=where, field=name)
+    return x
 
 
 def _site_angle(d: dict[str, Any], name: str, source: str) -> float | None:

@@ -179,8 +179,13 @@ class SitePlan:
                 raise InputError(f"floor {plan.floor} is described twice", source=f"{source} floors[{i}]",
                                  field="floor")
             floors[plan.floor] = plan
-        for j, lm in enumerate(d.get("landmarks") or []):
-            if isinstance(lm, dict) and "floor" in lm and int(float(lm["floor"])) not in floors:
+        landmarks = d.get("landmarks")
+        for j, lm in enumerate(landmarks if isinstance(landmarks, list) else []):  # else the landmarks' reader refuses
+            try:
+                floor = float(lm["floor"]) if isinstance(lm, dict) and "floor" in lm else math.nan
+            except (TypeError, ValueError, OverflowError):  # no number: the landmarks' reader refuses it
+                floor = math.nan
+            if math.isfinite(floor) and int(floor) not in floors:
                 raise InputError(f"landmark on floor {lm['floor']}, which has no floor plan (floors "
                                  f"{sorted(floors)})", source=f"{source} landmark {j}", field="floor")
         return cls(floors, fh, None if grid is None else float(grid), origin)

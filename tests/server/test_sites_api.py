@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import json
+import math
 from typing import Any
 
 import numpy as np
@@ -79,6 +80,36 @@ def _bad(site_change) -> dict:
     site = copy.deepcopy(HALL)
     site_change(site)
     return site
+
+
+#: A lift on floor 0 of the hall, as a site's landmark.
+LIFT = {"id": "lift", "type": "elevator", "east_m": 5.0, "north_m": 5.0, "floor": 0, "heading_deg": [0, 360],
+        "radius_m": 5.0}
+
+
+@pytest.mark.parametrize(("landmark", "field"), [
+    ({"floor": "x"}, "floor"), ({"floor": math.nan}, "floor"), ({"floor": None}, "floor"),   # were 500s
+    ({"east_m": math.nan}, "east_m"), ({"north_m": math.inf}, "north_m"),                     # were stored
+    ({"heading_deg": [math.nan, 90]}, "heading_deg"), ({"radius_m": -1.0}, "radius_m"), ({"radius_m": 0}, "radius_m"),
+])
+def test_a_landmark_whose_number_is_no_number_is_refused_naming_it_on_both_routes(client: FlaskClient, tokens: dict,
+                                                                                   landmark, field) -> None:
+    """A landmark's floor that is no number was a 500 (ValueError where the floor plans check the landmarks' floors);
+    an east_m or north_m of NaN or Infinity, a NaN heading and a radius of 0 or less were stored, and a session on
+    the site got its position fixed at NaN. Each is a 422 naming the landmark and the field now, as a site of POST
+    /api/v1/sites and as a session's inline processing.site."""
+    auth = bearer(tokens["alice"])
+    site = {**HALL, "landmarks": [LIFT | landmark]}
+    for resp in (client.post("/api/v1/sites", json=site, headers=auth),
+                 client.post("/api/v1/sessions", json={"session_id": "s", "processing": {"site": site}}, headers=auth)):
+        error = resp.get_json()["error"]
+        assert resp.status_code == 422, error
+        assert "landmark 0" in error["message"] and error["details"]["field"] == field, error
+    assert client.get("/api/v1/sites", headers=auth).get_json()["sites"] == []
+    assert client.get("/api/v1/sessions", headers=auth).get_json()["sessions"] == []
+    resp = client.post("/api/v1/sites", json={**HALL, "landmarks": 5}, headers=auth)
+    assert resp.status_code == 422 and resp.get_json()["error"]["details"]["field"] == "landmarks"
+    assert client.post("/api/v1/sites", json={**HALL, "landmarks": [LIFT]}, headers=auth).status_code == 201
 
 
 @pytest.mark.parametrize(("change", "where", "field"), [
