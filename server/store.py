@@ -270,7 +270,9 @@ class Store:
                     return int(key[0]), True
                 except IntegrityError:
                     found = conn.execute(q).first()
-            assert found is not None
+                    if found is None:  # no replay of this batch: the session's foreign key, the session deleted
+                        self.session_row(session_id)   # meanwhile, whose 404 this is
+                        raise
         if found.payload_sha256 not in (digest, hashlib.sha256(payload).hexdigest()):  # raw: stored before 0005
             raise APIError(409, f"batch '{client_batch_id}' was already received with different content",
                            details={"batch_id": client_batch_id})

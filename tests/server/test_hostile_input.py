@@ -725,3 +725,26 @@ def test_a_site_file_or_processing_form_field_with_an_integer_beyond_any_float_i
     r = c.post("/api/v1/sessions", data=body, content_type=ctype, headers=h)
     assert r.status_code == 422, r.get_data()[:300]
     assert r.get_json()["error"]["details"]["field"] == "processing.start[0]"
+
+
+def test_a_batch_to_a_session_deleted_while_the_batch_is_checked_is_a_404_and_nothing_is_stored(env, monkeypatch):
+    """A DELETE of the session between the batch route's lookup of it and the batch's insert (a phone uploading while
+    its user deletes the session) was a 500: the insert's foreign key failed, and the store took that for a replay
+    of a batch it then did not find (AssertionError). It is the 404 of a session that is no more."""
+    from server import plausibility
+
+    app, c, h, _ = env
+    sid = c.post("/api/v1/sessions", json={"session_id": "going"}, headers=h).get_json()["id"]
+    check = plausibility.check_batch
+
+    def deleted_meanwhile(*args: Any, **kwargs: Any) -> None:
+        check(*args, **kwargs)
+        app.extensions["pdr"].processing.delete(sid)
+
+    monkeypatch.setattr(plausibility, "check_batch", deleted_meanwhile)
+    r = c.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch("late", 0.0), headers=h)
+    assert r.status_code == 404 and "no session" in r.get_json()["error"]["message"], r.get_data()[:300]
+    assert [s["id"] for s in c.get("/api/v1/sessions", headers=h).get_json()["sessions"]] == [env[3]]
+    with app.extensions["pdr"].store.engine.connect() as conn:
+        from server import db
+        assert conn.execute(db.batches.select().where(db.batches.c.session_id == sid)).first() is None
