@@ -167,7 +167,7 @@ def test_site_round_trip_match_and_landmark_heading():
     (lambda d: d["landmarks"][0].update(type="lift"), "type must be one of"),
     (lambda d: d["landmarks"][0].update(heading_deg=90), "heading_deg must be"),
     (lambda d: d["landmarks"][0].pop("east_m"), "missing field 'east_m'"),
-    (lambda d: d["landmarks"][0].update(north_m="north"), "bad value"),
+    (lambda d: d["landmarks"][0].update(north_m="north"), "field .north_m.: north_m must be a finite number"),
     (lambda d: d.update(floor_height_m="high"), "floor_height_m must be a number"),
     (lambda d: d.update(grid_deg=400), r"grid_deg must be a number of degrees in \[-180, 180\]"),
     (lambda d: d.pop("landmarks"), "'landmarks' list"),
