@@ -223,14 +223,21 @@ class Store:
     # -- devices ---------------------------------------------------------------------------------
     def upsert_device(self, session_id: str, role: str, *, device_id: str = "", platform: str = "unknown",
                       model: str = "", placement: str | None = None) -> None:
+        """Register the session's device of ``role``, or update it. Two first batches of a session at once both find
+        none: the second insert updates what the first inserted; a session deleted meanwhile is its 404.
+        """
+        dev = db.devices
+        mine = (dev.c.session_id == session_id, dev.c.role == role)
+        values = dict(device_id=device_id, platform=platform, model=model, placement=placement)
         with self.engine.begin() as conn:
-            found = conn.execute(select(db.devices.c.id).where(db.devices.c.session_id == session_id,
-                                                              db.devices.c.role == role)).first()
-            values = dict(device_id=device_id, platform=platform, model=model, placement=placement)
-            if found:
-                conn.execute(update(db.devices).where(db.devices.c.id == found.id).values(**values))
-            else:
-                conn.execute(insert(db.devices).values(session_id=session_id, role=role, **values))
+            if conn.execute(select(dev.c.id).where(*mine)).first() is None:
+                try:
+                    with conn.begin_nested():
+                        conn.execute(insert(dev).values(session_id=session_id, role=role, **values))
+                    return
+                except IntegrityError:  # inserted meanwhile by another request, or the session deleted meanwhile
+                    self.session_row(session_id)
+            conn.execute(update(dev).where(*mine).values(**values))
 
     def devices(self, session_id: str) -> list[Row[Any]]:
         with self.engine.connect() as conn:

@@ -748,3 +748,35 @@ def test_a_batch_to_a_session_deleted_while_the_batch_is_checked_is_a_404_and_no
     with app.extensions["pdr"].store.engine.connect() as conn:
         from server import db
         assert conn.execute(db.batches.select().where(db.batches.c.session_id == sid)).first() is None
+
+
+def test_the_first_batches_of_a_session_sent_at_once_are_all_taken(env):
+    """A phone sending its first two batches at once (a retry and the next one, four threads on a real pdr serve):
+    both requests found no device of the session yet, both inserted it, and the second insert broke the devices'
+    (session, role) key: a 500 for a batch that had been stored. Here the other request's insert is made to land
+    between this one's lookup and its insert; the batch is answered 201 and the session has its one phone."""
+    from sqlalchemy import event, insert
+
+    from server import db
+
+    app, c, h, _ = env
+    sid = c.post("/api/v1/sessions", json={"session_id": "at-once"}, headers=h).get_json()["id"]
+    engine = app.extensions["pdr"].store.engine
+    raced: list[bool] = []
+
+    def other_request_first(conn: Any, cursor: Any, statement: str, *args: Any) -> None:
+        if statement.startswith("INSERT INTO devices") and not raced:
+            raced.append(True)
+            with engine.begin() as other:
+                other.execute(insert(db.devices).values(session_id=sid, role="phone", device_id="", platform="android",
+                                                        model="test"))
+
+    event.listen(engine, "before_cursor_execute", other_request_first)
+    try:
+        r = c.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch("first", 0.0), headers=h)
+    finally:
+        event.remove(engine, "before_cursor_execute", other_request_first)
+    assert raced and r.status_code == 201, r.get_data()[:300]
+    detail = c.get(f"/api/v1/sessions/{sid}", headers=h).get_json()
+    assert [(d["role"], d["model"]) for d in detail["devices"]] == [("phone", "test")]
+    assert [b["batch_id"] for b in detail["batch_list"]] == ["first"]
