@@ -133,6 +133,9 @@ CASES: dict[str, tuple[Any, int, str]] = {
     "accelerometer in g": (_in_g(), 422, "looks like g"),
     # the unit check's norm overflowed (a RuntimeWarning, a 500 where warnings are errors; found by the fuzz test)
     "accelerometer at 1e200": (_huge_acc(), 422, "stream 'acc' sample 0 holds a value of magnitude 1e+200"),
+    "magnetometer at -1e300": (_batch(streams={"acc": {"t_ns": [1, 2, 3], "values": [[0, 0, 9.8]] * 3},
+                                               "mag": {"t_ns": [1, 2, 3], "values": [[-1e300, 0, 0]] * 3}}), 422,
+                               "stream 'mag' sample 0 holds a value of magnitude 1e+300"),
     # no air pressure where people walk (300-1100 hPa): each was stored (201) and taken for an altitude
     "barometer at -5 hPa": (_baro(-5.0), 422, "stream 'baro' sample 3: -5 hPa is no air pressure"),
     "barometer at 0 hPa": (_baro(0.0), 422, "stream 'baro' sample 3: 0 hPa is no air pressure"),
