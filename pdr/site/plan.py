@@ -45,6 +45,26 @@ MAX_COORDINATE_M = 1e8
 MAX_FLOOR_EXTENT_M = 20_000.0
 #: Largest floor number (either sign): no building has more floors.
 MAX_FLOOR_NUMBER = 1000
+#: Tallest storey (m): atria and halls included, a floor height beyond it is in other units or a typing slip.
+MAX_FLOOR_HEIGHT_M = 100.0
+#: Largest floor altitude (m, either sign, about the site's reference): Everest is 8.8 km above the sea.
+MAX_ALTITUDE_M = 10_000.0
+
+
+def _json_number(value: Any, where: str, field: str) -> float:
+    """``value`` as a float if it is a finite JSON number (not a string, not a boolean, within a float), else an
+    :class:`InputError` naming ``field``: a site's numbers are read as given, not coerced.
+    """
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise InputError(f"{field} must be a number, not {type(value).__name__} {value!r:.40}", source=where,
+                         field=field)
+    try:
+        number = float(value)
+    except OverflowError:
+        raise InputError(f"{field} is beyond any number", source=where, field=field) from None
+    if not math.isfinite(number):
+        raise InputError(f"{field} must be finite", source=where, field=field)
+    return number
 
 
 @dataclass(frozen=True)
@@ -162,15 +182,13 @@ class SitePlan:
             raise InputError("a site description is a JSON object", source=source)
         floors_raw = floors_list(d, source)
         origin = _origin(d.get("origin"), source)
-        try:
-            fh = float(d.get("floor_height_m", 4.0))
-        except (TypeError, ValueError):
-            raise InputError("floor_height_m must be a number", source=source, field="floor_height_m") from None
-        if not (math.isfinite(fh) and fh > 0):
-            raise InputError("floor_height_m must be positive", source=source, field="floor_height_m")
+        fh = _json_number(d.get("floor_height_m", 4.0), source, "floor_height_m")
+        if not 0 < fh <= MAX_FLOOR_HEIGHT_M:
+            raise InputError(f"floor_height_m must be positive and at most {MAX_FLOOR_HEIGHT_M:g} m, not {fh:g}",
+                             source=source, field="floor_height_m")
         grid = d.get("frame_bearing_deg")
-        if grid is not None and not (isinstance(grid, int | float) and math.isfinite(grid)):
-            raise InputError("frame_bearing_deg must be a number of degrees", source=source,
+        if grid is not None and abs(_json_number(grid, source, "frame_bearing_deg")) > 360:
+            raise InputError(f"frame_bearing_deg must be a bearing within +/-360 deg, not {grid:g}", source=source,
                              field="frame_bearing_deg")
         floors: dict[int, FloorPlan] = {}
         for i, f in enumerate(floors_raw):
@@ -209,10 +227,9 @@ class SitePlan:
 def _origin(o: Any, source: str) -> tuple[float, float] | None:
     if o is None:
         return None
-    try:
-        lat, lon = float(o["lat"]), float(o["lon"])
-    except (TypeError, KeyError, ValueError):
-        raise InputError("origin must be {\"lat\": deg, \"lon\": deg}", source=source, field="origin") from None
+    if not isinstance(o, dict) or "lat" not in o or "lon" not in o:
+        raise InputError("origin must be {\"lat\": deg, \"lon\": deg}", source=source, field="origin")
+    lat, lon = _json_number(o["lat"], source, "origin.lat"), _json_number(o["lon"], source, "origin.lon")
     if not (-90 <= lat <= 90 and -180 <= lon <= 180):
         raise InputError(f"origin ({lat}, {lon}) is not a latitude/longitude", source=source, field="origin")
     return lat, lon
@@ -221,20 +238,24 @@ def _origin(o: Any, source: str) -> tuple[float, float] | None:
 def _floor(f: Any, origin: tuple[float, float] | None, where: str) -> FloorPlan:
     if not isinstance(f, dict):
         raise InputError("a floor plan is an object", source=where)
+    if "floor" not in f:
+        raise InputError("missing field 'floor'", source=where, field="floor")
+    if isinstance(f["floor"], bool) or not isinstance(f["floor"], int | float):
+        raise InputError(f"floor must be an integer, not {type(f['floor']).__name__} {f['floor']!r:.40}",
+                         source=where, field="floor")
     try:
         number = float(f["floor"])
-    except KeyError:
-        raise InputError("missing field 'floor'", source=where, field="floor") from None
-    except (TypeError, ValueError):
-        raise InputError("floor must be an integer", source=where, field="floor") from None
+    except OverflowError:
+        raise InputError("floor must be an integer of a building", source=where, field="floor") from None
     if not number.is_integer():
         raise InputError(f"floor must be an integer, not {number}", source=where, field="floor")
     if abs(number) > MAX_FLOOR_NUMBER:
         raise InputError(f"floor {number:.0f} is not a floor of a building (at most {MAX_FLOOR_NUMBER} either side of "
                          f"the ground floor)", source=where, field="floor")
     alt = f.get("altitude_m")
-    if alt is not None and not (isinstance(alt, int | float) and math.isfinite(alt)):
-        raise InputError("altitude_m must be a number of metres", source=where, field="altitude_m")
+    if alt is not None and abs(_json_number(alt, where, "altitude_m")) > MAX_ALTITUDE_M:
+        raise InputError(f"altitude_m must be within +/-{MAX_ALTITUDE_M:g} m, not {alt:g}", source=where,
+                         field="altitude_m")
     frame = f.get("frame", "metric")
     if frame not in FRAMES:
         raise InputError(f"frame must be one of {FRAMES}, not {frame!r}", source=where, field="frame")
@@ -286,6 +307,10 @@ def _polygon(coords: Any, frame: str, origin: tuple[float, float] | None, where:
     rings = []
     for r, ring in enumerate(coords):
         rw = f"{where} ring {r}"
+        if not isinstance(ring, list) or not all(
+                isinstance(pos, list) and all(isinstance(c, int | float) and not isinstance(c, bool) for c in pos)
+                for pos in ring):
+            raise InputError("ring is not a list of [x, y] positions of numbers", source=rw, field="coordinates")
         try:
             a = np.asarray(ring, dtype=np.float64)
         except (TypeError, ValueError):

@@ -111,6 +111,20 @@ def _fraction(step: np.ndarray, w: np.ndarray) -> float:
     (site({"type": "Polygon", "coordinates": [square(0, 0, 1e308, 1e308)]}), ["ring 0", "from the frame's origin"]),
     (site({"type": "Polygon", "coordinates": [square(0, 0, 200_000, 100_000)]}), ["200 km", "millimetres"]),
     (site(ROOM, floor=10 ** 30), ["floor 1000000000000000019884624838656", "building"]),
+    # Numbers read loosely (a service sweep): strings and booleans were coerced, absurd sizes kept.
+    (site({"type": "Polygon", "coordinates": [[["0", 0], [4, 0], [4, 4], [0, 4], ["0", 0]]]}),
+     ["ring 0", "positions of numbers"]),
+    (site({"type": "Polygon", "coordinates": [[[True, 0], [4, 0], [4, 4], [0, 4], [True, 0]]]}),
+     ["ring 0", "positions of numbers"]),
+    (site(ROOM, floor="0"), ["floor must be an integer, not str '0'"]),
+    (site(ROOM, floor=True), ["floor must be an integer, not bool"]),
+    (site(ROOM, altitude_m=1e300), ["altitude_m", "10000"]),
+    (site(ROOM, altitude_m="3"), ["altitude_m must be a number, not str"]),
+    ({**site(ROOM), "floor_height_m": "3"}, ["floor_height_m must be a number, not str"]),
+    ({**site(ROOM), "floor_height_m": 1e308}, ["floor_height_m", "at most 100 m"]),
+    ({**site(ROOM), "floor_height_m": 0}, ["floor_height_m", "positive"]),
+    ({**site(ROOM), "frame_bearing_deg": 1e300}, ["frame_bearing_deg", "360"]),
+    ({**site(ROOM), "origin": {"lat": "45", "lon": 5}}, ["origin.lat must be a number"]),
 ])
 def test_bad_sites_are_refused_naming_what_is_wrong(doc: dict[str, Any], words: list[str]) -> None:
     with pytest.raises(InputError) as exc:
