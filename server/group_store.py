@@ -127,6 +127,16 @@ class GroupStore:
             raise APIError(404, f"no group '{group_id[:64]}'")
         return row
 
+    def delete(self, group_id: str, user_id: int) -> None:
+        """Delete the user's group with its members, uploads and track points (404 as :meth:`row`). A request on it
+        that is under way meanwhile finds it gone (:meth:`modify`: 404).
+        """
+        self.row(group_id, user_id)
+        with self.engine.begin() as conn:
+            for table in (group_track_points, group_uploads, group_agents):
+                conn.execute(delete(table).where(table.c.group_id == group_id))
+            conn.execute(delete(groups).where(groups.c.id == group_id))
+
     def list_for(self, user_id: int) -> list[Row[Any]]:
         with self.engine.connect() as conn:
             return list(conn.execute(select(groups).where(groups.c.user_id == user_id).order_by(groups.c.created_at)))

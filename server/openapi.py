@@ -293,7 +293,10 @@ def openapi_document() -> dict[str, Any]:
                 "get": _op("the user's cooperative groups", {"200": _ok("groups")} | _errors(401)),
                 "post": _op("create a group", {"201": _ok("created")} | common, requestBody=_json_body("CreateGroup"))},
             "/api/v1/groups/{group_id}": {
-                "get": _op("group detail", {"200": _ok("group")} | _errors(401, 404), parameters=[GROUP_ID])},
+                "get": _op("group detail", {"200": _ok("group")} | _errors(401, 404), parameters=[GROUP_ID]),
+                "delete": _op("delete the group: members, uploads, fused state and tracks (its agents' sessions "
+                              "stay)", {"204": {"description": "deleted"}} | _errors(401, 404),
+                              parameters=[GROUP_ID])},
             "/api/v1/groups/{group_id}/agents": {
                 "post": _op("join an agent", {"201": _ok("joined")} | common, parameters=[GROUP_ID],
                             requestBody=_json_body("JoinGroup"))},

@@ -276,6 +276,16 @@ def get_group(group_id: str) -> Response:
     return jsonify(group_json(store().row(group_id, user.id), detail=True))
 
 
+@bp.delete("/<group_id>")
+def delete_group(group_id: str) -> tuple[str, int]:
+    """Delete the group: its members, uploads, fused state and tracks (the sessions its agents were fed from stay).
+    Not reversible.
+    """
+    user = current_user()
+    store().delete(group_id, user.id)
+    return "", 204
+
+
 @bp.post("/<group_id>/agents")
 def join_group(group_id: str) -> tuple[Response, int]:
     """Add an agent with its initial pose (and optionally link it to one of the user's sessions)."""

@@ -8,12 +8,15 @@ import numpy as np
 import pytest
 from flask import Flask
 from flask.testing import FlaskClient
+from sqlalchemy import func, select
 
 from pdr.errors import InputError
 from pdr.fusion.measurements import event_to_dict
 from pdr.fusion.simulation import SimulationConfig, StepEvent, march_scenario, run_scenario
 from pdr.fusion.state import FootKey
+from server import auth
 from server.api import groups
+from server.group_store import group_agents, group_track_points, group_uploads
 from tests.server.conftest import bearer
 
 
@@ -91,6 +94,36 @@ def test_group_fuses_uploads_like_the_library(gclient: FlaskClient, tokens: dict
     assert detail["config"]["feet"] == ["left_foot", "right_foot"]
     listed = gclient.get("/api/v1/groups", headers=bearer(tok)).get_json()["groups"]
     assert [g["id"] for g in listed] == [gid]
+
+
+def test_a_group_is_deleted_by_its_owner_with_all_it_holds(gclient: FlaskClient, tokens: dict[str, str],
+                                                            gapp: Flask) -> None:
+    alice, bob = bearer(tokens["alice"]), bearer(tokens["bob"])
+    gid = gclient.post("/api/v1/groups", headers=alice, json={"name": "team"}).get_json()["id"]
+    keep = gclient.post("/api/v1/groups", headers=alice, json={"name": "other"}).get_json()["id"]
+    sc = scenario()
+    join_all(gclient, tokens["alice"], gid, sc)
+    r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=alice,
+                     json={"batch_id": "a0-0", "agent": "a0", "events": events_json(sc, "a0", 0, 10)})
+    assert r.status_code == 201
+    def rows(table: Any) -> int:
+        with gapp.extensions["pdr"].store.engine.connect() as conn:
+            count = select(func.count()).select_from(table).where(table.c.group_id == gid)
+            return int(conn.execute(count).scalar_one())
+
+    assert rows(group_agents) == 2 and rows(group_uploads) == 1 and rows(group_track_points) > 0
+    assert gclient.delete(f"/api/v1/groups/{gid}", headers=bob).status_code == 404       # not bob's to delete
+    with gapp.extensions["pdr"].store.engine.begin() as conn:
+        read_only = auth.issue_token(conn, auth.user_id(conn, "alice"), scope="read")
+    assert gclient.delete(f"/api/v1/groups/{gid}", headers=bearer(read_only)).status_code == 403
+    assert gclient.delete(f"/api/v1/groups/{gid}", headers=alice).status_code == 204
+    assert gclient.get(f"/api/v1/groups/{gid}", headers=alice).status_code == 404
+    assert gclient.delete(f"/api/v1/groups/{gid}", headers=alice).status_code == 404
+    r = gclient.post(f"/api/v1/groups/{gid}/uploads", headers=alice,
+                     json={"batch_id": "a0-1", "agent": "a0", "events": events_json(sc, "a0", 10, 20)})
+    assert r.status_code == 404
+    assert [g["id"] for g in gclient.get("/api/v1/groups", headers=alice).get_json()["groups"]] == [keep]
+    assert rows(group_agents) == rows(group_uploads) == rows(group_track_points) == 0
 
 
 def test_access_control_and_errors(gclient: FlaskClient, tokens: dict[str, str]) -> None:
