@@ -207,7 +207,9 @@ class GroupStore:
                                                                 client_batch_id=batch_id, payload=payload,
                                                                 received_at=db.utcnow()))
             except IntegrityError:
+                # The same batch stored meanwhile (taken as a repeat), or the group deleted meanwhile (404).
                 conn.rollback()
+                self.state(group_id)
                 return self.add_upload(group_id, agent, batch_id, payload)
         key = res.inserted_primary_key
         return int(key[0]) if key else 0, True

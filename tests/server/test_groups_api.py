@@ -126,6 +126,23 @@ def test_a_group_is_deleted_by_its_owner_with_all_it_holds(gclient: FlaskClient,
     assert rows(group_agents) == rows(group_uploads) == rows(group_track_points) == 0
 
 
+def test_an_upload_stored_after_its_group_was_deleted_is_a_404(gclient: FlaskClient, tokens: dict[str, str],
+                                                                gapp: Flask) -> None:
+    # The upload route checks the group first, then stores the upload: a deletion in between left an insert
+    # that its foreign key refuses, which was retried without end.
+    from server.errors import APIError
+    from server.group_store import GroupStore
+
+    alice = bearer(tokens["alice"])
+    gid = gclient.post("/api/v1/groups", headers=alice, json={"name": "team"}).get_json()["id"]
+    repo = GroupStore(gapp.extensions["pdr"].store.engine)
+    assert repo.add_upload(gid, "a0", "b0", b"{}")[1]
+    assert gclient.delete(f"/api/v1/groups/{gid}", headers=alice).status_code == 204
+    with pytest.raises(APIError) as err:
+        repo.add_upload(gid, "a0", "b1", b"{}")
+    assert err.value.status == 404
+
+
 def test_access_control_and_errors(gclient: FlaskClient, tokens: dict[str, str]) -> None:
     alice, bob = bearer(tokens["alice"]), bearer(tokens["bob"])
     assert gclient.get("/api/v1/groups").status_code == 401
