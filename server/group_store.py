@@ -177,10 +177,16 @@ class GroupStore:
         return decode_state(row.state)
 
     def add_agent(self, group_id: str, agent: str, session_id: str | None, clock_offset_s: float = 0.0) -> None:
-        """Record a member; ``clock_offset_s``: group time less session time (s) of an agent fed from a session."""
-        with self.engine.begin() as conn:
-            conn.execute(insert(group_agents).values(group_id=group_id, agent=agent, session_id=session_id,
-                                                     joined_at=db.utcnow(), clock_offset_s=clock_offset_s))
+        """Record a member; ``clock_offset_s``: group time less session time (s) of an agent fed from a session.
+        404 when the group was deleted meanwhile (its foreign key refuses the row).
+        """
+        try:
+            with self.engine.begin() as conn:
+                conn.execute(insert(group_agents).values(group_id=group_id, agent=agent, session_id=session_id,
+                                                         joined_at=db.utcnow(), clock_offset_s=clock_offset_s))
+        except IntegrityError:
+            self.state(group_id)
+            raise
 
     def followers(self, session_id: str) -> list[Row[Any]]:
         """The group agents that take their steps from the session (``group_id``, ``agent``, ``clock_offset_s``)."""

@@ -126,7 +126,7 @@ def test_a_group_is_deleted_by_its_owner_with_all_it_holds(gclient: FlaskClient,
     assert rows(group_agents) == rows(group_uploads) == rows(group_track_points) == 0
 
 
-def test_an_upload_stored_after_its_group_was_deleted_is_a_404(gclient: FlaskClient, tokens: dict[str, str],
+def test_an_upload_or_member_stored_after_its_group_was_deleted_is_a_404(gclient: FlaskClient, tokens: dict[str, str],
                                                                 gapp: Flask) -> None:
     # The upload route checks the group first, then stores the upload: a deletion in between left an insert
     # that its foreign key refuses, which was retried without end.
@@ -140,6 +140,9 @@ def test_an_upload_stored_after_its_group_was_deleted_is_a_404(gclient: FlaskCli
     assert gclient.delete(f"/api/v1/groups/{gid}", headers=alice).status_code == 204
     with pytest.raises(APIError) as err:
         repo.add_upload(gid, "a0", "b1", b"{}")
+    assert err.value.status == 404
+    with pytest.raises(APIError) as err:
+        repo.add_agent(gid, "a1", None)
     assert err.value.status == 404
 
 
