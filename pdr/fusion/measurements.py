@@ -29,6 +29,7 @@ from pdr.errors import InputError
 from pdr.fusion.aiding import pressure_height_difference
 from pdr.fusion.dead_reckoning import check_increment
 from pdr.fusion.ranging import RangeModel
+from pdr.json_number import json_number
 from pdr.step_increment import StepIncrement
 
 Array = NDArray[np.float64]
@@ -143,12 +144,10 @@ _KEYS: dict[str, tuple[set[str], set[str]]] = {            # required, optional
 
 
 def _number(obj: Mapping[str, Any], key: str, where: str, minimum: float | None = None) -> float:
-    value = obj.get(key)
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(float(value)):
-        raise InputError("must be a finite number", source=where, field=key)
-    if minimum is not None and float(value) < minimum:
+    value = json_number(obj.get(key), where, key)
+    if minimum is not None and value < minimum:
         raise InputError(f"must be >= {minimum:g}", source=where, field=key)
-    return float(value)
+    return value
 
 
 def _name(obj: Mapping[str, Any], key: str, where: str) -> str:

@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.frames import geodetic_to_local_enu
+from pdr.json_number import json_number
 from pdr.site.document import floors_list, read_site_document
 from pdr.site.geometry import points_in_rings, ring_area, ring_edges, ring_self_intersection
 from pdr.site.wall_index import WallIndex
@@ -49,22 +50,6 @@ MAX_FLOOR_NUMBER = 1000
 MAX_FLOOR_HEIGHT_M = 100.0
 #: Largest floor altitude (m, either sign, about the site's reference): Everest is 8.8 km above the sea.
 MAX_ALTITUDE_M = 10_000.0
-
-
-def _json_number(value: Any, where: str, field: str) -> float:
-    """``value`` as a float if it is a finite JSON number (not a string, not a boolean, within a float), else an
-    :class:`InputError` naming ``field``: a site's numbers are read as given, not coerced.
-    """
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise InputError(f"{field} must be a number, not {type(value).__name__} {value!r:.40}", source=where,
-                         field=field)
-    try:
-        number = float(value)
-    except OverflowError:
-        raise InputError(f"{field} is beyond any number", source=where, field=field) from None
-    if not math.isfinite(number):
-        raise InputError(f"{field} must be finite", source=where, field=field)
-    return number
 
 
 @dataclass(frozen=True)
@@ -182,12 +167,12 @@ class SitePlan:
             raise InputError("a site description is a JSON object", source=source)
         floors_raw = floors_list(d, source)
         origin = _origin(d.get("origin"), source)
-        fh = _json_number(d.get("floor_height_m", 4.0), source, "floor_height_m")
+        fh = json_number(d.get("floor_height_m", 4.0), source, "floor_height_m")
         if not 0 < fh <= MAX_FLOOR_HEIGHT_M:
             raise InputError(f"floor_height_m must be positive and at most {MAX_FLOOR_HEIGHT_M:g} m, not {fh:g}",
                              source=source, field="floor_height_m")
         grid = d.get("frame_bearing_deg")
-        if grid is not None and abs(_json_number(grid, source, "frame_bearing_deg")) > 360:
+        if grid is not None and abs(json_number(grid, source, "frame_bearing_deg")) > 360:
             raise InputError(f"frame_bearing_deg must be a bearing within +/-360 deg, not {grid:g}", source=source,
                              field="frame_bearing_deg")
         floors: dict[int, FloorPlan] = {}
@@ -229,7 +214,7 @@ def _origin(o: Any, source: str) -> tuple[float, float] | None:
         return None
     if not isinstance(o, dict) or "lat" not in o or "lon" not in o:
         raise InputError("origin must be {\"lat\": deg, \"lon\": deg}", source=source, field="origin")
-    lat, lon = _json_number(o["lat"], source, "origin.lat"), _json_number(o["lon"], source, "origin.lon")
+    lat, lon = json_number(o["lat"], source, "origin.lat"), json_number(o["lon"], source, "origin.lon")
     if not (-90 <= lat <= 90 and -180 <= lon <= 180):
         raise InputError(f"origin ({lat}, {lon}) is not a latitude/longitude", source=source, field="origin")
     return lat, lon
@@ -253,7 +238,7 @@ def _floor(f: Any, origin: tuple[float, float] | None, where: str) -> FloorPlan:
         raise InputError(f"floor {number:.0f} is not a floor of a building (at most {MAX_FLOOR_NUMBER} either side of "
                          f"the ground floor)", source=where, field="floor")
     alt = f.get("altitude_m")
-    if alt is not None and abs(_json_number(alt, where, "altitude_m")) > MAX_ALTITUDE_M:
+    if alt is not None and abs(json_number(alt, where, "altitude_m")) > MAX_ALTITUDE_M:
         raise InputError(f"altitude_m must be within +/-{MAX_ALTITUDE_M:g} m, not {alt:g}", source=where,
                          field="altitude_m")
     frame = f.get("frame", "metric")
