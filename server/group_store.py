@@ -128,13 +128,11 @@ class GroupStore:
         return row
 
     def delete(self, group_id: str, user_id: int) -> None:
-        """Delete the user's group with its members, uploads and track points (404 as :meth:`row`). A request on it
-        that is under way meanwhile finds it gone (:meth:`modify`: 404).
+        """Delete the user's group; its members, uploads and track points go with it (their foreign keys cascade, as
+        when its user is deleted). 404 as :meth:`row`; a request on it under way meanwhile finds it gone (404).
         """
         self.row(group_id, user_id)
         with self.engine.begin() as conn:
-            for table in (group_track_points, group_uploads, group_agents):
-                conn.execute(delete(table).where(table.c.group_id == group_id))
             conn.execute(delete(groups).where(groups.c.id == group_id))
 
     def list_for(self, user_id: int) -> list[Row[Any]]:
