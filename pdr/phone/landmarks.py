@@ -47,9 +47,10 @@ from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.frames import heading_deg_to_yaw
+from pdr.json_number import json_number
 from pdr.phone.baro_rides import WALK_OUT_S
 from pdr.phone.history import SampleHistory
-from pdr.site.document import floors_list, read_site_document
+from pdr.site.document import floor_altitude_m, floor_height_m, floors_list, read_site_document
 
 FloatArray = NDArray[np.float64]
 
@@ -260,10 +261,7 @@ class Site:
                 raise
             except (TypeError, ValueError) as exc:
                 raise InputError(f"bad value ({exc})", source=where) from None
-        try:
-            fh = float(d.get("floor_height_m", 4.0))
-        except (TypeError, ValueError):
-            raise InputError("floor_height_m must be a number", source=source, field="floor_height_m") from None
+        fh = floor_height_m(d, source)
         decl, grid = (_site_angle(d, name, source) for name in ("declination_deg", "grid_deg"))
         return cls(str(d.get("name", "")), tuple(out), fh, decl, grid, _floor_altitudes(floors, source))
 
@@ -300,27 +298,19 @@ class Site:
 
 
 def _finite(value: Any, name: str, where: str) -> float:
-    """A landmark's number ``name``, finite (a NaN or infinite position, floor or heading was taken, and a session on
-    the site had its position fixed at NaN); :class:`InputError` naming the field otherwise.
+    """A landmark's number ``name``: a finite JSON number (:func:`pdr.json_number.json_number`; a NaN or infinite
+    position, floor or heading was taken, and a session on the site had its position fixed at NaN, and a string or a
+    boolean was read as a number); :class:`InputError` naming the field otherwise.
     """
-    try:
-        x = float(value)
-    except (TypeError, ValueError, OverflowError):
-        x = math.nan
-    if not math.isfinite(x):
-        raise InputError(f"{name} must be a finite number, not {str(value)[:40]}", source=where, field=name)
-    return x
+    return json_number(value, where, name)
 
 
 def _site_angle(d: dict[str, Any], name: str, source: str) -> float | None:
-    """The optional angle ``d[name]`` in degrees, checked to lie in [-180, 180] (None when absent)."""
+    """The optional angle ``d[name]`` in degrees, a JSON number in [-180, 180] (None when absent)."""
     v = d.get(name)
     if v is None:
         return None
-    try:
-        a = float(v)
-    except (TypeError, ValueError):
-        a = math.nan
+    a = json_number(v, source, name)
     if not -180.0 <= a <= 180.0:
         raise InputError(f"{name} must be a number of degrees in [-180, 180]", source=source, field=name)
     return a
@@ -438,12 +428,8 @@ def _floor_altitudes(floors: list[Any], source: str) -> tuple[tuple[float, float
     for i, f in enumerate(floors):
         if not isinstance(f, dict) or f.get("altitude_m") is None:
             continue
-        try:
-            fl, alt = float(f["floor"]), float(f["altitude_m"])
-        except (KeyError, TypeError, ValueError) as exc:
-            raise InputError(f"floor and altitude_m must be numbers ({exc})", source=f"{source} floor {i}",
-                             field="altitude_m") from None
-        if not (math.isfinite(fl) and math.isfinite(alt)):
-            raise InputError("floor and altitude_m must be finite", source=f"{source} floor {i}", field="altitude_m")
-        out.append((fl, alt))
+        where = f"{source} floor {i}"
+        if "floor" not in f:
+            raise InputError("missing field 'floor'", source=where, field="floor")
+        out.append((json_number(f["floor"], where, "floor"), floor_altitude_m(f["altitude_m"], where)))
     return tuple(sorted(out))

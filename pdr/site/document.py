@@ -11,6 +11,12 @@ from pathlib import Path
 from typing import Any
 
 from pdr.errors import InputError
+from pdr.json_number import json_number
+
+#: Tallest storey (m): atria and halls included, a floor height beyond it is in other units or a typing slip.
+MAX_FLOOR_HEIGHT_M = 100.0
+#: Largest floor altitude (m, either sign, about the site's reference): Everest is 8.8 km above the sea.
+MAX_ALTITUDE_M = 10_000.0
 
 
 def read_site_document(path: str | Path) -> Any:
@@ -33,3 +39,23 @@ def floors_list(document: dict[str, Any], source: str, required: bool = True) ->
     if not isinstance(floors, list) or not floors:
         raise InputError("expected a non-empty 'floors' list of floor plans", source=source, field="floors")
     return floors
+
+
+def floor_height_m(document: dict[str, Any], source: str) -> float:
+    """The site's ``floor_height_m`` (m; 4 when absent): a JSON number in (0, :data:`MAX_FLOOR_HEIGHT_M`]. One check,
+    so both halves of a site refuse the same floor heights with the same :class:`InputError`.
+    """
+    fh = json_number(document.get("floor_height_m", 4.0), source, "floor_height_m")
+    if not 0 < fh <= MAX_FLOOR_HEIGHT_M:
+        raise InputError(f"floor_height_m must be positive and at most {MAX_FLOOR_HEIGHT_M:g} m, not {fh:g}",
+                         source=source, field="floor_height_m")
+    return fh
+
+
+def floor_altitude_m(value: Any, source: str) -> float:
+    """A floor's ``altitude_m`` (m, about the site's reference): a JSON number within +/-:data:`MAX_ALTITUDE_M`."""
+    alt = json_number(value, source, "altitude_m")
+    if abs(alt) > MAX_ALTITUDE_M:
+        raise InputError(f"altitude_m must be within +/-{MAX_ALTITUDE_M:g} m, not {alt:g}", source=source,
+                         field="altitude_m")
+    return alt

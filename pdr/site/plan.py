@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 from pdr.errors import InputError
 from pdr.frames import geodetic_to_local_enu
 from pdr.json_number import json_number
-from pdr.site.document import floors_list, read_site_document
+from pdr.site.document import floor_altitude_m, floor_height_m, floors_list, read_site_document
 from pdr.site.geometry import points_in_rings, ring_area, ring_edges, ring_self_intersection
 from pdr.site.wall_index import WallIndex
 
@@ -46,10 +46,6 @@ MAX_COORDINATE_M = 1e8
 MAX_FLOOR_EXTENT_M = 20_000.0
 #: Largest floor number (either sign): no building has more floors.
 MAX_FLOOR_NUMBER = 1000
-#: Tallest storey (m): atria and halls included, a floor height beyond it is in other units or a typing slip.
-MAX_FLOOR_HEIGHT_M = 100.0
-#: Largest floor altitude (m, either sign, about the site's reference): Everest is 8.8 km above the sea.
-MAX_ALTITUDE_M = 10_000.0
 
 
 @dataclass(frozen=True)
@@ -167,10 +163,7 @@ class SitePlan:
             raise InputError("a site description is a JSON object", source=source)
         floors_raw = floors_list(d, source)
         origin = _origin(d.get("origin"), source)
-        fh = json_number(d.get("floor_height_m", 4.0), source, "floor_height_m")
-        if not 0 < fh <= MAX_FLOOR_HEIGHT_M:
-            raise InputError(f"floor_height_m must be positive and at most {MAX_FLOOR_HEIGHT_M:g} m, not {fh:g}",
-                             source=source, field="floor_height_m")
+        fh = floor_height_m(d, source)
         grid = d.get("frame_bearing_deg")
         if grid is not None and abs(json_number(grid, source, "frame_bearing_deg")) > 360:
             raise InputError(f"frame_bearing_deg must be a bearing within +/-360 deg, not {grid:g}", source=source,
@@ -237,10 +230,7 @@ def _floor(f: Any, origin: tuple[float, float] | None, where: str) -> FloorPlan:
     if abs(number) > MAX_FLOOR_NUMBER:
         raise InputError(f"floor {number:.0f} is not a floor of a building (at most {MAX_FLOOR_NUMBER} either side of "
                          f"the ground floor)", source=where, field="floor")
-    alt = f.get("altitude_m")
-    if alt is not None and abs(json_number(alt, where, "altitude_m")) > MAX_ALTITUDE_M:
-        raise InputError(f"altitude_m must be within +/-{MAX_ALTITUDE_M:g} m, not {alt:g}", source=where,
-                         field="altitude_m")
+    alt = None if f.get("altitude_m") is None else floor_altitude_m(f["altitude_m"], where)
     frame = f.get("frame", "metric")
     if frame not in FRAMES:
         raise InputError(f"frame must be one of {FRAMES}, not {frame!r}", source=where, field="frame")
@@ -253,7 +243,7 @@ def _floor(f: Any, origin: tuple[float, float] | None, where: str) -> FloorPlan:
              for k, p in enumerate(_geojson_polygons(f["walkable"], f"{where} walkable"))]
     if not polys:
         raise InputError("no polygon in 'walkable'", source=where, field="walkable")
-    plan = FloorPlan(int(number), tuple(polys), None if alt is None else float(alt))
+    plan = FloorPlan(int(number), tuple(polys), alt)
     x0, y0, x1, y1 = plan.bounds()
     extent = max(x1 - x0, y1 - y0)
     if extent > MAX_FLOOR_EXTENT_M:
