@@ -35,7 +35,16 @@ hashed) when the kernel is first compiled or loaded, not when its module is impo
 79 kernels and loads 19 (the others are compiled into those), and the set-up took about 0.15 ms a kernel.
 
 And a load rebuilds the kernel's library from its machine code and the names in its ELF symbol table, without parsing
-the LLVM bitcode numba keeps beside it for linking (:mod:`pdr.filters.object_code_load`).
+the LLVM bitcode numba keeps beside it for linking (:mod:`pdr.filters.object_code_load`); the runtime that the first
+load starts takes its own library from machine code kept beside the kernels' cache (:mod:`pdr.filters.runtime_cache`).
+
+**numba's extensions.** Before it types a kernel's arguments, numba loads every installed package's
+``numba_extensions`` entry point (``numba.core.entrypoints.init_all``), which reads the entry points of every
+distribution in the environment: 20-47 ms of a ``pdr track`` process (three fresh processes), where none is installed.
+An extension registers types and implementations for the compiler; a kernel loaded from the cache is machine code
+already, and the arguments of this project's kernels are numpy arrays and numbers. So the kernels load without them,
+and a cache miss loads them before numba compiles (:meth:`LeanFunctionCache.load_overload`; a compilation's target
+refresh loads them too). Plain ``numba.njit`` functions keep numba's hook.
 """
 
 from __future__ import annotations
@@ -46,10 +55,12 @@ from typing import Any
 
 import numba
 from llvmlite.binding import ffi
+from numba.core import entrypoints
 from numba.core.caching import FunctionCache
 from numba.core.runtime import rtsys
 
 from pdr.filters.object_code_load import object_code_only
+from pdr.filters.runtime_cache import runtime_from_cache
 
 
 class LeanFunctionCache(FunctionCache):
@@ -69,11 +80,18 @@ class LeanFunctionCache(FunctionCache):
         return getattr(self, name)
 
     def load_overload(self, sig: Any, target_context: Any) -> Any:
-        """The cached compile result of ``sig``, or None (numba then compiles, refreshing the target itself)."""
+        """The cached compile result of ``sig``, or None: numba then compiles, refreshing the target itself, after
+        its extensions are loaded here (module doc).
+        """
         with _llvm_lock_callbacks_off(), object_code_only(target_context.codegen()):
-            rtsys.initialize(target_context)
+            if not rtsys._init:
+                with runtime_from_cache(self._cache_path):
+                    rtsys.initialize(target_context)
             with self._guard_against_spurious_io_errors():
-                return self._load_overload(sig, target_context)
+                result = self._load_overload(sig, target_context)
+        if result is None:
+            entrypoints.init_all()
+        return result
 
 
 @contextmanager
@@ -98,8 +116,14 @@ def cached_njit(**options: Any) -> Callable[[Callable[..., Any]], Any]:
         dispatcher = numba.njit(**options)(fn)
         if hasattr(dispatcher, "py_func"):     # not with NUMBA_DISABLE_JIT=1: numba then gives back the function
             dispatcher._cache = LeanFunctionCache(dispatcher.py_func)     # as Dispatcher.enable_caching does
+            # numba's extensions are loaded before a compilation, not before a load from the cache (module doc).
+            dispatcher._compilation_chain_init_hook = _no_extensions_yet
         return dispatcher
     return decorate
+
+
+def _no_extensions_yet() -> None:
+    """A kernel's hook before numba types its arguments: numba's extensions wait for a cache miss (module doc)."""
 
 
 def kernel(fn: Callable[..., Any]) -> Any:
