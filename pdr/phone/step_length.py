@@ -68,6 +68,19 @@ def turn_factor(turn_rad: float | FloatArray, model: str = "cos2") -> FloatArray
     return np.asarray(np.maximum(np.cos(t), 0.0) ** 2)
 
 
+def turn_factor_float(turn_rad: float, model: str = "cos2") -> float:
+    """:func:`turn_factor` of one turn (rad) as a Python float, bit for bit, without a 0-d array per step: numpy's
+    cosine (its loop, whose SIMD form may differ from the C library's in the last bit), then ``np.maximum`` written
+    out (a NaN passes) and the power of a numpy scalar, which is the C library's ``pow`` as Python's ``**`` (not one
+    product: ``pow(c, 2)`` may differ from ``c * c`` in the last bit).
+    """
+    if model == "none":
+        return 1.0
+    c = float(np.cos(turn_rad))
+    c = c if (c >= 0.0 or c != c) else 0.0
+    return c ** 2
+
+
 def step_patterns(a_n: FloatArray, a_v: FloatArray, rate_hz: float) -> FloatArray:
     """The six patterns (eqs. 13-18) of one step from its samples.
 
@@ -204,7 +217,7 @@ class StepLengthModel:
         """:meth:`length` of one step (m): the same operations on Python floats, without the arrays of a batch.
 
         ``np.maximum``, ``np.clip`` and ``np.where`` are written out with their comparisons (NaN passes through
-        the clamp as there); the power is the C library's ``pow`` in both, the turn factor the same ufunc.
+        the clamp as there); the power is the C library's ``pow`` in both, the turn factor :func:`turn_factor_float`.
         """
         if on_stairs:
             return float(self.stairs_m)
@@ -214,7 +227,7 @@ class StepLengthModel:
         if s == s:                                                  # np.clip(s, min_m, max_m)
             s = s if s > self.min_m else self.min_m
             s = s if s < self.max_m else self.max_m
-        return float(s * turn_factor(turn_rad, self.turn))
+        return float(s * turn_factor_float(turn_rad, self.turn))
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)

@@ -145,3 +145,13 @@ def test_one_step_length_equals_the_batch_formula_bit_for_bit(model):
         one = model.step_length(p.tolist(), stairs, turn)
         assert isinstance(one, float)
         assert np.float64(one).tobytes() == np.float64(batch).tobytes(), (p, stairs, turn)
+
+
+def test_turn_factor_float_is_turn_factor_bit_for_bit():
+    from pdr.phone.step_length import turn_factor, turn_factor_float
+    rng = np.random.default_rng(7)
+    turns = np.concatenate([rng.uniform(-7.0, 7.0, 20000), [0.0, -0.0, np.pi / 2, -np.pi / 2, np.pi, 1e-300, np.nan]])
+    for model in ("cos2", "none"):
+        want = np.array([float(turn_factor(float(t), model)) for t in turns])
+        got = np.array([turn_factor_float(float(t), model) for t in turns])
+        assert np.array_equal(want.view(np.int64), got.view(np.int64))
