@@ -1080,7 +1080,8 @@ class StepDetector:
         if self._walk_up is None:
             return True
         w = np.asarray(self._walk_up, dtype=np.float64)
-        n = float(np.linalg.norm(g)) * float(np.linalg.norm(w))
+        # np.linalg.norm of a float vector is the root of its dot product with itself: that, without its checks.
+        n = math.sqrt(g.dot(g)) * math.sqrt(w.dot(w))
         cos = max(-1.0, min(1.0, float(g @ w) / n)) if n > 0.0 else -1.0
         return math.degrees(math.acos(cos)) <= self.config.handling_angle_deg
 
