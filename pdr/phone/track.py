@@ -102,8 +102,9 @@ def redo_steps(steps: list[dict[str, Any]], yaw_rad: FloatArray, length_m: Float
     for i in np.flatnonzero([bool(s.get("position_fix")) for s in steps]).tolist():
         base[i:] = cum[i - 1] if i else 0.0     # restarted at a fix, that step's own shift included
     moved = cum - base
-    out = []
-    for k, s in enumerate(steps):
-        out.append({**s, "east_m": float(s["east_m"] + moved[k, 0]), "north_m": float(s["north_m"] + moved[k, 1]),
-                    "heading_deg": float(yaw_to_heading_deg(yaw[k])), "step_length_m": float(new_len[k])})
-    return out
+    # The headings converted as one array (elementwise, the same bits as one step at a time), the values read as
+    # Python floats once instead of a numpy scalar per step.
+    heading = np.asarray(yaw_to_heading_deg(yaw)).tolist()
+    return [{**s, "east_m": float(s["east_m"] + de), "north_m": float(s["north_m"] + dn), "heading_deg": h,
+             "step_length_m": ln}
+            for s, (de, dn), h, ln in zip(steps, moved.tolist(), heading, new_len.tolist(), strict=True)]

@@ -78,3 +78,16 @@ def test_state_round_trip_and_bad_state():
     np.testing.assert_array_equal(again.P, tr.P)
     with pytest.raises(InputError, match="bad track state"):
         TrackState.from_state({"east_m": 0.0})
+
+
+def test_redo_steps_converts_each_heading_as_one_step_at_a_time_would():
+    """The headings converted as one array are the per-step conversions bit for bit (and positions move by floats)."""
+    rng = np.random.default_rng(3)
+    yaw = np.concatenate([rng.uniform(-10.0, 10.0, 5000), [0.0, -0.0, math.pi, -math.pi, math.pi / 2, 1e-300]])
+    steps = [{"east_m": float(e), "north_m": float(n), "heading_deg": 10.0, "step_length_m": 0.7}
+             for e, n in rng.normal(0.0, 50.0, (yaw.size, 2))]
+    new = redo_steps(steps, yaw)
+    got = np.array([s["heading_deg"] for s in new])
+    want = np.array([float(yaw_to_heading_deg(y)) for y in yaw])
+    assert np.array_equal(got.view(np.int64), want.view(np.int64))
+    assert all(type(s[k]) is float for s in new for k in ("east_m", "north_m", "heading_deg", "step_length_m"))
