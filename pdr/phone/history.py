@@ -45,19 +45,20 @@ class SampleHistory:
                up: FloatArray, floor: FloatArray) -> None:
         if self.t.size == 0:
             self.start = start
-        self.t = np.concatenate([self.t, t])
-        self.acc = np.concatenate([self.acc, acc])
-        self.q = np.concatenate([self.q, np.full((t.size, 4), np.nan)])
-        self.f_n = np.concatenate([self.f_n, np.full((t.size, 3), np.nan)])
-        self.yaw_y = np.concatenate([self.yaw_y, np.full(t.size, np.nan)])
-        self.yaw_z = np.concatenate([self.yaw_z, np.full(t.size, np.nan)])
-        self.y_up = np.concatenate([self.y_up, np.full(t.size, np.nan)])
-        self.an = np.concatenate([self.an, an])
-        self.mag_n = np.concatenate([self.mag_n, mag_n])
-        self.up = np.concatenate([self.up, up])
-        self.floor = np.concatenate([self.floor, floor])
-        self.gyro_yaw = np.concatenate([self.gyro_yaw, np.full(t.size, np.nan)])
-        self.up_time = np.concatenate([self.up_time, np.full((t.size, 3), np.nan)])
+        n = t.size
+        self.t = _extended(self.t, n, t)
+        self.acc = _extended(self.acc, n, acc)
+        self.q = _extended(self.q, n)
+        self.f_n = _extended(self.f_n, n)
+        self.yaw_y = _extended(self.yaw_y, n)
+        self.yaw_z = _extended(self.yaw_z, n)
+        self.y_up = _extended(self.y_up, n)
+        self.an = _extended(self.an, n, an)
+        self.mag_n = _extended(self.mag_n, n, mag_n)
+        self.up = _extended(self.up, n, up)
+        self.floor = _extended(self.floor, n, floor)
+        self.gyro_yaw = _extended(self.gyro_yaw, n)
+        self.up_time = _extended(self.up_time, n)
 
     def trim(self) -> None:
         extra = self.t.size - self.size
@@ -83,3 +84,15 @@ class SampleHistory:
                          dtype=np.float64)
             setattr(h, n, a.reshape(-1, w) if w else a.reshape(-1))
         return h
+
+
+def _extended(old: FloatArray, n: int, rows: FloatArray | None = None) -> FloatArray:
+    """``old`` (float64, rows first) followed by the ``n`` rows ``rows``, or by ``n`` rows of NaN (a value computed
+    later): what ``np.concatenate`` of the two gives, made in one new array (not a NaN array first, then the copy).
+    """
+    if rows is not None and rows.shape != (n, *old.shape[1:]):
+        raise ValueError(f"history rows must be {(n, *old.shape[1:])}, got {rows.shape}")
+    out = np.empty((old.shape[0] + n, *old.shape[1:]))
+    out[:old.shape[0]] = old
+    out[old.shape[0]:] = np.nan if rows is None else rows
+    return out

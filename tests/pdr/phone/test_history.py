@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from pdr import state_codec
 from pdr.phone.history import SampleHistory
@@ -67,3 +68,30 @@ def test_state_saved_before_the_heading_smoother_resumes_with_nan_gyro_rows() ->
     assert again.gyro_yaw.shape == (30,) and np.isnan(again.gyro_yaw).all()
     assert again.up_time.shape == (30, 3) and np.isnan(again.up_time).all()
     assert np.array_equal(again.an, h.an)
+
+
+def test_appended_rows_are_what_concatenate_gives_bit_for_bit():
+    """One batch appended: the history's arrays are np.concatenate of the old rows and the batch's (or NaN rows for
+    what the stages fill in later), and a batch field of another length is refused.
+    """
+    rng = np.random.default_rng(5)
+    h = SampleHistory(10_000)
+    parts: dict[str, list[np.ndarray]] = {}
+    start = 0
+    for n in (7, 0, 130, 1, 3):
+        t = start / 100.0 + np.arange(n) / 100.0
+        acc = rng.normal(size=(n, 3))
+        an, mag, up, floor = rng.normal(size=n), np.where(rng.random(n) < 0.3, np.nan, 40.0), -0.0 * t, np.ones(n)
+        h.append(start, t, acc, an, mag, up, floor)
+        for name, v in (("t", t), ("acc", acc), ("an", an), ("mag_n", mag), ("up", up), ("floor", floor),
+                        ("q", np.full((n, 4), np.nan)), ("up_time", np.full((n, 3), np.nan)),
+                        ("yaw_y", np.full(n, np.nan))):
+            parts.setdefault(name, []).append(v)
+        start += n
+    for name, chunks in parts.items():
+        want = np.concatenate([np.zeros((0, *chunks[0].shape[1:])), *chunks])
+        got = getattr(h, name)
+        assert got.dtype == want.dtype and got.shape == want.shape and got.flags.c_contiguous
+        assert got.tobytes() == want.tobytes(), name
+    with pytest.raises(ValueError, match="history rows"):
+        h.append(start, np.zeros(3), np.zeros((3, 3)), np.zeros(1), np.zeros(3), np.zeros(3), np.zeros(3))
