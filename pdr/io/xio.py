@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from pdr.errors import InputError
-from pdr.io.csvtable import parse_table, split_header
+from pdr.io.csvtable import parse_table
 from pdr.io.text import head, read_text, timestamps_ns
 from pdr.io.time_order import keep_increasing
 from pdr.recording import DeviceInfo, Recording, SensorStream
@@ -72,7 +72,7 @@ def read(path: str | Path) -> Recording:
     keep = keep_increasing(t_ns, source, "Time (s)", warnings, lines=table.lines())
 
     groups: dict[str, dict[str, tuple[str, str]]] = {}
-    for col in split_header(text.split("\n", 1)[0]):
+    for col in table.header:
         m = _COLUMN.match(col)
         if not m:
             continue

@@ -80,6 +80,15 @@ def test_bad_input_names_file_line_field(tmp_path, text, line, field, match):
     assert err.value.source == str(p) and err.value.line == line and err.value.field == field
 
 
+def test_old_mac_line_ends_read_as_line_feeds(tmp_path):
+    """A log whose lines end in CR alone (an old Mac editor) failed with 'line 1: unreadable header line' and no
+    file name (the header was split again from the text's first line feed); it reads as the same log with LF does."""
+    p = tmp_path / "walk.csv"
+    p.write_bytes(_text().replace("\n", "\r").encode())
+    ref = xio.read(_write(tmp_path, _text(), "ref.csv"))
+    np.testing.assert_array_equal(xio.read(p).values("acc"), ref.values("acc"))
+
+
 @pytest.mark.parametrize("gz", [False, True])
 def test_last_line_cut_mid_number_dropped_with_warning(tmp_path, gz):
     """A recording cut off in the last value of its last row (all fields there, no line break: 0.811 of 0.8113459)
