@@ -53,6 +53,20 @@ class Table:
         return np.column_stack([np.asarray(self.column(n), dtype=np.float64) for n in names]) if names else \
             np.empty((len(self), 0))
 
+    def stack_scaled(self, names: Sequence[str], factor: float, unit: str) -> NDArray[np.float64]:
+        """(N, len(names)) float64 array of the named columns (in ``unit``) times ``factor`` (to SI);
+        :class:`InputError` naming line and column of a value the factor takes beyond a float (1e308 g).
+        """
+        raw = self.stack(names)
+        with np.errstate(over="ignore"):
+            values = raw * factor
+        bad = ~np.isfinite(values)
+        if bad.any():
+            row, col = (int(i) for i in np.argwhere(bad)[0])
+            raise InputError(f"value {raw[row, col]:g} {unit} is beyond any float once converted to SI "
+                             f"(x {factor:g})", source=self.source, line=self.line(row), field=names[col])
+        return values
+
     def lines(self) -> NDArray[np.int64]:
         """(N,) 1-based file line of every data row."""
         return self.first_line + np.arange(len(self), dtype=np.int64)

@@ -218,7 +218,7 @@ def _read_data_csv(name: str, text: str, clock: list[tuple[float, int]] | None, 
         if len(units) != 1 or unit not in _UNITS[kind]:
             raise InputError(f"unknown unit(s) {sorted(units)} for {kind}; expected one of {list(_UNITS[kind])}",
                              source=name, line=1, field=axes[names[0]][0])
-        values = table.stack([axes[a][0] for a in names]) * _UNITS[kind][unit]
+        values = table.stack_scaled([axes[a][0] for a in names], _UNITS[kind][unit], unit)
         out[kind] = SensorStream(kind, t_ns[keep], values[keep])
     return out
 

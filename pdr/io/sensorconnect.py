@@ -118,8 +118,9 @@ def read(path: str | Path) -> Recording:
     for kind, (cols, unit) in channels.items():
         if all(c in table.header for c in cols):
             ok = _valid_rows(table, cols, kind, warnings) & in_order
-            values = table.stack(cols)[ok]
-            streams[kind] = SensorStream(kind, t_ns[ok], values * _si_factor(kind, unit, values, warnings))
+            with np.errstate(over="ignore"):     # a value beyond a float in SI: named by stack_scaled
+                factor = _si_factor(kind, unit, table.stack(cols)[ok], warnings)
+            streams[kind] = SensorStream(kind, t_ns[ok], table.stack_scaled(cols, factor, unit)[ok])
     if all(c in table.header for c in euler):
         ok = _valid_rows(table, euler, "orientation", warnings) & in_order
         angles = table.stack(euler)[ok]

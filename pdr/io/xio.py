@@ -19,8 +19,6 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-import numpy as np
-
 from pdr.errors import InputError
 from pdr.io.csvtable import parse_table
 from pdr.io.text import head, read_text, timestamps_ns
@@ -94,8 +92,8 @@ def read(path: str | Path) -> Recording:
         if len(units) != 1 or next(iter(units)) not in units_of:
             raise InputError(f"unknown or mixed unit(s) {sorted(units)} for {kind}; expected one of {list(units_of)}",
                              source=source, line=1, field=axes[names[0]][0])
-        factor = units_of[next(iter(units))]
-        values = np.column_stack([table.column(axes[a][0]) for a in names]) * factor
+        unit = next(iter(units))
+        values = table.stack_scaled([axes[a][0] for a in names], units_of[unit], unit)
         streams[kind] = SensorStream(kind, t_ns[keep], values[keep])
     if "acc" not in streams or "gyro" not in streams:
         raise InputError("expected Gyroscope X/Y/Z and Accelerometer X/Y/Z columns with units in parentheses "

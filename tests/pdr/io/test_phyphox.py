@@ -77,6 +77,17 @@ def test_degree_and_g_units_converted(tmp_path):
     np.testing.assert_allclose(phyphox.read(p).values("gyro")[0], [np.pi, 0, -np.pi / 2])
 
 
+def test_value_beyond_any_float_in_si_names_line_and_field(tmp_path):
+    """1e308 g is a float but not in m/s^2: it was refused as "stream 'acc': sample 1 is not finite", without the
+    file, line or column (and with numpy's overflow warning)."""
+    p = tmp_path / "Raw Data.csv"
+    p.write_text('"Time (s)","Acceleration x (g)","Acceleration y (g)","Acceleration z (g)"\n0,0,0,1\n'
+                 "0.01,0,1e308,1\n0.02,0,0,1\n")
+    with pytest.raises(InputError, match="beyond any float") as err:
+        phyphox.read(p)
+    assert (err.value.source, err.value.line, err.value.field) == (str(p), 3, "Acceleration y (g)")
+
+
 def _copy(tmp_path):
     dst = tmp_path / "export"
     shutil.copytree(FIXTURE, dst)

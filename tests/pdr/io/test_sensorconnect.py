@@ -153,6 +153,8 @@ def _replace_line(text, line, new):
     (lambda t: _replace_line(_replace_line(t, 6, ",".join(["0.001"] + ["0"] * 12)), 7,
                              ",".join(["0.0015"] + ["0"] * 12)), 6, "Time", "backwards in 2 of"),
     (lambda t: t.replace("Time,", "Clock,", 1), 1, "Time", "no Time column"),
+    # 1e308 g is a float but not in m/s^2: was "stream 'acc': sample 3 is not finite", no file, line or column
+    (lambda t: _replace_line(t, 5, ",".join(["0.02", "1e308"] + ["0"] * 11)), 5, "scaledAccelX", "beyond any float"),
 ])
 def test_bad_input_names_file_line_field(tmp_path, edit, line, field, match):
     p = _write(tmp_path, edit(_v1_text()))

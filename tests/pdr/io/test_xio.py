@@ -89,6 +89,15 @@ def test_old_mac_line_ends_read_as_line_feeds(tmp_path):
     np.testing.assert_array_equal(xio.read(p).values("acc"), ref.values("acc"))
 
 
+def test_value_beyond_any_float_in_si_names_line_and_field(tmp_path):
+    """1e308 g is a float, but not once converted to m/s^2: it was refused by the stream as "stream 'acc': sample 2
+    is not finite", without the file, line or column (and with numpy's overflow warning)."""
+    p = _write(tmp_path, _text(3, ["0.01,1,2,3,0,1e308,1"]))
+    with pytest.raises(InputError, match="beyond") as err:
+        xio.read(p)
+    assert (err.value.source, err.value.line, err.value.field) == (str(p), 5, "Accelerometer Y (g)")
+
+
 @pytest.mark.parametrize("gz", [False, True])
 def test_last_line_cut_mid_number_dropped_with_warning(tmp_path, gz):
     """A recording cut off in the last value of its last row (all fields there, no line break: 0.811 of 0.8113459)
