@@ -262,8 +262,8 @@ def make_windows(rec: Recording, cfg: WindowConfig = WindowConfig(), t_origin_s:
     data: dict[str, FloatArray] = {}
     grids: dict[str, FloatArray] = {}
     for kind in streams:
-        if not rec.has(kind) or len(rec.stream(kind)) < 2:
-            continue
+        if not rec.has(kind) or (len(rec.stream(kind)) < 2 and n_win):
+            continue    # (a stream of one sample, e.g. a file cut after its first line: no window either way)
         res = resample_box(rec.t_s(kind), rec.values(kind), grid, WINDOW_STREAMS.get(kind, 0.1))
         grids[kind] = res
         data[kind] = res[idx] if n_win else np.empty((0, n, res.shape[1]))

@@ -172,3 +172,15 @@ def test_recording_shorter_than_a_window_gives_no_rows() -> None:
     win = make_windows(rec, WindowConfig(), margin_s=context_margin_s(groups, 2.56))
     assert len(win) == 0
     assert extract_features(win, groups).shape == (0, len(feature_names(groups)))
+
+
+def test_accelerometer_of_one_sample_gives_no_rows() -> None:
+    """A log whose accelerometer file holds one sample (cut after its first line) made `pdr classify` fail with
+    "ValueError: attempt to get argmax of an empty sequence" (the gait features of a one-sample placeholder)."""
+    rec = _ride(duration_s=30.0)
+    acc = rec.streams["acc"]
+    one = Recording({**rec.streams, "acc": SensorStream("acc", acc.t_ns[:1], acc.values[:1])}, t0_ns=rec.t0_ns)
+    groups = ("acc", "gyro", "gait", "coning", "pitch", "mag", "baro", *CTX)
+    win = make_windows(one, WindowConfig(), margin_s=context_margin_s(groups, 2.56))
+    assert len(win) == 0
+    assert extract_features(win, groups).shape == (0, len(feature_names(groups)))
