@@ -328,3 +328,27 @@ def check_units(recording: Recording, kinds: Iterable[str] | None = None,
     if not new:
         return recording
     return recording.with_streams(new, warnings=tuple(notes))
+
+
+#: Largest magnitude a sensor can report, per stream kind, in the kind's SI unit: far beyond any real sensor's range
+#: (high-g accelerometers: 200 g; gyros: 2000 deg/s = 35 rad/s; magnetometers: a few mT), so only a corrupt field
+#: reaches it (1e308 is finite, but its square overflows the filters). The limits of the service's uploads
+#: (server/plausibility.py ``MAX_ABS``).
+MAX_ABS_SI: Mapping[str, float] = {"acc": 1e4, "acc_uncal": 1e4, "gravity": 1e4, "lin_acc": 1e4, "gyro": 1e4,
+                                   "gyro_uncal": 1e4, "mag": 1e6, "mag_uncal": 1e6, "baro": 1e4}
+
+
+def check_ranges(recording: Recording, source: str) -> None:
+    """:class:`InputError` naming ``source``, the stream and its first sample (and time) with a value beyond
+    :data:`MAX_ABS_SI`.
+    """
+    for kind, limit in MAX_ABS_SI.items():
+        if not recording.has(kind):
+            continue
+        values = recording.values(kind)
+        rows = np.flatnonzero((np.abs(values) > limit).any(axis=1))
+        if rows.size:
+            i = int(rows[0])
+            raise InputError(f"sample {i} (t {recording.t_s(kind)[i]:.3f} s) holds a value of magnitude "
+                             f"{float(np.abs(values[i]).max()):.3g} {recording.stream(kind).spec.unit}, beyond any "
+                             f"sensor (limit {limit:g})", source=source, field=kind)

@@ -26,6 +26,7 @@ from pdr.io.matfile import is_mat
 from pdr.io.matfile import load as load_mat
 from pdr.io.text import read_bytes
 from pdr.recording import Recording
+from pdr.units import check_ranges
 
 #: Reader modules in the order they are sniffed (more specific formats first).
 READER_MODULES: tuple[str, ...] = (
@@ -133,6 +134,7 @@ def _logs_in(folder: Path) -> list[Path]:
 def read_recording(path: str | Path, format: str | None = None) -> Recording:
     """Read a log into a :class:`Recording`, detecting its format unless ``format`` is given. A gzip file or member
     cut short is read as far as it decompresses, with a warning naming it first (:func:`pdr.io.gz.cut_gzip_warnings`).
+    A sensor value beyond any sensor's range is an :class:`InputError` (:func:`pdr.units.check_ranges`).
     """
     p = Path(path)
     try:
@@ -152,6 +154,7 @@ def read_recording(path: str | Path, format: str | None = None) -> Recording:
         raise InputError("no such file or folder", source=str(p))
     with cut_gzip_warnings() as cut:
         rec = _read(module, p)
+    check_ranges(rec, str(p))
     return dataclasses.replace(rec, warnings=(*cut, *rec.warnings)) if cut else rec
 
 

@@ -163,3 +163,20 @@ def test_bad_structure(tmp_path):
     with pytest.raises(InputError, match="binary"):
         mobifall.read(garbage)
     assert mobifall.sniff(tmp_path / "missing.txt") is False
+
+
+@pytest.mark.parametrize(("value", "field"), [("1e308", "acc"), ("-2e4", "acc")])
+def test_value_beyond_any_sensor_names_file_and_stream(tmp_path, value, field):
+    """An accelerometer row of 1e308 m/s^2 (finite: the reader took it) made `pdr track` and `pdr classify` fail
+    with a traceback (numpy.linalg.LinAlgError: Array must not contain infs or NaNs) once the filters squared it."""
+    from pdr.io import read_recording
+
+    folder = tmp_path / "STU"
+    rows = [*ROWS[:2], ROWS[2].replace("10.0", value)]
+    _write(folder, "STU_acc_9_1.txt", rows)
+    _write(folder, "STU_gyro_9_1.txt", [r.replace("10.", "0.") for r in ROWS], HEADER.replace("Acceleration", "Rate"))
+    assert np.isfinite(mobifall.read(folder).values("acc")).all()      # the reader's own check: finite
+    with pytest.raises(InputError, match=r"sample 2 \(t 0.020 s\) holds a value of magnitude .* m/s\^2, beyond any "
+                                         r"sensor \(limit 10000\)") as err:
+        read_recording(folder)
+    assert (err.value.source, err.value.field) == (str(folder), field)
