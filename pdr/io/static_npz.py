@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
-from pdr.io.text import read_bytes, strip_gz
+from pdr.io.text import MAX_ABS_NS, read_bytes, strip_gz
 from pdr.recording import DeviceInfo, Recording, SensorStream
 from pdr.units import ACC_UNITS, GYRO_UNITS, MAG_UNITS, detect_acc_unit, detect_gyro_unit, detect_mag_unit
 
@@ -97,6 +97,9 @@ def read(path: str | Path) -> Recording:
         raise InputError(f"sampling rate must be a positive number of Hz, got {fs}", source=source, field="fs")
     if data.shape[0] < 2:
         raise InputError(f"need at least 2 samples, got {data.shape[0]}", source=source, field="data")
+    if not 1e9 / fs >= 1 or (data.shape[0] - 1) * (1e9 / fs) > MAX_ABS_NS:
+        raise InputError(f"sampling rate {fs:g} Hz gives no nanosecond time axis for {data.shape[0]} samples (a "
+                         "period of at least 1 ns, all within int64 nanoseconds)", source=source, field="fs")
     data = np.asarray(data, dtype=np.float64)
     finite = np.isfinite(data)
     if not finite.all():

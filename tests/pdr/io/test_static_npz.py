@@ -78,6 +78,11 @@ def test_ambiguous_accelerometer_is_rejected(tmp_path):
     ({"fs": -1.0}, "fs", "positive"),
     ({"fs": "fast"}, "fs", "not a number"),
     ({"data": np.zeros((1, 6))}, "data", "at least 2 samples"),
+    # a rate whose sample period is below 1 ns or whose time axis overflows int64 ns was "stream 'acc': timestamp of
+    # sample 1 (0) duplicates sample 0 (0)", without the file
+    ({"fs": 1e308}, "fs", "no nanosecond time axis"),
+    ({"fs": 2e9}, "fs", "no nanosecond time axis"),
+    ({"fs": 1e-308}, "fs", "no nanosecond time axis"),
     ({"data": np.array([["a"] * 6] * 3)}, "data", "numeric"),
 ])
 def test_bad_arrays_name_field(tmp_path, kwargs, field, match):
