@@ -123,14 +123,16 @@ def read(path: str | Path) -> Recording:
             raise InputError(f"cannot tell the accelerometer unit: median norm {norm:.4g} is neither ~1 (g) nor "
                              "~9.8 (m/s^2)", source=source, field=names[groups["acc"][0]])
         units["acc"] = unit
-        streams["acc"] = SensorStream("acc", t_ns, values["acc"] * ACC_UNITS[unit])
+        streams["acc"] = SensorStream("acc", t_ns,
+                                        _to_si(values["acc"], ACC_UNITS[unit], unit, groups["acc"], names, source))
     if "gyro" in values:
         unit, why = _gyro_unit(values["gyro"], t_s, values.get("acc"))
         if unit is None:
             raise InputError(f"cannot tell the gyroscope unit (deg/s or rad/s): {why}", source=source,
                              field=names[groups["gyro"][0]])
         units["gyro"] = unit
-        streams["gyro"] = SensorStream("gyro", t_ns, values["gyro"] * GYRO_UNITS[unit])
+        streams["gyro"] = SensorStream("gyro", t_ns,
+                                        _to_si(values["gyro"], GYRO_UNITS[unit], unit, groups["gyro"], names, source))
         if unit != "rad/s":
             warnings.append(f"gyro: values are in {unit} ({why}); converted to rad/s")
     if "mag" in values:
@@ -139,7 +141,8 @@ def read(path: str | Path) -> Recording:
             raise InputError("cannot tell the magnetometer unit (uT, G or nT)", source=source,
                              field=names[groups["mag"][0]])
         units["mag"] = unit
-        streams["mag"] = SensorStream("mag", t_ns, values["mag"] * MAG_UNITS[unit])
+        streams["mag"] = SensorStream("mag", t_ns,
+                                        _to_si(values["mag"], MAG_UNITS[unit], unit, groups["mag"], names, source))
     if units.get("acc", "m/s^2") != "m/s^2":
         warnings.append(f"acc: values are in {units['acc']} (median norm "
                         f"{float(np.median(np.linalg.norm(_thin(values['acc']), axis=1))):.4g}); converted to m/s^2")
@@ -147,6 +150,21 @@ def read(path: str | Path) -> Recording:
         warnings.append(f"mag: values are in {units['mag']}; converted to uT")
     return Recording(streams, device=DeviceInfo(platform="imu"), t0_ns=0, source=source, format=FORMAT,
                      warnings=tuple(warnings), meta={"fs_hz": fs, "columns": names, "units": units, "static": True})
+
+
+def _to_si(v: NDArray[np.float64], factor: float, unit: str, cols: list[int], names: list[str],
+           source: str) -> NDArray[np.float64]:
+    """``v`` (columns ``cols`` of the data, in ``unit``) times ``factor``; :class:`InputError` naming the sample and
+    column of a value that the factor takes beyond any float (1e308 g).
+    """
+    with np.errstate(over="ignore"):
+        out = v * factor
+    bad = ~np.isfinite(out)
+    if bad.any():
+        row, col = (int(x) for x in np.argwhere(bad)[0])
+        raise InputError(f"sample {row} ({v[row, col]:g} {unit}) is beyond any float once converted to SI",
+                         source=source, field=names[cols[col]])
+    return out
 
 
 def _thin(v: NDArray[np.float64]) -> NDArray[np.float64]:

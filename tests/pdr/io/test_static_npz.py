@@ -103,6 +103,17 @@ def test_nan_names_sample_and_column(tmp_path):
     assert err.value.field == "Accel. Y"
 
 
+def test_value_beyond_any_float_in_si_names_sample_and_column(tmp_path):
+    """1e308 g is a float, but not in m/s^2: it was refused as "stream 'acc': sample 42 is not finite", without the
+    file or the column."""
+    data, _, _ = _static(n=100)
+    data[42, 4] = 1e308
+    p = _save(tmp_path, data)
+    with pytest.raises(InputError, match=r"sample 42 \(1e\+308 g\) is beyond any float") as err:
+        static_npz.read(p)
+    assert (err.value.source, err.value.field) == (str(p), "Accel. Y")
+
+
 def test_missing_member_and_garbage(tmp_path):
     p = tmp_path / "m.npz"
     np.savez(p, data=np.zeros((3, 6)), columns=COLUMNS)
