@@ -80,6 +80,10 @@ def _classify(args: argparse.Namespace) -> int:
     """``pdr classify``: read, classify, write (:func:`run_classify`)."""
     rec = read_recording(args.log)
     print_warnings(rec.warnings)        # what the reader dropped (a cut-off last line, repeated samples, ...)
+    if not rec.has("acc"):              # as `pdr track`: no windows and no steps, so the CSV would be empty
+        why = "; ".join(w for w in rec.warnings if "acc" in w)
+        raise InputError("no accelerometer stream with gravity ('acc'): cannot classify" + (f" ({why})" if why else ""),
+                         source=str(args.log))
     t0 = rec.origin_ns / 1e9
     name, rows, step_modes = (args.model, None, None) if args.model else _placement_modes(rec, args.placement)
     if rows is None:

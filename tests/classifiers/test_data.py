@@ -171,6 +171,23 @@ def test_classify_cli_says_why_its_csv_is_empty(tmp_path, capsys, placement) -> 
     assert std.out.strip().endswith(f"{out}: 0 windows" if placement == "pocket" else f"{out}: 0 timeline entries")
 
 
+def test_classify_cli_refuses_a_log_without_accelerometer(tmp_path, capsys) -> None:
+    """A log whose accelerometer file is missing (a MobiFall folder with its gyro file only, a Sensor Logger export
+    without Accelerometer.csv) exited 0 with a header-only CSV and "the phone pipeline found no step, stop or elevator
+    ride in the log"; as `pdr track`, it is now an error naming the log (exit 2), and no CSV is written."""
+    from pdr.io import native
+    from pdr.recording import DeviceInfo, Recording, SensorStream
+
+    t = np.arange(500, dtype=np.int64) * 20_000_000
+    rec = Recording({"gyro": SensorStream("gyro", t, np.zeros((500, 3)))},
+                    device=DeviceInfo(platform="android", model="x", role="phone", placement="trouser_pocket"))
+    log = native.write(rec, tmp_path / "gyro_only")
+    out = tmp_path / "modes.csv"
+    assert main(["classify", str(log), "--out", str(out)]) == 2
+    assert f"error: {log}: no accelerometer stream with gravity ('acc'): cannot classify" in capsys.readouterr().err
+    assert not out.exists()
+
+
 def test_classify_cli_names_an_undetected_placement_plainly(tmp_path, capsys) -> None:
     """No placement in the log and no walking to detect it (the car trip driving_phone_mount/17): the notice said
     'a phone carried in the unknown placement'."""
