@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib
+import re
 import tempfile
 import zipfile
 import zlib
@@ -159,7 +160,19 @@ def read_recording(path: str | Path, format: str | None = None) -> Recording:
 
 
 def _read(module: ModuleType, p: Path) -> Recording:
-    """``module``'s recording of ``p``, from the content of a zip that the module reads as a folder or file."""
+    """``module``'s recording of ``p``, from the content of a zip that the module reads as a folder or file. A stream
+    that the data model refuses (a value or time the reader's own checks let through) is said naming ``p``.
+    """
+    try:
+        return _read_module(module, p)
+    except InputError as exc:
+        kind = re.fullmatch(r"stream '(\w+)'", exc.source or "")
+        if kind is None:
+            raise
+        raise InputError(exc.message, source=str(p), line=exc.line, field=exc.field or kind[1]) from None
+
+
+def _read_module(module: ModuleType, p: Path) -> Recording:
     if p.is_file() and is_zip(p) and not module.sniff(p):
         with unzipped(p) as inner:
             if module.sniff(inner):  # a reader of folders (or of the one file zipped): read the content

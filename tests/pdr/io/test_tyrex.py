@@ -241,6 +241,20 @@ def test_bad_lines_name_file_line_and_field(tmp_path, file, line, text, match):
         tyrex.read(folder)
 
 
+def test_times_a_tenth_of_a_nanosecond_apart_name_the_folder(tmp_path):
+    """Two rows 0.1 ns apart are in order in seconds but one nanosecond once rounded: the stream refused them as
+    "stream 'acc': timestamp of sample 2 (...) duplicates sample 1 (...)", naming neither folder nor file."""
+    from pdr.io import read_recording
+
+    folder = write_recording(tmp_path, gz=False)
+    lines = (folder / "accelerometer.txt").read_text().splitlines()
+    lines[2] = " ".join([repr(float(lines[1].split()[0]) + 1e-10), *lines[2].split()[1:]])
+    (folder / "accelerometer.txt").write_text("\n".join(lines) + "\n")
+    with pytest.raises(InputError, match="timestamp of sample 2 .* duplicates sample 1") as err:
+        read_recording(folder)
+    assert (err.value.source, err.value.field) == (str(folder), "acc")
+
+
 @pytest.mark.parametrize(("content", "match"), [("", "expected one number"), ("abc", "expected one number"),
                                                 ("1 2", "expected one number"),
                                                 ("1e300", r"time alignment 1e\+300 s is not a plausible offset"),
