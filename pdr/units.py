@@ -338,10 +338,25 @@ MAX_ABS_SI: Mapping[str, float] = {"acc": 1e4, "acc_uncal": 1e4, "gravity": 1e4,
                                    "gyro_uncal": 1e4, "mag": 1e6, "mag_uncal": 1e6, "baro": 1e4}
 
 
+#: Accepted distance of the norm of an attitude quaternion (``orientation``) from 1: the readers normalise them, so
+#: only a corrupt sample (a rotation vector of 1e308, read as the zero quaternion) is farther.
+QUATERNION_NORM_TOLERANCE = 0.5
+
+
 def check_ranges(recording: Recording, source: str) -> None:
     """:class:`InputError` naming ``source``, the stream and its first sample (and time) with a value beyond
-    :data:`MAX_ABS_SI`.
+    :data:`MAX_ABS_SI`, or an ``orientation`` that is no attitude (:data:`QUATERNION_NORM_TOLERANCE`).
     """
+    if recording.has("orientation"):
+        q = recording.values("orientation")
+        with np.errstate(over="ignore"):
+            norm = np.sqrt(np.einsum("ij,ij->i", q, q))
+        rows = np.flatnonzero(~(np.abs(norm - 1.0) <= QUATERNION_NORM_TOLERANCE))
+        if rows.size:
+            i = int(rows[0])
+            raise InputError(f"sample {i} (t {recording.t_s('orientation')[i]:.3f} s) is a quaternion of norm "
+                             f"{norm[i]:.3g} ({q[i].tolist()}), not an attitude (a unit quaternion)", source=source,
+                             field="orientation")
     for kind, limit in MAX_ABS_SI.items():
         if not recording.has(kind):
             continue

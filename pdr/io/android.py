@@ -24,6 +24,7 @@ def rotation_vector_to_q_nb(xyz: NDArray[np.float64], w: NDArray[np.float64] | N
         # One compiled pass, the same bits (pdr.io.android_kernel); not where it would load numba (pdr inspect).
         from pdr.io.android_kernel import q_nb_of_rotation_vectors
         return np.asarray(q_nb_of_rotation_vectors(v))
-    if w is None:
-        w = np.sqrt(np.clip(1.0 - np.sum(v * v, axis=1), 0.0, 1.0))
-    return quat.normalize(np.column_stack([np.asarray(w, dtype=np.float64), v]))
+    with np.errstate(over="ignore"):    # a corrupt 1e308 gives no attitude, refused by pdr.units.check_ranges
+        if w is None:
+            w = np.sqrt(np.clip(1.0 - np.sum(v * v, axis=1), 0.0, 1.0))
+        return quat.normalize(np.column_stack([np.asarray(w, dtype=np.float64), v]))

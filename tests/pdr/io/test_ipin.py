@@ -372,3 +372,15 @@ def test_first_gnss_fix_passes_over_bad_records_and_lines_that_only_contain_the_
     assert ipin.first_gnss_fix(log) == {"lat_deg": 49.4614, "lon_deg": 11.1115, "alt_m": 365.0,
                                         "horizontal_accuracy_m": 12.0, "unix_time_s": 1686732688.0}
     assert ipin.first_gnss_fix(b"ACCE;1.0;2.0;0;0;9.8;3\nGNSS;1.1\n") is None
+
+
+def test_attitude_of_a_corrupt_rotation_vector_names_file_and_stream(tmp_path):
+    """An AHRS row whose quaternion component is 1e308 (finite: the reader took it) was read as the zero quaternion,
+    no attitude, without a word (`pdr inspect` printed numpy's overflow warning, "s = (x.conj() * x).real")."""
+    from pdr.io import read_recording
+
+    p = _write(tmp_path, GOOD.replace("AHRS;0.073;100.020;1.0;2.0;3.0;0.0;0.0;0.0;3",
+                                      "AHRS;0.073;100.020;1.0;2.0;3.0;1e308;0.0;0.0;3"))
+    with pytest.raises(InputError, match=r"sample 0 \(t 0.073 s\) is a quaternion of norm 0 .*not an attitude") as err:
+        read_recording(p)
+    assert (err.value.source, err.value.field) == (str(p), "orientation")
