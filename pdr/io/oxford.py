@@ -102,6 +102,28 @@ def sniff(path: str | Path) -> bool:
     return _file_kind(p) is not None
 
 
+def near_miss(path: str | Path) -> str | None:
+    """Why a folder (or zip) that looks like a trial (its ``stepcounter.csv``) is not read as one, or None: the
+    accelerometer file that :func:`sniff` needs is missing, empty or not in the trial's form.
+    """
+    p = Path(path)
+    try:
+        if not (p.is_dir() or (p.is_file() and is_zip(p))):
+            return None
+        bundle = Bundle(p, anchor=STEPS_FILE)
+        if bundle.get(STEPS_FILE) is None:
+            return None
+        acc = bundle.get(ACC_FILE)
+    except (OSError, InputError):
+        return None
+    trial = f"an Oxford step-counter trial ({STEPS_FILE})"
+    if acc is None:
+        return f"{trial} without {ACC_FILE}, the accelerometer it is read from"
+    if not acc.strip():
+        return f"{trial} whose {ACC_FILE} is empty"
+    return f"{trial} whose {ACC_FILE} has lines that are not 'timestamp_ns,accuracy,x,y,z' in its first bytes"
+
+
 def _file_kind(p: Path) -> str | None:
     """``acc`` or ``validation`` for a single file: by its name when it carries one of ours, else by its content
     (every complete line of its first bytes has the fields of exactly one of the two layouts).

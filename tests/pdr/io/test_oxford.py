@@ -208,6 +208,26 @@ def test_binary_garbage_and_sniffing(tmp_path):
         oxford.read(folder / "stepcounter.csv")
 
 
+@pytest.mark.parametrize(("acc", "match"), [
+    (None, "without accelerometer.csv, the accelerometer it is read from"),
+    ([], "whose accelerometer.csv is empty"),
+    (["time,x,y,z", "1,2,3,4"], "whose accelerometer.csv has lines that are not 'timestamp_ns,accuracy,x,y,z'"),
+])
+def test_trial_folder_without_a_readable_accelerometer_says_so(tmp_path, acc, match):
+    """A trial folder whose accelerometer.csv is missing (as _Patient_1 of the dataset), empty or of another layout was
+    "not a supported log format (supported: ...); pass --format to force one"."""
+    from pdr.errors import UnknownFormatError
+    from pdr.io import read_recording
+
+    folder = _trial(tmp_path, acc or [], STEPS)
+    if acc is None:
+        (folder / "accelerometer.csv").unlink()
+    with pytest.raises(UnknownFormatError, match=f"not a readable log: an Oxford step-counter trial "
+                                                 rf"\(stepcounter.csv\) {match}") as err:
+        read_recording(folder)
+    assert err.value.source == str(folder)
+
+
 # ---------------------------------------------------------------------------------------------------------
 # zipped trial folders, renamed files, a log cut off mid-line
 
