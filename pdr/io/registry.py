@@ -78,12 +78,22 @@ def detect_format(path: str | Path) -> str:
     return str(_detect(Path(path)).FORMAT)
 
 
+def _check_path(p: Path) -> None:
+    """:class:`InputError` unless ``p`` is a file or a folder: a device, pipe or socket is no log (``/dev/zero`` would
+    be read without end, a named pipe would wait for a writer).
+    """
+    if not p.exists():
+        raise InputError("no such file or folder", source=str(p))
+    if not (p.is_file() or p.is_dir()):
+        raise InputError("not a regular file or folder (a device, pipe or socket): no log is read from it",
+                         source=str(p))
+
+
 def _detect(p: Path) -> ModuleType:
     """The reader module of ``p`` (:func:`detect_format`). The readers are imported in their sniffing order up to the
     first that recognises ``p``: an IPIN log does not import the eleven readers after it (7-11 ms of a process).
     """
-    if not p.exists():
-        raise InputError("no such file or folder", source=str(p))
+    _check_path(p)
     for name in READER_MODULES:
         module = importlib.import_module(name)
         if module.sniff(p):
@@ -151,8 +161,7 @@ def read_recording(path: str | Path, format: str | None = None) -> Recording:
     if module is None:
         raise UnknownFormatError(f"unknown format '{format}' (supported: {', '.join(format_names())})",
                                  source=str(p))
-    if not p.exists():
-        raise InputError("no such file or folder", source=str(p))
+    _check_path(p)
     with cut_gzip_warnings() as cut:
         rec = _read(module, p)
     check_ranges(rec, str(p))

@@ -121,6 +121,26 @@ def test_inspect_forced_wrong_format_is_a_clean_error(capsys, tmp_path):
     assert code == 2 and err.startswith(f"error: {garbage}") and "Traceback" not in err
 
 
+@pytest.mark.parametrize("fmt", [None, "ipin", "xio"])
+def test_inspect_named_pipe_is_a_clean_error(capsys, tmp_path, fmt):
+    """A named pipe (or /dev/zero) given with --format was opened and read: it waited for a writer without end (and
+    /dev/zero was read until a MemoryError traceback). A writer is opened here so that the old code ends too."""
+    import os
+    import threading
+
+    fifo = tmp_path / "log.txt"
+    os.mkfifo(fifo)
+
+    def writer() -> None:      # unblocks a reader that opens the pipe; left waiting when none does
+        with open(fifo, "wb"):
+            pass
+
+    threading.Thread(target=writer, daemon=True).start()
+    code, _, err = _run(capsys, "inspect", str(fifo), *(("--format", fmt) if fmt else ()))
+    os.close(os.open(fifo, os.O_RDONLY | os.O_NONBLOCK))        # releases the writer when nothing read the pipe
+    assert code == 2 and err.startswith(f"error: {fifo}: not a regular file or folder (a device, pipe or socket)")
+
+
 def test_inspect_without_log(capsys):
     code, _, err = _run(capsys, "inspect")
     assert code == 2 and err.startswith("error:")
