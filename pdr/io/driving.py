@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import sys
 import warnings as warning_filters
 from pathlib import Path
@@ -55,6 +54,7 @@ from pdr.io.text import (
     find_member,
     head,
     parse_float_rows,
+    parse_json,
     read_bytes,
     read_text,
     strip_gz,
@@ -258,10 +258,7 @@ def _read_trip(folder: Path) -> dict[str, Any] | None:
     member = find_member(folder, "viagem.json")
     if member is None:
         return None
-    try:
-        trip = json.loads(read_text(member))
-    except json.JSONDecodeError as exc:
-        raise InputError(f"not valid JSON ({exc.msg})", source=str(member), line=exc.lineno) from None
+    trip = parse_json(read_text(member), str(member), "not valid JSON")
     if not isinstance(trip, dict):
         raise InputError("expected a JSON object", source=str(member))
     for key in ("firstCollectionUptimeNanos", "lastCollectionUptimeNanos"):

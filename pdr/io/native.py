@@ -38,7 +38,7 @@ import numpy as np
 from pdr.errors import InputError
 from pdr.io.bundle import Bundle, is_zip
 from pdr.io.csvtable import parse_table
-from pdr.io.text import decode_text, head, read_bytes
+from pdr.io.text import decode_text, head, parse_json, read_bytes
 from pdr.io.time_order import keep_increasing
 from pdr.recording import STREAM_KINDS, DeviceInfo, GroundTruth, Labels, PositionTruth, Recording, SensorStream
 
@@ -510,10 +510,7 @@ def write_batch(recording: Recording, path: str | Path, *, session_id: str | Non
 
 
 def _load_json(text: str, source: str) -> Any:
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"invalid JSON: {exc.msg}", source=source, line=exc.lineno) from None
+    return parse_json(text, source)
 
 
 def sniff(path: str | Path) -> bool:

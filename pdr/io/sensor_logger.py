@@ -73,7 +73,7 @@ from pdr.errors import InputError
 from pdr.frames import GRAVITY_MPS2
 from pdr.io.bundle import Bundle, is_zip
 from pdr.io.csvtable import parse_table, split_header
-from pdr.io.text import decode_text, head, read_bytes, strip_gz
+from pdr.io.text import decode_text, head, parse_json, read_bytes, strip_gz
 from pdr.io.time_order import file_name, keep_increasing
 from pdr.recording import LOCATION_META, DeviceInfo, Recording, SensorStream
 
@@ -338,11 +338,7 @@ def read(path: str | Path) -> Recording:
     if p.is_dir() or (p.is_file() and (p.name.lower().endswith(".zip") or is_zip(p))):
         return _read_bundle(Bundle(p, anchor="Metadata.csv"), str(p))
     text = decode_text(read_bytes(p), str(p))
-    try:
-        obj = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"invalid JSON: {exc.msg}", source=str(p), line=exc.lineno) from None
-    return _read_json(obj, str(p))
+    return _read_json(parse_json(text, str(p)), str(p))
 
 
 def _read_json(obj: Any, source: str) -> Recording:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import gzip
 import io
+import json
 import mmap
 import re
 import warnings as warning_filters
@@ -15,7 +16,7 @@ import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import AnyStr
+from typing import Any, AnyStr
 
 import numpy as np
 from numpy.typing import NDArray
@@ -82,6 +83,20 @@ def decode_text(raw: bytes, source: str) -> str:
         if control > 0.01 * min(len(text), 65536):
             raise InputError("binary data where a text log was expected", source=source) from None
         return text
+
+
+def parse_json(text: str, source: str, what: str = "invalid JSON") -> Any:
+    """The JSON document ``text``; :class:`InputError` naming ``source`` (and the line) when it is not one, including
+    an integer of more digits than Python converts (4300) and arrays or objects nested deeper than its recursion.
+    """
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{what}: {exc.msg}", source=source, line=exc.lineno) from None
+    except ValueError as exc:       # an integer of more than 4300 digits
+        raise InputError(f"{what}: {exc}", source=source) from None
+    except RecursionError:
+        raise InputError(f"{what}: arrays or objects nested too deeply", source=source) from None
 
 
 def read_text(path: str | Path) -> str:

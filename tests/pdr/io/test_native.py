@@ -310,6 +310,25 @@ def test_binary_garbage_and_foreign_input(tmp_path):
     assert err.value.line == 2
 
 
+@pytest.mark.parametrize(("body", "match"), [
+    ('{"format": "pdr-batch/1", "t0_ns": ' + "9" * 5000 + "}", r"invalid JSON: Exceeds the limit \(4300 digits\)"),
+    ('{"format": "pdr-batch/1", "streams": ' + "[" * 100_000 + "]" * 100_000 + "}",
+     "invalid JSON: arrays or objects nested too deeply"),
+])
+def test_json_beyond_the_parser_names_the_file(tmp_path, body, match):
+    """A batch with an integer of 5000 digits or arrays nested 100 000 deep failed with a traceback (ValueError:
+    Exceeds the limit (4300 digits) for integer string conversion; RecursionError)."""
+    from pdr.io import sensor_logger
+
+    p = tmp_path / "batch.json"
+    p.write_text(body)
+    with pytest.raises(InputError, match=match) as err:
+        native.read(p)
+    assert err.value.source == str(p)
+    with pytest.raises(InputError, match=match):
+        sensor_logger.read(p)
+
+
 def test_meta_json_problems(tmp_path):
     folder = native.write(_simple(), tmp_path / "r")
     meta = json.loads((folder / "meta.json").read_text())
