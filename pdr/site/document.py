@@ -23,7 +23,8 @@ def read_site_document(path: str | Path) -> Any:
     """The parsed JSON of the site description at ``path``; :class:`InputError` naming the file if unreadable."""
     try:
         return json.loads(Path(path).read_text())
-    except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
+    # ValueError: invalid JSON, UTF-8 or an integer of more than 4300 digits; RecursionError: nested too deeply
+    except (OSError, ValueError, RecursionError) as exc:
         raise InputError(f"cannot read site description ({exc})", source=str(path)) from None
 
 

@@ -170,3 +170,19 @@ def test_every_ms_waypoint_lies_in_the_walkable_area(floor: str) -> None:
     assert plan.contains(p).all()
     # and the plan is not everything: the bounding box's corners and the rooms are not walkable
     assert plan.contains(np.array([[0.5, 0.5]])).tolist() == [False]
+
+
+@pytest.mark.parametrize(("body", "match"), [
+    ('{"floors": ' + "9" * 5000 + "}", r"Exceeds the limit \(4300 digits\)"),
+    ('{"floors": ' + "[" * 100_000 + "]" * 100_000 + "}", "maximum recursion depth"),
+])
+def test_site_json_beyond_the_parser_names_the_file(tmp_path, body, match):
+    """`pdr track --site` with an integer of 5000 digits or arrays nested 100 000 deep failed with a traceback
+    (ValueError: Exceeds the limit (4300 digits) for integer string conversion; RecursionError)."""
+    from pdr.site.document import read_site_document
+
+    p = tmp_path / "site.json"
+    p.write_text(body)
+    with pytest.raises(InputError, match=f"cannot read site description .*{match}") as err:
+        read_site_document(p)
+    assert err.value.source == str(p)
