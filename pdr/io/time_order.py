@@ -67,18 +67,22 @@ def keep_increasing(t: NDArray[np.generic], source: str, field: str, warnings: l
     if keep.all():
         return keep
     dropped = np.flatnonzero(~keep)
-    backward = int(np.count_nonzero(t[dropped] < latest[dropped - 1]))
-    first = int(dropped[0])
-
-    line = int(lines[first]) if lines is not None else None
-    place = f"{field}[{first}]" if places is None else f"{places[first]}.{field}"
-    at = f"line {line}" if line is not None else place
+    back = dropped[t[dropped] < latest[dropped - 1]]
+    backward = int(back.size)
     prefix = f"{what} " if what else ""
-    example = f"{latest[first - 1]} then {t[first]}"
+
+    def where(i: int) -> tuple[int | None, str, str, str]:
+        """Line (or None), place, where it is said and the times of sample ``i`` after the latest before it."""
+        line = int(lines[i]) if lines is not None else None
+        place = f"{field}[{i}]" if places is None else f"{places[i]}.{field}"
+        return line, place, f"line {line}" if line is not None else place, f"{latest[i - 1]} then {t[i]}"
+
     if backward > max(1.0, MAX_BACKWARD_FRACTION * t.size):
+        line, place, at, example = where(int(back[0]))      # the first going back, not an earlier repeat
         raise InputError(f"{prefix}time goes backwards in {backward} of {t.size} samples (first at {at}: "
                          f"{example}): the clock is broken", source=source, line=line,
                          field=field if line is not None else place)
+    _, _, at, example = where(int(dropped[0]))
     warnings.append(f"{file_name(source)}: {prefix}dropped {dropped.size} of {t.size} samples whose time repeats "
                     f"({dropped.size - backward}) or goes backwards ({backward}), first at {at} ({example})")
     return keep

@@ -71,6 +71,9 @@ def test_gz(tmp_path):
     (_text(3, ["0.01,1,x2,3,0,0,1"]), 5, "Gyroscope Y (deg/s)", "not a number"),
     (_text(3, ["0.01,1,2,3,0,NaN,1"]), 5, "Accelerometer Y (g)", "not finite"),
     (_text(3, ["0.001,1,2,3,0,0,1", "0.0015,1,2,3,0,0,1"]), 5, "Time (s)", "backwards in 2 of"),
+    # a repeated row (dropped) before the clock goes back: the error named the repeat's line 3 ("0.0025 then 0.0025")
+    (_text(3).replace("0.005,", "0.0025,") + "0.001,1,2,3,0,0,1\n0.0015,1,2,3,0,0,1\n", 5, "Time (s)",
+     r"backwards in 2 of 5 samples \(first at line 5: 2500000 then 1000000\)"),
     (HEADER.replace("(g)", "(furlongs)") + "\n0,1,2,3,0,0,1\n", 1, "Accelerometer X (furlongs)", "unknown"),
 ])
 def test_bad_input_names_file_line_field(tmp_path, text, line, field, match):
