@@ -155,6 +155,10 @@ def _fast(data_lines: list[str], header: tuple[str, ...], delimiter: str, decima
           ints: list[str]) -> dict[str, np.ndarray] | None:
     if not data_lines:
         return {h: np.empty(0, dtype=np.int64 if h in ints else np.float64) for h in header}
+    if data_lines[0].count(delimiter) >= len(header):
+        # More fields than the header: the exact path names the line. pandas would first make a column of every field
+        # of this line, the one it takes the table's width from (a line of 5 million commas: minutes and gigabytes).
+        return None
     import pandas as pd  # half a second of imports: only when a table is parsed (not to sniff a format)
 
     # Integer columns are read as text and converted by numpy, which takes plain integers only: pandas' int64
@@ -206,12 +210,13 @@ def _slow(data_lines: list[str], first: int, header: tuple[str, ...], source: st
     for i, line in enumerate(data_lines):
         if not line.strip():
             raise InputError("empty line inside the table", source=source, line=first + i)
-        fields = [f.strip().strip('"') for f in line.split(delimiter)]
-        if decimal != ".":
-            fields = [f.replace(decimal, ".") for f in fields]
+        fields = line.split(delimiter)
         if len(fields) != len(header):
             raise InputError(f"expected {len(header)} fields ({', '.join(header)}), found {len(fields)}",
                              source=source, line=first + i)
+        fields = [f.strip().strip('"') for f in fields]
+        if decimal != ".":
+            fields = [f.replace(decimal, ".") for f in fields]
         rows.append(fields)
     line_numbers = list(range(first, first + len(rows)))
     out: dict[str, np.ndarray] = {}

@@ -35,3 +35,17 @@ def test_float_precision_option_by_pandas_version() -> None:
 def test_bad_value_still_named_by_the_line_by_line_path() -> None:
     with pytest.raises(InputError, match="line 3.*'abc' is not a number|'abc' is not a number.*line 3"):
         csvtable.parse_table("t,x\n1,2.5\n2,abc\n", "t.csv")
+
+
+def test_first_row_wider_than_the_header_skips_pandas(monkeypatch: pytest.MonkeyPatch) -> None:
+    """An x-io log whose first row is 5 MB of commas ran for minutes and took gigabytes: pandas makes a column of every
+    field of the row it takes the table's width from. That row is now named by the line-by-line path at once."""
+    import pandas as pd
+
+    def no_pandas(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
+        raise AssertionError("pandas parsed a row wider than the header")
+
+    monkeypatch.setattr(pd, "read_csv", no_pandas)
+    with pytest.raises(InputError, match="expected 2 fields .*found 200001") as err:
+        csvtable.parse_table("t,x\n" + "," * 200_000 + "\n1,2\n", "t.csv")
+    assert err.value.line == 2
