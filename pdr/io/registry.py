@@ -83,7 +83,8 @@ def _check_path(p: Path) -> None:
     be read without end, a named pipe would wait for a writer).
     """
     if not p.exists():
-        raise InputError("no such file or folder", source=str(p))
+        raise InputError("a symbolic link that leads nowhere (a loop, or its target is missing)" if p.is_symlink()
+                         else "no such file or folder", source=str(p))
     if not (p.is_file() or p.is_dir()):
         raise InputError("not a regular file or folder (a device, pipe or socket): no log is read from it",
                          source=str(p))

@@ -141,6 +141,15 @@ def test_inspect_named_pipe_is_a_clean_error(capsys, tmp_path, fmt):
     assert code == 2 and err.startswith(f"error: {fifo}: not a regular file or folder (a device, pipe or socket)")
 
 
+@pytest.mark.parametrize("target", ["log.txt", "missing.txt"])
+def test_inspect_symbolic_link_to_nothing_says_so(capsys, tmp_path, target):
+    """A symbolic link to itself (a loop) or to a missing file was "no such file or folder", of a name that is there."""
+    link = tmp_path / "log.txt"
+    link.symlink_to(tmp_path / target)
+    code, _, err = _run(capsys, "inspect", str(link))
+    assert code == 2 and err.startswith(f"error: {link}: a symbolic link that leads nowhere (a loop, or its target")
+
+
 def test_inspect_without_log(capsys):
     code, _, err = _run(capsys, "inspect")
     assert code == 2 and err.startswith("error:")
