@@ -4,7 +4,9 @@
 stream ends before its end-of-stream marker: :func:`gzip.decompress` raises ``EOFError``) is refused too, except
 within :func:`cut_gzip_warnings` (:func:`pdr.io.registry.read_recording` reads every log so): there the bytes that
 decompress are returned and a warning naming the file is collected, for the recording's warnings. Data from which
-nothing decompresses, or that is not gzip at all, is refused either way.
+nothing decompresses, or that is not gzip at all, is refused either way. Bytes after the last whole member that are
+not gzip data (trailing garbage, as ``gzip -d`` warns of) are likewise ignored with a warning within
+:func:`cut_gzip_warnings`, and refused outside it.
 """
 
 from __future__ import annotations
@@ -57,7 +59,33 @@ def gunzip(raw: bytes, source: str) -> bytes:
                      f"{len(whole)} bytes that decompress")
         return whole
     except (OSError, zlib.error) as exc:      # zlib.error: a bad deflate block inside the gzip
-        raise InputError(f"corrupt gzip data ({exc})", source=source) from None
+        notes = _CUT.get()
+        trailing = None if notes is None else _trailing_bytes(raw)
+        if notes is None or not trailing:
+            raise InputError(f"corrupt gzip data ({exc})", source=source) from None
+        notes.append(f"{file_name(source)}: {trailing} bytes after the end of the gzip stream that are not gzip data "
+                     "ignored (the stream itself is whole)")
+        return decompressed_prefix(raw)
+
+
+def _trailing_bytes(raw: bytes) -> int:
+    """How many bytes follow the last gzip member of ``raw`` when every member before them is whole (checked by its
+    CRC) and they are not gzip data; 0 otherwise (no member, cut short, damaged, or nothing after the members).
+    """
+    if raw[:2] != GZIP_MAGIC:
+        return 0
+    while raw[:2] == GZIP_MAGIC:
+        stream = zlib.decompressobj(wbits=31)
+        try:
+            while raw and not stream.eof:
+                stream.decompress(raw, 1 << 20)
+                raw = stream.unconsumed_tail
+        except zlib.error:
+            return 0
+        if not stream.eof:
+            return 0
+        raw = stream.unused_data.lstrip(b"\x00")
+    return len(raw)
 
 
 def decompressed_prefix(raw: bytes, limit: int = 0) -> bytes:

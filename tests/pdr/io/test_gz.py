@@ -39,6 +39,25 @@ def test_what_is_not_gzip_or_gives_nothing_is_still_refused(raw):
     assert notes == []
 
 
+def test_trailing_bytes_after_a_whole_gzip_are_ignored_with_a_warning_only_when_asked():
+    """A whole gzip followed by bytes that are not gzip (a download's trailing junk; `gzip -d` warns "trailing garbage
+    ignored") was refused whole as "corrupt gzip data (Not a gzipped file (b'ga'))"; its members are read now, and
+    the warning names the file. A damaged member stays refused."""
+    text = b"".join(b"%d,%d\n" % (i, i * i) for i in range(5000))
+    packed = gzip.compress(text[:20000], mtime=0) + gzip.compress(text[20000:], mtime=0)
+    with pytest.raises(InputError, match="corrupt gzip data"):
+        gunzip(packed + b"garbage\x01", "/logs/walk.csv.gz")
+    with cut_gzip_warnings() as notes:
+        assert gunzip(packed + b"garbage\x01", "/logs/walk.csv.gz") == text
+    assert notes == ["walk.csv.gz: 8 bytes after the end of the gzip stream that are not gzip data ignored (the "
+                     "stream itself is whole)"]
+    damaged = bytearray(packed)
+    damaged[-30] ^= 0xFF                    # in the second member: its CRC fails
+    with cut_gzip_warnings() as notes, pytest.raises(InputError, match="corrupt gzip data"):
+        gunzip(bytes(damaged) + b"garbage", "x.gz")
+    assert notes == []
+
+
 def test_a_log_gzip_cut_mid_stream_is_read_with_a_warning_naming_it(tmp_path):
     """A .gz trace cut short (a copy or download stopped) was refused whole ('corrupt gzip data'); read_recording
     now reads the samples that decompress, the cut-off last line dropped, and says so first."""
