@@ -332,8 +332,8 @@ def check_units(recording: Recording, kinds: Iterable[str] | None = None,
 
 #: Largest magnitude a sensor can report, per stream kind, in the kind's SI unit: far beyond any real sensor's range
 #: (high-g accelerometers: 200 g; gyros: 2000 deg/s = 35 rad/s; magnetometers: a few mT), so only a corrupt field
-#: reaches it (1e308 is finite, but its square overflows the filters). The limits of the service's uploads
-#: (server/plausibility.py ``MAX_ABS``).
+#: reaches it (1e308 is finite, but its square overflows the filters). One table for the readers
+#: (:func:`check_ranges`) and the service's batches (``server.plausibility.check_units``).
 MAX_ABS_SI: Mapping[str, float] = {"acc": 1e4, "acc_uncal": 1e4, "gravity": 1e4, "lin_acc": 1e4, "gyro": 1e4,
                                    "gyro_uncal": 1e4, "mag": 1e6, "mag_uncal": 1e6, "baro": 1e4}
 

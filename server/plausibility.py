@@ -49,11 +49,6 @@ _DETECT = {"acc": units.detect_acc_unit, "mag": units.detect_mag_unit, "pressure
 _FAMILY = {"acc": "acc", "acc_uncal": "acc", "gravity": "acc", "mag": "mag", "mag_uncal": "mag", "baro": "pressure"}
 
 
-#: Largest magnitude a sensor can physically report, per unit family (SI): far beyond any real sensor's range
-#: (high-g accelerometers: 200 g; gyros: 2000 deg/s = 35 rad/s), so only corrupt or mis-scaled data hits it.
-MAX_ABS = {"acc": 1e4, "gyro": 1e4, "mag": 1e6, "pressure": 1e4}
-_RANGE_FAMILY = {**_FAMILY, "gyro": "gyro", "gyro_uncal": "gyro"}
-
 
 def check_device(d: DeviceInfo) -> None:
     """422 if the device's placement contradicts its role (phone PDR and foot navigation need their own sensor)."""
@@ -81,9 +76,8 @@ def check_units(recording: Recording) -> None:
                 raise APIError(422, f"stream '{kind}' looks like {detected}, but batches carry {_SI[family]} "
                                     f"(multiply by {units._UNITS_OF[family][detected]:g}); batch not stored",
                                details={"field": f"streams.{kind}.values", "detected_unit": detected})
-        bound_family = _RANGE_FAMILY.get(kind)
-        if bound_family is not None and len(stream):
-            limit = MAX_ABS[bound_family]
+        limit = units.MAX_ABS_SI.get(kind)        # beyond any sensor: the readers' limits
+        if limit is not None and len(stream):
             i = _first_sample(np.abs(stream.values) > limit)
             if i is not None:
                 raise APIError(422, f"stream '{kind}' sample {i} holds a value of magnitude "
