@@ -258,7 +258,8 @@ class StepLengthModel:
     def load(cls, path: str | Path) -> StepLengthModel:
         try:
             d = json.loads(Path(path).read_text())
-        except (OSError, json.JSONDecodeError) as exc:
+        # ValueError: invalid JSON, UTF-8 or an integer of more than 4300 digits; RecursionError: nested too deeply
+        except (OSError, ValueError, RecursionError) as exc:
             raise InputError(f"cannot read calibration ({exc})", source=str(path)) from None
         if not isinstance(d, dict) or not isinstance(d.get("step_length"), dict):
             raise InputError("expected an object with a 'step_length' object", source=str(path))

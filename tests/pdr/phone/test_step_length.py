@@ -57,6 +57,12 @@ def test_calibrate_and_save_load(tmp_path):
     (tmp_path / "bad.json").write_text(json.dumps({"x": 1}))
     with pytest.raises(InputError, match="step_length"):
         StepLengthModel.load(tmp_path / "bad.json")
+    # Not a JSON document Python reads: an integer of 5000 digits, arrays nested 100 000 deep, not UTF-8.
+    for text in ('{"a": ' + "9" * 5000 + "}", "[" * 100_000 + "]" * 100_000, b"\xff{}"):
+        bad = tmp_path / "unreadable.json"
+        bad.write_bytes(text if isinstance(text, bytes) else text.encode())
+        with pytest.raises(InputError, match="cannot read calibration"):
+            StepLengthModel.load(bad)
     with pytest.raises(InputError, match="at least 5"):
         calibrate_k(m, pats[:2], 3.0)
     with pytest.raises(InputError, match="at least 5"):   # steps on stairs do not inform K
