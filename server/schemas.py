@@ -159,18 +159,30 @@ def _property(error: jsonschema.ValidationError) -> str:
 
 
 #: How a value that the JSON parser takes but nothing after it can hold appears in a body: an integer literal of 309
-#: digits or more (beyond any float64, 1.8e308: ``float()`` and numpy raise OverflowError on it), or a ``\\u`` escape
-#: of a UTF-16 surrogate (alone, it is no character: text holding one cannot be encoded as UTF-8, nor stored). A body
-#: with neither, nearly every one, is not walked (:func:`check_representable`).
-_SUSPECT = re.compile(rb"\d{309}|\\u[dD][89a-fA-F]")
-_SURROGATE = re.compile("[\ud800-\udfff]")
+#: digits or more (beyond any float64, 1.8e308: ``float()`` and numpy raise OverflowError on it), a ``\\u`` escape
+#: of a UTF-16 surrogate (alone, it is no character: text holding one cannot be encoded as UTF-8, nor stored), or the
+#: ``\\u0000`` of a NUL character (PostgreSQL refuses it in text). A body with none, nearly every one, is not walked
+#: (:func:`check_representable`).
+_SUSPECT = re.compile(rb"\d{309}|\\u[dD][89a-fA-F]|\\u0000")
+_UNSTORABLE = re.compile("[\x00\ud800-\udfff]")
+
+
+def _unstorable(text: str) -> str | None:
+    """Why ``text`` cannot be stored (a NUL character, a lone surrogate), or None."""
+    found = _UNSTORABLE.search(text)
+    if found is None:
+        return None
+    if found.group() == "\x00":
+        return "a NUL character (\\u0000), which PostgreSQL cannot store in text"
+    return "a lone UTF-16 surrogate (a \\ud800-\\udfff escape that is not half of a pair)"
 
 
 def check_representable(body: Any, raw: bytes, what: str, prefix: str = "") -> None:
     r"""Raise a 422 naming the field (its JSON path, after ``prefix``) of the first value of ``body``, parsed from
     ``raw``, that nothing after the parser can hold: an integer beyond any float64 (``1`` and 400 zeros), or text with
-    a lone UTF-16 surrogate (``"\ud800"``), as a value or a key. Python's parser takes both; the first overflowed
-    where it was made a float, the second failed to be stored.
+    a lone UTF-16 surrogate (``"\ud800"``) or a NUL character (``"\u0000"``), as a value or a key. Python's parser
+    takes them all; the first overflowed where it was made a float, the others failed to be stored (a NUL in
+    PostgreSQL only).
     """
     if _SUSPECT.search(raw) is None:
         return
@@ -180,13 +192,13 @@ def check_representable(body: Any, raw: bytes, what: str, prefix: str = "") -> N
         why = None
         if isinstance(value, int) and not isinstance(value, bool) and abs(value) > sys.float_info.max:
             why = f"an integer of {len(str(abs(value)))} digits is beyond any number (at most 1.8e308)"
-        elif isinstance(value, str) and _SURROGATE.search(value):
-            why = "the text holds a lone UTF-16 surrogate (a \\ud800-\\udfff escape that is not half of a pair)"
+        elif isinstance(value, str) and (fault := _unstorable(value)):
+            why = f"the text holds {fault}"
         elif isinstance(value, dict):
-            items = [(".".join(p for p in (path, _SURROGATE.sub("?", k)) if p), k, v) for k, v in value.items()]
-            bad = next((field for field, k, _ in items if _SURROGATE.search(k)), None)
+            items = [(".".join(p for p in (path, _UNSTORABLE.sub("?", k)) if p), k, v) for k, v in value.items()]
+            bad = next(((field, _unstorable(k)) for field, k, _ in items if _unstorable(k)), None)
             if bad is not None:
-                path, why = bad, "the key holds a lone UTF-16 surrogate"
+                path, why = bad[0], f"the key holds {bad[1]}"
             stack += [(field, v) for field, _, v in reversed(items)]
         elif isinstance(value, list):
             stack += [(f"{path}[{i}]", v) for i, v in reversed(list(enumerate(value)))]

@@ -717,6 +717,58 @@ def test_an_integer_beyond_any_float_or_a_lone_surrogate_is_a_422_naming_its_fie
     assert c.get("/api/v1/groups", headers=h).get_json()["groups"] == []
 
 
+#: A NUL character, which PostgreSQL refuses in text ("\\u0000" in a JSON string).
+NUL_TEXT = '"a\\u0000b"'
+
+#: (route, body, path of the text, its field in the answer): text that ends up in a column, on every JSON route.
+NUL_FIELDS = [
+    ("/api/v1/sessions", {"session_id": "n", "name": "x"}, ("name",), "name"),
+    ("/api/v1/sessions", {"session_id": "n", "device": {"model": "x"}}, ("device", "model"), "device.model"),
+    ("/api/v1/sessions/{sid}/devices", {"role": "left_foot", "device_id": "x"}, ("device_id",), "device_id"),
+    ("/api/v1/sessions/{sid}/batches", phone_batch("u", 100.0), ("device", "device_id"), "device.device_id"),
+    ("/api/v1/sessions/{sid}/batches", phone_batch("u", 100.0), ("session_id",), "session_id"),
+    ("/api/v1/ingest/sensor-logger", _MESSAGE, ("sessionId",), "sessionId"),
+    ("/api/v1/ingest/sensor-logger", _MESSAGE, ("deviceId",), "deviceId"),
+    ("/api/v1/ingest/sensor-logger", _MESSAGE, ("messageId",), "messageId"),
+    ("/api/v1/sites", _SITE, ("name",), "name"),
+    ("/api/v1/groups", {"name": "g"}, ("name",), "name"),
+]
+
+
+@pytest.mark.parametrize(("route", "body", "path", "field"), NUL_FIELDS, ids=[f"{r}:{f}" for r, _, _, f in NUL_FIELDS])
+def test_text_with_a_nul_character_is_a_422_naming_its_field_and_stores_nothing(env, route, body, path, field):
+    """A NUL character ("\\u0000") in a JSON string was stored as it came in SQLite and was a 500 in PostgreSQL, which
+    refuses it in text (a session's name, a device's model or id, a Sensor Logger sessionId, a site's or group's
+    name; tests/server/test_postgres.py). It is a 422 naming the field now, before anything is stored, on every
+    database; the Sensor Logger app gets its 499 naming it."""
+    app, c, h, sid = env
+    before = _snapshot(app, c, h, sid), c.get("/api/v1/sessions", headers=h).get_json()
+    r = c.post(route.format(sid=sid), data=_with(body, path, NUL_TEXT), headers=h, content_type="application/json")
+    if "sensor-logger" in route:
+        assert r.status_code == 499 and field in r.get_data(as_text=True), r.get_data()[:300]
+        assert "NUL" in r.get_data(as_text=True)
+    else:
+        assert r.status_code == 422, r.get_data()[:300]
+        assert r.get_json()["error"]["details"]["field"] == field and "NUL" in r.get_json()["error"]["message"]
+    assert (_snapshot(app, c, h, sid), c.get("/api/v1/sessions", headers=h).get_json()) == before
+    assert c.get("/api/v1/sites", headers=h).get_json()["sites"] == []
+    assert c.get("/api/v1/groups", headers=h).get_json()["groups"] == []
+
+
+def test_a_processing_form_field_or_json_key_with_a_nul_character_is_a_422_naming_it(env):
+    app, c, h, sid = env
+    log = json.dumps(phone_batch("f", 0.0, duration_s=2.0)).encode()
+    body, ctype = multipart({"file": (log, "walk.json"), "processing": '{"site_id": "a\\u0000b"}'})
+    r = c.post("/api/v1/sessions", data=body, content_type=ctype, headers=h)
+    assert r.status_code == 422, r.get_data()[:300]
+    assert r.get_json()["error"]["details"]["field"] == "processing.site_id"
+    r = c.post("/api/v1/sessions", data=b'{"session_id": "k", "processing": {"site": {"a\\u0000": 1}}}', headers=h,
+               content_type="application/json")
+    assert r.status_code == 422, r.get_data()[:300]
+    assert r.get_json()["error"]["details"]["field"] == "processing.site.a?"
+    assert [s["id"] for s in c.get("/api/v1/sessions", headers=h).get_json()["sessions"]] == [sid]
+
+
 def test_a_site_file_or_processing_form_field_with_an_integer_beyond_any_float_is_a_422_naming_the_field(env):
     app, c, h, _ = env
     body, ctype = multipart({"file": (_with(_SITE, ("floors", 0, "floor"), HUGE_INT), "site.json")})

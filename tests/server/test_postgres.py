@@ -70,3 +70,29 @@ def test_postgres_stores_an_uploaded_file_of_a_long_name_and_refuses_overlong_ke
     finally:
         app.extensions["pdr"].worker.stop()
         app.extensions["pdr"].store.engine.dispose()
+
+
+def test_postgres_refuses_text_it_cannot_store_with_a_4xx_naming_the_field(tmp_path, pg_database):  # noqa: F811
+    """PostgreSQL refuses a NUL character in text (SQLite stores it): a session's name "a\\u0000b", a Sensor Logger
+    deviceId and a group's name holding one were 500s. Each is a 422 (the app's 499) naming the field, with nothing
+    stored."""
+    app = make_app(tmp_path, database_url=pg_database)
+    try:
+        svc = app.extensions["pdr"]
+        with svc.store.engine.begin() as conn:
+            h = bearer(auth.add_user(conn, "pg-user"))
+        c = app.test_client()
+        resp = c.post("/api/v1/sessions", json={"session_id": "nul", "name": "a\x00b"}, headers=h)
+        assert resp.status_code == 422 and resp.get_json()["error"]["details"]["field"] == "name", resp.get_data()
+        message = {"messageId": 1, "sessionId": "sl", "deviceId": "phone\x00", "payload": [
+            {"name": "accelerometer", "time": 1_700_000_000_000_000_000 + i * 10_000_000,
+             "values": {"x": 0.0, "y": 0.0, "z": 9.81}} for i in range(3)]}
+        resp = c.post("/api/v1/ingest/sensor-logger", json=message, headers=h)
+        assert resp.status_code == 499 and "deviceId" in resp.get_data(as_text=True), resp.get_data()[:300]
+        resp = c.post("/api/v1/groups", json={"name": "team\x00"}, headers=h)
+        assert resp.status_code == 422 and resp.get_json()["error"]["details"]["field"] == "name", resp.get_data()
+        assert c.get("/api/v1/sessions", headers=h).get_json()["sessions"] == []
+        assert c.get("/api/v1/groups", headers=h).get_json()["groups"] == []
+    finally:
+        app.extensions["pdr"].worker.stop()
+        app.extensions["pdr"].store.engine.dispose()
