@@ -11,7 +11,7 @@ from werkzeug.middleware.proxy_fix import ProxyFix
 
 from server import migrations, reliability, scaleout
 from server.access_log import AccessLogMiddleware
-from server.api import Services
+from server.api import Services, refuse_nul_in_url
 from server.config import Settings, load_settings
 from server.db import make_engine
 from server.errors import register_error_handlers
@@ -66,6 +66,7 @@ def create_app(test_config: dict[str, Any] | None = None) -> Flask:
     app.extensions["pdr"] = Services(settings, store, processing, worker,
                                      scaleout.failure_limiter(settings), report_runner)
     register_error_handlers(app)
+    app.before_request(refuse_nul_in_url)   # before any view compares it with the database's text
 
     # Outermost first: the real client address (trusted proxies), the access log, then the body limits.
     app.wsgi_app = BodyLimitMiddleware(app.wsgi_app, body_limit_of(settings))  # type: ignore[method-assign]

@@ -83,6 +83,18 @@ def only_query_parameters(*names: str) -> None:
         raise APIError(400, f"unknown query parameter '{name[:40]}': {takes}", details={"field": name[:40]})
 
 
+def refuse_nul_in_url() -> None:
+    """400 naming the path segment or query parameter of the request that holds a NUL character (``%00``), before the
+    view runs (the app's ``before_request``): no id or name holds one, and PostgreSQL refuses it in the text an id is
+    compared with (a 500 before).
+    """
+    for name, value in [*(request.view_args or {}).items(), *request.args.items(multi=True)]:
+        if "\x00" in name or (isinstance(value, str) and "\x00" in value):
+            field = name.replace("\x00", "?")[:40]
+            raise APIError(400, f"the URL's '{field}' holds a NUL character (%00), which no id or name holds",
+                           details={"field": field})
+
+
 def no_query_parameters() -> None:
     """400 naming the first query parameter of a request to a list that takes none (every item is listed: no
     paging or filter), rather than ignoring it (``?limit=5`` would answer them all).

@@ -321,6 +321,23 @@ def test_404_of_a_very_long_id_quotes_a_short_prefix_of_it(client, tokens, route
     assert len(err["message"]) < 200, len(err["message"])
 
 
+@pytest.mark.parametrize(("method", "route", "field"), [
+    ("GET", "sessions/a%00b", "session_id"), ("DELETE", "sessions/a%00b", "session_id"),
+    ("GET", "sessions/a%00b/track", "session_id"), ("POST", "sessions/a%00b/reprocess", "session_id"),
+    ("GET", "groups/a%00b", "group_id"), ("DELETE", "groups/a%00b", "group_id"), ("GET", "sites/a%00b", "site_id"),
+    ("DELETE", "sites/a%00b", "site_id"), ("GET", "reports/a%00b", "report_id"),
+    ("GET", "reports/x/files/a%00b", "name"), ("GET", "groups/{group}/tracks?agent=a%00b", "agent"),
+    ("GET", "sessions?x%00=1", "x?")])
+def test_400_a_nul_character_in_the_url_names_the_parameter(client, tokens, method, route, field):
+    """A NUL character (%00) in a path segment or query parameter was a 500 on PostgreSQL, which refuses it in the text
+    the id was compared with (GET /api/v1/sessions/a%00b, a group's tracks of agent a%00b): a 400 naming it, on every
+    database (tests/server/test_postgres.py)."""
+    h = bearer(tokens["alice"])
+    group = client.post("/api/v1/groups", json={"name": "g"}, headers=h).get_json()["id"]
+    err = assert_error(client.open(f"/api/v1/{route.format(group=group)}", method=method, headers=h), 400, "NUL")
+    assert err["details"]["field"] == field
+
+
 @pytest.mark.parametrize(("change", "field"), [({"name": "Evening walk"}, "name"), ({"placement": "hand"}, "placement"),
                                                ({"origin": {"lat_deg": 49.0, "lon_deg": 11.0}}, "origin"),
                                                ({"processing": {"foot": {"zaru": False}}}, "processing")])

@@ -75,7 +75,7 @@ def test_postgres_stores_an_uploaded_file_of_a_long_name_and_refuses_overlong_ke
 def test_postgres_refuses_text_it_cannot_store_with_a_4xx_naming_the_field(tmp_path, pg_database):  # noqa: F811
     """PostgreSQL refuses a NUL character in text (SQLite stores it): a session's name "a\\u0000b", a Sensor Logger
     deviceId and a group's name holding one were 500s. Each is a 422 (the app's 499) naming the field, with nothing
-    stored."""
+    stored. So were GET /api/v1/sessions/a%00b and a group's tracks of agent a%00b: a 400 naming the parameter."""
     app = make_app(tmp_path, database_url=pg_database)
     try:
         svc = app.extensions["pdr"]
@@ -93,6 +93,12 @@ def test_postgres_refuses_text_it_cannot_store_with_a_4xx_naming_the_field(tmp_p
         assert resp.status_code == 422 and resp.get_json()["error"]["details"]["field"] == "name", resp.get_data()
         assert c.get("/api/v1/sessions", headers=h).get_json()["sessions"] == []
         assert c.get("/api/v1/groups", headers=h).get_json()["groups"] == []
+
+        group = c.post("/api/v1/groups", json={"name": "team"}, headers=h).get_json()["id"]
+        for url, field in [("/api/v1/sessions/a%00b", "session_id"), ("/api/v1/sites/a%00b", "site_id"),
+                           (f"/api/v1/groups/{group}/tracks?agent=a%00b", "agent")]:
+            resp = c.get(url, headers=h)
+            assert resp.status_code == 400 and resp.get_json()["error"]["details"]["field"] == field, url
     finally:
         app.extensions["pdr"].worker.stop()
         app.extensions["pdr"].store.engine.dispose()
