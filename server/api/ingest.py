@@ -78,7 +78,8 @@ def _ingest() -> Response:
     t_first, t_last = time_span_ns(recording, "payload")
     sid, created = svc.store.create_session(user.id, source="sensor_logger",
                                             client_session_id=str(message["sessionId"]),
-                                            name=f"Sensor Logger {message['sessionId']}", placement=placement)
+                                            name=f"Sensor Logger {message['sessionId']}"[:MAX_NAME_CHARS],
+                                            placement=placement)
     known = None if created else svc.store.session_row(sid).placement
     if not created and known != placement:
         raise APIError(422, f"placement '{placement}' differs from the session's ('{known}'): use one push URL "
@@ -93,6 +94,10 @@ def _ingest() -> Response:
     geo_reference(sid, recording)
     return jsonify({"status": "ok", "session": sid, "duplicate": not accepted.created})
 
+
+#: Longest session name (``sessions.name``, a VARCHAR(200) that PostgreSQL enforces); a sessionId may have 200
+#: characters, and the name adds 'Sensor Logger ' to it.
+MAX_NAME_CHARS = 200
 
 #: ``?standardised=`` spellings of the app's "Standardise Units & Frames" setting.
 STANDARDISED = {"1": True, "true": True, "0": False, "false": False}

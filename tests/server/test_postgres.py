@@ -75,7 +75,9 @@ def test_postgres_stores_an_uploaded_file_of_a_long_name_and_refuses_overlong_ke
 def test_postgres_refuses_text_it_cannot_store_with_a_4xx_naming_the_field(tmp_path, pg_database):  # noqa: F811
     """PostgreSQL refuses a NUL character in text (SQLite stores it): a session's name "a\\u0000b", a Sensor Logger
     deviceId and a group's name holding one were 500s. Each is a 422 (the app's 499) naming the field, with nothing
-    stored. So were GET /api/v1/sessions/a%00b and a group's tracks of agent a%00b: a 400 naming the parameter."""
+    stored. A Sensor Logger sessionId of 200 characters (the most it may have) was a 500, its session's name
+    'Sensor Logger ID' over the 200 of sessions.name: the name is cut there. So were GET /api/v1/sessions/a%00b and a
+    group's tracks of agent a%00b: a 400 naming the parameter."""
     app = make_app(tmp_path, database_url=pg_database)
     try:
         svc = app.extensions["pdr"]
@@ -89,6 +91,12 @@ def test_postgres_refuses_text_it_cannot_store_with_a_4xx_naming_the_field(tmp_p
              "values": {"x": 0.0, "y": 0.0, "z": 9.81}} for i in range(3)]}
         resp = c.post("/api/v1/ingest/sensor-logger", json=message, headers=h)
         assert resp.status_code == 499 and "deviceId" in resp.get_data(as_text=True), resp.get_data()[:300]
+        resp = c.post("/api/v1/ingest/sensor-logger", json=message | {"sessionId": "s" * 200, "deviceId": "d"},
+                      headers=h)
+        assert resp.status_code == 200, resp.get_data()[:300]
+        (session,) = c.get("/api/v1/sessions", headers=h).get_json()["sessions"]
+        assert session["session_id"] == "s" * 200 and len(session["name"]) == 200
+        svc.processing.delete(session["id"])
         resp = c.post("/api/v1/groups", json={"name": "team\x00"}, headers=h)
         assert resp.status_code == 422 and resp.get_json()["error"]["details"]["field"] == "name", resp.get_data()
         assert c.get("/api/v1/sessions", headers=h).get_json()["sessions"] == []

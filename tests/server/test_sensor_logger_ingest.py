@@ -41,6 +41,18 @@ def test_push_messages_with_duplicate_and_reorder(app, client, tokens):
     assert pts == sorted(pts, key=lambda p: p["t_s"])
 
 
+def test_a_session_id_of_200_characters_is_taken_whole_and_the_session_named_within_200(app, client, tokens):
+    """A sessionId of 187 to 200 characters (the most it may have) made a session name of up to 214, 'Sensor Logger '
+    and the id: stored so in SQLite, a 500 in PostgreSQL, whose sessions.name holds 200 (tests/server/test_postgres.py).
+    The session keeps the whole id; its name is cut at 200 characters."""
+    key = "s" * 200
+    msg = _messages(1)[0] | {"sessionId": key}
+    assert client.post(f"{URL}?token={tokens['alice']}", json=msg).status_code == 200
+    (session,) = client.get("/api/v1/sessions", headers=bearer(tokens["alice"])).get_json()["sessions"]
+    assert session["session_id"] == key
+    assert session["name"] == f"Sensor Logger {key}"[:200]
+
+
 def test_user_visible_errors_are_499_text(client, tokens):
     msg = _messages(1)[0]
     no_token = client.post(URL, json=msg)
