@@ -53,7 +53,11 @@ def _uploaded_document() -> tuple[Any, str, int]:
         except RecursionError:
             raise APIError(400, "site file is JSON nested too deeply", details={"field": "file"}) from None
         check_representable(document, payload, "site file")
-        return document, request.form.get("name") or upload.filename or "", len(payload)
+        field, name = ("name", request.form["name"]) if request.form.get("name") else ("file", upload.filename or "")
+        if "\x00" in name:   # PostgreSQL refuses it in text
+            raise APIError(422, f"the site's {'name' if field == 'name' else 'file name'} holds a NUL character",
+                           details={"field": field})
+        return document, name, len(payload)
     document = json_body("site")
     return document, "", request.content_length or len(request.get_data())
 

@@ -74,10 +74,10 @@ def test_postgres_stores_an_uploaded_file_of_a_long_name_and_refuses_overlong_ke
 
 def test_postgres_refuses_text_it_cannot_store_with_a_4xx_naming_the_field(tmp_path, pg_database):  # noqa: F811
     """PostgreSQL refuses a NUL character in text (SQLite stores it): a session's name "a\\u0000b", a Sensor Logger
-    deviceId and a group's name holding one were 500s. Each is a 422 (the app's 499) naming the field, with nothing
-    stored. A Sensor Logger sessionId of 200 characters (the most it may have) was a 500, its session's name
-    'Sensor Logger ID' over the 200 of sessions.name: the name is cut there. So were GET /api/v1/sessions/a%00b and a
-    group's tracks of agent a%00b: a 400 naming the parameter."""
+    deviceId, a group's name and a site file's name field holding one were 500s. Each is a 422 (the app's 499) naming
+    the field, with nothing stored. A Sensor Logger sessionId of 200 characters (the most it may have) was a 500, its
+    session's name 'Sensor Logger ID' over the 200 of sessions.name: the name is cut there. So were GET
+    /api/v1/sessions/a%00b and a group's tracks of agent a%00b: a 400 naming the parameter."""
     app = make_app(tmp_path, database_url=pg_database)
     try:
         svc = app.extensions["pdr"]
@@ -99,8 +99,14 @@ def test_postgres_refuses_text_it_cannot_store_with_a_4xx_naming_the_field(tmp_p
         svc.processing.delete(session["id"])
         resp = c.post("/api/v1/groups", json={"name": "team\x00"}, headers=h)
         assert resp.status_code == 422 and resp.get_json()["error"]["details"]["field"] == "name", resp.get_data()
+        body, ctype = multipart({"file": (b'{"floors": [{"floor": 0, "walkable": {"type": "Polygon", "coordinates": '
+                                          b'[[[0, 0], [9, 0], [9, 9], [0, 9], [0, 0]]]}}]}', "hall.json"),
+                                 "name": "hall\x00"})
+        resp = c.post("/api/v1/sites", data=body, content_type=ctype, headers=h)
+        assert resp.status_code == 422 and resp.get_json()["error"]["details"]["field"] == "name", resp.get_data()
         assert c.get("/api/v1/sessions", headers=h).get_json()["sessions"] == []
         assert c.get("/api/v1/groups", headers=h).get_json()["groups"] == []
+        assert c.get("/api/v1/sites", headers=h).get_json()["sites"] == []
 
         group = c.post("/api/v1/groups", json={"name": "team"}, headers=h).get_json()["id"]
         for url, field in [("/api/v1/sessions/a%00b", "session_id"), ("/api/v1/sites/a%00b", "site_id"),

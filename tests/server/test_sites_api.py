@@ -154,6 +154,19 @@ def test_a_site_upload_that_is_not_a_site_gets_a_4xx(client: FlaskClient, tokens
     assert resp.status_code == 422 and "site" in resp.get_json()["error"]["message"]
 
 
+@pytest.mark.parametrize(("fields", "field"), [({"name": "hall\x00"}, "name"), ({}, "file")])
+def test_a_site_file_whose_name_holds_a_nul_character_is_refused_naming_the_field(client: FlaskClient, tokens: dict,
+                                                                                  fields: dict, field: str) -> None:
+    """A multipart site upload named (its 'name' field, else its file name) 'hall\\x00' was stored so in SQLite and a
+    500 in PostgreSQL, which refuses a NUL in text (tests/server/test_postgres.py): a 422 naming the field."""
+    auth = bearer(tokens["alice"])
+    body, ctype = multipart({"file": (json.dumps(ONE_FLOOR).encode(), "ground\x00.json"), **fields})
+    resp = client.post("/api/v1/sites", data=body, content_type=ctype, headers=auth)
+    assert resp.status_code == 422 and resp.get_json()["error"]["details"]["field"] == field, resp.get_data()[:300]
+    assert "NUL" in resp.get_json()["error"]["message"]
+    assert client.get("/api/v1/sites", headers=auth).get_json()["sites"] == []
+
+
 @pytest.mark.parametrize("site", [{"floors": "x"}, {"floors": {"floor": 0}}, {"landmarks": [], "floors": "x"},
                                   {"floors": []}, {"name": "hall", "floors": [], "landmarks": []}])
 def test_an_inline_site_with_bad_floors_is_refused_as_post_sites_refuses_it(client: FlaskClient, tokens: dict,
