@@ -189,4 +189,22 @@ def uploaded_log(what: str = "log") -> Upload:
         # The reader's hint is the command line's (--format); this API forces a format with a form field.
         raise UnknownFormatError(exc.message.removesuffix(FORCE_FORMAT_HINT) + "send the multipart field 'format' "
                                  "to force one", source=exc.source, field="file") from None
+    _check_device_text(recording, filename)
     return Upload(payload, filename, fmt, recording)
+
+
+#: Most characters of a device's model and id (``devices.model``, ``devices.device_id``: VARCHAR(200), which PostgreSQL
+#: enforces), as a native batch's ``device`` may have.
+MAX_DEVICE_TEXT = 200
+
+
+def _check_device_text(recording: Recording, filename: str) -> None:
+    """422 naming the file and the device's field when the device model or id its log names (a header a reader took
+    as it was) has more than :data:`MAX_DEVICE_TEXT` characters or a NUL character: the database cannot store it.
+    """
+    for field, text in (("model", recording.device.model), ("device_id", recording.device.device_id)):
+        why = ("holds a NUL character" if "\x00" in text
+               else f"is longer than {MAX_DEVICE_TEXT} characters" if len(text) > MAX_DEVICE_TEXT else None)
+        if why is not None:
+            raise APIError(422, f"'{filename}': the device {field} the log names {why}; nothing stored",
+                           details={"field": "file", "device": field})

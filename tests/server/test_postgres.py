@@ -12,6 +12,7 @@ from server import auth
 from tests.server.conftest import bearer, make_app
 from tests.server.helpers import multipart, phone_batch
 from tests.server.realservers import pg_database  # noqa: F401  (fixture)
+from tests.server.test_upload_names import _ms_trace
 
 
 def test_postgres_ingest_process_read(tmp_path, pg_database):  # noqa: F811
@@ -74,8 +75,9 @@ def test_postgres_stores_an_uploaded_file_of_a_long_name_and_refuses_overlong_ke
 
 def test_postgres_refuses_text_it_cannot_store_with_a_4xx_naming_the_field(tmp_path, pg_database):  # noqa: F811
     """PostgreSQL refuses a NUL character in text (SQLite stores it): a session's name "a\\u0000b", a Sensor Logger
-    deviceId, a group's name and a site file's name field holding one were 500s. Each is a 422 (the app's 499) naming
-    the field, with nothing stored. A Sensor Logger sessionId of 200 characters (the most it may have) was a 500, its
+    deviceId, a group's name and a site file's name field holding one were 500s, and so was a log file whose header
+    names a phone model of 201 characters (over devices.model's 200). Each is a 422 (the app's 499) naming the field,
+    with nothing stored. A Sensor Logger sessionId of 200 characters (the most it may have) was a 500, its
     session's name 'Sensor Logger ID' over the 200 of sessions.name: the name is cut there. So were GET
     /api/v1/sessions/a%00b and a group's tracks of agent a%00b: a 400 naming the parameter."""
     app = make_app(tmp_path, database_url=pg_database)
@@ -104,6 +106,9 @@ def test_postgres_refuses_text_it_cannot_store_with_a_4xx_naming_the_field(tmp_p
                                  "name": "hall\x00"})
         resp = c.post("/api/v1/sites", data=body, content_type=ctype, headers=h)
         assert resp.status_code == 422 and resp.get_json()["error"]["details"]["field"] == "name", resp.get_data()
+        body, ctype = multipart({"file": (_ms_trace(b"M" * 201), "trace.txt")})
+        resp = c.post("/api/v1/sessions", data=body, content_type=ctype, headers=h)
+        assert resp.status_code == 422 and resp.get_json()["error"]["details"]["device"] == "model", resp.get_data()
         assert c.get("/api/v1/sessions", headers=h).get_json()["sessions"] == []
         assert c.get("/api/v1/groups", headers=h).get_json()["groups"] == []
         assert c.get("/api/v1/sites", headers=h).get_json()["sites"] == []

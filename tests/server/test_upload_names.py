@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
+import gzip
 import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from pdr.recording import DeviceInfo, Recording, SensorStream
 from server.sandbox import TEMP_PREFIX, without_temp_names
 from tests.server.conftest import bearer
-from tests.server.helpers import multipart
+from tests.server.helpers import multipart, phone_batch
 
 
 def test_without_temp_names_keeps_the_uploaded_name_only(tmp_path):
@@ -52,3 +54,40 @@ def test_every_answer_with_times_states_the_sessions_clock(client, tokens):
         clock = client.get(f"/api/v1/sessions/{sid}{path}", headers=h).get_json()["clock"]
         assert clock["t0_ns"] == t0 and clock["t0_s"] == t0 / 1e9, path
         assert "log's own clock" in clock["t_s"], path
+
+
+MS_TRACE = Path(__file__).parents[2] / "mobile_logs" / "real" / "ms_indoor_site2_F3_5dd51a7650e04e0006f5642c.txt.gz"
+
+
+def _ms_trace(model: bytes) -> bytes:
+    """The start of a real Microsoft indoor trace whose header names the phone ``model``."""
+    text = gzip.decompress(MS_TRACE.read_bytes())
+    return b"\n".join(text.split(b"\n")[:1500]).replace(b"Model:PBCM10", b"Model:" + model)
+
+
+def _native_file(**device: str) -> bytes:
+    batch = phone_batch("f", 0.0, duration_s=2.0)
+    return json.dumps(batch | {"device": batch["device"] | device}).encode()
+
+
+@pytest.mark.parametrize(("data", "name", "field", "why"), [
+    (_ms_trace(b"M" * 201), "trace.txt", "model", "longer than 200"),
+    (_native_file(device_id="phone\x00"), "walk.json", "device_id", "NUL"),
+    (_native_file(model="a\x00b"), "walk.json", "model", "NUL")])
+def test_a_log_file_naming_a_device_the_database_cannot_hold_is_a_422_and_stores_nothing(client, tokens, data, name,
+                                                                                        field, why):
+    """A log whose device model or id has more than the 200 characters of devices.model (a Microsoft trace's 'Model'
+    header) or holds a NUL character (a native file's device) was a 500 in PostgreSQL after its batch was stored: a
+    retry answered 200 and the session had no device (tests/server/test_postgres.py). It is a 422 naming the file
+    and the device's field, with nothing stored, on every database."""
+    h = bearer(tokens["alice"])
+    sid = client.post("/api/v1/sessions", json={"session_id": "paired"}, headers=h).get_json()["id"]
+    assert client.post(f"/api/v1/sessions/{sid}/devices", json={"role": "phone"}, headers=h).status_code == 201
+    for route in ("/api/v1/sessions", f"/api/v1/sessions/{sid}/devices/phone/upload"):
+        body, ctype = multipart({"file": (data, name)})
+        resp = client.post(route, data=body, content_type=ctype, headers=h)
+        assert resp.status_code == 422, resp.get_data()[:300]
+        error = resp.get_json()["error"]
+        assert error["details"] == {"field": "file", "device": field} and why in error["message"], error
+    assert [s["id"] for s in client.get("/api/v1/sessions", headers=h).get_json()["sessions"]] == [sid]
+    assert client.get(f"/api/v1/sessions/{sid}", headers=h).get_json()["batch_list"] == []
