@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from flask import current_app, request
+from werkzeug.datastructures import FileStorage
 from werkzeug.exceptions import BadRequest
 
 from pdr.errors import InputError, UnknownFormatError
@@ -166,6 +167,17 @@ class Upload:
         return f"{self.format}/{self.filename}"
 
 
+def multipart_file(what: str) -> FileStorage:
+    """The request's multipart ``file`` field; 400 naming it when there is none, which is also what Werkzeug leaves of
+    a form with a part whose headers (a file name) are not UTF-8: it drops the whole form without a word.
+    """
+    upload = request.files.get("file")
+    if upload is None:
+        raise APIError(400, f"multipart upload needs a 'file' field with the {what} (a form whose file name is not "
+                            "UTF-8 cannot be read)", details={"field": "file"})
+    return upload
+
+
 def uploaded_log(what: str = "log") -> Upload:
     """The multipart ``file`` field (400 if missing, 422 if empty), its format (field ``format`` or detected) and
     its recording, detected and read by one sandboxed reader (:mod:`server.sandbox`): the only read of the upload.
@@ -173,9 +185,7 @@ def uploaded_log(what: str = "log") -> Upload:
     from server.sandbox import read_isolated, safe_filename
 
     plain_body()
-    upload = request.files.get("file")
-    if upload is None:
-        raise APIError(400, f"multipart upload needs a 'file' field with the {what}")
+    upload = multipart_file(what)
     payload = upload.read()
     upload.close()
     if not payload:

@@ -77,7 +77,7 @@ def create_session() -> tuple[Response, int]:
     """Create an empty session (JSON body) or a session from an uploaded log file (multipart ``file``)."""
     user = current_user(scope="ingest")
     svc = services()
-    if request.files:
+    if request.files or request.mimetype == "multipart/form-data":
         return _create_from_file(user.id)
     body = json_body("session")
     validate(body, CREATE_SESSION, "session")

@@ -15,7 +15,7 @@ from typing import Any
 
 from flask import Blueprint, Response, jsonify, request
 
-from server.api import current_user, json_body, no_query_parameters, plain_body, services
+from server.api import current_user, json_body, multipart_file, no_query_parameters, plain_body, services
 from server.errors import APIError
 from server.processing_options import ProcessingOptions, session_options
 from server.schemas import check_representable
@@ -39,9 +39,7 @@ def _uploaded_document() -> tuple[Any, str, int]:
     """The site document of the request (JSON body or multipart ``file``), a name, and its size in bytes."""
     plain_body()
     if request.files or (request.content_type or "").startswith("multipart/"):
-        upload = request.files.get("file")
-        if upload is None:
-            raise APIError(400, "multipart upload needs a 'file' field with the site JSON")
+        upload = multipart_file("site JSON")
         payload = upload.read()
         upload.close()
         if not payload:

@@ -91,3 +91,21 @@ def test_a_log_file_naming_a_device_the_database_cannot_hold_is_a_422_and_stores
         assert error["details"] == {"field": "file", "device": field} and why in error["message"], error
     assert [s["id"] for s in client.get("/api/v1/sessions", headers=h).get_json()["sessions"]] == [sid]
     assert client.get(f"/api/v1/sessions/{sid}", headers=h).get_json()["batch_list"] == []
+
+
+@pytest.mark.parametrize("route", ["/api/v1/sessions", "/api/v1/sessions/{sid}/devices/phone/upload",
+                                   "/api/v1/reports/allan", "/api/v1/sites"])
+def test_a_file_whose_name_is_not_utf8_is_a_400_naming_the_field_file(client, tokens, route):
+    """A multipart part whose file name is not UTF-8 (b'walk\\xff.json') makes Werkzeug drop the whole form without a
+    word: POST /api/v1/sessions answered 415 'expected a JSON body', the other upload routes a 400 that named no field
+    and said the file was missing. Each is a 400 naming the field 'file' and saying why it was not read."""
+    h = bearer(tokens["alice"])
+    sid = client.post("/api/v1/sessions", json={"session_id": "paired"}, headers=h).get_json()["id"]
+    assert client.post(f"/api/v1/sessions/{sid}/devices", json={"role": "phone"}, headers=h).status_code == 201
+    raw = (b'--B\r\nContent-Disposition: form-data; name="file"; filename="walk\xff.json"\r\n'
+           b"Content-Type: application/octet-stream\r\n\r\n" + _native_file() + b"\r\n--B--\r\n")
+    resp = client.post(route.format(sid=sid), data=raw, content_type="multipart/form-data; boundary=B", headers=h)
+    assert resp.status_code == 400, resp.get_data()[:300]
+    error = resp.get_json()["error"]
+    assert error["details"]["field"] == "file" and "UTF-8" in error["message"], error
+    assert [s["id"] for s in client.get("/api/v1/sessions", headers=h).get_json()["sessions"]] == [sid]
