@@ -157,11 +157,18 @@ class Store:
                     id=sid, user_id=user_id, client_session_id=client_id, source=source, name=name or client_id,
                     placement=placement, status="empty", created_at=now, updated_at=now, warnings="[]",
                     meta=json.dumps(meta or {})))
-            except IntegrityError:
+            except IntegrityError:  # the key stored meanwhile by another request, or the user deleted meanwhile
                 conn.rollback()
+                if self.session_by_key(user_id, client_id) is None and not self._user_exists(user_id):
+                    raise APIError(401, "the account of this token was deleted while the request was served; "
+                                        "nothing stored") from None
                 return self.create_session(user_id, source=source, client_session_id=client_id, name=name,
                                            placement=placement, meta=meta)
         return sid, True
+
+    def _user_exists(self, user_id: int) -> bool:
+        with self.engine.connect() as conn:
+            return conn.execute(select(db.users.c.id).where(db.users.c.id == user_id)).first() is not None
 
     def session_by_key(self, user_id: int, client_session_id: str) -> Row[Any] | None:
         """The user's session with that client ``session_id`` (the first made, for data stored before it was a key)."""

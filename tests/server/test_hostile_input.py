@@ -805,6 +805,35 @@ def test_a_batch_to_a_session_deleted_while_the_batch_is_checked_is_a_404_and_no
         assert conn.execute(db.batches.select().where(db.batches.c.session_id == sid)).first() is None
 
 
+def test_a_session_created_for_a_user_deleted_meanwhile_is_a_401_at_once(env, monkeypatch):
+    """A user deleted (pdr users delete) between a request's authentication and its session's insert: the insert's
+    foreign key failed, which the store took for the same key stored meanwhile by another request and tried again,
+    without end, each try holding a database connection: the request hung 30 s with every other request waiting for a
+    connection, then was a 503 'retry later'. It is a 401 at once, and nothing is stored."""
+    import time
+
+    from sqlalchemy import delete, func, select
+
+    from server import db
+    from server.store import Store
+
+    app, c, h, _ = env
+    create = Store.create_session
+
+    def user_deleted_meanwhile(self: Store, user_id: int, **kwargs: Any) -> tuple[str, bool]:
+        with self.engine.begin() as conn:
+            conn.execute(delete(db.users).where(db.users.c.id == user_id))
+        return create(self, user_id, **kwargs)
+
+    monkeypatch.setattr(Store, "create_session", user_deleted_meanwhile)
+    start = time.monotonic()
+    r = c.post("/api/v1/sessions", json={"session_id": "orphan"}, headers=h)
+    assert r.status_code == 401 and "deleted" in r.get_json()["error"]["message"], r.get_data()[:300]
+    assert time.monotonic() - start < 5.0
+    with app.extensions["pdr"].store.engine.connect() as conn:
+        assert conn.execute(select(func.count()).select_from(db.sessions)).scalar() == 0
+
+
 def test_the_first_batches_of_a_session_sent_at_once_are_all_taken(env):
     """A phone sending its first two batches at once (a retry and the next one, four threads on a real pdr serve):
     both requests found no device of the session yet, both inserted it, and the second insert broke the devices'

@@ -121,3 +121,35 @@ def test_postgres_refuses_text_it_cannot_store_with_a_4xx_naming_the_field(tmp_p
     finally:
         app.extensions["pdr"].worker.stop()
         app.extensions["pdr"].store.engine.dispose()
+
+
+def test_postgres_a_session_created_for_a_user_deleted_meanwhile_is_a_401_at_once(tmp_path, pg_database,  # noqa: F811
+                                                                                   monkeypatch):
+    """The user deleted between authentication and the session's insert: the foreign key's refusal was retried
+    without end, each try holding a pooled connection, and the request hung 30 s, then was a 503 (tests/server/
+    test_hostile_input.py does the same on SQLite)."""
+    import time
+
+    from sqlalchemy import delete
+
+    from server import db
+    from server.store import Store
+
+    app = make_app(tmp_path, database_url=pg_database)
+    try:
+        with app.extensions["pdr"].store.engine.begin() as conn:
+            h = bearer(auth.add_user(conn, "pg-user"))
+        create = Store.create_session
+
+        def user_deleted_meanwhile(self: Store, user_id: int, **kwargs: object) -> tuple[str, bool]:
+            with self.engine.begin() as conn:
+                conn.execute(delete(db.users).where(db.users.c.id == user_id))
+            return create(self, user_id, **kwargs)  # type: ignore[arg-type]
+
+        monkeypatch.setattr(Store, "create_session", user_deleted_meanwhile)
+        start = time.monotonic()
+        resp = app.test_client().post("/api/v1/sessions", json={"session_id": "orphan"}, headers=h)
+        assert resp.status_code == 401 and time.monotonic() - start < 5.0, resp.get_data()[:300]
+    finally:
+        app.extensions["pdr"].worker.stop()
+        app.extensions["pdr"].store.engine.dispose()
