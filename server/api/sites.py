@@ -65,6 +65,9 @@ def create_site() -> tuple[Response, int]:
     """Store a site after checking it (422 naming the floor, polygon, ring or field of what is wrong)."""
     user = current_user()
     document, name, size = _uploaded_document()
+    if isinstance(document, dict) and not isinstance(document.get("name", ""), str):   # the reader takes str(value)
+        raise APIError(422, f"site, field 'name': must be text, got {json.dumps(document['name'])[:60]}",
+                       details={"field": "name"})
     checked = check_site(document)
     summary = site_summary(checked)
     name = name or checked.site.name or "site"

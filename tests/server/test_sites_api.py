@@ -154,6 +154,20 @@ def test_a_site_upload_that_is_not_a_site_gets_a_4xx(client: FlaskClient, tokens
     assert resp.status_code == 422 and "site" in resp.get_json()["error"]["message"]
 
 
+@pytest.mark.parametrize("name", [{"a": 1}, ["hall"], 5, True, None])
+def test_a_site_whose_name_is_not_text_is_refused_naming_it_on_both_routes(client: FlaskClient, tokens: dict,
+                                                                            name: Any) -> None:
+    """A site whose "name" was an object, a list or a number was stored under its Python text ("{'a': 1}",
+    "['hall']", "5"): a 422 naming the field on the JSON and the multipart route."""
+    auth = bearer(tokens["alice"])
+    resp = client.post("/api/v1/sites", json={**ONE_FLOOR, "name": name}, headers=auth)
+    assert resp.status_code == 422 and resp.get_json()["error"]["details"]["field"] == "name", resp.get_data()[:300]
+    body, ctype = multipart({"file": (json.dumps({**ONE_FLOOR, "name": name}).encode(), "ground.json")})
+    resp = client.post("/api/v1/sites", data=body, content_type=ctype, headers=auth)
+    assert resp.status_code == 422 and resp.get_json()["error"]["details"]["field"] == "name", resp.get_data()[:300]
+    assert client.get("/api/v1/sites", headers=auth).get_json()["sites"] == []
+
+
 @pytest.mark.parametrize(("fields", "field"), [({"name": "hall\x00"}, "name"), ({}, "file")])
 def test_a_site_file_whose_name_holds_a_nul_character_is_refused_naming_the_field(client: FlaskClient, tokens: dict,
                                                                                   fields: dict, field: str) -> None:
