@@ -158,7 +158,8 @@ def test_a_site_upload_that_is_not_a_site_gets_a_4xx(client: FlaskClient, tokens
 def test_a_site_whose_name_is_not_text_is_refused_naming_it_on_both_routes(client: FlaskClient, tokens: dict,
                                                                             name: Any) -> None:
     """A site whose "name" was an object, a list or a number was stored under its Python text ("{'a': 1}",
-    "['hall']", "5"): a 422 naming the field on the JSON and the multipart route."""
+    "['hall']", "5"): a 422 naming the field on the JSON and the multipart route. So is a landmark's id that is neither
+    text nor a whole number."""
     auth = bearer(tokens["alice"])
     resp = client.post("/api/v1/sites", json={**ONE_FLOOR, "name": name}, headers=auth)
     assert resp.status_code == 422 and resp.get_json()["error"]["details"]["field"] == "name", resp.get_data()[:300]
@@ -166,6 +167,12 @@ def test_a_site_whose_name_is_not_text_is_refused_naming_it_on_both_routes(clien
     resp = client.post("/api/v1/sites", data=body, content_type=ctype, headers=auth)
     assert resp.status_code == 422 and resp.get_json()["error"]["details"]["field"] == "name", resp.get_data()[:300]
     assert client.get("/api/v1/sites", headers=auth).get_json()["sites"] == []
+    resp = client.post("/api/v1/sites", json={**ONE_FLOOR, "landmarks": [LIFT | {"id": name}]}, headers=auth)
+    if isinstance(name, int) and not isinstance(name, bool):   # a landmark's id may be a whole number
+        assert resp.status_code == 201, resp.get_data()[:300]
+    else:
+        assert resp.status_code == 422, resp.get_data()[:300]
+        assert resp.get_json()["error"]["details"]["field"] == "landmarks[0].id"
 
 
 @pytest.mark.parametrize(("fields", "field"), [({"name": "hall\x00"}, "name"), ({}, "file")])
