@@ -73,12 +73,17 @@ def add_user(conn: Connection, name: str) -> str:
     return issue_token(conn, int(key[0]))
 
 
+#: Longest lifetime of an expiring token (days): a century. Beyond it, leave the expiry out.
+MAX_EXPIRES_DAYS = 36_525
+
+
 def issue_token(conn: Connection, user_id: int, scope: str = "full", expires_days: float | None = None) -> str:
     """A new token of ``scope`` for the user, valid ``expires_days`` days (forever if None); shown once."""
     if scope not in SCOPES:
         raise ValueError(f"token scope must be one of {', '.join(SCOPES)}, got {scope!r}")
-    if expires_days is not None and not expires_days > 0:
-        raise ValueError(f"--expires must be a positive number of days, got {expires_days}")
+    if expires_days is not None and not 0 < expires_days <= MAX_EXPIRES_DAYS:
+        raise ValueError(f"--expires must be a positive number of days, at most {MAX_EXPIRES_DAYS} (a century; "
+                         f"leave it out for a token that does not expire), got {expires_days:g}")
     token = new_token()
     now = db.utcnow()
     conn.execute(db.api_tokens.insert().values(

@@ -280,6 +280,16 @@ def test_expired_token_is_refused(app, client, tokens):
     assert r.status_code == 401 and "expired" in r.get_json()["error"]["message"]
 
 
+@pytest.mark.parametrize("days", [0.0, -1.0, float("nan"), float("inf"), 1e12, 36_526.0])
+def test_a_token_lifetime_beyond_a_century_or_not_positive_is_refused(app, tokens, days):
+    # 1e12 days overflowed datetime (an OverflowError traceback from `pdr users token NAME --expires 1e12`).
+    with app.extensions["pdr"].store.engine.begin() as conn:
+        uid = auth.user_id(conn, "alice")
+        with pytest.raises(ValueError, match="--expires must be a positive number of days, at most 36525"):
+            auth.issue_token(conn, uid, "read", expires_days=days)
+        assert auth.issue_token(conn, uid, "read", expires_days=36_525.0).startswith("pdr_")
+
+
 def test_serve_masks_the_database_password():
     from server.config import safe_url
 
