@@ -237,10 +237,18 @@ class Site:
         if not isinstance(landmarks, list):
             raise InputError("expected an object with a 'landmarks' list (it may be left out where a 'floors' list "
                              "of floor plans is given)", source=source, field="landmarks")
+        name = d.get("name", "")
+        if not isinstance(name, str):           # str() of it would be the site's name: "{'a': 1}", "5", "None"
+            raise InputError(f"name must be text, not {type(name).__name__} {name!r:.40}", source=source,
+                             field="name")
         out = []
         for i, lm in enumerate(landmarks):
             where = f"{source} landmark {i}"
             try:
+                landmark_id = lm.get("id", i) if isinstance(lm, dict) else i
+                if isinstance(landmark_id, bool) or not isinstance(landmark_id, str | int):
+                    raise InputError(f"id must be text or a whole number, not {type(landmark_id).__name__} "
+                                     f"{landmark_id!r:.40}", source=where, field="id")
                 typ = str(lm["type"])
                 if typ not in LANDMARK_TYPES:
                     raise InputError(f"type must be one of {LANDMARK_TYPES}", source=where, field="type")
@@ -250,7 +258,7 @@ class Site:
                 radius = _finite(lm.get("radius_m", 8.0), "radius_m", where)
                 if radius <= 0:
                     raise InputError(f"radius_m must be positive, not {radius:g}", source=where, field="radius_m")
-                out.append(SiteLandmark(str(lm.get("id", i)), typ, _finite(lm["east_m"], "east_m", where),
+                out.append(SiteLandmark(str(landmark_id), typ, _finite(lm["east_m"], "east_m", where),
                                         _finite(lm["north_m"], "north_m", where),
                                         _finite(lm.get("floor", 0), "floor", where),
                                         (_finite(hd[0], "heading_deg", where), _finite(hd[1], "heading_deg", where)),
@@ -263,7 +271,7 @@ class Site:
                 raise InputError(f"bad value ({exc})", source=where) from None
         fh = floor_height_m(d, source)
         decl, grid = (_site_angle(d, name, source) for name in ("declination_deg", "grid_deg"))
-        return cls(str(d.get("name", "")), tuple(out), fh, decl, grid, _floor_altitudes(floors, source))
+        return cls(name, tuple(out), fh, decl, grid, _floor_altitudes(floors, source))
 
     @classmethod
     def load(cls, path: str | Path) -> Site:

@@ -172,7 +172,8 @@ def test_a_site_whose_name_is_not_text_is_refused_naming_it_on_both_routes(clien
         assert resp.status_code == 201, resp.get_data()[:300]
     else:
         assert resp.status_code == 422, resp.get_data()[:300]
-        assert resp.get_json()["error"]["details"]["field"] == "landmarks[0].id"
+        assert resp.get_json()["error"]["details"]["field"] == "id"
+        assert "landmark 0" in resp.get_json()["error"]["message"]
 
 
 @pytest.mark.parametrize(("fields", "field"), [({"name": "hall\x00"}, "name"), ({}, "file")])

@@ -165,6 +165,11 @@ def test_site_round_trip_match_and_landmark_heading():
 
 @pytest.mark.parametrize(("edit", "match"), [
     (lambda d: d["landmarks"][0].update(type="lift"), "type must be one of"),
+    (lambda d: d["landmarks"][0].update(id={"a": 1}), "field .id.: id must be text or a whole number, not dict"),
+    (lambda d: d["landmarks"][0].update(id=True), "id must be text or a whole number, not bool"),
+    (lambda d: d.update(name=["hall"]), "field .name.: name must be text, not list"),
+    (lambda d: d.update(name=None), "name must be text, not NoneType"),
+    (lambda d: d.update(landmarks=[7]), "bad value"),
     (lambda d: d["landmarks"][0].update(heading_deg=90), "heading_deg must be"),
     (lambda d: d["landmarks"][0].pop("east_m"), "missing field 'east_m'"),
     (lambda d: d["landmarks"][0].update(north_m="north"), "field .north_m.: north_m must be a number, not str"),
