@@ -24,6 +24,10 @@ from pdr.errors import InputError
 from pdr.io.text import drop_cut_off_last_line, parse_float_rows
 from pdr.io.time_order import keep_increasing
 
+#: Most columns a table may have: the sensor logs read here have at most 13 (a SensorConnect export), and pandas takes
+#: seconds and hundreds of MB for a header of 100 000 (a header of 200 000 columns: 22 s, 577 MB).
+MAX_COLUMNS = 1000
+
 
 @dataclass(frozen=True)
 class Table:
@@ -132,6 +136,9 @@ def parse_table(text: str, source: str, *, header_line: int = 1, delimiter: str 
     if len(lines) < header_line or not lines[header_line - 1].strip():
         raise InputError("empty file: no header line", source=source, line=header_line)
     raw_header = split_header(lines[header_line - 1], delimiter, source)
+    if len(raw_header) > MAX_COLUMNS:
+        raise InputError(f"the header names {len(raw_header)} columns, more than any sensor log has (at most "
+                         f"{MAX_COLUMNS})", source=source, line=header_line)
     rename = rename or {}
     header = tuple(rename.get(h, h) for h in raw_header)
     if len(set(header)) != len(header):

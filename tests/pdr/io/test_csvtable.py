@@ -49,3 +49,21 @@ def test_first_row_wider_than_the_header_skips_pandas(monkeypatch: pytest.Monkey
     with pytest.raises(InputError, match="expected 2 fields .*found 200001") as err:
         csvtable.parse_table("t,x\n" + "," * 200_000 + "\n1,2\n", "t.csv")
     assert err.value.line == 2
+
+
+def test_a_header_wider_than_any_sensor_log_is_refused_before_parsing(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A header of 200 000 columns took pandas 22 s and 577 MB; it is refused at once, naming the header line."""
+    import pandas as pd
+
+    def no_pandas(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
+        raise AssertionError("pandas parsed a table wider than any sensor log")
+
+    monkeypatch.setattr(pd, "read_csv", no_pandas)
+    header = ",".join(f"c{i}" for i in range(200_000))
+    with pytest.raises(InputError, match="the header names 200000 columns, more than any sensor log has") as err:
+        csvtable.parse_table(header + "\n" + ",".join(["1"] * 200_000) + "\n", "wide.csv")
+    assert err.value.line == 1
+    monkeypatch.undo()
+    wide = ",".join(f"c{i}" for i in range(csvtable.MAX_COLUMNS))         # the limit itself is read
+    table = csvtable.parse_table(wide + "\n" + ",".join(["1.5"] * csvtable.MAX_COLUMNS) + "\n", "w.csv")
+    assert table.column(f"c{csvtable.MAX_COLUMNS - 1}").tolist() == [1.5]
