@@ -48,9 +48,11 @@ def _runtime_library(ctx: Any, cache_dir: str | Path) -> Any:
         state = pickle.loads(path.read_bytes())
         name, kind, (object_code, bitcode) = state
         if name == "nrt" and kind == "object" and isinstance(object_code, bytes) and isinstance(bitcode, bytes):
-            return unserialize(codegen, state)
-    except (OSError, pickle.UnpicklingError, EOFError, ValueError, TypeError, AttributeError):
-        pass                                                # not there, or not a file this module wrote: compile
+            library = unserialize(codegen, state)
+            if library.get_pointer_to_function("nrt_unresolved_abort"):    # the runtime's code is there
+                return library
+    except Exception:  # noqa: BLE001 - not there, not a file this module wrote, or machine code LLVM refuses: compile
+        pass
     ir_module, library = nrtdynmod.create_nrt_module(ctx)     # numba's compile_nrt_functions, its machine code kept
     library.enable_object_caching()
     library.add_ir_module(ir_module)
