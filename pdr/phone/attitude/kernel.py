@@ -6,6 +6,7 @@ initialisation. The state arrays are updated in place; the layout of ``aux`` is 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -438,316 +439,338 @@ def _commit_block(aux: FloatArray, bias: FloatArray, has_mag: bool, fb: float, b
             bias[i] = sol[i]
 
 
-@kernel
+def _filter_kernel(unscented: bool) -> Any:
+    """The filter's loop (:func:`run_kernel`) compiled with one measurement update: the UKF's (``unscented``) or the
+    EKF's. ``unscented`` is a constant of the closure, so numba drops the other update's branch before it types the
+    loop and compiles only the update in use (the EKF's, with its ``np.linalg`` and ``@``, took about 6 s of a fresh
+    install's first compile); numba's cache tells the two apart by the closure's value.
+    """
+    @kernel
+    def run(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: bool, has_mag: bool, ts: float,
+            q: FloatArray, p: FloatArray, bias: FloatArray, aux: FloatArray, prm: FloatArray,
+            h_east: float, carried: NDArray[np.bool_]) -> tuple[FloatArray, NDArray[np.int64]]:
+        """:func:`run_kernel` with the update of ``unscented``."""
+        sigma_gyro, sigma_a, sigma_m = prm[0], prm[1], prm[2]
+        eps_a1, eps_a2, eps_m1, eps_m2, eps_dip = prm[3], prm[4], prm[5], prm[6], prm[7]
+        var_tau, alpha, beta, kappa = prm[8], prm[9], prm[10], prm[11]
+        static_gyro_std, static_acc_std, static_min_s = prm[12], prm[13], prm[14]
+        bias_tau, bias_smooth, bias_prior, gravity_tau = prm[15], prm[16], prm[17], prm[18]
+        mag_ref_tau, mag_when_static, init_yaw_sigma, static_mag_std = prm[19], prm[20] > 0.5, prm[21], prm[22]
+        bias_hold_s, bias_field, bias_dip = prm[23], prm[24], prm[25]
+        mag_yaw_only = prm[26] > 0.5
+        earth_max = prm[27]
+        sigma_a_moving = prm[28]
+        mag_bias_gain = prm[29]
+        k_nu = ts / (prm[30] + ts)
+        nu_steady = prm[31]
+        undo_keep = math.exp(-ts / prm[32]) if prm[32] > 0 else 0.0
+        magnet_rise = prm[33]
+        earth_dip = prm[34]                 # NaN: unknown (AttitudeConfig.earth_dip_deg)
+        stand_bias = prm[35]
+        n = acc.shape[0]
+        out = np.empty((n, 4))
+        used = np.zeros(n, dtype=np.int64)
+        ka = ts / (var_tau + ts)
+        kg = ts / (gravity_tau + ts)
+        ks = ts / (bias_smooth + ts)
+        k_ref = ts / (mag_ref_tau + ts) if mag_ref_tau > 0 else 0.0
+        decay = 1.0 - ts / bias_tau
+        g_ref = np.zeros(3)
+        h_ref = np.zeros(3)
+        w = np.zeros(3)
+        # Scratch arrays, allocated once per call (the loop below allocates nothing in the common case).
+        u = np.empty(3)
+        f = np.empty((4, 4))
+        om = np.empty((4, 4))
+        wq = np.empty((4, 4))
+        xi = np.empty((4, 3))
+        fp = np.empty((4, 4))
+        pn = np.empty((4, 4))
+        qn = np.empty(4)
+        q_prior = np.empty(4)
+        z_ws = np.empty(6)
+        r_ws = np.empty(6)
+        ws = ukf_workspace()
+        c33 = np.empty((3, 3))
+        hn_ws = np.empty(3)
+        for k in range(n):
+            a = acc[k]
+            an = math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+            # Trailing exponential mean and variance of |a|, |m| and the gyro (eqs. 12-13, causal windows).
+            if aux[AUX_N] == 0:
+                aux[AUX_VAR_A_MEAN] = an
+                aux[AUX_VAR_A_SQ] = 0.0
+                for i in range(3):
+                    aux[AUX_W_MEAN + i] = gyro[k, i]
+                    aux[AUX_VS_A + i] = a[i] / max(an, 1e-9)
+                aux[AUX_VAR_W_SQ] = 0.0
+            da = an - aux[AUX_VAR_A_MEAN]
+            aux[AUX_VAR_A_MEAN] += ka * da
+            aux[AUX_VAR_A_SQ] = (1 - ka) * (aux[AUX_VAR_A_SQ] + ka * da * da)
+            dw2 = 0.0
+            for i in range(3):
+                dw = gyro[k, i] - aux[AUX_W_MEAN + i]
+                aux[AUX_W_MEAN + i] += ka * dw
+                dw2 += dw * dw
+            aux[AUX_VAR_W_SQ] = (1 - ka) * (aux[AUX_VAR_W_SQ] + ka * dw2)
+            mn = 0.0
+            if has_mag:
+                mv = mag[k]
+                mn = math.sqrt(mv[0] * mv[0] + mv[1] * mv[1] + mv[2] * mv[2])
+                if aux[AUX_N] == 0:
+                    aux[AUX_VAR_M_MEAN] = mn
+                    aux[AUX_VAR_M_SQ] = 0.0
+                    for i in range(3):
+                        aux[AUX_VS_M + i] = mv[i] / max(mn, 1e-9)
+                if aux[AUX_N] == 0 or (aux[AUX_ML] == 0 and aux[AUX_ML + 1] == 0 and aux[AUX_ML + 2] == 0):
+                    for i in range(3):
+                        aux[AUX_ML + i] = mv[i]
+                for i in range(3):
+                    aux[AUX_ML + i] += ks * (mv[i] - aux[AUX_ML + i])
+                dm = mn - aux[AUX_VAR_M_MEAN]
+                aux[AUX_VAR_M_MEAN] += ka * dm
+                aux[AUX_VAR_M_SQ] = (1 - ka) * (aux[AUX_VAR_M_SQ] + ka * dm * dm)
+            if aux[AUX_N] == 0:
+                # Initial attitude: tilt from gravity, yaw from the magnetic field (TRIAD) or zero.
+                _init_attitude(q, a, mag[k] if has_mag else np.zeros(3), has_mag, h_east)
+                aux[AUX_G] = GRAVITY_MPS2
+            aux[AUX_N] += 1
+            quasi_static = abs(an - aux[AUX_G]) < eps_a1 and aux[AUX_VAR_A_SQ] < eps_a2
+            # Stationary user (for the gyro bias): quasi-static, small trailing spread of |a| and of the gyro.
+            still = (quasi_static and aux[AUX_VAR_A_SQ] < static_acc_std * static_acc_std
+                     and aux[AUX_VAR_W_SQ] < static_gyro_std * static_gyro_std)
+            if has_mag:
+                still = still and aux[AUX_VAR_M_SQ] < static_mag_std * static_mag_std
+            if still:
+                aux[AUX_STATIC_S] += ts
+            else:
+                aux[AUX_STATIC_S] = 0.0
+            stationary = aux[AUX_STATIC_S] >= static_min_s
+            # A stand that calibrates the gyro: not in a moving cabin, which carries the user through the building's
+            # field (the field's rows would take its change for a turn) and in which the user may turn slowly (the
+            # stillness tests see the spread of the rate, not its mean).
+            calibrating = stationary and not carried[k]
+            period_start = calibrating and aux[AUX_WAS_STILL] == 0
+            period_end = not calibrating and aux[AUX_WAS_STILL] > 0
+            aux[AUX_WAS_STILL] = 1.0 if calibrating else 0.0
+            if has_gyro:
+                # Gyro bias by least squares over the calibrating stands (not in a moving cabin, ``carried``).
+                # Gravity is fixed in the navigation frame while the user stands; the local magnetic field only while
+                # the field does not move (the stand's disturbance test below), and only then may its rows set the
+                # bias component about the vertical. Otherwise that component comes from the gyro alone (at rest the
+                # mean of the gyro about the vertical is the bias).
+                d = max(an, 1e-9)
+                for i in range(3):
+                    u[i] = a[i] / d
+                _bias_rows(aux, AUX_VS_A, AUX_CW_A, u, gyro[k], ks, ts, calibrating, 1.0, AUX_P1)
+                if has_mag:
+                    d = max(mn, 1e-9)
+                    for i in range(3):
+                        u[i] = mag[k, i] / d
+                    _bias_rows(aux, AUX_VS_M, AUX_CW_M, u, gyro[k], ks, ts, calibrating, 1.0, AUX_M1)
+                if stationary:
+                    used[k] |= 4
+                if calibrating:
+                    _vertical_rows(aux, AUX_V1, gyro[k], ts)
+                    if has_mag:
+                        # Magnetic-disturbance test of eq. 13 for the bias rows: a field fixed in the navigation frame
+                        # keeps its magnitude and dip relative to gravity, i.e. its vertical and horizontal components,
+                        # under any rotation of the device. A departure from the values at the start of the stationary
+                        # period by more than the stillness spread of |m| marks the field as moving for the rest of
+                        # the period (a slowly moving field may stay within a single block's spread).
+                        fv, fh = _field_invariants(aux)
+                        if period_start:
+                            aux[AUX_FREF], aux[AUX_FREF + 1] = fv, fh
+                            aux[AUX_FBAD + 2] = 0.0
+                        elif (abs(math.hypot(fv, fh) - math.hypot(aux[AUX_FREF], aux[AUX_FREF + 1])) > bias_field
+                              or abs(math.atan2(fv, fh) - math.atan2(aux[AUX_FREF], aux[AUX_FREF + 1])) > bias_dip):
+                            aux[AUX_FBAD + 2] = 1.0
+                        if aux[AUX_FBAD + 2] > 0 or aux[AUX_VAR_W_SQ] < 3.0 * sigma_gyro * sigma_gyro:
+                            # Disturbed field, or a device that does not rotate (gyro spread within its white
+                            # noise, eq. 9): there the gyro mean about the vertical is the bias and the field's
+                            # rows would only add its changes (a cabin carried through the building's field).
+                            aux[AUX_FBAD + 1] = 1.0
+                    aux[AUX_G] += kg * (an - aux[AUX_G])
+                    aux[AUX_BLOCK_S] += ts
+                    if aux[AUX_BLOCK_S] >= bias_hold_s:
+                        # Rows are committed one block late: the trailing detectors notice the end of a
+                        # stationary period (first step, phone lifted) only after a delay, and the rows of that
+                        # delay (linear acceleration) must not enter the bias. Likewise a field that starts to move
+                        # is noticed late: the older block's magnetic rows count only if neither block saw it move.
+                        _commit_block(aux, bias, has_mag, decay ** (aux[AUX_BLOCK_S] / ts), bias_prior)
+                        aux[AUX_FBAD] = aux[AUX_FBAD + 1]
+                        aux[AUX_FBAD + 1] = aux[AUX_FBAD + 2]
+                        aux[AUX_BLOCK_S] = 0.0
+                else:
+                    if aux[AUX_BLOCK_S] >= var_tau:
+                        # End of standing after a partial block at least as long as the detectors' trailing window
+                        # (time constant var_window_s, within which they notice the first step): the delay's rows
+                        # lie in the partial block, so the complete block before it is clean and enters now. (A
+                        # stand of just under two blocks, e.g. the opening stand of a walk, otherwise left no bias.)
+                        _commit_block(aux, bias, has_mag, decay ** (aux[AUX_BLOCK_S] / ts), bias_prior)
+                    for o in (AUX_P0, AUX_M0, AUX_V0):
+                        for i in range(24):
+                            aux[o + i] = 0.0
+                    for i in range(3):
+                        aux[AUX_FBAD + i] = 0.0
+                    aux[AUX_BLOCK_S] = 0.0
+                if period_end and aux[AUX_BIAS_READY] == 0 and aux[AUX_BN] + aux[AUX_BN + 4] + aux[AUX_BN + 8] > 0:
+                    # End of the first stationary period that gave the gyro bias rows (a stand too short to complete
+                    # a block gives none): the bias is now known, but the yaw propagated before it (with an unknown
+                    # bias, through the calibration motion) is not; reopen it so the walk's magnetometer rows set it.
+                    if has_mag:
+                        _set_yaw_covariance(q, p, init_yaw_sigma)
+                    aux[AUX_BIAS_READY] = 1.0
+                # Time update (eqs. 6-9, 34).
+                for i in range(3):
+                    w[i] = gyro[k, i] - bias[i]
+                _transition_into(w, ts, f, om)
+                _process_noise_into(q, ts, sigma_gyro, wq, xi)     # from the prior q (eq. 9)
+                congruence_into(f, p, fp, pn)
+                for i in range(4):
+                    for j in range(4):
+                        p[i, j] = pn[i, j] + wq[i, j]
+                matvec_into(f, q, qn)
+                q[:] = qn
+                if stand_bias > 0 and stationary and aux[AUX_H_READY] == 1:
+                    # A stand gives the yaw no field rows (mag_when_static), and the gyro's residual bias turns it by
+                    # up to b T over T seconds: the yaw's variance grows to (b T)^2 (AttitudeConfig.stand_bias_dps).
+                    t_gap = aux[AUX_NO_FIELD_S]
+                    _add_yaw_variance(q, p, stand_bias * stand_bias * (2.0 * t_gap + ts) * ts)
+                    aux[AUX_NO_FIELD_S] = t_gap + ts
+            else:
+                # Without a gyro the attitude is a random walk driven by a large rate noise.
+                _process_noise_into(q, ts, 1.0, wq, xi)
+                for i in range(4):
+                    for j in range(4):
+                        p[i, j] += wq[i, j]
+            for i in range(4):
+                p[i, i] += 1e-12
+            # Accept rows of the measurement model (eqs. 12-13).
+            use_a = quasi_static or not has_gyro or sigma_a_moving > 0
+            use_m = False
+            stronger = False
+            if has_mag:
+                mv = mag[k]
+                if aux[AUX_H_READY] == 0 and quasi_static:
+                    # At the first quasi-static sample: re-initialise the attitude (TRIAD) and take the
+                    # reference field in ENU from it; the yaw is uncertain by init_yaw_sigma.
+                    _init_attitude(q, a, mv, True, h_east)
+                    c = _rotmat(q)
+                    hn = c @ mv
+                    aux[AUX_H_N] = math.sqrt(hn[0] * hn[0] + hn[1] * hn[1])
+                    aux[AUX_H_U] = hn[2]
+                    aux[AUX_H_READY] = 1
+                    _set_yaw_covariance(q, p, init_yaw_sigma)
+                if aux[AUX_H_READY] == 1:
+                    href_n = math.sqrt(aux[AUX_H_N] ** 2 + aux[AUX_H_U] ** 2)
+                    dip_ref = math.atan2(-aux[AUX_H_U], aux[AUX_H_N])
+                    c = c33
+                    _rotmat_into(q, c)
+                    hn = hn_ws
+                    matvec3_into(c, mv, hn)         # c @ mv
+                    dip = math.atan2(-hn[2], math.sqrt(hn[0] * hn[0] + hn[1] * hn[1]))
+                    use_m = (abs(mn - href_n) < eps_m1 and aux[AUX_VAR_M_SQ] < eps_m2 and abs(dip - dip_ref) < eps_dip
+                             and mn <= earth_max and not abs(dip - earth_dip) >= eps_dip)
+                    stronger = mn > href_n + magnet_rise
+                    if undo_keep > 0:
+                        # A field stronger than the earth's: the rows of the seconds before saw it coming and turned
+                        # the yaw with it; take that turn back (AttitudeConfig.magnet_undo_tau_s).
+                        magnet = mn > earth_max
+                        if magnet and aux[AUX_IN_MAGNET] == 0:
+                            rotate_yaw(q, -aux[AUX_MAG_DYAW])
+                            aux[AUX_MAG_DYAW] = 0.0
+                        aux[AUX_IN_MAGNET] = 1.0 if magnet else 0.0
+                        aux[AUX_MAG_DYAW] *= undo_keep
+                    if stationary and not mag_when_static:
+                        use_m = False
+                    if k_ref > 0 and not stationary:
+                        # The reference magnitude and dip follow the measured field slowly (innovations clipped).
+                        nn = min(href_n + k_ref * max(-3 * eps_m1, min(3 * eps_m1, mn - href_n)), earth_max)
+                        dd = dip_ref + k_ref * max(-3 * eps_dip, min(3 * eps_dip, dip - dip_ref))
+                        aux[AUX_H_N] = nn * math.cos(dd)
+                        aux[AUX_H_U] = -nn * math.sin(dd)
+                    if (use_m and has_gyro and mag_bias_gain > 0 and not stationary
+                            and hn[0] * hn[0] + hn[1] * hn[1] > 1e-12):
+                        # The gyro's residual bias about the vertical from the field's yaw innovations (the integral
+                        # term of a complementary filter, AttitudeConfig.mag_bias_gain): a bias b turns the estimate by
+                        # b per second counter-clockwise, so the field seen through it turns clockwise (a negative
+                        # innovation), steadily; a disturbance turns it back and forth as the user walks through it.
+                        nu = _field_yaw_innovation(hn, h_east)
+                        dn = nu - aux[AUX_NU]
+                        aux[AUX_NU] += k_nu * dn
+                        aux[AUX_NU + 1] = (1 - k_nu) * (aux[AUX_NU + 1] + k_nu * dn * dn)
+                        if aux[AUX_NU + 1] < nu_steady * nu_steady:
+                            for i in range(3):
+                                bias[i] -= mag_bias_gain * nu * ts * c[2, i]     # c[2]: up in the device frame
+            # The field's rows on the yaw alone when so configured (AttitudeConfig.mag_yaw_only), after the
+            # accelerometer's.
+            yaw_row = use_m and mag_yaw_only
+            if yaw_row:
+                use_m = False
+                used[k] |= 2
+            # The rows' turn counts while the field is stronger than the reference: what a magnet being approached does.
+            field_turn = undo_keep > 0 and (use_m or yaw_row) and stronger
+            if field_turn:
+                q_prior[:] = q
+            if use_a or use_m:
+                m = 3 * (int(use_a) + int(use_m))
+                z = z_ws[:m]
+                r = r_ws[:m]
+                j = 0
+                if use_a:
+                    g_ref[0], g_ref[1], g_ref[2] = 0.0, 0.0, aux[AUX_G]
+                    sa = sigma_a if quasi_static else (sigma_a_moving if has_gyro else 10.0 * sigma_a)
+                    for i in range(3):
+                        z[i] = a[i]
+                        r[i] = sa * sa
+                    j = 3
+                    used[k] |= 1
+                if use_m:
+                    # Magnetic north rotated by the declination (east positive) from true north.
+                    h_ref[0] = aux[AUX_H_N] * h_east
+                    h_ref[1] = aux[AUX_H_N] * math.sqrt(max(0.0, 1 - h_east * h_east))
+                    h_ref[2] = aux[AUX_H_U]
+                    for i in range(3):
+                        z[j + i] = mag[k, i]
+                        r[j + i] = sigma_m * sigma_m
+                    used[k] |= 2
+                if unscented:
+                    ukf_update_into(q, p, z, r, g_ref, h_ref, use_a, use_m, alpha, beta, kappa, ws)
+                else:
+                    ekf_update(q, p, z, r, g_ref, h_ref, use_a, use_m)
+            else:
+                _normalise(q)
+            if yaw_row:
+                mag_yaw_update(q, p, mag[k], h_east, sigma_m)
+            if use_m or yaw_row:
+                aux[AUX_NO_FIELD_S] = 0.0
+            if field_turn:
+                # The yaw this sample's field rows turned the attitude by: dq = 0.5 dpsi g (mag_yaw_update).
+                aux[AUX_MAG_DYAW] += 2.0 * (-q_prior[3] * (q[0] - q_prior[0]) - q_prior[2] * (q[1] - q_prior[1])
+                                            + q_prior[1] * (q[2] - q_prior[2]) + q_prior[0] * (q[3] - q_prior[3]))
+            out[k] = q
+        return out, used
+
+    return run
+
+
+#: The filter's loop with the UKF's and with the EKF's measurement update (:func:`_filter_kernel`).
+run_ukf = _filter_kernel(True)
+run_ekf = _filter_kernel(False)
+
+
 def run_kernel(acc: FloatArray, gyro: FloatArray, mag: FloatArray, has_gyro: bool, has_mag: bool, ts: float,
-                q: FloatArray, p: FloatArray, bias: FloatArray, aux: FloatArray, prm: FloatArray,
-                unscented: bool, h_east: float, carried: NDArray[np.bool_]) -> tuple[FloatArray, NDArray[np.int64]]:
+               q: FloatArray, p: FloatArray, bias: FloatArray, aux: FloatArray, prm: FloatArray,
+               unscented: bool, h_east: float, carried: NDArray[np.bool_]) -> tuple[FloatArray, NDArray[np.int64]]:
     """Run the filter over uniform samples; state arrays are updated in place. ``carried`` (N,): the user is carried
-    vertically (a moving cabin), so a stand there gives no gyro bias rows.
+    vertically (a moving cabin), so a stand there gives no gyro bias rows. ``unscented``: the UKF's measurement
+    update (seed 003), else the EKF baseline's (:func:`_filter_kernel`).
 
     Returns the (N, 4) posterior attitudes and (N,) bit flags (USED_ACC, USED_MAG, STATIONARY).
     """
-    sigma_gyro, sigma_a, sigma_m = prm[0], prm[1], prm[2]
-    eps_a1, eps_a2, eps_m1, eps_m2, eps_dip = prm[3], prm[4], prm[5], prm[6], prm[7]
-    var_tau, alpha, beta, kappa = prm[8], prm[9], prm[10], prm[11]
-    static_gyro_std, static_acc_std, static_min_s = prm[12], prm[13], prm[14]
-    bias_tau, bias_smooth, bias_prior, gravity_tau = prm[15], prm[16], prm[17], prm[18]
-    mag_ref_tau, mag_when_static, init_yaw_sigma, static_mag_std = prm[19], prm[20] > 0.5, prm[21], prm[22]
-    bias_hold_s, bias_field, bias_dip = prm[23], prm[24], prm[25]
-    mag_yaw_only = prm[26] > 0.5
-    earth_max = prm[27]
-    sigma_a_moving = prm[28]
-    mag_bias_gain = prm[29]
-    k_nu = ts / (prm[30] + ts)
-    nu_steady = prm[31]
-    undo_keep = math.exp(-ts / prm[32]) if prm[32] > 0 else 0.0
-    magnet_rise = prm[33]
-    earth_dip = prm[34]                 # NaN: unknown (AttitudeConfig.earth_dip_deg)
-    stand_bias = prm[35]
-    n = acc.shape[0]
-    out = np.empty((n, 4))
-    used = np.zeros(n, dtype=np.int64)
-    ka = ts / (var_tau + ts)
-    kg = ts / (gravity_tau + ts)
-    ks = ts / (bias_smooth + ts)
-    k_ref = ts / (mag_ref_tau + ts) if mag_ref_tau > 0 else 0.0
-    decay = 1.0 - ts / bias_tau
-    g_ref = np.zeros(3)
-    h_ref = np.zeros(3)
-    w = np.zeros(3)
-    # Scratch arrays, allocated once per call (the loop below allocates nothing in the common case).
-    u = np.empty(3)
-    f = np.empty((4, 4))
-    om = np.empty((4, 4))
-    wq = np.empty((4, 4))
-    xi = np.empty((4, 3))
-    fp = np.empty((4, 4))
-    pn = np.empty((4, 4))
-    qn = np.empty(4)
-    q_prior = np.empty(4)
-    z_ws = np.empty(6)
-    r_ws = np.empty(6)
-    ws = ukf_workspace()
-    c33 = np.empty((3, 3))
-    hn_ws = np.empty(3)
-    for k in range(n):
-        a = acc[k]
-        an = math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
-        # Trailing exponential mean and variance of |a|, |m| and the gyro (eqs. 12-13, causal windows).
-        if aux[AUX_N] == 0:
-            aux[AUX_VAR_A_MEAN] = an
-            aux[AUX_VAR_A_SQ] = 0.0
-            for i in range(3):
-                aux[AUX_W_MEAN + i] = gyro[k, i]
-                aux[AUX_VS_A + i] = a[i] / max(an, 1e-9)
-            aux[AUX_VAR_W_SQ] = 0.0
-        da = an - aux[AUX_VAR_A_MEAN]
-        aux[AUX_VAR_A_MEAN] += ka * da
-        aux[AUX_VAR_A_SQ] = (1 - ka) * (aux[AUX_VAR_A_SQ] + ka * da * da)
-        dw2 = 0.0
-        for i in range(3):
-            dw = gyro[k, i] - aux[AUX_W_MEAN + i]
-            aux[AUX_W_MEAN + i] += ka * dw
-            dw2 += dw * dw
-        aux[AUX_VAR_W_SQ] = (1 - ka) * (aux[AUX_VAR_W_SQ] + ka * dw2)
-        mn = 0.0
-        if has_mag:
-            mv = mag[k]
-            mn = math.sqrt(mv[0] * mv[0] + mv[1] * mv[1] + mv[2] * mv[2])
-            if aux[AUX_N] == 0:
-                aux[AUX_VAR_M_MEAN] = mn
-                aux[AUX_VAR_M_SQ] = 0.0
-                for i in range(3):
-                    aux[AUX_VS_M + i] = mv[i] / max(mn, 1e-9)
-            if aux[AUX_N] == 0 or (aux[AUX_ML] == 0 and aux[AUX_ML + 1] == 0 and aux[AUX_ML + 2] == 0):
-                for i in range(3):
-                    aux[AUX_ML + i] = mv[i]
-            for i in range(3):
-                aux[AUX_ML + i] += ks * (mv[i] - aux[AUX_ML + i])
-            dm = mn - aux[AUX_VAR_M_MEAN]
-            aux[AUX_VAR_M_MEAN] += ka * dm
-            aux[AUX_VAR_M_SQ] = (1 - ka) * (aux[AUX_VAR_M_SQ] + ka * dm * dm)
-        if aux[AUX_N] == 0:
-            # Initial attitude: tilt from gravity, yaw from the magnetic field (TRIAD) or zero.
-            _init_attitude(q, a, mag[k] if has_mag else np.zeros(3), has_mag, h_east)
-            aux[AUX_G] = GRAVITY_MPS2
-        aux[AUX_N] += 1
-        quasi_static = abs(an - aux[AUX_G]) < eps_a1 and aux[AUX_VAR_A_SQ] < eps_a2
-        # Stationary user (for the gyro bias): quasi-static, small trailing spread of |a| and of the gyro.
-        still = (quasi_static and aux[AUX_VAR_A_SQ] < static_acc_std * static_acc_std
-                 and aux[AUX_VAR_W_SQ] < static_gyro_std * static_gyro_std)
-        if has_mag:
-            still = still and aux[AUX_VAR_M_SQ] < static_mag_std * static_mag_std
-        if still:
-            aux[AUX_STATIC_S] += ts
-        else:
-            aux[AUX_STATIC_S] = 0.0
-        stationary = aux[AUX_STATIC_S] >= static_min_s
-        # A stand that calibrates the gyro: not in a moving cabin, which carries the user through the building's
-        # field (the field's rows would take its change for a turn) and in which the user may turn slowly (the
-        # stillness tests see the spread of the rate, not its mean).
-        calibrating = stationary and not carried[k]
-        period_start = calibrating and aux[AUX_WAS_STILL] == 0
-        period_end = not calibrating and aux[AUX_WAS_STILL] > 0
-        aux[AUX_WAS_STILL] = 1.0 if calibrating else 0.0
-        if has_gyro:
-            # Gyro bias by least squares over the calibrating stands (not in a moving cabin, ``carried``). Gravity is
-            # fixed in the navigation frame while the user stands; the local magnetic field only while the field
-            # does not move (the stand's disturbance test below), and only then may its rows set the bias component
-            # about the vertical. Otherwise that component comes from the gyro alone (at rest the mean of the gyro
-            # about the vertical is the bias).
-            d = max(an, 1e-9)
-            for i in range(3):
-                u[i] = a[i] / d
-            _bias_rows(aux, AUX_VS_A, AUX_CW_A, u, gyro[k], ks, ts, calibrating, 1.0, AUX_P1)
-            if has_mag:
-                d = max(mn, 1e-9)
-                for i in range(3):
-                    u[i] = mag[k, i] / d
-                _bias_rows(aux, AUX_VS_M, AUX_CW_M, u, gyro[k], ks, ts, calibrating, 1.0, AUX_M1)
-            if stationary:
-                used[k] |= 4
-            if calibrating:
-                _vertical_rows(aux, AUX_V1, gyro[k], ts)
-                if has_mag:
-                    # Magnetic-disturbance test of eq. 13 for the bias rows: a field fixed in the navigation frame
-                    # keeps its magnitude and dip relative to gravity, i.e. its vertical and horizontal components,
-                    # under any rotation of the device. A departure from the values at the start of the stationary
-                    # period by more than the stillness spread of |m| marks the field as moving for the rest of
-                    # the period (a slowly moving field may stay within a single block's spread).
-                    fv, fh = _field_invariants(aux)
-                    if period_start:
-                        aux[AUX_FREF], aux[AUX_FREF + 1] = fv, fh
-                        aux[AUX_FBAD + 2] = 0.0
-                    elif (abs(math.hypot(fv, fh) - math.hypot(aux[AUX_FREF], aux[AUX_FREF + 1])) > bias_field
-                          or abs(math.atan2(fv, fh) - math.atan2(aux[AUX_FREF], aux[AUX_FREF + 1])) > bias_dip):
-                        aux[AUX_FBAD + 2] = 1.0
-                    if aux[AUX_FBAD + 2] > 0 or aux[AUX_VAR_W_SQ] < 3.0 * sigma_gyro * sigma_gyro:
-                        # Disturbed field, or a device that does not rotate (gyro spread within its white
-                        # noise, eq. 9): there the gyro mean about the vertical is the bias and the field's
-                        # rows would only add its changes (a cabin carried through the building's field).
-                        aux[AUX_FBAD + 1] = 1.0
-                aux[AUX_G] += kg * (an - aux[AUX_G])
-                aux[AUX_BLOCK_S] += ts
-                if aux[AUX_BLOCK_S] >= bias_hold_s:
-                    # Rows are committed one block late: the trailing detectors notice the end of a
-                    # stationary period (first step, phone lifted) only after a delay, and the rows of that
-                    # delay (linear acceleration) must not enter the bias. Likewise a field that starts to move
-                    # is noticed late: the older block's magnetic rows count only if neither block saw it move.
-                    _commit_block(aux, bias, has_mag, decay ** (aux[AUX_BLOCK_S] / ts), bias_prior)
-                    aux[AUX_FBAD] = aux[AUX_FBAD + 1]
-                    aux[AUX_FBAD + 1] = aux[AUX_FBAD + 2]
-                    aux[AUX_BLOCK_S] = 0.0
-            else:
-                if aux[AUX_BLOCK_S] >= var_tau:
-                    # End of standing after a partial block at least as long as the detectors' trailing window
-                    # (time constant var_window_s, within which they notice the first step): the delay's rows
-                    # lie in the partial block, so the complete block before it is clean and enters now. (A
-                    # stand of just under two blocks, e.g. the opening stand of a walk, otherwise left no bias.)
-                    _commit_block(aux, bias, has_mag, decay ** (aux[AUX_BLOCK_S] / ts), bias_prior)
-                for o in (AUX_P0, AUX_M0, AUX_V0):
-                    for i in range(24):
-                        aux[o + i] = 0.0
-                for i in range(3):
-                    aux[AUX_FBAD + i] = 0.0
-                aux[AUX_BLOCK_S] = 0.0
-            if period_end and aux[AUX_BIAS_READY] == 0 and aux[AUX_BN] + aux[AUX_BN + 4] + aux[AUX_BN + 8] > 0:
-                # End of the first stationary period that gave the gyro bias rows (a stand too short to complete
-                # a block gives none): the bias is now known, but the yaw propagated before it (with an unknown
-                # bias, through the calibration motion) is not; reopen it so the walk's magnetometer rows set it.
-                if has_mag:
-                    _set_yaw_covariance(q, p, init_yaw_sigma)
-                aux[AUX_BIAS_READY] = 1.0
-            # Time update (eqs. 6-9, 34).
-            for i in range(3):
-                w[i] = gyro[k, i] - bias[i]
-            _transition_into(w, ts, f, om)
-            _process_noise_into(q, ts, sigma_gyro, wq, xi)     # from the prior q (eq. 9)
-            congruence_into(f, p, fp, pn)
-            for i in range(4):
-                for j in range(4):
-                    p[i, j] = pn[i, j] + wq[i, j]
-            matvec_into(f, q, qn)
-            q[:] = qn
-            if stand_bias > 0 and stationary and aux[AUX_H_READY] == 1:
-                # A stand gives the yaw no field rows (mag_when_static), and the gyro's residual bias turns it by
-                # up to b T over T seconds: the yaw's variance grows to (b T)^2 (AttitudeConfig.stand_bias_dps).
-                t_gap = aux[AUX_NO_FIELD_S]
-                _add_yaw_variance(q, p, stand_bias * stand_bias * (2.0 * t_gap + ts) * ts)
-                aux[AUX_NO_FIELD_S] = t_gap + ts
-        else:
-            # Without a gyro the attitude is a random walk driven by a large rate noise.
-            _process_noise_into(q, ts, 1.0, wq, xi)
-            for i in range(4):
-                for j in range(4):
-                    p[i, j] += wq[i, j]
-        for i in range(4):
-            p[i, i] += 1e-12
-        # Accept rows of the measurement model (eqs. 12-13).
-        use_a = quasi_static or not has_gyro or sigma_a_moving > 0
-        use_m = False
-        stronger = False
-        if has_mag:
-            mv = mag[k]
-            if aux[AUX_H_READY] == 0 and quasi_static:
-                # At the first quasi-static sample: re-initialise the attitude (TRIAD) and take the
-                # reference field in ENU from it; the yaw is uncertain by init_yaw_sigma.
-                _init_attitude(q, a, mv, True, h_east)
-                c = _rotmat(q)
-                hn = c @ mv
-                aux[AUX_H_N] = math.sqrt(hn[0] * hn[0] + hn[1] * hn[1])
-                aux[AUX_H_U] = hn[2]
-                aux[AUX_H_READY] = 1
-                _set_yaw_covariance(q, p, init_yaw_sigma)
-            if aux[AUX_H_READY] == 1:
-                href_n = math.sqrt(aux[AUX_H_N] ** 2 + aux[AUX_H_U] ** 2)
-                dip_ref = math.atan2(-aux[AUX_H_U], aux[AUX_H_N])
-                c = c33
-                _rotmat_into(q, c)
-                hn = hn_ws
-                matvec3_into(c, mv, hn)         # c @ mv
-                dip = math.atan2(-hn[2], math.sqrt(hn[0] * hn[0] + hn[1] * hn[1]))
-                use_m = (abs(mn - href_n) < eps_m1 and aux[AUX_VAR_M_SQ] < eps_m2 and abs(dip - dip_ref) < eps_dip
-                         and mn <= earth_max and not abs(dip - earth_dip) >= eps_dip)
-                stronger = mn > href_n + magnet_rise
-                if undo_keep > 0:
-                    # A field stronger than the earth's: the rows of the seconds before saw it coming and turned
-                    # the yaw with it; take that turn back (AttitudeConfig.magnet_undo_tau_s).
-                    magnet = mn > earth_max
-                    if magnet and aux[AUX_IN_MAGNET] == 0:
-                        rotate_yaw(q, -aux[AUX_MAG_DYAW])
-                        aux[AUX_MAG_DYAW] = 0.0
-                    aux[AUX_IN_MAGNET] = 1.0 if magnet else 0.0
-                    aux[AUX_MAG_DYAW] *= undo_keep
-                if stationary and not mag_when_static:
-                    use_m = False
-                if k_ref > 0 and not stationary:
-                    # The reference magnitude and dip follow the measured field slowly (innovations clipped).
-                    nn = min(href_n + k_ref * max(-3 * eps_m1, min(3 * eps_m1, mn - href_n)), earth_max)
-                    dd = dip_ref + k_ref * max(-3 * eps_dip, min(3 * eps_dip, dip - dip_ref))
-                    aux[AUX_H_N] = nn * math.cos(dd)
-                    aux[AUX_H_U] = -nn * math.sin(dd)
-                if (use_m and has_gyro and mag_bias_gain > 0 and not stationary
-                        and hn[0] * hn[0] + hn[1] * hn[1] > 1e-12):
-                    # The gyro's residual bias about the vertical from the field's yaw innovations (the integral
-                    # term of a complementary filter, AttitudeConfig.mag_bias_gain): a bias b turns the estimate by
-                    # b per second counter-clockwise, so the field seen through it turns clockwise (a negative
-                    # innovation), steadily; a disturbance turns it back and forth as the user walks through it.
-                    nu = _field_yaw_innovation(hn, h_east)
-                    dn = nu - aux[AUX_NU]
-                    aux[AUX_NU] += k_nu * dn
-                    aux[AUX_NU + 1] = (1 - k_nu) * (aux[AUX_NU + 1] + k_nu * dn * dn)
-                    if aux[AUX_NU + 1] < nu_steady * nu_steady:
-                        for i in range(3):
-                            bias[i] -= mag_bias_gain * nu * ts * c[2, i]     # c[2]: up in the device frame
-        # The field's rows on the yaw alone when so configured (AttitudeConfig.mag_yaw_only), after the
-        # accelerometer's.
-        yaw_row = use_m and mag_yaw_only
-        if yaw_row:
-            use_m = False
-            used[k] |= 2
-        # The rows' turn counts while the field is stronger than the reference: what a magnet being approached does.
-        field_turn = undo_keep > 0 and (use_m or yaw_row) and stronger
-        if field_turn:
-            q_prior[:] = q
-        if use_a or use_m:
-            m = 3 * (int(use_a) + int(use_m))
-            z = z_ws[:m]
-            r = r_ws[:m]
-            j = 0
-            if use_a:
-                g_ref[0], g_ref[1], g_ref[2] = 0.0, 0.0, aux[AUX_G]
-                sa = sigma_a if quasi_static else (sigma_a_moving if has_gyro else 10.0 * sigma_a)
-                for i in range(3):
-                    z[i] = a[i]
-                    r[i] = sa * sa
-                j = 3
-                used[k] |= 1
-            if use_m:
-                # Magnetic north rotated by the declination (east positive) from true north.
-                h_ref[0] = aux[AUX_H_N] * h_east
-                h_ref[1] = aux[AUX_H_N] * math.sqrt(max(0.0, 1 - h_east * h_east))
-                h_ref[2] = aux[AUX_H_U]
-                for i in range(3):
-                    z[j + i] = mag[k, i]
-                    r[j + i] = sigma_m * sigma_m
-                used[k] |= 2
-            if unscented:
-                ukf_update_into(q, p, z, r, g_ref, h_ref, use_a, use_m, alpha, beta, kappa, ws)
-            else:
-                ekf_update(q, p, z, r, g_ref, h_ref, use_a, use_m)
-        else:
-            _normalise(q)
-        if yaw_row:
-            mag_yaw_update(q, p, mag[k], h_east, sigma_m)
-        if use_m or yaw_row:
-            aux[AUX_NO_FIELD_S] = 0.0
-        if field_turn:
-            # The yaw this sample's field rows turned the attitude by: dq = 0.5 dpsi g (mag_yaw_update).
-            aux[AUX_MAG_DYAW] += 2.0 * (-q_prior[3] * (q[0] - q_prior[0]) - q_prior[2] * (q[1] - q_prior[1])
-                                        + q_prior[1] * (q[2] - q_prior[2]) + q_prior[0] * (q[3] - q_prior[3]))
-        out[k] = q
-    return out, used
+    return (run_ukf if unscented else run_ekf)(acc, gyro, mag, has_gyro, has_mag, ts, q, p, bias, aux, prm, h_east,
+                                                carried)
 
 
 @kernel
