@@ -29,7 +29,7 @@ def _serve(args: argparse.Namespace) -> int:
     limit_native_threads()
     app = create_app()
     settings = app.extensions["pdr"].settings
-    warmup.start(extra=(_warm_classifier,))
+    warmup.start()
     # waitress reads a whole body before the application runs: its own cap is the largest route limit, and its
     # request parser applies each route's limit from the headers (server.limits).
     server = create_server(app, host=args.host, port=args.port, threads=args.threads, ident="pdr",
@@ -45,12 +45,6 @@ def _serve(args: argparse.Namespace) -> int:
           flush=True)
     server.run()
     return 0
-
-
-def _warm_classifier(recording: object) -> None:
-    """The motion-mode classifier's compiled features, on the warm-up walk (server.warmup)."""
-    from classifiers.streaming import StreamingClassifier
-    StreamingClassifier().update(recording)  # type: ignore[arg-type]
 
 
 def register_serve(subparsers: argparse._SubParsersAction) -> None:

@@ -1,36 +1,43 @@
 """Compile (or load from numba's on-disk cache) the kernels of the processing paths before the first upload.
 
-The first call of a numba kernel compiles it (about 100 s for all of the library on a fresh install); with
-``cache=True`` the machine code is kept in ``NUMBA_CACHE_DIR`` and later processes load it in well under a
-second. :func:`start` runs :func:`warm_up` in a background thread, so that ``pdr serve`` answers at once and
-its health says ``"warming up"`` (:func:`status`) until the phone path is compiled. Set ``NUMBA_CACHE_DIR``
-(:func:`use_cache_dir`) before numba is first imported: numba reads it once.
+The first call of a numba kernel compiles it (about a minute for all of the phone path on a fresh install, on a
+quiet 2-core machine); with ``cache=True`` the machine code is kept in ``NUMBA_CACHE_DIR`` and later processes load
+it in well under a second. :func:`start` runs :func:`warm_up` in a background thread, so that ``pdr serve`` answers
+at once and its health says ``"warming up"`` (:func:`status`) until the phone path is compiled. Set
+``NUMBA_CACHE_DIR`` (:func:`use_cache_dir`) before numba is first imported: numba reads it once.
+
+**Two processes on a fresh cache.** numba compiles one kernel at a time, in the order the walk calls them, and the
+attitude filter's UKF kernel (:func:`pdr.phone.attitude.kernel.run_kernel`, with numba's ``np.linalg`` and ``@``
+that it pulls in) is most of the whole: 33 of 52 s (numba's compile events, quiet 2-core machine, with the EKF
+baseline's update then compiled into it too). The pipeline calls it before the heading, step length, floors,
+smoother, reader and classifier kernels, which therefore waited for it. When the UKF kernel is not in the cache yet,
+:func:`start` also runs ``python -m server.warmup_walk``: the same walk in a child process whose attitude filter is
+a stand-in (:class:`server.warmup_walk.TiltOnlyAttitude`: the accelerometer's tilt, no kernel), so that the child
+compiles every other kernel into the shared cache while this process compiles the attitude filter, and this process
+then loads them from the cache. What a kernel compiles to depends only on its argument types, which the stand-in's
+output shares with the filter's (float64 (N, 4) quaternions, C order), not on their values. numba writes each cache
+file whole (a temporary file, then a rename), so two processes can fill one cache. With the kernel cached, no child
+is started.
 """
 
 from __future__ import annotations
 
 import logging
 import os
+import subprocess
+import sys
 import threading
-import time
-from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 log = logging.getLogger(__name__)
 
 _lock = threading.Lock()
-_state: dict[str, Any] = {"state": "cold", "seconds": None, "error": None}
+_state: dict[str, Any] = {"state": "cold", "seconds": None, "error": None, "helper": None}
 
-#: A short hand-held walk: straight, a turn, straight, so that steps, headings and the smoother all run.
-_WALK = {"name": "warm_up", "placement": "hand", "start": {"position_m": [0, 0, 0], "heading_deg": 0},
-         "rates_hz": {"acc": 100.0, "gyro": 100.0, "mag": 100.0, "baro": 10.0},
-         "segments": [{"type": "stand", "duration_s": 2.0}, {"type": "walk", "duration_s": 12.0, "speed_mps": 1.3},
-                      {"type": "turn", "angle_deg": 90, "duration_s": 2.0},
-                      {"type": "walk", "duration_s": 12.0, "speed_mps": 1.3}]}
-#: A few GetSensorData records, for the text reader's compiled number parser.
-_IPIN_TEXT = (b"% 'GetSensorData'\nACCE;0.05;100.000;0.1;0.2;9.8;3\nACCE;0.07;100.020;0.1;0.2;9.8;3\n"
-              b"POSI;0.08;1;49.4611;11.1110;0;100\n")
+#: Longest wait (s) for the child process once this process is warm (it compiles a subset of this process' kernels,
+#: so it is normally done first); then it is stopped.
+HELPER_WAIT_S = 120.0
 
 
 def use_cache_dir(path: str | Path) -> Path:
@@ -43,51 +50,62 @@ def use_cache_dir(path: str | Path) -> Path:
     return p
 
 
-def warm_up(extra: Sequence[Callable[[Any], object]] = ()) -> float:
-    """Run the phone path once on a short simulated walk (pipeline, smoother, reader) and each of ``extra`` on
-    that recording; returns the wall time in s.
+def _start_helper() -> subprocess.Popen[bytes]:
+    """``python -m server.warmup_walk``, inheriting this process' environment (its ``NUMBA_CACHE_DIR``)."""
+    return subprocess.Popen([sys.executable, "-m", "server.warmup_walk"], stdin=subprocess.DEVNULL,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+
+
+def _end_helper(helper: subprocess.Popen[bytes]) -> dict[str, Any]:
+    """Wait for the child (at most :data:`HELPER_WAIT_S`, then stop it); its exit code and, if it failed, why."""
+    try:
+        out, err = helper.communicate(timeout=HELPER_WAIT_S)
+    except subprocess.TimeoutExpired:
+        helper.kill()
+        helper.communicate()
+        return {"exit": None, "error": f"stopped after {HELPER_WAIT_S:g} s"}
+    if helper.returncode != 0:
+        reason = err.decode("utf-8", "replace").strip().splitlines()[-1:] or [f"exit {helper.returncode}"]
+        log.warning("warm-up child process failed: %s", reason[0])
+        return {"exit": helper.returncode, "error": reason[0]}
+    return {"exit": 0, "seconds": float(out.decode().strip() or "nan")}
+
+
+def start() -> threading.Thread:
+    """:func:`server.warmup_walk.warm_up` in a daemon thread, with a child process on a fresh cache (module doc);
+    :func:`status` follows it.
     """
-    import tempfile
-
-    from pdr.io import ipin
-    from pdr.phone.heading_smoother import smooth_track
-    from pdr.phone.pipeline import PdrPipeline, track_rows
-    from pdr.sim import simulate
-
-    t0 = time.perf_counter()
-    rec = simulate(_WALK, 0)
-    smooth_track(track_rows(PdrPipeline().run(rec)))
-    with tempfile.TemporaryDirectory(prefix="pdr-warm-up-") as tmp:
-        p = Path(tmp) / "warm_up.txt"
-        p.write_bytes(_IPIN_TEXT)
-        ipin.read(p)
-    for f in extra:
-        f(rec)
-    return time.perf_counter() - t0
-
-
-def start(extra: Sequence[Callable[[Any], object]] = ()) -> threading.Thread:
-    """:func:`warm_up` in a daemon thread; :func:`status` follows it."""
     def run() -> None:
+        helper = None
         try:
-            seconds = warm_up(extra)
+            from pdr.filters.compiled import is_cached
+            from pdr.phone.attitude.kernel import run_ukf
+            from server.warmup_walk import warm_up
+            helper = None if is_cached(run_ukf) else _start_helper()
+            seconds = warm_up()
         except Exception as exc:  # a failed warm-up only means the first upload compiles: say so, go on
             log.warning("warm-up of the compiled kernels failed: %s", exc)
             with _lock:
                 _state.update(state="ready", error=f"{type(exc).__name__}: {exc}")
             return
-        log.info("compiled kernels ready in %.1f s", seconds)
+        finally:
+            helped = None if helper is None else _end_helper(helper)
+            with _lock:
+                _state.update(helper=helped)
+        log.info("compiled kernels ready in %.1f s%s", seconds, "" if helper is None else " (with a second process)")
         with _lock:
             _state.update(state="ready", seconds=round(seconds, 2))
 
     with _lock:
-        _state.update(state="warming up", seconds=None, error=None)
+        _state.update(state="warming up", seconds=None, error=None, helper=None)
     thread = threading.Thread(target=run, name="pdr-warm-up", daemon=True)
     thread.start()
     return thread
 
 
 def status() -> dict[str, Any]:
-    """``{"state": "cold" | "warming up" | "ready", "seconds": warm-up wall time or None, "error": ...}``."""
+    """``{"state": "cold" | "warming up" | "ready", "seconds": warm-up wall time or None, "error": ..., "helper":
+    None (no child process: the cache was warm) or {"exit": code, "seconds" or "error"}}``.
+    """
     with _lock:
         return dict(_state)

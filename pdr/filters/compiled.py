@@ -122,6 +122,16 @@ def cached_njit(**options: Any) -> Callable[[Callable[..., Any]], Any]:
     return decorate
 
 
+def is_cached(dispatcher: Any) -> bool:
+    """Whether numba's disk cache holds machine code of ``dispatcher`` (a :func:`cached_njit` kernel) compiled from
+    its current source (its index exists and its source stamp matches); False when it cannot tell.
+    """
+    try:
+        return bool(dispatcher._cache._cache_file._load_index())
+    except Exception:   # NUMBA_DISABLE_JIT (no cache), or an index numba cannot read: as good as none
+        return False
+
+
 def _no_extensions_yet() -> None:
     """A kernel's hook before numba types its arguments: numba's extensions wait for a cache miss (module doc)."""
 

@@ -159,3 +159,20 @@ def test_a_numba_without_the_internals_used_rebuilds_the_library_its_own_way(mon
 
     state = ("kernel", "object", (b"object code", b"bitcode"))
     assert object_code_load.unserialize(Codegen(), state) == ("numba's own rebuild", "kernel")
+
+
+def test_is_cached_says_whether_the_disk_cache_holds_the_kernel_compiled_from_its_source(tmp_path: Path) -> None:
+    (tmp_path / "lean_kernel_probe.py").write_text(_MODULE)
+    repo = Path(__file__).resolve().parents[3]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), str(repo)]),
+           "NUMBA_CACHE_DIR": str(tmp_path / "numba_cache")}
+    probe = ("import json; import numpy as np; import lean_kernel_probe as m; from pdr.filters.compiled import "
+             "is_cached; before = is_cached(m.ratios); m.ratios(np.arange(3.0), 4); "
+             "print(json.dumps([before, is_cached(m.ratios)]))")
+    assert python_json(probe, env=env) == [False, True]      # compiled in this process, then kept
+    assert python_json(probe, env=env) == [True, True]       # the next process finds it
+    # An edited source is not the kernel in the cache.
+    (tmp_path / "lean_kernel_probe.py").write_text(_MODULE.replace("out[i] = x[i] / d", "out[i] = x[i] / d + 0.0"))
+    assert python_json(probe, env=env) == [False, True]
+    from pdr.filters.compiled import is_cached
+    assert is_cached(len) is False                           # not a kernel at all
