@@ -114,6 +114,19 @@ def write_plot(rows: list[dict[str, Any]], path: str | Path, rec: Recording, tit
     plot_track(path, t, en, title, truth_of(rec), label="PDR track")
 
 
+def note_first_compile(method: str) -> None:
+    """Say on stderr, before the work, that the attitude filter's kernel (``method``: ``ukf`` or ``ekf``) and the
+    others will be compiled: the first run after an install (or an upgrade) compiles them for about half a minute to
+    a minute, silently otherwise; numba keeps them in its cache for the next runs.
+    """
+    from pdr.filters.compiled import is_cached
+    from pdr.phone.attitude.kernel import run_ekf, run_ukf
+
+    if not is_cached(run_ukf if method == "ukf" else run_ekf):
+        print("note: first run of this version: compiling the processing code (about half a minute to a minute, "
+              "once; it is kept for the next runs)", file=sys.stderr, flush=True)
+
+
 def run_track(args: argparse.Namespace) -> int:
     with one_shot_process():    # pdr.cli.one_shot
         return _track(args)
@@ -139,6 +152,7 @@ def _track(args: argparse.Namespace) -> int:
     if plan is not None:
         start, floor = parse_start(args.start, plan)
         plan.check_walkable(start, floor, "--start")
+    note_first_compile(args.method)
     if plan is not None and args.smoother == "off":
         # Online: the map matcher is a stage of the pipeline, as in a live session.
         from pdr.mapmatch.stage import MapMatchStage

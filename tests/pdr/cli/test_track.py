@@ -75,6 +75,24 @@ def test_track_says_where_it_took_the_phone_to_be(tmp_path, capsys):
     assert placement_note(many, None).endswith(", and 3 more changes")
 
 
+@pytest.mark.parametrize("cached", [False, True])
+def test_track_says_when_it_compiles_its_kernels_first(tmp_path, capsys, monkeypatch, cached):
+    """A first run after an install compiles for about a minute: the user is told before the wait, not left guessing."""
+    import pdr.filters.compiled
+
+    asked = []
+
+    def is_cached(kernel):
+        asked.append(kernel)
+        return cached
+
+    monkeypatch.setattr(pdr.filters.compiled, "is_cached", is_cached)
+    assert main(["track", str(SIM / "hand_escalator.zip"), "--out", str(tmp_path / "t.csv"), "--method", "ekf"]) == 0
+    from pdr.phone.attitude.kernel import run_ekf
+    assert asked == [run_ekf]                       # the kernel of the filter asked for
+    assert ("note: first run of this version: compiling" in capsys.readouterr().err) is not cached
+
+
 def test_track_makes_the_folders_of_its_outputs_as_classify_does(tmp_path, capsys):
     """``--out missing/x.csv`` failed ("No such file or directory") after the whole track, where ``pdr classify``
     makes the folder; so did --geojson and --plot."""
