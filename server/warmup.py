@@ -26,15 +26,19 @@ import logging
 import os
 import subprocess
 import sys
+import tempfile
 import threading
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 log = logging.getLogger(__name__)
 
 _lock = threading.Lock()
 _state: dict[str, Any] = {"state": "cold", "seconds": None, "error": None, "helper": None}
 
+#: The module the child process runs (:func:`_start_helper`).
+HELPER_MODULE = "server.warmup_walk"
 #: Longest wait (s) for the child process once this process is warm (it compiles a subset of this process' kernels,
 #: so it is normally done first); then it is stopped.
 HELPER_WAIT_S = 120.0
@@ -50,24 +54,46 @@ def use_cache_dir(path: str | Path) -> Path:
     return p
 
 
-def _start_helper() -> subprocess.Popen[bytes]:
-    """``python -m server.warmup_walk``, inheriting this process' environment (its ``NUMBA_CACHE_DIR``)."""
-    return subprocess.Popen([sys.executable, "-m", "server.warmup_walk"], stdin=subprocess.DEVNULL,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+@dataclass
+class _Child:
+    """The warm-up's child process and the file its stderr goes to (a file, not a pipe: nothing reads it until the
+    child ends, and a full pipe would stall it).
+    """
+
+    process: subprocess.Popen[bytes]
+    stderr: IO[bytes]
 
 
-def _end_helper(helper: subprocess.Popen[bytes]) -> dict[str, Any]:
-    """Wait for the child (at most :data:`HELPER_WAIT_S`, then stop it); its exit code and, if it failed, why."""
+def _start_helper() -> _Child | None:
+    """``python -m server.warmup_walk``, inheriting this process' environment (its ``NUMBA_CACHE_DIR``); None, logged,
+    when it cannot be started (the warm-up then compiles alone).
+    """
+    err = tempfile.TemporaryFile()
     try:
-        out, err = helper.communicate(timeout=HELPER_WAIT_S)
-    except subprocess.TimeoutExpired:
-        helper.kill()
-        helper.communicate()
-        return {"exit": None, "error": f"stopped after {HELPER_WAIT_S:g} s"}
-    if helper.returncode != 0:
-        reason = err.decode("utf-8", "replace").strip().splitlines()[-1:] or [f"exit {helper.returncode}"]
-        log.warning("warm-up child process failed: %s", reason[0])
-        return {"exit": helper.returncode, "error": reason[0]}
+        process = subprocess.Popen([sys.executable, "-m", HELPER_MODULE], stdin=subprocess.DEVNULL,
+                                   stdout=subprocess.PIPE, stderr=err)
+    except OSError as exc:
+        err.close()
+        log.warning("warm-up child process not started: %s", exc)
+        return None
+    return _Child(process, err)
+
+
+def _end_helper(child: _Child) -> dict[str, Any]:
+    """Wait for the child (at most :data:`HELPER_WAIT_S`, then stop it); its exit code and, if it failed, why."""
+    with child.stderr:
+        try:
+            out, _ = child.process.communicate(timeout=HELPER_WAIT_S)
+        except subprocess.TimeoutExpired:
+            child.process.kill()
+            child.process.communicate()
+            return {"exit": None, "error": f"stopped after {HELPER_WAIT_S:g} s"}
+        if child.process.returncode != 0:
+            child.stderr.seek(0)
+            last = child.stderr.read().decode("utf-8", "replace").strip().splitlines()[-1:]
+            reason = last[0] if last else f"exit {child.process.returncode}"
+            log.warning("warm-up child process failed: %s", reason)
+            return {"exit": child.process.returncode, "error": reason}
     return {"exit": 0, "seconds": float(out.decode().strip() or "nan")}
 
 
