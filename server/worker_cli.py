@@ -1,10 +1,11 @@
 """``pdr worker``: a processing worker for ``PDR_WORKER=redis`` deployments.
 
 Reads the same configuration as ``pdr serve`` (``DATABASE_URL``, ``REDIS_URL``, ``PDR_REDIS_NAMESPACE``,
-``PDR_PROCESSOR``), upgrades the database schema, then runs an RQ worker on the namespace's queue (see
-:mod:`server.queue`) plus the reconciler thread. Start as many as the processing load needs, on any
-machine that reaches the database and Redis. SIGTERM/SIGINT stop it after the current job (a second one
-at once); a lost Redis connection is retried with backoff instead of ending the process.
+``PDR_PROCESSOR``), upgrades the database schema, compiles (or loads) the processing kernels into
+``PDR_DATA_DIR/numba-cache`` as ``pdr serve`` does (:mod:`server.warmup`), then runs an RQ worker on the
+namespace's queue (see :mod:`server.queue`) plus the reconciler thread. Start as many as the processing load
+needs, on any machine that reaches the database and Redis. SIGTERM/SIGINT stop it after the current job (a second
+one at once); a lost Redis connection is retried with backoff instead of ending the process.
 """
 
 from __future__ import annotations
@@ -21,6 +22,10 @@ from server.config import limit_native_threads, load_settings, safe_url
 
 
 def _run(args: argparse.Namespace) -> int:
+    from server import warmup
+
+    settings = load_settings()
+    warmup.use_cache_dir(settings.data_dir / "numba-cache")   # as pdr serve's, before numba is imported
     import redis
     from rq import SimpleWorker
 
@@ -34,7 +39,6 @@ def _run(args: argparse.Namespace) -> int:
 
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s", stream=sys.stderr)
-    settings = load_settings()
     limit_native_threads()
     settings.data_dir.mkdir(parents=True, exist_ok=True)
     migrations.upgrade(settings.database_url)
@@ -46,6 +50,11 @@ def _run(args: argparse.Namespace) -> int:
                             SessionQueue(connection, settings.redis_namespace),
                             RetryPolicy(retries=args.retries))
     set_runtime(runtime)
+    # Compiled before the first job, not during it: a queued session waits for a warm worker meanwhile.
+    warmup.start().join()
+    kernels = warmup.status()
+    print(f"pdr worker {name}: compiled kernels ready in {kernels['seconds']} s"
+          + (f" (warm-up failed: {kernels['error']})" if kernels["error"] else ""), file=sys.stderr, flush=True)
     stop_reconciler = runtime.start_reconciler(args.reconcile_s)
     print(f"pdr worker {name}: queue '{settings.redis_namespace}' on {safe_url(settings.redis_url)}, "
           f"database {safe_url(settings.database_url)}", file=sys.stderr, flush=True)

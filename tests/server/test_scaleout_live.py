@@ -71,7 +71,8 @@ def test_two_web_processes_and_two_workers_match_the_embedded_default(tmp_path, 
         sid: {"done": len(uploads[name])} for name, sid in got.session_ids.items()}
     assert all(len(t) > 0 for t in tracks.values())
     assert tracks == expected
-    for i in range(2):  # both workers took jobs
+    for i in range(2):  # both workers compiled (or loaded) the kernels before their first job, then took jobs
+        assert f"pdr worker {ns}-w{i}: compiled kernels ready in " in logs
         assert f"{ns}-w{i}" in logs
     assert logs.count("Job OK") > 0
     assert token not in logs and ref_token not in logs
