@@ -1,8 +1,9 @@
 """Reading uploaded log files in a separate, resource-limited process.
 
 An uploaded file is untrusted input to parsers that are not all memory-safe or bounded: a corrupt
-MATLAB file makes ``scipy.io.loadmat`` (native code) crash the whole interpreter with a segmentation
-fault (reproduced with scipy 1.17 on a PyShoe ``.mat`` whose header bytes 176-208 are zeroed), and a
+MATLAB file made ``scipy.io.loadmat`` (native code) crash the whole interpreter with a segmentation
+fault (scipy 1.17, a PyShoe ``.mat`` whose bytes 176-208 are zeroed; :func:`pdr.io.matfile.check_elements`
+now refuses the damage scipy trusts, and this process stays for what such checks miss), and a
 gzip bomb within the upload limit decompresses to tens of GB. Read in the web process, either takes
 the service down. Here the reader runs in a child Python process with an address-space and CPU-time
 limit; a crash, a limit or a timeout becomes an :class:`~pdr.errors.InputError` (422 for an upload, a

@@ -51,6 +51,7 @@ from numpy.typing import NDArray
 
 from pdr.errors import InputError
 from pdr.frames import geodetic_to_local_enu
+from pdr.io import matfile
 from pdr.io.android import rotation_vector_to_q_nb
 from pdr.io.text import (
     ascii_lines,
@@ -103,14 +104,7 @@ def sniff(path: str | Path) -> bool:
 
 
 def _sniff_mat(p: Path) -> bool:
-    if not head(p, 20).startswith(b"MATLAB"):
-        return False
-    try:
-        from scipy.io import whosmat
-        names = {name for name, _, _ in whosmat(str(p))}
-    except Exception:  # any unreadable .mat is simply not ours
-        return False
-    return {"Acce", "Gyro", "Posi"} <= names
+    return {"Acce", "Gyro", "Posi"} <= matfile.variables(p)
 
 
 def read(path: str | Path) -> Recording:
@@ -361,11 +355,7 @@ def _parse_header_line(line: str, header: dict[str, str]) -> None:
 
 def _read_mat(p: Path) -> Recording:
     source = str(p)
-    try:
-        from scipy.io import loadmat
-        mat = loadmat(str(p))
-    except Exception as exc:  # scipy raises assorted types on corrupt files
-        raise InputError(f"not a readable MATLAB file ({type(exc).__name__}: {exc})", source=source) from None
+    mat = matfile.load(p)
     arrays: dict[str, tuple[NDArray[np.float64], _Lines]] = {}
     for var, tag in MAT_VARIABLES.items():
         names = SENSOR_RECORDS[tag][1]

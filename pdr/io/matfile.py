@@ -1,8 +1,14 @@
-"""MATLAB ``.mat`` files (v4-v7.2, read with scipy): loading with project errors, and cheap variable listing."""
+"""MATLAB ``.mat`` files (v4-v7.2, read with scipy): loading with project errors, and cheap variable listing.
+
+A v5-v7.2 file is checked before scipy reads it (:func:`check_elements`): scipy's compiled reader trusts the type code
+of a numeric or text data element, and a damaged one crashes the interpreter (segmentation fault) instead of raising.
+"""
 
 from __future__ import annotations
 
 import io
+import struct
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -45,6 +51,7 @@ def load(path: str | Path, structs: bool = False) -> dict[str, Any]:
 
     p = Path(path)
     raw = read_bytes(p)
+    check_elements(raw, str(p))
     try:
         mat: dict[str, Any] = loadmat(io.BytesIO(raw), squeeze_me=structs, struct_as_record=not structs)
     except NotImplementedError:
@@ -88,3 +95,143 @@ def scalar(mat: dict[str, Any], name: str) -> Any:
         return None
     item = a.ravel()[0]
     return item.item() if isinstance(item, np.generic) else item
+
+
+# ---------------------------------------------------------------------------------------------------------
+# the element tree of a v5 file, checked before scipy reads it
+
+#: Type codes scipy reads a numeric or text data element as (miINT8 .. miUINT64 without the reserved 8, 10 and 11,
+#: and miUTF8/16/32). scipy (1.17) looks the code up in a table of 20 slots without checking it: any other code is a
+#: NULL or wild pointer and a segmentation fault (scipy pull request 25349, not merged).
+DATA_TYPES = frozenset({1, 2, 3, 4, 5, 6, 7, 9, 12, 13, 16, 17, 18})
+_MI_MATRIX, _MI_COMPRESSED = 14, 15
+_CELL, _STRUCT, _OBJECT, _CHAR, _SPARSE, _FUNCTION, _OPAQUE = 1, 2, 3, 4, 5, 16, 17
+_NUMERIC = range(6, 16)
+
+
+class _Damage(Exception):
+    """A structural defect at byte ``offset`` (of the file, or of an element's inflated data), in ``variable``."""
+
+    def __init__(self, what: str, offset: int) -> None:
+        super().__init__(what)
+        self.what, self.offset = what, offset
+        self.variable: str | None = None
+
+
+def check_elements(raw: bytes, source: str) -> None:
+    """Check the element tree of a MATLAB v5-v7.2 file (``raw``, its bytes) as scipy walks it: every element within
+    its enclosing one and the file, every compressed element inflating, every numeric or text data element of a type
+    in :data:`DATA_TYPES`. :class:`InputError` naming the variable and the element otherwise. Other files (v4, v7.3,
+    not MATLAB) are left to scipy, whose readers of those raise. Costs one inflation of the compressed elements.
+    """
+    if len(raw) < 128 or 0 in raw[:4]:
+        return  # a v4 file (scipy reads those in Python) or too short for a v5 header: scipy raises
+    order = {b"IM": "<", b"MI": ">"}.get(raw[126:128])
+    if order is None or raw[124 + (raw[126:127] == b"I")] != 1:
+        return  # not version 1 (v5-v7.2) of the header: scipy refuses it (v7.3 is HDF5)
+    off, index = 128, 0
+    while off < len(raw):
+        index += 1
+        inside = ""  # where the offsets of a defect count from
+        try:
+            mdtype, start, size, _ = _tag(raw, off, len(raw), order)
+            if mdtype == _MI_COMPRESSED:
+                try:
+                    body = zlib.decompressobj().decompress(raw[start:start + size])
+                except zlib.error as exc:
+                    raise _Damage(f"its compressed data does not inflate ({exc})", start) from None
+                inside = " of its inflated data"
+                _matrix(body, 0, len(body), order)
+            else:
+                _matrix(raw, off, start + size, order)
+        except _Damage as exc:
+            raise InputError(f"not a readable MATLAB .mat file (damaged: element {index} at byte {off}: {exc.what} "
+                             f"at byte {exc.offset}{inside})", source=source, field=exc.variable) from None
+        off = start + size
+
+
+def _tag(buf: bytes, off: int, end: int, order: str) -> tuple[int, int, int, int]:
+    """(type, data offset, data bytes, next element's offset) of the element at ``off``, within ``[off, end)``."""
+    if end - off < 8:
+        raise _Damage(f"cut off: an element's tag needs 8 bytes, {end - off} are left", off)
+    mdtype, size = struct.unpack_from(order + "II", buf, off)
+    if mdtype >> 16:  # small data element: type and size in 2 bytes each, up to 4 bytes of data in the tag
+        mdtype, size = mdtype & 0xFFFF, mdtype >> 16
+        if size > 4:
+            raise _Damage(f"a small element declares {size} bytes (at most 4)", off)
+        return mdtype, off + 4, size, off + 8
+    if size > end - off - 8:
+        raise _Damage(f"an element declares {size} bytes, {end - off - 8} are left", off)
+    return mdtype, off + 8, size, min(off + 8 + -(-size // 8) * 8, end)
+
+
+def _data(buf: bytes, off: int, end: int, order: str) -> int:
+    """Offset after the numeric or text data element at ``off``; :class:`_Damage` for a type scipy cannot read."""
+    mdtype, _, _, nxt = _tag(buf, off, end, order)
+    if mdtype not in DATA_TYPES:
+        raise _Damage(f"a data element of unknown type {mdtype} (numbers and text are types 1-7, 9, 12, 13, 16-18)",
+                      off)
+    return nxt
+
+
+def _matrix(buf: bytes, off: int, end: int, order: str, variable: str | None = None) -> int:
+    """Walk the miMATRIX element at ``off`` (and the arrays it holds) of ``variable`` (None: the element names it);
+    offset of the element after it.
+    """
+    mdtype, start, size, nxt = _tag(buf, off, end, order)
+    if mdtype != _MI_MATRIX:
+        raise _Damage(f"expected a matrix element (type {_MI_MATRIX}), found type {mdtype}", off)
+    _matrix_contents(buf, start, start + size, order, variable)
+    return nxt
+
+
+def _matrix_contents(buf: bytes, p: int, stop: int, order: str, variable: str | None) -> None:
+    """Walk the contents ``[p, stop)`` of a miMATRIX element: flags, dimensions, name, then by the array's class."""
+    if p == stop:
+        return  # an empty array
+    if stop - p < 16:
+        raise _Damage("a matrix element too short for its array flags", p)
+    flags = struct.unpack_from(order + "I", buf, p + 8)[0]
+    cls, complex_ = flags & 0xFF, flags >> 11 & 1
+    p += 16
+    if cls == _OPAQUE:  # three names, then the object's contents
+        for _ in range(3):
+            p = _tag(buf, p, stop, order)[3]
+        _matrix(buf, p, stop, order, variable)
+        return
+    dims_at = p
+    _, d0, dbytes, p = _tag(buf, p, stop, order)
+    if dbytes < 8:  # MATLAB writes at least 2; scipy crashes on a text array of none
+        raise _Damage(f"an array of {dbytes // 4} dimensions (at least 2)", dims_at)
+    count = 1
+    for (n,) in struct.iter_unpack(order + "i", buf[d0:d0 + dbytes // 4 * 4]):
+        count *= max(n, 0)
+    _, n0, nbytes, p = _tag(buf, p, stop, order)
+    if variable is None:
+        name = buf[n0:n0 + nbytes].split(b"\0")[0].decode("latin-1")
+        variable = name if name.isprintable() and name else None  # a damaged name names nothing
+    try:
+        if cls in _NUMERIC or cls == _CHAR:
+            for _ in range(1 + (complex_ if cls != _CHAR else 0)):
+                p = _data(buf, p, stop, order)
+        elif cls == _SPARSE:
+            for _ in range(3 + complex_):
+                p = _data(buf, p, stop, order)
+        elif cls == _CELL:
+            for _ in range(count):
+                p = _matrix(buf, p, stop, order, variable)
+        elif cls in (_STRUCT, _OBJECT):
+            if cls == _OBJECT:
+                p = _tag(buf, p, stop, order)[3]  # the class name
+            _, l0, lbytes, p = _tag(buf, p, stop, order)
+            length = struct.unpack_from(order + "i", buf, l0)[0] if lbytes >= 4 else 0
+            fbytes, p = _tag(buf, p, stop, order)[2:]
+            if fbytes and length <= 0:
+                raise _Damage(f"field names of length {length}", l0)
+            for _ in range(count * (fbytes // length if fbytes else 0)):
+                p = _matrix(buf, p, stop, order, variable)
+        elif cls == _FUNCTION:
+            _matrix(buf, p, stop, order, variable)
+    except _Damage as exc:
+        exc.variable = exc.variable or variable
+        raise

@@ -275,7 +275,7 @@ def test_mat_roundtrip_and_bad_mat(tmp_path):
     with pytest.raises(InputError, match=r"field 'Acce'.*shape"):
         ipin.read(_savemat(tmp_path, Acce=acce[:, :3], Gyro=acce, Posi=posi))
     junk = _write(tmp_path, b"MATLAB 5.0 MAT-file" + bytes(200), "junk.mat")
-    with pytest.raises(InputError, match="junk.mat: not a readable MATLAB file"):
+    with pytest.raises(InputError, match=r"junk.mat: not a readable MATLAB \.mat file"):
         ipin.read(junk)
 
 
