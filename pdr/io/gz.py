@@ -4,9 +4,9 @@
 stream ends before its end-of-stream marker: :func:`gzip.decompress` raises ``EOFError``) is refused too, except
 within :func:`cut_gzip_warnings` (:func:`pdr.io.registry.read_recording` reads every log so): there the bytes that
 decompress are returned and a warning naming the file is collected, for the recording's warnings. Data from which
-nothing decompresses, or that is not gzip at all, is refused either way. Bytes after the last whole member that are
-not gzip data (trailing garbage, as ``gzip -d`` warns of) are likewise ignored with a warning within
-:func:`cut_gzip_warnings`, and refused outside it.
+nothing decompresses, or that is not gzip at all (said so: a plain file named ``.gz``), is refused either way. Bytes
+after the last whole member that are not gzip data (trailing garbage, as ``gzip -d`` warns of) are likewise ignored
+with a warning within :func:`cut_gzip_warnings`, and refused outside it.
 """
 
 from __future__ import annotations
@@ -45,9 +45,12 @@ def gunzip(raw: bytes, source: str) -> bytes:
     Raises
     ------
     InputError
-        ``corrupt gzip data (...)`` naming ``source``: not gzip, damaged, or cut short outside
-        :func:`cut_gzip_warnings`.
+        ``not gzip data (...)`` naming ``source`` when ``raw`` does not start with :data:`GZIP_MAGIC` (a plain file
+        named ``.gz``); ``corrupt gzip data (...)`` when it is damaged, or cut short outside :func:`cut_gzip_warnings`.
     """
+    if raw and raw[:2] != GZIP_MAGIC:
+        raise InputError(f"not gzip data, though named .gz: it starts with {raw[:8]!r}, gzip with bytes 1f 8b",
+                         source=source)
     try:
         return gzip.decompress(raw)
     except EOFError as exc:

@@ -22,7 +22,7 @@ from typing import Any
 
 from pdr.errors import InputError, UnknownFormatError
 from pdr.io.bundle import is_zip, starts_with
-from pdr.io.gz import cut_gzip_warnings
+from pdr.io.gz import GZIP_MAGIC, cut_gzip_warnings
 from pdr.io.matfile import is_mat
 from pdr.io.matfile import load as load_mat
 from pdr.io.text import read_bytes
@@ -104,8 +104,8 @@ def _detect(p: Path) -> ModuleType:
             for module in _modules():
                 if module.sniff(inner):
                     return module
-    if p.is_file() and starts_with(p, b"\x1f\x8b"):
-        read_bytes(p)       # a gzip no reader recognised may be one damaged at its start: InputError naming it
+    if p.is_file() and (p.name.endswith(".gz") or starts_with(p, GZIP_MAGIC)):
+        read_bytes(p)       # a gzip damaged at its start, or a plain file named .gz: InputError naming it
     if is_mat(p):
         load_mat(p)         # a MATLAB file no reader recognised may be one cut short: InputError naming it
     if p.is_file() and p.stat().st_size == 0:      # no format to force either: say what it is

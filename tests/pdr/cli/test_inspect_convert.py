@@ -322,6 +322,17 @@ def test_a_gzip_damaged_at_its_start_says_corrupt_gzip_not_unsupported_format(ca
     assert code == 2 and "not a supported log format" in err
 
 
+@pytest.mark.parametrize("forced", [[], ["--format", "ms_indoor"]])
+def test_a_plain_text_named_gz_says_it_is_not_gzip_data(capsys, tmp_path, forced):
+    """A trace saved as text under a ``.gz`` name was 'not a supported log format (...); pass --format to force one'
+    (and, forced, 'corrupt gzip data (Not a gzipped file ...)'); both now say it is not gzip data."""
+    bad = tmp_path / "trace.txt.gz"
+    bad.write_bytes(b"1574142012005\tTYPE_ACCELEROMETER\t0.1\t0.2\t9.8\t3\n" * 20)
+    code, out, err = _run(capsys, "inspect", str(bad), *forced)
+    assert code == 2 and out == ""
+    assert err == f"error: {bad}: not gzip data, though named .gz: it starts with b'15741420', gzip with bytes 1f 8b\n"
+
+
 @pytest.mark.parametrize("command", ["convert", "track"])
 def test_an_output_path_that_cannot_be_written_is_a_one_line_error(capsys, tmp_path, native_log, command):
     """--out (or convert's OUT) inside a folder that is a file: 'error: PATH: reason', exit 2; it was the OSError's

@@ -29,12 +29,15 @@ def test_gunzip_reads_a_cut_stream_as_far_as_it_goes_only_when_asked():
     assert decompressed_prefix(cut, 100) == text[:100]
 
 
-@pytest.mark.parametrize("raw", [b"not gzip at all", gzip.compress(b"x" * 1000, mtime=0)[:11],
-                                 gzip.compress(b"a,b\n" * 100, mtime=0)[:-4] + b"\x00\x00\x00\x01"],
-                         ids=["not gzip", "cut in the header", "wrong length"])    # ids the same on every worker
-def test_what_is_not_gzip_or_gives_nothing_is_still_refused(raw):
-    """Not gzip, cut before any byte decompresses, or damaged (a wrong length in the trailer): refused."""
-    with cut_gzip_warnings() as notes, pytest.raises(InputError, match="corrupt gzip data"):
+@pytest.mark.parametrize("raw, message", [
+    (b"not gzip at all", r"x.gz: not gzip data, though named .gz: it starts with b'not gzip', gzip with bytes 1f 8b"),
+    (gzip.compress(b"x" * 1000, mtime=0)[:11], "corrupt gzip data"),
+    (gzip.compress(b"a,b\n" * 100, mtime=0)[:-4] + b"\x00\x00\x00\x01", "corrupt gzip data")],
+    ids=["not gzip", "cut in the header", "wrong length"])    # ids the same on every worker
+def test_what_is_not_gzip_or_gives_nothing_is_still_refused(raw, message):
+    """Not gzip (said so: it was 'corrupt gzip data (Not a gzipped file ...)'), cut before any byte decompresses, or
+    damaged (a wrong length in the trailer): refused."""
+    with cut_gzip_warnings() as notes, pytest.raises(InputError, match=message):
         gunzip(raw, "x.gz")
     assert notes == []
 
