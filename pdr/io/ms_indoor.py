@@ -44,6 +44,7 @@ from numpy.typing import NDArray
 from pdr.errors import InputError
 from pdr.io.android import rotation_vector_to_q_nb
 from pdr.io.text import (
+    SNIFF_BYTES,
     decode_text,
     drop_cut_off_last_line,
     head,
@@ -73,7 +74,10 @@ SENSOR_RECORDS: dict[str, tuple[str, tuple[str, ...]]] = {
 }
 WAYPOINT_FIELDS = ("timestamp_ms", "x_m", "y_m")
 
-_RECORD = re.compile(rb"^\d{13}\tTYPE_[A-Z_]+\t", re.MULTILINE)
+#: A record's start (a UTF-8 BOM before the first): tags such as ``TYPE_DIST1`` hold digits.
+_RECORD = re.compile(rb"^(?:\xef\xbb\xbf)?\d{13}\tTYPE_[A-Z0-9_]+\t", re.MULTILINE)
+#: A line of a trace's header (``#<TAB>startTime:...``, ``#<TAB>SiteID:...``).
+_HEADER_LINE = re.compile(rb"^(?:\xef\xbb\xbf)?#\t(?:startTime|SiteID|Brand):", re.MULTILINE)
 #: Where a run-on line must be cut: before a 13-digit Unix-ms timestamp followed by a record tag.
 _RUN_ON_CUT = re.compile(r"(?<=.)(?=\d{13}\tTYPE_)")
 #: The upstream dataset's folder layout: one trace per file, in its floor folder's ``path_data_files/`` (beside the
@@ -88,16 +92,24 @@ _META_KEYS = ("startTime", "endTime", "SiteID", "SiteName", "FloorId", "FloorNam
 
 
 def sniff(path: str | Path) -> bool:
-    """True for a trace whose first records look like ``<13-digit ms><TAB>TYPE_...``."""
+    """True for a trace with a record ``<13-digit ms><TAB>TYPE_...<TAB>`` in its first bytes (one is enough)."""
     start = head(path)
     return _RECORD.search(start) is not None
 
 
 def near_miss(path: str | Path) -> str | None:
     """Why a folder of the dataset above its traces (the root, a site or a floor folder: a ``path_data_files/`` with
-    a trace one to :data:`LAYOUT_DEPTH` levels down) is not read as a trace, saying the layout; None otherwise.
+    a trace one to :data:`LAYOUT_DEPTH` levels down) is not read as a trace, saying the layout, or why a file with a
+    trace's header is not (no whole record in its first bytes: cut short); None otherwise.
     """
     p = Path(path)
+    if p.is_file():
+        start = head(p)
+        if _HEADER_LINE.search(start) and not _RECORD.search(start):
+            where = f"in its first {len(start)} bytes" if len(start) >= SNIFF_BYTES else "after it"
+            return ("a Microsoft indoor-location trace (its header '#<TAB>startTime:...') without a whole record "
+                    f"('<13-digit ms><TAB>TYPE_<NAME><TAB><values>') {where}: it needs at least one")
+        return None
     trace = _trace_below(p) if p.is_dir() and p.name != TRACES_FOLDER else None
     return None if trace is None else _layout_message(p, trace)
 

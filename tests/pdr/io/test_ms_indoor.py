@@ -241,3 +241,36 @@ def test_array_path_equals_line_by_line_path(tmp_path):
 def test_array_path_leaves_unusual_lines_to_the_line_by_line_path(tmp_path, line):
     raw = _write(tmp_path, [ACC1, line]).read_bytes()
     assert ms_indoor._parse_fast(raw) is None
+
+
+@pytest.mark.parametrize("record", [ACC1, "1574142012001\tTYPE_DIST1\t11.6\t-6.5\t6.3", WP1],
+                         ids=["accelerometer", "digit in its tag", "waypoint"])
+@pytest.mark.parametrize("bom", [b"", b"\xef\xbb\xbf"], ids=["plain", "BOM"])
+def test_a_trace_of_one_record_is_recognised(tmp_path, record, bom):
+    """A trace of one record was 'not a supported log format (...); pass --format to force one' when its record's
+    tag holds a digit (TYPE_DIST1, the first record of the dataset's traces) or the file starts with a BOM (a second
+    record's line matched): it is a trace, read or refused saying why."""
+    from pdr.io import detect_format, read_recording
+
+    p = _write(tmp_path, bom + record.encode() + b"\n")
+    assert detect_format(p) == "ms_indoor"
+    if record == ACC1:
+        assert len(read_recording(p).stream("acc")) == 1
+    else:
+        with pytest.raises(InputError, match="no accelerometer, gyroscope, magnetometer or rotation-vector records"):
+            read_recording(p)
+
+
+@pytest.mark.parametrize("tail", ["", "1574142012137\tTYPE_ACCELEROMETER"], ids=["header only", "record cut"])
+def test_a_trace_header_without_a_whole_record_says_so(tmp_path, tail):
+    """A trace cut in or before its first record was 'not a supported log format (...)'; it says what it lacks."""
+    from pdr.errors import UnknownFormatError
+    from pdr.io import read_recording
+
+    p = _write(tmp_path, (HEADER + tail).encode())
+    with pytest.raises(UnknownFormatError) as err:
+        read_recording(p)
+    assert err.value.message == ("not a readable log: a Microsoft indoor-location trace (its header "
+                                 "'#<TAB>startTime:...') without a whole record ('<13-digit ms><TAB>TYPE_<NAME><TAB>"
+                                 "<values>') after it: it needs at least one")
+    assert ms_indoor.near_miss(_write(tmp_path, [ACC1], "whole.txt")) is None
