@@ -533,6 +533,29 @@ def sniff(path: str | Path) -> bool:
         return False
 
 
+def near_miss(path: str | Path) -> str | None:
+    """Why a folder or zip of native stream CSVs (``acc.csv`` ... whose header starts ``t_ns,``) is not read as a
+    native recording, or None: its ``meta.json`` is missing or not tagged ``pdr-native/1``.
+    """
+    p = Path(path)
+    try:
+        if not (p.is_dir() or (p.is_file() and is_zip(p))):
+            return None
+        members = Bundle(p, anchor="meta.json")
+        streams = [f"{kind}.csv" for kind in STREAM_KINDS if members.head(f"{kind}.csv", 5) == b"t_ns,"]
+        if not streams:
+            return None
+        meta = members.head("meta.json")
+    except (OSError, InputError):
+        return None
+    what = f"a pdr native recording ({', '.join(streams)}: t_ns columns)"
+    container = "zip" if p.is_file() else "folder"
+    if not meta:
+        return (f"{what} whose {container} has no meta.json, which tags it {FOLDER_FORMAT} and holds its device "
+                "and t0_ns")
+    return f"{what} whose meta.json is not tagged \"format\": \"{FOLDER_FORMAT}\""
+
+
 def read(path: str | Path) -> Recording:
     """Read a native folder, zip of it, or ``pdr-batch/1`` JSON file (plain or ``.gz``)."""
     p = Path(path)

@@ -368,3 +368,32 @@ def test_recording_rejects_a_non_integer_time_origin():
     not_an_int: Any = float("nan")   # deliberately ill-typed: the runtime check is what is tested
     with pytest.raises(InputError, match="t0_ns must be an integer"):
         Recording(dict(rec.streams), t0_ns=not_an_int)
+
+
+@pytest.mark.parametrize("container", ["zip", "zip with a top folder", "folder"])
+def test_a_native_recording_without_its_meta_json_says_so(tmp_path, container):
+    """A native zip (or folder) without meta.json was 'not a supported log format (...); pass --format to force one':
+    it now says the stream CSVs it found and what it lacks (native.near_miss); an untagged meta.json likewise."""
+    from pdr.errors import UnknownFormatError
+    from pdr.io import read_recording
+
+    folder = native.write(_simple(), tmp_path / "r")
+    (folder / "meta.json").unlink()
+    log = folder
+    if container != "folder":
+        log = tmp_path / "r.zip"
+        with zipfile.ZipFile(log, "w") as zf:
+            for f in folder.rglob("*"):
+                if f.is_file():
+                    zf.write(f, ("top/" if "top" in container else "") + str(f.relative_to(folder)))
+    with pytest.raises(UnknownFormatError) as err:
+        read_recording(log)
+    assert err.value.source == str(log)
+    assert err.value.message == (f"not a readable log: a pdr native recording (acc.csv, baro.csv: t_ns columns) whose "
+                                 f"{container.split()[0]} has no meta.json, which tags it pdr-native/1 and holds its "
+                                 "device and t0_ns")
+    if container == "folder":
+        (folder / "meta.json").write_text('{"format": "pdr-native/0"}')
+        with pytest.raises(UnknownFormatError, match=r"whose meta.json is not tagged \"format\": \"pdr-native/1\""):
+            read_recording(folder)
+    assert native.near_miss(tmp_path / "absent") is None and native.near_miss(folder / "acc.csv") is None
