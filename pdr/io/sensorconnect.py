@@ -44,6 +44,7 @@ from pdr.errors import InputError
 from pdr.io import matfile
 from pdr.io.csvtable import Table, parse_table, split_header
 from pdr.io.text import head, read_text, strip_gz, timestamps_ns
+from pdr.io.time_order import keep_increasing
 from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, SensorStream
 from pdr.units import ACC_UNITS, GYRO_UNITS, MAG_UNITS, detect_acc_unit, detect_mag_unit
 
@@ -108,9 +109,9 @@ def read(path: str | Path) -> Recording:
         raise InputError(f"no Time column (header has {list(table.header)})", source=source, line=1, field="Time")
     if len(table) == 0:
         raise InputError("no samples after the header", source=source, line=2)
-    in_order = table.keep_increasing(time_col, warnings)
     t_s = table.column(time_col)
     t_ns = timestamps_ns(t_s, source, time_col, scale=1e9)
+    in_order = keep_increasing(t_ns, source, time_col, warnings, lines=table.lines())  # < 1 ns apart: repeats
 
     variant = 2 if "estCompensatedAccelX" in table.header or "estAngularRateX" in table.header else 1
     channels, euler = (_EST, _EST_EULER) if variant == 2 else (_RAW, _RAW_EULER)

@@ -8,6 +8,10 @@ after every earlier kept sample, so the first of a repeated timestamp is kept. T
 :data:`MAX_BACKWARD_FRACTION` of the samples (and more than one) go back before an earlier one, the clock is broken
 (one sample far in the future would otherwise silently drop everything after it). Repeats alone never make data
 unusable.
+
+Times are compared as the stream will hold them: a reader whose file gives float seconds applies the rule to the
+int64 nanoseconds it stores (:func:`pdr.io.text.timestamps_ns`), so rows less than 1 ns apart (a clock repeating at
+the file's resolution, 12.3456789012 then 12.34567890121 s) are repeats, dropped, not a stream the data model refuses.
 """
 
 from __future__ import annotations

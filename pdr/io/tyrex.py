@@ -187,8 +187,7 @@ def read(path: str | Path) -> Recording:
     for name, (kind, columns) in FILES.items():
         if bundle.get(name) is None:
             continue
-        arr = _table(bundle.text(name), bundle.name(name), columns, read_warnings)
-        t_ns = timestamps_ns(arr[:, 0], bundle.name(name), "t", scale=1e9)
+        t_ns, arr = _table(bundle.text(name), bundle.name(name), columns, read_warnings)
         meta["files"].append(name)
         if kind == "orientation":
             streams[kind] = SensorStream(kind, t_ns, rotation_vector_to_q_nb(arr[:, 1:4], arr[:, 4]))
@@ -234,9 +233,11 @@ def _recording_name(p: Path, bundle: Bundle) -> str:
 
 
 # -- phone files -------------------------------------------------------------------------------------------
-def _table(text: str, source: str, columns: tuple[str, ...], warnings: list[str]) -> FloatArray:
-    """The numeric rows of one space-separated file (rows whose time repeats or goes back, and a last line without
-    its line break, dropped with a warning); InputError naming file, line and field on bad input.
+def _table(text: str, source: str, columns: tuple[str, ...],
+           warnings: list[str]) -> tuple[NDArray[np.int64], FloatArray]:
+    """Times (int64 ns) and numeric rows of one space-separated file (rows whose time repeats or goes back in
+    nanoseconds, and a last line without its line break, dropped with a warning); InputError naming file, line and
+    field on bad input.
     """
     rows: list[list[str]] = []
     numbers: list[int] = []
@@ -248,7 +249,9 @@ def _table(text: str, source: str, columns: tuple[str, ...], warnings: list[str]
     if not rows:
         raise InputError("empty file: no samples", source=source)
     arr = parse_float_rows(rows, numbers, source, columns)
-    return arr[keep_increasing(arr[:, 0], source, "t", warnings, lines=numbers)]
+    t_ns = timestamps_ns(arr[:, 0], source, "t", scale=1e9)
+    keep = keep_increasing(t_ns, source, "t", warnings, lines=numbers)  # rows < 1 ns apart are repeats
+    return t_ns[keep], arr[keep]
 
 
 def _bias_changes(arr: FloatArray) -> list[list[float]]:

@@ -206,3 +206,20 @@ def test_real_walk_without_llio_times(tmp_path):
     rec = sensorconnect.read(tmp_path / "SensorConnectData_35.csv")
     assert rec.duration_s == pytest.approx(30.0, abs=0.05)
     assert rec.truth.positions is None and rec.truth.extra["gcp_m"].shape == (29, 2)
+
+
+def test_times_a_tenth_of_a_nanosecond_apart_are_a_repeat_dropped_with_a_warning(tmp_path):
+    """Rows 0.1 ns apart (in order in seconds, one nanosecond once rounded) refused the whole file: "stream 'acc':
+    timestamp of sample 2 (5000000) duplicates sample 1 (5000000)"; the later row is dropped as a repeat now, with a
+    warning naming the line (pdr.io.time_order on the int64 nanoseconds, as exact repeats)."""
+    text = _v1_text()
+    lines = text.splitlines()
+    fields = lines[3].split(",")
+    fields[0] = repr(float(lines[2].split(",")[0]) + 1e-10)
+    lines[3] = ",".join(fields)
+    whole = sensorconnect.read(_write(tmp_path, text, "whole.csv"))
+    rec = sensorconnect.read(_write(tmp_path, "\n".join(lines) + "\n"))
+    for kind in ("acc", "gyro", "mag", "orientation"):
+        np.testing.assert_array_equal(rec.stream(kind).t_ns, np.delete(whole.stream(kind).t_ns, 2))
+    assert any(w.startswith("SensorConnectData_99.csv: dropped 1 of 50 samples whose time repeats (1)")
+               and "line 4" in w for w in rec.warnings), rec.warnings
