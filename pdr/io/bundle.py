@@ -14,7 +14,7 @@ from pathlib import Path
 
 from pdr.errors import InputError
 from pdr.io.gz import decompressed_prefix, gunzip
-from pdr.io.text import SNIFF_BYTES, decode_text, head, read_bytes, strip_gz
+from pdr.io.text import SNIFF_BYTES, decode_text, find_member, head, read_bytes, strip_gz
 
 
 def starts_with(path: Path, magic: bytes) -> bool:
@@ -92,10 +92,7 @@ class Bundle:
                 if cand in self._zip:
                     return cand, self._zip[cand]
             return None
-        for file in (self.path / member, self.path / (member + ".gz")):
-            if file.is_file():
-                return file
-        return None
+        return find_member(self.path, member)
 
     def get(self, member: str) -> bytes | None:
         """Content of a member (gunzipped if stored as ``member.gz``), None if absent."""

@@ -14,29 +14,16 @@ from __future__ import annotations
 import gzip
 import zlib
 from collections.abc import Iterator
-from contextlib import contextmanager
-from contextvars import ContextVar
 
 from pdr.errors import InputError
+from pdr.io import notices
 from pdr.io.time_order import file_name
 
 GZIP_MAGIC = b"\x1f\x8b"
 
-#: The warnings of :func:`cut_gzip_warnings` being collected (None: a gzip cut short is refused).
-_CUT: ContextVar[list[str] | None] = ContextVar("cut_gzip_warnings", default=None)
-
-
-@contextmanager
-def cut_gzip_warnings() -> Iterator[list[str]]:
-    """Within: a gzip file or member cut short is read as far as it decompresses (:func:`gunzip`), and a warning
-    naming it is appended to the yielded list.
-    """
-    notes: list[str] = []
-    token = _CUT.set(notes)
-    try:
-        yield notes
-    finally:
-        _CUT.reset(token)
+#: Within it, a gzip cut short is read as far as it decompresses, with a notice naming it (the helpers' notices of
+#: :mod:`pdr.io.notices`).
+cut_gzip_warnings = notices.collecting
 
 
 def gunzip(raw: bytes, source: str) -> bytes:
@@ -54,7 +41,7 @@ def gunzip(raw: bytes, source: str) -> bytes:
     try:
         return gzip.decompress(raw)
     except EOFError as exc:
-        notes = _CUT.get()
+        notes = notices.active()
         whole = b"" if notes is None else decompressed_prefix(raw)
         if notes is None or not whole:
             raise InputError(f"corrupt gzip data ({exc})", source=source) from None
@@ -62,7 +49,7 @@ def gunzip(raw: bytes, source: str) -> bytes:
                      f"{len(whole)} bytes that decompress")
         return whole
     except (OSError, zlib.error) as exc:      # zlib.error: a bad deflate block inside the gzip
-        notes = _CUT.get()
+        notes = notices.active()
         trailing = None if notes is None else _trailing_bytes(raw)
         if notes is None or not trailing:
             raise InputError(f"corrupt gzip data ({exc})", source=source) from None

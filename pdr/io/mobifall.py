@@ -30,6 +30,7 @@ from pdr.io.text import (
     drop_cut_off_last_line,
     find_member,
     head,
+    is_member_file,
     numeric_rows,
     parse_float_rows,
     read_bytes,
@@ -75,7 +76,7 @@ def _trials_in(folder: Path) -> set[tuple[str, str, str]]:
     found = set()
     for child in folder.iterdir():
         m = _NAME.match(child.name)
-        if m and child.is_file():
+        if m and is_member_file(child):
             found.add((m["code"], m["subject"], m["trial"]))
     return found
 

@@ -21,8 +21,9 @@ from types import ModuleType
 from typing import Any
 
 from pdr.errors import InputError, UnknownFormatError
+from pdr.io import notices
 from pdr.io.bundle import is_zip, starts_with
-from pdr.io.gz import GZIP_MAGIC, cut_gzip_warnings
+from pdr.io.gz import GZIP_MAGIC
 from pdr.io.matfile import is_mat
 from pdr.io.matfile import load as load_mat
 from pdr.io.text import read_bytes
@@ -112,11 +113,12 @@ def _detect(p: Path) -> ModuleType:
         raise UnrecognisedLogError("an empty file (0 bytes): no log in it", source=str(p))
     if p.is_dir() and not any(not c.name.startswith(".") for c in p.iterdir()):
         raise UnrecognisedLogError("an empty folder: no log in it", source=str(p))
-    for module in _modules():
-        # A reader may recognise a log of its format that lacks what it needs (``near_miss``: why, or None).
-        why = module.near_miss(p) if hasattr(module, "near_miss") else None
-        if why:
-            raise UnknownFormatError(f"not a readable log: {why}", source=str(p))
+    with notices.collecting() as notes:
+        for module in _modules():
+            # A reader may recognise a log of its format that lacks what it needs (``near_miss``: why, or None).
+            why = module.near_miss(p) if hasattr(module, "near_miss") else None
+            if why:
+                raise _with_notices(UnknownFormatError(f"not a readable log: {why}", source=str(p)), notes)
     raise UnrecognisedLogError(
         "not a supported log format (supported: " + ", ".join(format_names()) + "); " + FORCE_FORMAT_HINT,
         source=str(p))
@@ -145,7 +147,9 @@ def _logs_in(folder: Path) -> list[Path]:
 
 def read_recording(path: str | Path, format: str | None = None) -> Recording:
     """Read a log into a :class:`Recording`, detecting its format unless ``format`` is given. A gzip file or member
-    cut short is read as far as it decompresses, with a warning naming it first (:func:`pdr.io.gz.cut_gzip_warnings`).
+    cut short is read as far as it decompresses, and a folder member that is no file (a folder, a named pipe, a link
+    that loops) is not read, each with a warning naming it first (:mod:`pdr.io.notices`), or said in the error when
+    the log is refused.
     A sensor value beyond any sensor's range is an :class:`InputError` (:func:`pdr.units.check_ranges`).
     """
     p = Path(path)
@@ -163,10 +167,23 @@ def read_recording(path: str | Path, format: str | None = None) -> Recording:
         raise UnknownFormatError(f"unknown format '{format}' (supported: {', '.join(format_names())})",
                                  source=str(p))
     _check_path(p)
-    with cut_gzip_warnings() as cut:
-        rec = _read(module, p)
+    with notices.collecting() as notes:
+        try:
+            rec = _read(module, p)
+        except InputError as exc:
+            raise _with_notices(exc, notes) from None
     check_ranges(rec, str(p))
-    return dataclasses.replace(rec, warnings=(*cut, *rec.warnings)) if cut else rec
+    return dataclasses.replace(rec, warnings=(*dict.fromkeys(notes), *rec.warnings)) if notes else rec
+
+
+def _with_notices(exc: InputError, notes: list[str]) -> InputError:
+    """``exc`` with the notices of :mod:`pdr.io.notices` added to its message (e.g. the member it lacks is there, but
+    a folder), or ``exc`` itself when there are none.
+    """
+    if not notes:
+        return exc
+    return type(exc)(f"{exc.message} ({'; '.join(dict.fromkeys(notes))})", source=exc.source, line=exc.line,
+                     field=exc.field)
 
 
 def _read(module: ModuleType, p: Path) -> Recording:

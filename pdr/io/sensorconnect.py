@@ -43,7 +43,7 @@ from pdr import quaternion
 from pdr.errors import InputError
 from pdr.io import matfile
 from pdr.io.csvtable import Table, parse_table, split_header
-from pdr.io.text import head, read_text, strip_gz, timestamps_ns
+from pdr.io.text import find_member, head, read_text, strip_gz, timestamps_ns
 from pdr.io.time_order import keep_increasing
 from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, SensorStream
 from pdr.units import ACC_UNITS, GYRO_UNITS, MAG_UNITS, detect_acc_unit, detect_mag_unit
@@ -170,16 +170,16 @@ def _valid_rows(table: Table, cols: tuple[str, ...], kind: str, warnings: list[s
 def _llio_file(p: Path, stem: str) -> Path | None:
     name = f"{stem}_strideIndex_timestamp_gcpX_gcpY.csv"
     for folder in (p.parent, p.parent.parent / "LLIO_training_data", p.parent / "LLIO_training_data"):
-        for cand in (folder / name, folder / (name + ".gz")):
-            if cand.is_file():
-                return cand
+        found = find_member(folder, name)
+        if found is not None:
+            return found
     return None
 
 
 def _stride_truth(p: Path, t_rel_s: np.ndarray) -> tuple[GroundTruth, list[str], dict[str, object]]:
     """GCP truth from the sibling .mat (and LLIO stride times); see the module docstring."""
     stem = strip_gz(p.name)[: -len(".csv")]
-    mat_path = next((c for c in (p.parent / f"{stem}.mat", p.parent / f"{stem}.mat.gz") if c.is_file()), None)
+    mat_path = find_member(p.parent, f"{stem}.mat")
     if mat_path is None:
         return GroundTruth(), [], {}
     src = str(mat_path)

@@ -11,6 +11,7 @@ import io
 import json
 import mmap
 import re
+import stat
 import warnings as warning_filters
 import zlib
 from collections.abc import Sequence
@@ -22,6 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pdr.errors import InputError
+from pdr.io import notices
 from pdr.io.gz import GZIP_MAGIC, decompressed_prefix, gunzip
 from pdr.io.time_order import file_name
 
@@ -128,11 +130,43 @@ def head(path: str | Path, n: int = SNIFF_BYTES) -> bytes:
 
 
 def find_member(folder: Path, name: str) -> Path | None:
-    """``folder/name`` or ``folder/name.gz``, whichever exists."""
+    """``folder/name`` or ``folder/name.gz``, whichever is a file (:func:`is_member_file`)."""
     for candidate in (folder / name, folder / (name + ".gz")):
-        if candidate.is_file():
+        if is_member_file(candidate):
             return candidate
     return None
+
+
+def is_member_file(path: Path) -> bool:
+    """Whether a folder's member ``path`` is a file (or a link to one) a reader may open. Anything else of that name
+    (a folder, a named pipe, a socket or device, a symbolic link that loops or leads nowhere) is not read, with a
+    notice naming it (:func:`pdr.io.notices.note`); an absent name is just absent.
+    """
+    if path.is_file():
+        return True
+    what = not_a_file(path)
+    if what is not None:
+        notices.note(f"{path.name}: not read: {what}")
+    return False
+
+
+def not_a_file(path: Path) -> str | None:
+    """What ``path`` is when it is there but is no regular file (``a folder, not a file``, ...); None for a file or
+    nothing at all. Never raises, never opens it (a named pipe would wait for a writer).
+    """
+    try:
+        mode = path.lstat().st_mode
+        if stat.S_ISLNK(mode):
+            mode = path.stat().st_mode
+    except OSError:  # absent, or a link that loops or leads nowhere
+        return "a symbolic link that leads nowhere (a loop, or its target is missing)" if path.is_symlink() else None
+    if stat.S_ISREG(mode):
+        return None
+    if stat.S_ISDIR(mode):
+        return "a folder, not a file"
+    if stat.S_ISFIFO(mode):
+        return "a named pipe (FIFO), not a file"
+    return "a socket or device, not a file"
 
 
 #: Line breaks of :meth:`str.splitlines` other than LF and CR LF (the ASCII ones; non-ASCII text takes the exact path).

@@ -68,7 +68,7 @@ from pdr.errors import InputError
 from pdr.io import matfile
 from pdr.io.android import rotation_vector_to_q_nb
 from pdr.io.bundle import Bundle, is_zip
-from pdr.io.text import drop_cut_off_last_line, parse_float_rows, timestamps_ns
+from pdr.io.text import drop_cut_off_last_line, find_member, parse_float_rows, timestamps_ns
 from pdr.io.time_order import keep_increasing
 from pdr.recording import DeviceInfo, GroundTruth, PositionTruth, Recording, SensorStream
 
@@ -296,11 +296,7 @@ def _alignment(text: str, source: str) -> float:
 
 # -- motion capture ----------------------------------------------------------------------------------------
 def _qualisys_file(folder: Path) -> Path | None:
-    qdir = folder.resolve().parent.parent / "qualisys"
-    for name in (f"{folder.name}.mat", f"{folder.name}.mat.gz"):
-        if (qdir / name).is_file():
-            return qdir / name
-    return None
+    return find_member(folder.resolve().parent.parent / "qualisys", f"{folder.name}.mat")
 
 
 def _mocap_arrays(path: Path) -> tuple[float, FloatArray, FloatArray]:

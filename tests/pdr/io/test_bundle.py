@@ -84,3 +84,33 @@ def test_errors_name_the_file_or_member(tmp_path: Path) -> None:
         b.need("y.csv")
     with pytest.raises(InputError, match="binary data"):
         b.text("bin.csv")
+
+
+def _make_no_file(path: Path, kind: str) -> str:
+    """Put a ``kind`` at ``path`` (a folder, a named pipe, a symbolic link to itself); the notice expected of it."""
+    import os
+
+    if kind == "folder":
+        path.mkdir()
+        return f"{path.name}: not read: a folder, not a file"
+    if kind == "fifo":
+        os.mkfifo(path)
+        return f"{path.name}: not read: a named pipe (FIFO), not a file"
+    path.symlink_to(path.name)
+    return f"{path.name}: not read: a symbolic link that leads nowhere (a loop, or its target is missing)"
+
+
+@pytest.mark.parametrize("kind", ["folder", "fifo", "symlink loop"])
+def test_a_member_that_is_no_file_is_not_read_and_said(tmp_path, kind):
+    """A folder member that is a folder, a named pipe or a link that loops was skipped as if absent, unsaid; it is
+    still not read (a pipe is never opened), and said within pdr.io.notices.collecting (read_recording's)."""
+    from pdr.io import notices
+    from pdr.io.text import find_member
+
+    d = folder(tmp_path)
+    expected = _make_no_file(d / "Gyroscope.csv", kind)
+    with notices.collecting() as notes:
+        assert Bundle(d).get("Gyroscope.csv") is None and find_member(d, "Gyroscope.csv") is None
+        assert Bundle(d).get("Accelerometer.csv") == FILES["Accelerometer.csv"]
+    assert notes == [expected, expected]
+    assert Bundle(d).get("Gyroscope.csv") is None   # outside: as before, nothing said

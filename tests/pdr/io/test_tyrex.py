@@ -259,6 +259,35 @@ def test_times_a_tenth_of_a_nanosecond_apart_are_a_repeat_dropped_with_a_warning
                for w in rec.warnings), rec.warnings
 
 
+def test_members_that_are_no_files_are_said_not_skipped_silently(tmp_path):
+    """A member that is a folder, a named pipe or a link that loops was skipped as if absent, without a word; each is
+    now a warning of the recording, and a required one (the accelerometer) is named in the error."""
+    import os
+
+    from pdr.io import read_recording
+
+    folder = write_recording(tmp_path, mocap=False, gz=False)
+    whole = read_recording(folder)
+    (folder / "gyroscope.txt").unlink()
+    (folder / "gyroscope.txt").mkdir()
+    (folder / "magnetometer.txt").unlink()
+    os.mkfifo(folder / "magnetometer.txt")
+    (folder / "rotation-vector.txt").unlink()
+    (folder / "rotation-vector.txt").symlink_to("rotation-vector.txt")
+    rec = read_recording(folder)
+    assert set(rec.streams) == set(whole.streams) - {"gyro_uncal", "mag_uncal", "orientation"}
+    np.testing.assert_array_equal(rec.values("acc"), whole.values("acc"))
+    assert rec.warnings[:3] == ("gyroscope.txt: not read: a folder, not a file",
+                                "magnetometer.txt: not read: a named pipe (FIFO), not a file",
+                                "rotation-vector.txt: not read: a symbolic link that leads nowhere (a loop, or its "
+                                "target is missing)")
+    (folder / "accelerometer.txt").unlink()
+    os.mkfifo(folder / "accelerometer.txt")
+    for forced in (None, "tyrex"):
+        with pytest.raises(InputError, match=r"accelerometer.* \(accelerometer\.txt: not read: a named pipe \(FIFO\)"):
+            read_recording(folder, format=forced)
+
+
 @pytest.mark.parametrize(("content", "match"), [("", "expected one number"), ("abc", "expected one number"),
                                                 ("1 2", "expected one number"),
                                                 ("1e300", r"time alignment 1e\+300 s is not a plausible offset"),
