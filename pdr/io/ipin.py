@@ -416,10 +416,11 @@ def _assemble(p: Path, arrays: dict[str, tuple[NDArray[np.float64], _Lines]],
     for tag, (arr, lines) in arrays.items():
         kind = SENSOR_RECORDS[tag][0]
         field = f"{tag} SensorTimestamp" if lines is not None else _MAT_VARIABLE_OF[tag]
-        keep = keep_increasing(arr[:, 1], source, field, warnings, lines=lines, what=tag)
+        sensor_ns = timestamps_ns(arr[:, 1], source, field, scale=1e9, line_numbers=lines)
+        keep = keep_increasing(sensor_ns, source, field, warnings, lines=lines, what=tag)  # < 1 ns apart: repeats
         if not keep.all():
-            arr = arr[keep]
-        t_ns, offsets[kind] = _app_clock_ns(arr[:, 0], arr[:, 1])
+            arr, sensor_ns = arr[keep], sensor_ns[keep]
+        t_ns, offsets[kind] = _app_clock_ns(arr[:, 0], arr[:, 1], sensor_ns)
         if tag == "PRES":
             values = arr[:, 2:3]  # mbar == hPa
         elif tag == "AHRS":
@@ -444,12 +445,13 @@ def _assemble(p: Path, arrays: dict[str, tuple[NDArray[np.float64], _Lines]],
                      warnings=tuple(warnings), meta=meta)
 
 
-def _app_clock_ns(app_s: NDArray[np.float64], sensor_s: NDArray[np.float64]) -> tuple[NDArray[np.int64], float]:
-    """Sample times on the AppTimestamp clock (int ns): SensorTimestamp + median(App - Sensor)."""
+def _app_clock_ns(app_s: NDArray[np.float64], sensor_s: NDArray[np.float64],
+                  sensor_ns: NDArray[np.int64]) -> tuple[NDArray[np.int64], float]:
+    """Sample times on the AppTimestamp clock (int ns): SensorTimestamp (``sensor_ns``, its int ns) + median(App -
+    Sensor) (s, returned too), whole nanoseconds added so that the order of ``sensor_ns`` is kept.
+    """
     offset_s = float(np.median(app_s - sensor_s))
-    t_ns = (timestamps_ns(sensor_s, "SensorTimestamp", "SensorTimestamp", scale=1e9)
-            + timestamps_ns(np.array([offset_s]), "AppTimestamp", "AppTimestamp", scale=1e9)[0])
-    return t_ns, offset_s
+    return sensor_ns + timestamps_ns(np.array([offset_s]), "AppTimestamp", "AppTimestamp", scale=1e9)[0], offset_s
 
 
 def _landmarks(source: str, t_s: NDArray[np.float64], lat: NDArray[np.float64], lon: NDArray[np.float64],

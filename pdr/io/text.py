@@ -469,7 +469,7 @@ MAX_ABS_NS = float(2**63 - 2**12)
 
 
 def timestamps_ns(t: NDArray[np.float64], source: str, field: str, *, scale: float = 1.0, multiplier: int = 1,
-                  line_numbers: Sequence[int] | None = None) -> NDArray[np.int64]:
+                  line_numbers: Sequence[int] | NDArray[np.int64] | None = None) -> NDArray[np.int64]:
     """``round(t * scale) * multiplier`` as int64 nanoseconds; :class:`InputError` for a time out of range.
 
     ``scale`` converts float units before rounding (1e9 for seconds), ``multiplier`` whole units after it
@@ -481,6 +481,6 @@ def timestamps_ns(t: NDArray[np.float64], source: str, field: str, *, scale: flo
     if bad.any():
         i = int(np.argmax(bad))
         raise InputError(f"time {t[i]!r} is out of range (beyond ±292 years as int64 nanoseconds)", source=source,
-                         line=None if line_numbers is None else line_numbers[i], field=field)
+                         line=None if line_numbers is None else int(line_numbers[i]), field=field)
     out: NDArray[np.int64] = r.astype(np.int64) * np.int64(multiplier)
     return out

@@ -384,3 +384,22 @@ def test_attitude_of_a_corrupt_rotation_vector_names_file_and_stream(tmp_path):
     with pytest.raises(InputError, match=r"sample 0 \(t 0.073 s\) is a quaternion of norm 0 .*not an attitude") as err:
         read_recording(p)
     assert (err.value.source, err.value.field) == (str(p), "orientation")
+
+
+@pytest.mark.parametrize("source", ["text", "mat"])
+def test_sensor_times_a_tenth_of_a_nanosecond_apart_are_a_repeat_dropped_with_a_warning(tmp_path, source):
+    """SensorTimestamps 0.1 ns apart (in order in seconds, one nanosecond once rounded) refused the whole log:
+    "stream 'acc': timestamp of sample 2 (...) duplicates sample 1"; the later record is a repeat now, dropped with a
+    warning as exact repeats are (pdr.io.time_order on the int64 nanoseconds)."""
+    from pdr.io import read_recording
+
+    rows = [[0.050, 100.0, 0.1, 0.2, 9.8], [0.060, 100.0 + 1e-10, 0.1, 0.2, 9.8], [0.070, 100.02, 0.1, 0.2, 9.8]]
+    posi = [0.06, 49.4611, 11.1110, 0.0]
+    if source == "text":
+        p = _write(tmp_path, HEADER + "".join(f"ACCE;{';'.join(map(repr, r))};3\n" for r in rows)
+                   + "POSI;0.060;1;49.4611;11.1110;0;100\n")
+    else:
+        p = _savemat(tmp_path, Acce=np.array(rows), Gyro=np.array(rows), Posi=np.array([posi]))
+    rec = read_recording(p)
+    assert len(rec.stream("acc")) == 2
+    assert any("ACCE dropped 1 of 3 samples whose time repeats (1)" in w for w in rec.warnings), rec.warnings
