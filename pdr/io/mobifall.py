@@ -74,7 +74,7 @@ def _sniff_file(p: Path) -> bool:
 
 def _trials_in(folder: Path) -> set[tuple[str, str, str]]:
     found = set()
-    for child in folder.iterdir():
+    for child in sorted(folder.iterdir()):  # by name: the notices of members that are no files in a fixed order
         m = _NAME.match(child.name)
         if m and is_member_file(child):
             found.add((m["code"], m["subject"], m["trial"]))

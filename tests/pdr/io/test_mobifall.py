@@ -180,3 +180,19 @@ def test_value_beyond_any_sensor_names_file_and_stream(tmp_path, value, field):
                                          r"sensor \(limit 10000\)") as err:
         read_recording(folder)
     assert (err.value.source, err.value.field) == (str(folder), field)
+
+
+def test_a_trial_file_that_is_a_folder_is_said_not_skipped_silently(tmp_path):
+    """A trial folder whose gyro file is a folder (or a second trial's acc file is a named pipe) read as if they were
+    absent, without a word; read_recording now says each (pdr.io.notices)."""
+    import os
+
+    from pdr.io import read_recording
+
+    _write(tmp_path / "t", "STU_acc_9_1.txt", ROWS)
+    (tmp_path / "t" / "STU_gyro_9_1.txt").mkdir()
+    os.mkfifo(tmp_path / "t" / "WAL_acc_9_2.txt")
+    rec = read_recording(tmp_path / "t")
+    assert set(rec.streams) == {"acc"}
+    assert rec.warnings[:2] == ("STU_gyro_9_1.txt: not read: a folder, not a file",
+                                "WAL_acc_9_2.txt: not read: a named pipe (FIFO), not a file")
