@@ -145,7 +145,7 @@ def check_elements(raw: bytes, source: str) -> None:
             else:
                 _matrix(raw, off, start + size, order)
         except _Damage as exc:
-            raise InputError(f"not a readable MATLAB .mat file (damaged: element {index} at byte {off}: {exc.what} "
+            raise InputError(f"not a readable MATLAB .mat file (damaged: element {index} at byte {off}: {exc.what}, "
                              f"at byte {exc.offset}{inside})", source=source, field=exc.variable) from None
         off = start + size
 
