@@ -14,7 +14,7 @@ from pathlib import Path
 
 from pdr.errors import InputError
 from pdr.io.gz import decompressed_prefix, gunzip
-from pdr.io.text import SNIFF_BYTES, decode_text, find_member, head, read_bytes, strip_gz
+from pdr.io.text import SNIFF_BYTES, decode_text, find_member, head, is_member_file, read_bytes, strip_gz
 
 
 def starts_with(path: Path, magic: bytes) -> bool:
@@ -74,13 +74,16 @@ class Bundle:
         return f"{self.path}:{self._prefix}{member}" if self._zip is not None else str(self.path / member)
 
     def members(self) -> list[str]:
-        """Relative names of every file (``.gz`` suffix removed), sorted."""
+        """Relative names of every file (``.gz`` suffix removed), sorted; in a folder, what is neither a file nor a
+        sub-folder is left out with a notice (:func:`pdr.io.text.is_member_file`).
+        """
         if self._zip is not None:
             out = {strip_gz(n[len(self._prefix):]) for n in self._zip
                    if n.startswith(self._prefix) and not n.startswith("__MACOSX/")}
         else:
-            out = {strip_gz(str(f.relative_to(self.path)).replace("\\", "/")) for f in self.path.rglob("*")
-                   if f.is_file()}
+            # A sub-folder is part of the layout; a named pipe, socket or link that loops is said (is_member_file).
+            out = {strip_gz(str(f.relative_to(self.path)).replace("\\", "/")) for f in sorted(self.path.rglob("*"))
+                   if not f.is_dir() and is_member_file(f)}
         return sorted(out)
 
     def _stored(self, member: str) -> tuple[str, bytes] | Path | None:

@@ -473,3 +473,23 @@ def test_one_reading_of_an_export_alone_says_to_give_the_export(tmp_path, name):
     with pytest.raises(UnknownFormatError, match=rf"one reading \({name.removesuffix('.gz')}\) of a Sensor Logger "
                                                  r"export, which is read as a whole: give the export's folder or zip"):
         read_recording(one)
+
+
+def test_a_reading_that_is_a_named_pipe_is_said_not_skipped_silently(tmp_path):
+    """An export folder whose Magnetometer.csv is a named pipe (or a link that loops) read without it, unsaid: it is
+    still not read (never opened) and now a warning of the recording (pdr.io.notices, through Bundle.members)."""
+    import os
+
+    from pdr.io import read_recording
+
+    rec = tmp_path / "export"
+    shutil.copytree(FIXTURES / "android_face_up", rec)
+    whole = read_recording(rec)
+    (rec / "Magnetometer.csv").unlink()
+    os.mkfifo(rec / "Magnetometer.csv")
+    (rec / "Barometer.csv").unlink()
+    (rec / "Barometer.csv").symlink_to("Barometer.csv")
+    got = read_recording(rec)
+    assert set(got.streams) == set(whole.streams) - {"mag", "baro"}
+    assert got.warnings[:2] == ("Barometer.csv: not read: a symbolic link that leads nowhere (a loop, or its target "
+                                "is missing)", "Magnetometer.csv: not read: a named pipe (FIFO), not a file")
