@@ -74,6 +74,9 @@ sessions = Table(
     Column("origin_lon_deg", Float),
     Column("warnings", Text, nullable=False, default="[]"),
     Column("meta", Text, nullable=False, default="{}"),
+    # Migration 0013_results_epoch: incremented by every clear of the session's results (reprocess, new processing
+    # options, a late batch's rebuild); a processing pass writes only while it is unchanged (server.store.Store.fenced).
+    Column("results_epoch", Integer, nullable=False, server_default="0"),
     UniqueConstraint("user_id", "source", "client_session_id", name="uq_sessions_client"),
 )
 

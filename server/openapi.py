@@ -184,7 +184,8 @@ def openapi_document() -> dict[str, Any]:
                 "get": _op("session detail with processing status, batches, warnings, paired and live feet and the "
                            "primary track; {session_id} may also be the client's session_id (a key per user)",
                            {"200": _ok("session")} | _errors(401, 404), parameters=[SESSION_ID]),
-                "delete": _op("delete the session: raw batches, results, processing state, queued work",
+                "delete": _op("delete the session: raw batches, results, processing state, queued work; at once, "
+                              "also while it is being processed (that pass writes nothing more)",
                               {"204": {"description": "deleted"}} | _errors(401, 404), parameters=[SESSION_ID])},
             "/api/v1/sessions/{session_id}/devices": {
                 "post": _op("pair a device (shoe IMUs: left_foot / right_foot); a session with a phone takes a "
@@ -210,14 +211,18 @@ def openapi_document() -> dict[str, Any]:
                             parameters=[SESSION_ID, TOKEN_QUERY], requestBody=_json_body("NativeBatch"),
                             security=[{"bearer": []}, {"queryToken": []}])},
             "/api/v1/sessions/{session_id}/processing": {
-                "put": _op("replace the processing options and rebuild all results", {"202": _ok("queued")} | common,
+                "put": _op("replace the processing options and rebuild all results with them: answered at once, "
+                           "a pass running then writes nothing more, the next one rebuilds",
+                           {"202": _ok("queued")} | common | _errors(409),
                            parameters=[SESSION_ID], requestBody=_json_body("Processing"))},
             "/api/v1/sessions/{session_id}/site": {
                 "get": _op("the floor plans (metric frame, per floor) and start of the uploaded site the session is "
                            "processed with (its own copy); 404 when it names none",
                            {"200": _ok("floor plans")} | _errors(401, 404), parameters=[SESSION_ID])},
             "/api/v1/sessions/{session_id}/reprocess": {
-                "post": _op("rebuild all results from the raw batches", {"202": _ok("queued")} | _errors(401, 404),
+                "post": _op("rebuild all results from the raw batches: answered at once, a pass running then writes "
+                            "nothing more, the next one rebuilds; 409 when the retention policy deleted raw batches",
+                            {"202": _ok("queued")} | _errors(401, 404, 409),
                             parameters=[SESSION_ID])},
             "/api/v1/sessions/{session_id}/track": {
                 "get": _op("track, one row per step", {"200": {"description": "track", "content": {

@@ -5,6 +5,18 @@ navigation for a shoe IMU): ``update(recording) -> ProcessorOutput`` and ``to_by
 for its state, so that a new batch costs time proportional to the batch and any worker can resume it.
 Batches of a session are processed in time order, one at a time; a batch that ends at or before what was
 already processed (an out-of-order upload) triggers a rebuild of the session from its raw batches.
+
+Control requests never wait for a processing pass. Deleting a session (:meth:`server.store.Store.delete_session`)
+or clearing its results for a rebuild (:meth:`SessionProcessing.clear`: reprocess, new processing options) is one
+short transaction, committed before the answer. A pass writes through a store fenced at the session's results epoch
+(:meth:`server.store.Store.fenced`), which every clear increments: each of its writes (a batch marked processing, a
+batch's results and processor state, a batch failed, the end of a rebuild, the session's status) checks the epoch in
+its own transaction, so it lands wholly before the delete or clear (which then deletes or clears it too) or raises
+:class:`~server.store.SessionChanged` and writes nothing. The pass then ends when the session is gone, or begins
+again at the new epoch, with processors made anew from the session's options and states as they are now: the
+batches a clear set pending, and those uploaded meanwhile, are all processed. This holds across processes (the epoch
+is in the database, as are the foreign keys that keep a deleted session's rows from being written), so it holds for
+the workers of the scale-out mode too.
 """
 
 from __future__ import annotations
@@ -23,7 +35,7 @@ from pdr.recording import Recording
 from server.errors import APIError
 from server.processing_options import site_id_of
 from server.site_store import SiteDocument, SiteStore
-from server.store import PURGED, BatchRecord, EventRow, Store, StoredStep
+from server.store import PURGED, BatchRecord, EventRow, SessionChanged, Store, StoredStep
 
 log = logging.getLogger(__name__)
 
@@ -130,7 +142,9 @@ def read_uploaded_file(payload: bytes, descriptor: str) -> Recording:
 
 
 class SessionLocks:
-    """One lock per session: batches of a session are processed one at a time (within this process)."""
+    """One lock per session: one processing pass of a session at a time (within this process). Control requests do
+    not take it (the results epoch fences a pass, :meth:`server.store.Store.fenced`).
+    """
 
     def __init__(self) -> None:
         self._locks: dict[str, threading.Lock] = {}
@@ -148,69 +162,81 @@ class SessionProcessing:
     #: caller to retry instead of marking the batch failed. Empty in the embedded default.
     transient: tuple[type[BaseException], ...] = ()
 
+    @property
+    def _passed_on(self) -> tuple[type[BaseException], ...]:
+        """What the handling of a batch's or stage's failure re-raises: the session changed, or a transient error."""
+        return (SessionChanged, *self.transient)
+
     def __init__(self, store: Store, factory: ProcessorFactory) -> None:
         self.store = store
         self.factory = factory
         self.locks = SessionLocks()
 
     def process_session(self, session_id: str) -> None:
-        """Process every pending batch of the session, in time order; rebuild if one arrived late."""
+        """Process every pending batch of the session, in time order; rebuild if one arrived late. Begin again when the
+        session's results were cleared meanwhile; end when it was deleted (:class:`SessionChanged`).
+        """
         with self.locks.get(session_id):
             processed = False
-            while True:
-                pending = self.store.batches(session_id, ["pending"])
-                if not pending:
-                    break
-                if self._arrived_late(session_id, pending):
-                    log.info("session %s: out-of-order batch, rebuilding from raw data", session_id)
-                    self.store.clear_results(session_id)
-                    continue
-                last_of_role = {b.device_role: b.id for b in pending}
-                live: dict[str, Processor] = {}  # processors kept between the batches of this pass
-                for batch in pending:
-                    self._process_batch(session_id, batch, with_tail=last_of_role[batch.device_role] == batch.id,
-                                        live=live)
-                processed = True
-            if processed:
-                self._fuse_feet(session_id)
-            self.store.end_rebuild(session_id)      # no batch pending: a rebuild's results are complete
-            self.finish(session_id)
+            while (epoch := self.store.results_epoch(session_id)) is not None:
+                store = self.store.fenced(session_id, epoch)
+                try:
+                    if self._process_pending(store, session_id):
+                        processed = True
+                        continue
+                    if processed:
+                        self._fuse_feet(store, session_id)
+                    store.end_rebuild(session_id)      # no batch pending: a rebuild's results are complete
+                    self.finish(session_id, store)
+                    return
+                except SessionChanged as exc:
+                    log.info("%s; processing it again from its stored batches if it still exists", exc)
+
+    def _process_pending(self, store: Store, session_id: str) -> bool:
+        """One pass over the session's pending batches (or the clear of a rebuild when one arrived late); False when
+        none is pending.
+        """
+        pending = store.batches(session_id, ["pending"])
+        if not pending:
+            return False
+        if self._arrived_late(store, session_id, pending):
+            log.info("session %s: out-of-order batch, rebuilding from raw data", session_id)
+            store.clear_results(session_id)
+            return True
+        last_of_role = {b.device_role: b.id for b in pending}
+        live: dict[str, Processor] = {}  # processors kept between the batches of this pass
+        for batch in pending:
+            self._process_batch(store, session_id, batch, with_tail=last_of_role[batch.device_role] == batch.id,
+                                live=live)
+        return True
 
     def clear(self, session_id: str) -> None:
         """Forget the session's results so that processing rebuilds them from raw batches (409 when the retention
-        policy deleted some of them: the results could not be rebuilt).
+        policy deleted some of them: the results could not be rebuilt). A pass running now writes nothing more.
         """
-        with self.locks.get(session_id):
-            if self.store.batch_summary(session_id).get(PURGED):
-                raise APIError(409, "the raw data of this session was deleted by the retention policy "
-                                    "(PDR_RETENTION_DAYS): its results cannot be rebuilt")
-            self.store.clear_results(session_id)
-            self.store.set_session(session_id, status="pending")
+        if self.store.batch_summary(session_id).get(PURGED):
+            raise APIError(409, "the raw data of this session was deleted by the retention policy "
+                                "(PDR_RETENTION_DAYS): its results cannot be rebuilt")
+        self.store.clear_results(session_id)
 
-    def delete(self, session_id: str) -> None:
-        """Delete the session and everything stored for it, once no batch of it is being processed here."""
-        with self.locks.get(session_id):
-            self.store.delete_session(session_id)
-
-    def reprocess(self, session_id: str) -> None:
-        """Rebuild all results of a session from its raw batches, now."""
-        self.clear(session_id)
-        self.process_session(session_id)
-
-    def _arrived_late(self, session_id: str, pending: list[BatchRecord]) -> bool:
+    @staticmethod
+    def _arrived_late(store: Store, session_id: str, pending: list[BatchRecord]) -> bool:
         """Whether a pending batch ends at or before what its role has processed (it must go before): a batch that only
         starts there (a stream the phone sends a batch late, a sender that repeats the end of its last batch) goes on
         from it, as its processor merges each stream in time order.
         """
         for role in {b.device_role for b in pending}:
-            _, watermark = self.store.load_state(session_id, role)
+            _, watermark = store.load_state(session_id, role)
             lasts = [b.t_last_ns for b in pending if b.device_role == role and b.t_last_ns is not None]
             if watermark is not None and lasts and min(lasts) <= watermark:
                 return True
         return False
 
     def _context(self, session_id: str, role: str) -> SessionContext:
-        row = self.store.session_row(session_id)
+        try:
+            row = self.store.session_row(session_id)
+        except APIError:    # its 404
+            raise SessionChanged(f"session {session_id} was deleted during processing") from None
         placement = row.placement
         for dev in self.store.devices(session_id):
             if dev.role == role and dev.placement:
@@ -224,17 +250,19 @@ class SessionProcessing:
                         "unix_time_s": created.timestamp()}
         return SessionContext(session_id, role, placement, meta, site, location)
 
-    def _process_batch(self, session_id: str, batch: BatchRecord, with_tail: bool = True,
+    def _process_batch(self, store: Store, session_id: str, batch: BatchRecord, with_tail: bool = True,
                        live: dict[str, Processor] | None = None) -> None:
-        """Process one batch; ``live`` caches processors by role so that a pass restores each state once."""
+        """Process one batch, writing through the pass's ``store``; ``live`` caches processors by role so that a pass
+        restores each state once.
+        """
         live = {} if live is None else live
-        self.store.set_batch_status(batch.id, "processing")
+        store.set_batch_status(batch.id, "processing")
         role = batch.device_role
         try:
             recording = decode_payload(batch)
             processor = live.pop(role, None)
             if processor is None:
-                state, _ = self.store.load_state(session_id, role)
+                state, _ = store.load_state(session_id, role)
                 processor = self.factory(self._context(session_id, role), state)
             if isinstance(recording, StepSummaryBatch):
                 if not hasattr(processor, "update_steps"):
@@ -244,23 +272,23 @@ class SessionProcessing:
                 out = processor.update(recording)
                 last_t_ns = max(int(s.t_ns[-1]) for s in recording.streams.values() if len(s))
             tail = processor.tail() if with_tail and hasattr(processor, "tail") else ProcessorOutput()
-            self.store.commit_results(session_id, role, batch.id, processor.to_bytes(), last_t_ns,
-                                      out.track, out.events, tail_track=tail.track, tail_events=tail.events)
+            store.commit_results(session_id, role, batch.id, processor.to_bytes(), last_t_ns,
+                                 out.track, out.events, tail_track=tail.track, tail_events=tail.events)
             live[role] = processor  # only a processor whose state was committed is reused
-            self.store.add_session_warnings(session_id, list(recording.warnings) + out.warnings)
+            store.add_session_warnings(session_id, list(recording.warnings) + out.warnings)
             if (isinstance(recording, Recording) and recording.truth.positions is not None
                     and recording.truth.positions.origin_lat_lon_deg):
                 lat, lon = recording.truth.positions.origin_lat_lon_deg
-                self.store.set_session(session_id, origin_lat_deg=lat, origin_lon_deg=lon)
-        except self.transient:
+                store.set_session(session_id, origin_lat_deg=lat, origin_lon_deg=lon)
+        except self._passed_on:
             raise
         except InputError as exc:
-            self.store.set_batch_status(batch.id, "failed", str(exc))
+            store.set_batch_status(batch.id, "failed", str(exc))
         except Exception as exc:  # a processing bug must not lose the raw batch or stop the worker
             log.exception("processing batch %s of session %s failed", batch.id, session_id)
-            self.store.set_batch_status(batch.id, "failed", f"internal processing error: {type(exc).__name__}: {exc}")
+            store.set_batch_status(batch.id, "failed", f"internal processing error: {type(exc).__name__}: {exc}")
 
-    def _fuse_feet(self, session_id: str) -> None:
+    def _fuse_feet(self, store: Store, session_id: str) -> None:
         """Session-level stages after a pass: the fused dual-foot track (role ``fused``, :mod:`server.fused_feet`),
         then the steps of the group agents that follow the session (:mod:`server.group_feed`).
         """
@@ -269,17 +297,20 @@ class SessionProcessing:
 
         for what, stage in (("fused foot track", fuse_session), ("group feed", feed_groups)):
             try:
-                stage(self.store, session_id)
-            except self.transient:
+                stage(store, session_id)
+            except self._passed_on:
                 raise
             except InputError as exc:
-                self.store.add_session_warnings(session_id, [f"{what}: {exc}"])
+                store.add_session_warnings(session_id, [f"{what}: {exc}"])
             except Exception as exc:  # a fusion bug must not stop the worker; the feet's own tracks stay
                 log.exception("%s of session %s failed", what, session_id)
-                self.store.add_session_warnings(session_id, [f"{what}: internal error: {type(exc).__name__}"])
+                store.add_session_warnings(session_id, [f"{what}: internal error: {type(exc).__name__}"])
 
-    def finish(self, session_id: str) -> None:
-        """Set the session's status from its batches' (failed if one failed or is a dead letter)."""
-        summary = self.store.batch_summary(session_id)
+    def finish(self, session_id: str, store: Store | None = None) -> None:
+        """Set the session's status from its batches' (failed if one failed or is a dead letter); ``store``: the
+        pass's (:meth:`server.store.Store.fenced`).
+        """
+        store = self.store if store is None else store
+        summary = store.batch_summary(session_id)
         status = "failed" if summary.get("failed") or summary.get("dead") else ("done" if summary else "empty")
-        self.store.set_session(session_id, status=status)
+        store.set_session(session_id, status=status)

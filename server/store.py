@@ -2,10 +2,16 @@
 
 Every write that acknowledges an upload commits before the HTTP answer, so an accepted batch survives a
 crash. Raw payloads are zlib-compressed; their SHA-256 makes re-sent batches idempotent.
+
+A processing pass writes through :meth:`Store.fenced`: each of its writes checks, in its own transaction, that the
+session still exists at the results epoch the pass began with (:class:`SessionChanged` otherwise). So deleting a
+session or clearing its results (:meth:`Store.clear_results`, which increments the epoch) never waits for a pass,
+and a pass can neither write back a deleted session's results nor results computed before a clear.
 """
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import json
 import uuid
@@ -13,7 +19,7 @@ import zlib
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, fields
 from datetime import datetime
-from typing import Any
+from typing import Any, Self
 
 from sqlalchemy import ColumnElement, Connection, Engine, Row, case, delete, func, insert, null, select, update
 from sqlalchemy.exc import IntegrityError
@@ -129,11 +135,51 @@ class EventRow:
     step: int | None = None
 
 
+class SessionChanged(RuntimeError):
+    """The session of a processing pass was deleted, or its results cleared, since the pass began
+    (:meth:`Store.fenced`): what the pass computed is stale and was not written.
+    """
+
+
 class Store:
     """Repository over one database engine."""
 
     def __init__(self, engine: Engine) -> None:
         self.engine = engine
+        #: (session id, results epoch) of a processing pass's store (:meth:`fenced`), None for every other.
+        self.fence: tuple[str, int] | None = None
+
+    def fenced(self, session_id: str, epoch: int) -> Self:
+        """A view of this store for one processing pass over the session begun at results epoch ``epoch``
+        (:meth:`results_epoch`): its writes (results, batch and session status, warnings, clearing and ending a
+        rebuild) raise :class:`SessionChanged`, writing nothing, once the session is deleted or its epoch changed.
+
+        The check is an ``UPDATE`` of the session's row at the start of the write's transaction, which holds the
+        row's lock (PostgreSQL) or the database's write lock (SQLite) until the commit: a delete or a clear is
+        ordered wholly before the write (which then fails) or wholly after it (which then deletes or clears it too).
+        """
+        view = copy.copy(self)
+        view.fence = (session_id, epoch)
+        return view
+
+    def _check_fence(self, conn: Connection) -> None:
+        """In a write's transaction of a :meth:`fenced` store: raise :class:`SessionChanged` unless its session is
+        still at its epoch (and lock the session's row until the commit). Nothing for any other store.
+        """
+        if self.fence is None:
+            return
+        session_id, epoch = self.fence
+        s = db.sessions
+        res = conn.execute(update(s).where(s.c.id == session_id, s.c.results_epoch == epoch)
+                           .values(results_epoch=epoch))
+        if res.rowcount != 1:
+            raise SessionChanged(f"session {session_id} was deleted or its results cleared during processing")
+
+    def results_epoch(self, session_id: str) -> int | None:
+        """How often the session's results were cleared (:meth:`clear_results`); None when there is no such session."""
+        with self.engine.connect() as conn:
+            epoch = conn.execute(select(db.sessions.c.results_epoch).where(db.sessions.c.id == session_id)).scalar()
+        return None if epoch is None else int(epoch)
 
     # -- sessions --------------------------------------------------------------------------------
     def create_session(self, user_id: int, *, source: str, client_session_id: str | None = None, name: str = "",
@@ -215,6 +261,7 @@ class Store:
     def set_session(self, session_id: str, **values: Any) -> None:
         values["updated_at"] = db.utcnow()
         with self.engine.begin() as conn:
+            self._check_fence(conn)
             conn.execute(update(db.sessions).where(db.sessions.c.id == session_id).values(**values))
 
     def add_session_warnings(self, session_id: str, warnings: Iterable[str]) -> None:
@@ -222,6 +269,7 @@ class Store:
         if not new:
             return
         with self.engine.begin() as conn:
+            self._check_fence(conn)
             row = conn.execute(select(db.sessions.c.warnings).where(db.sessions.c.id == session_id)).first()
             current = json.loads(row.warnings) if row else []
             merged = current + [w for w in new if w not in current]
@@ -344,6 +392,7 @@ class Store:
 
     def set_batch_status(self, batch_id: int, status: str, error: str | None = None) -> None:
         with self.engine.begin() as conn:
+            self._check_fence(conn)
             conn.execute(update(db.batches).where(db.batches.c.id == batch_id).values(
                 status=status, error=error, processed_at=db.utcnow()))
 
@@ -379,6 +428,7 @@ class Store:
         """
         now = db.utcnow()
         with self.engine.begin() as conn:
+            self._check_fence(conn)
             if guard is not None:
                 guard(conn)
             key = (db.processor_states.c.session_id == session_id) & (db.processor_states.c.device_role == role)
@@ -410,13 +460,18 @@ class Store:
                     status="done", error=None, processed_at=now))
 
     def clear_results(self, session_id: str) -> None:
-        """Forget every processor state of a session and mark its batches pending (reprocess): a rebuild.
+        """Forget every processor state of a session and mark it and its batches pending (reprocess): a rebuild.
+        Its results epoch is incremented first (which locks its row): a pass begun before writes nothing more.
 
         The results stay readable until the rebuild ends (:meth:`end_rebuild`): they move under the device role
         ``PREVIOUS + role``, which :meth:`track`, :meth:`events` and :meth:`track_summary` serve with
         ``previous=True``. A rebuild cleared again keeps the results from before the first one.
         """
+        s = db.sessions
         with self.engine.begin() as conn:
+            self._check_fence(conn)
+            conn.execute(update(s).where(s.c.id == session_id).values(
+                results_epoch=s.c.results_epoch + 1, status="pending", updated_at=db.utcnow()))
             kept = self._has_previous(conn, session_id)
             for table in (db.track_points, db.events):
                 mine = (table.c.session_id == session_id) & ~table.c.device_role.startswith(PREVIOUS)
@@ -444,6 +499,7 @@ class Store:
     def end_rebuild(self, session_id: str) -> None:
         """Drop the results kept from before a rebuild (its own results are complete)."""
         with self.engine.begin() as conn:
+            self._check_fence(conn)
             for table in (db.track_points, db.events):
                 conn.execute(delete(table).where(table.c.session_id == session_id,
                                                  table.c.device_role.startswith(PREVIOUS)))

@@ -198,11 +198,13 @@ def get_session(session_id: str) -> Response:
 
 @bp.delete("/<session_id>")
 def delete_session(session_id: str) -> tuple[str, int]:
-    """Delete the session: its raw batches, results, processing state and queued work. Not reversible."""
+    """Delete the session: its raw batches, results, processing state and queued work. Not reversible; at once, a pass
+    processing it meanwhile writes nothing more (:meth:`server.store.Store.fenced`).
+    """
     user = current_user()
     svc = services()
     svc.store.session_row(session_id, user.id)
-    svc.processing.delete(session_id)
+    svc.store.delete_session(session_id)
     return "", 204
 
 
@@ -310,7 +312,9 @@ def add_native_batch(session_id: str) -> tuple[Response, int]:
 
 @bp.post("/<session_id>/reprocess")
 def reprocess(session_id: str) -> tuple[Response, int]:
-    """Rebuild every result of the session from its stored raw batches."""
+    """Rebuild every result of the session from its stored raw batches: cleared at once (a pass running now writes
+    nothing more), rebuilt by the worker's next pass.
+    """
     user = current_user()
     svc = services()
     svc.store.session_row(session_id, user.id)
@@ -321,7 +325,9 @@ def reprocess(session_id: str) -> tuple[Response, int]:
 
 @bp.put("/<session_id>/processing")
 def set_processing(session_id: str) -> tuple[Response, int]:
-    """Replace the session's processing options (e.g. a calibration made after the walk) and rebuild its results."""
+    """Replace the session's processing options (e.g. a calibration made after the walk) and rebuild its results with
+    them, as :func:`reprocess`.
+    """
     user = current_user()
     svc = services()
     row = svc.store.session_row(session_id, user.id)

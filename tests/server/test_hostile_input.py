@@ -799,7 +799,7 @@ def test_a_batch_to_a_session_deleted_while_the_batch_is_checked_is_a_404_and_no
 
     def deleted_meanwhile(*args: Any, **kwargs: Any) -> None:
         check(*args, **kwargs)
-        app.extensions["pdr"].processing.delete(sid)
+        app.extensions["pdr"].store.delete_session(sid)
 
     monkeypatch.setattr(plausibility, "check_batch", deleted_meanwhile)
     r = c.post(f"/api/v1/sessions/{sid}/batches", json=phone_batch("late", 0.0), headers=h)

@@ -98,7 +98,7 @@ def test_postgres_refuses_text_it_cannot_store_with_a_4xx_naming_the_field(tmp_p
         assert resp.status_code == 200, resp.get_data()[:300]
         (session,) = c.get("/api/v1/sessions", headers=h).get_json()["sessions"]
         assert session["session_id"] == "s" * 200 and len(session["name"]) == 200
-        svc.processing.delete(session["id"])
+        svc.store.delete_session(session["id"])
         resp = c.post("/api/v1/groups", json={"name": "team\x00"}, headers=h)
         assert resp.status_code == 422 and resp.get_json()["error"]["details"]["field"] == "name", resp.get_data()
         body, ctype = multipart({"file": (b'{"floors": [{"floor": 0, "walkable": {"type": "Polygon", "coordinates": '
