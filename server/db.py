@@ -77,8 +77,11 @@ sessions = Table(
     # Migration 0013_results_epoch: incremented by every clear of the session's results (reprocess, new processing
     # options, a late batch's rebuild); a processing pass writes only while it is unchanged (server.store.Store.fenced).
     Column("results_epoch", Integer, nullable=False, server_default="0"),
+    # Implied by uq_sessions_user_key (migration 0014), which SQLite could not put in its place without a table copy.
     UniqueConstraint("user_id", "source", "client_session_id", name="uq_sessions_client"),
 )
+# Migration 0014_one_session_per_key: a client's session_id names one session of the user, whatever the source.
+Index("uq_sessions_user_key", sessions.c.user_id, sessions.c.client_session_id, unique=True)
 
 devices = Table(
     "devices", metadata,

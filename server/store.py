@@ -187,7 +187,9 @@ class Store:
         """Create (or find, by the client's id) a session; returns (id, created).
 
         The client's ``session_id`` is a key unique per user, whatever the source that created the session
-        (a file upload, native batches, the Sensor Logger push): the same key finds the same session.
+        (a file upload, native batches, the Sensor Logger push): the same key finds the same session, also when two
+        requests create it at once (the database's unique index ``uq_sessions_user_key`` refuses the second insert,
+        which then finds the first).
         """
         client_id = client_session_id or uuid.uuid4().hex
         now = db.utcnow()
@@ -217,7 +219,7 @@ class Store:
             return conn.execute(select(db.users.c.id).where(db.users.c.id == user_id)).first() is not None
 
     def session_by_key(self, user_id: int, client_session_id: str) -> Row[Any] | None:
-        """The user's session with that client ``session_id`` (the first made, for data stored before it was a key)."""
+        """The user's session with that client ``session_id``."""
         with self.engine.connect() as conn:
             return conn.execute(select(db.sessions).where(
                 db.sessions.c.user_id == user_id, db.sessions.c.client_session_id == client_session_id)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import uuid
 from dataclasses import replace
 
 import numpy as np
@@ -164,3 +165,30 @@ def test_oversized_message_is_499_with_a_text_body(client, tokens):
     r = client.post(f"{URL}?token={tokens['alice']}", json=msg)
     assert r.status_code == 499 and r.mimetype == "text/plain"
     assert "message too large" in r.get_data(as_text=True)
+
+
+def test_a_json_create_and_a_push_racing_with_one_key_make_one_session(app, client, tokens, monkeypatch):
+    """The push stores its session between the JSON create's look-up of the key and its insert (as two requests at
+    once do): the create then finds the push's session (200) instead of making a second one under the same key.
+    """
+    from types import SimpleNamespace
+
+    from server import store as store_module
+
+    h = bearer(tokens["alice"])
+    pushes: list[int] = []
+
+    def uuid4_after_a_push() -> uuid.UUID:           # the create's new session id, drawn after its look-up
+        if not pushes:
+            pushes.append(0)
+            pushes[0] = client.post(f"{URL}?token={tokens['alice']}", json=_messages(1)[0]).status_code
+        return uuid.uuid4()
+
+    monkeypatch.setattr(store_module, "uuid", SimpleNamespace(uuid4=uuid4_after_a_push))
+    resp = client.post("/api/v1/sessions", json={"session_id": "sl-session"}, headers=h)
+    monkeypatch.undo()
+    assert pushes == [200]
+    assert resp.status_code == 200, resp.get_data()[:300]
+    sessions = client.get("/api/v1/sessions", headers=h).get_json()["sessions"]
+    assert [(s["id"], s["source"]) for s in sessions] == [(resp.get_json()["id"], "sensor_logger")]
+    assert sessions[0]["batches"] in ({"pending": 1}, {"processing": 1}, {"done": 1})
