@@ -210,13 +210,17 @@ class SessionProcessing:
                                 live=live)
         return True
 
-    def clear(self, session_id: str) -> None:
-        """Forget the session's results so that processing rebuilds them from raw batches (409 when the retention
-        policy deleted some of them: the results could not be rebuilt). A pass running now writes nothing more.
-        """
+    def refuse_unrebuildable(self, session_id: str) -> None:
+        """409 when the retention policy deleted raw batches of the session: its results could not be rebuilt."""
         if self.store.batch_summary(session_id).get(PURGED):
             raise APIError(409, "the raw data of this session was deleted by the retention policy "
                                 "(PDR_RETENTION_DAYS): its results cannot be rebuilt")
+
+    def clear(self, session_id: str) -> None:
+        """Forget the session's results so that processing rebuilds them from raw batches (409 when it could not,
+        :meth:`refuse_unrebuildable`). A pass running now writes nothing more.
+        """
+        self.refuse_unrebuildable(session_id)
         self.store.clear_results(session_id)
 
     @staticmethod

@@ -335,6 +335,7 @@ def set_processing(session_id: str) -> tuple[Response, int]:
     validate(body, PROCESSING, "processing")
     options = ProcessingOptions.from_json(body)
     site = named_site(options, user.id)
+    svc.processing.refuse_unrebuildable(session_id)     # before the options change: they would not be applied
     meta = {k: v for k, v in json.loads(row.meta or "{}").items() if k != META_KEY} | (_meta(options) or {})
     give_session_site(session_id, site)
     svc.store.set_session(session_id, meta=json.dumps(meta))

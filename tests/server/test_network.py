@@ -430,6 +430,9 @@ def test_retention_drops_raw_batches_of_finished_sessions_only(app, client, toke
     assert client.get(f"/api/v1/sessions/{sid}/track", headers=h).get_json()["points"] == track_before
     r = client.post(f"/api/v1/sessions/{sid}/reprocess", headers=h)
     assert r.status_code == 409 and "retention" in r.get_json()["error"]["message"]
+    r = client.put(f"/api/v1/sessions/{sid}/processing", json={"foot": {"zaru": True}}, headers=h)
+    assert r.status_code == 409 and "retention" in r.get_json()["error"]["message"]
+    assert client.get(f"/api/v1/sessions/{sid}", headers=h).get_json()["processing"] == {}   # options not changed
     assert [b["status"] for b in client.get(f"/api/v1/sessions/{live}", headers=h).get_json()["batch_list"]] == [
         "done"]
 
