@@ -24,6 +24,7 @@ from __future__ import annotations
 import json
 import logging
 import threading
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import UTC
@@ -143,11 +144,12 @@ def read_uploaded_file(payload: bytes, descriptor: str) -> Recording:
 
 class SessionLocks:
     """One lock per session: one processing pass of a session at a time (within this process). Control requests do
-    not take it (the results epoch fences a pass, :meth:`server.store.Store.fenced`).
+    not take it (the results epoch fences a pass, :meth:`server.store.Store.fenced`). A session's lock lives while
+    someone holds or waits for it (a weak mapping), so a long-running server keeps none for the sessions it processed.
     """
 
     def __init__(self) -> None:
-        self._locks: dict[str, threading.Lock] = {}
+        self._locks: weakref.WeakValueDictionary[str, threading.Lock] = weakref.WeakValueDictionary()
         self._guard = threading.Lock()
 
     def get(self, session_id: str) -> threading.Lock:

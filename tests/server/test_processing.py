@@ -209,3 +209,24 @@ def test_processor_states_are_stored_as_written_and_older_zlib_rows_still_load()
     assert unpack_state(state) == state
     assert unpack_state(b'{"navigator": null}') == b'{"navigator": null}'
     assert unpack_state(zlib.compress(state, 6)) == state  # a row written before states were stored raw
+
+
+def test_a_sessions_lock_is_shared_while_held_and_forgotten_after() -> None:
+    """One processing pass per session at a time, without a lock kept for every session a long-running server saw."""
+    import gc
+    import threading
+
+    from server.processing import SessionLocks
+
+    locks = SessionLocks()
+    held = locks.get("s1")
+    assert locks.get("s1") is held and locks.get("s2") is not held
+    with held:
+        waiter_got: list[bool] = []
+        t = threading.Thread(target=lambda: waiter_got.append(locks.get("s1").acquire(timeout=0)))
+        t.start()
+        t.join()
+        assert waiter_got == [False]            # the same lock: taken while the pass holds it
+    del held
+    gc.collect()
+    assert len(locks._locks) == 0
