@@ -17,7 +17,14 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import numpy as np
 
 from pdr.cli import progress
-from pdr.cli.track import common_options, config_from_args, reference_rows, rows_notices, run_pipeline
+from pdr.cli.track import (
+    common_options,
+    config_from_args,
+    note_first_compile,
+    reference_rows,
+    rows_notices,
+    run_pipeline,
+)
 from pdr.errors import InputError, UnknownFormatError
 from pdr.evaluation.error_budget import BUDGET_TRACKS, budget_tracks
 from pdr.evaluation.mocap_steps import (
@@ -348,6 +355,8 @@ def eval_ipin(args: argparse.Namespace) -> int:
     per: list[dict[str, Any]] = []
     done: list[dict[str, Any]] = []           # scored files with what a second pass needs
     site = Site.load(args.site) if args.site else None
+    if files:
+        note_first_compile(args.method)
     for f in progress.each(files, "eval ipin"):
         rec = read_recording(f)
         pt = rec.truth.positions

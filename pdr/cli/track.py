@@ -77,7 +77,10 @@ def config_from_args(args: argparse.Namespace, initial_floor: float = 0.0) -> Pi
 
 def run_pipeline(rec: Recording, cfg: PipelineConfig, site: Site | None = None,
                  stages: Sequence[StepStage] = ()) -> tuple[list[dict[str, Any]], list[str]]:
-    """Track rows and notices of a whole recording (``stages``: plugged-in step stages, e.g. the map matcher)."""
+    """Track rows and notices of a whole recording (``stages``: plugged-in step stages, e.g. the map matcher); says
+    first when the kernels will be compiled (:func:`note_first_compile`).
+    """
+    note_first_compile(cfg.attitude_method)
     return rows_notices(PdrPipeline(cfg, site, stages=stages).run(rec))
 
 
@@ -117,7 +120,7 @@ def write_plot(rows: list[dict[str, Any]], path: str | Path, rec: Recording, tit
 def note_first_compile(method: str) -> None:
     """Say on stderr, before the work, that the attitude filter's kernel (``method``: ``ukf`` or ``ekf``) and the
     others will be compiled: the first run after an install (or an upgrade) compiles them for about half a minute to
-    a minute, silently otherwise; numba keeps them in its cache for the next runs.
+    a minute, silently otherwise; numba keeps them in its cache for the next runs. Once they are, nothing is said.
     """
     from pdr.filters.compiled import is_cached
     from pdr.phone.attitude.kernel import run_ekf, run_ukf
@@ -152,7 +155,6 @@ def _track(args: argparse.Namespace) -> int:
     if plan is not None:
         start, floor = parse_start(args.start, plan)
         plan.check_walkable(start, floor, "--start")
-    note_first_compile(args.method)
     if plan is not None and args.smoother == "off":
         # Online: the map matcher is a stage of the pipeline, as in a live session.
         from pdr.mapmatch.stage import MapMatchStage
