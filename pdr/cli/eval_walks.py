@@ -223,7 +223,8 @@ def _ipin_scores(rows: list[dict[str, Any]], t_truth: np.ndarray, pt: Any,
             "median_abs_m": _pct(e_abs, 50), "p75_aligned_m": _pct(e_al, 75),
             "distance_ratio": distance_ratio(t, en, t_truth, pt.pos_m),
             "distance_ratio_same_floor": distance_ratio_same_floor(t, en, t_truth, pt.pos_m, floors),
-            "floors_right": floors_ok, "floor_landmarks": len(t_truth), "_abs": e_abs, "_aligned": e_al}
+            "floors_right": floors_ok, "floor_landmarks": len(t_truth), "_abs": e_abs, "_aligned": e_al,
+            "steps_before_first_landmark": int(np.sum(t < t_truth[0]))}
 
 
 def _ipin_legs(tracks: dict[str, list[dict[str, Any]] | None], t_truth: np.ndarray, pt: Any) -> list[dict[str, Any]]:
@@ -279,6 +280,9 @@ def _ipin_summary(scores: list[dict[str, Any]]) -> dict[str, Any]:
     rf = rf[np.isfinite(rf)]
     with_floor = [p for p in scores if p["floors_right"] is not None]
     return {"files": len(scores), "median_abs_m": _pct(a, 50), "p75_abs_m": _pct(a, 75),
+            "steps": sum(p["steps"] for p in scores),
+            "steps_before_first_landmark": sum(p["steps_before_first_landmark"] for p in scores),
+            "files_with_steps_before_first_landmark": sum(p["steps_before_first_landmark"] > 0 for p in scores),
             "floors_right": sum(p["floors_right"] for p in with_floor),
             "floor_landmarks": sum(p["floor_landmarks"] for p in with_floor),
             "median_aligned_m": _pct(s, 50), "p75_aligned_m": _pct(s, 75),
@@ -287,6 +291,15 @@ def _ipin_summary(scores: list[dict[str, Any]]) -> dict[str, Any]:
             "same_floor_ratio_median": _pct(rf, 50), "same_floor_ratio_iqr": [_pct(rf, 25), _pct(rf, 75)],
             "same_floor_abs_ratio_minus_1_max": _pct(np.abs(rf - 1), 100),
             "same_floor_outside_3pct": int(np.sum(np.abs(rf - 1) > 0.03))}
+
+
+def _steps_before_line(m: dict[str, Any]) -> str:
+    """The steps found before the first landmark: every IPIN 2023 log starts with its calibration (20-40 s of
+    arbitrary motion, then 20-40 s standing; the dataset's SOURCE.md), so none of them is a walking step.
+    """
+    n, total, files = m["steps_before_first_landmark"], m["steps"], m["files_with_steps_before_first_landmark"]
+    return (f"steps before the first landmark (the logs' calibration: arbitrary motion, then a stand; no walking "
+            f"step): {n} of {total} ({100.0 * n / max(total, 1):.1f} %), in {files} of {m['files']} files")
 
 
 def _ipin_summary_line(label: str, m: dict[str, Any]) -> str:
@@ -448,7 +461,8 @@ def eval_ipin(args: argparse.Namespace) -> int:
             line = (f"{p['file']}: p75 {p['p75_abs_m']:.2f} m absolute, {p['p75_aligned_m']:.2f} m aligned, "
                     f"ratio {p['distance_ratio']:.3f} (same floor {p['distance_ratio_same_floor']:.3f}), "
                     f"{p['steps']} steps ({p['truth_m_per_step']:.3f} m/step on one floor by truth, "
-                    f"{p['phone'] or 'phone ?'}), floors-right {_floors_right(p)}")
+                    f"{p['phone'] or 'phone ?'}; {p['steps_before_first_landmark']} before the first landmark), "
+                    f"floors-right {_floors_right(p)}")
             sm = p.get("smoothed")
             if sm is not None:
                 line += (f" | smoothed p75 {sm['p75_abs_m']:.2f} m absolute, {sm['p75_aligned_m']:.2f} m aligned")
@@ -468,6 +482,7 @@ def eval_ipin(args: argparse.Namespace) -> int:
             if "legs" in p:
                 yield from _legs_lines(p["legs"], p["_t_first_s"])
         yield _ipin_summary_line("ALL", summary)
+        yield _steps_before_line(summary)
         if "legs" in summary:
             yield _legs_summary_line(summary["legs"])
         if "smoothed" in summary:

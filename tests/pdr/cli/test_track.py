@@ -211,6 +211,10 @@ def test_ipin_eval_agrees_with_the_reference_scorer(tmp_path, capsys):
     assert res["files"][0]["smoothed"]["p75_abs_m"] == pytest.approx(
         float(np.percentile(ref.score(ts, ens, log, "none")[0], 75)), abs=0.01)
     assert res["overall"]["smoothed"]["files"] == 1
+    # The steps found before the first landmark (the log's calibration: no walking step) are counted.
+    before = int(np.sum(t < tt[0]))
+    assert res["files"][0]["steps_before_first_landmark"] == res["overall"]["steps_before_first_landmark"] == before
+    assert res["overall"]["steps"] == len(rows) and res["overall"]["files_with_steps_before_first_landmark"] == 1
     # Regression guard for this route (hand-held, floor -2): measured 3.6 m p75, ratio 0.99.
     assert res["files"][0]["p75_abs_m"] < 6.0
     assert abs(res["files"][0]["distance_ratio"] - 1) < 0.05
