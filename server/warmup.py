@@ -2,22 +2,14 @@
 
 The first call of a numba kernel compiles it (about a minute for all of the phone path on a fresh install, on a
 quiet 2-core machine); with ``cache=True`` the machine code is kept in ``NUMBA_CACHE_DIR`` and later processes load
-it in well under a second. :func:`start` runs :func:`warm_up` in a background thread, so that ``pdr serve`` answers
-at once and its health says ``"warming up"`` (:func:`status`) until the phone path is compiled. Set
-``NUMBA_CACHE_DIR`` (:func:`use_cache_dir`) before numba is first imported: numba reads it once.
+it in well under a second. :func:`start` runs :func:`server.warmup_walk.warm_up` in a background thread, so that
+``pdr serve`` answers at once and its health says ``"warming up"`` (:func:`status`) until the phone path is
+compiled. Set ``NUMBA_CACHE_DIR`` (:func:`use_cache_dir`) before numba is first imported: numba reads it once.
 
-**Two processes on a fresh cache.** numba compiles one kernel at a time, in the order the walk calls them, and the
-attitude filter's UKF kernel (:func:`pdr.phone.attitude.kernel.run_kernel`, with numba's ``np.linalg`` and ``@``
-that it pulls in) is most of the whole: 33 of 52 s (numba's compile events, quiet 2-core machine, with the EKF
-baseline's update then compiled into it too). The pipeline calls it before the heading, step length, floors,
-smoother, reader and classifier kernels, which therefore waited for it. When the UKF kernel is not in the cache yet,
-:func:`start` also runs ``python -m server.warmup_walk``: the same walk in a child process whose attitude filter is
-a stand-in (:class:`server.warmup_walk.TiltOnlyAttitude`: the accelerometer's tilt, no kernel), so that the child
-compiles every other kernel into the shared cache while this process compiles the attitude filter, and this process
-then loads them from the cache. What a kernel compiles to depends only on its argument types, which the stand-in's
-output shares with the filter's (float64 (N, 4) quaternions, C order), not on their values. numba writes each cache
-file whole (a temporary file, then a rename), so two processes can fill one cache. With the kernel cached, no child
-is started.
+**Two processes on a fresh cache.** When the attitude filter's UKF kernel is not in the cache yet, :func:`start`
+also runs ``python -m server.warmup_walk``: the same walk with a stand-in for the attitude filter, which compiles
+every other kernel (and the reader's and the classifier's) into the shared cache while this process compiles the
+filter's, the critical path (:mod:`pdr.phone.warm_up` module doc). With the kernel cached, no child is started.
 """
 
 from __future__ import annotations
@@ -25,7 +17,6 @@ from __future__ import annotations
 import logging
 import os
 import subprocess
-import sys
 import tempfile
 import threading
 from dataclasses import dataclass
@@ -65,16 +56,17 @@ class _Child:
 
 
 def _start_helper() -> _Child | None:
-    """``python -m server.warmup_walk``, inheriting this process' environment (its ``NUMBA_CACHE_DIR``); None, logged,
-    when it cannot be started (the warm-up then compiles alone).
+    """``python -m server.warmup_walk`` (:func:`pdr.phone.warm_up.compile_alongside`), inheriting this process'
+    environment (its ``NUMBA_CACHE_DIR``); None, logged, when there is no second core or it cannot be started (the
+    warm-up then compiles alone).
     """
+    from pdr.phone.warm_up import compile_alongside
+
     err = tempfile.TemporaryFile()
-    try:
-        process = subprocess.Popen([sys.executable, "-m", HELPER_MODULE], stdin=subprocess.DEVNULL,
-                                   stdout=subprocess.PIPE, stderr=err)
-    except OSError as exc:
+    process = compile_alongside(HELPER_MODULE, stderr=err)
+    if process is None:
         err.close()
-        log.warning("warm-up child process not started: %s", exc)
+        log.warning("warm-up child process not started (one core, or no process could be started): compiling alone")
         return None
     return _Child(process, err)
 

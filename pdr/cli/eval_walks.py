@@ -19,8 +19,8 @@ import numpy as np
 from pdr.cli import progress
 from pdr.cli.track import (
     common_options,
+    compile_ahead,
     config_from_args,
-    note_first_compile,
     reference_rows,
     rows_notices,
     run_pipeline,
@@ -369,7 +369,7 @@ def eval_ipin(args: argparse.Namespace) -> int:
     done: list[dict[str, Any]] = []           # scored files with what a second pass needs
     site = Site.load(args.site) if args.site else None
     if files:
-        note_first_compile(args.method)
+        compile_ahead(args.method)
     for f in progress.each(files, "eval ipin"):
         rec = read_recording(f)
         pt = rec.truth.positions

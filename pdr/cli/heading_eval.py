@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from pdr.cli.progress import Progress
-from pdr.cli.track import config_from_args, note_first_compile
+from pdr.cli.track import compile_ahead, config_from_args
 from pdr.evaluation.heading import evaluate, placement_for, recordings_in, report_lines
 from pdr.phone.heading_smoother import smoothed_rows
 from pdr.phone.pipeline import PipelineConfig
@@ -59,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
         return replace(base, placement=placement_for(rec, args.placement))
 
     folders = recordings_in(args.dir)
-    note_first_compile(base.attitude_method)
+    compile_ahead(base.attitude_method)
     with Progress(min(len(folders), args.limit) if args.limit else len(folders), "eval heading") as bar:
         def progress(msg: str) -> None:
             # "NAME: done" advances the bar; anything else (a recording skipped) is a message for the user.

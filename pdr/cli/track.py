@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import subprocess
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -78,9 +79,9 @@ def config_from_args(args: argparse.Namespace, initial_floor: float = 0.0) -> Pi
 def run_pipeline(rec: Recording, cfg: PipelineConfig, site: Site | None = None,
                  stages: Sequence[StepStage] = ()) -> tuple[list[dict[str, Any]], list[str]]:
     """Track rows and notices of a whole recording (``stages``: plugged-in step stages, e.g. the map matcher); says
-    first when the kernels will be compiled (:func:`note_first_compile`).
+    first when the kernels will be compiled, and compiles them in two processes (:func:`compile_ahead`).
     """
-    note_first_compile(cfg.attitude_method)
+    compile_ahead(cfg.attitude_method)
     return rows_notices(PdrPipeline(cfg, site, stages=stages).run(rec))
 
 
@@ -117,17 +118,38 @@ def write_plot(rows: list[dict[str, Any]], path: str | Path, rec: Recording, tit
     plot_track(path, t, en, title, truth_of(rec), label="PDR track")
 
 
-def note_first_compile(method: str) -> None:
-    """Say on stderr, before the work, that the attitude filter's kernel (``method``: ``ukf`` or ``ekf``) and the
-    others will be compiled: the first run after an install (or an upgrade) compiles them for about half a minute to
-    a minute, silently otherwise; numba keeps them in its cache for the next runs. Once they are, nothing is said.
+#: Longest wait (s), when the command ends, for the process compiling alongside it (:func:`compile_ahead`).
+COMPILE_AHEAD_WAIT_S = 120.0
+
+
+def compile_ahead(method: str) -> None:
+    """On the first run of an installed version (the attitude filter's kernel, ``method`` ``ukf`` or ``ekf``, is not
+    in numba's cache): say on stderr, before the work, that the kernels will be compiled (half a minute to a minute,
+    silently otherwise), and compile the other kernels in a second process meanwhile
+    (:func:`pdr.phone.warm_up.compile_alongside`), waited for when the command ends. Nothing once they are cached.
     """
+    import atexit
+
     from pdr.filters.compiled import is_cached
     from pdr.phone.attitude.kernel import run_ekf, run_ukf
+    from pdr.phone.warm_up import compile_alongside
 
-    if not is_cached(run_ukf if method == "ukf" else run_ekf):
-        print("note: first run of this version: compiling the processing code (about half a minute to a minute, "
-              "once; it is kept for the next runs)", file=sys.stderr, flush=True)
+    if is_cached(run_ukf if method == "ukf" else run_ekf):
+        return
+    print("note: first run of this version: compiling the processing code (about half a minute to a minute, "
+          "once; it is kept for the next runs)", file=sys.stderr, flush=True)
+    child = compile_alongside()
+    if child is not None:
+        atexit.register(_end_compile_ahead, child)
+
+
+def _end_compile_ahead(child: subprocess.Popen[bytes]) -> None:
+    """Wait for :func:`compile_ahead`'s process (at most :data:`COMPILE_AHEAD_WAIT_S`, then stop it)."""
+    try:
+        child.communicate(timeout=COMPILE_AHEAD_WAIT_S)
+    except subprocess.TimeoutExpired:
+        child.kill()
+        child.communicate()
 
 
 def run_track(args: argparse.Namespace) -> int:
