@@ -30,9 +30,6 @@ _state: dict[str, Any] = {"state": "cold", "seconds": None, "error": None, "help
 
 #: The module the child process runs (:func:`_start_helper`).
 HELPER_MODULE = "server.warmup_walk"
-#: Longest wait (s) for the child process once this process is warm (it compiles a subset of this process' kernels,
-#: so it is normally done first); then it is stopped.
-HELPER_WAIT_S = 120.0
 
 
 def use_cache_dir(path: str | Path) -> Path:
@@ -72,14 +69,13 @@ def _start_helper() -> _Child | None:
 
 
 def _end_helper(child: _Child) -> dict[str, Any]:
-    """Wait for the child (at most :data:`HELPER_WAIT_S`, then stop it); its exit code and, if it failed, why."""
+    """Wait for the child (:func:`pdr.phone.warm_up.wait_alongside`); its exit code and, if it failed, why."""
+    from pdr.phone.warm_up import ALONGSIDE_WAIT_S, wait_alongside
+
     with child.stderr:
-        try:
-            out, _ = child.process.communicate(timeout=HELPER_WAIT_S)
-        except subprocess.TimeoutExpired:
-            child.process.kill()
-            child.process.communicate()
-            return {"exit": None, "error": f"stopped after {HELPER_WAIT_S:g} s"}
+        out = wait_alongside(child.process)
+        if out is None:
+            return {"exit": None, "error": f"stopped after {ALONGSIDE_WAIT_S:g} s"}
         if child.process.returncode != 0:
             child.stderr.seek(0)
             last = child.stderr.read().decode("utf-8", "replace").strip().splitlines()[-1:]
@@ -96,10 +92,9 @@ def start() -> threading.Thread:
     def run() -> None:
         helper = None
         try:
-            from pdr.filters.compiled import is_cached
-            from pdr.phone.attitude.kernel import run_ukf
+            from pdr.phone.warm_up import filter_kernel_cached
             from server.warmup_walk import warm_up
-            helper = None if is_cached(run_ukf) else _start_helper()
+            helper = None if filter_kernel_cached() else _start_helper()
             seconds = warm_up()
         except Exception as exc:  # a failed warm-up only means the first upload compiles: say so, go on
             log.warning("warm-up of the compiled kernels failed: %s", exc)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import subprocess
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -118,38 +117,30 @@ def write_plot(rows: list[dict[str, Any]], path: str | Path, rec: Recording, tit
     plot_track(path, t, en, title, truth_of(rec), label="PDR track")
 
 
-#: Longest wait (s), when the command ends, for the process compiling alongside it (:func:`compile_ahead`).
-COMPILE_AHEAD_WAIT_S = 120.0
+#: Whether this process has said that it compiles and started compiling alongside (:func:`compile_ahead`): once.
+_compiling_ahead = False
 
 
 def compile_ahead(method: str) -> None:
     """On the first run of an installed version (the attitude filter's kernel, ``method`` ``ukf`` or ``ekf``, is not
     in numba's cache): say on stderr, before the work, that the kernels will be compiled (half a minute to a minute,
     silently otherwise), and compile the other kernels in a second process meanwhile
-    (:func:`pdr.phone.warm_up.compile_alongside`), waited for when the command ends. Nothing once they are cached.
+    (:func:`pdr.phone.warm_up.compile_alongside`), waited for when the command ends. Once per process, and nothing
+    once they are cached.
     """
+    global _compiling_ahead
     import atexit
 
-    from pdr.filters.compiled import is_cached
-    from pdr.phone.attitude.kernel import run_ekf, run_ukf
-    from pdr.phone.warm_up import compile_alongside
+    from pdr.phone.warm_up import compile_alongside, filter_kernel_cached, wait_alongside
 
-    if is_cached(run_ukf if method == "ukf" else run_ekf):
+    if _compiling_ahead or filter_kernel_cached(method):
         return
+    _compiling_ahead = True
     print("note: first run of this version: compiling the processing code (about half a minute to a minute, "
           "once; it is kept for the next runs)", file=sys.stderr, flush=True)
     child = compile_alongside()
     if child is not None:
-        atexit.register(_end_compile_ahead, child)
-
-
-def _end_compile_ahead(child: subprocess.Popen[bytes]) -> None:
-    """Wait for :func:`compile_ahead`'s process (at most :data:`COMPILE_AHEAD_WAIT_S`, then stop it)."""
-    try:
-        child.communicate(timeout=COMPILE_AHEAD_WAIT_S)
-    except subprocess.TimeoutExpired:
-        child.kill()
-        child.communicate()
+        atexit.register(wait_alongside, child)
 
 
 def run_track(args: argparse.Namespace) -> int:

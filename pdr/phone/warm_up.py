@@ -90,6 +90,34 @@ def compile_alongside(module: str = __name__, stderr: IO[bytes] | int = subproce
         return None
 
 
+#: Longest wait (s) for the process of :func:`compile_alongside` once its caller is done (it compiles a subset of the
+#: caller's kernels, so it is normally done first); then it is stopped.
+ALONGSIDE_WAIT_S = 120.0
+
+
+def filter_kernel_cached(method: str = "ukf") -> bool:
+    """Whether numba's cache holds the attitude filter's kernel of ``method`` (``ukf`` or ``ekf``) for its current
+    source: when it does not, this is a first run that compiles (:func:`pdr.filters.compiled.is_cached`).
+    """
+    from pdr.filters.compiled import is_cached
+    from pdr.phone.attitude.kernel import run_ekf, run_ukf
+
+    return is_cached(run_ukf if method == "ukf" else run_ekf)
+
+
+def wait_alongside(process: subprocess.Popen[bytes]) -> bytes | None:
+    """Wait for the process of :func:`compile_alongside` (at most :data:`ALONGSIDE_WAIT_S`): what it printed, or None
+    when it was stopped at the end of the wait.
+    """
+    try:
+        out, _ = process.communicate(timeout=ALONGSIDE_WAIT_S)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.communicate()
+        return None
+    return out
+
+
 def main() -> int:
     """The child process of :func:`compile_alongside`: the walk with the stand-in attitude; prints its seconds."""
     print(f"{warm_up(attitude_filter=False):.1f}", flush=True)

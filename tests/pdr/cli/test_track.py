@@ -79,6 +79,7 @@ def test_track_says_where_it_took_the_phone_to_be(tmp_path, capsys):
 def test_track_says_when_it_compiles_its_kernels_first(tmp_path, capsys, monkeypatch, cached):
     """A first run after an install compiles for about a minute: the user is told before the wait, not left guessing,
     and the kernels after the attitude filter's are compiled alongside (pdr.phone.warm_up)."""
+    import pdr.cli.track
     import pdr.filters.compiled
     import pdr.phone.warm_up
 
@@ -90,11 +91,14 @@ def test_track_says_when_it_compiles_its_kernels_first(tmp_path, capsys, monkeyp
 
     monkeypatch.setattr(pdr.filters.compiled, "is_cached", is_cached)
     monkeypatch.setattr(pdr.phone.warm_up, "compile_alongside", lambda: started.append(True))
+    monkeypatch.setattr(pdr.cli.track, "_compiling_ahead", False)     # as in a new process
     assert main(["track", str(SIM / "hand_escalator.zip"), "--out", str(tmp_path / "t.csv"), "--method", "ekf"]) == 0
     from pdr.phone.attitude.kernel import run_ekf
     assert asked == [run_ekf]                       # the kernel of the filter asked for
     assert ("note: first run of this version: compiling" in capsys.readouterr().err) is not cached
     assert started == ([] if cached else [True])
+    assert main(["track", str(SIM / "hand_escalator.zip"), "--out", str(tmp_path / "t.csv"), "--method", "ekf"]) == 0
+    assert "note: first run" not in capsys.readouterr().err and started == ([] if cached else [True])   # once
 
 
 def test_track_makes_the_folders_of_its_outputs_as_classify_does(tmp_path, capsys):

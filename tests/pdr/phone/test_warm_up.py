@@ -51,5 +51,14 @@ def test_no_process_alongside_on_one_core_or_when_none_can_start(monkeypatch: py
 def test_the_child_runs_the_walk_and_says_how_long() -> None:
     child = warm.compile_alongside()
     assert child is not None
-    out, _ = child.communicate(timeout=600)
-    assert child.returncode == 0 and float(out.decode()) > 0.0
+    out = warm.wait_alongside(child)
+    assert out is not None and child.returncode == 0 and float(out.decode()) > 0.0
+
+
+def test_a_process_that_outlives_the_wait_is_stopped(monkeypatch: pytest.MonkeyPatch) -> None:
+    import subprocess
+    import sys
+
+    monkeypatch.setattr(warm, "ALONGSIDE_WAIT_S", 0.2)
+    sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"], stdout=subprocess.PIPE)
+    assert warm.wait_alongside(sleeper) is None and sleeper.returncode is not None
